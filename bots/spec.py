@@ -1,0 +1,193 @@
+"""Robot descriptions as data: geometry, motors and sensor layout of a differential-drive robot.
+
+Body frame: x forward, y left, origin at the middle of the wheel axle (m, rad). A robot other
+than the c't-Bot is a different `RobotSpec` (in Python or in a TOML file, see `load_robot`).
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field, fields, is_dataclass, replace
+from pathlib import Path
+from typing import Any
+
+Point = tuple[float, float]
+
+
+@dataclass(frozen=True)
+class MotorSpec:
+    """Signed command (-command_max..command_max) -> wheel angular speed, linear like c't-Sim.
+
+    max_wheel_speed: wheel speed at full command (rad/s; the c't-Bot's 151 rpm).
+    time_constant: first-order lag of the wheel speed (s); 0 = none.
+    max_acceleration: limit on the change of wheel speed (rad/s^2); inf = none.
+    """
+
+    max_wheel_speed: float = 151 / 60 * 2 * math.pi
+    command_max: float = 255.0
+    time_constant: float = 0.0
+    max_acceleration: float = math.inf
+
+
+@dataclass(frozen=True)
+class EncoderSpec:
+    """Wheel encoders and their systematic and random errors (all off by default).
+
+    diameter_error: relative error of each wheel's real diameter, (left, right); the robot's own
+        code believes the nominal diameter, so this is what UMBmark calibrates.
+    track_error: relative error of the real track width against the nominal one.
+    slip_std: relative random slip per step (std of a normal factor on each wheel's arc).
+    tick_noise: probability per step of a spurious +-1 tick on a wheel.
+    """
+
+    ticks_per_rev: int = 60
+    diameter_error: Point = (0.0, 0.0)
+    track_error: float = 0.0
+    slip_std: float = 0.0
+    tick_noise: float = 0.0
+
+
+@dataclass(frozen=True)
+class MouseSpec:
+    """Optical mouse sensor (ADNS-2610 on the c't-Bot) at `mount` in the body frame (m).
+
+    dpi: nominal resolution (counts per inch). scale_error: relative error of the real resolution
+    (the real c't-Bot reads 415 instead of 400: 0.0375). noise_std: counts per step (std).
+    max_speed: fastest ground speed it tracks (m/s); faster motion reads zero.
+    """
+
+    mount: Point = (-0.015, 0.0)
+    dpi: float = 400.0
+    scale_error: float = 0.0
+    noise_std: float = 0.0
+    max_speed: float = math.inf
+
+
+@dataclass(frozen=True)
+class IRSensorSpec:
+    """An IR distance sensor looking along `direction` (rad, body frame) from `position`.
+
+    curve: name of the characteristic file in c't-Sim's `characteristics/` folder or a path to
+    such a file; None uses the project's built-in GP2D12 curve for `side`.
+    """
+
+    name: str
+    position: Point
+    direction: float = 0.0
+    side: str = "left"
+    min_range: float = 0.1
+    max_range: float = 0.8
+    curve: str | None = None
+    noise_std: float = 0.0
+
+
+@dataclass(frozen=True)
+class FloorSensorSpec:
+    """A CNY70 reflex sensor looking at the floor from `position` (line and border sensors)."""
+
+    name: str
+    position: Point
+    noise_std: float = 0.0
+
+
+@dataclass(frozen=True)
+class LightSensorSpec:
+    """A light-dependent resistor looking along `direction` with a cone of `opening` (rad)."""
+
+    name: str
+    position: Point
+    direction: float = 0.0
+    opening: float = math.pi / 2
+    reach: float = 1.0
+    noise_std: float = 0.0
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    """A differential-drive robot: geometry (m, kg), motors and sensors."""
+
+    name: str
+    wheel_diameter: float
+    track_width: float
+    body_radius: float
+    mass: float = 0.5
+    skid: Point = (-0.054, 0.0)
+    motor: MotorSpec = field(default_factory=MotorSpec)
+    encoders: EncoderSpec = field(default_factory=EncoderSpec)
+    mouse: MouseSpec | None = field(default_factory=MouseSpec)
+    ir: tuple[IRSensorSpec, ...] = ()
+    line: tuple[FloorSensorSpec, ...] = ()
+    border: tuple[FloorSensorSpec, ...] = ()
+    light: tuple[LightSensorSpec, ...] = ()
+
+    @property
+    def wheel_radius(self) -> float:
+        """Nominal wheel radius (m)."""
+        return self.wheel_diameter / 2
+
+    @property
+    def max_wheel_surface_speed(self) -> float:
+        """Fastest rim speed the motors allow (m/s)."""
+        return self.motor.max_wheel_speed * self.wheel_radius
+
+    def __post_init__(self) -> None:
+        problems = [
+            f"{name} must be a positive number of metres, got {value!r}"
+            for name, value in (
+                ("wheel_diameter", self.wheel_diameter),
+                ("track_width", self.track_width),
+                ("body_radius", self.body_radius),
+            )
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0)
+        ]
+        if not problems and self.track_width > 2 * self.body_radius + 1e-9:
+            problems.append("track_width is wider than the body (2 x body_radius)")
+        if problems:
+            raise ValueError(f"robot {self.name!r}: " + "; ".join(problems))
+
+    def with_changes(self, **changes: Any) -> RobotSpec:
+        """A copy with some fields replaced; nested specs take dicts: `encoders={"slip_std": 0.01}`."""
+        resolved = {}
+        for key, value in changes.items():
+            current = getattr(self, key)
+            resolved[key] = replace(current, **value) if is_dataclass(current) and isinstance(value, dict) else value
+        return replace(self, **resolved)
+
+
+_NESTED = {"motor": MotorSpec, "encoders": EncoderSpec, "mouse": MouseSpec}
+_LISTS = {"ir": IRSensorSpec, "line": FloorSensorSpec, "border": FloorSensorSpec, "light": LightSensorSpec}
+
+
+def _build(cls: type, data: dict, where: str) -> Any:
+    known = {f.name for f in fields(cls)}
+    unknown = sorted(set(data) - known)
+    if unknown:
+        raise ValueError(f"{where}: unknown key(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
+    values = {k: tuple(v) if isinstance(v, list) else v for k, v in data.items()}
+    try:
+        return cls(**values)
+    except TypeError as err:
+        raise ValueError(f"{where}: {err}") from None
+
+
+def robot_from_dict(data: dict, where: str = "robot") -> RobotSpec:
+    """Build a `RobotSpec` from plain data (as read from TOML), with messages naming the key."""
+    data = dict(data)
+    for key, cls in _NESTED.items():
+        if isinstance(data.get(key), dict):
+            data[key] = _build(cls, data[key], f"{where}: [{key}]")
+    for key, cls in _LISTS.items():
+        if key in data:
+            data[key] = tuple(_build(cls, item, f"{where}: [[{key}]] #{i + 1}") for i, item in enumerate(data[key]))
+    return _build(RobotSpec, data, where)
+
+
+def load_robot(path: str | Path) -> RobotSpec:
+    """Read a robot description from a TOML file (the keys are the `RobotSpec` fields)."""
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text(encoding="utf-8"))
+    except (OSError, tomllib.TOMLDecodeError) as err:
+        raise ValueError(f"{path}: {err}") from None
+    return robot_from_dict(data, str(path))
