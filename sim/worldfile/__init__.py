@@ -1,0 +1,109 @@
+"""World files: load a `.toml` (ctsim's own format) or a c't-Sim parcours `.xml` into a WorldSpec.
+
+    load_world("maze")                  # a shipped world, worlds/maze.toml
+    load_world("my_track.toml")         # a path
+    check_world("my_track.toml")        # -> warnings; raises WorldFileError for errors
+
+Every user mistake raises `WorldFileError(path, line, problem)`; `str()` of it reads `file:line: problem`.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from pathlib import Path
+
+import sim
+from sim.worldspec import WorldFileError, WorldSpec
+
+from .geometry import inside
+from .parcours import load_parcours
+from .toml_format import load_toml
+
+__all__ = ["WorldFileError", "check_world", "load_world", "shipped_worlds", "worlds_dir"]
+
+_LOADERS = {".toml": load_toml, ".xml": load_parcours}
+ROBOT_RADIUS = 0.06  # m, half a c't-Bot's width: a start closer than this to a wall touches it
+
+
+def worlds_dir() -> Path:
+    """The repository's `worlds/` folder."""
+    return Path(sim.__file__).resolve().parent.parent / "worlds"
+
+
+def shipped_worlds() -> dict[str, Path]:
+    """Shipped worlds by name (file stem), sorted."""
+    folder = worlds_dir()
+    found = sorted(folder.glob("*.toml")) if folder.is_dir() else []
+    return {p.stem: p for p in found}
+
+
+def _resolve(source: str | Path) -> Path:
+    """A path as given, or the shipped world of that bare name."""
+    path = Path(source)
+    if path.suffix or path.parent != Path(".") or path.exists():
+        return path
+    worlds = shipped_worlds()
+    if str(source) in worlds:
+        return worlds[str(source)]
+    close = difflib.get_close_matches(str(source), worlds, n=1)
+    hint = f"did you mean '{close[0]}'? " if close else ""
+    raise WorldFileError(source, None, f"no such world file or shipped world; {hint}shipped: {', '.join(worlds) or 'none'}")
+
+
+def load_world(source: str | Path) -> WorldSpec:
+    """Load a world from a `.toml` or c't-Sim `.xml` file, or a shipped world by bare name."""
+    path = _resolve(source)
+    loader = _LOADERS.get(path.suffix.lower())
+    if loader is None:
+        raise WorldFileError(path, None, f"unknown world file type '{path.suffix}'; expected .toml or .xml")
+    if not path.is_file():
+        raise WorldFileError(path, None, "no such file")
+    return loader(path)
+
+
+def check_world(source: str | Path) -> list[str]:
+    """Load a world and return warnings from cheap geometric checks (starts in or against walls,
+    over holes or outside the world; clashing start slots; goals and cans inside walls).
+    Errors raise WorldFileError as in `load_world`."""
+    world = load_world(source)
+    warnings = []
+    solids = [w.vertices for w in world.walls]
+    holes = [h.vertices for h in world.holes]
+    xmin, ymin, xmax, ymax = world.bounds
+    slots: dict[int, int] = {}
+    for i, start in enumerate(world.starts, 1):
+        p = (start.x, start.y)
+        label = f"start #{i} (slot {start.slot}) at ({start.x:.3f}, {start.y:.3f})"
+        slots[start.slot] = slots.get(start.slot, 0) + 1
+        if any(inside(p, wall) for wall in solids):
+            warnings.append(f"{label} is inside a wall")
+        elif (gap := _distance_to_walls(p, solids)) < ROBOT_RADIUS:
+            warnings.append(f"{label} is {gap:.3f} m from a wall, closer than a c't-Bot's radius ({ROBOT_RADIUS} m)")
+        if any(inside(p, hole) for hole in holes):
+            warnings.append(f"{label} is over a hole")
+        if not (xmin < start.x < xmax and ymin < start.y < ymax):
+            warnings.append(f"{label} is outside the world's bounds" + (" (over the abyss)" if world.outside_is_hole else ""))
+    for slot, count in sorted(slots.items()):
+        if count > 1:
+            warnings.append(f"{count} starts share slot {slot}; the last one is used")
+    for i, goal in enumerate(world.goals, 1):
+        centre = tuple(sum(c) / len(goal.vertices) for c in zip(*goal.vertices))
+        if any(inside(centre, wall) for wall in solids):
+            warnings.append(f"goal #{i} is inside a wall")
+    for i, can in enumerate(world.movables, 1):
+        if any(inside(can.position, wall) for wall in solids):
+            warnings.append(f"movable #{i} at ({can.position[0]:.3f}, {can.position[1]:.3f}) is inside a wall")
+    return warnings
+
+
+def _distance_to_walls(p, walls) -> float:
+    """Distance from p to the nearest wall edge (inf without walls)."""
+    best = math.inf
+    for wall in walls:
+        for a, b in zip(wall, wall[1:] + wall[:1]):
+            ax, ay, bx, by = *a, *b
+            dx, dy = bx - ax, by - ay
+            t = max(0.0, min(1.0, ((p[0] - ax) * dx + (p[1] - ay) * dy) / (dx * dx + dy * dy or 1.0)))
+            best = min(best, math.hypot(p[0] - ax - t * dx, p[1] - ay - t * dy))
+    return best

@@ -1,0 +1,259 @@
+"""The c't-Sim ASCII-grid legend turned into WorldSpec pieces; shared by the parcours XML importer
+and the `[grid]` shorthand of the TOML format, so one layout means the same world in both.
+
+Semantics (c't-Sim's ParcoursLoader/Parcours, v2.x, read for the rules only):
+- rows are given top-down; the last row is y = 0; cell (col, row) covers [col, col+1]·cell × [row, row+1]·cell;
+- `X` is one wall block; maximal horizontal runs of `=` and vertical runs of `#` become one box each;
+- `*` is a pillar: a wall block with a light 0.5 m above its centre (c't-Sim draws a 0.1 m cylinder;
+  we use the whole cell, as for `X`). A pillar at the end of a `=` run (or else of a `#` run) joins
+  that run's box, so `*=====*` is one box and a wall has no seam at its corner posts;
+- `L` is a hole; starts `0 1 2 $` (slots 0 1 2 1) face an adjacent `.` tile, looked for south,
+  north, west, east in that order; with none they face +x (c't-Sim's default heading);
+- line tiles are black polylines 0.1 cell wide through the cell centre; corners are two half
+  segments meeting at the centre; `!` and `%` have a gap of one line width at the centre;
+- `o` and the line+object tiles put a movable can at the cell centre; `l` (BPS beacon) and `O`
+  (c't-Sim's internal 'already built' marker, found in some shipped files) are plain floor.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from sim.worldspec import (
+    BLACK,
+    Colour,
+    FloorLine,
+    FloorRegion,
+    Goal,
+    Hole,
+    Light,
+    Movable,
+    Point,
+    Start,
+    Wall,
+    WorldFileError,
+    box,
+)
+
+DEFAULT_CELL = 0.24  # m, c't-Sim's blockSizeInM
+LIGHT_HEIGHT = 0.5  # m, c't-Sim's LIGHTZ
+LINE_WIDTH_CELLS = 0.1  # c't-Sim's LINEWIDTH, in cells
+
+_N, _E, _S, _W = "N", "E", "S", "W"
+# Which cell edges a line tile's line reaches (c't-Sim's LINE_* shapes; corner names as in template.xml).
+LINE_ARMS: dict[str, str] = {
+    "|": "NS", "$": "NS", "(": "NS", "!": "NS",
+    "-": "EW", "_": "EW", "%": "EW",
+    "/": "ES", "p": "ES",  # corner NW of a loop: line goes east and south
+    "\\": "SW", "q": "SW",  # corner NE
+    "+": "NE", "b": "NE",  # corner SW
+    "~": "NW", "d": "NW",  # corner SE
+    "[": "NESW",
+    "T": "EWS",  # stem down
+    "]": "EWN",  # stem up
+    "}": "NSE",  # stem right
+    "{": "NSW",  # stem left
+}  # fmt: skip
+GAPPED_LINES = "!%"
+START_SLOTS: dict[str, int] = {"0": 0, "1": 1, "2": 2, "$": 1}
+MOVABLE_TILES = "o(_pqbd"
+WALL_TILES = "X=#*"
+HOLE_TILE = "L"
+COLOURED_FLOOR_TILES = " .Z012"  # tiles whose own appearance colours the floor
+PLAIN_FLOOR_TILES = "lO"  # floor in the ' ' colour
+KNOWN_TILES = set(LINE_ARMS) | set(START_SLOTS) | set(MOVABLE_TILES) | set(WALL_TILES) | {
+    HOLE_TILE, *COLOURED_FLOOR_TILES, *PLAIN_FLOOR_TILES,
+}  # fmt: skip
+
+
+def _hex(value: str) -> Colour:
+    return tuple(int(value[i : i + 2], 16) / 255 for i in (1, 3, 5))  # type: ignore[return-value]
+
+
+# Floor colours per tile when a world does not say (c't-Sim's template.xml optics).
+DEFAULT_TILE_COLOURS: dict[str, Colour] = {
+    " ": _hex("#606060"),
+    ".": _hex("#FFFFFF"),
+    "0": _hex("#FFFFFF"),
+    "1": _hex("#993030"),
+    "2": _hex("#000099"),
+    "Z": _hex("#66FF00"),
+    **{c: BLACK for c in LINE_ARMS},
+}
+
+
+@dataclass(frozen=True)
+class GridPieces:
+    """What a grid contributes to a world."""
+
+    bounds: tuple[float, float, float, float]
+    walls: tuple[Wall, ...]
+    floor: tuple[FloorRegion, ...]
+    lines: tuple[FloorLine, ...]
+    holes: tuple[Hole, ...]
+    lights: tuple[Light, ...]
+    starts: tuple[Start, ...]
+    goals: tuple[Goal, ...]
+    movables: tuple[Movable, ...]
+
+
+def build_grid(
+    rows: Sequence[str],
+    *,
+    cell: float = DEFAULT_CELL,
+    origin: Point = (0.0, 0.0),
+    colours: Mapping[str, Colour] = DEFAULT_TILE_COLOURS,
+    row_lines: Sequence[int | None] | None = None,
+    path: str | Path | None = None,
+) -> GridPieces:
+    """Turn grid rows (top-down, as written) into world pieces.
+
+    `colours` maps tiles to floor (or, for line tiles, line) colours and falls back to
+    DEFAULT_TILE_COLOURS; `row_lines` gives each row's line in the source file for error messages."""
+    lines_of = list(row_lines) if row_lines is not None else [None] * len(rows)
+    for r, row in enumerate(rows):
+        for c, ch in enumerate(row):
+            if ch not in KNOWN_TILES:
+                raise WorldFileError(path, lines_of[r], f"unknown tile {ch!r} in grid row {r + 1}, column {c + 1}")
+    width = max((len(row) for row in rows), default=0)
+    if width == 0:
+        raise WorldFileError(path, lines_of[0] if lines_of else None, "the grid is empty")
+    tiles = _Tiles([row.ljust(width) for row in reversed(rows)])
+    colour = {**DEFAULT_TILE_COLOURS, **colours}
+    cells = _Cells(cell, origin)
+    return GridPieces(
+        bounds=(origin[0], origin[1], origin[0] + width * cell, origin[1] + tiles.height * cell),
+        walls=tuple(Wall(cells.box(*span)) for span in _wall_spans(tiles)),
+        floor=tuple(_floor(tiles, cells, colour)),
+        lines=tuple(line for c, r, ch in tiles.cells(LINE_ARMS) for line in _line(ch, c, r, cells, colour[ch])),
+        holes=tuple(Hole(cells.box(*span)) for span in _runs(tiles, lambda ch: ch == HOLE_TILE)),
+        lights=tuple(Light(cells.centre(c, r), LIGHT_HEIGHT) for c, r, _ in tiles.cells("*")),
+        starts=tuple(Start(*cells.centre(c, r), _heading(tiles, c, r), START_SLOTS[ch]) for c, r, ch in tiles.cells(START_SLOTS)),
+        goals=tuple(Goal(cells.box(c, r, 1, 1)) for c, r, _ in tiles.cells("Z")),
+        movables=tuple(Movable(cells.centre(c, r)) for c, r, _ in tiles.cells(MOVABLE_TILES)),
+    )  # fmt: skip
+
+
+class _Tiles:
+    """The grid bottom-up: `at(c, r)` with row 0 at y = 0; off-grid reads as None."""
+
+    def __init__(self, rows_bottom_up: list[str]):
+        self.rows = rows_bottom_up
+        self.width = len(rows_bottom_up[0])
+        self.height = len(rows_bottom_up)
+
+    def at(self, c: int, r: int) -> str | None:
+        return self.rows[r][c] if 0 <= r < self.height and 0 <= c < self.width else None
+
+    def cells(self, wanted) -> Iterator[tuple[int, int, str]]:
+        """(col, row, tile) of the wanted tiles in c't-Sim's scan order (rows bottom-up, columns left-right)."""
+        for r, row in enumerate(self.rows):
+            for c, ch in enumerate(row):
+                if ch in wanted:
+                    yield c, r, ch
+
+
+@dataclass(frozen=True)
+class _Cells:
+    """Grid cells to metres."""
+
+    size: float
+    origin: Point
+
+    def box(self, c: int, r: int, w: int, h: int) -> tuple[Point, ...]:
+        x0, y0 = self.origin[0] + c * self.size, self.origin[1] + r * self.size
+        return box(x0, y0, x0 + w * self.size, y0 + h * self.size)
+
+    def centre(self, c: float, r: float) -> Point:
+        return (self.origin[0] + (c + 0.5) * self.size, self.origin[1] + (r + 0.5) * self.size)
+
+
+def _runs(tiles: _Tiles, member, used: set | None = None) -> Iterator[tuple[int, int, int, int]]:
+    """Maximal horizontal runs (col, row, length, 1) of cells for which `member(tile)` holds."""
+    for r in range(tiles.height):
+        c = 0
+        while c < tiles.width:
+            if member(tiles.at(c, r)) and (used is None or (c, r) not in used):
+                start = c
+                while c < tiles.width and member(tiles.at(c, r)) and (used is None or (c, r) not in used):
+                    c += 1
+                yield (start, r, c - start, 1)
+            else:
+                c += 1
+
+
+def _wall_spans(tiles: _Tiles) -> list[tuple[int, int, int, int]]:
+    """Wall boxes (col, row, w, h): `=` runs, then `#` runs, each taking the pillars at its ends
+    and between its cells; what is left (`X`, lone pillars) is one block per cell."""
+    used: set[tuple[int, int]] = set()
+    spans = []
+    for c, r, w, _ in _runs(tiles, lambda ch: ch in "=*"):
+        if any(tiles.at(c + i, r) == "=" for i in range(w)):
+            spans.append((c, r, w, 1))
+            used.update((c + i, r) for i in range(w))
+    transposed = _Tiles(["".join(tiles.at(c, r) for r in range(tiles.height)) for c in range(tiles.width)])
+    used_t = {(r, c) for c, r in used}
+    for r, c, h, _ in _runs(transposed, lambda ch: ch in "#*", used_t):
+        if any(tiles.at(c, r + i) == "#" for i in range(h)):
+            spans.append((c, r, 1, h))
+            used.update((c, r + i) for i in range(h))
+    spans.extend((c, r, 1, 1) for c, r, _ in tiles.cells("X*") if (c, r) not in used)
+    return spans
+
+
+def _floor(tiles: _Tiles, cells: _Cells, colour: Mapping[str, Colour]) -> Iterator[FloorRegion]:
+    """Regions for tiles coloured unlike the plain floor, merged along rows."""
+    plain = colour[" "]
+
+    def tile_colour(ch: str | None) -> Colour | None:
+        if ch is None or ch in WALL_TILES or ch == HOLE_TILE:
+            return None
+        own = colour[ch] if ch in COLOURED_FLOOR_TILES else plain
+        return own if own != plain else None
+
+    for r in range(tiles.height):
+        c = 0
+        while c < tiles.width:
+            here = tile_colour(tiles.at(c, r))
+            start = c
+            c += 1
+            while here is not None and c < tiles.width and tile_colour(tiles.at(c, r)) == here:
+                c += 1
+            if here is not None:
+                yield FloorRegion(cells.box(start, r, c - start, 1), here)
+
+
+def _line(ch: str, c: int, r: int, cells: _Cells, colour: Colour) -> Iterator[FloorLine]:
+    """The polylines of one line tile."""
+    cx, cy = cells.centre(c, r)
+    half = cells.size / 2
+    width = LINE_WIDTH_CELLS * cells.size
+    ends = {_N: (cx, cy + half), _S: (cx, cy - half), _E: (cx + half, cy), _W: (cx - half, cy)}
+    arms = [a for a in (_N, _E, _S, _W) if a in LINE_ARMS[ch]]
+    if ch in GAPPED_LINES:
+        a, b = arms
+        gap = width / 2
+        for arm in (a, b):
+            ex, ey = ends[arm]
+            dx, dy = (ex - cx) / half, (ey - cy) / half
+            yield FloorLine(((cx + dx * gap, cy + dy * gap), (ex, ey)), width, colour)
+        return
+    for a, b in ((_N, _S), (_E, _W)):
+        if a in arms and b in arms:
+            yield FloorLine((ends[a], ends[b]), width, colour)
+            arms = [x for x in arms if x not in (a, b)]
+    if len(arms) == 2:
+        yield FloorLine((ends[arms[0]], (cx, cy), ends[arms[1]]), width, colour)
+    elif len(arms) == 1:
+        yield FloorLine(((cx, cy), ends[arms[0]]), width, colour)
+
+
+def _heading(tiles: _Tiles, c: int, r: int) -> float:
+    """Face the first `.` neighbour (south, north, west, east: c't-Sim's checkNeighbours order); else +x."""
+    for dc, dr in ((0, -1), (0, 1), (-1, 0), (1, 0)):
+        if tiles.at(c + dc, r + dr) == ".":
+            return math.atan2(dr, dc)
+    return 0.0
