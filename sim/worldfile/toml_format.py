@@ -83,6 +83,11 @@ class _Locator:
             for number in range(first, last + 1):
                 if pattern.match(self.lines[number - 1]):
                     return number
+            # not a key = value line: maybe a [key] or [[key]] table of its own
+            name = key if table is None else f"{table}.{key}"
+            sub = self.sections.get((name, 0)) or self.sections.get((name, None))
+            if sub is not None:
+                return sub[0]
         return first if table is not None else None
 
 
@@ -235,10 +240,14 @@ def load_toml(path: Path) -> WorldSpec:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         found = re.search(r"\(at line (\d+), column \d+\)", str(e))
-        problem = re.sub(r"\s*\(at line \d+, column \d+\)", "", str(e)) or "TOML syntax error"
-        raise WorldFileError(path, int(found.group(1)) if found else None, f"TOML syntax: {problem}") from None
+        line = int(found.group(1)) if found else len(text.splitlines()) if "end of document" in str(e) else None
+        problem = re.sub(r"\s*\(at (line \d+, column \d+|end of document)\)", "", str(e)) or "TOML syntax error"
+        raise WorldFileError(path, line, f"TOML syntax: {problem}") from None
     top = _Table(path, _Locator(text), None, None, data)
     top.check_keys(TOP_KEYS)
+    name = top.text("name", path.stem)
+    description = top.text("description", "").strip()
+    outside_is_hole = top.boolean("outside_is_hole", False)
     tables = {name: _array(top, name) for name in ARRAYS}
     floor_colour = top.colour("floor_colour", DEFAULT_FLOOR)
     grid = _grid(top.child("grid", top.data["grid"]), floor_colour) if "grid" in top.data else None
@@ -266,7 +275,7 @@ def load_toml(path: Path) -> WorldSpec:
     elif not (bounds[0] < bounds[2] and bounds[1] < bounds[3]):
         top.fail("`bounds` is [xmin, ymin, xmax, ymax] with xmin < xmax and ymin < ymax", "bounds")
     return WorldSpec(
-        name=top.text("name", path.stem),
+        name=name,
         bounds=bounds,
         walls=tuple(walls),
         floor=tuple(floor),
@@ -277,9 +286,9 @@ def load_toml(path: Path) -> WorldSpec:
         goals=tuple(goals),
         movables=tuple(movables),
         floor_colour=floor_colour,
-        outside_is_hole=top.boolean("outside_is_hole", False),
+        outside_is_hole=outside_is_hole,
         source=str(path),
-        description=top.text("description", "").strip(),
+        description=description,
     )
 
 
