@@ -249,3 +249,13 @@ def test_holes_and_lights_world() -> None:
     lamp = world.lights[0].position
     assert math.atan2(lamp[1] - start.y, lamp[0] - start.x) == pytest.approx(start.heading)
     assert any(inside((1.42, 1.5), h.vertices) for h in world.holes)  # on the way to the lamp
+
+
+@pytest.mark.parametrize("block", [0, 1])
+def test_readme_examples_load(tmp_path: Path, block: int) -> None:
+    readme = (Path(__file__).resolve().parents[1] / "worlds" / "README.md").read_text(encoding="utf-8")
+    examples = [chunk.split("```")[0] for chunk in readme.split("```toml\n")[1:]]
+    path = tmp_path / "example.toml"
+    path.write_text(examples[block], encoding="utf-8")
+    world = load_world(path)
+    assert world.starts

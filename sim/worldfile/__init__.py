@@ -97,7 +97,7 @@ def check_world(source: str | Path) -> list[str]:
     return warnings
 
 
-def _distance_to_walls(p, walls) -> float:
+def _distance_to_walls(p: tuple[float, float], walls: list[tuple[tuple[float, float], ...]]) -> float:
     """Distance from p to the nearest wall edge (inf without walls)."""
     best = math.inf
     for wall in walls:

@@ -18,7 +18,7 @@ Semantics (c't-Sim's ParcoursLoader/Parcours, v2.x, read for the rules only):
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Container, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -148,7 +148,7 @@ class _Tiles:
     def at(self, c: int, r: int) -> str | None:
         return self.rows[r][c] if 0 <= r < self.height and 0 <= c < self.width else None
 
-    def cells(self, wanted) -> Iterator[tuple[int, int, str]]:
+    def cells(self, wanted: Container[str]) -> Iterator[tuple[int, int, str]]:
         """(col, row, tile) of the wanted tiles in c't-Sim's scan order (rows bottom-up, columns left-right)."""
         for r, row in enumerate(self.rows):
             for c, ch in enumerate(row):
@@ -171,7 +171,9 @@ class _Cells:
         return (self.origin[0] + (c + 0.5) * self.size, self.origin[1] + (r + 0.5) * self.size)
 
 
-def _runs(tiles: _Tiles, member, used: set | None = None) -> Iterator[tuple[int, int, int, int]]:
+def _runs(
+    tiles: _Tiles, member: Callable[[str | None], bool], used: set[tuple[int, int]] | None = None
+) -> Iterator[tuple[int, int, int, int]]:
     """Maximal horizontal runs (col, row, length, 1) of cells for which `member(tile)` holds."""
     for r in range(tiles.height):
         c = 0
