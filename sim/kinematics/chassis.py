@@ -5,7 +5,7 @@ constraint matrices (J₁, J₂, C₁), the degree of mobility and steerability,
 ICR locus of the chassis, the motion subspaces Z, S̄, S, B, D (what the planner may command, also after
 failures), inverse kinematics (twist → steering angles and wheel speeds, with a typed refusal),
 forward kinematics (wheel speeds → least-squares twist with the slip residual) and the kinetic torque
-allocation for constraint-free chassis.
+allocation for constraint-free chassis. A constant twist moves the body by `arc.se2_exp(twist·dt)`.
 
 Conventions (DESIGN.md §3): SI units; body frame x forward, y left, angles CCW; a twist is
 (v_x, v_y, ω) in the body frame at the reference point P, shape (..., 3). Wheel i sits at polar
@@ -623,7 +623,7 @@ def allocate_torques(chassis: Chassis, wrench: ArrayLike) -> TorqueAllocation:
                             residual=np.linalg.norm(achieved - wrench, axis=-1), rank=_rank(a))
 
 
-# --- frames and exact motion ------------------------------------------------------------------------------
+# --- frames ------------------------------------------------------------------------------
 
 
 def to_world(theta: ArrayLike, twist: ArrayLike) -> Array:
@@ -636,23 +636,3 @@ def to_world(theta: ArrayLike, twist: ArrayLike) -> Array:
 def to_body(theta: ArrayLike, velocity: ArrayLike) -> Array:
     """Inertial-frame velocity → body twist ξ̇_R = R(θ) ξ̇_I (1.3, 1.4)."""
     return to_world(-np.asarray(theta, dtype=float), velocity)
-
-
-def body_increment(twist: ArrayLike, dt: ArrayLike) -> Array:
-    """Exact body-frame pose increment (..., 3) for a constant twist over dt (rigid-body exponential).
-
-    The reference point moves ∫R(ωt)(v_x, v_y)dt = sinc(φ/2)·R(φ/2)·(v_x, v_y)·dt with φ = ω dt:
-    the exact arc's chord along the mid-angle (DESIGN.md §4), continuous at φ → 0 and with v_y ≠ 0.
-    """
-    t, dt = np.asarray(twist, dtype=float), np.asarray(dt, dtype=float)
-    phi = t[..., 2] * dt
-    chord = np.sinc(phi / (2 * np.pi)) * dt
-    c, s = np.cos(phi / 2), np.sin(phi / 2)
-    return np.stack([chord * (c * t[..., 0] - s * t[..., 1]), chord * (s * t[..., 0] + c * t[..., 1]), phi], axis=-1)
-
-
-def integrate_twist(pose: ArrayLike, twist: ArrayLike, dt: ArrayLike) -> Array:
-    """World pose (..., 3) after driving a constant body twist for dt from `pose` (x, y, θ)."""
-    pose = np.asarray(pose, dtype=float)
-    inc = body_increment(twist, dt)
-    return pose + to_world(pose[..., 2], inc)
