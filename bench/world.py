@@ -1,0 +1,58 @@
+"""World benchmarks: steps per second of whole simulation steps (sensors, control, physics)."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from bots.ctbot import CTBOT
+from sim.world import World
+from sim.worldfile import load_world
+from sim.worldspec import Start, WorldSpec
+
+
+def _steps_per_second(world: World, steps: int, commands: np.ndarray, read: bool = True) -> float:
+    start = time.perf_counter()
+    for _ in range(steps):
+        if read:
+            for robot in world.robots:
+                world.read(robot)
+        world.step(commands)
+    return steps / (time.perf_counter() - start)
+
+
+def empty_1bot(steps: int) -> float:
+    """One robot with no sensors in an empty world, driving a circle."""
+    bare = CTBOT.with_changes(name="bare", mouse=None, ir=(), line=(), border=(), light=())
+    world = World(WorldSpec("empty", (-5, -5, 5, 5), starts=(Start(0, 0, 0),)))
+    world.add_robot(bare)
+    return _steps_per_second(world, steps, np.array([[120.0, 160.0]]), read=False)
+
+
+def maze_ctbot(steps: int) -> float:
+    """One c't-Bot reading every sensor each step in the shipped maze, turning gently so that it
+    meets walls (contacts, sliding and ray hits included)."""
+    world = World(load_world("maze"))
+    world.add_robot(CTBOT)
+    return _steps_per_second(world, steps, np.array([[200.0, 180.0]]))
+
+
+def many_ctbots(steps: int, count: int = 100) -> float:
+    """`count` c't-Bots with every sensor in one open world, on a grid, each driving a circle."""
+    side = int(np.ceil(np.sqrt(count)))
+    world = World(load_world("empty"))
+    xmin, ymin, xmax, ymax = world.spec.bounds
+    xs = np.linspace(xmin + 0.2, xmax - 0.2, side)
+    ys = np.linspace(ymin + 0.2, ymax - 0.2, side)
+    for k in range(count):
+        world.add_robot(CTBOT, (xs[k % side], ys[k // side], 0.0))
+    commands = np.tile([150.0, 170.0], (count, 1))
+    return _steps_per_second(world, steps, commands)
+
+
+def figures(scale: float):
+    """(name, unit, thunk) for the world benchmarks."""
+    yield "world_empty_1bot", "steps/s", lambda: empty_1bot(int(20000 * scale))
+    yield "world_maze_ctbot_all_sensors", "steps/s", lambda: maze_ctbot(int(10000 * scale))
+    yield "world_100_ctbots", "steps/s", lambda: many_ctbots(int(300 * scale))

@@ -1,0 +1,1 @@
+"""Shipped behaviours (registered by name for the command line)."""

@@ -1,0 +1,80 @@
+"""Motion commands a controller may return, and their translation to motor commands.
+
+A command is wheel rim speeds, a body twist (v, omega) or Omni-Curve-Parameters; the kinematics
+core turns the latter two into wheel speeds for the robot's chassis, scaled down together (the
+path's curvature kept) where a wheel would exceed the motors' limit.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from bots.spec import RobotSpec
+from sim.kinematics import wheel_speeds_from_twist
+from sim.kinematics.chassis_presets import differential_drive
+from sim.kinematics.ocp import kappa_g_for, ocp_to_twist
+
+
+@dataclass(frozen=True)
+class WheelSpeeds:
+    """Rim speeds of the left and right wheel (m/s, forward positive)."""
+
+    left: float
+    right: float
+
+
+@dataclass(frozen=True)
+class Twist:
+    """Body twist: forward speed v (m/s) and yaw rate omega (rad/s, counter-clockwise)."""
+
+    v: float
+    omega: float
+
+
+@dataclass(frozen=True)
+class CurveCommand:
+    """Omni-Curve-Parameters (omni-curve-parameters.md §2.1, §2.6): nominal curvature kappa_n in
+    [-2, 2] (0 straight, +-2 on the spot), direction beta (rad; 0 forward, pi backward for a
+    differential drive) and speed v_n as a fraction of the chassis's top speed (0..1)."""
+
+    kappa_n: float
+    beta: float
+    v_n: float
+
+
+STOP = WheelSpeeds(0.0, 0.0)
+Command = WheelSpeeds | Twist | CurveCommand
+
+
+class BadCommand(ValueError):
+    """A command that is not one of the command types or holds a non-finite number."""
+
+
+def wheel_speeds_for(command: Command, robot: RobotSpec) -> tuple[float, float]:
+    """Rim speeds (m/s) for a command on `robot`, within its motor limit, curvature kept."""
+    if isinstance(command, WheelSpeeds):
+        left, right = command.left, command.right
+    elif isinstance(command, Twist):
+        left, right = wheel_speeds_from_twist(command.v, command.omega, robot.track_width)
+    elif isinstance(command, CurveCommand):
+        chassis = differential_drive(track=robot.track_width, wheel_radius=robot.wheel_radius)
+        v_top = robot.max_wheel_surface_speed
+        twist = ocp_to_twist(command.kappa_n, command.beta, command.v_n * v_top, kappa_g_for(chassis))
+        left, right = wheel_speeds_from_twist(twist[0], twist[2], robot.track_width)
+    else:
+        raise BadCommand(f"expected WheelSpeeds, Twist or CurveCommand, got {type(command).__name__}: {command!r}")
+    left, right = float(left), float(right)
+    if not (math.isfinite(left) and math.isfinite(right)):
+        raise BadCommand(f"non-finite command {command!r}")
+    limit = robot.max_wheel_surface_speed
+    scale = max(abs(left), abs(right), limit) / limit
+    return left / scale, right / scale
+
+
+def motor_commands(left: float, right: float, robot: RobotSpec) -> np.ndarray:
+    """Signed motor commands (the motors' units, e.g. +-255) for rim speeds (m/s)."""
+    per_speed = robot.motor.command_max / robot.max_wheel_surface_speed
+    return np.array([left * per_speed, right * per_speed])

@@ -1,0 +1,189 @@
+"""The controller interface, the registry of named controllers, and loading a student's file.
+
+A controller is any object with `step(t, readings) -> Command` (and optionally `reset(robot)`,
+called once before the first step with the robot's `RobotSpec`). Behaviours that can end also
+carry a `status`: RUNNING until they finish with SUCCESS or FAILURE, so a behaviour can run
+another and learn how it went. A plain function `f(t, readings) -> Command` is a controller too.
+Nothing here assumes the controller is Python in this process: the run loop only calls `step`.
+"""
+
+from __future__ import annotations
+
+import enum
+import importlib.util
+import inspect
+import sys
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any, Protocol, runtime_checkable
+
+from bots.commands import Command
+from bots.spec import RobotSpec
+from sim.readings import Readings
+
+
+class Status(enum.Enum):
+    """How a behaviour is doing."""
+
+    RUNNING = "running"
+    SUCCESS = "success"
+    FAILURE = "failure"
+
+
+@runtime_checkable
+class Controller(Protocol):
+    """What runs on a robot: readings in, command out, once per step."""
+
+    def step(self, t: float, readings: Readings) -> Command: ...
+
+
+class ControllerError(ValueError):
+    """A user mistake in naming, configuring or loading a controller (message for the CLI)."""
+
+
+class FunctionController:
+    """Wraps a plain function `f(t, readings) -> Command` as a controller."""
+
+    def __init__(self, function: Callable[[float, Readings], Command]):
+        self.function = function
+        self.name = getattr(function, "__name__", "function")
+        self.status = Status.RUNNING
+
+    def step(self, t: float, readings: Readings) -> Command:
+        return self.function(t, readings)
+
+
+REGISTRY: dict[str, Callable[..., Controller]] = {}
+
+
+def register(name: str) -> Callable:
+    """Class decorator: make a controller available by `name` on the command line."""
+
+    def add(factory: Callable[..., Controller]) -> Callable[..., Controller]:
+        REGISTRY[name] = factory
+        return factory
+
+    return add
+
+
+def _convert(text: str, annotation: Any, default: Any) -> Any:
+    """A command-line value as the type the factory's parameter expects."""
+    kind = annotation if isinstance(annotation, type) else type(default) if default is not inspect.Parameter.empty else str
+    if kind is bool:
+        if text.lower() in ("1", "true", "yes", "on"):
+            return True
+        if text.lower() in ("0", "false", "no", "off"):
+            return False
+        raise ValueError(f"expected true or false, got {text!r}")
+    if kind in (int, float):
+        return kind(text)
+    if annotation in ("float", "int", "bool"):
+        return _convert(text, {"float": float, "int": int, "bool": bool}[annotation], default)
+    return text
+
+
+def parameters(factory: Callable[..., Controller]) -> dict[str, inspect.Parameter]:
+    """The keyword parameters a controller factory takes (what `--param KEY=VALUE` may set)."""
+    return {
+        name: p
+        for name, p in inspect.signature(factory).parameters.items()
+        if p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)
+    }
+
+
+def build(factory: Callable[..., Controller], params: dict[str, str], label: str) -> Controller:
+    """Call a factory with string parameters converted to its annotated types."""
+    accepted = parameters(factory)
+    kwargs = {}
+    for key, text in params.items():
+        if key not in accepted:
+            known = ", ".join(accepted) or "none"
+            raise ControllerError(f"controller {label!r} has no parameter {key!r} (parameters: {known})")
+        p = accepted[key]
+        try:
+            kwargs[key] = _convert(text, p.annotation, p.default)
+        except ValueError as err:
+            raise ControllerError(f"controller {label!r}, parameter {key}: {err}") from None
+    try:
+        made = factory(**kwargs)
+    except (TypeError, ValueError) as err:
+        raise ControllerError(f"controller {label!r}: {err}") from None
+    return made if hasattr(made, "step") else FunctionController(made)
+
+
+def load_file(path: str | Path, name: str | None = None) -> Callable[..., Controller]:
+    """The controller defined in a student's Python file: the class or function called `name`,
+    else the single class with a `step` method, else a function called `controller`."""
+    path = Path(path)
+    if not path.is_file():
+        raise ControllerError(f"{path}: no such controller file")
+    spec = importlib.util.spec_from_file_location(f"ctsim_user_{path.stem}", path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    try:
+        spec.loader.exec_module(module)
+    except Exception as err:  # the student's code: report where it failed, not our traceback
+        line = _user_line(err, path)
+        raise ControllerError(f"{path}:{line}: {type(err).__name__}: {err}") from None
+    if name:
+        if not hasattr(module, name):
+            raise ControllerError(f"{path}: defines no {name!r}")
+        found = getattr(module, name)
+    else:
+        classes = [v for v in vars(module).values() if inspect.isclass(v) and v.__module__ == module.__name__ and hasattr(v, "step")]
+        if len(classes) == 1:
+            found = classes[0]
+        elif callable(getattr(module, "controller", None)):
+            found = module.controller
+        else:
+            raise ControllerError(
+                f"{path}: expected one class with a step(t, readings) method or a function named 'controller'; "
+                "name the one to use with FILE:NAME"
+            )
+    if inspect.isclass(found) or not _takes_readings(found):
+        return found
+    return lambda: FunctionController(found)
+
+
+def _takes_readings(function: Callable) -> bool:
+    """True for `f(t, readings)`: a controller itself rather than a factory."""
+    try:
+        return len(inspect.signature(function).parameters) == 2
+    except (TypeError, ValueError):
+        return False
+
+
+def _user_line(err: BaseException, path: Path) -> int | str:
+    """The line of the user's file where `err` was raised (deepest frame in that file)."""
+    tb, line = err.__traceback__, "?"
+    while tb is not None:
+        if Path(tb.tb_frame.f_code.co_filename) == path:
+            line = tb.tb_lineno
+        tb = tb.tb_next
+    if isinstance(err, SyntaxError) and err.lineno:
+        line = err.lineno
+    return line
+
+
+def make(spec: str, params: dict[str, str] | None = None) -> Controller:
+    """A controller from a command-line spec: a registered name, `path/to/file.py` or
+    `path/to/file.py:Name`, with string parameters."""
+    params = params or {}
+    if spec.endswith(".py") or ".py:" in spec:
+        path, _, name = spec.partition(".py")
+        return build(load_file(path + ".py", name.lstrip(":") or None), params, spec)
+    import bots.behaviours  # noqa: F401  (registers the shipped controllers)
+
+    if spec not in REGISTRY:
+        from difflib import get_close_matches
+
+        close = get_close_matches(spec, REGISTRY, n=1)
+        hint = f"; did you mean {close[0]!r}?" if close else ""
+        raise ControllerError(f"unknown controller {spec!r}{hint} (known: {', '.join(sorted(REGISTRY))})")
+    return build(REGISTRY[spec], params, spec)
+
+
+def reset(controller: Controller, robot: RobotSpec) -> None:
+    """Call the controller's optional `reset(robot)`."""
+    if hasattr(controller, "reset"):
+        controller.reset(robot)
