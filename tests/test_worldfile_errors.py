@@ -5,6 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from sim.worldfile import check_world, load_world
 from sim.worldspec import WorldFileError
@@ -143,3 +145,24 @@ def test_check_world_warns_about_starts_in_walls_and_holes(tmp_path: Path) -> No
     assert any("start #2" in w and "over a hole" in w for w in warnings)
     assert any("start #3" in w and "closer than a c't-Bot's radius" in w for w in warnings)
     assert any("2 starts share slot 1" in w for w in warnings)
+
+
+SEED_WORLDS = [Path(__file__).resolve().parents[1] / "worlds" / f"{n}.toml" for n in ("square", "maze", "holes_lights")]
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(
+    world=st.sampled_from(SEED_WORLDS),
+    cut=st.floats(0, 1),
+    junk=st.text(alphabet="[]=#\"'\n ,.0123456789abcxyz-_{}", max_size=12),
+)
+def test_mangled_files_give_world_file_errors_only(tmp_path: Path, world: Path, cut: float, junk: str) -> None:
+    text = world.read_text(encoding="utf-8")
+    at = int(cut * len(text))
+    for suffix, mangled in ((".toml", text[:at] + junk + text[at:]), (".xml", f"<world><parcours><line>{junk}</line></parcours></world>")):
+        path = tmp_path / f"mangled{suffix}"
+        path.write_text(mangled, encoding="utf-8")
+        try:
+            load_world(path)
+        except WorldFileError as e:
+            assert e.problem and e.path == str(path)

@@ -333,6 +333,8 @@ def _grid(t: _Table, floor_colour: Colour) -> GridPieces:
     rows = rows_text.split("\n")
     if rows and not rows[-1].strip():
         rows.pop()  # the line holding the closing quotes
+    if not rows:
+        t.fail("`rows` is empty", "rows")
     key_line = t.line("rows")
     after_key = t.where.lines[key_line - 1].split("=", 1)[1].strip() if key_line else ""
     first = key_line + 1 if key_line and after_key in ('"""', "'''") else key_line
