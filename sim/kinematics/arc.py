@@ -33,7 +33,9 @@ def _horner(coefficients: tuple[float, ...], x: np.ndarray) -> np.ndarray:
 def half_angle_terms(alpha: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(sin h, cos h, sin h / h) for h = alpha/2: smooth through alpha = 0, no branch on zero."""
     h = 0.5 * np.asarray(alpha, dtype=np.float64)
-    h2 = h * h
+    # the series is kept only where |h| <= limit; clipping keeps h*h finite for huge alpha
+    hs = np.clip(h, -_SERIES_LIMIT, _SERIES_LIMIT)
+    h2 = hs * hs
     sinc = _horner(_SINC, h2)
     cos = _horner(_COS, h2)
     large = np.abs(h) > _SERIES_LIMIT
