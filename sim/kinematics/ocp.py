@@ -119,6 +119,7 @@ def twist_to_ocp(
             flip = np.abs(wrap_angle(beta - beta_prev)) > np.pi / 2
             beta, v = np.where(flip, wrap_angle(beta + np.pi), beta), np.where(flip, -speed, speed)
         beta = np.where(speed > tol, beta, beta_prev)  # spot turn or standstill: β is free
+    v = np.where(np.abs(v) <= tol * (1 + np.abs(omega)), 0.0, v)  # rounding must not reverse a spot turn
     sigma = sgn(v)
     v_s = sigma * np.maximum(np.abs(v), np.abs(omega) / kappa_g)
     with np.errstate(divide="ignore", invalid="ignore"):
