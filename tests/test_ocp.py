@@ -8,7 +8,7 @@ from numpy.testing import assert_allclose
 
 from sim.kinematics import chassis_presets as presets
 from sim.kinematics.arc import apply_increment, se2_exp
-from sim.kinematics.chassis import InfeasibleTwist, forward_kinematics, icr, wrap_angle
+from sim.kinematics.chassis import InfeasibleTwist, WheelType, forward_kinematics, icr, wrap_angle
 from sim.kinematics.ocp import (
     configuration_space,
     icr_to_ocp,
@@ -372,3 +372,21 @@ def test_setpoints_scale_with_speed_and_keep_the_path(kn, b):
     assert_allclose(half.rim_speed, -0.5 * one.rim_speed, atol=1e-12)
     assert_allclose(half.heading, one.heading)
     assert (one.rim_speed >= 0).all()  # sign follows v_s, direction is carried by α_i
+
+
+@pytest.mark.parametrize("preset", [presets.ctbot, presets.differential_drive, presets.tricycle, presets.ackermann,
+                                    presets.mecanum4, presets.omni3, presets.omni4, presets.steered3,
+                                    presets.steered4])
+def test_setpoints_for_every_preset_drive_the_commanded_twist(preset):
+    chassis = preset()
+    kappa_g = kappa_g_for(chassis)
+    line = (chassis.kind == WheelType.FIXED).any()  # fixed wheels: line-mobile, β ≡ 0
+    kn = np.array([0.0, 0.4, 1.0, 1.6, -0.7, -1.3])
+    b = np.zeros_like(kn) if line else np.array([0.0, 0.5, -1.0, 2.5, 0.3, -0.2])
+    cmd = wheel_setpoints(chassis, kn, b, 0.8, kappa_g)
+    fk = forward_kinematics(chassis, cmd.phi_dot, cmd.beta)
+    assert_allclose(fk.twist, ocp_to_twist(kn, b, 0.8, kappa_g), atol=1e-9)
+    assert (fk.slip < 1e-9).all()
+    if line:
+        with pytest.raises(InfeasibleTwist):
+            wheel_setpoints(chassis, 0.4, 0.5, 0.8, kappa_g)

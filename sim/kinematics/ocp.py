@@ -122,7 +122,7 @@ def twist_to_ocp(
     v = np.where(np.abs(v) <= tol * (1 + np.abs(omega)), 0.0, v)  # rounding must not reverse a spot turn
     sigma = sgn(v)
     v_s = sigma * np.maximum(np.abs(v), np.abs(omega) / kappa_g)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         soft = np.abs(omega) < kappa_g * np.abs(v)
         kappa_n = np.where(soft, omega / (kappa_g * v), sgn(omega) * sigma * (2 - kappa_g * np.abs(v) / np.abs(omega)))
     still = (speed <= tol) & (np.abs(omega) <= tol)
