@@ -441,6 +441,7 @@ def test_forward_kinematics_reports_slip_when_wheels_fight():
     cmd = inverse_kinematics(STEERED3, twist)
     clean = forward_kinematics(STEERED3, cmd.phi_dot, cmd.beta)
     assert_allclose(clean.twist, twist, atol=1e-12)
+    assert_allclose(forward_kinematics(STEERED3.with_beta(cmd.beta), cmd.phi_dot).twist, twist, atol=1e-12)
     assert clean.slip < 1e-12 and clean.rank == 3
     fighting = forward_kinematics(STEERED3, cmd.phi_dot + [5.0, 0, 0], cmd.beta)
     assert fighting.slip > 0.01
