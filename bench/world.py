@@ -16,8 +16,7 @@ def _steps_per_second(world: World, steps: int, commands: np.ndarray, read: bool
     start = time.perf_counter()
     for _ in range(steps):
         if read:
-            for robot in world.robots:
-                world.read(robot)
+            world.read_all()
         world.step(commands)
     return steps / (time.perf_counter() - start)
 

@@ -188,8 +188,7 @@ def _last_frame(err: BaseException) -> str:
 def _sample(world: World, logs: list[RobotLog], estimators: list[list[Estimator]], result: RunResult) -> None:
     """Read every robot's sensors at the current state and log truth and estimates."""
     result.times.append(world.time)
-    for robot, log, chosen in zip(world.robots, logs, estimators):
-        readings = world.read(robot)
+    for robot, log, chosen, readings in zip(world.robots, logs, estimators, world.read_all()):
         pose = robot.pose
         log.readings.append(readings)
         log.truth.append(pose)

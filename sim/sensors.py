@@ -8,6 +8,7 @@ floor colour -> CNY70 value, light distance -> LDR darkness (ctsim-reference.md 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import lru_cache
 from pathlib import Path
 
 import numpy as np
@@ -67,6 +68,7 @@ def load_ir_curve(path: str | Path) -> IRCurve:
     return IRCurve(np.array(distance), np.array(raw), name=path.stem)
 
 
+@lru_cache(maxsize=None)
 def builtin_gp2d12(side: str) -> IRCurve:
     """The project's own model of the c't-Bot's Sharp GP2D12 sensors: raw = a/(d + b) + c fitted
     (max error 11 and 8 raw units) to the measured left and right curves between 0.1 and 0.8 m,

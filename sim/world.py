@@ -1,36 +1,30 @@
 """The simulated world: a pymunk space in metres with robots driven along exact arcs.
 
 The physical contract (DESIGN.md §4) in one place. Each step: sensors are read from the state at
-the start (`read`), the caller computes motor commands, then `step` runs the motor model, counts
-encoder ticks, turns wheel arcs into an exact-arc motion, limits it where a wall or another body
-is in the way, lets pymunk resolve contacts, and measures the true motion (for the mouse) and
-ground contact (for holes). Everything random draws from per-sensor generators spawned from the
-world's seed.
+the start (`read_all`), the caller computes motor commands, then `step` runs the motor model,
+counts encoder ticks, turns wheel arcs into an exact-arc motion, cuts it where a wall or another
+body is in the way, lets pymunk resolve contacts, and measures the true motion (for the mouse)
+and ground contact (for holes). The per-robot arithmetic runs in compiled kernels over all robots
+at once (`sim.world_kernels`); pymunk does the geometry. Everything random draws from
+per-sensor generators spawned from the world's seed.
 """
 
 from __future__ import annotations
 
 import math
 import zlib
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pymunk
 
 from bots.spec import RobotSpec
+from sim import world_kernels as kernels
 from sim.floor import FloorMap, rasterize
-from sim.kinematics import (
-    apply_increment,
-    arc_increment,
-    counts_per_metre,
-    mouse_displacement_from_increment,
-    quantize,
-    relative_increment,
-    wheel_arcs_to_arc,
-)
+from sim.kinematics import counts_per_metre
 from sim.readings import Readings
-from sim.sensors import IRCurve, builtin_gp2d12, ldr_value, load_ir_curve
+from sim.sensors import CNY70_MAX, LDR_MAX, IRCurve, builtin_gp2d12, load_ir_curve
 from sim.worldspec import Start, WorldSpec
 
 SLOP = 0.0005
@@ -66,22 +60,15 @@ def ir_curve_for(name: str | None, side: str) -> IRCurve:
     return load_ir_curve(path)
 
 
-def _rng(seed: int, robot: int, sensor: str) -> np.random.Generator:
-    """A generator for one sensor, keyed by robot index and sensor name, so that adding a sensor
+def sensor_rng(seed: int, robot: int, sensor: str) -> np.random.Generator:
+    """The generator of one sensor, keyed by robot index and sensor name, so that adding a sensor
     or a robot never changes another sensor's noise."""
     return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(robot, zlib.crc32(sensor.encode()))))
 
 
-def _rotate(points: np.ndarray, pose: np.ndarray) -> np.ndarray:
-    """Body-frame points (..., k, 2) to world points for poses (..., 3)."""
-    c, s = np.cos(pose[..., 2])[..., None], np.sin(pose[..., 2])[..., None]
-    x, y = points[..., 0], points[..., 1]
-    return np.stack((pose[..., 0, None] + c * x - s * y, pose[..., 1, None] + s * x + c * y), axis=-1)
-
-
 @dataclass
 class Robot:
-    """One robot in the world: its description, its pymunk body and its sensors' state."""
+    """One robot in the world: its description, its pymunk body and its bookkeeping."""
 
     index: int
     name: str
@@ -91,21 +78,17 @@ class Robot:
     query_filter: pymunk.ShapeFilter
     ir_curves: tuple[IRCurve, ...]
     rngs: dict[str, np.random.Generator]
-    wheel_speed: np.ndarray = field(default_factory=lambda: np.zeros(2))
-    tick_carry: np.ndarray = field(default_factory=lambda: np.zeros(2))
-    mouse_carry: np.ndarray = field(default_factory=lambda: np.zeros(2))
-    ticks: np.ndarray = field(default_factory=lambda: np.zeros(2, dtype=np.int64))
-    counts: np.ndarray = field(default_factory=lambda: np.zeros(2, dtype=np.int64))
     velocity: tuple[float, float] = (0.0, 0.0)
     angular_velocity: float = 0.0
     fallen: bool = False
-    blocked: bool = False
+    touching: bool = False
     collisions: int = 0
 
     @property
     def pose(self) -> np.ndarray:
         """Ground-truth pose (x, y m; heading rad, continuous)."""
-        return np.array([*self.body.position, self.body.angle])
+        p = self.body.position
+        return np.array((p.x, p.y, self.body.angle))
 
 
 class World:
@@ -137,7 +120,9 @@ class World:
             shape.friction = 0.3
             self.space.add(body, shape)
             self.movables.append(body)
-        self._lights = np.array([(*light.position, light.height) for light in spec.lights]).reshape(-1, 3)
+        self._lights = np.array([(*light.position, light.height) for light in spec.lights], dtype=np.float64).reshape(-1, 3)
+        self._floor_origin = np.array(self.floor.origin)
+        self._state = _BatchState.empty()
 
     # --- robots -----------------------------------------------------------------------------
 
@@ -153,18 +138,17 @@ class World:
         shape = pymunk.Circle(body, spec.body_radius)
         shape.friction = 0.0
         shape.filter = pymunk.ShapeFilter(group=index + 1)
+        sensors = ["encoders", "mouse"] + [s.name for s in (*spec.ir, *spec.line, *spec.border, *spec.light)]
         robot = Robot(
             index=index,
-            name=name or f"{spec.name}{index}" if index else (name or spec.name),
+            name=name or (spec.name if index == 0 else f"{spec.name}{index}"),
             spec=spec,
             body=body,
             shape=shape,
             query_filter=shape.filter,
             ir_curves=tuple(ir_curve_for(s.curve, s.side) for s in spec.ir),
-            rngs={},
+            rngs={n: sensor_rng(self.seed, index, n) for n in sensors},
         )
-        sensor_names = ["encoders", "mouse"] + [s.name for s in (*spec.ir, *spec.line, *spec.border, *spec.light)]
-        robot.rngs = {n: _rng(self.seed, index, n) for n in sensor_names}
 
         def set_velocity(body: pymunk.Body, gravity, damping, dt) -> None:  # noqa: ANN001 (pymunk callback)
             body.velocity = robot.velocity
@@ -177,124 +161,84 @@ class World:
         body.position_func = hold_position
         self.space.add(body, shape)
         self.robots.append(robot)
+        self._state = _BatchState.build(self.robots, self.dt)
         return robot
+
+    def poses(self) -> np.ndarray:
+        """(n, 3) ground-truth poses of all robots."""
+        return np.array([(r.body.position.x, r.body.position.y, r.body.angle) for r in self.robots]).reshape(-1, 3)
 
     # --- sensors ----------------------------------------------------------------------------
 
+    def read_all(self) -> list[Readings]:
+        """Every robot's sensor readings from the current state (the start of the next step)."""
+        st = self._state
+        pose = self.poses()
+        floor = np.empty(len(st.floor_owner), dtype=np.int64)
+        if len(floor):
+            points = np.empty((len(floor), 2))
+            kernels.to_world(pose, st.floor_offsets, st.floor_owner, points)
+            outside = CNY70_MAX if self.floor.outside_is_hole else self.floor.outside_value
+            kernels.sample_floor(points, self.floor.value, self._floor_origin, self.floor.cell, outside, floor)
+            floor = self._add_noise(st.floor_sensors, floor, CNY70_MAX)
+        light = np.empty(len(st.light_owner), dtype=np.int64)
+        if len(light):
+            points = np.empty((len(light), 2))
+            kernels.to_world(pose, st.light_offsets, st.light_owner, points)
+            look = pose[st.light_owner, 2] + st.light_direction
+            kernels.sense_light(points, look, st.light_half_opening, st.light_reach, self._lights, light)
+            light = self._add_noise(st.light_sensors, light, LDR_MAX)
+        ir_raw, ir_distance = self._read_ir(pose)
+        ticks, counts = st.ticks.copy(), st.counts.copy()
+        readings = []
+        for robot in self.robots:
+            i = robot.index
+            f0, f1, f2 = st.floor_slices[i]
+            l0, l1 = st.light_slices[i]
+            r0, r1 = st.ir_slices[i]
+            readings.append(
+                Readings(self.time, ticks[i], counts[i], ir_raw[r0:r1], ir_distance[r0:r1], floor[f0:f1], floor[f1:f2], light[l0:l1])
+            )
+        return readings
+
     def read(self, robot: Robot) -> Readings:
-        """The robot's sensor readings from the current state (the start of the next step)."""
-        spec = robot.spec
-        pose = robot.pose
-        ir_raw, ir_distance = self._read_ir(robot, pose)
-        floor_points = _rotate(np.array([s.position for s in (*spec.line, *spec.border)]).reshape(-1, 2), pose)
-        floor_values = self.floor.sample(floor_points)
-        floor_values = self._noisy(robot, (*spec.line, *spec.border), floor_values, 1023)
-        n_line = len(spec.line)
-        return Readings(
-            time=self.time,
-            encoder_ticks=robot.ticks.copy(),
-            mouse_counts=robot.counts.copy(),
-            ir_raw=ir_raw,
-            ir_distance=ir_distance,
-            line=floor_values[:n_line],
-            border=floor_values[n_line:],
-            light=self._read_light(robot, pose),
-        )
+        """One robot's readings (reads every robot: use `read_all` in loops)."""
+        return self.read_all()[robot.index]
 
-    def _noisy(self, robot: Robot, sensors, values: np.ndarray, top: int) -> np.ndarray:
-        if not any(s.noise_std for s in sensors):
-            return values
-        noise = [robot.rngs[s.name].normal(0.0, s.noise_std) if s.noise_std else 0.0 for s in sensors]
-        return np.clip(np.rint(values + np.array(noise)), 0, top).astype(np.int64)
+    def _add_noise(self, sensors: list[tuple[Robot, object]], values: np.ndarray, top: int) -> np.ndarray:
+        noisy = [(k, robot.rngs[s.name], s.noise_std) for k, (robot, s) in enumerate(sensors) if s.noise_std]
+        for k, rng, std in noisy:
+            values[k] = min(top, max(0, round(values[k] + rng.normal(0.0, std))))
+        return values
 
-    def ray_distance(self, robot: Robot, origin: np.ndarray, direction: float, length: float = IR_RAY_LENGTH) -> float:
+    def ray_distance(self, robot: Robot, origin, direction: float, length: float = IR_RAY_LENGTH) -> float:
         """Distance (m) from `origin` along world `direction` to the first body other than the
         robot's own; inf if nothing within `length`."""
         end = (origin[0] + length * math.cos(direction), origin[1] + length * math.sin(direction))
-        hit = self.space.segment_query_first(tuple(origin), end, 0.0, robot.query_filter)
+        hit = self.space.segment_query_first((origin[0], origin[1]), end, 0.0, robot.query_filter)
         return hit.alpha * length if hit is not None else math.inf
 
-    def _read_ir(self, robot: Robot, pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        sensors = robot.spec.ir
-        if not sensors:
-            return np.zeros(0, dtype=np.int64), np.zeros(0)
-        origins = _rotate(np.array([s.position for s in sensors]), pose)
-        raw = np.empty(len(sensors), dtype=np.int64)
-        distance = np.empty(len(sensors))
-        for k, (sensor, curve) in enumerate(zip(sensors, robot.ir_curves)):
-            d = self.ray_distance(robot, origins[k], pose[2] + sensor.direction)
-            if sensor.noise_std and math.isfinite(d):
-                d = max(0.0, d + robot.rngs[sensor.name].normal(0.0, sensor.noise_std))
-            raw[k] = curve.lookup(d)
-            distance[k] = curve.distance_from_raw(raw[k], sensor.min_range, sensor.max_range)
-        return raw, distance
-
-    def _read_light(self, robot: Robot, pose: np.ndarray) -> np.ndarray:
-        sensors = robot.spec.light
-        if not sensors:
-            return np.zeros(0, dtype=np.int64)
-        origins = _rotate(np.array([s.position for s in sensors]), pose)
-        nearest = np.full(len(sensors), np.inf)
-        if len(self._lights):
-            offset = self._lights[None, :, :2] - origins[:, None, :]
-            distance = np.sqrt(np.sum(offset**2, axis=-1) + self._lights[None, :, 2] ** 2)
-            look = pose[2] + np.array([s.direction for s in sensors])
-            bearing = np.arctan2(offset[..., 1], offset[..., 0]) - look[:, None]
-            off_axis = np.abs((bearing + np.pi) % (2 * np.pi) - np.pi)
-            half_opening = np.array([s.opening / 2 for s in sensors])[:, None]
-            nearest = np.min(np.where(off_axis <= half_opening, distance, np.inf), axis=1)
-        values = np.array([ldr_value(d, s.reach) for d, s in zip(nearest, sensors)], dtype=np.int64)
-        return self._noisy(robot, sensors, values, 1023)
+    def _read_ir(self, pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        st = self._state
+        n = len(st.ir_sensors)
+        distance = np.empty(n)
+        if n:
+            origins = np.empty((n, 2))
+            kernels.to_world(pose, st.ir_offsets, st.ir_owner, origins)
+            look = pose[st.ir_owner, 2] + st.ir_direction
+            for k, (robot, sensor) in enumerate(st.ir_sensors):
+                d = self.ray_distance(robot, origins[k], look[k])
+                if sensor.noise_std and d < math.inf:
+                    d = max(0.0, d + robot.rngs[sensor.name].normal(0.0, sensor.noise_std))
+                distance[k] = d
+        raw = np.empty(n, dtype=np.int64)
+        believed = np.empty(n)
+        for curve, members, (lo, hi) in st.ir_groups:
+            raw[members] = curve.lookup(distance[members])
+            believed[members] = curve.distance_from_raw(raw[members], lo, hi)
+        return raw, believed
 
     # --- motion -----------------------------------------------------------------------------
-
-    def _motor(self, robot: Robot, command: np.ndarray) -> np.ndarray:
-        """Wheel angular speeds (rad/s) at the end of the step for a signed motor command."""
-        motor = robot.spec.motor
-        target = np.clip(command, -motor.command_max, motor.command_max) / motor.command_max * motor.max_wheel_speed
-        speed = robot.wheel_speed
-        if motor.time_constant > 0:
-            target = speed + (target - speed) * (1.0 - math.exp(-self.dt / motor.time_constant))
-        if math.isfinite(motor.max_acceleration):
-            limit = motor.max_acceleration * self.dt
-            target = speed + np.clip(target - speed, -limit, limit)
-        return target
-
-    def _wheel_arcs(self, robot: Robot, rotation: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(encoder ticks, ground arc lengths of the wheels in m) for wheel rotations (rad)."""
-        enc = robot.spec.encoders
-        rng = robot.rngs["encoders"]
-        ticks, robot.tick_carry = quantize(rotation / (2 * math.pi) * enc.ticks_per_rev, robot.tick_carry)
-        if enc.tick_noise:
-            ticks = ticks + (rng.random(2) < enc.tick_noise) * rng.choice((-1, 1), size=2)
-        real_radius = robot.spec.wheel_radius * (1.0 + np.asarray(enc.diameter_error))
-        arcs = rotation * real_radius
-        if enc.slip_std:
-            arcs = arcs * (1.0 + rng.normal(0.0, enc.slip_std, size=2))
-        return ticks, arcs
-
-    def _plan_motion(self, robot: Robot, arcs: np.ndarray) -> None:
-        """Set the body velocity so an unobstructed step lands exactly on the arc's end pose:
-        velocity = chord/dt, angular velocity = alpha/dt; cut the translation where a swept
-        circle would first sink more than SWEEP_CLEARANCE into something (no tunnelling)."""
-        if robot.fallen:
-            robot.velocity, robot.angular_velocity = (0.0, 0.0), 0.0
-            return
-        track = robot.spec.track_width * (1.0 + robot.spec.encoders.track_error)
-        s, alpha = wheel_arcs_to_arc(arcs[0], arcs[1], track)
-        pose = robot.pose
-        end = apply_increment(pose, arc_increment(s, alpha))
-        move = end[:2] - pose[:2]
-        robot.blocked = False
-        if move @ move > 0:
-            hit = self.space.segment_query_first(
-                tuple(pose[:2]), tuple(end[:2]), robot.spec.body_radius - SWEEP_CLEARANCE, robot.query_filter
-            )
-            if hit is not None:
-                move = move * hit.alpha
-                robot.blocked = True
-        robot.velocity = (move[0] / self.dt, move[1] / self.dt)
-        robot.angular_velocity = float(alpha) / self.dt
 
     def step(self, commands: np.ndarray) -> None:
         """Advance the world by dt with signed motor commands (n_robots, 2) = (left, right)."""
@@ -304,47 +248,200 @@ class World:
         if not np.all(np.isfinite(commands)):
             bad = [self.robots[i].name for i in np.unique(np.nonzero(~np.isfinite(commands))[0])]
             raise CommandError(f"non-finite motor command for {', '.join(bad)} at step {self.steps}")
-        before = [robot.pose for robot in self.robots]
-        for robot, command in zip(self.robots, commands):
-            robot.wheel_speed = self._motor(robot, command)
-            robot.ticks, arcs = self._wheel_arcs(robot, robot.wheel_speed * self.dt)
-            self._plan_motion(robot, arcs)
+        st = self._state
+        before = self.poses()
+        st.draw_encoder_noise(self.robots)
+        kernels.drive(
+            commands, st.wheel_speed, st.command_max, st.max_speed, st.lag, st.max_change, self.dt,
+            st.ticks_per_rad, st.tick_carry, st.tick_offset, st.ticks, st.real_radius, st.slip, st.track,
+            before, st.fallen, st.move, st.alpha,
+        )  # fmt: skip
+        for robot in self.robots:
+            self._plan_motion(robot, before[robot.index], st.move[robot.index], st.alpha[robot.index])
         self.space.step(self.dt)
-        for robot, start in zip(self.robots, before):
+        for robot in self.robots:
             pymunk.Body.update_position(robot.body, self.dt)
-            self._after_motion(robot, start)
+        after = self.poses()
+        st.draw_mouse_noise(self.robots)
+        kernels.measure(
+            before, after, st.contacts, st.fallen, st.mount, st.counts_per_metre, st.max_step, st.mouse_noise,
+            st.mouse_carry, st.counts, self.floor.hole, self._floor_origin, self.floor.cell, self.floor.outside_is_hole,
+        )  # fmt: skip
+        for robot in self.robots:
+            self._bookkeeping(robot, bool(st.fallen[robot.index]))
         self.steps += 1
         self.time = self.steps * self.dt
 
-    def _after_motion(self, robot: Robot, start: np.ndarray) -> None:
-        """Mouse counts from the true motion, contact with the floor, collision bookkeeping."""
-        spec = robot.spec
-        pose = robot.pose
-        if not robot.fallen:
-            contacts = _rotate(
-                np.array([(0.0, spec.track_width / 2), (0.0, -spec.track_width / 2), spec.skid]), pose
-            )
-            robot.fallen = bool(self.floor.is_hole(contacts).any())
-            if robot.fallen:
-                robot.body.velocity, robot.body.angular_velocity = (0.0, 0.0), 0.0
-        touching = robot.blocked or any(True for _ in _arbiters(robot.body))
-        robot.collisions += touching and not getattr(robot, "_touching", False)
-        robot._touching = touching
-        mouse = spec.mouse
-        if mouse is None:
-            return
-        increment = relative_increment(start, pose)
-        metres = mouse_displacement_from_increment(increment, np.asarray(mouse.mount))
-        if self.floor.is_hole(_rotate(np.asarray([mouse.mount]), pose))[0] or np.hypot(*metres) > mouse.max_speed * self.dt:
-            metres = np.zeros(2)
-        counts = metres * counts_per_metre(mouse.dpi) * (1.0 + mouse.scale_error)
-        if mouse.noise_std:
-            counts = counts + robot.rngs["mouse"].normal(0.0, mouse.noise_std, size=2)
-        robot.counts, robot.mouse_carry = quantize(counts, robot.mouse_carry)
+    def _plan_motion(self, robot: Robot, pose: np.ndarray, move: np.ndarray, alpha: float) -> None:
+        """Velocity for an unobstructed step to land exactly on the arc's end pose (chord/dt,
+        alpha/dt); the translation is cut where a swept circle first sinks more than
+        SWEEP_CLEARANCE into something, so no speed the motors allow tunnels through a wall."""
+        mx, my = float(move[0]), float(move[1])
+        blocked = False
+        if mx or my:
+            x, y = float(pose[0]), float(pose[1])
+            radius = robot.spec.body_radius - SWEEP_CLEARANCE
+            hit = self.space.segment_query_first((x, y), (x + mx, y + my), radius, robot.query_filter)
+            if hit is not None:
+                mx, my, blocked = mx * hit.alpha, my * hit.alpha, True
+        robot.velocity = (mx / self.dt, my / self.dt)
+        robot.angular_velocity = float(alpha) / self.dt
+        robot.touching = blocked
+
+    def _bookkeeping(self, robot: Robot, fallen: bool) -> None:
+        """Count collisions (the start of each contact) and stop a robot that fell into a hole."""
+        if fallen and not robot.fallen:
+            robot.body.velocity, robot.body.angular_velocity = (0.0, 0.0), 0.0
+        robot.fallen = fallen
+        touching = robot.touching or _has_contact(robot.body)
+        if touching and not getattr(robot, "_was_touching", False):
+            robot.collisions += 1
+        robot._was_touching = touching
 
 
-def _arbiters(body: pymunk.Body):
-    """The contacts a body is in after the last step."""
+def _has_contact(body: pymunk.Body) -> bool:
     found = []
     body.each_arbiter(found.append)
-    return found
+    return bool(found)
+
+
+@dataclass
+class _BatchState:
+    """Per-robot parameters and state as arrays for the kernels (rebuilt when a robot joins)."""
+
+    command_max: np.ndarray
+    max_speed: np.ndarray
+    lag: np.ndarray
+    max_change: np.ndarray
+    ticks_per_rad: np.ndarray
+    real_radius: np.ndarray
+    track: np.ndarray
+    contacts: np.ndarray
+    mount: np.ndarray
+    counts_per_metre: np.ndarray
+    max_step: np.ndarray
+    wheel_speed: np.ndarray
+    tick_carry: np.ndarray
+    tick_offset: np.ndarray
+    ticks: np.ndarray
+    slip: np.ndarray
+    mouse_carry: np.ndarray
+    mouse_noise: np.ndarray
+    counts: np.ndarray
+    fallen: np.ndarray
+    move: np.ndarray
+    alpha: np.ndarray
+    floor_sensors: list
+    floor_offsets: np.ndarray
+    floor_owner: np.ndarray
+    floor_slices: list
+    light_sensors: list
+    light_offsets: np.ndarray
+    light_owner: np.ndarray
+    light_direction: np.ndarray
+    light_half_opening: np.ndarray
+    light_reach: np.ndarray
+    light_slices: list
+    ir_sensors: list
+    ir_offsets: np.ndarray
+    ir_owner: np.ndarray
+    ir_direction: np.ndarray
+    ir_groups: list
+    ir_slices: list
+
+    @classmethod
+    def empty(cls) -> _BatchState:
+        return cls.build([], 0.01)
+
+    @classmethod
+    def build(cls, robots: list[Robot], dt: float, previous: _BatchState | None = None) -> _BatchState:
+        n = len(robots)
+        specs = [r.spec for r in robots]
+        motor = [s.motor for s in specs]
+        lag = [1.0 - math.exp(-dt / m.time_constant) if m.time_constant > 0 else 1.0 for m in motor]
+        floor = [(r, s) for r in robots for s in (*r.spec.line, *r.spec.border)]
+        light = [(r, s) for r in robots for s in r.spec.light]
+        ir = [(r, s) for r in robots for s in r.spec.ir]
+
+        def slices(*groups):
+            out, start = [], 0
+            for spec in specs:
+                bounds = [start]
+                for group in groups:
+                    start += len(getattr(spec, group))
+                    bounds.append(start)
+                out.append(tuple(bounds))
+            return out
+
+        def offsets(items):
+            return np.array([s.position for _, s in items], dtype=np.float64).reshape(-1, 2)
+
+        def owner(items):
+            return np.array([r.index for r, _ in items], dtype=np.int64)
+
+        groups: dict[int, tuple[IRCurve, list[int], tuple[float, float]]] = {}
+        for k, (robot, sensor) in enumerate(ir):
+            curve = robot.ir_curves[robot.spec.ir.index(sensor)]
+            key = (id(curve), sensor.min_range, sensor.max_range)
+            groups.setdefault(key, (curve, [], (sensor.min_range, sensor.max_range)))[1].append(k)
+        state = cls(
+            command_max=np.array([m.command_max for m in motor], dtype=np.float64),
+            max_speed=np.array([m.max_wheel_speed for m in motor], dtype=np.float64),
+            lag=np.array(lag, dtype=np.float64),
+            max_change=np.array([m.max_acceleration * dt for m in motor], dtype=np.float64),
+            ticks_per_rad=np.array([s.encoders.ticks_per_rev / (2 * math.pi) for s in specs], dtype=np.float64),
+            real_radius=np.array([[s.wheel_radius * (1 + e) for e in s.encoders.diameter_error] for s in specs]).reshape(n, 2),
+            track=np.array([s.track_width * (1 + s.encoders.track_error) for s in specs], dtype=np.float64),
+            contacts=np.array([((0.0, s.track_width / 2), (0.0, -s.track_width / 2), s.skid) for s in specs]).reshape(n, 3, 2),
+            mount=np.array([s.mouse.mount if s.mouse else (0.0, 0.0) for s in specs], dtype=np.float64).reshape(n, 2),
+            counts_per_metre=np.array(
+                [counts_per_metre(s.mouse.dpi) * (1 + s.mouse.scale_error) if s.mouse else 0.0 for s in specs], dtype=np.float64
+            ),
+            max_step=np.array([s.mouse.max_speed * dt if s.mouse else 0.0 for s in specs], dtype=np.float64),
+            wheel_speed=np.zeros((n, 2)),
+            tick_carry=np.zeros((n, 2)),
+            tick_offset=np.zeros((n, 2)),
+            ticks=np.zeros((n, 2), dtype=np.int64),
+            slip=np.zeros((n, 2)),
+            mouse_carry=np.zeros((n, 2)),
+            mouse_noise=np.zeros((n, 2)),
+            counts=np.zeros((n, 2), dtype=np.int64),
+            fallen=np.array([r.fallen for r in robots], dtype=np.bool_),
+            move=np.zeros((n, 2)),
+            alpha=np.zeros(n),
+            floor_sensors=floor,
+            floor_offsets=offsets(floor),
+            floor_owner=owner(floor),
+            floor_slices=slices("line", "border"),
+            light_sensors=light,
+            light_offsets=offsets(light),
+            light_owner=owner(light),
+            light_direction=np.array([s.direction for _, s in light], dtype=np.float64),
+            light_half_opening=np.array([s.opening / 2 for _, s in light], dtype=np.float64),
+            light_reach=np.array([s.reach for _, s in light], dtype=np.float64),
+            light_slices=slices("light"),
+            ir_sensors=ir,
+            ir_offsets=offsets(ir),
+            ir_owner=owner(ir),
+            ir_direction=np.array([s.direction for _, s in ir], dtype=np.float64),
+            ir_groups=[(curve, np.array(members), bounds) for curve, members, bounds in groups.values()],
+            ir_slices=slices("ir"),
+        )
+        return state
+
+    def draw_encoder_noise(self, robots: list[Robot]) -> None:
+        """Random slip and spurious ticks for the robots whose encoders have them."""
+        for robot in robots:
+            enc = robot.spec.encoders
+            if enc.slip_std or enc.tick_noise:
+                rng = robot.rngs["encoders"]
+                i = robot.index
+                self.slip[i] = rng.normal(0.0, enc.slip_std, size=2) if enc.slip_std else 0.0
+                if enc.tick_noise:
+                    self.tick_offset[i] = (rng.random(2) < enc.tick_noise) * rng.choice((-1.0, 1.0), size=2)
+
+    def draw_mouse_noise(self, robots: list[Robot]) -> None:
+        """Count noise for the robots whose mouse has it."""
+        for robot in robots:
+            if robot.spec.mouse is not None and robot.spec.mouse.noise_std:
+                self.mouse_noise[robot.index] = robot.rngs["mouse"].normal(0.0, robot.spec.mouse.noise_std, size=2)

@@ -30,6 +30,17 @@ def _half_angle(h: float) -> tuple[float, float]:
     return cos, sinc
 
 
+@numba.njit(cache=True, inline="always")
+def quantize_one(total: float) -> tuple[float, float]:
+    """(whole counts, carry in [0, 1)) of a running total, as `quantize.quantize`: a total just
+    below an integer whose fraction rounds to 1.0 counts that whole event instead."""
+    whole = math.floor(total)
+    fraction = total - whole
+    if fraction >= 1.0:
+        return whole + 1.0, 0.0
+    return whole, fraction
+
+
 @numba.njit(cache=True)
 def step_batch(
     pose: np.ndarray,
@@ -67,12 +78,6 @@ def step_batch(
         norm = 1.5 - 0.5 * (c * c + sn * sn)  # one Newton step back onto the unit circle
         heading_dir[i, 0], heading_dir[i, 1] = c * norm, sn * norm
         for w in range(2):
-            total = wheel_arcs[i, w] * ticks_per_metre + tick_carry[i, w]
-            whole = math.floor(total)
-            ticks[i, w] = whole
-            tick_carry[i, w] = total - whole
+            ticks[i, w], tick_carry[i, w] = quantize_one(wheel_arcs[i, w] * ticks_per_metre + tick_carry[i, w])
         for axis, metres in enumerate((s - alpha * mount[1], alpha * mount[0])):
-            total = metres * counts_per_metre + mouse_carry[i, axis]
-            whole = math.floor(total)
-            counts[i, axis] = whole
-            mouse_carry[i, axis] = total - whole
+            counts[i, axis], mouse_carry[i, axis] = quantize_one(metres * counts_per_metre + mouse_carry[i, axis])
