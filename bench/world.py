@@ -37,6 +37,32 @@ def maze_ctbot(steps: int) -> float:
     return _steps_per_second(world, steps, np.array([[200.0, 180.0]]))
 
 
+def maze_ctbot_recording(steps: int) -> float:
+    """`maze_ctbot` with the rerun recorder observing every step into a temporary .rrd: the
+    loop feeds it a RobotLog as the run loop does (readings and truth), closing the file included."""
+    import tempfile
+    from pathlib import Path
+
+    from sim.recording import Recorder
+    from sim.run import RobotLog
+
+    world = World(load_world("maze"))
+    robot = world.add_robot(CTBOT)
+    logs = [RobotLog(robot.name, CTBOT, "constant", {})]
+    commands = np.array([[200.0, 180.0]])
+    with tempfile.TemporaryDirectory() as folder:
+        recorder = Recorder(Path(folder) / "bench.rrd")
+        recorder.on_start(world, logs)
+        start = time.perf_counter()
+        for _ in range(steps):
+            logs[0].readings.append(world.read(robot))
+            logs[0].truth.append(robot.pose)
+            recorder.on_sample(world, logs)
+            world.step(commands)
+        recorder.close()
+        return steps / (time.perf_counter() - start)
+
+
 def many_ctbots(steps: int, count: int = 100) -> float:
     """`count` c't-Bots with every sensor in one open world, on a grid, each driving a circle."""
     side = int(np.ceil(np.sqrt(count)))
@@ -54,4 +80,5 @@ def figures(scale: float):
     """(name, unit, thunk) for the world benchmarks."""
     yield "world_empty_1bot", "steps/s", lambda: empty_1bot(int(20000 * scale))
     yield "world_maze_ctbot_all_sensors", "steps/s", lambda: maze_ctbot(int(10000 * scale))
+    yield "world_maze_ctbot_recording", "steps/s", lambda: maze_ctbot_recording(int(10000 * scale))
     yield "world_100_ctbots", "steps/s", lambda: many_ctbots(int(300 * scale))
