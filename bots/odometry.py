@@ -1,19 +1,29 @@
 """Odometry estimators: what a robot believes about its pose, from its own readings only.
 
 An estimator is reset with the robot's description and its start pose, then takes each step's
-readings and exposes `pose` (x, y m, heading rad). The comparison against ground truth happens in
-the run loop's consumers, never here.
+readings and exposes `pose` (x, y m, heading rad, continuous). The comparison against ground truth
+happens in the run loop's consumers (`sim.compare`), never here.
+
+Every estimator turns one step's readings into an arc (centre arc length s, heading change alpha)
+and lays it down either exactly (chord along the mid-angle, seed 002 eqs 1.7, 1.12) or as the
+c't-Bot firmware does (chord along the end heading, ctsim-reference §5).
 """
 
 from __future__ import annotations
 
-from typing import Protocol
+import math
+from dataclasses import dataclass
+from typing import Literal, Protocol
 
 import numpy as np
 
 from bots.spec import RobotSpec
-from sim.kinematics import apply_increment, arcs_from_ticks, wheel_increment
+from sim.kinematics import MouseEstimator, apply_increment, arc_increment, firmware_increment, wheel_arcs_to_arc
+from sim.kinematics.mouse import counts_per_metre
 from sim.readings import Readings
+
+G_POS = 0.5
+"""The c't-Bot firmware's weight of the encoder pose against the mouse pose (bot-local.h:108)."""
 
 
 class Estimator(Protocol):
@@ -26,20 +36,148 @@ class Estimator(Protocol):
     def update(self, readings: Readings) -> None: ...
 
 
-class EncoderOdometry:
-    """Wheel encoders through the exact arc: ticks -> wheel arcs -> pose increment."""
+@dataclass(frozen=True)
+class Geometry:
+    """What the robot's own code believes about its drive (m): the nominal values unless a
+    calibration such as UMBmark corrected them."""
 
-    name = "encoders"
+    wheel_diameters: tuple[float, float]
+    track_width: float
+
+    @classmethod
+    def nominal(cls, robot: RobotSpec) -> Geometry:
+        """The geometry the robot description states."""
+        return cls((robot.wheel_diameter, robot.wheel_diameter), robot.track_width)
+
+
+class _ArcOdometry:
+    """Shared dead reckoning: `arc(readings)` gives (s, alpha) for the step, `lay` places it."""
+
+    name = "arc"
+    lay = staticmethod(arc_increment)
 
     def reset(self, robot: RobotSpec, pose: np.ndarray) -> None:
         self.robot = robot
         self.pose = np.asarray(pose, dtype=np.float64).copy()
 
+    def arc(self, readings: Readings) -> tuple[float, float]:
+        raise NotImplementedError
+
     def update(self, readings: Readings) -> None:
-        s = arcs_from_ticks(readings.encoder_ticks, self.robot.wheel_radius, self.robot.encoders.ticks_per_rev)
-        self.pose = apply_increment(self.pose, wheel_increment(s[0], s[1], self.robot.track_width))
+        self.pose = apply_increment(self.pose, self.lay(*self.arc(readings)))
 
 
-def default_estimators(robot: RobotSpec) -> list[Estimator]:
-    """The estimators a run compares by default for this robot."""
-    return [EncoderOdometry()]
+class EncoderOdometry(_ArcOdometry):
+    """Wheel encoders through the exact arc: ticks -> wheel arcs -> pose increment (eqs 1.3, 1.12).
+
+    geometry: the believed wheel diameters and track; None = the robot's nominal ones."""
+
+    name = "encoders"
+
+    def __init__(self, geometry: Geometry | None = None):
+        self.geometry = geometry
+
+    def reset(self, robot: RobotSpec, pose: np.ndarray) -> None:
+        super().reset(robot, pose)
+        believed = self.geometry or Geometry.nominal(robot)
+        self.track = believed.track_width
+        # metres of rim per tick, per wheel
+        self.metres_per_tick = np.pi * np.asarray(believed.wheel_diameters, dtype=np.float64) / robot.encoders.ticks_per_rev
+
+    def arc(self, readings: Readings) -> tuple[float, float]:
+        s_left, s_right = np.asarray(readings.encoder_ticks, dtype=np.float64) * self.metres_per_tick
+        s, alpha = wheel_arcs_to_arc(s_left, s_right, self.track)
+        return float(s), float(alpha)
+
+
+class FirmwareOdometry(EncoderOdometry):
+    """The c't-Bot firmware's encoder odometry (sensor.c:297-345): the same arc, but the chord is
+    laid along the heading after the turn, a lateral error of s_hat*sin(alpha/2) per step."""
+
+    name = "firmware"
+    lay = staticmethod(firmware_increment)
+
+
+class MouseOdometry(_ArcOdometry):
+    """The optical mouse through the inverse model (seed 002 §2.1): alpha = lateral/m_x,
+    s = forward + alpha*m_y, at the dpi the robot believes (the nominal one)."""
+
+    name = "mouse"
+
+    def reset(self, robot: RobotSpec, pose: np.ndarray) -> None:
+        if robot.mouse is None:
+            raise ValueError(f"robot {robot.name!r} has no mouse sensor: mouse odometry does not apply")
+        super().reset(robot, pose)
+        self.model = MouseEstimator(tuple(robot.mouse.mount), robot.mouse.dpi)
+
+    def arc(self, readings: Readings) -> tuple[float, float]:
+        s, alpha = self.model.arc(readings.mouse_counts)
+        return float(s), float(alpha)
+
+
+class FusedOdometry(_ArcOdometry):
+    """Encoders and mouse together.
+
+    rule "blend": the c't-Bot's coupled estimate (MEASURE_COUPLED_AVAILABLE): the encoder and the
+    mouse poses, each dead-reckoned on its own, averaged with weight G_POS on the encoders.
+
+    rule "slip" (default): heading change from the mouse, which sees the body turn whatever the
+    wheels do, is blind to wheel diameter and track errors, and resolves 1 count / m_x
+    (4.2 mrad on the c't-Bot) without accumulating, against 1 tick / track (30 mrad) for the
+    encoders. Distance from the encoders, except where they slipped: with the remainder carried,
+    the running totals of encoder and mouse distance each lag the truth by less than one count, so
+    without slip their difference stays below `tolerance` = one tick of rim + one mouse count
+    (scaled by 1 + |m_y|/|m_x| for the forward term alpha*m_y). Whatever the encoders add beyond
+    that band is slip and is dropped: the fused distance follows the encoders but never strays
+    more than `tolerance` from the mouse's. A robot pushing against a wall therefore drifts at
+    most `tolerance`. Limit: a mouse that reads zero while the robot moves (lifted, over a hole,
+    too fast) looks like slip too.
+    """
+
+    name = "fused"
+
+    def __init__(self, rule: Literal["slip", "blend"] = "slip", geometry: Geometry | None = None, weight: float = G_POS):
+        if rule not in ("slip", "blend"):
+            raise ValueError(f"fusion rule must be 'slip' or 'blend', got {rule!r}")
+        self.rule = rule
+        self.weight = weight
+        self.encoders = EncoderOdometry(geometry)
+        self.mouse = MouseOdometry()
+
+    def reset(self, robot: RobotSpec, pose: np.ndarray) -> None:
+        super().reset(robot, pose)
+        self.encoders.reset(robot, pose)
+        self.mouse.reset(robot, pose)
+        mount_x, mount_y = robot.mouse.mount
+        count = 1.0 / counts_per_metre(robot.mouse.dpi)
+        self.tolerance = float(np.max(self.encoders.metres_per_tick) + count * (1.0 + abs(mount_y) / abs(mount_x)))
+        self.disagreement = 0.0
+
+    def arc(self, readings: Readings) -> tuple[float, float]:
+        s_enc, _ = self.encoders.arc(readings)
+        s_mouse, alpha = self.mouse.arc(readings)
+        total = self.disagreement + s_enc - s_mouse
+        self.disagreement = min(max(total, -self.tolerance), self.tolerance)
+        return s_enc - (total - self.disagreement), alpha
+
+    def update(self, readings: Readings) -> None:
+        if self.rule == "slip":
+            super().update(readings)
+            return
+        self.encoders.update(readings)
+        self.mouse.update(readings)
+        self.pose = self.weight * self.encoders.pose + (1.0 - self.weight) * self.mouse.pose
+
+
+def _mouse_applies(robot: RobotSpec) -> bool:
+    """A mouse that can see rotation: present and off the wheel axle line."""
+    return robot.mouse is not None and math.isfinite(robot.mouse.mount[0]) and abs(robot.mouse.mount[0]) >= MouseEstimator.min_lever
+
+
+def default_estimators(robot: RobotSpec, geometry: Geometry | None = None) -> list[Estimator]:
+    """The estimators a run compares by default for this robot: encoders and firmware always,
+    mouse and fused where the robot has a mouse that can see rotation."""
+    chosen: list[Estimator] = [EncoderOdometry(geometry), FirmwareOdometry(geometry)]
+    if _mouse_applies(robot):
+        chosen += [MouseOdometry(), FusedOdometry(geometry=geometry)]
+    return chosen
