@@ -13,6 +13,10 @@ from sim.worldspec import Start, WorldSpec
 
 
 def _steps_per_second(world: World, steps: int, commands: np.ndarray, read: bool = True) -> float:
+    for _ in range(min(steps, 2000)):  # warm up: compiled kernels and caches settle in
+        if read:
+            world.read_all()
+        world.step(commands)
     start = time.perf_counter()
     for _ in range(steps):
         if read:

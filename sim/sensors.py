@@ -39,11 +39,19 @@ class IRCurve:
     def distance_from_raw(self, raw: np.ndarray, min_range: float = 0.1, max_range: float = 0.8) -> np.ndarray:
         """The firmware's inverse (c't-Bot `sensor_dist_lookup`): distance (m) from a raw value on
         the curve's falling branch within [min_range, max_range]; nan outside it."""
+        return self.inverse(min_range, max_range)(raw)
+
+    def inverse(self, min_range: float = 0.1, max_range: float = 0.8):
+        """`distance_from_raw` for one range as a function, its table prepared once."""
         keep = (self.distance >= min_range) & (self.distance <= max_range)
-        d, v = self.distance[keep], self.raw[keep].astype(np.float64)
-        r = np.asarray(raw, dtype=np.float64)
-        out = np.interp(r, v[::-1], d[::-1])  # raw falls with distance: interpolate on the reversed table
-        return np.where((r > v.max()) | (r < v.min()), np.nan, out)
+        d, v = self.distance[keep][::-1], self.raw[keep][::-1].astype(np.float64)  # raw rises as d falls
+        low, high = v.min(), v.max()
+
+        def distance(raw: np.ndarray) -> np.ndarray:
+            r = np.asarray(raw, dtype=np.float64)
+            return np.where((r > high) | (r < low), np.nan, np.interp(r, v, d))
+
+        return distance
 
 
 def load_ir_curve(path: str | Path) -> IRCurve:

@@ -29,12 +29,14 @@ from sim.worldspec import Start, WorldSpec
 
 SLOP = 0.0005
 """pymunk collision slop for a world in metres (its default 0.1 assumes pixels)."""
-SWEEP_CLEARANCE = 2 * SLOP
+SWEEP_CLEARANCE = 1.5 * SLOP
 """A move is cut where the body would sink deeper than this into another body."""
 IR_RAY_LENGTH = 0.85
 """How far an IR ray is cast (m), c't-Sim's pick distance; beyond it nothing is seen."""
 MOVABLE_DAMPING = 0.05
 """Velocity fraction movable obstacles keep after a second: they slide a little and stop."""
+ROBOT = 1
+"""pymunk collision type of robot bodies (to count their contacts)."""
 
 
 class CommandError(ValueError):
@@ -78,10 +80,7 @@ class Robot:
     query_filter: pymunk.ShapeFilter
     ir_curves: tuple[IRCurve, ...]
     rngs: dict[str, np.random.Generator]
-    velocity: tuple[float, float] = (0.0, 0.0)
-    angular_velocity: float = 0.0
     fallen: bool = False
-    touching: bool = False
     collisions: int = 0
 
     @property
@@ -107,7 +106,8 @@ class World:
         self.space = pymunk.Space()
         self.space.collision_slop = SLOP
         self.space.iterations = 10
-        self.space.damping = MOVABLE_DAMPING
+        self._robot_of_shape: dict[pymunk.Shape, Robot] = {}
+        self.space.on_collision(ROBOT, None, begin=self._count_contact)
         for wall in spec.walls:
             shape = pymunk.Poly(self.space.static_body, wall.vertices)
             shape.friction = 0.0
@@ -116,6 +116,7 @@ class World:
         for item in spec.movables:
             body = pymunk.Body(item.mass, pymunk.moment_for_circle(item.mass, 0, item.radius))
             body.position = item.position
+            body.velocity_func = _damped
             shape = pymunk.Circle(body, item.radius)
             shape.friction = 0.3
             self.space.add(body, shape)
@@ -123,6 +124,7 @@ class World:
         self._lights = np.array([(*light.position, light.height) for light in spec.lights], dtype=np.float64).reshape(-1, 3)
         self._floor_origin = np.array(self.floor.origin)
         self._state = _BatchState.empty()
+        self._poses = np.zeros((0, 3))
 
     # --- robots -----------------------------------------------------------------------------
 
@@ -150,22 +152,19 @@ class World:
             rngs={n: sensor_rng(self.seed, index, n) for n in sensors},
         )
 
-        def set_velocity(body: pymunk.Body, gravity, damping, dt) -> None:  # noqa: ANN001 (pymunk callback)
-            body.velocity = robot.velocity
-            body.angular_velocity = robot.angular_velocity
-
-        def hold_position(body: pymunk.Body, dt: float) -> None:
-            """Robots move after the contact solve (see `step`), not before it as pymunk would."""
-
-        body.velocity_func = set_velocity
-        body.position_func = hold_position
+        shape.collision_type = ROBOT
+        self._robot_of_shape[shape] = robot
         self.space.add(body, shape)
         self.robots.append(robot)
         self._state = _BatchState.build(self.robots, self.dt)
+        self._poses = self._read_poses()
         return robot
 
     def poses(self) -> np.ndarray:
-        """(n, 3) ground-truth poses of all robots."""
+        """(n, 3) ground-truth poses of all robots (a copy)."""
+        return self._poses.copy()
+
+    def _read_poses(self) -> np.ndarray:
         return np.array([(r.body.position.x, r.body.position.y, r.body.angle) for r in self.robots]).reshape(-1, 3)
 
     # --- sensors ----------------------------------------------------------------------------
@@ -173,7 +172,7 @@ class World:
     def read_all(self) -> list[Readings]:
         """Every robot's sensor readings from the current state (the start of the next step)."""
         st = self._state
-        pose = self.poses()
+        pose = self._poses
         floor = np.empty(len(st.floor_owner), dtype=np.int64)
         if len(floor):
             points = np.empty((len(floor), 2))
@@ -233,9 +232,9 @@ class World:
                 distance[k] = d
         raw = np.empty(n, dtype=np.int64)
         believed = np.empty(n)
-        for curve, members, (lo, hi) in st.ir_groups:
+        for curve, members, inverse in st.ir_groups:
             raw[members] = curve.lookup(distance[members])
-            believed[members] = curve.distance_from_raw(raw[members], lo, hi)
+            believed[members] = inverse(raw[members])
         return raw, believed
 
     # --- motion -----------------------------------------------------------------------------
@@ -249,7 +248,7 @@ class World:
             bad = [self.robots[i].name for i in np.unique(np.nonzero(~np.isfinite(commands))[0])]
             raise CommandError(f"non-finite motor command for {', '.join(bad)} at step {self.steps}")
         st = self._state
-        before = self.poses()
+        before = self._poses
         st.draw_encoder_noise(self.robots)
         kernels.drive(
             commands, st.wheel_speed, st.command_max, st.max_speed, st.lag, st.max_change, self.dt,
@@ -261,48 +260,57 @@ class World:
         self.space.step(self.dt)
         for robot in self.robots:
             pymunk.Body.update_position(robot.body, self.dt)
-        after = self.poses()
+        after = self._poses = self._read_poses()
+        newly_fallen = ~st.fallen
         st.draw_mouse_noise(self.robots)
         kernels.measure(
             before, after, st.contacts, st.fallen, st.mount, st.counts_per_metre, st.max_step, st.mouse_noise,
             st.mouse_carry, st.counts, self.floor.hole, self._floor_origin, self.floor.cell, self.floor.outside_is_hole,
         )  # fmt: skip
-        for robot in self.robots:
-            self._bookkeeping(robot, bool(st.fallen[robot.index]))
+        for i in np.flatnonzero(newly_fallen & st.fallen):
+            self.robots[i].fallen = True
         self.steps += 1
         self.time = self.steps * self.dt
 
     def _plan_motion(self, robot: Robot, pose: np.ndarray, move: np.ndarray, alpha: float) -> None:
-        """Velocity for an unobstructed step to land exactly on the arc's end pose (chord/dt,
-        alpha/dt); the translation is cut where a swept circle first sinks more than
-        SWEEP_CLEARANCE into something, so no speed the motors allow tunnels through a wall."""
+        """Make the body's velocity after pymunk's velocity phase chord/dt and alpha/dt, so that
+        an unobstructed step lands exactly on the arc's end pose; cut the translation where a
+        swept circle first sinks more than SWEEP_CLEARANCE into something, so that no speed the
+        motors allow tunnels through a wall.
+
+        pymunk moves bodies *before* it solves contacts, with the velocity they have; a velocity
+        set before `space.step` would push the body into a wall unchecked. So the body enters the
+        step at rest (it does not move then), a force gives it the planned velocity in the
+        velocity phase (v = f dt / m), the contact solver corrects it, and the position is
+        integrated after the step (`update_position`): the same order as setting the velocity
+        inside `velocity_func`, without a Python callback per body."""
+        body = robot.body
+        if robot.fallen:
+            body.velocity, body.angular_velocity = (0.0, 0.0), 0.0
+            return
         mx, my = float(move[0]), float(move[1])
-        blocked = False
         if mx or my:
             x, y = float(pose[0]), float(pose[1])
             radius = robot.spec.body_radius - SWEEP_CLEARANCE
             hit = self.space.segment_query_first((x, y), (x + mx, y + my), radius, robot.query_filter)
             if hit is not None:
-                mx, my, blocked = mx * hit.alpha, my * hit.alpha, True
-        robot.velocity = (mx / self.dt, my / self.dt)
-        robot.angular_velocity = float(alpha) / self.dt
-        robot.touching = blocked
+                mx, my = mx * hit.alpha, my * hit.alpha
+        per_step = body.mass / (self.dt * self.dt)
+        body.velocity, body.angular_velocity = (0.0, 0.0), 0.0
+        body.force = (mx * per_step, my * per_step)
+        body.torque = float(alpha) * body.moment / (self.dt * self.dt)
 
-    def _bookkeeping(self, robot: Robot, fallen: bool) -> None:
-        """Count collisions (the start of each contact) and stop a robot that fell into a hole."""
-        if fallen and not robot.fallen:
-            robot.body.velocity, robot.body.angular_velocity = (0.0, 0.0), 0.0
-        robot.fallen = fallen
-        touching = robot.touching or _has_contact(robot.body)
-        if touching and not getattr(robot, "_was_touching", False):
-            robot.collisions += 1
-        robot._was_touching = touching
+    def _count_contact(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:  # noqa: ANN001
+        """A robot started touching something: one more collision for it (for both, robot on robot)."""
+        for shape in arbiter.shapes:
+            robot = self._robot_of_shape.get(shape)
+            if robot is not None:
+                robot.collisions += 1
 
 
-def _has_contact(body: pymunk.Body) -> bool:
-    found = []
-    body.each_arbiter(found.append)
-    return bool(found)
+def _damped(body: pymunk.Body, gravity, damping: float, dt: float) -> None:  # noqa: ANN001 (pymunk callback)
+    """Movable obstacles lose speed on the floor; robots are not damped (their velocity is set)."""
+    pymunk.Body.update_velocity(body, gravity, MOVABLE_DAMPING**dt, dt)
 
 
 @dataclass
@@ -379,7 +387,7 @@ class _BatchState:
         def owner(items):
             return np.array([r.index for r, _ in items], dtype=np.int64)
 
-        groups: dict[int, tuple[IRCurve, list[int], tuple[float, float]]] = {}
+        groups: dict[tuple, tuple[IRCurve, list[int], tuple[float, float]]] = {}
         for k, (robot, sensor) in enumerate(ir):
             curve = robot.ir_curves[robot.spec.ir.index(sensor)]
             key = (id(curve), sensor.min_range, sensor.max_range)
@@ -424,7 +432,7 @@ class _BatchState:
             ir_offsets=offsets(ir),
             ir_owner=owner(ir),
             ir_direction=np.array([s.direction for _, s in ir], dtype=np.float64),
-            ir_groups=[(curve, np.array(members), bounds) for curve, members, bounds in groups.values()],
+            ir_groups=[(curve, np.array(members), curve.inverse(*bounds)) for curve, members, bounds in groups.values()],
             ir_slices=slices("ir"),
         )
         return state
