@@ -1,1 +1,0 @@
-"""Shipped behaviours (registered by name for the command line)."""

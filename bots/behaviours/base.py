@@ -1,0 +1,192 @@
+"""What every behaviour shares: its own odometry, its own frame, and running other behaviours.
+
+A behaviour knows where it is only from its readings: the root of a behaviour tree keeps a
+`TickOdometry` fed with every step's encoder ticks; the behaviours it runs share that estimator and
+see poses in their own frame, the pose at the moment they were started being (0, 0, 0).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Generator
+
+import numpy as np
+
+from bots.commands import STOP, Command, wheel_speeds_for
+from bots.controller import Status
+from bots.spec import RobotSpec
+from sim.kinematics import apply_increment, arcs_from_ticks, relative_increment, wheel_increment
+from sim.readings import Readings
+
+# The firmware's speeds (BOT_SPEED_* in mm/s) as rim speeds in m/s.
+SPEED_SLOW = 0.05
+SPEED_FOLLOW = 0.07
+SPEED_MEDIUM = 0.10
+SPEED_NORMAL = 0.15
+SPEED_FAST = 0.25
+
+LINE_SENSE = 0x350
+"""Line sensor value above which the firmware (in the simulator) sees the black line."""
+BORDER_DANGEROUS = 0x3A0
+"""Border sensor value above which the firmware sees an abyss."""
+GROUND_GOAL = 0x221
+"""What the CNY70 sensors read on c't-Sim's green goal floor."""
+
+DECELERATION = 0.5
+"""Braking ramp for rim speeds (m/s^2): 0.15 m/s comes to rest over 22 mm."""
+MIN_SPEED = 0.01
+"""Slowest rim speed of a ramp (m/s) until the last step, which lands on the target exactly."""
+DEFAULT_DT = 0.01
+"""Step assumed until two readings have shown the real one (s)."""
+
+
+def wrap(angle: float) -> float:
+    """Angle in [-pi, pi)."""
+    return (angle + math.pi) % (2 * math.pi) - math.pi
+
+
+def ramp(remaining: float, top: float, dt: float) -> float:
+    """Speed (>= 0) for `remaining` metres to go: `top`, braking at DECELERATION, and no more than
+    lands exactly on the target within this step."""
+    if remaining <= 0:
+        return 0.0
+    braking = max(min(top, math.sqrt(2 * DECELERATION * remaining)), MIN_SPEED)
+    return min(braking, remaining / dt)
+
+
+class TickOdometry:
+    """Encoder odometry that places each wheel within its current tick by the commanded speed.
+
+    A count of N ticks means the wheel has turned between N and N + 1 ticks (the encoders floor the
+    running total), so plain counting stops a turn up to a tick late: 1.75 degrees on the c't-Bot.
+    Integrating the wheel speeds the robot was commanded, clamped into that interval, removes the
+    error while the motors follow and never adds more than a tick when they do not (blocked wheels,
+    motor lag, a parent overriding the command)."""
+
+    def __init__(self, robot: RobotSpec):
+        self.robot = robot
+        self.metres_per_tick = float(arcs_from_ticks(1, robot.wheel_radius, robot.encoders.ticks_per_rev))
+        self.counted = np.zeros(2)
+        self.turned = np.zeros(2)
+        self.pose = np.zeros(3)
+        self.time: float | None = None
+        self.dt = DEFAULT_DT
+
+    def update(self, readings: Readings, speeds: tuple[float, float]) -> None:
+        """Take one step's readings; `speeds` are the rim speeds (m/s) commanded in the step before."""
+        if self.time is not None and readings.time > self.time:
+            self.dt = readings.time - self.time
+            guess = self.turned + np.asarray(speeds) * self.dt / self.metres_per_tick
+        else:
+            guess = self.turned
+        self.time = readings.time
+        self.counted += readings.encoder_ticks
+        turned = np.clip(guess, self.counted, self.counted + 1.0)
+        arcs = (turned - self.turned) * self.metres_per_tick
+        self.turned = turned
+        self.pose = apply_increment(self.pose, wheel_increment(arcs[0], arcs[1], self.robot.track_width))
+
+
+class Behaviour:
+    """A controller that may end: `reset`, then `step` until `status` is no longer RUNNING.
+
+    Subclasses implement `act` (and optionally `start`, called on every reset); `pose` is where the
+    behaviour believes the robot is in its own frame. A behaviour runs another with `run(child)`,
+    which shares its odometry, and then calls the child's `step` itself."""
+
+    status = Status.RUNNING
+
+    def reset(self, robot: RobotSpec, odometry: TickOdometry | None = None) -> None:
+        """Start afresh on `robot`; without `odometry` the behaviour keeps its own estimator."""
+        self.robot = robot
+        self._owns_odometry = odometry is None
+        self.odometry = TickOdometry(robot) if odometry is None else odometry
+        self.origin = self.odometry.pose.copy()
+        self.status = Status.RUNNING
+        self._command: Command = STOP
+        self.start()
+
+    def start(self) -> None:
+        """Hook for subclasses: set up the state of one run."""
+
+    def act(self, t: float, readings: Readings) -> Command:
+        """This step's command while RUNNING; call `finish` to end."""
+        raise NotImplementedError
+
+    def step(self, t: float, readings: Readings) -> Command:
+        """Update the odometry (if this behaviour owns it) and act; STOP once finished."""
+        if self._owns_odometry:
+            self.odometry.update(readings, wheel_speeds_for(self._command, self.robot))
+        self._command = self.act(t, readings) if self.status is Status.RUNNING else STOP
+        return self._command
+
+    @property
+    def pose(self) -> np.ndarray:
+        """Believed pose (x m, y m, heading rad) in this behaviour's frame."""
+        return relative_increment(self.origin, self.odometry.pose)
+
+    @property
+    def dt(self) -> float:
+        """The step (s) as the readings show it."""
+        return self.odometry.dt
+
+    def finish(self, status: Status = Status.SUCCESS) -> Command:
+        """End with `status`; returns STOP for `act` to return."""
+        self.status = status
+        return STOP
+
+    def run(self, child: Behaviour) -> Behaviour:
+        """Start `child` here and now, sharing this behaviour's odometry."""
+        child.reset(self.robot, self.odometry)
+        return child
+
+
+class Plan(Behaviour):
+    """Behaviours run one after another: `plan()` is a generator that yields each child, gets back
+    the status the child ended with, and returns the plan's status (None means SUCCESS). The next
+    child is planned when the previous one ends, from the pose reached by then."""
+
+    def plan(self) -> Generator[Behaviour, Status, Status | None]:
+        raise NotImplementedError
+
+    def start(self) -> None:
+        self._plan = self.plan()
+        self._advance(None)
+
+    def _advance(self, status: Status | None) -> None:
+        try:
+            self._child: Behaviour | None = self.run(self._plan.send(status))
+        except StopIteration as end:
+            self._child = None
+            self.status = end.value or Status.SUCCESS
+
+    def act(self, t: float, readings: Readings) -> Command:
+        while self._child is not None:
+            command = self._child.step(t, readings)
+            if self._child.status is Status.RUNNING:
+                return command
+            self._advance(self._child.status)
+        return STOP
+
+
+class Sequence(Plan):
+    """Fixed children one after another; fails as soon as one fails."""
+
+    def __init__(self, *children: Behaviour):
+        self.children = children
+
+    def plan(self) -> Generator[Behaviour, Status, Status | None]:
+        for child in self.children:
+            if (yield child) is Status.FAILURE:
+                return Status.FAILURE
+        return None
+
+
+class Look(Behaviour):
+    """Keeps the readings of the step it runs in and succeeds: a plan's way to sense."""
+
+    readings: Readings
+
+    def act(self, t: float, readings: Readings) -> Command:
+        self.readings = readings
+        return self.finish()
