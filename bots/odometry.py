@@ -119,9 +119,10 @@ class FusedOdometry(_ArcOdometry):
     """Encoders and mouse together.
 
     rule "blend": the c't-Bot's coupled estimate (MEASURE_COUPLED_AVAILABLE): the encoder and the
-    mouse poses, each dead-reckoned on its own, averaged with weight G_POS on the encoders.
+    mouse poses, each dead-reckoned on its own, averaged with weight G_POS on the encoders
+    (name "fused_blend").
 
-    rule "slip" (default): heading change from the mouse, which sees the body turn whatever the
+    rule "slip" (default, name "fused"): heading change from the mouse, which sees the body turn whatever the
     wheels do, is blind to wheel diameter and track errors, and resolves 1 count / m_x
     (4.2 mrad on the c't-Bot) without accumulating, against 1 tick / track (30 mrad) for the
     encoders. Distance from the encoders, except where they slipped: with the remainder carried,
@@ -134,12 +135,11 @@ class FusedOdometry(_ArcOdometry):
     too fast) looks like slip too.
     """
 
-    name = "fused"
-
     def __init__(self, rule: Literal["slip", "blend"] = "slip", geometry: Geometry | None = None, weight: float = G_POS):
         if rule not in ("slip", "blend"):
             raise ValueError(f"fusion rule must be 'slip' or 'blend', got {rule!r}")
         self.rule = rule
+        self.name = "fused" if rule == "slip" else "fused_blend"
         self.weight = weight
         self.encoders = EncoderOdometry(geometry)
         self.mouse = MouseOdometry()
