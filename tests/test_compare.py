@@ -1,0 +1,92 @@
+"""Trajectory metrics on synthetic trajectories with closed-form values."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from bots.commands import Twist
+from bots.controller import FunctionController
+from bots.ctbot import CTBOT
+from sim.compare import compare, compare_run, path_lengths, relative_pose_errors, wrap_angle
+from sim.run import RobotSetup, run
+from sim.worldfile import load_world
+
+# 10 m straight along x at 1 m/s, sampled every 0.125 s (exact in binary, so 1 m stretches are exact)
+TIMES = np.arange(81) * 0.125
+STRAIGHT = np.column_stack((TIMES * 1.0, np.zeros_like(TIMES), np.zeros_like(TIMES)))
+
+
+def test_a_perfect_estimate_has_zero_error():
+    m = compare(TIMES, STRAIGHT, STRAIGHT)
+    assert (m.final_position_error, m.ate_rmse, m.rpe_per_metre, m.heading_drift_per_metre) == (0, 0, 0, 0)
+    assert m.path_length == 10.0 and m.duration == 10.0
+
+
+def test_scale_error():
+    """Estimate x' = (1 + k) x: error k*x at every sample, k per metre on every stretch."""
+    k = 0.02
+    estimate = STRAIGHT * [1 + k, 1, 1]
+    m = compare(TIMES, STRAIGHT, estimate)
+    assert m.final_position_error == pytest.approx(10 * k)
+    assert m.max_position_error == pytest.approx(10 * k)
+    assert m.ate_rmse == pytest.approx(k * math.sqrt(np.mean(STRAIGHT[:, 0] ** 2)))
+    assert m.final_error_per_metre == pytest.approx(k)
+    assert m.rpe_per_metre == pytest.approx(k)
+    assert m.final_heading_error == 0.0
+
+
+def test_heading_drift_and_a_path_turned_about_the_start():
+    """Estimate turned by phi about the start: final error 2 L sin(phi/2), heading error phi; a
+    heading drifting at c rad/s drifts c*60 per minute and c*T/L per metre."""
+    phi = 0.1
+    c, s = math.cos(phi), math.sin(phi)
+    turned = np.column_stack((STRAIGHT[:, 0] * c, STRAIGHT[:, 0] * s, np.full_like(TIMES, phi)))
+    m = compare(TIMES, STRAIGHT, turned)
+    assert m.final_position_error == pytest.approx(2 * 10 * math.sin(phi / 2))
+    assert m.final_heading_error == pytest.approx(phi)
+    assert m.heading_drift_per_minute == pytest.approx(phi / 10 * 60)
+    assert m.heading_drift_per_metre == pytest.approx(phi / 10)
+    # every 1 m stretch of the turned path is a 1 m stretch of the true one: no relative error
+    assert m.rpe_per_metre == pytest.approx(0.0, abs=1e-12)
+
+
+def test_final_heading_error_is_wrapped():
+    estimate = STRAIGHT + [0, 0, 1.5 * math.pi]
+    assert compare(TIMES, STRAIGHT, estimate).final_heading_error == pytest.approx(-0.5 * math.pi)
+    assert wrap_angle(2 * math.pi + 0.25) == pytest.approx(0.25)
+
+
+def test_rpe_on_a_circle_with_a_heading_rate_error():
+    """Truth: circle of radius r. Estimate: the same speed, radius r' = r/(1 + e). Every 1 m stretch
+    starts at a pose where both move along x, so the relative error is the distance between the end
+    points of 1 m arcs of radius r and r' from the origin, the same for every stretch."""
+    r, e = 2.0, 0.05
+    d = np.linspace(0, 6.0, 601)
+    truth = np.column_stack((r * np.sin(d / r), r * (1 - np.cos(d / r)), d / r))
+    r2 = r / (1 + e)
+    estimate = np.column_stack((r2 * np.sin(d / r2), r2 * (1 - np.cos(d / r2)), d / r2))
+    errors = relative_pose_errors(truth, estimate, 1.0)
+    assert path_lengths(truth)[-1] == pytest.approx(2 * r * 600 * math.sin(0.01 / (2 * r)), rel=1e-12)
+    point_true = np.array([r * math.sin(1 / r), r * (1 - math.cos(1 / r))])
+    point_est = np.array([r2 * math.sin(1 / r2), r2 * (1 - math.cos(1 / r2))])
+    assert np.allclose(errors, np.hypot(*(point_est - point_true)), rtol=2e-2)  # chords sum to just under 1 m: stretches span 100 or 101 samples
+    assert np.ptp(errors) < 0.02 * errors.max()
+
+
+def test_shape_mismatch_is_refused():
+    with pytest.raises(ValueError, match="same shape"):
+        compare(TIMES, STRAIGHT, STRAIGHT[:-1])
+
+
+def test_compare_run_gives_metrics_per_robot_and_estimator():
+    result = run(load_world("empty"), [RobotSetup(CTBOT, FunctionController(lambda t, r: Twist(0.1, 0.3)))], 2.0)
+    metrics = compare_run(result)
+    assert list(metrics) == [CTBOT.name]
+    assert set(metrics[CTBOT.name]) == {"encoders", "firmware", "mouse", "fused"}
+    encoders = metrics[CTBOT.name]["encoders"]
+    assert encoders.path_length == pytest.approx(0.2, rel=1e-6)
+    assert math.isnan(encoders.rpe_per_metre)  # shorter than one 1 m stretch
+    assert encoders.final_position_error < 0.01
