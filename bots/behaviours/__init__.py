@@ -5,9 +5,11 @@ Modules: `base` (odometry, composition), `motion` (drive, turn, go to pose, squa
 """
 
 from bots.behaviours.base import Behaviour, Look, Plan, Sequence, TickOdometry
+from bots.behaviours.floor import AvoidHoles, FollowLine
 from bots.behaviours.motion import DriveDistance, DriveTo, GoToPose, Idle, Square, Stop, Teleop, Turn
+from bots.behaviours.walls import SolveMaze, Wander
 
 __all__ = [
-    "Behaviour", "DriveDistance", "DriveTo", "GoToPose", "Idle", "Look", "Plan", "Sequence",
-    "Square", "Stop", "Teleop", "TickOdometry", "Turn",
+    "AvoidHoles", "Behaviour", "DriveDistance", "FollowLine", "DriveTo", "GoToPose", "Idle", "Look", "Plan", "Sequence",
+    "SolveMaze", "Square", "Stop", "Teleop", "TickOdometry", "Turn", "Wander",
 ]  # fmt: skip
