@@ -31,6 +31,8 @@ SLOP = 0.0005
 """pymunk collision slop for a world in metres (its default 0.1 assumes pixels)."""
 SWEEP_CLEARANCE = 1.5 * SLOP
 """A move is cut where the body would sink deeper than this into another body."""
+SLIDE_MARGIN = 0.2 * SLOP
+"""The sweep of a slide along a surface just touched uses a circle thinner by this (m)."""
 IR_RAY_LENGTH = 0.85
 """How far an IR ray is cast (m), c't-Sim's pick distance; beyond it nothing is seen."""
 MOVABLE_DAMPING = 0.05
@@ -294,11 +296,28 @@ class World:
             radius = robot.spec.body_radius - SWEEP_CLEARANCE
             hit = self.space.segment_query_first((x, y), (x + mx, y + my), radius, robot.query_filter)
             if hit is not None:
-                mx, my = mx * hit.alpha, my * hit.alpha
+                mx, my = self._slide(robot, x, y, mx, my, hit, radius)
         per_step = body.mass / (self.dt * self.dt)
         body.velocity, body.angular_velocity = (0.0, 0.0), 0.0
         body.force = (mx * per_step, my * per_step)
         body.torque = float(alpha) * body.moment / (self.dt * self.dt)
+
+    def _slide(self, robot: Robot, x: float, y: float, mx: float, my: float, hit, radius: float) -> tuple[float, float]:  # noqa: ANN001
+        """The move (mx, my) cut where it touches: up to the contact, then the rest without its
+        part into the surface, swept again (a slightly thinner circle, so that the surface just
+        touched does not count, another one does) so that the robot slides along a wall."""
+        ax, ay = mx * hit.alpha, my * hit.alpha
+        rx, ry = mx - ax, my - ay
+        nx, ny = hit.normal
+        into = rx * nx + ry * ny
+        if into < 0.0:
+            rx, ry = rx - into * nx, ry - into * ny
+        if rx or ry:
+            sx, sy = x + ax, y + ay
+            again = self.space.segment_query_first((sx, sy), (sx + rx, sy + ry), radius - SLIDE_MARGIN, robot.query_filter)
+            if again is not None:
+                rx, ry = rx * again.alpha, ry * again.alpha
+        return ax + rx, ay + ry
 
     def _count_contact(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:  # noqa: ANN001
         """A robot started touching something: one more collision for it (for both, robot on robot)."""
