@@ -53,7 +53,9 @@ def test_turn_radius_is_seed_003_and_satisfies_its_wheel_equations(v_left: float
     # seed 003 eq 1: both wheels turn with the same omega about the ICC
     assert omega * (radius + track / 2) == pytest.approx(v_right, abs=1e-12)
     assert omega * (radius - track / 2) == pytest.approx(v_left, abs=1e-12)
-    assert float(curvature(v_left, v_right, track)) == pytest.approx(1 / radius if radius else math.inf, rel=1e-12)
+    # curvature 1/R, signed like omega: +-inf on the spot
+    kappa = 1 / radius if radius else math.copysign(math.inf, float(omega))
+    assert float(curvature(v_left, v_right, track)) == pytest.approx(kappa, rel=1e-12)
 
 
 @pytest.mark.parametrize("speed_", (0.2, -0.2))
