@@ -8,6 +8,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from bots.commands import Twist, WheelSpeeds
 from bots.controller import FunctionController
@@ -18,9 +20,11 @@ from bots.odometry import (
     FusedOdometry,
     Geometry,
     MouseOdometry,
+    advance,
     default_estimators,
 )
 from sim.compare import path_lengths, wrap_angle
+from sim.kinematics import apply_increment, arc_increment, firmware_increment
 from sim.kinematics.mouse import counts_per_metre
 from sim.run import RobotSetup, run
 from sim.worldfile import load_world
@@ -169,3 +173,15 @@ def test_default_estimators_follow_the_sensors():
         MouseOdometry().reset(CTBOT.with_changes(mouse=None), np.zeros(3))
     with pytest.raises(ValueError, match="slip"):
         FusedOdometry("average")
+
+
+@given(
+    st.floats(-5, 5, allow_nan=False), st.floats(-5, 5, allow_nan=False), st.floats(-10, 10, allow_nan=False),
+    st.floats(-0.5, 0.5, allow_nan=False), st.one_of(st.floats(-3, 3, allow_nan=False), st.floats(-1e-3, 1e-3)),
+    st.booleans(),
+)
+def test_scalar_step_agrees_with_the_kinematics_core(x, y, theta, s, alpha, end_heading):
+    pose = np.array([x, y, theta])
+    lay = firmware_increment if end_heading else arc_increment
+    expected = apply_increment(pose, lay(s, alpha))
+    assert np.allclose(advance(pose, s, alpha, end_heading), expected, rtol=0, atol=1e-12)
