@@ -109,6 +109,12 @@ class Behaviour:
     def start(self) -> None:
         """Hook for subclasses: set up the state of one run."""
 
+    def need(self, sensors: str, count: int) -> None:
+        """Refuse a robot with fewer than `count` sensors of a kind ('line', 'border', 'ir')."""
+        have = len(getattr(self.robot, sensors))
+        if have < count:
+            raise ValueError(f"{type(self).__name__} needs {count} {sensors} sensors; robot {self.robot.name!r} has {have}")
+
     def act(self, t: float, readings: Readings) -> Command:
         """This step's command while RUNNING; call `finish` to end."""
         raise NotImplementedError

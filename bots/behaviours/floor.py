@@ -42,6 +42,7 @@ class FollowLine(Behaviour):
         self.threshold = threshold
 
     def start(self) -> None:
+        self.need("line", 2)
         self.side = 1.0  # where the line was last seen alone: +1 left, -1 right
         self.lost_at: float | None = None  # travel when both sensors lost the line
         self.search: Behaviour | None = None
@@ -111,6 +112,7 @@ class AvoidHoles(Behaviour):
         self.speed = speed_m_s
 
     def start(self) -> None:
+        self.need("border", 1)
         self.run(self.inner)
         self.escape: Behaviour | None = None
 

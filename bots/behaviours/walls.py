@@ -46,6 +46,8 @@ class SolveMaze(Plan):
         self.max_rooms = max_rooms
 
     def start(self) -> None:
+        self.need("ir", 1)
+        self.need("line", 1)
         self.entering: Behaviour | None = None
         super().start()
 
@@ -93,6 +95,7 @@ class Wander(Behaviour):
         self.clearance = clearance_m
 
     def start(self) -> None:
+        self.need("ir", 2)
         self.turning: Behaviour | None = None
 
     def act(self, t: float, readings: Readings) -> Command:
