@@ -24,6 +24,10 @@ so, from the centres of gravity of the n returns in each direction (the paper's 
 and then R = (L/2) / sin(beta/2) (the arc of chord L that turns by beta), E_d = (R + b/2)/(R - b/2),
 E_b = (pi/2) / (pi/2 - alpha). Corrected believed diameters D_L * 2/(E_d + 1),
 D_R * 2/(1/E_d + 1) (ratio E_d, mean kept) and track b * E_b.
+
+The model is first order: on the c't-Bot (97 mm track) a 1 % diameter ratio already curves a
+1 m leg by 5 deg and the first round underestimates a 2 % track error by half; `calibrate` with
+rounds=2 measures again with the corrected geometry, where the residual errors are small.
 """
 
 from __future__ import annotations
