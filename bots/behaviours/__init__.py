@@ -10,6 +10,6 @@ from bots.behaviours.motion import DriveDistance, DriveTo, GoToPose, Idle, Squar
 from bots.behaviours.walls import SolveMaze, Wander
 
 __all__ = [
-    "AvoidHoles", "Behaviour", "DriveDistance", "FollowLine", "DriveTo", "GoToPose", "Idle", "Look", "Plan", "Sequence",
+    "AvoidHoles", "Behaviour", "DriveDistance", "DriveTo", "FollowLine", "GoToPose", "Idle", "Look", "Plan", "Sequence",
     "SolveMaze", "Square", "Stop", "Teleop", "TickOdometry", "Turn", "Wander",
 ]  # fmt: skip
