@@ -36,6 +36,13 @@ class UsageError(Exception):
 # --- argument parsing ---------------------------------------------------------------------
 
 
+class Parser(argparse.ArgumentParser):
+    """Bad options get one line, like every other user error (argparse prints the usage too)."""
+
+    def error(self, message: str):
+        self.exit(EXIT_USER, f"ctsim: error: {message} (see `{self.prog} --help`)\n")
+
+
 def _param(text: str) -> tuple[str, str]:
     key, sep, value = text.partition("=")
     if not sep or not key:
@@ -67,7 +74,7 @@ def _add_robot_options(parser: argparse.ArgumentParser) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="ctsim", description="A 2D simulator of c't-Bot style differential-drive robots.")
+    parser = Parser(prog="ctsim", description="A 2D simulator of c't-Bot style differential-drive robots.")
     parser.add_argument("--version", action="version", version=f"ctsim {sim.__version__}")
     commands = parser.add_subparsers(dest="command", metavar="COMMAND")
 
@@ -221,6 +228,7 @@ def cmd_play(args: argparse.Namespace) -> int:
 def finish(result, out: Path, options: dict[str, Any], report: bool = True) -> int:
     """Write summary.json, TUM/CSV trajectories and figures of a run; print the table and the
     files; the exit code (1 when a controller failed, 130 when interrupted)."""
+    complete_samples(result)
     written = [out / "run.rrd"]
     summary = summarize(result, options)
     written += write_trajectories(result, out, summary)
@@ -241,6 +249,15 @@ def finish(result, out: Path, options: dict[str, Any], report: bool = True) -> i
         print(f"ctsim: {result.error}; partial results written to {out}", file=sys.stderr)
         return EXIT_INTERRUPTED
     return 0
+
+
+def complete_samples(result) -> None:
+    """Drop a sample that Ctrl-C cut in half (times logged, some robot's poses not yet), so that
+    every trajectory has one pose per time."""
+    lists = [result.times] + [x for log in result.robots for x in (log.truth, log.readings, *log.estimates.values())]
+    n = min(len(x) for x in lists)
+    for x in lists:
+        del x[n:]
 
 
 def summarize(result, options: dict[str, Any]) -> dict[str, Any]:

@@ -1,0 +1,140 @@
+"""The ctsim command line: help, a short run and its outputs, one-line errors, failing controllers,
+Ctrl-C, world listing and checking, report, play offscreen."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from sim.cli import main
+
+CTSIM = [sys.executable, "-m", "sim.cli"]
+DRIVE = """
+from bots.commands import WheelSpeeds
+
+class Drive:
+    def __init__(self, speed: float = 0.1):
+        self.speed = speed
+
+    def step(self, t, readings):
+        return WheelSpeeds(self.speed, 1.2 * self.speed)
+"""
+
+
+@pytest.fixture()
+def drive(tmp_path) -> str:
+    path = tmp_path / "drive.py"
+    path.write_text(DRIVE)
+    return str(path)
+
+
+def _ctsim(*args: str, timeout: float = 60) -> subprocess.CompletedProcess:
+    return subprocess.run([*CTSIM, *args], capture_output=True, text=True, timeout=timeout)
+
+
+def test_help():
+    done = _ctsim("--help")
+    assert done.returncode == 0 and "run" in done.stdout and "play" in done.stdout
+    done = _ctsim("run", "--help")
+    for option in ("--controller", "--param", "--duration", "--seed", "--out", "--robot", "--robots", "--until-goal", "--dt", "--live", "--no-report"):
+        assert option in done.stdout
+    assert _ctsim("--version").stdout.startswith("ctsim ")
+
+
+def test_short_run_writes_everything(tmp_path, drive, capsys):
+    out = tmp_path / "run"
+    code = main(["run", "maze", "--controller", drive, "--param", "speed=0.15", "--duration", "1.5", "--seed", "3", "--out", str(out)])
+    assert code == 0
+    summary = json.loads((out / "summary.json").read_text())
+    for key in ("ctsim_version", "world", "seed", "dt", "duration", "reason", "robots"):
+        assert key in summary
+    assert summary["seed"] == 3 and summary["reason"] == "duration"
+    robot = summary["robots"][0]
+    assert robot["controller"] == drive and robot["params"] == {"speed": "0.15"}
+    assert robot["distance"] > 0.1 and set(robot["estimates"]) >= {"encoders"}
+    for name in ["run.rrd", "truth.tum", "truth.csv", "trajectories.png", "errors.png"] + [f"{e}.tum" for e in robot["estimates"]]:
+        assert (out / name).is_file(), name
+    assert len((out / "truth.tum").read_text().splitlines()) == 1 + 151  # header + samples
+    table = capsys.readouterr().out
+    assert "encoders" in table and "run.rrd" in table
+
+
+def test_several_robots_prefix_their_files(tmp_path, drive):
+    out = tmp_path / "two"
+    assert main(["run", "--controller", drive, "--robots", "2", "--duration", "0.3", "--out", str(out), "--no-report"]) == 0
+    names = [r["name"] for r in json.loads((out / "summary.json").read_text())["robots"]]
+    assert len(names) == 2 and all((out / f"{n}_truth.tum").is_file() for n in names)
+
+
+def test_bad_world_file_is_one_line(tmp_path):
+    bad = tmp_path / "bad.toml"
+    bad.write_text('name = "x"\nbounds = [0, 0, 1\n')
+    done = _ctsim("run", str(bad), "--duration", "0.1", "--out", str(tmp_path / "o"))
+    assert done.returncode == 2
+    assert "Traceback" not in done.stderr
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"ctsim: error: {bad}:")
+
+
+@pytest.mark.parametrize("args", [["--controller", "no_such_controller"], ["--robot", "no_such_robot"], ["--param", "nokey"]])
+def test_user_errors_are_one_line(tmp_path, args):
+    done = _ctsim("run", "--duration", "0.1", "--out", str(tmp_path / "o"), *args)
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    assert len(done.stderr.strip().splitlines()) == 1
+
+
+def test_controller_that_raises(tmp_path, capsys):
+    broken = tmp_path / "broken.py"
+    broken.write_text("from bots.commands import STOP\n\ndef controller(t, readings):\n    if t > 0.2:\n        raise RuntimeError('boom')\n    return STOP\n")
+    out = tmp_path / "o"
+    assert main(["run", "--controller", str(broken), "--duration", "1", "--out", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert str(broken) in err and "step 2" in err and "boom" in err
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["reason"] == "error" and "boom" in summary["error"]
+    assert (out / "run.rrd").is_file() and (out / "truth.tum").is_file()
+
+
+def test_sigint_leaves_a_verified_recording(tmp_path, drive):
+    out = tmp_path / "o"
+    process = subprocess.Popen([*CTSIM, "run", "--controller", drive, "--duration", "3600", "--out", str(out), "--no-report"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 30
+    recording = out / "run.rrd"
+    while not (recording.exists() and recording.stat().st_size > 100_000) and time.monotonic() < deadline:
+        time.sleep(0.1)  # until the first chunk is out: mid-run, not mid-start-up
+    process.send_signal(signal.SIGINT)
+    stdout, stderr = process.communicate(timeout=60)
+    assert process.returncode == 130, stderr
+    assert "interrupted" in stderr and "Traceback" not in stderr
+    assert json.loads((out / "summary.json").read_text())["reason"] == "interrupted"
+    rerun = Path(sys.executable).with_name("rerun")
+    verify = subprocess.run([str(rerun), "rrd", "verify", str(out / "run.rrd")], capture_output=True, text=True, timeout=60)
+    assert verify.returncode == 0, verify.stderr
+
+
+def test_worlds_check_and_controllers(tmp_path, capsys):
+    assert main(["worlds"]) == 0
+    assert "maze" in capsys.readouterr().out
+    assert main(["check", "maze"]) == 0
+    assert capsys.readouterr().out.startswith("OK")
+    bad = tmp_path / "bad.toml"
+    bad.write_text('name = "x"\nbounds = "wide"\n')
+    assert main(["check", str(bad)]) == 1
+    assert capsys.readouterr().out.startswith(f"{bad}:")
+    assert main(["controllers"]) == 0
+
+
+def test_report_redraws_a_run(tmp_path, drive, capsys):
+    out = tmp_path / "o"
+    assert main(["run", "--controller", drive, "--duration", "0.5", "--out", str(out), "--no-report"]) == 0
+    assert not (out / "errors.png").exists()
+    assert main(["report", str(out)]) == 0
+    assert (out / "trajectories.png").stat().st_size > 10_000 and (out / "errors.png").is_file()
+    assert main(["report", str(tmp_path)]) == 2

@@ -1,0 +1,43 @@
+"""`ctsim play` offscreen: injected key presses drive the robot, the session is recorded."""
+
+from __future__ import annotations
+
+import os
+
+os.environ["SDL_VIDEODRIVER"] = "dummy"
+os.environ["SDL_AUDIODRIVER"] = "dummy"
+
+import numpy as np  # noqa: E402
+import pygame  # noqa: E402
+
+from bots.ctbot import CTBOT  # noqa: E402
+from sim.cli import main  # noqa: E402
+from sim.play import play  # noqa: E402
+from sim.worldfile import load_world  # noqa: E402
+
+
+def _key(kind: int, key: int) -> pygame.event.Event:
+    return pygame.event.Event(kind, key=key)
+
+
+def test_up_arrow_drives_forward(tmp_path):
+    events = {10: [_key(pygame.KEYDOWN, pygame.K_UP)], 150: [_key(pygame.KEYUP, pygame.K_UP)]}
+    result = play(load_world("empty"), CTBOT, tmp_path / "play.rrd", frames=300, fps=1000, events=events)
+    truth = result.robots[0].truth_array()
+    assert result.reason == "duration" and len(truth) == 301
+    assert np.allclose(truth[:10], truth[0])  # nothing pressed yet
+    travelled = np.hypot(*(truth[-1, :2] - truth[0, :2]))
+    assert 0.2 < travelled < 0.45  # 1.4 s of 0.25 m/s, then stopped
+    assert np.allclose(truth[-20:], truth[-1])
+    assert (tmp_path / "play.rrd").stat().st_size > 0
+
+
+def test_escape_quits_and_cli_writes_outputs(tmp_path, monkeypatch):
+    import sim.play
+
+    quit_at_frame_5 = {5: [_key(pygame.KEYDOWN, pygame.K_ESCAPE)]}
+    original = sim.play.play
+    monkeypatch.setattr(sim.play, "play", lambda *a, **k: original(*a, **{**k, "events": quit_at_frame_5}))
+    out = tmp_path / "o"
+    assert main(["play", "maze", "--frames", "400", "--out", str(out), "--no-report"]) == 0
+    assert (out / "run.rrd").is_file() and (out / "truth.tum").is_file()
