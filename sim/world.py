@@ -259,6 +259,8 @@ class World:
         )  # fmt: skip
         for robot in self.robots:
             self._plan_motion(robot, before[robot.index], st.move[robot.index], st.alpha[robot.index])
+        if len(self.robots) > 1:
+            self._keep_robots_apart(before)
         self.space.step(self.dt)
         for robot in self.robots:
             pymunk.Body.update_position(robot.body, self.dt)
@@ -294,13 +296,57 @@ class World:
         if mx or my:
             x, y = float(pose[0]), float(pose[1])
             radius = robot.spec.body_radius - SWEEP_CLEARANCE
-            hit = self.space.segment_query_first((x, y), (x + mx, y + my), radius, robot.query_filter)
+            hit = self._sweep(robot, x, y, mx, my, radius)
             if hit is not None:
                 mx, my = self._slide(robot, x, y, mx, my, hit, radius)
+        move[0], move[1] = mx, my
         per_step = body.mass / (self.dt * self.dt)
         body.velocity, body.angular_velocity = (0.0, 0.0), 0.0
         body.force = (mx * per_step, my * per_step)
         body.torque = float(alpha) * body.moment / (self.dt * self.dt)
+
+    def _sweep(self, robot: Robot, x: float, y: float, mx: float, my: float, radius: float) -> pymunk.SegmentQueryInfo | None:
+        """The first contact of a circle of `radius` moved from (x, y) by (mx, my), or None.
+        Not `space.segment_query_first`: Chipmunk's index only offers it the shapes whose bounding
+        box the centre line crosses (the radius is ignored), so a robot approaching a wall whose
+        box its centre never reaches was not stopped. The candidates come from the swept box."""
+        bb = pymunk.BB(min(x, x + mx) - radius, min(y, y + my) - radius, max(x, x + mx) + radius, max(y, y + my) + radius)
+        first = None
+        for shape in self.space.bb_query(bb, robot.query_filter):
+            hit = shape.segment_query((x, y), (x + mx, y + my), radius)
+            if hit is not None and (first is None or hit.alpha < first.alpha):
+                first = hit
+        return first
+
+    def _keep_robots_apart(self, before: np.ndarray) -> None:
+        """Shorten the planned moves (`_state.move`, the bodies' forces) of robots that would run
+        into each other during the step: each robot's sweep sees the others where they start, so
+        two robots closing in could overlap by both their moves. The relative motion of every pair
+        is cut where they would sink deeper than SWEEP_CLEARANCE (repeated until no cut changes,
+        since one cut changes the relative motion of other pairs)."""
+        move = self._state.move
+        radius = np.array([r.spec.body_radius for r in self.robots])
+        reach = radius[:, None] + radius[None, :] - SWEEP_CLEARANCE
+        rel_p = before[:, None, :2] - before[None, :, :2]
+        c = np.einsum("ijk,ijk->ij", rel_p, rel_p) - reach * reach
+        np.fill_diagonal(c, 1.0)  # a robot and itself: apart, never approaching (b = 0)
+        fraction = np.ones(len(self.robots))
+        for _ in range(len(self.robots)):
+            rel_d = move[:, None] - move[None, :]
+            a = np.einsum("ijk,ijk->ij", rel_d, rel_d)
+            b = np.einsum("ijk,ijk->ij", rel_p, rel_d)
+            disc = b * b - a * c
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t = np.where(c <= 0, 0.0, (-b - np.sqrt(np.maximum(disc, 0.0))) / a)
+            hits = (b < 0) & (disc >= 0) & (t < 1.0) & (a > 0)
+            cut = np.where(hits, np.clip(t, 0.0, 1.0), 1.0).min(axis=1)
+            if np.all(cut >= 1.0):
+                break
+            fraction *= cut
+            move *= cut[:, None]
+        for i in np.flatnonzero(fraction < 1.0):
+            body = self.robots[i].body
+            body.force = (body.force[0] * fraction[i], body.force[1] * fraction[i])
 
     def _slide(self, robot: Robot, x: float, y: float, mx: float, my: float, hit, radius: float) -> tuple[float, float]:  # noqa: ANN001
         """The move (mx, my) cut where it touches: up to the contact, then the rest without its
@@ -314,7 +360,7 @@ class World:
             rx, ry = rx - into * nx, ry - into * ny
         if rx or ry:
             sx, sy = x + ax, y + ay
-            again = self.space.segment_query_first((sx, sy), (sx + rx, sy + ry), radius - SLIDE_MARGIN, robot.query_filter)
+            again = self._sweep(robot, sx, sy, rx, ry, radius - SLIDE_MARGIN)
             if again is not None:
                 rx, ry = rx * again.alpha, ry * again.alpha
         return ax + rx, ay + ry
