@@ -6,7 +6,8 @@ Layout (all on the timeline "sim_time", seconds of simulated time):
     world/map/{walls,floor,lines,holes,goals,lights,starts}   static, drawn once
     world/<robot>/body            Points2D, the body circle at the true pose
     world/<robot>/heading         Arrows2D from the centre along the true heading
-    world/<robot>/rays, hits      IR rays (LineStrips2D) and where they hit (Points2D)
+    world/<robot>/rays, hits      IR rays (LineStrips2D) to the distance each sensor reports, and
+                                  that point (Points2D) when it reports one (0.1-0.8 m)
     world/<robot>/trail/truth     one 2-point segment per sample; the blueprint shows all history
     world/<robot>/trail/<est>     same for each odometry estimate
     world/<robot>/ghost/<est>     Points2D, where the estimate believes the robot is
@@ -70,7 +71,7 @@ class _Track:
     time: np.ndarray = field(init=False)
     poses: np.ndarray = field(init=False)  # (n, 1 + len(estimates), 3): truth first
     sensors: np.ndarray = field(init=False)
-    ray: np.ndarray = field(init=False)
+    ray: np.ndarray = field(init=False)  # (n, k) IR distances as the sensors report them
     last: np.ndarray | None = None  # the previous chunk's last poses, for continuous trails
     count: int = 0
 
@@ -91,7 +92,6 @@ class Recorder:
         self.application_id = application_id
         self.rec: Any = None
         self._tracks: list[_Track] = []
-        self._world: World | None = None
 
     # --- observer interface ---------------------------------------------------------------
 
@@ -99,7 +99,6 @@ class Recorder:
         """Open the recording, send the blueprint and draw the world once."""
         import rerun as rr
 
-        self._world = world
         self.rec = rr.RecordingStream(self.application_id, send_properties=False)
         blueprint = self.blueprint([log.name for log in logs])
         sinks = []
@@ -114,11 +113,13 @@ class Recorder:
         self._tracks = []
 
     def on_sample(self, world: World, logs: list[RobotLog]) -> None:
-        """Copy this sample's truth, estimates, rays and readings into the buffers."""
+        """Copy this sample's truth, estimates and readings into the buffers. Rays are drawn from
+        the readings' distances, not cast again: a second ray cast per sensor would cost more
+        than all the rest of the recording."""
         if not self._tracks:
             self._tracks = [self._track(log) for log in logs]
             self._style()
-        for robot, log, track in zip(world.robots, logs, self._tracks):
+        for log, track in zip(logs, self._tracks):
             n = track.count
             track.time[n] = world.time
             track.poses[n, 0] = log.truth[-1]
@@ -126,11 +127,7 @@ class Recorder:
                 track.poses[n, k] = log.estimates[name][-1]
             readings = log.readings[-1]
             track.sensors[n] = np.concatenate([getattr(readings, f) for f in SENSORS])
-            pose = track.poses[n, 0]
-            c, s = math.cos(pose[2]), math.sin(pose[2])
-            for k, (x, y, direction) in enumerate(track.ir):
-                origin = (pose[0] + c * x - s * y, pose[1] + s * x + c * y)
-                track.ray[n, k] = world.ray_distance(robot, origin, pose[2] + direction)
+            track.ray[n] = readings.ir_distance
             track.count = n + 1
             if track.count == CHUNK:
                 self._send(track)
@@ -196,7 +193,7 @@ class Recorder:
         starts = np.concatenate((previous[None], poses[:-1]))
         for k, label in enumerate(["truth", *track.estimates]):
             segments = np.stack((starts[:, k, :2], poses[:, k, :2]), axis=1)
-            rec.send_columns(f"{base}/trail/{label}", times, rr.LineStrips2D.columns(strips=list(segments)).partition(ones))
+            rec.send_columns(f"{base}/trail/{label}", times, rr.LineStrips2D.columns(strips=segments).partition(ones))
             if k:
                 rec.send_columns(f"{base}/ghost/{label}", times, rr.Points2D.columns(positions=poses[:, k, :2]).partition(ones))
                 error = poses[:, k] - truth
@@ -222,12 +219,12 @@ class Recorder:
         x, y, direction = track.ir.T
         origin = np.stack((truth[:, :1] + c * x - s * y, truth[:, 1:2] + s * x + c * y), axis=-1)
         distance = track.ray[:n]
-        reach = np.minimum(distance, IR_RAY_LENGTH)[..., None]
+        hit = np.isfinite(distance)
+        reach = np.where(hit, distance, IR_RAY_LENGTH)[..., None]
         angle = truth[:, 2:3] + direction
         end = origin + reach * np.stack((np.cos(angle), np.sin(angle)), axis=-1)
         rays = np.stack((origin, end), axis=2).reshape(n * k, 2, 2)
-        self.rec.send_columns(f"world/{track.name}/rays", times, rr.LineStrips2D.columns(strips=list(rays)).partition([k] * n))
-        hit = np.isfinite(distance)
+        self.rec.send_columns(f"world/{track.name}/rays", times, rr.LineStrips2D.columns(strips=rays).partition([k] * n))
         self.rec.send_columns(f"world/{track.name}/hits", times, rr.Points2D.columns(positions=end[hit]).partition(hit.sum(axis=1)))
 
     @staticmethod
