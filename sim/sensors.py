@@ -45,7 +45,7 @@ class IRCurve:
         """`distance_from_raw` for one range as a function, its table prepared once."""
         keep = (self.distance >= min_range) & (self.distance <= max_range)
         d, v = self.distance[keep][::-1], self.raw[keep][::-1].astype(np.float64)  # raw rises as d falls
-        low, high = v.min(), v.max()
+        low, high = v.min() - 0.5, v.max() + 0.5  # a raw value rounded from a distance in range is in range
 
         def distance(raw: np.ndarray) -> np.ndarray:
             r = np.asarray(raw, dtype=np.float64)
