@@ -228,7 +228,6 @@ def cmd_play(args: argparse.Namespace) -> int:
 def finish(result, out: Path, options: dict[str, Any], report: bool = True) -> int:
     """Write summary.json, TUM/CSV trajectories and figures of a run; print the table and the
     files; the exit code (1 when a controller failed, 130 when interrupted)."""
-    complete_samples(result)
     written = [out / "run.rrd"]
     summary = summarize(result, options)
     written += write_trajectories(result, out, summary)
@@ -249,15 +248,6 @@ def finish(result, out: Path, options: dict[str, Any], report: bool = True) -> i
         print(f"ctsim: {result.error}; partial results written to {out}", file=sys.stderr)
         return EXIT_INTERRUPTED
     return 0
-
-
-def complete_samples(result) -> None:
-    """Drop a sample that Ctrl-C cut in half (times logged, some robot's poses not yet), so that
-    every trajectory has one pose per time."""
-    lists = [result.times] + [x for log in result.robots for x in (log.truth, log.readings, *log.estimates.values())]
-    n = min(len(x) for x in lists)
-    for x in lists:
-        del x[n:]
 
 
 def summarize(result, options: dict[str, Any]) -> dict[str, Any]:

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from bots.commands import Twist
+from bots.behaviours.motion import Teleop
 from bots.spec import RobotSpec
 from sim.recording import Recorder
 from sim.run import RobotLog, RobotSetup, RunResult, run
@@ -27,45 +28,13 @@ os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 
 FORWARD = 0.25
 """Teleop forward speed (m/s)."""
-TURN = 2.5
-"""Teleop turn rate (rad/s)."""
+TURN_DEG_S = 143.0
+"""Teleop turn rate (deg/s, 2.5 rad/s)."""
 SESSION_LIMIT = 24 * 3600.0
 """Simulated seconds a session without a frame limit may last."""
 WINDOW = (900, 700)
 PANEL = 300
 ESTIMATE_COLOURS = ((230, 120, 20), (40, 110, 220), (170, 60, 190), (20, 160, 150), (200, 40, 60))
-
-
-class KeyboardDrive:
-    """A controller driven by held keys: up/W forward, down/S back, left/A and right/D turn,
-    space stops. The window calls `press` and `release` with pygame key codes."""
-
-    def __init__(self, speed: float = FORWARD, turn_rate: float = TURN):
-        import pygame
-
-        self.speed, self.turn_rate = speed, turn_rate
-        self.held: set[int] = set()
-        self._axes = {
-            pygame.K_UP: (1, 0), pygame.K_w: (1, 0),
-            pygame.K_DOWN: (-1, 0), pygame.K_s: (-1, 0),
-            pygame.K_LEFT: (0, 1), pygame.K_a: (0, 1),
-            pygame.K_RIGHT: (0, -1), pygame.K_d: (0, -1),
-        }  # fmt: skip
-        self._stop = pygame.K_SPACE
-
-    def press(self, key: int) -> None:
-        if key == self._stop:
-            self.held.clear()
-        elif key in self._axes:
-            self.held.add(key)
-
-    def release(self, key: int) -> None:
-        self.held.discard(key)
-
-    def step(self, t: float, readings) -> Twist:
-        forward = sum(self._axes[k][0] for k in self.held)
-        turn = sum(self._axes[k][1] for k in self.held)
-        return Twist(self.speed * float(np.sign(forward)), self.turn_rate * float(np.sign(turn)))
 
 
 class _Quit(KeyboardInterrupt):
@@ -75,7 +44,7 @@ class _Quit(KeyboardInterrupt):
 class Window:
     """Run observer drawing the world every `steps_per_frame` samples, paced to `fps`."""
 
-    def __init__(self, drive: KeyboardDrive, fps: float, steps_per_frame: int, scale: float | None, events: dict[int, list[Any]]):
+    def __init__(self, drive: Teleop, fps: float, steps_per_frame: int, scale: float | None, events: dict[int, list[Any]]):
         self.drive, self.fps, self.steps_per_frame = drive, fps, steps_per_frame
         self.scale, self.events = scale, events
         self.frame = 0
@@ -193,10 +162,12 @@ class Window:
         for event in pygame.event.get():
             if event.type == pygame.QUIT or (event.type == pygame.KEYDOWN and event.key in (pygame.K_ESCAPE, pygame.K_q)):
                 self.quit = True
+            elif event.type == pygame.KEYDOWN and event.key == pygame.K_SPACE:
+                self.drive.set_keys(())
             elif event.type == pygame.KEYDOWN:
-                self.drive.press(event.key)
+                self.drive.press(pygame.key.name(event.key))
             elif event.type == pygame.KEYUP:
-                self.drive.release(event.key)
+                self.drive.release(pygame.key.name(event.key))
 
 
 def play(
@@ -213,7 +184,7 @@ def play(
 ) -> RunResult:
     """Open the window and run until it is closed (or for `frames` frames); each frame advances
     1/fps of simulated time. `events` maps a frame number to pygame events posted before it."""
-    drive = KeyboardDrive()
+    drive = Teleop(speed_m_s=FORWARD, turn_deg_s=TURN_DEG_S)
     steps_per_frame = max(1, round(1.0 / (fps * dt)))
     duration = frames * steps_per_frame * dt if frames is not None else SESSION_LIMIT
     window = Window(drive, fps, steps_per_frame, scale, {k: list(v) for k, v in (events or {}).items()})

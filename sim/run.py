@@ -170,6 +170,7 @@ def run(
     except KeyboardInterrupt:
         result.reason, result.error = "interrupted", f"interrupted at t = {world.time:.2f} s"
     finally:
+        _complete_samples(result)
         for robot, log in zip(world.robots, logs):
             log.collisions, log.fell = robot.collisions, robot.fallen
         _notify(observers, "on_end", result)
@@ -183,6 +184,15 @@ class _Stop(Exception):
 def _last_frame(err: BaseException) -> str:
     frames = traceback.extract_tb(err.__traceback__)
     return f" ({frames[-1].filename}:{frames[-1].lineno})" if frames else ""
+
+
+def _complete_samples(result: RunResult) -> None:
+    """Drop a sample that Ctrl-C cut in half (its time logged, some robot's poses not yet), so
+    that every trajectory has one pose per time."""
+    lists = [result.times] + [x for log in result.robots for x in (log.truth, log.readings, *log.estimates.values())]
+    n = min(len(x) for x in lists)
+    for x in lists:
+        del x[n:]
 
 
 def _sample(world: World, logs: list[RobotLog], estimators: list[list[Estimator]], result: RunResult) -> None:
