@@ -114,6 +114,7 @@ class World:
             shape = pymunk.Poly(self.space.static_body, wall.vertices)
             shape.friction = 0.0
             self.space.add(shape)
+        self._walls = _WallArrays.build(spec)
         self.movables: list[pymunk.Body] = []
         for item in spec.movables:
             body = pymunk.Body(item.mass, pymunk.moment_for_circle(item.mass, 0, item.radius))
@@ -257,10 +258,13 @@ class World:
             st.ticks_per_rad, st.tick_carry, st.tick_offset, st.ticks, st.real_radius, st.slip, st.track,
             before, st.fallen, st.move, st.alpha,
         )  # fmt: skip
-        for robot in self.robots:
-            self._plan_motion(robot, before[robot.index], st.move[robot.index], st.alpha[robot.index])
+        # cut each exact-arc move where the body would first sink deeper than SWEEP_CLEARANCE into
+        # a wall or another robot, so that no speed the motors allow tunnels through anything
+        kernels.sweep_walls(before, st.move, st.sweep_radius, SLIDE_MARGIN, self._walls.vertices, self._walls.ranges, self._walls.boxes)
         if len(self.robots) > 1:
-            self._keep_robots_apart(before)
+            kernels.keep_apart(before, st.move, st.apart_radius)
+        for robot in self.robots:
+            self._apply_motion(robot, st.move[robot.index], st.alpha[robot.index])
         self.space.step(self.dt)
         for robot in self.robots:
             pymunk.Body.update_position(robot.body, self.dt)
@@ -276,11 +280,8 @@ class World:
         self.steps += 1
         self.time = self.steps * self.dt
 
-    def _plan_motion(self, robot: Robot, pose: np.ndarray, move: np.ndarray, alpha: float) -> None:
-        """Make the body's velocity after pymunk's velocity phase chord/dt and alpha/dt, so that
-        an unobstructed step lands exactly on the arc's end pose; cut the translation where a
-        swept circle first sinks more than SWEEP_CLEARANCE into something, so that no speed the
-        motors allow tunnels through a wall.
+    def _apply_motion(self, robot: Robot, move: np.ndarray, alpha: float) -> None:
+        """Make the body's velocity after pymunk's velocity phase move/dt and alpha/dt.
 
         pymunk moves bodies *before* it solves contacts, with the velocity they have; a velocity
         set before `space.step` would push the body into a wall unchecked. So the body enters the
@@ -289,81 +290,12 @@ class World:
         integrated after the step (`update_position`): the same order as setting the velocity
         inside `velocity_func`, without a Python callback per body."""
         body = robot.body
-        if robot.fallen:
-            body.velocity, body.angular_velocity = (0.0, 0.0), 0.0
-            return
-        mx, my = float(move[0]), float(move[1])
-        if mx or my:
-            x, y = float(pose[0]), float(pose[1])
-            radius = robot.spec.body_radius - SWEEP_CLEARANCE
-            hit = self._sweep(robot, x, y, mx, my, radius)
-            if hit is not None:
-                mx, my = self._slide(robot, x, y, mx, my, hit, radius)
-        move[0], move[1] = mx, my
-        per_step = body.mass / (self.dt * self.dt)
         body.velocity, body.angular_velocity = (0.0, 0.0), 0.0
-        body.force = (mx * per_step, my * per_step)
+        if robot.fallen:
+            return
+        per_step = body.mass / (self.dt * self.dt)
+        body.force = (float(move[0]) * per_step, float(move[1]) * per_step)
         body.torque = float(alpha) * body.moment / (self.dt * self.dt)
-
-    def _sweep(self, robot: Robot, x: float, y: float, mx: float, my: float, radius: float) -> pymunk.SegmentQueryInfo | None:
-        """The first contact of a circle of `radius` moved from (x, y) by (mx, my), or None.
-        Not `space.segment_query_first`: Chipmunk's index only offers it the shapes whose bounding
-        box the centre line crosses (the radius is ignored), so a robot approaching a wall whose
-        box its centre never reaches was not stopped. The candidates come from the swept box."""
-        bb = pymunk.BB(min(x, x + mx) - radius, min(y, y + my) - radius, max(x, x + mx) + radius, max(y, y + my) + radius)
-        first = None
-        for shape in self.space.bb_query(bb, robot.query_filter):
-            hit = shape.segment_query((x, y), (x + mx, y + my), radius)
-            if hit is not None and (first is None or hit.alpha < first.alpha):
-                first = hit
-        return first
-
-    def _keep_robots_apart(self, before: np.ndarray) -> None:
-        """Shorten the planned moves (`_state.move`, the bodies' forces) of robots that would run
-        into each other during the step: each robot's sweep sees the others where they start, so
-        two robots closing in could overlap by both their moves. The relative motion of every pair
-        is cut where they would sink deeper than SWEEP_CLEARANCE (repeated until no cut changes,
-        since one cut changes the relative motion of other pairs)."""
-        move = self._state.move
-        radius = np.array([r.spec.body_radius for r in self.robots])
-        reach = radius[:, None] + radius[None, :] - SWEEP_CLEARANCE
-        rel_p = before[:, None, :2] - before[None, :, :2]
-        c = np.einsum("ijk,ijk->ij", rel_p, rel_p) - reach * reach
-        np.fill_diagonal(c, 1.0)  # a robot and itself: apart, never approaching (b = 0)
-        fraction = np.ones(len(self.robots))
-        for _ in range(len(self.robots)):
-            rel_d = move[:, None] - move[None, :]
-            a = np.einsum("ijk,ijk->ij", rel_d, rel_d)
-            b = np.einsum("ijk,ijk->ij", rel_p, rel_d)
-            disc = b * b - a * c
-            with np.errstate(divide="ignore", invalid="ignore"):
-                t = np.where(c <= 0, 0.0, (-b - np.sqrt(np.maximum(disc, 0.0))) / a)
-            hits = (b < 0) & (disc >= 0) & (t < 1.0) & (a > 0)
-            cut = np.where(hits, np.clip(t, 0.0, 1.0), 1.0).min(axis=1)
-            if np.all(cut >= 1.0):
-                break
-            fraction *= cut
-            move *= cut[:, None]
-        for i in np.flatnonzero(fraction < 1.0):
-            body = self.robots[i].body
-            body.force = (body.force[0] * fraction[i], body.force[1] * fraction[i])
-
-    def _slide(self, robot: Robot, x: float, y: float, mx: float, my: float, hit, radius: float) -> tuple[float, float]:  # noqa: ANN001
-        """The move (mx, my) cut where it touches: up to the contact, then the rest without its
-        part into the surface, swept again (a slightly thinner circle, so that the surface just
-        touched does not count, another one does) so that the robot slides along a wall."""
-        ax, ay = mx * hit.alpha, my * hit.alpha
-        rx, ry = mx - ax, my - ay
-        nx, ny = hit.normal
-        into = rx * nx + ry * ny
-        if into < 0.0:
-            rx, ry = rx - into * nx, ry - into * ny
-        if rx or ry:
-            sx, sy = x + ax, y + ay
-            again = self._sweep(robot, sx, sy, rx, ry, radius - SLIDE_MARGIN)
-            if again is not None:
-                rx, ry = rx * again.alpha, ry * again.alpha
-        return ax + rx, ay + ry
 
     def _count_contact(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:  # noqa: ANN001
         """A robot started touching something: one more collision for it (for both, robot on robot)."""
@@ -376,6 +308,27 @@ class World:
 def _damped(body: pymunk.Body, gravity, damping: float, dt: float) -> None:  # noqa: ANN001 (pymunk callback)
     """Movable obstacles lose speed on the floor; robots are not damped (their velocity is set)."""
     pymunk.Body.update_velocity(body, gravity, MOVABLE_DAMPING**dt, dt)
+
+
+@dataclass(frozen=True)
+class _WallArrays:
+    """The walls as flat arrays for the sweep kernel: all vertices, each wall's slice of them and
+    its bounding box (xmin, ymin, xmax, ymax)."""
+
+    vertices: np.ndarray
+    ranges: np.ndarray
+    boxes: np.ndarray
+
+    @classmethod
+    def build(cls, spec: WorldSpec) -> _WallArrays:
+        polygons = [np.asarray(w.vertices, dtype=np.float64) for w in spec.walls]
+        ends = np.cumsum([len(p) for p in polygons], dtype=np.int64)
+        starts = ends - np.array([len(p) for p in polygons], dtype=np.int64)
+        return cls(
+            vertices=np.concatenate(polygons).reshape(-1, 2) if polygons else np.zeros((0, 2)),
+            ranges=np.stack((starts, ends), axis=1).reshape(-1, 2),
+            boxes=np.array([(*p.min(axis=0), *p.max(axis=0)) for p in polygons]).reshape(-1, 4),
+        )
 
 
 @dataclass
@@ -404,6 +357,8 @@ class _BatchState:
     fallen: np.ndarray
     move: np.ndarray
     alpha: np.ndarray
+    sweep_radius: np.ndarray
+    apart_radius: np.ndarray
     floor_sensors: list
     floor_offsets: np.ndarray
     floor_owner: np.ndarray
@@ -482,6 +437,8 @@ class _BatchState:
             fallen=np.array([r.fallen for r in robots], dtype=np.bool_),
             move=np.zeros((n, 2)),
             alpha=np.zeros(n),
+            sweep_radius=np.array([s.body_radius - SWEEP_CLEARANCE for s in specs], dtype=np.float64),
+            apart_radius=np.array([s.body_radius - SWEEP_CLEARANCE / 2 for s in specs], dtype=np.float64),
             floor_sensors=floor,
             floor_offsets=offsets(floor),
             floor_owner=owner(floor),

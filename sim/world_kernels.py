@@ -168,3 +168,140 @@ def sense_light(
             if off <= half_opening[k]:
                 nearest = min(nearest, math.sqrt(ox * ox + oy * oy + lights[j, 2] * lights[j, 2]))
         out[k] = round(min(nearest / reach[k], 1.0) * 1023)
+
+
+@numba.njit(cache=True)
+def _polygon_distance(px: float, py: float, vertices: np.ndarray, start: int, end: int) -> tuple[float, float, float]:
+    """(signed distance, closest point x, y) from a point to the convex polygon
+    vertices[start:end] (either winding); negative inside."""
+    best, cx, cy = math.inf, px, py
+    positive = negative = False
+    for k in range(start, end):
+        ax, ay = vertices[k, 0], vertices[k, 1]
+        nxt = k + 1 if k + 1 < end else start
+        ex, ey = vertices[nxt, 0] - ax, vertices[nxt, 1] - ay
+        side = ex * (py - ay) - ey * (px - ax)
+        positive |= side > 0.0
+        negative |= side < 0.0
+        t = min(max(((px - ax) * ex + (py - ay) * ey) / (ex * ex + ey * ey), 0.0), 1.0)
+        qx, qy = ax + t * ex, ay + t * ey
+        d2 = (px - qx) ** 2 + (py - qy) ** 2
+        if d2 < best:
+            best, cx, cy = d2, qx, qy
+    distance = math.sqrt(best)
+    return (distance if positive and negative else -distance), cx, cy
+
+
+@numba.njit(cache=True)
+def _sweep(
+    px: float, py: float, mx: float, my: float, radius: float, vertices: np.ndarray, ranges: np.ndarray, boxes: np.ndarray
+) -> tuple[float, float, float]:
+    """First contact of a circle of `radius` moved from (px, py) by (mx, my) with any wall:
+    (fraction of the move, contact normal x, y); fraction 1 when free. Conservative advancement
+    (advance by the distance to the wall, which can never overshoot a convex shape). A wall the
+    circle already touches only stops motion into it."""
+    length = math.hypot(mx, my)
+    first, nx, ny = 1.0, 0.0, 0.0
+    if length == 0.0:
+        return first, nx, ny
+    lo_x, hi_x = min(px, px + mx) - radius, max(px, px + mx) + radius
+    lo_y, hi_y = min(py, py + my) - radius, max(py, py + my) + radius
+    for w in range(ranges.shape[0]):
+        if boxes[w, 0] > hi_x or boxes[w, 2] < lo_x or boxes[w, 1] > hi_y or boxes[w, 3] < lo_y:
+            continue
+        t = 0.0
+        for _ in range(64):
+            x, y = px + t * mx, py + t * my
+            distance, cx, cy = _polygon_distance(x, y, vertices, ranges[w, 0], ranges[w, 1])
+            gap = distance - radius
+            if gap <= 1e-9:
+                ox, oy = x - cx, y - cy
+                norm = math.hypot(ox, oy)
+                if norm > 0.0:
+                    ox, oy = ox / norm, oy / norm
+                if distance < 0.0:
+                    ox, oy = -ox, -oy
+                if t == 0.0 and mx * ox + my * oy >= 0.0:
+                    break  # touching already and moving away or along: free
+                if t < first:
+                    first, nx, ny = t, ox, oy
+                break
+            t += gap / length
+            if t >= first:
+                break
+    return first, nx, ny
+
+
+@numba.njit(cache=True)
+def sweep_walls(
+    pose: np.ndarray,
+    move: np.ndarray,
+    radius: np.ndarray,
+    slide_margin: float,
+    vertices: np.ndarray,
+    ranges: np.ndarray,
+    boxes: np.ndarray,
+) -> None:
+    """Cut every robot's planned move (n, 2), in place, where its body would first sink deeper
+    than allowed into a wall, and let the rest slide: the remainder without its part into the
+    surface is swept again with a slightly thinner circle (so the surface just touched does not
+    stop it, another one does). `radius` is each robot's sweep radius (body radius minus the
+    allowed depth); walls are convex polygons vertices[ranges[w, 0]:ranges[w, 1]] with boxes."""
+    for i in range(pose.shape[0]):
+        px, py, mx, my = pose[i, 0], pose[i, 1], move[i, 0], move[i, 1]
+        t, nx, ny = _sweep(px, py, mx, my, radius[i], vertices, ranges, boxes)
+        if t >= 1.0:
+            continue
+        ax, ay = mx * t, my * t
+        rx, ry = mx - ax, my - ay
+        into = rx * nx + ry * ny
+        if into < 0.0:
+            rx, ry = rx - into * nx, ry - into * ny
+        t2, _, _ = _sweep(px + ax, py + ay, rx, ry, radius[i] - slide_margin, vertices, ranges, boxes)
+        move[i, 0], move[i, 1] = ax + rx * t2, ay + ry * t2
+
+
+@numba.njit(cache=True)
+def _contact_time(pose: np.ndarray, move: np.ndarray, reach: np.ndarray, i: int, j: int) -> float:
+    """Fraction of the step at which robots i and j, moving along their moves, would come closer
+    than reach[i] + reach[j]; 1 if they do not (or separate)."""
+    rpx, rpy = pose[i, 0] - pose[j, 0], pose[i, 1] - pose[j, 1]
+    rdx, rdy = move[i, 0] - move[j, 0], move[i, 1] - move[j, 1]
+    limit = reach[i] + reach[j]
+    b = rpx * rdx + rpy * rdy
+    a = rdx * rdx + rdy * rdy
+    if b >= 0.0 or a == 0.0:
+        return 1.0  # apart or separating
+    c = rpx * rpx + rpy * rpy - limit * limit
+    if c <= 0.0:
+        return 0.0  # touching and closing in
+    disc = b * b - a * c
+    if disc < 0.0:
+        return 1.0  # they pass each other
+    return min(max((-b - math.sqrt(disc)) / a, 0.0), 1.0)
+
+
+@numba.njit(cache=True)
+def keep_apart(pose: np.ndarray, move: np.ndarray, reach: np.ndarray) -> None:
+    """Shorten the moves (n, 2), in place, of robots that would run into each other: both moves
+    of a pair are cut at the moment the pair would touch (closer than reach[i] + reach[j]).
+    Cuts only shorten moves, but a shorter move can let a follower catch up, so the pairs are
+    checked again until none closes in; robots still in conflict after that stand still."""
+    n = pose.shape[0]
+    for _ in range(100):
+        changed = False
+        for i in range(n):
+            for j in range(i + 1, n):
+                t = _contact_time(pose, move, reach, i, j)
+                if t < 1.0 - 1e-12:
+                    move[i, 0] *= t
+                    move[i, 1] *= t
+                    move[j, 0] *= t
+                    move[j, 1] *= t
+                    changed = True
+        if not changed:
+            return
+    for i in range(n):
+        for j in range(i + 1, n):
+            if _contact_time(pose, move, reach, i, j) < 1.0:
+                move[i, 0] = move[i, 1] = move[j, 0] = move[j, 1] = 0.0
