@@ -18,7 +18,7 @@ from typing import Literal, Protocol
 import numpy as np
 
 from bots.spec import RobotSpec
-from sim.kinematics import MouseEstimator, wheel_arcs_to_arc
+from sim.kinematics import MouseEstimator, advance, wheel_arcs_to_arc
 from sim.kinematics.mouse import counts_per_metre
 from sim.readings import Readings
 
@@ -48,19 +48,6 @@ class Geometry:
     def nominal(cls, robot: RobotSpec) -> Geometry:
         """The geometry the robot description states."""
         return cls((robot.wheel_diameter, robot.wheel_diameter), robot.track_width)
-
-
-def advance(pose: np.ndarray, s: float, alpha: float, end_heading: bool = False) -> np.ndarray:
-    """Pose after one arc: the chord s*sin(h)/h, h = alpha/2, laid along the mid-angle (exact,
-    eqs 1.7, 1.12) or along the end heading (the firmware). The scalar form of
-    `sim.kinematics.apply_increment(pose, arc_increment(s, alpha))` (resp. `firmware_increment`):
-    estimators run once per robot and step, where numpy's per-call overhead (40 us) would dominate
-    a run; the tests hold the two forms together."""
-    h = 0.5 * alpha
-    sinc = math.sin(h) / h if abs(h) > 1e-4 else 1.0 - h * h / 6.0  # series error < h^4/120 < 1e-18
-    direction = pose[2] + (alpha if end_heading else h)
-    chord = s * sinc
-    return np.array((pose[0] + chord * math.cos(direction), pose[1] + chord * math.sin(direction), pose[2] + alpha))
 
 
 class _ArcOdometry:

@@ -20,11 +20,10 @@ from bots.odometry import (
     FusedOdometry,
     Geometry,
     MouseOdometry,
-    advance,
     default_estimators,
 )
 from sim.compare import path_lengths, wrap_angle
-from sim.kinematics import apply_increment, arc_increment, firmware_increment
+from sim.kinematics import advance, apply_increment, arc_increment, firmware_increment
 from sim.kinematics.mouse import counts_per_metre
 from sim.run import RobotSetup, run
 from sim.worldfile import load_world

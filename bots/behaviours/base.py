@@ -15,7 +15,7 @@ import numpy as np
 from bots.commands import STOP, Command, wheel_speeds_for
 from bots.controller import Status
 from bots.spec import RobotSpec
-from sim.kinematics import apply_increment, arcs_from_ticks, relative_increment, wheel_increment
+from sim.kinematics import advance, arcs_from_ticks, relative_increment
 from sim.readings import Readings
 
 # The firmware's speeds (BOT_SPEED_* in mm/s) as rim speeds in m/s.
@@ -82,9 +82,9 @@ class TickOdometry:
         self.time = readings.time
         self.counted += readings.encoder_ticks
         turned = np.clip(guess, self.counted, self.counted + 1.0)
-        arcs = (turned - self.turned) * self.metres_per_tick
+        left, right = (turned - self.turned) * self.metres_per_tick
         self.turned = turned
-        self.pose = apply_increment(self.pose, wheel_increment(arcs[0], arcs[1], self.robot.track_width))
+        self.pose = advance(self.pose, 0.5 * (left + right), (right - left) / self.robot.track_width)
 
 
 class Behaviour:

@@ -5,6 +5,7 @@ odometry and control. Leading axes are batch axes; a single robot is a batch of 
 """
 
 from sim.kinematics.arc import (
+    advance,
     apply_increment,
     arc_increment,
     arc_to_wheel_arcs,
@@ -32,6 +33,7 @@ from sim.kinematics.mouse import (
 from sim.kinematics.quantize import quantize, quantize_series
 
 __all__ = [
+    "advance",
     "MouseEstimator",
     "UnobservableRotation",
     "apply_increment",
