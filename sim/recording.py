@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from sim.compare import wrap_angle
 from sim.world import IR_RAY_LENGTH, World
 
 if TYPE_CHECKING:
@@ -52,11 +53,6 @@ def _colour(rgb: tuple[float, float, float]) -> tuple[int, int, int]:
 def _closed(vertices) -> np.ndarray:
     v = np.asarray(vertices, dtype=np.float64)
     return np.vstack((v, v[:1]))
-
-
-def wrap(angle: np.ndarray) -> np.ndarray:
-    """Angles wrapped to [-pi, pi)."""
-    return (np.asarray(angle) + np.pi) % (2 * np.pi) - np.pi
 
 
 @dataclass
@@ -198,7 +194,7 @@ class Recorder:
                 rec.send_columns(f"{base}/ghost/{label}", times, rr.Points2D.columns(positions=poses[:, k, :2]).partition(ones))
                 error = poses[:, k] - truth
                 rec.send_columns(f"errors/{track.name}/position/{label}", times, rr.Scalars.columns(scalars=np.hypot(error[:, 0], error[:, 1])))
-                rec.send_columns(f"errors/{track.name}/heading/{label}", times, rr.Scalars.columns(scalars=wrap(error[:, 2])))
+                rec.send_columns(f"errors/{track.name}/heading/{label}", times, rr.Scalars.columns(scalars=wrap_angle(error[:, 2])))
         track.last = poses[-1].copy()
 
         if len(track.ir):
