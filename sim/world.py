@@ -41,6 +41,14 @@ ROBOT = 1
 """pymunk collision type of robot bodies (to count their contacts)."""
 
 
+# pymunk routes every attribute assignment through a pass-through __setattr__ (about 1 us); the
+# four assignments per robot and step go to the property setters directly.
+_set_velocity = pymunk.Body.velocity.fset
+_set_angular_velocity = pymunk.Body.angular_velocity.fset
+_set_force = pymunk.Body.force.fset
+_set_torque = pymunk.Body.torque.fset
+
+
 class CommandError(ValueError):
     """A motor command that must not reach the physics (NaN, infinite, wrong shape)."""
 
@@ -290,12 +298,13 @@ class World:
         integrated after the step (`update_position`): the same order as setting the velocity
         inside `velocity_func`, without a Python callback per body."""
         body = robot.body
-        body.velocity, body.angular_velocity = (0.0, 0.0), 0.0
+        _set_velocity(body, (0.0, 0.0))
+        _set_angular_velocity(body, 0.0)
         if robot.fallen:
             return
         per_step = body.mass / (self.dt * self.dt)
-        body.force = (float(move[0]) * per_step, float(move[1]) * per_step)
-        body.torque = float(alpha) * body.moment / (self.dt * self.dt)
+        _set_force(body, (float(move[0]) * per_step, float(move[1]) * per_step))
+        _set_torque(body, float(alpha) * body.moment / (self.dt * self.dt))
 
     def _count_contact(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:  # noqa: ANN001
         """A robot started touching something: one more collision for it (for both, robot on robot)."""
