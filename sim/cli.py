@@ -24,8 +24,8 @@ from sim.run import RunError
 from sim.worldspec import WorldFileError
 
 DEFAULT_WORLD = "maze"
-DEFAULT_CONTROLLERS = ("solve_maze", "follow_wall", "square", "drive_distance")
-"""The default run's controller: the first of these that is registered."""
+DEFAULT_CONTROLLER = "solve_maze"
+"""The default run: a c't-Bot solving the shipped maze."""
 EXIT_USER, EXIT_FAILED, EXIT_INTERRUPTED = 2, 1, 130
 
 
@@ -136,20 +136,6 @@ def load_robot_spec(name: str):
     raise UsageError(f"unknown robot {name!r} (built-in: {', '.join(ROBOTS)}; or a .toml file)")
 
 
-def default_controller() -> str:
-    """The default run's controller: solve_maze once registered, else a simple fallback."""
-    from bots.controller import REGISTRY
-
-    import bots.behaviours  # noqa: F401  (registers the shipped controllers)
-
-    for name in DEFAULT_CONTROLLERS:
-        if name in REGISTRY:
-            return name
-    if REGISTRY:
-        return sorted(REGISTRY)[0]
-    raise UsageError("no controllers are registered; name a controller file with --controller FILE.py")
-
-
 def _out_dir(out: Path | None, world: str, controller: str) -> Path:
     if out is None:
         stamp = time.strftime("%Y%m%d-%H%M%S")
@@ -189,7 +175,7 @@ def _setups(args: argparse.Namespace, spec) -> list:
     from bots.controller import make
     from sim.run import RobotSetup
 
-    names = args.controller or [default_controller()]
+    names = args.controller or [DEFAULT_CONTROLLER]
     count = args.robots if args.robots is not None else len(names)
     if count < 1:
         raise UsageError(f"--robots must be at least 1, got {count}")
