@@ -144,7 +144,7 @@ def corrected_geometry(believed: Geometry, e_d: float, e_b: float) -> Geometry:
 
 
 def square_world() -> WorldSpec:
-    """worlds/square.toml: 4 m x 4 m, start at (0.5, 0.5) facing +x."""
+    """worlds/square.toml: 4 m x 4 m, start at (0.5, 1.5) facing +x."""
     return load_world("square")
 
 
