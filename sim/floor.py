@@ -18,7 +18,8 @@ MAX_CELLS = 8_000_000
 
 @dataclass(frozen=True)
 class FloorMap:
-    """CNY70 values (uint16) and a hole mask on a grid with `origin` (m) and `cell` size (m)."""
+    """CNY70 values (uint16) and a hole mask on a grid with `origin` (m) and `cell` size (m);
+    sampled by the world's compiled kernels (`sim.world_kernels`)."""
 
     value: np.ndarray
     hole: np.ndarray
@@ -27,23 +28,10 @@ class FloorMap:
     outside_value: int
     outside_is_hole: bool
 
-    def _index(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        p = np.asarray(points, dtype=np.float64)
-        ix = np.floor((p[..., 0] - self.origin[0]) / self.cell).astype(np.int64)
-        iy = np.floor((p[..., 1] - self.origin[1]) / self.cell).astype(np.int64)
-        inside = (ix >= 0) & (iy >= 0) & (ix < self.value.shape[1]) & (iy < self.value.shape[0])
-        return np.where(inside, iy, 0), np.where(inside, ix, 0), inside
-
-    def sample(self, points: np.ndarray) -> np.ndarray:
-        """CNY70 values (int) at world points (..., 2); holes read black (1023)."""
-        iy, ix, inside = self._index(points)
-        outside = CNY70_MAX if self.outside_is_hole else self.outside_value
-        return np.where(inside, self.value[iy, ix], outside).astype(np.int64)
-
-    def is_hole(self, points: np.ndarray) -> np.ndarray:
-        """True where a point (..., 2) is over a hole (or off the map in a c't-Sim world)."""
-        iy, ix, inside = self._index(points)
-        return np.where(inside, self.hole[iy, ix], self.outside_is_hole)
+    @property
+    def outside_reading(self) -> int:
+        """What a CNY70 reads off the map: black where that is a hole, else the base floor."""
+        return CNY70_MAX if self.outside_is_hole else self.outside_value
 
 
 def _pixel_centres(grid_shape, origin, cell, vertices, margin=0.0):

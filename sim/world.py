@@ -188,8 +188,7 @@ class World:
         if len(floor):
             points = np.empty((len(floor), 2))
             kernels.to_world(pose, st.floor_offsets, st.floor_owner, points)
-            outside = CNY70_MAX if self.floor.outside_is_hole else self.floor.outside_value
-            kernels.sample_floor(points, self.floor.value, self._floor_origin, self.floor.cell, outside, floor)
+            kernels.sample_floor(points, self.floor.value, self._floor_origin, self.floor.cell, self.floor.outside_reading, floor)
             floor = self._add_noise(st.floor_sensors, floor, CNY70_MAX)
         light = np.empty(len(st.light_owner), dtype=np.int64)
         if len(light):
@@ -210,10 +209,6 @@ class World:
                 Readings(self.time, ticks[i], counts[i], ir_raw[r0:r1], ir_distance[r0:r1], floor[f0:f1], floor[f1:f2], light[l0:l1])
             )
         return readings
-
-    def read(self, robot: Robot) -> Readings:
-        """One robot's readings (reads every robot: use `read_all` in loops)."""
-        return self.read_all()[robot.index]
 
     def _add_noise(self, sensors: list[tuple[Robot, object]], values: np.ndarray, top: int) -> np.ndarray:
         noisy = [(k, robot.rngs[s.name], s.noise_std) for k, (robot, s) in enumerate(sensors) if s.noise_std]
@@ -391,7 +386,7 @@ class _BatchState:
         return cls.build([], 0.01)
 
     @classmethod
-    def build(cls, robots: list[Robot], dt: float, previous: _BatchState | None = None) -> _BatchState:
+    def build(cls, robots: list[Robot], dt: float) -> _BatchState:
         n = len(robots)
         specs = [r.spec for r in robots]
         motor = [s.motor for s in specs]
