@@ -67,8 +67,12 @@ def register(name: str) -> Callable:
 
 
 def _convert(text: str, annotation: Any, default: Any) -> Any:
-    """A command-line value as the type the factory's parameter expects."""
-    kind = annotation if isinstance(annotation, type) else type(default) if default is not inspect.Parameter.empty else str
+    """A command-line value as the type the factory's parameter expects: its annotation (a type
+    or, under `from __future__ import annotations`, its name), else its default's type."""
+    named = {"float": float, "int": int, "bool": bool, "str": str}
+    kind = named.get(annotation, annotation) if annotation is not inspect.Parameter.empty else None
+    if not isinstance(kind, type):
+        kind = type(default) if default is not inspect.Parameter.empty and default is not None else str
     if kind is bool:
         if text.lower() in ("1", "true", "yes", "on"):
             return True
@@ -77,8 +81,6 @@ def _convert(text: str, annotation: Any, default: Any) -> Any:
         raise ValueError(f"expected true or false, got {text!r}")
     if kind in (int, float):
         return kind(text)
-    if annotation in ("float", "int", "bool"):
-        return _convert(text, {"float": float, "int": int, "bool": bool}[annotation], default)
     return text
 
 
