@@ -6,17 +6,17 @@ import time
 
 import numpy as np
 
+from bots.ctbot import CTBOT
 from sim.kinematics import (
     counts_per_metre,
-    ticks_per_metre,
     integrate_arcs,
     mouse_count_series,
     mouse_displacement,
     ticks_from_arc_series,
+    ticks_per_metre,
     twist_from_wheel_speeds,
     wheel_arcs_to_arc,
 )
-from bots.ctbot import CTBOT
 from sim.kinematics.batch import step_batch
 
 

@@ -8,8 +8,8 @@ import numpy as np
 
 from bots.ctbot import CTBOT
 from sim.world import World
-from sim.worldfile import load_world
-from sim.worldspec import Start, WorldSpec
+from sim.world.files import load_world
+from sim.world.spec import Start, WorldSpec
 
 
 def _steps_per_second(world: World, steps: int, commands: np.ndarray, read: bool = True, repeats: int = 3) -> float:
@@ -54,8 +54,8 @@ def maze_ctbot_recording(steps: int, repeats: int = 3) -> float:
     import tempfile
     from pathlib import Path
 
-    from sim.recording import Recorder
     from sim.run import RobotLog
+    from sim.views.recording import Recorder
 
     world = World(load_world("maze"))
     robot = world.add_robot(CTBOT)

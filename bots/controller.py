@@ -19,7 +19,7 @@ from typing import Any, Protocol, runtime_checkable
 
 from bots.commands import Command
 from bots.spec import RobotSpec
-from sim.readings import Readings
+from sim.world.readings import Readings
 
 
 class Status(enum.Enum):
@@ -169,13 +169,12 @@ def _user_line(err: BaseException, path: Path) -> int | str:
 
 def make(spec: str, params: dict[str, str] | None = None) -> Controller:
     """A controller from a command-line spec: a registered name, `path/to/file.py` or
-    `path/to/file.py:Name`, with string parameters."""
+    `path/to/file.py:Name`, with string parameters. Sees only what is registered so far:
+    import it from `bots.behaviours` to have the shipped behaviours registered."""
     params = params or {}
     if spec.endswith(".py") or ".py:" in spec:
         path, _, name = spec.partition(".py")
         return build(load_file(path + ".py", name.lstrip(":") or None), params, spec)
-    import bots.behaviours  # noqa: F401  (registers the shipped controllers)
-
     if spec not in REGISTRY:
         from difflib import get_close_matches
 

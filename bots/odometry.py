@@ -2,7 +2,7 @@
 
 An estimator is reset with the robot's description and its start pose, then takes each step's
 readings and exposes `pose` (x, y m, heading rad, continuous). The comparison against ground truth
-happens in the run loop's consumers (`sim.compare`), never here.
+happens in the run loop's consumers (`sim.analysis.metrics`), never here.
 
 Every estimator turns one step's readings into an arc (centre arc length s, heading change alpha)
 and lays it down either exactly (chord along the mid-angle, seed 002 eqs 1.7, 1.12) or as the
@@ -20,7 +20,7 @@ import numpy as np
 from bots.spec import RobotSpec
 from sim.kinematics import MouseEstimator, advance, wheel_arcs_to_arc
 from sim.kinematics.mouse import counts_per_metre
-from sim.readings import Readings
+from sim.world.readings import Readings
 
 G_POS = 0.5
 """The c't-Bot firmware's weight of the encoder pose against the mouse pose (bot-local.h:108)."""

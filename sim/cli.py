@@ -16,12 +16,10 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 import sim
 from bots.controller import ControllerError
 from sim.run import RunError
-from sim.worldspec import WorldFileError
+from sim.world.spec import WorldFileError
 
 DEFAULT_WORLD = "maze"
 DEFAULT_CONTROLLER = "solve_maze"
@@ -172,7 +170,7 @@ class Progress:
 
 def _setups(args: argparse.Namespace, spec) -> list:
     """One RobotSetup per robot from --controller/--robots/--param."""
-    from bots.controller import make
+    from bots.behaviours import make
     from sim.run import RobotSetup
 
     names = args.controller or [DEFAULT_CONTROLLER]
@@ -187,9 +185,9 @@ def _setups(args: argparse.Namespace, spec) -> list:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from sim.recording import Recorder
     from sim.run import run
-    from sim.worldfile import load_world
+    from sim.views.recording import Recorder
+    from sim.world.files import load_world
 
     world = load_world(args.world)
     spec = load_robot_spec(args.robot)
@@ -201,8 +199,8 @@ def cmd_run(args: argparse.Namespace) -> int:
 
 
 def cmd_play(args: argparse.Namespace) -> int:
-    from sim.play import play
-    from sim.worldfile import load_world
+    from sim.views.window import play
+    from sim.world.files import load_world
 
     world = load_world(args.world)
     spec = load_robot_spec(args.robot)
@@ -220,7 +218,7 @@ def finish(result, out: Path, options: dict[str, Any], report: bool = True) -> i
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
     written.append(out / "summary.json")
     if report and result.times:
-        from sim.report import report_run_dir
+        from sim.views.figures import report_run_dir
 
         written += report_run_dir(out)
     print(table(summary))
@@ -240,7 +238,7 @@ def summarize(result, options: dict[str, Any]) -> dict[str, Any]:
     """The figures of the table and what produced them, as plain data for summary.json."""
     from dataclasses import asdict
 
-    from sim.compare import compare_run, path_lengths
+    from sim.analysis.metrics import compare_run, path_lengths
 
     metrics = compare_run(result) if result.times else {}
     robots = [
@@ -273,7 +271,7 @@ def summarize(result, options: dict[str, Any]) -> dict[str, Any]:
 def write_trajectories(result, out: Path, summary: dict[str, Any]) -> list[Path]:
     """truth.tum and <estimate>.tum (prefixed with the robot name when there are several), and
     the same as CSV; records the TUM names in the summary for `ctsim report`."""
-    from sim.export import write_csv, write_tum
+    from sim.analysis.export import write_csv, write_tum
 
     written = []
     prefix = len(result.robots) > 1
@@ -308,7 +306,7 @@ def table(summary: dict[str, Any]) -> str:
 
 
 def cmd_report(args: argparse.Namespace) -> int:
-    from sim.report import report_run_dir
+    from sim.views.figures import report_run_dir
 
     if not (args.run_dir / "summary.json").is_file():
         raise UsageError(f"{args.run_dir}: not a run folder (no summary.json)")
@@ -318,7 +316,7 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 
 def cmd_worlds(args: argparse.Namespace) -> int:
-    from sim.worldfile import load_world, shipped_worlds
+    from sim.world.files import load_world, shipped_worlds
 
     for name, path in shipped_worlds().items():
         world = load_world(path)
@@ -328,7 +326,7 @@ def cmd_worlds(args: argparse.Namespace) -> int:
 
 
 def cmd_check(args: argparse.Namespace) -> int:
-    from sim.worldfile import check_world, load_world
+    from sim.world.files import check_world, load_world
 
     try:
         warnings = check_world(args.world)
@@ -347,9 +345,9 @@ def cmd_check(args: argparse.Namespace) -> int:
 def cmd_controllers(args: argparse.Namespace) -> int:
     import inspect
 
+    import bots.behaviours  # noqa: F401  (registers the shipped controllers)
     from bots.controller import REGISTRY, parameters
 
-    import bots.behaviours  # noqa: F401  (registers the shipped controllers)
 
     if not REGISTRY:
         print("no controllers registered")

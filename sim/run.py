@@ -20,9 +20,9 @@ from bots.commands import BadCommand, motor_commands, wheel_speeds_for
 from bots.controller import Controller, reset
 from bots.odometry import Estimator, default_estimators
 from bots.spec import RobotSpec
-from sim.readings import Readings
 from sim.world import World
-from sim.worldspec import Start, WorldSpec
+from sim.world.readings import Readings
+from sim.world.spec import Start, WorldSpec
 
 
 @dataclass

@@ -7,12 +7,12 @@ import math
 import numpy as np
 import pytest
 
-from bots.behaviours import Behaviour, Teleop, TickOdometry
+from bots.behaviours import Behaviour, Teleop, TickOdometry, make
 from bots.commands import STOP, Twist, WheelSpeeds
-from bots.controller import REGISTRY, ControllerError, Status, make, parameters, reset
+from bots.controller import REGISTRY, ControllerError, Status, parameters, reset
 from bots.ctbot import CTBOT
 from bots.spec import RobotSpec
-from sim.readings import Readings
+from sim.world.readings import Readings
 
 SHIPPED = {
     "idle", "stop", "drive_distance", "turn", "go_to_pose", "square", "teleop",

@@ -12,12 +12,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from bots.behaviours import AvoidHoles, DriveDistance, GoToPose, Square, Turn
-from bots.controller import Status, make
+from bots.behaviours import AvoidHoles, DriveDistance, GoToPose, Square, Turn, make
+from bots.controller import Status
 from bots.ctbot import CTBOT
 from sim.kinematics import relative_increment
 from sim.run import RobotSetup, RunResult, run
-from sim.worldfile import load_world
+from sim.world.files import load_world
 
 WORLDS = {name: load_world(name) for name in ("empty", "line", "maze", "holes_lights")}
 

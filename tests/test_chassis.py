@@ -5,6 +5,7 @@ import pytest
 from numpy.testing import assert_allclose
 
 from sim.kinematics import chassis_presets as presets
+from sim.kinematics import wrap_angle
 from sim.kinematics.chassis import (
     Chassis,
     Failure,
@@ -29,7 +30,6 @@ from sim.kinematics.chassis import (
     to_body,
     to_world,
     twist_from_icr,
-    wrap_angle,
 )
 
 DEG = np.pi / 180

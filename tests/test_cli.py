@@ -4,7 +4,6 @@ Ctrl-C, world listing and checking, report, play offscreen."""
 from __future__ import annotations
 
 import json
-import os
 import signal
 import subprocess
 import sys

@@ -10,9 +10,15 @@ import pytest
 from bots.commands import Twist
 from bots.controller import FunctionController
 from bots.ctbot import CTBOT
-from sim.compare import compare, compare_run, path_lengths, relative_pose_errors, wrap_angle
+from sim.analysis.metrics import (
+    compare,
+    compare_run,
+    path_lengths,
+    relative_pose_errors,
+)
+from sim.kinematics import wrap_angle
 from sim.run import RobotSetup, run
-from sim.worldfile import load_world
+from sim.world.files import load_world
 
 # 10 m straight along x at 1 m/s, sampled every 0.125 s (exact in binary, so 1 m stretches are exact)
 TIMES = np.arange(81) * 0.125

@@ -13,9 +13,9 @@ from hypothesis.extra.numpy import arrays
 from bots.commands import Twist
 from bots.controller import FunctionController
 from bots.ctbot import CTBOT
-from sim.export import export_run, read_csv, read_tum, write_csv, write_tum
+from sim.analysis.export import export_run, read_csv, read_tum, write_csv, write_tum
 from sim.run import RobotSetup, run
-from sim.worldfile import load_world
+from sim.world.files import load_world
 
 finite = st.floats(-1e3, 1e3, allow_nan=False)
 

@@ -9,7 +9,18 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from strategies import EPS, TRACK, alpha, analytic_pose, arc_length, finite, pose, rotate_about, sinc, wheel_arc
+from strategies import (
+    EPS,
+    TRACK,
+    alpha,
+    analytic_pose,
+    arc_length,
+    finite,
+    pose,
+    rotate_about,
+    sinc,
+    wheel_arc,
+)
 
 from sim.kinematics import (
     apply_increment,

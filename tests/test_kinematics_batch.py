@@ -9,7 +9,17 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from strategies import TRACK, WHEEL_RADIUS, alpha, arc_length, floats, mount_point, pose, track_width, wheel_arc
+from strategies import (
+    TRACK,
+    WHEEL_RADIUS,
+    alpha,
+    arc_length,
+    floats,
+    mount_point,
+    pose,
+    track_width,
+    wheel_arc,
+)
 
 from bots.ctbot import CTBOT
 from sim.kinematics import (

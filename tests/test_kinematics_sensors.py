@@ -9,7 +9,16 @@ import numpy as np
 import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
-from strategies import EPS, TRACK, WHEEL_RADIUS, floats, mount_point, sinc, track_width, wheel_arc
+from strategies import (
+    EPS,
+    TRACK,
+    WHEEL_RADIUS,
+    floats,
+    mount_point,
+    sinc,
+    track_width,
+    wheel_arc,
+)
 
 from bots.ctbot import CTBOT
 from sim.kinematics import (

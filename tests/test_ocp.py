@@ -7,8 +7,9 @@ from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
 from sim.kinematics import chassis_presets as presets
+from sim.kinematics import wrap_angle
 from sim.kinematics.arc import apply_increment, se2_exp
-from sim.kinematics.chassis import InfeasibleTwist, WheelType, forward_kinematics, icr, wrap_angle
+from sim.kinematics.chassis import InfeasibleTwist, WheelType, forward_kinematics, icr
 from sim.kinematics.ocp import (
     configuration_space,
     icr_to_ocp,

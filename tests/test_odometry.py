@@ -22,12 +22,18 @@ from bots.odometry import (
     MouseOdometry,
     default_estimators,
 )
-from sim.compare import path_lengths, wrap_angle
-from sim.kinematics import advance, apply_increment, arc_increment, firmware_increment
+from sim.analysis.metrics import path_lengths
+from sim.kinematics import (
+    advance,
+    apply_increment,
+    arc_increment,
+    firmware_increment,
+    wrap_angle,
+)
 from sim.kinematics.mouse import counts_per_metre
 from sim.run import RobotSetup, run
-from sim.worldfile import load_world
-from sim.worldspec import WorldSpec
+from sim.world.files import load_world
+from sim.world.spec import WorldSpec
 
 OPEN_FLOOR = WorldSpec("open floor", (-100.0, -100.0, 100.0, 100.0))
 IDEAL = CTBOT.with_changes(encoders={"ticks_per_rev": 10**9}, mouse={"dpi": 1e9})

@@ -12,8 +12,8 @@ import pygame  # noqa: E402
 
 from bots.ctbot import CTBOT  # noqa: E402
 from sim.cli import main  # noqa: E402
-from sim.play import play  # noqa: E402
-from sim.worldfile import load_world  # noqa: E402
+from sim.views.window import play  # noqa: E402
+from sim.world.files import load_world  # noqa: E402
 
 
 def _key(kind: int, key: int) -> pygame.event.Event:
@@ -33,11 +33,11 @@ def test_up_arrow_drives_forward(tmp_path):
 
 
 def test_escape_quits_and_cli_writes_outputs(tmp_path, monkeypatch):
-    import sim.play
+    import sim.views.window
 
     quit_at_frame_5 = {5: [_key(pygame.KEYDOWN, pygame.K_ESCAPE)]}
-    original = sim.play.play
-    monkeypatch.setattr(sim.play, "play", lambda *a, **k: original(*a, **{**k, "events": quit_at_frame_5}))
+    original = sim.views.window.play
+    monkeypatch.setattr(sim.views.window, "play", lambda *a, **k: original(*a, **{**k, "events": quit_at_frame_5}))
     out = tmp_path / "o"
     assert main(["play", "maze", "--frames", "400", "--out", str(out), "--no-report"]) == 0
     assert (out / "run.rrd").is_file() and (out / "truth.tum").is_file()

@@ -9,9 +9,9 @@ import pytest
 from bots.commands import WheelSpeeds
 from bots.controller import FunctionController
 from bots.ctbot import CTBOT
-from sim.recording import CHUNK, Recorder
 from sim.run import RobotSetup, run
-from sim.worldfile import load_world
+from sim.views.recording import CHUNK, Recorder
+from sim.world.files import load_world
 
 
 def _columns(path) -> dict[str, dict[str, list]]:

@@ -9,9 +9,18 @@ import numpy as np
 import pytest
 
 from bots.ctbot import CTBOT
-from sim.sensors import cny70_value, ldr_value
 from sim.world import World
-from sim.worldspec import BLACK, WHITE, FloorLine, FloorRegion, Hole, Light, WorldSpec, box
+from sim.world.sensors import cny70_value, ldr_value
+from sim.world.spec import (
+    BLACK,
+    WHITE,
+    FloorLine,
+    FloorRegion,
+    Hole,
+    Light,
+    WorldSpec,
+    box,
+)
 
 
 def hexcolour(code: str) -> tuple[float, float, float]:

@@ -11,9 +11,9 @@ import pytest
 
 from bots.ctbot import CTBOT
 from bots.spec import IRSensorSpec
-from sim.sensors import builtin_gp2d12, load_ir_curve
 from sim.world import World
-from sim.worldspec import Wall, WorldSpec
+from sim.world.sensors import builtin_gp2d12, load_ir_curve
+from sim.world.spec import Wall, WorldSpec
 
 SHARED = Path(__file__).resolve().parents[2] / "shared"
 CURVES = SHARED / "ctsim" / "characteristics"

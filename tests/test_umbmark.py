@@ -10,7 +10,15 @@ import pytest
 
 from bots.ctbot import CTBOT
 from bots.odometry import Geometry
-from sim.umbmark import OdometrySquare, calibrate, corrected_geometry, return_error, square_world, systematic_errors, umbmark
+from sim.analysis.umbmark import (
+    OdometrySquare,
+    calibrate,
+    corrected_geometry,
+    return_error,
+    square_world,
+    systematic_errors,
+    umbmark,
+)
 
 DIAMETER_ERROR = (-0.005, 0.005)  # right wheel 1.005 % larger than the left, mean diameter right
 TRACK_ERROR = 0.02

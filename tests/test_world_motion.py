@@ -9,11 +9,16 @@ import numpy as np
 import pytest
 
 from bots.ctbot import CTBOT
-from sim import world_kernels as kernels
-from sim.kinematics import integrate_arcs, mouse_displacement_from_increment, quantize, relative_increment, wheel_arcs_to_arc
-from sim.world import CommandError, World
-from sim.worldfile import load_world
-from sim.worldspec import Hole, WorldSpec, box
+from sim.kinematics import (
+    integrate_arcs,
+    mouse_displacement_from_increment,
+    quantize,
+    relative_increment,
+    wheel_arcs_to_arc,
+)
+from sim.world import CommandError, World, kernels
+from sim.world.files import load_world
+from sim.world.spec import Hole, WorldSpec, box
 
 OPEN = WorldSpec("open", (-5, -5, 5, 5))
 START = np.array((0.3, -0.2, 0.4))

@@ -12,7 +12,7 @@ from bots.ctbot import CTBOT
 from bots.spec import RobotSpec, load_robot
 from sim.kinematics import integrate_arcs, wheel_arcs_to_arc
 from sim.world import World
-from sim.worldspec import Wall, WorldSpec
+from sim.world.spec import Wall, WorldSpec
 
 BIG_BOT = """
 name = "bigbot"

@@ -12,7 +12,7 @@ import numpy as np
 
 from bots.ctbot import CTBOT
 from sim.world import World
-from sim.worldfile import load_world
+from sim.world.files import load_world
 
 REPO = Path(__file__).resolve().parents[1]
 

@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 
 from bots.ctbot import CTBOT
 from sim.world import World
-from sim.worldspec import Wall, WorldSpec
+from sim.world.spec import Wall, WorldSpec
 
 R = CTBOT.body_radius
 FULL = 255.0

@@ -10,9 +10,9 @@ from pathlib import Path
 
 import pytest
 
-from sim.worldfile import check_world, load_world, shipped_worlds
-from sim.worldfile.geometry import bbox, inside
-from sim.worldspec import WorldFileError, WorldSpec
+from sim.world.files import check_world, load_world, shipped_worlds
+from sim.world.files.geometry import bbox, inside
+from sim.world.spec import WorldFileError, WorldSpec
 
 
 def _shared() -> Path:

@@ -8,8 +8,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from sim.worldfile import check_world, load_world
-from sim.worldspec import WorldFileError
+from sim.world.files import check_world, load_world
+from sim.world.spec import WorldFileError
 
 START = "[[start]]\nposition = [0.5, 0.5]\n"
 

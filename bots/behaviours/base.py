@@ -16,7 +16,7 @@ from bots.commands import STOP, Command, wheel_speeds_for
 from bots.controller import Status
 from bots.spec import RobotSpec
 from sim.kinematics import advance, arcs_from_ticks, relative_increment
-from sim.readings import Readings
+from sim.world.readings import Readings
 
 # The firmware's speeds (BOT_SPEED_* in mm/s) as rim speeds in m/s.
 SPEED_SLOW = 0.05
@@ -38,11 +38,6 @@ MIN_SPEED = 0.01
 """Slowest rim speed of a ramp (m/s) until the last step, which lands on the target exactly."""
 DEFAULT_DT = 0.01
 """Step assumed until two readings have shown the real one (s)."""
-
-
-def wrap(angle: float) -> float:
-    """Angle in [-pi, pi)."""
-    return (angle + math.pi) % (2 * math.pi) - math.pi
 
 
 def ramp(remaining: float, top: float, dt: float) -> float:

@@ -4,11 +4,17 @@ from __future__ import annotations
 
 import math
 
-from bots.behaviours.base import BORDER_DANGEROUS, LINE_SENSE, SPEED_NORMAL, Behaviour, Sequence
+from bots.behaviours.base import (
+    BORDER_DANGEROUS,
+    LINE_SENSE,
+    SPEED_NORMAL,
+    Behaviour,
+    Sequence,
+)
 from bots.behaviours.motion import DriveDistance, Turn
 from bots.commands import Command, Twist
 from bots.controller import Status, make, register
-from sim.readings import Readings
+from sim.world.readings import Readings
 
 LAP_MIN_M = 1.0
 """Travel (m) before a return to the start pose counts as a lap."""

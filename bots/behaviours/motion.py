@@ -7,11 +7,11 @@ from collections.abc import Generator, Iterable
 
 import numpy as np
 
-from bots.behaviours.base import SPEED_NORMAL, Behaviour, Plan, ramp, wrap
+from bots.behaviours.base import SPEED_NORMAL, Behaviour, Plan, ramp
 from bots.commands import STOP, Command, Twist
 from bots.controller import Status, register
-from sim.kinematics import relative_increment
-from sim.readings import Readings
+from sim.kinematics import relative_increment, wrap_angle
+from sim.world.readings import Readings
 
 DISTANCE_TOLERANCE = 2e-4
 """A drive has arrived when it believes itself this close (m)."""
@@ -60,7 +60,7 @@ class DriveDistance(Behaviour):
         if remaining <= DISTANCE_TOLERANCE:
             return self.finish()
         wanted = -direction * float(np.clip(LATERAL_GAIN * y, -MAX_CORRECTION, MAX_CORRECTION))
-        return Twist(direction * ramp(remaining, self.speed, self.dt), HEADING_GAIN * wrap(wanted - heading))
+        return Twist(direction * ramp(remaining, self.speed, self.dt), HEADING_GAIN * float(wrap_angle(wanted - heading)))
 
 
 @register("turn")
@@ -122,12 +122,12 @@ class GoToPose(Plan):
         gx, gy, final = self.target
         if math.hypot(gx - x, gy - y) > DISTANCE_TOLERANCE:
             bearing = math.atan2(gy - y, gx - x)
-            departure = bearing + float(np.clip(wrap(bearing - final), -MAX_ARC_HALF_ANGLE, MAX_ARC_HALF_ANGLE))
-            yield Turn(math.degrees(wrap(departure - heading)), self.speed)
+            departure = bearing + float(np.clip(wrap_angle(bearing - final), -MAX_ARC_HALF_ANGLE, MAX_ARC_HALF_ANGLE))
+            yield Turn(math.degrees(float(wrap_angle(departure - heading))), self.speed)
             local = relative_increment(self.pose, np.array([gx, gy, 0.0]))
             if (yield DriveTo(local[0], local[1], self.speed)) is Status.FAILURE:
                 return Status.FAILURE
-        yield Turn(math.degrees(wrap(final - self.pose[2])), self.speed)
+        yield Turn(math.degrees(float(wrap_angle(final - self.pose[2]))), self.speed)
         return None
 
 
@@ -135,7 +135,7 @@ def polygon_legs(corners: Iterable[tuple[float, float]], speed: float, owner: Be
     """Turn towards each corner and drive straight to it, planned from `owner`'s pose on arrival."""
     for cx, cy in corners:
         x, y, heading = owner.pose
-        yield Turn(math.degrees(wrap(math.atan2(cy - y, cx - x) - heading)), speed)
+        yield Turn(math.degrees(float(wrap_angle(math.atan2(cy - y, cx - x) - heading))), speed)
         x, y, _ = owner.pose
         yield DriveDistance(math.hypot(cx - x, cy - y), speed)
 
@@ -156,7 +156,7 @@ class Square(Plan):
     def plan(self) -> Generator[Behaviour, Status, Status | None]:
         s, left = self.side, self.sign * self.side
         yield from polygon_legs([(s, 0.0), (s, left), (0.0, left), (0.0, 0.0)] * self.laps, self.speed, self)
-        yield Turn(math.degrees(wrap(-self.pose[2])), self.speed)
+        yield Turn(math.degrees(float(wrap_angle(-self.pose[2]))), self.speed)
         return None
 
 

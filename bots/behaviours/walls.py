@@ -7,12 +7,12 @@ from collections.abc import Generator
 
 import numpy as np
 
-from bots.behaviours.base import GROUND_GOAL, SPEED_NORMAL, Behaviour, Look, Plan, wrap
+from bots.behaviours.base import GROUND_GOAL, SPEED_NORMAL, Behaviour, Look, Plan
 from bots.behaviours.motion import DriveDistance, DriveTo, Turn
 from bots.commands import Command, Twist
 from bots.controller import Status, register
-from sim.kinematics import relative_increment
-from sim.readings import Readings
+from sim.kinematics import relative_increment, wrap_angle
+from sim.world.readings import Readings
 
 GOAL_TOLERANCE = 0x10
 """How far (raw units) a line sensor may read from GROUND_GOAL on the goal floor."""
@@ -60,7 +60,7 @@ class SolveMaze(Plan):
         return command if self.entering.status is Status.RUNNING else self.finish(self.entering.status)
 
     def _face(self, quarter: int) -> Turn:
-        return Turn(math.degrees(wrap(quarter * math.pi / 2 - self.pose[2])), self.speed)
+        return Turn(math.degrees(float(wrap_angle(quarter * math.pi / 2 - self.pose[2]))), self.speed)
 
     def _look(self, quarter: int) -> Generator[Behaviour, Status, bool]:
         """Face the way `quarter` and tell whether it is open to the next room."""

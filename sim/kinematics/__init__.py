@@ -2,6 +2,7 @@
 
 No pymunk, no I/O, no state: the world uses it for ground truth, the robot's own code for
 odometry and control. Leading axes are batch axes; a single robot is a batch of one.
+It imports numpy (and numba for the compiled batch kernels) and nothing else of the project.
 """
 
 from sim.kinematics.arc import (
@@ -18,9 +19,21 @@ from sim.kinematics.arc import (
     se2_log,
     wheel_arcs_to_arc,
     wheel_increment,
+    wrap_angle,
 )
-from sim.kinematics.diffdrive import curvature, icc, turn_radius, twist_from_wheel_speeds, wheel_speeds_from_twist
-from sim.kinematics.encoders import arcs_from_ticks, ticks_from_arc_series, ticks_from_arcs, ticks_per_metre
+from sim.kinematics.diffdrive import (
+    curvature,
+    icc,
+    turn_radius,
+    twist_from_wheel_speeds,
+    wheel_speeds_from_twist,
+)
+from sim.kinematics.encoders import (
+    arcs_from_ticks,
+    ticks_from_arc_series,
+    ticks_from_arcs,
+    ticks_per_metre,
+)
 from sim.kinematics.mouse import (
     MouseEstimator,
     UnobservableRotation,
@@ -64,4 +77,5 @@ __all__ = [
     "wheel_arcs_to_arc",
     "wheel_increment",
     "wheel_speeds_from_twist",
+    "wrap_angle",
 ]

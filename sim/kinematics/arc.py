@@ -24,6 +24,13 @@ _SINC = (1.0, -1 / 6, 1 / 120, -1 / 5040, 1 / 362880, -1 / 39916800)
 _COS = (1.0, -1 / 2, 1 / 24, -1 / 720, 1 / 40320, -1 / 3628800, 1 / 479001600)
 
 
+def wrap_angle(angle: np.ndarray | float) -> np.ndarray:
+    """Angle(s) folded into (−π, π], for comparing headings (state keeps them continuous; thesis
+    erratum 17: atan2 − α leaves that interval)."""
+    angle = np.asarray(angle, dtype=np.float64)
+    return np.pi - np.mod(np.pi - angle, 2 * np.pi)
+
+
 def _horner(coefficients: tuple[float, ...], x: np.ndarray) -> np.ndarray:
     out = np.full_like(x, coefficients[-1])
     for c in coefficients[-2::-1]:

@@ -16,7 +16,7 @@ from sim.kinematics.arc import _COS, _SERIES_LIMIT, _SINC
 
 
 @numba.njit(cache=True, inline="always")
-def _half_angle(h: float) -> tuple[float, float]:
+def half_angle(h: float) -> tuple[float, float]:
     """(cos h, sin h / h), the series below the limit as in `arc.half_angle_terms`."""
     if abs(h) > _SERIES_LIMIT:
         return math.cos(h), math.sin(h) / h
@@ -28,6 +28,16 @@ def _half_angle(h: float) -> tuple[float, float]:
     for k in range(5, -1, -1):
         cos = cos * h2 + _COS[k]
     return cos, sinc
+
+
+@numba.njit(cache=True, inline="always")
+def exact_arc(s_left: float, s_right: float, track: float) -> tuple[float, float, float, float]:
+    """(chord, α, cos α/2, sin α/2) of the exact arc from wheel arcs (seed 002, eqs 1.3–1.15),
+    continuous through α → 0: the one compiled arc of the project (this kernel and the world's)."""
+    alpha = (s_right - s_left) / track
+    h = 0.5 * alpha
+    cos_h, sinc_h = half_angle(h)
+    return 0.5 * (s_left + s_right) * sinc_h, alpha, cos_h, sinc_h * h
 
 
 @numba.njit(cache=True, inline="always")
@@ -64,11 +74,7 @@ def step_batch(
     for i in range(pose.shape[0]):
         s_l, s_r = wheel_arcs[i, 0], wheel_arcs[i, 1]
         s = 0.5 * (s_l + s_r)
-        alpha = (s_r - s_l) / track
-        h = 0.5 * alpha
-        cos_h, sinc_h = _half_angle(h)
-        sin_h = sinc_h * h
-        chord = s * sinc_h
+        chord, alpha, cos_h, sin_h = exact_arc(s_l, s_r, track)
         c, sn = heading_dir[i, 0], heading_dir[i, 1]
         mid_c, mid_s = c * cos_h - sn * sin_h, sn * cos_h + c * sin_h
         pose[i, 0] += chord * mid_c

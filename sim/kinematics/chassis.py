@@ -22,6 +22,8 @@ from typing import Literal, Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from sim.kinematics.arc import wrap_angle
+
 Array = NDArray[np.float64]
 
 _RANK_TOL = 1e-9
@@ -41,12 +43,6 @@ class WheelType(IntEnum):
     """Omni/Swedish wheel with roller angle γ (2.52); γ = ±π/4 is a Mecanum wheel."""
     SPHERICAL = 4
     """Ball wheel (2.54, 2.55): passive, β follows the motion."""
-
-
-def wrap_angle(angle: ArrayLike) -> Array:
-    """Wrap to (−π, π] (thesis erratum 17: atan2 − α leaves that interval)."""
-    angle = np.asarray(angle, dtype=float)
-    return np.pi - np.mod(np.pi - angle, 2 * np.pi)
 
 
 @dataclass(frozen=True)

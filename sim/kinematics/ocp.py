@@ -18,6 +18,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from sim.kinematics.arc import wrap_angle
 from sim.kinematics.chassis import (
     Chassis,
     InfeasibleTwist,
@@ -28,7 +29,6 @@ from sim.kinematics.chassis import (
     is_feasible,
     nearest_feasible,
     twist_from_icr,
-    wrap_angle,
 )
 
 Array = NDArray[np.float64]

@@ -10,8 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sim.sensors import CNY70_MAX, cny70_value
-from sim.worldspec import WorldSpec
+from sim.world.sensors import CNY70_MAX, cny70_value
+from sim.world.spec import WorldSpec
 
 MAX_CELLS = 8_000_000
 
@@ -19,7 +19,7 @@ MAX_CELLS = 8_000_000
 @dataclass(frozen=True)
 class FloorMap:
     """CNY70 values (uint16) and a hole mask on a grid with `origin` (m) and `cell` size (m);
-    sampled by the world's compiled kernels (`sim.world_kernels`)."""
+    sampled by the world's compiled kernels (`sim.world.kernels`)."""
 
     value: np.ndarray
     hole: np.ndarray

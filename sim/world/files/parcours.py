@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from xml.parsers import expat
 
-from sim.worldspec import Colour, WorldFileError, WorldSpec
+from sim.world.spec import Colour, WorldFileError, WorldSpec
 
 from .grid import DEFAULT_CELL, DEFAULT_TILE_COLOURS, build_grid
 

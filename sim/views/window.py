@@ -16,13 +16,12 @@ from typing import Any
 
 import numpy as np
 
-from bots.commands import Twist
 from bots.behaviours.motion import Teleop
 from bots.spec import RobotSpec
-from sim.recording import Recorder
 from sim.run import RobotLog, RobotSetup, RunResult, run
+from sim.views.recording import Recorder
 from sim.world import IR_RAY_LENGTH, World
-from sim.worldspec import WorldSpec
+from sim.world.spec import WorldSpec
 
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 

@@ -41,10 +41,10 @@ from bots.commands import STOP, Command, Twist
 from bots.controller import Status
 from bots.odometry import EncoderOdometry, Geometry
 from bots.spec import RobotSpec
-from sim.readings import Readings
 from sim.run import RobotSetup, run
-from sim.worldfile import load_world
-from sim.worldspec import WorldSpec
+from sim.world.files import load_world
+from sim.world.readings import Readings
+from sim.world.spec import WorldSpec
 
 
 class OdometrySquare:

@@ -22,7 +22,7 @@ from collections.abc import Callable, Container, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from sim.worldspec import (
+from sim.world.spec import (
     BLACK,
     Colour,
     FloorLine,

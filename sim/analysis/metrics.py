@@ -13,12 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sim.kinematics import relative_increment
-
-
-def wrap_angle(angle: np.ndarray | float) -> np.ndarray:
-    """Angle(s) folded into [-pi, pi)."""
-    return (np.asarray(angle, dtype=np.float64) + np.pi) % (2 * np.pi) - np.pi
+from sim.kinematics import relative_increment, wrap_angle
 
 
 def path_lengths(poses: np.ndarray) -> np.ndarray:

@@ -14,7 +14,7 @@ import math
 from pathlib import Path
 
 import sim
-from sim.worldspec import WorldFileError, WorldSpec
+from sim.world.spec import WorldFileError, WorldSpec
 
 from .geometry import inside
 from .parcours import load_parcours

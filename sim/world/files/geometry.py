@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-from sim.worldspec import Point
+from sim.world.spec import Point
 
 
 def _cross(o: Point, a: Point, b: Point) -> float:

@@ -11,8 +11,8 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.export import read_tum
-from sim.worldspec import WorldSpec
+from sim.analysis.export import read_tum
+from sim.world.spec import WorldSpec
 
 Trajectory = tuple[np.ndarray, np.ndarray]
 """(times (T,), poses (T, 3))."""
@@ -139,7 +139,7 @@ def _save(fig, path: Path) -> Path:
 
 def report_run_dir(run_dir: str | Path) -> list[Path]:
     """Draw the figures of a run folder written by `ctsim run` into that folder."""
-    from sim.worldfile import load_world
+    from sim.world.files import load_world
 
     run_dir = Path(run_dir)
     summary_path = run_dir / "summary.json"

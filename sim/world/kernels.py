@@ -13,7 +13,7 @@ import math
 import numba
 import numpy as np
 
-from sim.kinematics.batch import _half_angle, quantize_one
+from sim.kinematics.batch import exact_arc, half_angle, quantize_one
 
 
 @numba.njit(cache=True)
@@ -57,11 +57,8 @@ def drive(
             continue
         s_l = wheel_speed[i, 0] * dt * real_radius[i, 0] * (1.0 + slip[i, 0])
         s_r = wheel_speed[i, 1] * dt * real_radius[i, 1] * (1.0 + slip[i, 1])
-        a = (s_r - s_l) / track[i]
-        h = 0.5 * a
-        cos_h, sinc_h = _half_angle(h)
-        chord = 0.5 * (s_l + s_r) * sinc_h
-        mid = pose[i, 2] + h
+        chord, a, _, _ = exact_arc(s_l, s_r, track[i])
+        mid = pose[i, 2] + 0.5 * a
         move[i, 0] = chord * math.cos(mid)
         move[i, 1] = chord * math.sin(mid)
         alpha[i] = a
@@ -112,7 +109,7 @@ def measure(
         bx, by = c0 * dx + s0 * dy, -s0 * dx + c0 * dy
         dth = after[i, 2] - before[i, 2]
         h = 0.5 * dth
-        cos_h, sinc_h = _half_angle(h)
+        cos_h, sinc_h = half_angle(h)
         sin_h = sinc_h * h
         tx, ty = (cos_h * bx + sin_h * by) / sinc_h, (-sin_h * bx + cos_h * by) / sinc_h
         fx, fy = tx - dth * mount[i, 1], ty + dth * mount[i, 0]

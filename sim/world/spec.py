@@ -1,12 +1,12 @@
 """A world as plain data: what a world file describes, before any physics is built from it.
 
-Everything is in metres and radians, world frame x right, y up. Loaders (`sim.worldfile`) produce a
+Everything is in metres and radians, world frame x right, y up. Loaders (`sim.world.files`) produce a
 `WorldSpec`; `sim.world` turns one into a pymunk space. Colours are RGB triples in 0..1.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 Point = tuple[float, float]

@@ -29,7 +29,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from sim.compare import wrap_angle
+from sim.kinematics import wrap_angle
 from sim.world import IR_RAY_LENGTH, World
 
 if TYPE_CHECKING:

@@ -15,7 +15,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any, NoReturn
 
-from sim.worldspec import (
+from sim.world.spec import (
     BLACK,
     DEFAULT_FLOOR,
     Colour,

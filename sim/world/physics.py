@@ -5,7 +5,7 @@ the start (`read_all`), the caller computes motor commands, then `step` runs the
 counts encoder ticks, turns wheel arcs into an exact-arc motion, cuts it where a wall or another
 body is in the way, lets pymunk resolve contacts, and measures the true motion (for the mouse)
 and ground contact (for holes). The per-robot arithmetic runs in compiled kernels over all robots
-at once (`sim.world_kernels`); pymunk does the geometry. Everything random draws from
+at once (`sim.world.kernels`); pymunk does the geometry. Everything random draws from
 per-sensor generators spawned from the world's seed.
 """
 
@@ -19,13 +19,14 @@ from pathlib import Path
 import numpy as np
 import pymunk
 
+import sim
 from bots.spec import RobotSpec
-from sim import world_kernels as kernels
-from sim.floor import FloorMap, rasterize
 from sim.kinematics import counts_per_metre
-from sim.readings import Readings
-from sim.sensors import CNY70_MAX, LDR_MAX, IRCurve, builtin_gp2d12, load_ir_curve
-from sim.worldspec import Start, WorldSpec
+from sim.world import kernels
+from sim.world.floor import FloorMap, rasterize
+from sim.world.readings import Readings
+from sim.world.sensors import CNY70_MAX, LDR_MAX, IRCurve, builtin_gp2d12, load_ir_curve
+from sim.world.spec import Start, WorldSpec
 
 SLOP = 0.0005
 """pymunk collision slop for a world in metres (its default 0.1 assumes pixels)."""
@@ -55,7 +56,7 @@ class CommandError(ValueError):
 
 def find_shared_curves() -> Path | None:
     """c't-Sim's characteristics folder beside the repository (`../shared/ctsim/characteristics`)."""
-    here = Path(__file__).resolve().parents[2] / "shared" / "ctsim" / "characteristics"
+    here = Path(sim.__file__).resolve().parents[2] / "shared" / "ctsim" / "characteristics"
     return here if here.is_dir() else None
 
 
