@@ -62,14 +62,13 @@ def maze_ctbot_recording(steps: int, repeats: int = 3) -> float:
     commands = np.array([[200.0, 180.0]])
 
     def record(count: int) -> float:
-        logs = [RobotLog(robot.name, CTBOT, "constant", {})]
+        logs = [RobotLog(robot.name, CTBOT, "constant", {}, [], count)]
         with tempfile.TemporaryDirectory() as folder:
             recorder = Recorder(Path(folder) / "bench.rrd")
             recorder.on_start(world, logs)
             start = time.perf_counter()
             for _ in range(count):
-                logs[0].readings.append(world.read_all()[0])
-                logs[0].truth.append(robot.pose)
+                logs[0].append(world.read_all()[0], robot.pose, [])
                 recorder.on_sample(world, logs)
                 world.step(commands)
             recorder.close()

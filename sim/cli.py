@@ -206,7 +206,7 @@ def cmd_play(args: argparse.Namespace) -> int:
     spec = load_robot_spec(args.robot)
     out = _out_dir(args.out, args.world, "teleop")
     result = play(world, spec, out / "run.rrd", seed=args.seed, dt=args.dt, fps=args.fps, frames=args.frames, scale=args.scale, live=args.live)
-    return finish(result, out, {"duration": result.times[-1] if result.times else 0.0, "until_goal": False}, report=not args.no_report)
+    return finish(result, out, {"duration": result.duration, "until_goal": False}, report=not args.no_report)
 
 
 def finish(result, out: Path, options: dict[str, Any], report: bool = True) -> int:
@@ -217,7 +217,7 @@ def finish(result, out: Path, options: dict[str, Any], report: bool = True) -> i
     written += write_trajectories(result, out, summary)
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
     written.append(out / "summary.json")
-    if report and result.times:
+    if report and len(result):
         from sim.views.figures import report_run_dir
 
         written += report_run_dir(out)
@@ -240,14 +240,14 @@ def summarize(result, options: dict[str, Any]) -> dict[str, Any]:
 
     from sim.analysis.metrics import compare_run, path_lengths
 
-    metrics = compare_run(result) if result.times else {}
+    metrics = compare_run(result) if len(result) else {}
     robots = [
         {
             "name": log.name,
             "robot": log.spec.name,
             "controller": log.controller_name,
             "params": log.params,
-            "distance": float(path_lengths(log.truth_array())[-1]) if log.truth else 0.0,
+            "distance": float(path_lengths(log.truth_array())[-1]) if len(log) else 0.0,
             "collisions": log.collisions,
             "fell": log.fell,
             "goal_time": log.goal_time,
@@ -261,7 +261,7 @@ def summarize(result, options: dict[str, Any]) -> dict[str, Any]:
         "seed": result.seed,
         "dt": result.dt,
         **options,
-        "time": result.times[-1] if result.times else 0.0,
+        "time": result.duration,
         "reason": result.reason,
         "error": result.error,
         "robots": robots,

@@ -37,49 +37,81 @@ class RobotSetup:
     estimators: list[Estimator] | None = None
 
 
-@dataclass
 class RobotLog:
     """Everything one robot did in a run, one row per sample (the start of every step, and the
-    end of the run): ground truth, each estimate, its readings and commands."""
+    end of the run): ground truth and each estimate as (T, 3) arrays, and the current sample's
+    readings. Rows live in arrays allocated once for the whole run (pages are only touched when
+    written), so a long run costs 24 bytes per pose and sample, not a Python object per step."""
 
-    name: str
-    spec: RobotSpec
-    controller_name: str
-    params: dict[str, str]
-    truth: list[np.ndarray] = field(default_factory=list)
-    estimates: dict[str, list[np.ndarray]] = field(default_factory=dict)
-    readings: list[Readings] = field(default_factory=list)
-    wheel_speeds: list[tuple[float, float]] = field(default_factory=list)
-    collisions: int = 0
-    fell: bool = False
-    goal_time: float | None = None
+    def __init__(self, name: str, spec: RobotSpec, controller_name: str, params: dict[str, str],
+                 estimators: list[str], capacity: int):
+        self.name, self.spec, self.controller_name, self.params = name, spec, controller_name, params
+        self.latest: Readings | None = None
+        """The readings of the current sample (what the controller gets this step)."""
+        self.collisions = 0
+        self.fell = False
+        self.goal_time: float | None = None
+        self._truth = np.empty((capacity, 3))
+        self._estimates = {label: np.empty((capacity, 3)) for label in estimators}
+        self._count = 0
+
+    def append(self, readings: Readings, truth: np.ndarray, estimates: list[np.ndarray]) -> None:
+        """Log one sample."""
+        n = self._count
+        self._truth[n] = truth
+        for column, pose in zip(self._estimates.values(), estimates):
+            column[n] = pose
+        self.latest = readings
+        self._count = n + 1
+
+    def truncate(self, count: int) -> None:
+        """Keep the first `count` samples."""
+        self._count = min(self._count, count)
+
+    def __len__(self) -> int:
+        return self._count
 
     def truth_array(self) -> np.ndarray:
-        """(T, 3) ground-truth poses."""
-        return np.array(self.truth).reshape(-1, 3)
+        """(T, 3) ground-truth poses (a view, no copy)."""
+        return self._truth[: self._count]
 
     def estimate_arrays(self) -> dict[str, np.ndarray]:
-        """Estimator name -> (T, 3) estimated poses."""
-        return {name: np.array(poses).reshape(-1, 3) for name, poses in self.estimates.items()}
+        """Estimator name -> (T, 3) estimated poses (views, no copies)."""
+        return {label: poses[: self._count] for label, poses in self._estimates.items()}
 
 
-@dataclass
 class RunResult:
-    """A finished (or stopped) run. `reason` is 'duration', 'goal', 'error' or 'interrupted';
-    `error` holds the one-line message of a failure."""
+    """A finished (or stopped) run. `reason` is 'duration', 'goal', 'error', 'interrupted' (Ctrl-C)
+    or 'terminated' (SIGTERM); `error` holds the one-line message of a failure."""
 
-    world: WorldSpec
-    seed: int
-    dt: float
-    times: list[float]
-    robots: list[RobotLog]
-    reason: str = "duration"
-    error: str | None = None
+    def __init__(self, world: WorldSpec, seed: int, dt: float, robots: list[RobotLog], capacity: int):
+        self.world, self.seed, self.dt, self.robots = world, seed, dt, robots
+        self.reason = "duration"
+        self.error: str | None = None
+        self._time = np.empty(capacity)
+        self._count = 0
 
     @property
     def time(self) -> np.ndarray:
-        """(T,) sample times (s)."""
-        return np.asarray(self.times)
+        """(T,) sample times (s), a view."""
+        return self._time[: self._count]
+
+    def append(self, time: float) -> None:
+        """Log one sample time."""
+        self._time[self._count] = time
+        self._count += 1
+
+    def truncate(self, count: int) -> None:
+        """Keep the first `count` samples."""
+        self._count = min(self._count, count)
+
+    def __len__(self) -> int:
+        return self._count
+
+    @property
+    def duration(self) -> float:
+        """Simulated seconds covered (0 before the first sample)."""
+        return float(self._time[self._count - 1]) if self._count else 0.0
 
 
 class Observer(Protocol):
@@ -92,6 +124,10 @@ class Observer(Protocol):
 
 class RunError(RuntimeError):
     """A run that could not start (bad setup); the message is for the user."""
+
+
+class Terminated(KeyboardInterrupt):
+    """Raised by a SIGTERM handler (a job scheduler, `timeout`): the run ends as on Ctrl-C."""
 
 
 def _notify(observers, method: str, *args) -> None:
@@ -125,6 +161,7 @@ def run(
     if not (math.isfinite(duration) and duration >= 0):
         raise RunError(f"duration must be a non-negative number of seconds, got {duration!r}")
     world = World(world_spec, dt=dt, seed=seed)
+    steps = int(round(duration / dt))
     logs, controllers, estimators = [], [], []
     for setup in robots:
         robot = world.add_robot(setup.spec, setup.start)
@@ -133,11 +170,11 @@ def run(
         for estimator in chosen:
             estimator.reset(setup.spec, pose)
         reset(setup.controller, setup.spec)
-        logs.append(RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params)))
+        names = [estimator.name for estimator in chosen]
+        logs.append(RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params), names, steps + 1))
         controllers.append(setup.controller)
         estimators.append(chosen)
-    result = RunResult(world_spec, seed, dt, [], logs)
-    steps = int(round(duration / dt))
+    result = RunResult(world_spec, seed, dt, logs, steps + 1)
     commands = np.zeros((len(robots), 2))
     _notify(observers, "on_start", world, logs)
     try:
@@ -150,9 +187,8 @@ def run(
             if step == steps:
                 break
             for i, (robot, log, controller) in enumerate(zip(world.robots, logs, controllers)):
-                readings = log.readings[-1]
                 try:
-                    command = controller.step(world.time, readings)
+                    command = controller.step(world.time, log.latest)
                     left, right = wheel_speeds_for(command, robot.spec)
                 except BadCommand as err:
                     raise _Stop(f"controller {log.controller_name!r} of {log.name} returned a bad command at step {step} (t = {world.time:.2f} s): {err}") from None
@@ -162,13 +198,13 @@ def run(
                         f"controller {log.controller_name!r} of {log.name} raised {type(err).__name__}: {err} "
                         f"at step {step} (t = {world.time:.2f} s){where}"
                     ) from None
-                log.wheel_speeds.append((left, right))
                 commands[i] = motor_commands(left, right, robot.spec)
             world.step(commands)
     except _Stop as stop:
         result.reason, result.error = "error", str(stop)
-    except KeyboardInterrupt:
-        result.reason, result.error = "interrupted", f"interrupted at t = {world.time:.2f} s"
+    except KeyboardInterrupt as stop:
+        result.reason = "terminated" if isinstance(stop, Terminated) else "interrupted"
+        result.error = f"{result.reason} at t = {world.time:.2f} s"
     finally:
         _complete_samples(result)
         for robot, log in zip(world.robots, logs):
@@ -189,21 +225,18 @@ def _last_frame(err: BaseException) -> str:
 def _complete_samples(result: RunResult) -> None:
     """Drop a sample that Ctrl-C cut in half (its time logged, some robot's poses not yet), so
     that every trajectory has one pose per time."""
-    lists = [result.times] + [x for log in result.robots for x in (log.truth, log.readings, *log.estimates.values())]
-    n = min(len(x) for x in lists)
-    for x in lists:
-        del x[n:]
+    n = min([len(result)] + [len(log) for log in result.robots])
+    for part in (result, *result.robots):
+        part.truncate(n)
 
 
 def _sample(world: World, logs: list[RobotLog], estimators: list[list[Estimator]], result: RunResult) -> None:
     """Read every robot's sensors at the current state and log truth and estimates."""
-    result.times.append(world.time)
+    result.append(world.time)
     for robot, log, chosen, readings in zip(world.robots, logs, estimators, world.read_all()):
         pose = robot.pose
-        log.readings.append(readings)
-        log.truth.append(pose)
         for estimator in chosen:
             estimator.update(readings)
-            log.estimates.setdefault(estimator.name, []).append(estimator.pose.copy())
+        log.append(readings, pose, [estimator.pose for estimator in chosen])
         if log.goal_time is None and _in_goal(world.spec, pose):
             log.goal_time = world.time

@@ -35,6 +35,8 @@ from sim.run import RobotSetup, run
 from sim.world.files import load_world
 from sim.world.spec import WorldSpec
 
+from observers import KeepReadings
+
 OPEN_FLOOR = WorldSpec("open floor", (-100.0, -100.0, 100.0, 100.0))
 IDEAL = CTBOT.with_changes(encoders={"ticks_per_rev": 10**9}, mouse={"dpi": 1e9})
 """The c't-Bot with encoders and mouse so fine that quantisation is below 1e-9 m."""
@@ -130,11 +132,12 @@ def test_pushing_against_a_wall_fools_the_encoders_not_the_mouse():
     """Straight at 0.2 m/s into the wall 1.43 m ahead, then 2.85 s of pushing: the encoders count
     every turn of the wheels, so their error is the rim travel beyond the true travel; the mouse sees
     the floor stand still; the fused estimate drops the slip beyond its quantisation band."""
-    result = run(load_world("empty"), [RobotSetup(CTBOT, FunctionController(lambda t, r: Twist(0.2, 0.0)), estimators=every_estimator())], 10.0)
+    keep = KeepReadings()
+    result = run(load_world("empty"), [RobotSetup(CTBOT, FunctionController(lambda t, r: Twist(0.2, 0.0)), estimators=every_estimator())], 10.0, observers=[keep])
     log = result.robots[0]
     truth = log.truth_array()
     travel = truth[-1, 0] - truth[0, 0]
-    rim = TICK * np.sum([r.encoder_ticks for r in log.readings], axis=0).mean()
+    rim = TICK * np.sum([r.encoder_ticks for r in keep.readings], axis=0).mean()
     assert rim - travel > 0.5
     assert position_error(log, "encoders")[-1] == pytest.approx(rim - travel, abs=TICK)
     assert position_error(log, "mouse").max() < 0.002
@@ -144,10 +147,10 @@ def test_pushing_against_a_wall_fools_the_encoders_not_the_mouse():
     assert position_error(log, "fused").max() < 0.005
 
 
-def replay(estimator, robot, log):  # noqa: ANN001
+def replay(estimator, robot, log, readings_seen):  # noqa: ANN001
     """Feed a finished run's readings to an estimator started at the true start pose."""
     estimator.reset(robot, log.truth_array()[0])
-    for readings in log.readings:
+    for readings in readings_seen:
         estimator.update(readings)
     return estimator.pose
 
@@ -157,10 +160,11 @@ def test_believed_geometry_overrides_the_nominal_one():
     geometry is exact, the nominal one is not."""
     robot = IDEAL.with_changes(encoders={"diameter_error": (0.0, 0.02), "track_error": 0.03})
     real = Geometry((robot.wheel_diameter, robot.wheel_diameter * 1.02), robot.track_width * 1.03)
-    log = run(OPEN_FLOOR, [RobotSetup(robot, FunctionController(curves), start=(0.0, 0.0, 0.0), estimators=[])], 10.0).robots[0]
+    keep = KeepReadings()
+    log = run(OPEN_FLOOR, [RobotSetup(robot, FunctionController(curves), start=(0.0, 0.0, 0.0), estimators=[])], 10.0, observers=[keep]).robots[0]
     end = log.truth_array()[-1]
-    assert np.abs(replay(EncoderOdometry(real), robot, log) - end).max() < 1e-6
-    assert np.hypot(*(replay(EncoderOdometry(), robot, log) - end)[:2]) > 0.01
+    assert np.abs(replay(EncoderOdometry(real), robot, log, keep.readings) - end).max() < 1e-6
+    assert np.hypot(*(replay(EncoderOdometry(), robot, log, keep.readings) - end)[:2]) > 0.01
 
 
 def test_blend_is_the_firmware_weighted_average_of_encoders_and_mouse(curves_run):

@@ -13,6 +13,8 @@ from sim.run import RobotSetup, run
 from sim.views.recording import CHUNK, Recorder
 from sim.world.files import load_world
 
+from observers import KeepReadings
+
 
 def _columns(path) -> dict[str, dict[str, list]]:
     """Entity path -> column name -> values, temporal chunks concatenated in time order."""
@@ -40,16 +42,17 @@ def recorded(tmp_path_factory):
     path = tmp_path_factory.mktemp("rec") / "run.rrd"
     drive = FunctionController(lambda t, r: WheelSpeeds(0.12, 0.15))
     # more samples than one chunk, so that a chunk boundary is crossed
-    result = run(load_world("maze"), [RobotSetup(CTBOT, drive)], duration=(CHUNK + 234) * 0.01, observers=[Recorder(path)])
-    return result, _columns(path)
+    keep = KeepReadings()
+    result = run(load_world("maze"), [RobotSetup(CTBOT, drive)], duration=(CHUNK + 234) * 0.01, observers=[Recorder(path), keep])
+    return result, _columns(path), keep.readings
 
 
 def test_truth_trail_has_every_sample(recorded):
-    result, columns = recorded
+    result, columns, _ = recorded
     log = result.robots[0]
     truth = log.truth_array()
     strips = columns[f"/world/{log.name}/trail/truth"]["LineStrips2D:strips"]
-    assert len(strips) == len(result.times) == len(truth)
+    assert len(strips) == len(result.time) == len(truth)
     ends = np.array([row[0][1] for row in strips])
     np.testing.assert_allclose(ends, truth[:, :2], atol=1e-6)  # stored as float32
     starts = np.array([row[0][0] for row in strips])
@@ -59,10 +62,10 @@ def test_truth_trail_has_every_sample(recorded):
 
 
 def test_every_estimate_and_its_errors(recorded):
-    result, columns = recorded
+    result, columns, _ = recorded
     log = result.robots[0]
     truth = log.truth_array()
-    assert log.estimates, "the run loop should have estimators"
+    assert log.estimate_arrays(), "the run loop should have estimators"
     for name, poses in log.estimate_arrays().items():
         ghost = np.array([row[0] for row in columns[f"/world/{log.name}/ghost/{name}"]["Points2D:positions"]])
         np.testing.assert_allclose(ghost, poses[:, :2], atol=1e-6)
@@ -73,15 +76,15 @@ def test_every_estimate_and_its_errors(recorded):
 
 
 def test_sensor_series(recorded):
-    result, columns = recorded
+    result, columns, readings = recorded
     log = result.robots[0]
     for field, width in (("ir_raw", 2), ("encoder_ticks", 2), ("mouse_counts", 2), ("line", 2), ("light", 2)):
         rows = columns[f"/sensors/{log.name}/{field}"]["Scalars:scalars"]
-        expected = np.array([getattr(r, field) for r in log.readings], dtype=float)
-        assert np.array(rows).shape == (len(result.times), width)
+        expected = np.array([getattr(r, field) for r in readings], dtype=float)
+        assert np.array(rows).shape == (len(result.time), width)
         np.testing.assert_array_equal(np.array(rows), expected)
     rays = columns[f"/world/{log.name}/rays"]["LineStrips2D:strips"]
-    assert len(rays) == len(result.times) and all(len(row) == len(CTBOT.ir) for row in rays)
+    assert len(rays) == len(result.time) and all(len(row) == len(CTBOT.ir) for row in rays)
 
 
 def test_interrupted_run_is_still_readable(tmp_path):
@@ -96,4 +99,4 @@ def test_interrupted_run_is_still_readable(tmp_path):
     result = run(load_world("maze"), [RobotSetup(CTBOT, FunctionController(drive))], duration=5.0, observers=[Recorder(path)])
     assert result.reason == "interrupted"
     body = _columns(path)[f"/world/{result.robots[0].name}/body"]
-    assert len(body["Points2D:positions"]) == len(result.times)
+    assert len(body["Points2D:positions"]) == len(result.time)

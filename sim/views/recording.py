@@ -118,10 +118,10 @@ class Recorder:
         for log, track in zip(logs, self._tracks):
             n = track.count
             track.time[n] = world.time
-            track.poses[n, 0] = log.truth[-1]
-            for k, name in enumerate(track.estimates, 1):
-                track.poses[n, k] = log.estimates[name][-1]
-            readings = log.readings[-1]
+            track.poses[n, 0] = log.truth_array()[-1]
+            for k, poses in enumerate(log.estimate_arrays().values(), 1):
+                track.poses[n, k] = poses[-1]
+            readings = log.latest
             track.sensors[n] = np.concatenate([getattr(readings, f) for f in SENSORS])
             track.ray[n] = readings.ir_distance
             track.count = n + 1
@@ -149,10 +149,10 @@ class Recorder:
 
     def _track(self, log: RobotLog) -> _Track:
         spec = log.spec
-        first = log.readings[-1]
+        first = log.latest
         return _Track(
             name=log.name,
-            estimates=list(log.estimates),
+            estimates=list(log.estimate_arrays()),
             ir=np.array([(*s.position, s.direction) for s in spec.ir]).reshape(-1, 3),
             body_radius=spec.body_radius,
             widths=[len(getattr(first, f)) for f in SENSORS],

@@ -122,7 +122,7 @@ class Window:
         text = ["arrows/WASD drive, space stop, Esc quit", f"t = {world.time:.2f} s"]
         for robot, log in zip(world.robots, logs):
             pose, r = robot.pose, robot.spec.body_radius
-            for (name, poses), colour in zip(log.estimates.items(), ESTIMATE_COLOURS):
+            for (name, poses), colour in zip(log.estimate_arrays().items(), ESTIMATE_COLOURS):
                 ghost = poses[-1]
                 pygame.draw.circle(self.screen, colour, self.px(*ghost[:2]), int(r * self.scale), 2)
                 tip = ghost[:2] + r * np.array([math.cos(ghost[2]), math.sin(ghost[2])])
@@ -140,7 +140,7 @@ class Window:
             pygame.draw.circle(self.screen, (40, 150, 70), centre, int(r * self.scale))
             tip = pose[:2] + r * np.array([math.cos(pose[2]), math.sin(pose[2])])
             pygame.draw.line(self.screen, (255, 255, 255), centre, self.px(*tip), 3)
-            readings = log.readings[-1]
+            readings = log.latest
             text += [
                 f"{log.name}: x {pose[0]:.3f}  y {pose[1]:.3f}  th {math.degrees(pose[2]):.1f} deg",
                 f"IR raw {readings.ir_raw.tolist()}  d {np.round(readings.ir_distance, 3).tolist()}",
