@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import dataclass, field, fields, is_dataclass, replace
+from dataclasses import MISSING, dataclass, field, fields, is_dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -164,6 +164,9 @@ def _build(cls: type, data: dict, where: str) -> Any:
     unknown = sorted(set(data) - known)
     if unknown:
         raise ValueError(f"{where}: unknown key(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
+    missing = [f.name for f in fields(cls) if f.default is MISSING and f.default_factory is MISSING and f.name not in data]
+    if missing:
+        raise ValueError(f"{where}: missing key(s) {', '.join(missing)}")
     values = {k: tuple(v) if isinstance(v, list) else v for k, v in data.items()}
     try:
         return cls(**values)
@@ -188,6 +191,8 @@ def load_robot(path: str | Path) -> RobotSpec:
     path = Path(path)
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (OSError, tomllib.TOMLDecodeError) as err:
+    except OSError as err:
+        raise ValueError(f"{path}: {err.strerror or err}") from None
+    except tomllib.TOMLDecodeError as err:
         raise ValueError(f"{path}: {err}") from None
     return robot_from_dict(data, str(path))

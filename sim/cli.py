@@ -1,8 +1,8 @@
 """The `ctsim` command line: run, play, report, worlds, check, controllers.
 
 User mistakes (bad world files, robot files, controller names or parameters, unwritable folders)
-end in one line `ctsim: error: ...` and exit code 2, never a traceback; a controller that fails
-mid-run ends the run with exit code 1 after everything up to then has been written.
+end in one line `ctsim: error: ...` and exit status 2, never a traceback; a run that fails mid-way
+exits 1 after everything up to then has been written (EXIT_STATUSES lists every status).
 """
 
 from __future__ import annotations
@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import signal
 import sys
 import time
 from collections.abc import Callable
@@ -18,13 +19,22 @@ from typing import Any
 
 import sim
 from bots.controller import ControllerError
-from sim.run import RunError
+from bots.noise import NOISE_PRESETS, parse_value
+from sim.run import RunError, Terminated
 from sim.world.spec import WorldFileError
 
 DEFAULT_WORLD = "maze"
 DEFAULT_CONTROLLER = "solve_maze"
-"""The default run: a c't-Bot solving the shipped maze."""
-EXIT_USER, EXIT_FAILED, EXIT_INTERRUPTED = 2, 1, 130
+DEFAULT_DURATION = 300.0
+"""The default run: a c't-Bot solving the shipped maze, until it reaches the goal (at most 300 s)."""
+EXIT_FAILED, EXIT_USER, EXIT_INTERRUPTED, EXIT_TERMINATED = 1, 2, 130, 143
+EXIT_STATUSES = f"""exit status:
+  0    success
+  {EXIT_FAILED}    a run that started failed (a controller raised or returned a bad command); what was
+       recorded up to then is written
+  {EXIT_USER}    a user error found before anything ran (bad option, world, robot or controller)
+  {EXIT_INTERRUPTED}  interrupted by Ctrl-C; partial results written
+  {EXIT_TERMINATED}  terminated by SIGTERM (a job scheduler, `timeout`); partial results written"""
 
 
 class UsageError(Exception):
@@ -35,7 +45,13 @@ class UsageError(Exception):
 
 
 class Parser(argparse.ArgumentParser):
-    """Bad options get one line, like every other user error (argparse prints the usage too)."""
+    """Bad options get one line, like every other user error (argparse prints the usage too);
+    every --help ends with the exit statuses."""
+
+    def __init__(self, *args: Any, **kwargs: Any):
+        kwargs.setdefault("epilog", EXIT_STATUSES)
+        kwargs.setdefault("formatter_class", argparse.RawDescriptionHelpFormatter)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str):
         self.exit(EXIT_USER, f"ctsim: error: {message} (see `{self.prog} --help`)\n")
@@ -46,6 +62,16 @@ def _param(text: str) -> tuple[str, str]:
     if not sep or not key:
         raise argparse.ArgumentTypeError(f"expected KEY=VALUE, got {text!r}")
     return key.strip(), value.strip()
+
+
+def _seed(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a seed of 0 or more, got {value}")
+    return value
 
 
 def _positive(kind: Callable[[str], Any]) -> Callable[[str], Any]:
@@ -64,7 +90,9 @@ def _positive(kind: Callable[[str], Any]) -> Callable[[str], Any]:
 def _add_robot_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("world", nargs="?", default=DEFAULT_WORLD, help=f"a shipped world's name (see `ctsim worlds`) or a .toml/.xml world file (default: {DEFAULT_WORLD})")
     parser.add_argument("--robot", default="ctbot", metavar="NAME|FILE.toml", help="robot description: a built-in name (ctbot) or a TOML robot file (default: ctbot)")
-    parser.add_argument("--seed", type=int, default=0, help="seed of every random number in the run; same seed, same run (default: 0)")
+    parser.add_argument("--seed", type=_seed, default=0, help="seed of every random number in the run (sensor noise); same seed, same run (default: 0)")
+    parser.add_argument("--noise", choices=NOISE_PRESETS, default="realistic", help="sensor and odometry noise of the robot: none, realistic (the c't-Bot's figures, see bots/noise.py) or harsh (default: realistic)")
+    parser.add_argument("--robot-set", action="append", type=_param, default=[], metavar="SECTION.FIELD=VALUE", help="override one field of the robot description after --noise, repeatable: encoders.slip_std=0.02, mouse.dpi=415, ir.noise_std=0")
     parser.add_argument("--dt", type=_positive(float), default=0.01, metavar="SECONDS", help="simulation step (default: 0.01)")
     parser.add_argument("--out", type=Path, metavar="DIR", help="folder for run.rrd, summary.json, TUM/CSV trajectories and figures (default: runs/<world>-<controller>-<time>)")
     parser.add_argument("--live", action="store_true", help="also stream the recording to a rerun viewer it starts")
@@ -81,14 +109,14 @@ def build_parser() -> argparse.ArgumentParser:
         help="run a world headless and write a recording, trajectories and figures",
         description="Run robots in a world for a duration (or until a goal), headless, and write run.rrd (rerun), "
         "summary.json, one TUM and CSV file per trajectory (truth and each odometry estimate) and PNG figures. "
-        "With no arguments: a c't-Bot solving the shipped maze for 60 s.",
+        "With no arguments: a c't-Bot solving the shipped maze until it reaches the goal.",
     )
     _add_robot_options(run)
     run.add_argument("--controller", action="append", metavar="NAME|FILE.py[:NAME]", help="controller: a registered name (see `ctsim controllers`) or a Python file; repeat for several robots (default: solve_maze)")
     run.add_argument("--param", action="append", type=_param, default=[], metavar="KEY=VALUE", help="controller parameter, repeatable; applies to every robot's controller")
     run.add_argument("--robots", type=int, metavar="N", help="number of robots (default: one per --controller); a single controller is used by all")
-    run.add_argument("--duration", type=_positive(float), default=60.0, metavar="SECONDS", help="simulated time to run (default: 60)")
-    run.add_argument("--until-goal", action="store_true", help="stop as soon as a robot reaches a goal area")
+    run.add_argument("--duration", type=_positive(float), default=DEFAULT_DURATION, metavar="SECONDS", help=f"simulated time to run at most (default: {DEFAULT_DURATION:g})")
+    run.add_argument("--until-goal", action=argparse.BooleanOptionalAction, default=None, help="stop as soon as a robot reaches a goal area (default: on in worlds that have a goal)")
     run.set_defaults(handler=cmd_run)
 
     play = commands.add_parser(
@@ -122,16 +150,25 @@ def build_parser() -> argparse.ArgumentParser:
 # --- helpers --------------------------------------------------------------------------------
 
 
-def load_robot_spec(name: str):
-    """A built-in robot by name or a TOML robot file."""
+def load_robot_spec(args: argparse.Namespace):
+    """The robot of --robot (a built-in name or a TOML robot file) with --noise and --robot-set."""
     from bots.ctbot import ROBOTS
+    from bots.noise import with_noise, with_settings
     from bots.spec import load_robot
 
-    if name in ROBOTS:
-        return ROBOTS[name]
-    if name.endswith(".toml") or Path(name).exists():
-        return load_robot(name)
-    raise UsageError(f"unknown robot {name!r} (built-in: {', '.join(ROBOTS)}; or a .toml file)")
+    if args.robot in ROBOTS:
+        robot = ROBOTS[args.robot]
+    elif args.robot.endswith(".toml") or Path(args.robot).exists():
+        robot = load_robot(args.robot)
+    else:
+        raise UsageError(f"unknown robot {args.robot!r} (built-in: {', '.join(ROBOTS)}; or a .toml file)")
+    robot = with_noise(robot, args.noise)
+    return with_settings(robot, {key: parse_value(value) for key, value in args.robot_set})
+
+
+RUN_FILES = ("run.rrd", "summary.json", "*.tum", "*.csv", "*.png")
+"""What a run writes into its folder: removed first when a folder is reused, so that nothing
+stale (a robot or figure of an earlier run) is left beside the new results."""
 
 
 def _out_dir(out: Path | None, world: str, controller: str) -> Path:
@@ -139,7 +176,26 @@ def _out_dir(out: Path | None, world: str, controller: str) -> Path:
         stamp = time.strftime("%Y%m%d-%H%M%S")
         out = Path("runs") / f"{Path(world).stem}-{Path(controller.split(':')[0]).stem}-{stamp}"
     out.mkdir(parents=True, exist_ok=True)
+    if (out / "summary.json").is_file():
+        for pattern in RUN_FILES:
+            for stale in out.glob(pattern):
+                stale.unlink()
     return out
+
+
+def _terminate(signum: int, frame: Any) -> None:
+    raise Terminated
+
+
+def _json_safe(value: Any) -> Any:
+    """Plain JSON: NaN and infinities as null (strict parsers reject them)."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _json_safe(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_json_safe(v) for v in value]
+    return value
 
 
 class Progress:
@@ -187,35 +243,59 @@ def _setups(args: argparse.Namespace, spec) -> list:
 def cmd_run(args: argparse.Namespace) -> int:
     from sim.run import run
     from sim.views.recording import Recorder
-    from sim.world.files import load_world
+    from sim.world.files import load_world, world_warnings
 
     world = load_world(args.world)
-    spec = load_robot_spec(args.robot)
+    spec = load_robot_spec(args)
     setups = _setups(args, spec)
+    for warning in world_warnings(world):
+        print(f"ctsim: warning: {args.world}: {warning}", file=sys.stderr)
+    until_goal = bool(world.goals) if args.until_goal is None else args.until_goal
     out = _out_dir(args.out, args.world, setups[0].controller_name)
     recorder = Recorder(out / "run.rrd", live=args.live)
-    result = run(world, setups, args.duration, dt=args.dt, seed=args.seed, until_goal=args.until_goal, observers=(recorder, Progress(args.duration, args.dt)))
-    return finish(result, out, {"duration": args.duration, "until_goal": args.until_goal}, report=not args.no_report)
+    previous = signal.signal(signal.SIGTERM, _terminate)
+    try:
+        result = run(world, setups, args.duration, dt=args.dt, seed=args.seed, until_goal=until_goal, observers=(recorder, Progress(args.duration, args.dt)))
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+    return finish(result, out, {"duration": args.duration, "until_goal": until_goal, **_robot_options(args)}, report=not args.no_report)
+
+
+def _robot_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The robot options of a run for its summary."""
+    return {"robot": args.robot, "noise": args.noise, "robot_set": {key: parse_value(value) for key, value in args.robot_set}}
+
+
+def _has_display() -> bool:
+    """Whether a window would be seen: a display server and no headless SDL driver."""
+    import os
+
+    if os.environ.get("SDL_VIDEODRIVER", "") in ("dummy", "offscreen"):
+        return False
+    return bool(os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")) or sys.platform in ("win32", "darwin")
 
 
 def cmd_play(args: argparse.Namespace) -> int:
     from sim.views.window import play
     from sim.world.files import load_world
 
+    if args.frames is None and not _has_display():
+        raise UsageError("play needs a display to show its window (none found: no DISPLAY, or SDL_VIDEODRIVER is headless); "
+                         "for a scripted session without one give --frames N, or use `ctsim run` to simulate headless")
     world = load_world(args.world)
-    spec = load_robot_spec(args.robot)
+    spec = load_robot_spec(args)
     out = _out_dir(args.out, args.world, "teleop")
     result = play(world, spec, out / "run.rrd", seed=args.seed, dt=args.dt, fps=args.fps, frames=args.frames, scale=args.scale, live=args.live)
-    return finish(result, out, {"duration": result.duration, "until_goal": False}, report=not args.no_report)
+    return finish(result, out, {"duration": result.duration, "until_goal": False, **_robot_options(args)}, report=not args.no_report)
 
 
 def finish(result, out: Path, options: dict[str, Any], report: bool = True) -> int:
     """Write summary.json, TUM/CSV trajectories and figures of a run; print the table and the
-    files; the exit code (1 when a controller failed, 130 when interrupted)."""
+    files; the exit status (EXIT_STATUSES)."""
     written = [out / "run.rrd"]
     summary = summarize(result, options)
     written += write_trajectories(result, out, summary)
-    (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
+    (out / "summary.json").write_text(json.dumps(_json_safe(summary), indent=2, allow_nan=False) + "\n", encoding="utf-8")
     written.append(out / "summary.json")
     if report and len(result):
         from sim.views.figures import report_run_dir
@@ -228,9 +308,9 @@ def finish(result, out: Path, options: dict[str, Any], report: bool = True) -> i
     if result.reason == "error":
         print(f"ctsim: run stopped: {result.error}", file=sys.stderr)
         return EXIT_FAILED
-    if result.reason == "interrupted":
+    if result.reason in ("interrupted", "terminated"):
         print(f"ctsim: {result.error}; partial results written to {out}", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        return EXIT_INTERRUPTED if result.reason == "interrupted" else EXIT_TERMINATED
     return 0
 
 
@@ -246,7 +326,7 @@ def summarize(result, options: dict[str, Any]) -> dict[str, Any]:
             "name": log.name,
             "robot": log.spec.name,
             "controller": log.controller_name,
-            "params": log.params,
+            "params": {key: parse_value(value) for key, value in log.params.items()},
             "distance": float(path_lengths(log.truth_array())[-1]) if len(log) else 0.0,
             "collisions": log.collisions,
             "fell": log.fell,
@@ -290,7 +370,14 @@ def write_trajectories(result, out: Path, summary: dict[str, Any]) -> list[Path]
 
 def table(summary: dict[str, Any]) -> str:
     """The short end-of-run table: per robot distance and collisions, per estimate its errors."""
-    lines = [f"{summary['world']['name']}, seed {summary['seed']}, {summary['time']:.2f} s simulated ({summary['reason']})"]
+    reached = [robot["name"] for robot in summary["robots"] if robot["goal_time"] is not None]
+    outcome = {"goal": f"goal reached by {', '.join(reached)}", "duration": "time limit reached"}.get(summary["reason"], summary["reason"])
+    if summary["reason"] == "duration" and reached:
+        outcome = f"goal reached by {', '.join(reached)}, ran on to the time limit"
+    lines = [
+        f"{summary['world']['name']}, seed {summary['seed']}, noise {summary.get('noise', 'none')}, "
+        f"{summary['time']:.2f} s simulated: {outcome}"
+    ]
     header = f"{'robot':<12}{'estimate':<12}{'distance m':>11}{'collisions':>11}{'final err m':>12}{'ATE RMS m':>11}{'final hdg °':>12}"
     lines.append(header)
     for robot in summary["robots"]:
@@ -326,14 +413,10 @@ def cmd_worlds(args: argparse.Namespace) -> int:
 
 
 def cmd_check(args: argparse.Namespace) -> int:
-    from sim.world.files import check_world, load_world
+    from sim.world.files import load_world, world_warnings
 
-    try:
-        warnings = check_world(args.world)
-    except WorldFileError as err:
-        print(err)
-        return EXIT_FAILED
     world = load_world(args.world)
+    warnings = world_warnings(world)
     xmin, ymin, xmax, ymax = world.bounds
     counts = ", ".join(f"{len(getattr(world, k))} {k}" for k in ("walls", "floor", "lines", "holes", "lights", "starts", "goals", "movables"))
     for warning in warnings:
@@ -344,6 +427,7 @@ def cmd_check(args: argparse.Namespace) -> int:
 
 def cmd_controllers(args: argparse.Namespace) -> int:
     import inspect
+    import textwrap
 
     import bots.behaviours  # noqa: F401  (registers the shipped controllers)
     from bots.controller import REGISTRY, parameters
@@ -354,8 +438,8 @@ def cmd_controllers(args: argparse.Namespace) -> int:
     for name in sorted(REGISTRY):
         factory = REGISTRY[name]
         shown = [p.name if p.default is inspect.Parameter.empty else f"{p.name}={p.default!r}" for p in parameters(factory).values()]
-        doc = (inspect.getdoc(factory) or "").split("\n")[0]
-        print(f"{name:<16}{doc}")
+        doc = " ".join((inspect.getdoc(factory) or "").split("\n\n")[0].split())
+        print(textwrap.fill(doc, width=100, initial_indent=f"{name:<16}", subsequent_indent=" " * 16))
         if shown:
             print(f"{'':<16}parameters: {', '.join(shown)}")
     return 0
@@ -370,7 +454,14 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_USER
     try:
         return args.handler(args)
-    except (WorldFileError, ControllerError, UsageError, RunError, ValueError, OSError) as err:
+    except BrokenPipeError:  # `ctsim controllers | head`: the reader has all it wanted
+        sys.stdout = None
+        return 0
+    except OSError as err:  # a file or folder the user named: no errno, no repr
+        where = f"{err.filename}: " if err.filename else ""
+        print(f"ctsim: error: {where}{err.strerror or err}", file=sys.stderr)
+        return EXIT_USER
+    except (WorldFileError, ControllerError, UsageError, RunError, ValueError) as err:
         print(f"ctsim: error: {err}", file=sys.stderr)
         return EXIT_USER
     except KeyboardInterrupt:

@@ -20,7 +20,7 @@ from .geometry import inside
 from .parcours import load_parcours
 from .toml_format import load_toml
 
-__all__ = ["WorldFileError", "check_world", "load_world", "shipped_worlds", "worlds_dir"]
+__all__ = ["WorldFileError", "check_world", "load_world", "shipped_worlds", "world_warnings", "worlds_dir"]
 
 _LOADERS = {".toml": load_toml, ".xml": load_parcours}
 ROBOT_RADIUS = 0.06  # m, half a c't-Bot's width: a start closer than this to a wall touches it
@@ -63,10 +63,14 @@ def load_world(source: str | Path) -> WorldSpec:
 
 
 def check_world(source: str | Path) -> list[str]:
-    """Load a world and return warnings from cheap geometric checks (starts in or against walls,
-    over holes or outside the world; clashing start slots; goals and cans inside walls).
-    Errors raise WorldFileError as in `load_world`."""
-    world = load_world(source)
+    """Load a world and return its warnings (`world_warnings`); errors raise WorldFileError as in
+    `load_world`."""
+    return world_warnings(load_world(source))
+
+
+def world_warnings(world: WorldSpec) -> list[str]:
+    """Warnings from cheap geometric checks: starts in or against walls, over holes or outside the
+    world; clashing start slots; goals and cans inside walls."""
     warnings = []
     solids = [w.vertices for w in world.walls]
     holes = [h.vertices for h in world.holes]
