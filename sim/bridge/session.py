@@ -132,3 +132,4 @@ class BridgeObserver:
     def on_end(self, result: RunResult) -> None:
         self.bridge.close()
 
+
