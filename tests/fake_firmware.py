@@ -131,15 +131,20 @@ class FakeFirmware:
         n = len(self.blocks) - 1
         if self.misbehave and self.misbehave[0] == n:
             what = self.misbehave[1]
-            if what == "stall":
-                time.sleep(30)
+            if what == "stall":  # keep reading, never answer, until the sim hangs up
+                sock.settimeout(30)
+                while sock.recv(65536):
+                    pass
                 return False
             if what == "vanish":
                 return False
             if what == "garbage":
                 sock.sendall(b"\x00garbage-not-a-packet" * 3)
             if what == "flood":
-                sock.sendall(b"x" * (2 << 20))
+                try:
+                    sock.sendall(b"x" * (2 << 20))
+                except OSError:
+                    pass  # the sim stopped reading and hung up: what a flood gets
                 return False
         block = {cmd: (dl, dr, payload) for cmd, sub, dl, dr, to, payload in self.blocks[-1]}
         self.done_times.append(time_ms)
