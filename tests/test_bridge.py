@@ -259,3 +259,14 @@ def test_cli_bad_timed_options_are_user_errors(option, capsys):
 def test_motor_units_are_c_t_sims_pwm_mapping():
     assert 75 * MM_S_PER_UNIT == pytest.approx(131.84, abs=0.01)  # ctbot-protocol.md §8: 75 -> 131.8 mm/s
     assert np.isclose(MM_S_PER_UNIT, 1.75788, atol=2e-4)  # the spec rounds 151/60 * 178.1283 / 255 = 1.75800
+
+
+def test_mouse_sideways_sign_is_converted_at_the_protocol_edge():
+    """ctsim's mouse counts are (forward, left); c't-Sim's dX points the other way, dY forward."""
+    from sim.bridge.firmware import FirmwareController
+    from sim.world.readings import Readings
+
+    bot = FirmwareController(listener=None)
+    block = Decoder().feed(bot._block(0.0, Readings(mouse_counts=np.array([10, 3]))))
+    mouse = next(packet for packet in block if packet.command == "m")
+    assert (mouse.data_l, mouse.data_r) == (-3, 10)
