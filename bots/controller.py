@@ -37,6 +37,11 @@ class Controller(Protocol):
     def step(self, t: float, readings: Readings) -> Command: ...
 
 
+class ControllerStopped(RuntimeError):
+    """Raised by a controller that cannot go on for a reason outside its own code (a firmware
+    peer that hung or vanished): the run ends with this message, naming the robot and step."""
+
+
 class ControllerError(ValueError):
     """A user mistake in naming, configuring or loading a controller (message for the CLI)."""
 

@@ -93,13 +93,16 @@ class FloorSensorSpec:
 
 @dataclass(frozen=True)
 class LightSensorSpec:
-    """A light-dependent resistor looking along `direction` with a cone of `opening` (rad)."""
+    """A light-dependent resistor `height` m above the floor, looking horizontally along
+    `direction` with a cone of full `opening` (rad; pi sees the whole half-space ahead, as
+    c't-Sim's 90-degree half-angle cone); it reads the distance to the nearest lamp surface."""
 
     name: str
     position: Point
     direction: float = 0.0
-    opening: float = math.pi / 2
+    opening: float = math.pi
     reach: float = 1.0
+    height: float = 0.075
     noise_std: float = 0.0
 
 

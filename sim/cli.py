@@ -142,6 +142,8 @@ def build_parser() -> argparse.ArgumentParser:
     check.add_argument("world", metavar="WORLD")
     check.set_defaults(handler=cmd_check)
 
+    _add_bridge_parser(commands)
+
     controllers = commands.add_parser("controllers", help="list the registered controllers and their parameters", description="List the controllers `--controller` accepts by name, with their parameters.")
     controllers.set_defaults(handler=cmd_controllers)
     return parser
@@ -387,6 +389,74 @@ def table(summary: dict[str, Any]) -> str:
         for name, errors in robot["estimates"].items():
             lines.append(f"{'':<12}{name:<12}{'':>11}{'':>11}{errors['final_position_error']:>12.4f}{errors['ate_rmse']:>11.4f}{math.degrees(errors['final_heading_error']):>12.2f}")
     return "\n".join(lines)
+
+
+# --- bridge -------------------------------------------------------------------------------------
+
+
+def _add_bridge_parser(commands) -> None:
+    from sim.bridge.usage import HOW_TO_START
+
+    def timed(parse):
+        def convert(text: str):
+            from sim.bridge.usage import timed
+
+            try:
+                return timed(text, parse)
+            except ValueError as err:
+                raise argparse.ArgumentTypeError(str(err)) from None
+
+        return convert
+
+    from sim.bridge.protocol import parse_call, rc5_code
+
+    bridge = commands.add_parser(
+        "bridge",
+        help="let the real c't-Bot firmware drive robots over c't-Sim's TCP protocol",
+        description="Listen for c't-Bot firmwares (their PC build) as c't-Sim does and run them in lock-step with the world, "
+        "10 ms per step, headless and recorded like `run` (the firmware's LCD, LEDs, motors, log and remote calls too).",
+        epilog=HOW_TO_START,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    _add_robot_options(bridge)
+    bridge.add_argument("--robots", type=int, default=1, metavar="N", help="number of firmware bots (default: 1)")
+    bridge.add_argument("--controller", action="append", metavar="NAME|FILE.py[:NAME]", help="also add a robot with this Python controller (repeatable)")
+    bridge.add_argument("--param", action="append", type=_param, default=[], metavar="KEY=VALUE", help="parameter of the Python controllers")
+    bridge.add_argument("--duration", type=_positive(float), default=60.0, metavar="SECONDS", help="simulated time to run (default: 60)")
+    bridge.add_argument("--host", default="127.0.0.1", help="address to listen on (default: 127.0.0.1, this machine only)")
+    bridge.add_argument("--port", type=int, default=10001, help="TCP port (default: 10001, the firmware's fixed port)")
+    bridge.add_argument("--connect-timeout", type=_positive(float), default=60.0, metavar="SECONDS", help="wait this long for each firmware to connect (default: 60)")
+    bridge.add_argument("--step-timeout", type=_positive(float), default=10.0, metavar="SECONDS", help="a firmware silent this long in one step has hung (default: 10, c't-Sim's)")
+    bridge.add_argument("--realtime", action="store_true", help="run at c't-Sim's real time (100 steps/s) instead of as fast as the firmware answers")
+    bridge.add_argument("--rc5", action="append", type=timed(rc5_code), default=[], metavar="T:KEY", help="press an RC5 key at T s: 0-9, PWR, UP, DOWN, LEFT, RIGHT, PLAY, CH+, CH-, VOL+, VOL-, I/II or a code (repeatable)")
+    bridge.add_argument("--call", action="append", type=timed(parse_call), default=[], metavar="T:'CALL'", help="remote call at T s, e.g. 2:'bot_turn(90)' (repeatable)")
+    bridge.set_defaults(handler=cmd_bridge)
+
+
+def cmd_bridge(args: argparse.Namespace) -> int:
+    from sim.bridge import Bridge
+    from sim.run import run
+    from sim.views.recording import Recorder
+    from sim.world.files import load_world
+
+    world = load_world(args.world)
+    spec = load_robot_spec(args.robot)
+    if args.robots < 1:
+        raise UsageError(f"--robots must be at least 1, got {args.robots}")
+    python = _setups(args, spec) if args.controller else []
+    out = _out_dir(args.out, args.world, "bridge")
+    calls = [(at, f"{name}({', '.join(map(str, params))})") for at, (name, params) in args.call]
+    with Bridge(args.host, args.port, args.connect_timeout, args.step_timeout, dt=args.dt) as bridge:
+        setups = [bridge.setup(spec, rc5=args.rc5, calls=calls) for _ in range(args.robots)] + python
+        print(f"ctsim bridge: listening on {bridge.address} for {args.robots} firmware bot(s); start the firmware now", file=sys.stderr, flush=True)
+        recorder = Recorder(out / "run.rrd", live=args.live)
+        observers = (recorder, bridge.observer(recorder, realtime=args.realtime), Progress(args.duration, args.dt))
+        result = run(world, setups, args.duration, dt=args.dt, seed=args.seed, observers=observers)
+    for bot in bridge.summary():
+        for call in bot["calls"]:
+            outcome = f"result {call['result']} at step {call['done_step']}" if call["result"] is not None else "no result (r/D) yet"
+            print(f"{bot['label']}: {call['call']} sent at step {call['sent_step']}: {outcome}")
+    return finish(result, out, {"duration": args.duration, "until_goal": False, "bridge": bridge.summary()}, report=not args.no_report)
 
 
 # --- listings ---------------------------------------------------------------------------------

@@ -17,7 +17,7 @@ from typing import Protocol
 import numpy as np
 
 from bots.commands import BadCommand, motor_commands, wheel_speeds_for
-from bots.controller import Controller, reset
+from bots.controller import Controller, ControllerStopped, reset
 from bots.odometry import Estimator, default_estimators
 from bots.spec import RobotSpec
 from sim.world import World
@@ -192,6 +192,8 @@ def run(
                     left, right = wheel_speeds_for(command, robot.spec)
                 except BadCommand as err:
                     raise _Stop(f"controller {log.controller_name!r} of {log.name} returned a bad command at step {step} (t = {world.time:.2f} s): {err}") from None
+                except ControllerStopped as err:
+                    raise _Stop(f"{log.name} ({log.controller_name}) stopped at step {step} (t = {world.time:.2f} s): {err}") from None
                 except Exception as err:  # the controller's own bug: stop, keep what we have
                     where = _last_frame(err)
                     raise _Stop(

@@ -33,8 +33,9 @@ lines so that one drawn over another still shows both."""
 
 
 def draw_world(ax, world: WorldSpec) -> None:
-    """Walls, floor regions, lines, holes, goals and lights of a world on matplotlib axes (m)."""
-    from matplotlib.patches import Polygon
+    """Walls, floor regions, lines, holes, goals, cans (at their start) and lights of a world on
+    matplotlib axes (m)."""
+    from matplotlib.patches import Circle, Polygon
 
     xmin, ymin, xmax, ymax = world.bounds
     ax.add_patch(Polygon([(xmin, ymin), (xmax, ymin), (xmax, ymax), (xmin, ymax)], facecolor=world.floor_colour, alpha=0.25, edgecolor="0.5", zorder=0))
@@ -49,6 +50,8 @@ def draw_world(ax, world: WorldSpec) -> None:
         ax.add_patch(Polygon(goal.vertices, facecolor="#7be38f", alpha=0.6, edgecolor="#2a9c45", zorder=2))
     for wall in world.walls:
         ax.add_patch(Polygon(wall.vertices, facecolor="#5a5a5a", edgecolor="#3a3a3a", linewidth=0.5, zorder=3))
+    for can in world.movables:
+        ax.add_patch(Circle(can.position, can.radius, facecolor="#c8782a", edgecolor="#6b3c10", linewidth=0.5, zorder=3))
     for light in world.lights:
         ax.plot(*light.position, marker="*", markersize=14, color="#ffd21e", markeredgecolor="#a08000", zorder=4)
     ax.set_aspect("equal")

@@ -148,23 +148,27 @@ def sample_floor(points: np.ndarray, value: np.ndarray, origin: np.ndarray, cell
 @numba.njit(cache=True)
 def sense_light(
     points: np.ndarray,
+    height: np.ndarray,
     look: np.ndarray,
     half_opening: np.ndarray,
     reach: np.ndarray,
     lights: np.ndarray,
     out: np.ndarray,
 ) -> None:
-    """LDR darkness (0..1023) of sensors at world `points` looking along `look` (rad): distance
-    to the nearest light inside the cone over `reach`, 1023 with none (c't-Sim `sensLight`)."""
+    """LDR darkness (0..1023) of sensors at world `points`, `height` m up, looking horizontally
+    along `look` (rad): the distance from the sensor to the surface of the nearest lamp (x, y,
+    height, radius) whose centre is within `half_opening` of the view axis in 3-D, over `reach`,
+    truncated; 1023 with none (c't-Sim `World.sensLight`)."""
     for k in range(points.shape[0]):
         nearest = math.inf
+        cx, cy = math.cos(look[k]), math.sin(look[k])
+        cos_limit = math.cos(half_opening[k])
         for j in range(lights.shape[0]):
-            ox, oy = lights[j, 0] - points[k, 0], lights[j, 1] - points[k, 1]
-            off = math.atan2(oy, ox) - look[k]
-            off = abs((off + math.pi) % (2 * math.pi) - math.pi)
-            if off <= half_opening[k]:
-                nearest = min(nearest, math.sqrt(ox * ox + oy * oy + lights[j, 2] * lights[j, 2]))
-        out[k] = round(min(nearest / reach[k], 1.0) * 1023)
+            ox, oy, oz = lights[j, 0] - points[k, 0], lights[j, 1] - points[k, 1], lights[j, 2] - height[k]
+            centre = math.sqrt(ox * ox + oy * oy + oz * oz)
+            if ox * cx + oy * cy >= cos_limit * centre - 1e-12:
+                nearest = min(nearest, max(centre - lights[j, 3], 0.0))
+        out[k] = int(math.floor(min(nearest / reach[k], 1.0) * 1023))
 
 
 @numba.njit(cache=True)

@@ -133,7 +133,7 @@ class World:
             shape.friction = 0.3
             self.space.add(body, shape)
             self.movables.append(body)
-        self._lights = np.array([(*light.position, light.height) for light in spec.lights], dtype=np.float64).reshape(-1, 3)
+        self._lights = np.array([(*light.position, light.height, light.radius) for light in spec.lights], dtype=np.float64).reshape(-1, 4)
         self._floor_origin = np.array(self.floor.origin)
         self._state = _BatchState.empty()
         self._poses = np.zeros((0, 3))
@@ -196,7 +196,7 @@ class World:
             points = np.empty((len(light), 2))
             kernels.to_world(pose, st.light_offsets, st.light_owner, points)
             look = pose[st.light_owner, 2] + st.light_direction
-            kernels.sense_light(points, look, st.light_half_opening, st.light_reach, self._lights, light)
+            kernels.sense_light(points, st.light_height, look, st.light_half_opening, st.light_reach, self._lights, light)
             light = self._add_noise(st.light_sensors, light, LDR_MAX)
         ir_raw, ir_distance = self._read_ir(pose)
         ticks, counts = st.ticks.copy(), st.counts.copy()
@@ -374,6 +374,7 @@ class _BatchState:
     light_direction: np.ndarray
     light_half_opening: np.ndarray
     light_reach: np.ndarray
+    light_height: np.ndarray
     light_slices: list
     ir_sensors: list
     ir_offsets: np.ndarray
@@ -454,6 +455,7 @@ class _BatchState:
             light_direction=np.array([s.direction for _, s in light], dtype=np.float64),
             light_half_opening=np.array([s.opening / 2 for _, s in light], dtype=np.float64),
             light_reach=np.array([s.reach for _, s in light], dtype=np.float64),
+            light_height=np.array([s.height for _, s in light], dtype=np.float64),
             light_slices=slices("light"),
             ir_sensors=ir,
             ir_offsets=offsets(ir),

@@ -90,13 +90,15 @@ def builtin_gp2d12(side: str) -> IRCurve:
 
 def cny70_value(colour: np.ndarray) -> np.ndarray:
     """CNY70 reflex sensor value for floor colours (..., 3) in 0..1: absorption 1 - mean(RGB)
-    scaled to 0 (white) .. 1023 (black), as c't-Sim (normal floor #606060 -> 638)."""
-    absorption = 1.0 - np.mean(np.asarray(colour, dtype=np.float64), axis=-1)
-    return np.rint(absorption * CNY70_MAX).astype(np.int64)
+    scaled to 0 (white) .. 1023 (black) and truncated, in c't-Sim's float32 arithmetic
+    (`World.sensGroundReflectionCross`: normal floor #606060 -> 637, goal #66FF00 -> 545)."""
+    rgb = np.asarray(colour, dtype=np.float32)
+    absorption = np.float32(1.0) - (rgb[..., 0] + rgb[..., 1] + rgb[..., 2]) / np.float32(3.0)
+    return np.floor(absorption * np.float32(CNY70_MAX)).astype(np.int64)
 
 
 def ldr_value(distance: np.ndarray, reach: float = 1.0) -> np.ndarray:
-    """LDR darkness for the distance (m) to the nearest visible light: linear, 1023 at `reach` or
-    with no light (inf), as c't-Sim's `World.sensLight`."""
+    """LDR darkness for the distance (m) to the nearest visible lamp surface: linear, truncated,
+    1023 at `reach` or with no light (inf), as c't-Sim's `World.sensLight`."""
     d = np.asarray(distance, dtype=np.float64)
-    return np.rint(np.minimum(d / reach, 1.0) * LDR_MAX).astype(np.int64)
+    return np.floor(np.minimum(d / reach, 1.0) * LDR_MAX).astype(np.int64)

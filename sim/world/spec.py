@@ -62,10 +62,12 @@ class Hole:
 
 @dataclass(frozen=True)
 class Light:
-    """A point light source (position m, height above the floor m)."""
+    """A lamp: a sphere of `radius` (m) whose centre is `height` m above `position` (m); c't-Sim's
+    lamps are 7 cm spheres 0.5 m up, and its light sensors measure to their surface."""
 
     position: Point
     height: float = 0.5
+    radius: float = 0.07
 
 
 @dataclass(frozen=True)
@@ -87,10 +89,10 @@ class Goal:
 
 @dataclass(frozen=True)
 class Movable:
-    """A movable round obstacle (a c't-Sim 'can'): centre (m), radius (m), mass (kg)."""
+    """A movable round obstacle (a c't-Sim 'can', 30 mm across): centre (m), radius (m), mass (kg)."""
 
     position: Point
-    radius: float = 0.025
+    radius: float = 0.015
     mass: float = 0.05
 
 
@@ -114,13 +116,25 @@ class WorldSpec:
     source: str | None = None
     description: str = ""
 
-    def start_for(self, index: int) -> Start:
-        """The start pose for the `index`-th robot (0-based): slot index+1 if the world names one,
-        else the default slot, else the first start; c't-Sim's rule."""
+    def start_order(self) -> list[Start]:
+        """The starts in the order robots take them, as c't-Sim hands out its slots: slots 1, 2,
+        ... that the world names, then the default slot 0 (per slot the last start counts)."""
         by_slot = {s.slot: s for s in self.starts}
-        if not self.starts:
+        return [by_slot[k] for k in sorted(by_slot) if k > 0] + ([by_slot[0]] if 0 in by_slot else [])
+
+    def start_for(self, index: int) -> Start:
+        """The start pose of the `index`-th robot (0-based) from `start_order`. Where the world
+        has no start left, c't-Sim would put the robot on top of another one: refused."""
+        order = self.start_order()
+        if not order:
             raise WorldFileError(self.source, None, "the world has no start pose")
-        return by_slot.get(index + 1) or by_slot.get(0) or self.starts[0]
+        if index >= len(order):
+            raise WorldFileError(
+                self.source, None,
+                f"no start for robot {index + 1}: the world has {len(order)} start slot(s) and c't-Sim would put "
+                "this robot on top of another; add a start (slot 1, 2, ...) to the world or give the robot a start pose",
+            )  # fmt: skip
+        return order[index]
 
 
 def box(xmin: float, ymin: float, xmax: float, ymax: float) -> tuple[Point, ...]:

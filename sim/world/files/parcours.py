@@ -101,9 +101,10 @@ def load_parcours(path: Path) -> WorldSpec:
 
 
 def _optics(optics: _Element, path: Path) -> dict[str, Colour]:
-    """Tile → colour from `<appearance>`s: the ambient colour (an untyped `<color>` is ambient, per
-    the DTD), else the diffuse one; `<clone>` copies another tile's. Tiles with neither (textures,
-    emissive lights) are left to the defaults."""
+    """Tile → colour from `<appearance>`s: the diffuse colour, the one c't-Sim's floor sensors read
+    (`World.sensGroundReflectionCross`); a material without one has Java3D's default diffuse,
+    white. `<clone>` copies another tile's. Tiles without colours (textures, emissive lights)
+    are left to the defaults."""
     own: dict[str, Colour] = {}
     clones: dict[str, tuple[str, int]] = {}
     for appearance in optics.all("appearance"):
@@ -116,9 +117,8 @@ def _optics(optics: _Element, path: Path) -> dict[str, Colour]:
             if value is None:
                 raise WorldFileError(path, colour.line, f"bad colour {colour.text.strip()!r}; expected #RRGGBB")
             by_kind[colour.attrs.get("type", "ambient")] = value
-        chosen = by_kind.get("ambient") or by_kind.get("diffuse")
-        if chosen is not None:
-            own[tile] = chosen
+        if by_kind:
+            own[tile] = by_kind.get("diffuse", (1.0, 1.0, 1.0))
         clone = appearance.first("clone")
         if clone is not None and clone.text.strip():
             clones[tile] = (clone.text.strip()[0], clone.line)

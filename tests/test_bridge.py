@@ -1,0 +1,272 @@
+"""The bridge against a fake firmware written from the protocol spec (tests/fake_firmware.py):
+handshake or none, per-step replies, RC5, remote calls, several bots beside a Python controller,
+and peers that stall, vanish, babble or flood. Every socket has a short timeout: nothing hangs."""
+
+from __future__ import annotations
+
+import math
+import socket
+import struct
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from fake_firmware import FakeFirmware  # noqa: E402
+
+from bots.behaviours import make  # noqa: E402
+from bots.ctbot import CTBOT  # noqa: E402
+from sim.bridge import Bridge, Decoder, Packet, ProtocolError, parse_call, rc5_code  # noqa: E402
+from sim.bridge import server  # noqa: E402
+from sim.bridge.firmware import MM_S_PER_UNIT  # noqa: E402
+from sim.bridge.protocol import remote_call_payload  # noqa: E402
+from sim.run import RobotSetup, run  # noqa: E402
+from sim.views.recording import Recorder  # noqa: E402
+from sim.world.spec import Start, WorldSpec  # noqa: E402
+
+EMPTY = WorldSpec("empty", (-5.0, -5.0, 5.0, 5.0), starts=(Start(0.0, 0.0, 0.0, 1), Start(0.0, 1.0, 0.0, 2), Start(0.0, -1.0, 0.0, 0)))
+
+
+def read_recording(path: Path) -> dict[str, dict[str, list]]:
+    """Entity path -> column name -> values of the temporal chunks of a recording."""
+    import pyarrow as pa
+    import rerun.chunk
+
+    found: dict[str, dict[str, list]] = {}
+    for chunk in rerun.chunk.RrdReader(path).stream().to_chunks():
+        if not chunk.is_static:
+            batch = chunk.to_record_batch()
+            columns = found.setdefault(str(chunk.entity_path), {})
+            for name in batch.schema.names:
+                column = batch.column(name)
+                columns.setdefault(name, []).extend((column.cast(pa.int64()) if pa.types.is_temporal(column.type) else column).to_pylist())
+    return found
+
+
+# --- packets ----------------------------------------------------------------------------------
+
+
+def test_done_and_remote_call_bytes_match_the_traces():
+    """Exact bytes from ctbot-protocol.md §3 and §8."""
+    done = Packet("X", data_l=1000, seq=0x15, to=0x80)
+    assert done.encode().hex(" ") == "3e 58 4e 00 e8 03 00 00 15 fe 80 3c"
+    call = Packet("r", "O", seq=0x8A, to=0x80, payload=remote_call_payload("bot_turn", (90,)))
+    assert call.encode().hex(" ") == "3e 72 4f 0d 00 00 00 00 8a fe 80 3c 62 6f 74 5f 74 75 72 6e 00 5a 00 00 00"
+    motors = Decoder().feed(bytes.fromhex("3e 4d 4e 00 e7 ff 19 00 93 80 fe 3c"))
+    assert motors == [Packet("M", "N", -25, 25, 0x93, 0x80, 0xFE)]
+
+
+packets = st.builds(
+    Packet,
+    command=st.sampled_from("IEBLHTDmeRbSXWArqMlcOQ"),
+    sub=st.sampled_from("NSROLEDCc"),
+    data_l=st.integers(-32768, 32767),
+    data_r=st.integers(-32768, 32767),
+    seq=st.integers(0, 255),
+    sender=st.integers(0, 255),
+    to=st.integers(0, 255),
+    payload=st.binary(max_size=255),
+)
+
+
+@given(st.lists(packets, max_size=8), st.integers(1, 40))
+def test_decoder_round_trips_any_chunking(items, chunk):
+    data = b"".join(p.encode() for p in items)
+    decoder, out = Decoder(), []
+    for i in range(0, len(data), chunk):
+        out += decoder.feed(data[i : i + chunk])
+    assert out == items and decoder.skipped == 0
+
+
+def test_decoder_resyncs_after_junk_and_a_bad_stop_byte():
+    good = Packet("M", data_l=3).encode()
+    broken = bytearray(Packet("l").encode())
+    broken[11] = ord("x")
+    decoder = Decoder()
+    assert decoder.feed(b"junk" + bytes(broken) + good) == [Packet("M", data_l=3)]
+    assert decoder.skipped == 4 + 12 and decoder.problem
+
+
+def test_calls_and_keys_parse_or_say_why():
+    assert parse_call("bot_turn(90)") == ("bot_turn", (90,))
+    assert parse_call("bot_goto_dist(200, 1)") == ("bot_goto_dist", (200, 1))
+    assert parse_call("bot_solve_maze()") == ("bot_solve_maze", ())
+    assert rc5_code("3") == 0x1183 and rc5_code("pwr") == 0x118C and rc5_code("0x1185") == 0x1185
+    for bad in ("bot turn(1)", "bot_turn(x)", "bot_turn(90"):
+        with pytest.raises(ValueError):
+            parse_call(bad)
+    with pytest.raises(ProtocolError, match="33"):
+        parse_call("bot_goto_pos(1, 2, 3, 4, 5, 6)")  # 13 + 24 bytes: over the firmware's buffer
+    with pytest.raises(ValueError, match="RC5"):
+        rc5_code("HELP")
+
+
+# --- runs -------------------------------------------------------------------------------------
+
+
+def bridged(duration: float, fakes: dict | None = None, python: int = 0, step_timeout: float = 2.0, connect_timeout: float = 5.0, rc5=(), calls=(), recorder=None, bots: int = 1, welcome: bool = True):
+    """Run `bots` firmware bots (fakes with keyword options `fakes`) and `python` solve_maze
+    robots in the empty world; returns (result, bridge, fakes)."""
+    with Bridge(port=0, connect_timeout=connect_timeout, step_timeout=step_timeout, welcome=welcome) as bridge:
+        setups = [bridge.setup(CTBOT, rc5=rc5, calls=calls) for _ in range(bots)]
+        setups += [RobotSetup(CTBOT, make("solve_maze"), "solve_maze") for _ in range(python)]
+        started = [FakeFirmware(bridge.listener.port, **(fakes or {})).start() for _ in range(bots)]
+        observers = ([recorder] if recorder else []) + [bridge.observer(recorder)]
+        result = run(EMPTY, setups, duration, observers=observers)
+    for fake in started:
+        fake.join()
+        assert fake.error is None, fake.error
+    return result, bridge, started
+
+
+def test_handshake_gives_the_pool_address_and_every_later_packet_goes_to_it():
+    result, bridge, (fake,) = bridged(0.5)
+    assert result.reason == "duration" and bridge.bots[0].state.address == fake.address == 128
+    targets = [[to for *_, to, _ in block] for block in fake.blocks]
+    assert set(targets[0]) == {0xFF} and all(set(t) == {0x80} for t in targets[2:])
+    assert fake.done_times[:3] == [10, 20, 30]  # ms, advancing by c't-Sim's 10 ms step
+    assert fake.shutdown  # SHUTDOWN at the end: the firmware exits 0
+
+
+def test_without_a_handshake_the_bot_stays_at_the_broadcast_address():
+    result, bridge, (fake,) = bridged(0.3, fakes={"handshake": False}, welcome=False)
+    assert result.reason == "duration" and len(fake.blocks) == 30
+    assert bridge.bots[0].state.address == 0xFF and not fake.welcomed
+
+
+def test_rc5_key_3_drives_at_c_t_sims_speed_two_steps_later():
+    """Key in block N -> M 75/75 in reply N+1 -> applied in motion N+2 (c't-Sim moves with the
+    previous reply). 75 units are 131.8 mm/s: straight, the distance is exact."""
+    result, _, _ = bridged(2.0, rc5=[(0.5, rc5_code("3"))])
+    x = result.robots[0].truth_array()[:, 0]
+    moving_from = 50 + 2  # steps
+    expected = 75 * MM_S_PER_UNIT / 1000 * 0.01 * (200 - moving_from)
+    assert x[moving_from] == 0.0 and x[-1] == pytest.approx(expected, abs=1e-9)  # float rounding only
+
+
+def test_remote_bot_turn_finishes_with_result_1_near_90_degrees_and_is_recorded(tmp_path):
+    recorder = Recorder(tmp_path / "run.rrd")
+    result, bridge, _ = bridged(4.0, calls=[(0.2, "bot_turn(90)")], recorder=recorder)
+    (call,) = bridge.summary()[0]["calls"]
+    assert call["result"] == 1 and call["sent_step"] == 20 and call["done_step"] > call["sent_step"]
+    heading = math.degrees(result.robots[0].truth_array()[-1, 2])
+    assert heading == pytest.approx(90, abs=2)  # stops within a step or two of 0.52 deg each
+    reported = result.robots[0].estimate_arrays()["reported"][-1]
+    assert math.degrees(reported[2]) == pytest.approx(heading, abs=2)  # map packets: whole degrees
+    recorded = read_recording(tmp_path / "run.rrd")
+    assert "/firmware/ctbot/leds/orange" in recorded and "/firmware/ctbot/motors" in recorded
+    texts = [str(v) for column in recorded["/firmware/ctbot/call"].values() for v in column]
+    assert any("bot_turn finished with result 1" in t for t in texts)
+
+
+def test_two_firmware_bots_beside_a_python_controller():
+    result, bridge, fakes = bridged(1.0, python=1, bots=2, rc5=[(0.1, rc5_code("1"))])
+    assert result.reason == "duration"
+    assert sorted(f.address for f in fakes) == [128, 129]
+    for log in result.robots[:2]:
+        assert log.truth_array()[-1, 0] == pytest.approx(25 * MM_S_PER_UNIT / 1000 * 0.01 * 88, abs=1e-9)
+    assert result.robots[2].controller_name == "solve_maze"
+
+
+@pytest.mark.parametrize(
+    ("what", "message"),
+    [
+        ("stall", "no DONE from the firmware within 0.5 s"),
+        ("vanish", "closed the connection"),
+        ("garbage", "not packets"),
+    ],
+)
+def test_a_bad_peer_ends_the_run_naming_bot_and_step_and_the_recording_stays(tmp_path, what, message):
+    recorder = Recorder(tmp_path / "run.rrd")
+    result, _, _ = bridged(5.0, fakes={"misbehave": (30, what)}, step_timeout=0.5, recorder=recorder)
+    assert result.reason == "error"
+    assert "firmware bot 1" in result.error and message in result.error and "step 30" in result.error
+    assert len(result.time) == 32  # samples 0..31 kept
+    assert len(read_recording(tmp_path / "run.rrd")["/world/ctbot/body"]["sim_time"]) == 32
+
+
+def test_a_flood_without_done_is_cut_off(monkeypatch):
+    monkeypatch.setattr(server, "MAX_REPLY_BYTES", 1 << 16)
+    result, _, _ = bridged(1.0, fakes={"misbehave": (5, "flood")}, step_timeout=5.0)
+    assert result.reason == "error" and ("without a DONE" in result.error or "not packets" in result.error)
+
+
+def test_a_bot_that_never_connects_is_named():
+    with Bridge(port=0, connect_timeout=0.3) as bridge:
+        result = run(EMPTY, [bridge.setup(CTBOT)], 1.0, observers=[bridge.observer()])
+    assert result.reason == "error" and "no firmware connected" in result.error and "step 0" in result.error
+
+
+def test_an_oversized_length_byte_never_crashes_the_link():
+    """A header announcing 255 payload bytes swallows what follows; the step times out cleanly."""
+    listener = server.Listener(port=0)
+    peer = socket.create_connection(("127.0.0.1", listener.port), timeout=2)
+    link = listener.accept(2.0)
+    peer.sendall(struct.pack("<cBBBhhBBBc", b">", ord("l"), ord("N"), 255, 0, 0, 1, 0x80, 0xFE, b"<") + Packet("X").encode())
+    with pytest.raises(server.LinkError, match="no DONE"):
+        link.receive(0.3)
+    peer.close()
+    link.close()
+    listener.close()
+
+
+def test_the_listener_binds_loopback_only_by_default():
+    with Bridge(port=0) as bridge:
+        assert bridge.listener.host == "127.0.0.1"
+
+
+def test_cli_bridge_runs_a_fake_firmware_and_writes_the_results(tmp_path, capsys):
+    from sim.cli import main
+
+    probe = socket.socket()
+    probe.bind(("127.0.0.1", 0))
+    port = probe.getsockname()[1]
+    probe.close()
+    fake = FakeFirmware(port).start()
+    code = main(["bridge", str(Path(__file__).parents[1] / "worlds" / "square.toml"), "--port", str(port), "--duration", "3",
+                 "--call", "0.5:bot_turn(90)", "--out", str(tmp_path), "--no-report", "--step-timeout", "2"])  # fmt: skip
+    fake.join()
+    out = capsys.readouterr().out
+    assert code == 0 and "bot_turn(90) sent at step 50: result 1" in out
+    import json
+
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["bridge"][0]["calls"][0]["result"] == 1 and summary["bridge"][0]["address"] == 128
+
+
+def test_cli_bridge_help_says_how_to_start_the_firmware(capsys):
+    from sim.cli import main
+
+    with pytest.raises(SystemExit):
+        main(["bridge", "--help"])
+    assert "sleep infinity | /path/to/ct-Bot" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("option", ["--rc5=x:3", "--rc5=1:HELP", "--call=1:bot turn", "--call=-1:bot_turn(9)"])
+def test_cli_bad_timed_options_are_user_errors(option, capsys):
+    from sim.cli import main
+
+    with pytest.raises(SystemExit) as exit_info:
+        main(["bridge", "maze", option])
+    assert exit_info.value.code == 2 and "ctsim: error:" in capsys.readouterr().err
+
+
+def test_motor_units_are_c_t_sims_pwm_mapping():
+    assert 75 * MM_S_PER_UNIT == pytest.approx(131.84, abs=0.01)  # ctbot-protocol.md §8: 75 -> 131.8 mm/s
+    assert np.isclose(MM_S_PER_UNIT, 1.75788, atol=2e-4)  # the spec rounds 151/60 * 178.1283 / 255 = 1.75800
+
+
+def test_mouse_sideways_sign_is_converted_at_the_protocol_edge():
+    """ctsim's mouse counts are (forward, left); c't-Sim's dX points the other way, dY forward."""
+    from sim.bridge.firmware import FirmwareController
+    from sim.world.readings import Readings
+
+    bot = FirmwareController(listener=None)
+    block = Decoder().feed(bot._block(0.0, Readings(mouse_counts=np.array([10, 3]))))
+    mouse = next(packet for packet in block if packet.command == "m")
+    assert (mouse.data_l, mouse.data_r) == (-3, 10)
