@@ -255,11 +255,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     until_goal = bool(world.goals) if args.until_goal is None else args.until_goal
     out = _out_dir(args.out, args.world, setups[0].controller_name)
     recorder = Recorder(out / "run.rrd", live=args.live)
-    previous = signal.signal(signal.SIGTERM, _terminate)
-    try:
-        result = run(world, setups, args.duration, dt=args.dt, seed=args.seed, until_goal=until_goal, observers=(recorder, Progress(args.duration, args.dt)))
-    finally:
-        signal.signal(signal.SIGTERM, previous)
+    result = run(world, setups, args.duration, dt=args.dt, seed=args.seed, until_goal=until_goal, observers=(recorder, Progress(args.duration, args.dt)))
     return finish(result, out, {"duration": args.duration, "until_goal": until_goal, **_robot_options(args)}, report=not args.no_report)
 
 
@@ -415,7 +411,7 @@ def _add_bridge_parser(commands) -> None:
         help="let the real c't-Bot firmware drive robots over c't-Sim's TCP protocol",
         description="Listen for c't-Bot firmwares (their PC build) as c't-Sim does and run them in lock-step with the world, "
         "10 ms per step, headless and recorded like `run` (the firmware's LCD, LEDs, motors, log and remote calls too).",
-        epilog=HOW_TO_START,
+        epilog=f"{HOW_TO_START}\n\n{EXIT_STATUSES}",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     _add_robot_options(bridge)
@@ -440,7 +436,7 @@ def cmd_bridge(args: argparse.Namespace) -> int:
     from sim.world.files import load_world
 
     world = load_world(args.world)
-    spec = load_robot_spec(args.robot)
+    spec = load_robot_spec(args)
     if args.robots < 1:
         raise UsageError(f"--robots must be at least 1, got {args.robots}")
     python = _setups(args, spec) if args.controller else []
@@ -456,7 +452,7 @@ def cmd_bridge(args: argparse.Namespace) -> int:
         for call in bot["calls"]:
             outcome = f"result {call['result']} at step {call['done_step']}" if call["result"] is not None else "no result (r/D) yet"
             print(f"{bot['label']}: {call['call']} sent at step {call['sent_step']}: {outcome}")
-    return finish(result, out, {"duration": args.duration, "until_goal": False, "bridge": bridge.summary()}, report=not args.no_report)
+    return finish(result, out, {"duration": args.duration, "until_goal": False, **_robot_options(args), "bridge": bridge.summary()}, report=not args.no_report)
 
 
 # --- listings ---------------------------------------------------------------------------------
@@ -522,6 +518,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.command is None:
         parser.print_help()
         return EXIT_USER
+    previous = signal.signal(signal.SIGTERM, _terminate)
     try:
         return args.handler(args)
     except BrokenPipeError:  # `ctsim controllers | head`: the reader has all it wanted
@@ -534,9 +531,12 @@ def main(argv: list[str] | None = None) -> int:
     except (WorldFileError, ControllerError, UsageError, RunError, ValueError) as err:
         print(f"ctsim: error: {err}", file=sys.stderr)
         return EXIT_USER
-    except KeyboardInterrupt:
-        print("ctsim: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
+    except KeyboardInterrupt as stop:  # outside a run (a run keeps its results and ends normally)
+        terminated = isinstance(stop, Terminated)
+        print(f"ctsim: {'terminated' if terminated else 'interrupted'}", file=sys.stderr)
+        return EXIT_TERMINATED if terminated else EXIT_INTERRUPTED
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":
