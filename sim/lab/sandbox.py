@@ -71,7 +71,9 @@ class Student:
         self.process = context.Process(target=worker.serve, args=(child, str(self.path), self.forbidden), daemon=True)
         self.process.start()
         child.close()
-        status, info = self._receive(STARTUP_LIMIT + self.budget, "loading your file")
+        budget = self.budget
+        status, info = self._receive(STARTUP_LIMIT + budget, "loading your file")
+        self.budget = budget  # starting Python is not the student's time
         if status == "error":
             self.close()
             error = _raised(info, "loading your file")
