@@ -54,6 +54,11 @@ class RobotLog:
     fell: bool = False
     goal_time: float | None = None
 
+    @property
+    def latest(self) -> Readings:
+        """This sample's readings (for observers)."""
+        return self.readings[-1]
+
     def truth_array(self) -> np.ndarray:
         """(T, 3) ground-truth poses."""
         return np.array(self.truth).reshape(-1, 3)
