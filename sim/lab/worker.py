@@ -22,7 +22,7 @@ import numpy as np
 STUDENT_MODULE = "ctsim_student"
 GROUND_TRUTH = ("sim.run", "sim.world", "sim.lab", "sim.analysis", "sim.views", "sim.cli", "sim.bridge", "sim.experiments", "pymunk")
 """Modules that hold or compute the world's ground truth (or the checker's expectations)."""
-ALLOWED_INSIDE = ("sim.world.readings",)
+ALLOWED_INSIDE = ("sim.world.readings", "sim.world.Readings")
 
 
 class ForbiddenImport(ImportError):
@@ -42,7 +42,7 @@ def guard_imports(extra: tuple[str, ...]) -> None:
 
     def checked(name, globals=None, locals=None, fromlist=(), level=0):  # noqa: A002 (builtins' signature)
         if level == 0 and globals is not None and globals.get("__name__") == STUDENT_MODULE:
-            targets = [name] + [f"{name}.{item}" for item in fromlist or () if item != "*"]
+            targets = [f"{name}.{item}" for item in fromlist if item != "*"] if fromlist else [name]
             for target in targets:
                 refused = _forbidden(target, extra)
                 if refused:
