@@ -112,8 +112,7 @@ def _entry(module, name: str):
 
 def serve(conn, path: str, extra_forbidden: tuple[str, ...]) -> None:
     """Load the student's file and answer requests until the pipe closes."""
-    import bots.commands  # noqa: F401  (loaded before the guard: the student may use it)
-    import sim.world.readings  # noqa: F401
+    import bots.commands  # noqa: F401  (loaded before the guard; readings load when a request brings some)
 
     sys.stdout = io.StringIO()  # a student's print must not reach the grader's output
     guard_imports(tuple(extra_forbidden))
