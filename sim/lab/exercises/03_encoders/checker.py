@@ -47,7 +47,7 @@ def mistakes(spec):
 
 
 def check(scenario, student):
-    spec, schedule, world = robot(scenario.params), Schedule(scenario["segments"]), open_floor()
+    spec, schedule, world = robot(scenario.params), Schedule(scenario["segments"]), open_floor()  # figures fit the path, not the floor
     collect = Collect()
     setup = RobotSetup(spec, schedule, "schedule", estimators=[EncoderOdometry(), RemoteEstimator(student, "Odometry")])
     result = run(world, [setup], schedule.duration + 0.5, seed=scenario.seed, observers=(collect, *observers(scenario)))
@@ -60,8 +60,8 @@ def check(scenario, student):
     tracks = {"truth": (result.time, log.truth_array()), "reference": (result.time, reference), "yours": (result.time, yours)}
     tolerance = f"{tol_p:g} m, {tol_h:g} rad"
     if worst <= tol_p and heading <= tol_h:
-        return Outcome(fmt(reference[-1]), fmt(yours[-1]), True, tolerance, tracks=tracks, world=world)
+        return Outcome(fmt(reference[-1]), fmt(yours[-1]), True, tolerance, tracks=tracks)
     start = log.truth_array()[0]
     hint = next((key for key, wrong in mistakes(spec).items()
                  if np.allclose(replay(wrong, spec, start, collect.samples), yours[-1], atol=tol_p, rtol=0)), None)  # fmt: skip
-    return Outcome(fmt(reference[-1]), fmt(yours[-1]), False, tolerance, hint, {"error": worst}, tracks=tracks, world=world)
+    return Outcome(fmt(reference[-1]), fmt(yours[-1]), False, tolerance, hint, {"error": worst}, tracks=tracks)
