@@ -26,10 +26,10 @@ def figures(quick: bool):
         from bench import world
     except ImportError:
         return
-    yield from world.figures(scale)
-    from bench import bridge
+    from bench import bridge, lab
 
-    yield from bridge.figures(scale)
+    for module in (world, bridge, lab):
+        yield from module.figures(scale)
 
 
 def main(argv: list[str] | None = None) -> int:

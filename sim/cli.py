@@ -146,7 +146,36 @@ def build_parser() -> argparse.ArgumentParser:
 
     controllers = commands.add_parser("controllers", help="list the registered controllers and their parameters", description="List the controllers `--controller` accepts by name, with their parameters.")
     controllers.set_defaults(handler=cmd_controllers)
+    _add_lab(commands)
     return parser
+
+
+def _add_lab(commands) -> None:
+    lab = commands.add_parser("lab", help="lab exercises with automatic checking", description="Exercises on kinematics and odometry: write the sheet and template, check your file, grade a folder of submissions.")
+    lab.add_argument("--lang", choices=("en", "de"), default="en", help="language of sheets, hints and tables (default: en)")
+    lab.add_argument("--exercises", action="append", default=[], metavar="DIR", help="a folder with more exercises (one sub-folder each), repeatable")
+    actions = lab.add_subparsers(dest="lab_command", metavar="ACTION", required=True)
+    actions.add_parser("list", help="the exercises")
+    start = actions.add_parser("start", help="write the exercise sheet (Markdown) and the template to fill in")
+    start.add_argument("number", type=int)
+    start.add_argument("dir", nargs="?", type=Path, default=Path("."), help="folder to write into (default: here)")
+    check = actions.add_parser("check", help="check your file on the examples and on hidden scenarios")
+    check.add_argument("number", type=int)
+    check.add_argument("file", type=Path)
+    check.add_argument("--out", type=Path, default=Path("lab-check"), metavar="DIR", help="folder for figures and recordings (default: lab-check)")
+    grade = actions.add_parser("grade", help="grade a folder of submissions: CSV, Gradescope results.json, JUnit XML")
+    grade.add_argument("number", type=int)
+    grade.add_argument("submissions", type=Path, metavar="SUBMISSIONS_DIR")
+    grade.add_argument("--out", type=Path, default=None, metavar="DIR", help="folder for the grades (default: SUBMISSIONS_DIR/grades)")
+    grade.add_argument("--seed", type=int, help="seed of the hidden scenarios (default: a fresh one, written to grades.csv)")
+    grade.add_argument("--jobs", type=_positive(int), help="parallel checks (default: number of CPUs)")
+    lab.set_defaults(handler=cmd_lab)
+
+
+def cmd_lab(args: argparse.Namespace) -> int:
+    from sim.lab.cli import lab_command
+
+    return lab_command(args)
 
 
 # --- helpers --------------------------------------------------------------------------------

@@ -1,0 +1,151 @@
+"""Checking one student file against one exercise: every scenario in turn, a row each.
+
+The checker of the exercise compares; this module keeps it honest: it catches whatever the
+student's code does (a `StudentError`) and turns it into a failing row with a hint, hides the
+values of hidden scenarios, writes the figures of public ones, and scores the whole.
+"""
+
+from __future__ import annotations
+
+import secrets
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from sim.lab.artifacts import Tracks, write
+from sim.lab.exercise import Exercise, Scenario, shared_hints
+from sim.lab.sandbox import Student, StudentError
+from sim.world.spec import WorldSpec
+
+HIDDEN = "(hidden)"
+
+
+@dataclass
+class Outcome:
+    """What a checker found in one scenario. `hint`: a key of the exercise's or the shared hints
+    (None when passed), formatted with `hint_args`; `tracks` (and `world`) for the figures."""
+
+    expected: str
+    got: str
+    passed: bool
+    tolerance: str = ""
+    hint: str | None = None
+    hint_args: dict[str, Any] = field(default_factory=dict)
+    tracks: Tracks | None = None
+    world: WorldSpec | None = None
+
+
+@dataclass
+class Row:
+    """One line of the table."""
+
+    scenario: str
+    expected: str
+    got: str
+    tolerance: str
+    passed: bool
+    hint: str = ""
+    hidden: bool = False
+
+
+@dataclass
+class CheckReport:
+    """All rows of one file, the seed of its hidden scenarios, the score and what was written."""
+
+    exercise: int
+    file: str
+    seed: int
+    rows: list[Row]
+    points: float
+    artifacts: list[Path] = field(default_factory=list)
+
+    @property
+    def passed(self) -> bool:
+        return bool(self.rows) and all(row.passed for row in self.rows)
+
+    @property
+    def score(self) -> float:
+        """Points for the share of scenarios passed."""
+        return self.points * sum(row.passed for row in self.rows) / len(self.rows) if self.rows else 0.0
+
+
+def fresh_seed() -> int:
+    """A seed nobody chose: the student cannot tune their code to the hidden scenarios."""
+    return secrets.randbits(32)
+
+
+def check_file(exercise: Exercise, path: str | Path, lang: str = "en", seed: int | None = None, out: Path | None = None) -> CheckReport:
+    """Run `exercise`'s checker on the student's file over its public and hidden scenarios."""
+    seed = fresh_seed() if seed is None else seed
+    shared = shared_hints()
+    report = CheckReport(exercise.number, str(path), seed, [], exercise.points)
+    with Student(path, exercise.forbidden) as student:
+        for scenario in exercise.scenarios(seed, out):
+            row, outcome = _one(exercise, scenario, student, lang, shared)
+            report.rows.append(row)
+            if outcome is not None and outcome.tracks and scenario.out is not None:
+                report.artifacts += write(scenario.out, outcome.tracks, outcome.world)
+            if row.hint and student.process is None and _fatal(row):
+                break
+    return report
+
+
+def _fatal(row: Row) -> bool:
+    """A file that does not load or refuses to import fails every scenario the same way."""
+    return row.got.startswith("loading your file")
+
+
+def _one(exercise: Exercise, scenario: Scenario, student: Student, lang: str, shared: dict) -> tuple[Row, Outcome | None]:
+    student.begin(exercise.time_limit)
+    try:
+        outcome = exercise.checker.check(scenario, student)
+    except StudentError as err:
+        hint = exercise.hint(err.kind, lang, shared, limit=exercise.time_limit)
+        got = err.public if scenario.hidden else err.detail
+        return Row(scenario.name, HIDDEN if scenario.hidden else "", got, "", False, hint, scenario.hidden), None
+    hint = "" if outcome.passed else exercise.hint(outcome.hint or "wrong", lang, shared, **outcome.hint_args)
+    if scenario.hidden:
+        return Row(scenario.name, HIDDEN, HIDDEN, outcome.tolerance, outcome.passed, hint, True), outcome
+    return Row(scenario.name, outcome.expected, outcome.got, outcome.tolerance, outcome.passed, hint), outcome
+
+
+def table(report: CheckReport, lang: str = "en") -> str:
+    """The report as a text table with the hints under failing rows."""
+    words = {"en": ("scenario", "expected", "got", "tolerance", "result", "pass", "FAIL", "hint", "score"),
+             "de": ("Szenario", "erwartet", "erhalten", "Toleranz", "Ergebnis", "ok", "FEHLER", "Hinweis", "Punkte")}[lang]  # fmt: skip
+    columns = [[r.scenario, r.expected, r.got, r.tolerance, words[5] if r.passed else words[6]] for r in report.rows]
+    widths = [max([len(words[i])] + [min(len(c[i]), 48) for c in columns]) for i in range(5)]
+    line = lambda cells: "  ".join(str(c)[:48].ljust(w) for c, w in zip(cells, widths)).rstrip()  # noqa: E731
+    lines = [line(words[:5]), line(["-" * w for w in widths])]
+    for row, cells in zip(report.rows, columns):
+        lines.append(line(cells))
+        if row.hint:
+            lines.append(f"    {words[7]}: {row.hint}")
+    passed = sum(r.passed for r in report.rows)
+    lines.append(f"{words[8]}: {report.score:g}/{report.points:g} ({passed}/{len(report.rows)})")
+    return "\n".join(lines)
+
+
+def fmt(values: Any, digits: int = 4) -> str:
+    """Numbers for the table: a scalar or a short vector."""
+    array = np.atleast_1d(np.asarray(values, dtype=np.float64))
+    text = ", ".join(f"{v:.{digits}g}" for v in array)
+    return text if array.size == 1 else f"({text})"
+
+
+def close(got: Any, expected: Any, tolerance: float) -> bool:
+    """Every component within `tolerance` (absolute), an infinity matching one of either sign."""
+    got, expected = np.asarray(got, dtype=np.float64), np.asarray(expected, dtype=np.float64)
+    if got.shape != expected.shape:
+        return False
+    infinite = np.isinf(expected)
+    if (np.isinf(got) != infinite).any():
+        return False
+    return bool(np.all(np.abs(got[~infinite] - expected[~infinite]) <= tolerance))
+
+
+def diagnose(got: Any, mistakes: dict[str, Any], tolerance: float) -> str | None:
+    """The first typical mistake whose result the student's matches (its hint key), or None."""
+    return next((key for key, value in mistakes.items() if close(got, value, tolerance)), None)

@@ -1,0 +1,54 @@
+"""`ctsim lab list|start|check|grade`: thin handlers over the package, called by sim/cli.py."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from sim.lab.checking import check_file, table
+from sim.lab.exercise import ExerciseError, exercise, exercises
+from sim.lab.grading import grade
+
+
+def lab_command(args: argparse.Namespace) -> int:
+    """Run one lab action; 0 done (or the file passed), 1 the file fails, user errors raise."""
+    extra = args.exercises
+    if args.lab_command == "list":
+        for number, ex in exercises(extra).items():
+            print(f"{number:>3}  {ex.title[args.lang]}: {ex.summary[args.lang]}")
+        return 0
+    ex = exercise(args.number, extra)
+    if args.lab_command == "start":
+        return _start(ex, args.dir, args.lang)
+    if args.lab_command == "check":
+        if not args.file.is_file():
+            raise ExerciseError(f"{args.file}: no such file")
+        report = check_file(ex, args.file, args.lang, out=args.out)
+        print(f"exercise {ex.number}: {ex.title[args.lang]}  ({args.file}, scenario seed {report.seed})")
+        print(table(report, args.lang))
+        for path in report.artifacts:
+            print(f"  wrote {path}")
+        return 0 if report.passed else 1
+    if not args.submissions.is_dir():
+        raise ExerciseError(f"{args.submissions}: no such folder")
+    out = args.out or args.submissions / "grades"
+    reports, written = grade(ex.number, args.submissions, out, args.lang, args.seed, args.jobs, extra)
+    for report in reports:
+        print(f"{report.score:6.2f}/{report.points:g}  {report.file}")
+    print(f"{sum(r.passed for r in reports)}/{len(reports)} passed; scenario seed {reports[0].seed}")
+    for path in written:
+        print(f"  wrote {path}")
+    return 0
+
+
+def _start(ex, folder: Path, lang: str) -> int:
+    folder.mkdir(parents=True, exist_ok=True)
+    sheet, template = folder / f"exercise{ex.number}.md", folder / ex.file
+    sheet.write_text(ex.sheet(lang), encoding="utf-8")
+    if template.exists():
+        print(f"kept {template} (it exists; delete it for a fresh template)")
+    else:
+        template.write_text(ex.template(), encoding="utf-8")
+        print(f"wrote {template}")
+    print(f"wrote {sheet}\nthen: ctsim lab check {ex.number} {template}")
+    return 0

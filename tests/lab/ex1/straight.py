@@ -1,0 +1,7 @@
+import math
+
+
+def turn(v_left, v_right, track, x, y, theta):
+    omega = (v_right - v_left) / track
+    radius = track * (v_left + v_right) / (2 * (v_right - v_left))
+    return radius, omega, x - radius * math.sin(theta), y + radius * math.cos(theta)

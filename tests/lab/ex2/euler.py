@@ -1,0 +1,6 @@
+import math
+
+
+def step(x, y, theta, v_left, v_right, track, dt):
+    v, omega = (v_left + v_right) / 2, (v_right - v_left) / track
+    return x + v * dt * math.cos(theta), y + v * dt * math.sin(theta), theta + omega * dt

@@ -1,0 +1,16 @@
+import math
+
+import numpy as np
+
+
+class Odometry:
+    def reset(self, robot, pose):
+        self.per_tick = math.pi * robot.wheel_diameter / robot.encoders.ticks_per_rev
+        self.track = robot.track_width
+        self.pose = np.array(pose, dtype=float)
+
+    def update(self, readings):
+        left, right = (t * self.per_tick for t in readings.encoder_ticks)
+        s, alpha = (left + right) / 2, (right - left) / self.track
+        x, y, theta = self.pose
+        self.pose = np.array([x + s * math.cos(theta), y + s * math.sin(theta), theta + alpha])

@@ -1,0 +1,138 @@
+"""ctsim lab: each exercise's reference solution passes, typical wrong ones fail with the right
+hint, and whatever a student's file does the checker survives with a clear message."""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import json
+from pathlib import Path
+from xml.etree import ElementTree as ET
+
+import pytest
+
+from sim.cli import main
+from sim.lab import check_file, exercise
+from sim.lab.exercise import shared_hints
+from sim.lab.grading import grade
+
+SOLUTIONS = Path(__file__).parent / "lab"
+SEED = 7  # any seed: the reference must pass every draw; a fixed one keeps the test repeatable
+
+WRONG = {
+    1: ["swapped", "degrees", "straight", "radius_factor"],
+    2: ["euler", "old_heading", "degrees", "swapped", "straight"],
+    3: ["euler", "swapped", "hardcoded", "end_heading"],
+}
+
+
+def quick(number: int, hidden: int = 2):
+    """The exercise with fewer hidden scenarios (the run-based ones take a second each)."""
+    return dataclasses.replace(exercise(number), hidden=hidden)
+
+
+@pytest.mark.parametrize("number", sorted(WRONG))
+def test_the_reference_solution_passes_every_scenario(number: int) -> None:
+    report = check_file(quick(number), SOLUTIONS / f"ex{number}" / "reference.py", seed=SEED)
+    assert report.passed, [(r.scenario, r.got, r.hint) for r in report.rows if not r.passed]
+    assert report.score == report.points
+
+
+@pytest.mark.parametrize(("number", "mistake"), [(n, m) for n, ms in WRONG.items() for m in ms])
+def test_a_typical_mistake_fails_with_its_hint(number: int, mistake: str) -> None:
+    ex = quick(number)
+    report = check_file(ex, SOLUTIONS / f"ex{number}" / f"{mistake}.py", seed=SEED)
+    failed = [r for r in report.rows if not r.passed]
+    assert failed and not report.passed
+    expected = ex.hint(mistake, "en", shared_hints())
+    assert any(r.hint == expected for r in failed), [(r.scenario, r.hint) for r in failed]
+    assert all(r.hint for r in failed)
+
+
+def write(tmp_path: Path, name: str, text: str) -> Path:
+    path = tmp_path / name
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+BAD = {
+    "raises": ("def turn(*a):\n    raise ValueError(f'secret {a}')\n", "raised", "turn() raised ValueError at line 2"),
+    "hangs": ("def turn(*a):\n    while True:\n        pass\n", "timeout", "took longer than the time limit"),
+    "shape": ("def turn(*a):\n    return 1.0, 2.0\n", "shape", "returned shape (2,); expected (4,)"),
+    "nan": ("def turn(*a):\n    return [float('nan')] * 4\n", "nan", "returned NaN"),
+    "type": ("def turn(*a):\n    return object()\n", "type", "returned a object"),
+    "truth": ("import sim.run\ndef turn(*a):\n    return 0, 0, 0, 0\n", "forbidden", "import of sim.run is not allowed"),
+    "truth_late": ("def turn(*a):\n    from sim.world import physics\n    return 0, 0, 0, 0\n", "forbidden", "import of sim.world.physics is not allowed"),
+    "exits": ("import os\ndef turn(*a):\n    os._exit(3)\n", "crash", "ended the checking process"),
+    "syntax": ("def turn(*a)\n    return 1\n", "load", "loading your file raised SyntaxError at line 1"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD))
+def test_bad_student_code_fails_with_a_clear_message_and_leaks_nothing_hidden(tmp_path: Path, case: str) -> None:
+    text, kind, message = BAD[case]
+    ex = dataclasses.replace(exercise(1), time_limit=0.5, hidden=2)
+    report = check_file(ex, write(tmp_path, "icc.py", text), seed=SEED)
+    assert not report.passed and report.score == 0
+    assert message in report.rows[0].got
+    assert report.rows[0].hint == ex.hint(kind, "en", shared_hints(), limit=0.5)
+    hidden = [r for r in report.rows if r.hidden]
+    assert all("secret" not in r.got and r.expected == "(hidden)" for r in hidden)
+
+
+def test_hidden_scenarios_differ_by_seed_and_repeat_with_it() -> None:
+    ex = exercise(1)
+    params = lambda seed: [s.params for s in ex.scenarios(seed) if s.hidden]  # noqa: E731
+    assert params(1) == params(1)
+    assert params(1) != params(2)
+
+
+def test_check_writes_a_recording_and_figures_of_a_run(tmp_path: Path) -> None:
+    from rerun.chunk import RrdReader  # noqa: F401  (readable, not just present)
+
+    report = check_file(quick(3, hidden=0), SOLUTIONS / "ex3" / "reference.py", seed=SEED, out=tmp_path)
+    names = {p.name for p in report.artifacts}
+    assert {"run.rrd", "trajectories.png", "errors.png"} <= names
+    assert all(p.stat().st_size > 1000 for p in report.artifacts)
+
+
+def test_grade_writes_csv_gradescope_and_junit(tmp_path: Path) -> None:
+    folder = tmp_path / "subs"
+    folder.mkdir()
+    for name in ("reference", "swapped", "straight"):
+        (folder / f"{name}.py").write_text((SOLUTIONS / "ex1" / f"{name}.py").read_text())
+    reports, _ = grade(1, folder, tmp_path / "out", seed=SEED, jobs=2)
+    rows = list(csv.DictReader((tmp_path / "out" / "grades.csv").open()))
+    assert {r["student"]: r["score"] == "10.00" for r in rows} == {"reference": True, "straight": False, "swapped": False}
+    results = json.loads((tmp_path / "out" / "gradescope" / "swapped" / "results.json").read_text())
+    assert results["score"] < 10 and any(t["status"] == "failed" for t in results["tests"])
+    suites = ET.parse(tmp_path / "out" / "junit.xml").getroot()
+    assert {s.get("name"): int(s.get("failures")) > 0 for s in suites} == {"reference": False, "straight": True, "swapped": True}
+
+
+def test_cli_start_then_check_the_untouched_template_fails_with_status_1(tmp_path: Path, capsys) -> None:
+    assert main(["lab", "--lang", "de", "start", "1", str(tmp_path)]) == 0
+    assert "Aufgabe 1" in (tmp_path / "exercise1.md").read_text()
+    assert main(["lab", "check", "1", str(tmp_path / "icc.py"), "--out", str(tmp_path / "out")]) == 1
+    assert "NotImplementedError" in capsys.readouterr().out
+    assert main(["lab", "start", "99"]) == 2
+    assert main(["lab", "check", "1", str(tmp_path / "missing.py")]) == 2
+
+
+def test_a_teacher_adds_an_exercise_in_a_folder_of_their_own(tmp_path: Path, capsys) -> None:
+    folder = tmp_path / "mine" / "double"
+    folder.mkdir(parents=True)
+    (folder / "exercise.toml").write_text('number = 42\nfile = "double.py"\ntitle = { en = "Double", de = "Doppelt" }\n'
+                                          'summary = { en = "x2", de = "x2" }\n[[example]]\nx = 3.0\n')
+    for name in ("sheet.en.md", "sheet.de.md"):
+        (folder / name).write_text("# Double\n")
+    (folder / "template.py").write_text("def double(x):\n    return x\n")
+    (folder / "checker.py").write_text(
+        "from sim.lab.checking import Outcome\n"
+        "def check(scenario, student):\n"
+        "    got = student.call('double', scenario['x'])\n"
+        "    return Outcome(str(2 * scenario['x']), str(got), got == 2 * scenario['x'])\n")
+    assert main(["lab", "--exercises", str(tmp_path / "mine"), "list"]) == 0
+    assert "Double" in capsys.readouterr().out
+    solution = write(tmp_path, "double.py", "def double(x):\n    return 2 * x\n")
+    assert main(["lab", "--exercises", str(tmp_path / "mine"), "check", "42", str(solution), "--out", str(tmp_path / "o")]) == 0
