@@ -163,16 +163,13 @@ class SolveMaze(Plan):
     def plan(self) -> Generator[Behaviour, Status, Status | None]:
         heading, room, following = 0, (0, 0), False
         for _ in range(self.max_rooms):
-            ways = (heading + self.first, heading, heading - self.first, heading + 2)
             if not following:  # find a wall: ahead until one is at the preferred side or in front
                 if not (yield from self._is_open(room, heading + self.first)):
                     following = True
                 elif not (yield from self._is_open(room, heading)):
                     heading -= self.first  # as if arrived going the other way: the wall is at hand
                     following = True
-                    ways = (heading + self.first, heading, heading - self.first, heading + 2)
-                else:
-                    ways = (heading,)
+            ways = (heading + self.first, heading, heading - self.first, heading + 2) if following else (heading,)
             for way in ways:
                 if (yield from self._is_open(room, way)) and (yield from self._drive(room, way)):
                     heading, room = way, (room[0] + STEPS[way % 4][0], room[1] + STEPS[way % 4][1])
