@@ -24,6 +24,15 @@ from sim.world.readings import Readings
 
 G_POS = 0.5
 """The c't-Bot firmware's weight of the encoder pose against the mouse pose (bot-local.h:108)."""
+TURN_MEMORY = 0.25
+"""Time constant (s) over which the fused estimator forgets the mouse's and the encoders' rotation
+disagreeing: long enough to see a slide build up, short enough that a wrong track width (a few
+per cent of the turning) never adds up to the band."""
+TURN_SCALE_ERROR = 0.05
+"""Relative disagreement of the two rotations allowed for believed wheel and track sizes that are
+off (UMBmark finds a few per cent)."""
+NOISE_COUNTS = 3.0
+"""Mouse noise (counts) allowed over the memory: 0.2-0.5 counts per step add up to 1-2.5 counts."""
 
 
 class Estimator(Protocol):
@@ -133,6 +142,17 @@ class FusedOdometry(_ArcOdometry):
     more than `tolerance` from the mouse's. A robot pushing against a wall therefore drifts at
     most `tolerance`. Limit: a mouse that reads zero while the robot moves (lifted, over a hole,
     too fast) looks like slip too.
+
+    Wall contact: a robot sliding sideways along a wall moves its single mouse sideways, which the
+    mouse can only read as rotation (1 mm of slide = 3.8 degrees on the c't-Bot). So the rotation
+    is checked against the encoders': their disagreement, summed with a memory of TURN_MEMORY,
+    stays without a slide within `turn_tolerance` = twice the two quantisation bands (2 * (1 tick /
+    track + 1 count / |m_x|): a forgetting sum of lags can reach twice the lag), 3 counts of mouse
+    noise and TURN_SCALE_ERROR of the recent turning. While it is beyond, the mouse is sliding: the
+    heading follows the encoders, and what the mouse added before the slide was seen is taken back
+    (the disagreement fades below the band within TURN_MEMORY * ln(size / band) after the slide). `contact_steps` counts those steps. Limit: a slide under
+    about 1 mm goes unnoticed, and wheels spinning on the spot while the body does not turn would
+    be read as a slide of the mouse.
     """
 
     def __init__(self, rule: Literal["slip", "blend"] = "slip", geometry: Geometry | None = None, weight: float = G_POS):
@@ -152,13 +172,34 @@ class FusedOdometry(_ArcOdometry):
         count = 1.0 / counts_per_metre(robot.mouse.dpi)
         self.tolerance = float(max(self.encoders.metres_per_tick) + count * (1.0 + abs(mount_y) / abs(mount_x)))
         self.disagreement = 0.0
+        self.turn_tolerance = 2.0 * (max(self.encoders.metres_per_tick) / self.encoders.track + count / abs(mount_x))
+        self.turn_tolerance += NOISE_COUNTS * count / abs(mount_x)
+        self.turn_disagreement = 0.0  # mouse minus encoder rotation, forgetting (rad)
+        self.taken = 0.0  # the part of it the heading took from the mouse (rad)
+        self.turning = 0.0  # encoder rotation in the same memory (rad)
+        self.time: float | None = None
+        self.contact_steps = 0
 
     def arc(self, readings: Readings) -> tuple[float, float]:
-        s_enc, _ = self.encoders.arc(readings)
-        s_mouse, alpha = self.mouse.arc(readings)
+        s_enc, alpha_enc = self.encoders.arc(readings)
+        s_mouse, alpha_mouse = self.mouse.arc(readings)
         total = self.disagreement + s_enc - s_mouse
         self.disagreement = min(max(total, -self.tolerance), self.tolerance)
-        return s_enc - (total - self.disagreement), alpha
+        return s_enc - (total - self.disagreement), self._rotation(alpha_mouse, alpha_enc, readings.time)
+
+    def _rotation(self, alpha_mouse: float, alpha_enc: float, time: float) -> float:
+        """The mouse's rotation, or the encoders' while the mouse slides sideways (wall contact)."""
+        keep = 1.0 if self.time is None else math.exp(-max(time - self.time, 0.0) / TURN_MEMORY)
+        self.time = time
+        self.turning = self.turning * keep + abs(alpha_enc)
+        self.turn_disagreement = self.turn_disagreement * keep + alpha_mouse - alpha_enc
+        self.taken = self.taken * keep
+        if abs(self.turn_disagreement) <= self.turn_tolerance + TURN_SCALE_ERROR * self.turning:
+            self.taken += alpha_mouse - alpha_enc
+            return alpha_mouse
+        self.contact_steps += 1
+        taken, self.taken = self.taken, 0.0
+        return alpha_enc - taken
 
     def update(self, readings: Readings) -> None:
         if self.rule == "slip":

@@ -102,13 +102,6 @@ def test_follow_line_drives_a_lap_of_the_line_course():
     assert result.robots[0].fell is False
 
 
-def test_solve_maze_leaves_the_maze():
-    controller = make("solve_maze", {"hand": "left", "speed_m_s": "0.25"})
-    result = drive("maze", controller, 200.0, until_goal=True)
-    assert result.reason == "goal"
-    assert result.robots[0].collisions == 0
-
-
 def test_avoid_holes_keeps_a_bot_out_of_the_hole_it_drives_at():
     """The start faces a slot 0.9 m ahead: driving 2 m straight falls in, unless the reflex wraps it."""
     plain = drive("holes_lights", DriveDistance(2.0), 15.0)

@@ -194,3 +194,30 @@ def test_scalar_step_agrees_with_the_kinematics_core(x, y, theta, s, alpha, end_
     lay = firmware_increment if end_heading else arc_increment
     expected = apply_increment(pose, lay(s, alpha))
     assert np.allclose(advance(pose, s, alpha, end_heading), expected, rtol=0, atol=1e-12)
+
+
+class Wanderer:
+    """The README's controller: ahead at 0.15 m/s, turning on the spot while an IR sees < 0.2 m."""
+
+    def step(self, t, readings):  # noqa: ANN001
+        if any(d < 0.2 for d in readings.ir_distance):
+            return Twist(0.0, 2.0)
+        return Twist(0.15, 0.0)
+
+
+def test_fused_heading_survives_sliding_along_walls():
+    """60 s of the README's Wanderer in the maze: it scrapes walls while turning on the spot, and
+    the single mouse reads each sideways slide as rotation. The fused estimate falls back to the
+    encoders while the two disagree, so its heading error is made of quantisation only: within a
+    slide it follows the encoders (whose lag differs by < q/b at each end of the slide), outside
+    it the mouse (< c/|m_x|). Each contact the world counts costs at most two switches, each at
+    most q/b + c/|m_x|: bound 2 * contacts * (q/b + c/|m_x|) (the noise-free world's wheels do not
+    slip in rotation: the encoders' own error stays below 2 degrees)."""
+    fused = FusedOdometry()
+    result = run(load_world("maze"), [RobotSetup(CTBOT, Wanderer(), estimators=[EncoderOdometry(), MouseOdometry(), fused])], 60.0)
+    log = result.robots[0]
+    assert log.collisions > 0 and fused.contact_steps > 0
+    bound = 2 * log.collisions * (TICK / CTBOT.track_width + COUNT / LEVER)
+    assert heading_error(log, "fused").max() < bound < math.radians(45)
+    assert heading_error(log, "mouse").max() > math.radians(90)  # what it falls back from
+    assert heading_error(log, "encoders").max() < math.radians(2)

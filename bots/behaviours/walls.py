@@ -7,35 +7,69 @@ from collections.abc import Generator
 
 import numpy as np
 
-from bots.behaviours.base import GROUND_GOAL, SPEED_NORMAL, Behaviour, Look, Plan
+from bots.behaviours.base import BORDER_DANGEROUS, GROUND_GOAL, SPEED_NORMAL, Behaviour, Look, Plan
 from bots.behaviours.motion import DriveDistance, DriveTo, Turn
 from bots.commands import Command, Twist
 from bots.controller import Status, register
-from sim.kinematics import relative_increment, wrap_angle
+from sim.kinematics import apply_increment, relative_increment, wrap_angle
 from sim.world.readings import Readings
 
 GOAL_TOLERANCE = 0x10
 """How far (raw units) a line sensor may read from GROUND_GOAL on the goal floor."""
+LOOK_STEPS = 8
+"""Steps a look averages the IR distances over: 5 mm of noise becomes 1.8 mm."""
+SQUARE_BAND = (0.27, 0.7)
+"""IR distances (m) trusted for squaring up on a wall: above the 0.1-0.26 m that a wall closer than
+0.1 m folds back to, below the curve's flat end."""
+MAX_SKEW = math.radians(15)
+"""Largest angle to a wall face (rad) a look squares up on; more means the two rays hit two faces."""
+OPEN_FRACTION = 0.9
+"""A way is open when both IR sensors see nothing nearer than this many cells: a room's neighbour
+wall reads at most 0.2 m (0.065 m away, folded back), the wall beyond an open neighbour at least
+0.3 m (cell 0.24 m)."""
+
+STEPS = ((1, 0), (0, 1), (-1, 0), (0, -1))
+"""Grid step of each quarter turn, counter-clockwise from the start heading."""
 
 
-def clear_ahead(readings: Readings, beyond_m: float) -> bool:
-    """Whether both IR sensors see nothing nearer than `beyond_m` (nan: nothing within range).
-    A wall closer than the sensors' 0.1 m reads as a false 0.1-0.2 m on the curve's fold-back, so
-    anything below about 0.25 m means blocked."""
-    distance = readings.ir_distance
+def clear_ahead(distance: np.ndarray, beyond_m: float) -> bool:
+    """Whether every IR distance is beyond `beyond_m` (nan: nothing within range).
+    A wall closer than the sensors' 0.1 m reads as a false 0.1-0.26 m on the curve's fold-back, so
+    anything below about 0.27 m may be a wall right in front."""
     return bool(np.all(np.isnan(distance) | (distance > beyond_m)))
+
+
+class DriveToRoom(DriveTo):
+    """DriveTo that stops dead and fails where a border sensor sees an abyss (a hole or the edge of
+    the map: the border sensors sit 38 mm ahead of the wheels, which fall)."""
+
+    abyss = False
+
+    def act(self, t: float, readings: Readings) -> Command:
+        if np.any(readings.border > BORDER_DANGEROUS):
+            self.abyss = True
+            return self.finish(Status.FAILURE)
+        return super().act(t, readings)
 
 
 @register("solve_maze")
 @register("follow_wall")
 class SolveMaze(Plan):
-    """Left- or right-hand wall follower for c't-Sim mazes, whose rooms lie on a grid of `cell_m`
-    aligned with the start heading. In each room it looks to the preferred side, ahead and to the
-    other side (turning to face each way: the c't-Bot's IR sensors only look forward), takes the
-    first open way, else turns back, and drives to the next room's centre by its own odometry.
-    Succeeds on the goal floor (the line sensors read GROUND_GOAL), after driving onto it."""
+    """Left- or right-hand wall follower for c't-Sim mazes: rooms (c't-Sim's 0.24 m tiles) on a grid
+    aligned with the start pose, walls whole tiles. First it drives ahead until a wall is beside or
+    in front of it; then in each room it takes the first open way of: the preferred side, ahead, the
+    other side, back (the c't-Bot's IR sensors only look forward, so it turns to face each way it has
+    not seen yet), and drives to that room's centre by its own odometry. An abyss (hole, map edge)
+    counts as a wall: the border sensors stop the drive at its edge, and the robot backs off.
 
-    def __init__(self, hand: str = "right", cell_m: float = 0.48, speed_m_s: float = SPEED_NORMAL, max_rooms: int = 400):
+    Every look that sees one wall face at a trustworthy distance squares the robot's belief up on it:
+    the two sensors' difference gives the angle to the face, their mean the distance, and faces lie
+    on the tile grid, so heading and position along that axis are corrected (what keeps wheel slip
+    and a wrong track width from leading it into a wall). Ways seen are remembered, so rooms visited
+    again cost no looks. Succeeds on the goal floor (the line sensors read GROUND_GOAL), after
+    driving a quarter room onto it."""
+
+    def __init__(self, hand: str = "right", cell_m: float = 0.24, speed_m_s: float = SPEED_NORMAL, max_rooms: int = 1000):
         if hand not in ("left", "right"):
             raise ValueError(f"hand must be 'left' or 'right', got {hand!r}")
         if cell_m <= 0 or speed_m_s <= 0:
@@ -46,42 +80,103 @@ class SolveMaze(Plan):
         self.max_rooms = max_rooms
 
     def start(self) -> None:
-        self.need("ir", 1)
+        self.need("ir", 2)
         self.need("line", 1)
         self.entering: Behaviour | None = None
+        self.known: dict[tuple[int, int, int], bool] = {}  # (room x, room y, quarter) -> open
+        self.frame = self.pose.copy()  # the grid's origin in this behaviour's odometry frame
+        left, right = self.robot.ir[0].position, self.robot.ir[1].position
+        self.ir_ahead = 0.5 * (left[0] + right[0])  # sensors ahead of the axle (m)
+        self.ir_baseline = left[1] - right[1]  # left sensor to right sensor (m)
         super().start()
 
     def act(self, t: float, readings: Readings) -> Command:
         if self.entering is None and np.any(np.abs(readings.line - GROUND_GOAL) <= GOAL_TOLERANCE):
-            self.entering = self.run(DriveDistance(self.cell / 4, self.speed))
+            self.entering = self.run(DriveToRoom(self.cell / 4, 0.0, self.speed))
         if self.entering is None:
             return super().act(t, readings)
         command = self.entering.step(t, readings)
         return command if self.entering.status is Status.RUNNING else self.finish(self.entering.status)
 
-    def _face(self, quarter: int) -> Turn:
-        return Turn(math.degrees(float(wrap_angle(quarter * math.pi / 2 - self.pose[2]))), self.speed)
+    @property
+    def grid_pose(self) -> np.ndarray:
+        """Believed pose on the grid: room (i, j) has its centre at (i, j) * cell."""
+        return relative_increment(self.frame, self.pose)
 
-    def _look(self, quarter: int) -> Generator[Behaviour, Status, bool]:
-        """Face the way `quarter` and tell whether it is open to the next room."""
+    def _face(self, quarter: int) -> Turn:
+        return Turn(math.degrees(float(wrap_angle(quarter * math.pi / 2 - self.grid_pose[2]))), self.speed)
+
+    def _learn(self, room: tuple[int, int], quarter: int, is_open: bool) -> None:
+        """Remember the way between `room` and its neighbour `quarter`, seen from both sides."""
+        q = quarter % 4
+        i, j = room[0] + STEPS[q][0], room[1] + STEPS[q][1]
+        self.known[(*room, q)] = self.known[(i, j, (q + 2) % 4)] = is_open
+
+    def _is_open(self, room: tuple[int, int], quarter: int) -> Generator[Behaviour, Status, bool]:
+        """Whether the way `quarter` out of `room` is open: remembered, or seen by facing it."""
+        key = (*room, quarter % 4)
+        if key not in self.known:
+            yield self._face(quarter)
+            look = Look(LOOK_STEPS)
+            yield look
+            self._square_up(look.ir_distance, room, quarter)
+            self._learn(room, quarter, clear_ahead(look.ir_distance, OPEN_FRACTION * self.cell))
+        return self.known[key]
+
+    def _square_up(self, distance: np.ndarray, room: tuple[int, int], quarter: int) -> None:
+        """Correct the grid pose from one wall face seen by both IR sensors facing `quarter`."""
+        left, right = distance[0], distance[1]
+        low, high = SQUARE_BAND
+        if not (low < left < high and low < right < high):
+            return
+        skew = math.atan((left - right) / self.ir_baseline)
+        if abs(skew) > MAX_SKEW:
+            return
+        pose = self.grid_pose
+        axis = np.array(STEPS[quarter % 4], dtype=float)
+        along = float(np.dot(pose[:2] - np.asarray(room) * self.cell, axis))  # from the room centre
+        wall = (0.5 * (left + right) + self.ir_ahead) * math.cos(skew)  # robot centre to the face
+        face = (round((along + wall) / self.cell - 0.5) + 0.5) * self.cell  # the nearest tile edge
+        corrected = pose.copy()
+        corrected[:2] += (face - wall - along) * axis
+        corrected[2] += float(wrap_angle(quarter * math.pi / 2 + skew - pose[2]))
+        self.frame = apply_increment(self.pose, relative_increment(corrected, np.zeros(3)))
+
+    def _drive(self, room: tuple[int, int], quarter: int) -> Generator[Behaviour, Status, bool]:
+        """Face `quarter` and drive to the next room's centre; on an abyss back off to this room's
+        centre and remember that way as closed. Whether the robot got there."""
         yield self._face(quarter)
-        look = Look()
-        yield look
-        return clear_ahead(look.readings, self.cell / 2)
+        step = STEPS[quarter % 4]
+        target = np.array([(room[0] + step[0]) * self.cell, (room[1] + step[1]) * self.cell, 0.0])
+        local = relative_increment(self.pose, apply_increment(self.frame, target))
+        drive = DriveToRoom(local[0], local[1], self.speed)
+        if (yield drive) is Status.SUCCESS:
+            self._learn(room, quarter, True)
+            return True
+        if not drive.abyss:
+            return False  # overshot by its own odometry: try the next way from here
+        self._learn(room, quarter, False)
+        out = float(np.dot(self.grid_pose[:2] - np.asarray(room) * self.cell, step))
+        yield DriveDistance(-out, self.speed)
+        return False
 
     def plan(self) -> Generator[Behaviour, Status, Status | None]:
-        facing, room = 0, np.zeros(2)
+        heading, room, following = 0, (0, 0), False
         for _ in range(self.max_rooms):
-            ahead = yield from self._look(facing)  # no turn needed
-            if (yield from self._look(facing + self.first)):
-                facing += self.first
-            elif not ahead:
-                facing += -self.first if (yield from self._look(facing - self.first)) else 2
-            yield self._face(facing)
-            room += np.rint([math.cos(facing * math.pi / 2), math.sin(facing * math.pi / 2)])
-            local = relative_increment(self.pose, np.array([*(room * self.cell), 0.0]))
-            if (yield DriveTo(local[0], local[1], self.speed)) is Status.FAILURE:
-                return Status.FAILURE
+            if not following:  # find a wall: ahead until one is at the preferred side or in front
+                if not (yield from self._is_open(room, heading + self.first)):
+                    following = True
+                elif not (yield from self._is_open(room, heading)):
+                    heading -= self.first  # as if arrived going the other way: the wall is at hand
+                    following = True
+            ways = (heading + self.first, heading, heading - self.first, heading + 2) if following else (heading,)
+            for way in ways:
+                if (yield from self._is_open(room, way)) and (yield from self._drive(room, way)):
+                    heading, room = way, (room[0] + STEPS[way % 4][0], room[1] + STEPS[way % 4][1])
+                    break
+            else:
+                if following:
+                    return Status.FAILURE  # walled in
         return Status.FAILURE
 
 
@@ -101,7 +196,7 @@ class Wander(Behaviour):
     def act(self, t: float, readings: Readings) -> Command:
         if self.turning is not None and self.turning.status is Status.RUNNING:
             return self.turning.step(t, readings)
-        if clear_ahead(readings, self.clearance):
+        if clear_ahead(readings.ir_distance, self.clearance):
             return Twist(self.speed, 0.0)
         left, right = np.nan_to_num(readings.ir_distance[:2], nan=math.inf)
         self.turning = self.run(Turn(90.0 if left >= right else -90.0, self.speed))
