@@ -16,6 +16,10 @@ import numpy as np
 from sim.kinematics import relative_increment, wrap_angle
 
 
+RPE_BLOCK = 65536
+"""Segments per block in `relative_pose_errors`."""
+
+
 def path_lengths(poses: np.ndarray) -> np.ndarray:
     """(T,) distance driven from the first pose to each pose (m), summed over the samples."""
     steps = np.hypot(*np.diff(np.asarray(poses)[:, :2], axis=0).T)
@@ -31,9 +35,13 @@ def relative_pose_errors(truth: np.ndarray, estimate: np.ndarray, segment: float
     ends = np.searchsorted(driven, driven + segment)
     starts = np.nonzero(ends < len(driven))[0]
     ends = ends[starts]
-    true_motion = relative_increment(truth[starts], truth[ends])
-    estimated_motion = relative_increment(estimate[starts], estimate[ends])
-    return np.hypot(*relative_increment(true_motion, estimated_motion)[:, :2].T)
+    errors = np.empty(len(starts))
+    for block in range(0, len(starts), RPE_BLOCK):  # bounded temporaries for hour-long runs
+        i, j = starts[block : block + RPE_BLOCK], ends[block : block + RPE_BLOCK]
+        true_motion = relative_increment(truth[i], truth[j])
+        estimated_motion = relative_increment(estimate[i], estimate[j])
+        errors[block : block + RPE_BLOCK] = np.hypot(*relative_increment(true_motion, estimated_motion)[:, :2].T)
+    return errors
 
 
 @dataclass(frozen=True)
