@@ -1,4 +1,4 @@
-"""The `ctsim` command line: run, play, report, worlds, check, controllers.
+"""The `ctsim` command line: run, play, report, sweep, worlds, check, controllers.
 
 User mistakes (bad world files, robot files, controller names or parameters, unwritable folders)
 end in one line `ctsim: error: ...` and exit code 2, never a traceback; a controller that fails
@@ -114,6 +114,8 @@ def build_parser() -> argparse.ArgumentParser:
     check.add_argument("world", metavar="WORLD")
     check.set_defaults(handler=cmd_check)
 
+    _add_sweep_parser(commands)
+
     controllers = commands.add_parser("controllers", help="list the registered controllers and their parameters", description="List the controllers `--controller` accepts by name, with their parameters.")
     controllers.set_defaults(handler=cmd_controllers)
     return parser
@@ -185,17 +187,13 @@ def _setups(args: argparse.Namespace, spec) -> list:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from sim.run import run
-    from sim.views.recording import Recorder
-    from sim.world.files import load_world
+    from sim.experiments import simulate, world
 
-    world = load_world(args.world)
-    spec = load_robot_spec(args.robot)
-    setups = _setups(args, spec)
+    place = world(args.world)
+    setups = _setups(args, load_robot_spec(args.robot))
     out = _out_dir(args.out, args.world, setups[0].controller_name)
-    recorder = Recorder(out / "run.rrd", live=args.live)
-    result = run(world, setups, args.duration, dt=args.dt, seed=args.seed, until_goal=args.until_goal, observers=(recorder, Progress(args.duration, args.dt)))
-    return finish(result, out, {"duration": args.duration, "until_goal": args.until_goal}, report=not args.no_report)
+    result = simulate(place, *setups, duration=args.duration, dt=args.dt, seed=args.seed, until_goal=args.until_goal, record=out / "run.rrd", live=args.live, observers=(Progress(args.duration, args.dt),))
+    return finish(result.raw, out, {"duration": args.duration, "until_goal": args.until_goal}, report=not args.no_report)
 
 
 def cmd_play(args: argparse.Namespace) -> int:
@@ -300,6 +298,53 @@ def table(summary: dict[str, Any]) -> str:
         for name, errors in robot["estimates"].items():
             lines.append(f"{'':<12}{name:<12}{'':>11}{'':>11}{errors['final_position_error']:>12.4f}{errors['ate_rmse']:>11.4f}{math.degrees(errors['final_heading_error']):>12.2f}")
     return "\n".join(lines)
+
+
+# --- sweep ------------------------------------------------------------------------------------
+
+
+def _add_sweep_parser(commands) -> None:  # noqa: ANN001 (argparse's subparsers action)
+    sweep = commands.add_parser(
+        "sweep",
+        help="run many runs from a TOML spec (grid or random), resumable; `sweep report DIR` draws its figures",
+        description="Run every run a sweep spec plans (see README, 'Sweeps') on local processes (default, all cores) or Dask, "
+        "one Parquet row per run in DIR/results.parquet, kept as runs finish: run it again to finish an interrupted sweep. "
+        "`ctsim sweep report DIR` draws the figures of a sweep folder.",
+    )
+    sweep.add_argument("spec", metavar="SPEC.toml|report", help="the sweep spec, or `report` followed by a sweep folder")
+    sweep.add_argument("folder", nargs="?", type=Path, metavar="DIR", help="(with report) the sweep folder")
+    sweep.add_argument("--out", type=Path, metavar="DIR", help="sweep folder (default: runs/sweep-<spec name>)")
+    sweep.add_argument("--engine", choices=("processes", "dask", "serial"), default="processes", help="local processes (default), a Dask LocalCluster, or one run after another here")
+    sweep.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="run on the Dask cluster whose scheduler is there (implies --engine dask)")
+    sweep.add_argument("--jobs", type=int, metavar="N", help="worker processes (default: one per core)")
+    sweep.set_defaults(handler=cmd_sweep)
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    from sim.experiments import engine, load_sweep, sweep
+    from sim.experiments.report import summary, write_report
+
+    if args.spec == "report":
+        if args.folder is None or not args.folder.is_dir():
+            raise UsageError(f"sweep report needs a sweep folder, got {args.folder}")
+        for path in write_report(args.folder):
+            print(path)
+        return 0
+    if args.folder is not None:
+        raise UsageError(f"unexpected argument {str(args.folder)!r} (the folder goes in --out)")
+    if args.jobs is not None and args.jobs < 1:
+        raise UsageError(f"--jobs must be at least 1, got {args.jobs}")
+    spec = load_sweep(args.spec)
+    out = args.out or Path("runs") / f"sweep-{Path(args.spec).stem}"
+    runner = engine(args.engine, args.jobs, args.scheduler)
+    try:
+        table = sweep(spec, out, runner)
+    finally:
+        runner.close()
+    failed = int((table["reason"] == "error").sum())
+    print(summary(table).to_string(float_format=lambda v: f"{v:.4f}"))
+    print(f"{len(table)} runs, {failed} failed (see the error column); table: {out / 'results.parquet'}")
+    return 0
 
 
 # --- listings ---------------------------------------------------------------------------------

@@ -8,6 +8,7 @@ The function itself must not raise (a sweep turns a failing run into a row with 
 
 from __future__ import annotations
 
+import logging
 import multiprocessing
 import os
 import signal
@@ -131,7 +132,7 @@ class Dask:
         self.cluster = None
         if address is None:
             n = workers or os.cpu_count() or 1
-            self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None)
+            self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None, silence_logs=logging.ERROR)
             self.client = Client(self.cluster, timeout=timeout)
         else:
             self.client = Client(address, timeout=timeout)
