@@ -27,6 +27,9 @@ def figures(quick: bool):
     except ImportError:
         return
     yield from world.figures(scale)
+    from bench import experiments
+
+    yield from experiments.figures(scale)
 
 
 def main(argv: list[str] | None = None) -> int:

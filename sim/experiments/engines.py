@@ -22,6 +22,10 @@ RETRIES = 3
 """How often a run whose worker died is started again (Dask's default `allowed-failures`)."""
 
 
+PRELOAD = ["sim.experiments.sweep", "sim.experiments.warm"]
+"""Modules the local workers' fork server imports (and runs, `warm`) once, so that a new worker starts warm."""
+
+
 @dataclass(frozen=True)
 class Lost:
     """A run whose worker died on every attempt."""
@@ -54,13 +58,15 @@ def _serve(conn, fn: Callable[[Any], Any]) -> None:  # noqa: ANN001 (a multiproc
 
 
 class Processes:
-    """Local worker processes (default: one per core), one run at a time each. A worker that dies
-    is replaced and its run started again, up to `retries` times."""
+    """Local worker processes (default: one per core), one run at a time each, forked from a
+    server process (not from this one, whose threads a fork would copy mid-state). A worker that
+    dies is replaced and its run started again, up to `retries` times."""
 
     def __init__(self, workers: int | None = None, retries: int = RETRIES):
         self.workers = workers or os.cpu_count() or 1
         self.retries = retries
-        self._context = multiprocessing.get_context("spawn")
+        self._context = multiprocessing.get_context("forkserver")
+        self._context.set_forkserver_preload(PRELOAD)  # workers fork from a process that imported these once
         self._live: list[tuple[Any, Any]] = []
 
     def _start(self, fn: Callable[[Any], Any]) -> tuple[Any, Any]:
