@@ -4,7 +4,6 @@ is a floor for the real firmware's C. c't-Sim's real time is 100 steps/s (10 ms 
 
 from __future__ import annotations
 
-import socket
 import subprocess
 import sys
 import time

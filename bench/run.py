@@ -26,9 +26,9 @@ def figures(quick: bool):
         from bench import world
     except ImportError:
         return
-    from bench import bridge, lab
+    from bench import bridge, experiments, lab
 
-    for module in (world, bridge, lab):
+    for module in (world, bridge, lab, experiments):
         yield from module.figures(scale)
 
 

@@ -1,4 +1,4 @@
-"""The `ctsim` command line: run, play, report, worlds, check, controllers.
+"""The `ctsim` command line: run, play, report, sweep, worlds, check, controllers.
 
 User mistakes (bad world files, robot files, controller names or parameters, unwritable folders)
 end in one line `ctsim: error: ...` and exit status 2, never a traceback; a run that fails mid-way
@@ -143,6 +143,7 @@ def build_parser() -> argparse.ArgumentParser:
     check.set_defaults(handler=cmd_check)
 
     _add_bridge_parser(commands)
+    _add_sweep_parser(commands)
 
     controllers = commands.add_parser("controllers", help="list the registered controllers and their parameters", description="List the controllers `--controller` accepts by name, with their parameters.")
     controllers.set_defaults(handler=cmd_controllers)
@@ -272,20 +273,18 @@ def _setups(args: argparse.Namespace, spec) -> list:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from sim.run import run
-    from sim.views.recording import Recorder
-    from sim.world.files import load_world, world_warnings
+    from sim.experiments import simulate, world
+    from sim.world.files import world_warnings
 
-    world = load_world(args.world)
-    spec = load_robot_spec(args)
-    setups = _setups(args, spec)
-    for warning in world_warnings(world):
+    place = world(args.world)
+    setups = _setups(args, load_robot_spec(args))
+    for warning in world_warnings(place):
         print(f"ctsim: warning: {args.world}: {warning}", file=sys.stderr)
-    until_goal = bool(world.goals) if args.until_goal is None else args.until_goal
+    until_goal = bool(place.goals) if args.until_goal is None else args.until_goal
     out = _out_dir(args.out, args.world, setups[0].controller_name)
-    recorder = Recorder(out / "run.rrd", live=args.live)
-    result = run(world, setups, args.duration, dt=args.dt, seed=args.seed, until_goal=until_goal, observers=(recorder, Progress(args.duration, args.dt)))
-    return finish(result, out, {"duration": args.duration, "until_goal": until_goal, **_robot_options(args)}, report=not args.no_report)
+    result = simulate(place, *setups, duration=args.duration, dt=args.dt, seed=args.seed, until_goal=until_goal,
+                      record=out / "run.rrd", live=args.live, observers=(Progress(args.duration, args.dt),))
+    return finish(result.raw, out, {"duration": args.duration, "until_goal": until_goal, **_robot_options(args)}, report=not args.no_report)
 
 
 def _robot_options(args: argparse.Namespace) -> dict[str, Any]:
@@ -482,6 +481,51 @@ def cmd_bridge(args: argparse.Namespace) -> int:
             outcome = f"result {call['result']} at step {call['done_step']}" if call["result"] is not None else "no result (r/D) yet"
             print(f"{bot['label']}: {call['call']} sent at step {call['sent_step']}: {outcome}")
     return finish(result, out, {"duration": args.duration, "until_goal": False, **_robot_options(args), "bridge": bridge.summary()}, report=not args.no_report)
+# --- sweep ------------------------------------------------------------------------------------
+
+
+def _add_sweep_parser(commands) -> None:  # noqa: ANN001 (argparse's subparsers action)
+    sweep = commands.add_parser(
+        "sweep",
+        help="run many runs from a TOML spec (grid or random), resumable; `sweep report DIR` draws its figures",
+        description="Run every run a sweep spec plans (see README, 'Sweeps') on local processes (default, all cores) or Dask, "
+        "one Parquet row per run in DIR/results.parquet, kept as runs finish: run it again to finish an interrupted sweep. "
+        "`ctsim sweep report DIR` draws the figures of a sweep folder.",
+    )
+    sweep.add_argument("spec", metavar="SPEC.toml|report", help="the sweep spec, or `report` followed by a sweep folder")
+    sweep.add_argument("folder", nargs="?", type=Path, metavar="DIR", help="(with report) the sweep folder")
+    sweep.add_argument("--out", type=Path, metavar="DIR", help="sweep folder (default: runs/sweep-<spec name>)")
+    sweep.add_argument("--engine", choices=("processes", "dask", "serial"), default="processes", help="local processes (default), a Dask LocalCluster, or one run after another here")
+    sweep.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="run on the Dask cluster whose scheduler is there (implies --engine dask)")
+    sweep.add_argument("--jobs", type=int, metavar="N", help="worker processes (default: one per core)")
+    sweep.set_defaults(handler=cmd_sweep)
+
+
+def cmd_sweep(args: argparse.Namespace) -> int:
+    from sim.experiments import engine, load_sweep, sweep
+    from sim.experiments.report import summary, write_report
+
+    if args.spec == "report":
+        if args.folder is None or not args.folder.is_dir():
+            raise UsageError(f"sweep report needs a sweep folder, got {args.folder}")
+        for path in write_report(args.folder):
+            print(path)
+        return 0
+    if args.folder is not None:
+        raise UsageError(f"unexpected argument {str(args.folder)!r} (the folder goes in --out)")
+    if args.jobs is not None and args.jobs < 1:
+        raise UsageError(f"--jobs must be at least 1, got {args.jobs}")
+    spec = load_sweep(args.spec)
+    out = args.out or Path("runs") / f"sweep-{Path(args.spec).stem}"
+    runner = engine(args.engine, args.jobs, args.scheduler)
+    try:
+        table = sweep(spec, out, runner)
+    finally:
+        runner.close()
+    failed = int((table["reason"] == "error").sum())
+    print(summary(table).to_string(float_format=lambda v: f"{v:.4f}"))
+    print(f"{len(table)} runs, {failed} failed (see the error column); table: {out / 'results.parquet'}")
+    return 0
 
 
 # --- listings ---------------------------------------------------------------------------------

@@ -21,8 +21,15 @@ from fake_firmware import FakeFirmware  # noqa: E402
 
 from bots.behaviours import make  # noqa: E402
 from bots.ctbot import CTBOT  # noqa: E402
-from sim.bridge import Bridge, Decoder, Packet, ProtocolError, parse_call, rc5_code  # noqa: E402
-from sim.bridge import server  # noqa: E402
+from sim.bridge import (  # noqa: E402
+    Bridge,
+    Decoder,
+    Packet,
+    ProtocolError,
+    parse_call,
+    rc5_code,
+    server,  # noqa: E402
+)
 from sim.bridge.firmware import MM_S_PER_UNIT  # noqa: E402
 from sim.bridge.protocol import remote_call_payload  # noqa: E402
 from sim.run import RobotSetup, run  # noqa: E402

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
+from observers import KeepReadings
 
 from bots.commands import Twist, WheelSpeeds
 from bots.controller import FunctionController
@@ -34,8 +35,6 @@ from sim.kinematics.mouse import counts_per_metre
 from sim.run import RobotSetup, run
 from sim.world.files import load_world
 from sim.world.spec import WorldSpec
-
-from observers import KeepReadings
 
 OPEN_FLOOR = WorldSpec("open floor", (-100.0, -100.0, 100.0, 100.0))
 IDEAL = CTBOT.with_changes(encoders={"ticks_per_rev": 10**9}, mouse={"dpi": 1e9})

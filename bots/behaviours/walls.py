@@ -7,7 +7,14 @@ from collections.abc import Generator
 
 import numpy as np
 
-from bots.behaviours.base import BORDER_DANGEROUS, GROUND_GOAL, SPEED_NORMAL, Behaviour, Look, Plan
+from bots.behaviours.base import (
+    BORDER_DANGEROUS,
+    GROUND_GOAL,
+    SPEED_NORMAL,
+    Behaviour,
+    Look,
+    Plan,
+)
 from bots.behaviours.motion import DriveDistance, DriveTo, Turn
 from bots.commands import Command, Twist
 from bots.controller import Status, register

@@ -15,7 +15,6 @@ import numpy as np
 
 from sim.kinematics import relative_increment, wrap_angle
 
-
 RPE_BLOCK = 65536
 """Segments per block in `relative_pose_errors`."""
 

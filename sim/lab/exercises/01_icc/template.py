@@ -3,7 +3,6 @@
 Check your work with:  ctsim lab check 1 icc.py
 """
 
-import math
 
 
 def turn(v_left, v_right, track, x, y, theta):

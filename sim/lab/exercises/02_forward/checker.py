@@ -4,7 +4,12 @@ import math
 
 import numpy as np
 
-from sim.kinematics import apply_increment, firmware_increment, integrate_arcs, wheel_arcs_to_arc
+from sim.kinematics import (
+    apply_increment,
+    firmware_increment,
+    integrate_arcs,
+    wheel_arcs_to_arc,
+)
 from sim.lab.checking import Outcome, close, diagnose, fmt
 from sim.lab.sandbox import StudentError, numbers
 

@@ -3,7 +3,6 @@
 Check your work with:  ctsim lab check 2 forward.py
 """
 
-import math
 
 
 def step(x, y, theta, v_left, v_right, track, dt):

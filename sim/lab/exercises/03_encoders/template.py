@@ -3,7 +3,6 @@
 Check your work with:  ctsim lab check 3 encoders.py
 """
 
-import math
 
 import numpy as np
 

@@ -1,0 +1,191 @@
+"""The Python API, as small as the command line: a world, robots with controllers, a run, a result.
+
+    from sim.experiments import Bot, simulate
+    result = simulate("maze", Bot("solve_maze"), duration=10, seed=1)
+    result.robots[0].truth              # (T, 3) ground-truth poses (x, y m; heading rad)
+    result.robots[0].estimates["mouse"] # (T, 3) what the mouse odometry believed
+    result.metrics_frame()              # pandas: one row per robot and estimator
+
+Everything here is a thin layer over `sim.run.run`; `ctsim run` calls `simulate` too.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable
+from dataclasses import asdict, dataclass, field, fields, is_dataclass, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from bots.controller import Controller, FunctionController
+from bots.spec import RobotSpec
+from sim.analysis.metrics import compare_run, path_lengths
+from sim.run import RobotSetup, RunResult, run
+from sim.world.spec import Start, WorldSpec
+
+
+def world(source: str | Path | WorldSpec) -> WorldSpec:
+    """A world: a shipped world's name (`"maze"`), a `.toml`/`.xml` file, or a WorldSpec as is."""
+    if isinstance(source, WorldSpec):
+        return source
+    from sim.world.files import load_world
+
+    return load_world(source)
+
+
+def robot(source: str | Path | RobotSpec = "ctbot", changes: dict[str, Any] | None = None) -> RobotSpec:
+    """A robot description: a built-in name (`"ctbot"`), a TOML robot file or a RobotSpec, with
+    `changes` by dotted field name applied (see `change_robot`)."""
+    if isinstance(source, RobotSpec):
+        spec = source
+    else:
+        from bots.ctbot import ROBOTS
+        from bots.spec import load_robot
+
+        if str(source) in ROBOTS:
+            spec = ROBOTS[str(source)]
+        elif str(source).endswith(".toml") or Path(source).exists():
+            spec = load_robot(source)
+        else:
+            raise ValueError(f"unknown robot {str(source)!r} (built-in: {', '.join(ROBOTS)}; or a .toml file)")
+    return change_robot(spec, changes or {})
+
+
+def change_robot(spec: RobotSpec, changes: dict[str, Any]) -> RobotSpec:
+    """A copy of `spec` with fields replaced by dotted name: `{"encoders.slip_std": 0.02,
+    "mouse.noise_std": 0.5, "ir.noise_std": 0.01, "wheel_diameter": 0.057}`. A name under a
+    sensor group (`ir`, `line`, `border`, `light`) changes every sensor of the group; lists
+    become tuples (`"encoders.diameter_error": [0.01, -0.01]`)."""
+    for key, value in changes.items():
+        spec = _change(spec, key.split("."), tuple(value) if isinstance(value, list) else value, key)
+    return spec
+
+
+def _change(obj: Any, path: list[str], value: Any, key: str) -> Any:
+    if isinstance(obj, tuple):  # a sensor group: the change applies to each of its sensors
+        return tuple(_change(item, path, value, key) for item in obj)
+    if obj is None or not is_dataclass(obj):
+        raise ValueError(f"robot change {key!r}: {'.'.join(path)} names no field here")
+    names = {f.name for f in fields(obj)}
+    if path[0] not in names:
+        raise ValueError(f"robot change {key!r}: {type(obj).__name__} has no field {path[0]!r} (fields: {', '.join(sorted(names))})")
+    if len(path) > 1:
+        value = _change(getattr(obj, path[0]), path[1:], value, key)
+    return replace(obj, **{path[0]: value})
+
+
+@dataclass
+class Bot:
+    """A robot to put in a world. `controller`: a registered name, `"file.py[:Name]"`, a controller
+    object (anything with `step(t, readings)`) or a function `f(t, readings) -> Command`.
+    `params`: the controller's parameters (for names and files). `robot`: as `robot()` takes it,
+    with `changes` by dotted field name. `start`: (x, y m, heading rad); None: the world's start."""
+
+    controller: str | Controller | Callable = "solve_maze"
+    params: dict[str, Any] = field(default_factory=dict)
+    robot: str | Path | RobotSpec = "ctbot"
+    changes: dict[str, Any] = field(default_factory=dict)
+    start: Start | tuple[float, float, float] | None = None
+
+    def setup(self) -> RobotSetup:
+        """The run loop's description of this robot (controllers by name are built here)."""
+        spec = robot(self.robot, self.changes)
+        params = {k: _text(v) for k, v in self.params.items()}
+        if isinstance(self.controller, str):
+            from bots.behaviours import make
+
+            return RobotSetup(spec, make(self.controller, params), self.controller, params, self.start)
+        made = self.controller if hasattr(self.controller, "step") else FunctionController(self.controller)
+        name = getattr(made, "name", type(made).__name__)
+        return RobotSetup(spec, made, name, params, self.start)
+
+
+def _text(value: Any) -> str:
+    """A parameter as the command line would spell it (controllers convert by annotation)."""
+    return str(value).lower() if isinstance(value, bool) else str(value)
+
+
+@dataclass
+class RobotResult:
+    """One robot's run: trajectories as numpy arrays and odometry metrics per estimator."""
+
+    name: str
+    controller: str
+    truth: np.ndarray
+    estimates: dict[str, np.ndarray]
+    metrics: dict[str, dict[str, float]]
+    collisions: int
+    fell: bool
+    goal_time: float | None
+
+    @property
+    def distance(self) -> float:
+        """Metres the robot really drove."""
+        return float(path_lengths(self.truth)[-1]) if len(self.truth) else 0.0
+
+
+@dataclass
+class Result:
+    """A finished run. `reason`: 'duration', 'goal', 'error' or 'interrupted'; `error`: the
+    one-line message of a failure; `raw`: the run loop's own result (for `ctsim run`'s files)."""
+
+    time: np.ndarray
+    robots: list[RobotResult]
+    reason: str
+    error: str | None
+    seed: int
+    raw: RunResult
+
+    def metrics_frame(self) -> Any:
+        """pandas DataFrame, one row per robot and estimator, one column per metric."""
+        import pandas as pd
+
+        rows = [{"robot": r.name, "estimator": est, **values} for r in self.robots for est, values in r.metrics.items()]
+        return pd.DataFrame(rows)
+
+
+def result_of(raw: RunResult) -> Result:
+    """The API's view of a run loop result."""
+    metrics = compare_run(raw) if len(raw.times) else {}
+    robots = [
+        RobotResult(
+            name=log.name,
+            controller=log.controller_name,
+            truth=log.truth_array(),
+            estimates=log.estimate_arrays(),
+            metrics={est: asdict(m) for est, m in metrics.get(log.name, {}).items()},
+            collisions=log.collisions,
+            fell=log.fell,
+            goal_time=log.goal_time,
+        )
+        for log in raw.robots
+    ]
+    return Result(raw.time, robots, raw.reason, raw.error, raw.seed, raw)
+
+
+def simulate(
+    world_source: str | Path | WorldSpec = "maze",
+    *bots: Bot | RobotSetup,
+    duration: float = 60.0,
+    dt: float = 0.01,
+    seed: int = 0,
+    until_goal: bool = False,
+    record: str | Path | None = None,
+    live: bool = False,
+    observers: Iterable = (),
+) -> Result:
+    """Run `bots` (default: one c't-Bot solving the maze) in a world for `duration` seconds of
+    simulated time, or until one reaches a goal; `record` writes a rerun recording there."""
+    if not (math.isfinite(dt) and dt > 0):
+        raise ValueError(f"dt must be a positive number of seconds, got {dt!r}")
+    spec = world(world_source)
+    setups = [b.setup() if isinstance(b, Bot) else b for b in (bots or (Bot(),))]
+    watchers = list(observers)
+    if record is not None or live:
+        from sim.views.recording import Recorder
+
+        watchers.insert(0, Recorder(record, live=live))
+    raw = run(spec, setups, duration, dt=dt, seed=seed, until_goal=until_goal, observers=tuple(watchers))
+    return result_of(raw)

@@ -1,0 +1,156 @@
+"""Sweeps: many independent runs from a plan, on an engine, into a table that survives being killed.
+
+    from sim.experiments import sweep
+    table = sweep("noise.toml", "runs/noise")      # pandas DataFrame, one row per run
+
+A row holds the run's settings, its outcome (reason, error, simulated time, goal, collisions,
+distance), the odometry metrics per estimator as `<estimator>.<metric>` (e.g. `mouse.ate_rmse`)
+and the wall time. Rows reach disk as runs finish; run the same sweep into the same folder
+again and only the missing runs execute.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from sim.experiments import store
+from sim.experiments.api import Bot, Result, simulate
+from sim.experiments.engines import Dask, Lost, Processes, Serial
+from sim.experiments.plan import Job, SweepSpec, jobs, load_sweep, spec_from_dict
+
+OUTCOME = ("reason", "error", "sim_time", "reached_goal", "goal_time", "fell", "collisions", "distance")
+"""Outcome columns of every row, beside the settings and the metrics."""
+
+
+def bot(settings: dict[str, Any]) -> Bot:
+    """The robot a run's settings describe."""
+    params = {k.removeprefix("params."): v for k, v in settings.items() if k.startswith("params.")}
+    changes = {k.removeprefix("robot."): v for k, v in settings.items() if k.startswith("robot.")}
+    return Bot(settings["controller"], params, settings["robot"], changes)
+
+
+def outcome(result: Result) -> dict[str, Any]:
+    """The outcome and metric columns of a finished run (its first robot)."""
+    robot = result.robots[0]
+    row = {
+        "reason": result.reason,
+        "error": result.error,
+        "sim_time": float(result.time[-1]) if len(result.time) else 0.0,
+        "reached_goal": robot.goal_time is not None,
+        "goal_time": math.nan if robot.goal_time is None else float(robot.goal_time),
+        "fell": bool(robot.fell),
+        "collisions": int(robot.collisions),
+        "distance": robot.distance,
+    }
+    for estimator, values in robot.metrics.items():
+        row.update({f"{estimator}.{metric}": float(v) for metric, v in values.items()})
+    return row
+
+
+def execute(job: Job) -> dict[str, Any]:
+    """Run one job and return its row; a run that raises becomes a row with reason 'error'."""
+    started = time.perf_counter()
+    row: dict[str, Any] = {"run": job.index, "run_id": job.run_id, **job.settings}
+    s = job.settings
+    try:
+        folder = Path(job.folder) if job.folder else None
+        if folder is not None:
+            folder.mkdir(parents=True, exist_ok=True)
+        record = folder / "run.rrd" if folder is not None and "recording" in job.keep else None
+        result = simulate(s["world"], bot(s), duration=s["duration"], dt=s["dt"], seed=s["seed"], until_goal=s["until_goal"], record=record)
+        row.update(outcome(result))
+        if folder is not None and "tum" in job.keep:
+            _write_tum(result, folder)
+    except Exception as err:  # a failing run is a result of the sweep, not the end of it
+        row.update({name: None for name in OUTCOME}, reason="error", error=f"{type(err).__name__}: {err}")
+    row["wall_time_s"] = time.perf_counter() - started
+    return row
+
+
+def _write_tum(result: Result, folder: Path) -> None:
+    from sim.analysis.export import write_tum
+
+    robot = result.robots[0]
+    for label, poses in {"truth": robot.truth, **robot.estimates}.items():
+        write_tum(folder / f"{label}.tum", result.time[: len(poses)], poses)
+
+
+def lost_row(job: Job, lost: Lost) -> dict[str, Any]:
+    """The row of a run whose worker kept dying."""
+    return {"run": job.index, "run_id": job.run_id, **job.settings, **{name: None for name in OUTCOME}, "reason": "error", "error": f"run lost: {lost.message}", "wall_time_s": math.nan}
+
+
+def check(planned: list[Job]) -> None:
+    """Build every distinct world, robot and controller of a plan once, so that a mistake in the
+    spec stops the sweep before anything runs (ValueError naming the run and the setting)."""
+    from sim.experiments.api import world
+
+    tried: set[str] = set()
+    for job in planned:
+        s = job.settings
+        robot_part = {k: v for k, v in s.items() if k in ("robot", "controller") or k.startswith(("robot.", "params."))}
+        for what, build in ((f"world {s['world']!r}", lambda: world(s["world"])), (f"robot {robot_part}", lambda: bot(s).setup())):
+            if what not in tried:
+                tried.add(what)
+                try:
+                    build()
+                except Exception as err:
+                    raise ValueError(f"run {job.index}, {what}: {err}") from None
+        for key, low in (("duration", 0.0), ("dt", 1e-9)):
+            value = s[key]
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not (math.isfinite(value) and value >= low):
+                raise ValueError(f"run {job.index}: {key} must be a positive number of seconds, got {value!r}")
+        if not isinstance(s["seed"], int) or isinstance(s["seed"], bool):
+            raise ValueError(f"run {job.index}: seed must be an integer, got {s['seed']!r}")
+
+
+def _progress(total: int, done: int) -> Any:
+    from tqdm import tqdm
+
+    return tqdm(total=total, initial=done, unit="run", file=sys.stderr, disable=not sys.stderr.isatty(), smoothing=0.1, dynamic_ncols=True)
+
+
+def sweep(
+    spec: str | Path | SweepSpec | dict,
+    out: str | Path,
+    runner: Serial | Processes | Dask | None = None,
+    on_row: Callable[[dict[str, Any]], None] | None = None,
+    progress: bool = True,
+) -> pd.DataFrame:
+    """Run every planned run not yet in `out` on `runner` (default: local processes, all cores),
+    keeping each row as it finishes; the whole table (also on Ctrl-C, which re-raises)."""
+    if isinstance(spec, dict):
+        spec = spec_from_dict(spec)
+    elif not isinstance(spec, SweepSpec):
+        spec = load_sweep(spec)
+    out = Path(out)
+    planned = jobs(spec, out)
+    check(planned)
+    out.mkdir(parents=True, exist_ok=True)
+    finished = store.done(out)
+    todo = [job for job in planned if job.run_id not in finished]
+    owned = runner is None
+    runner = runner or Processes()
+    bar = _progress(len(planned), len(planned) - len(todo)) if progress else None
+    try:
+        for job, result in runner.imap(execute, todo):
+            row = lost_row(job, result) if isinstance(result, Lost) else result
+            store.append(out, row)
+            if on_row is not None:
+                on_row(row)
+            if bar is not None:
+                bar.update(1)
+    finally:
+        if bar is not None:
+            bar.close()
+        if owned:
+            runner.close()
+        table = store.compact(out)
+    return table

@@ -1,0 +1,110 @@
+"""The Python API: worlds and robots by name, robot changes by dotted name, results as arrays and
+frames, recordings, the README's examples, and sweep plans (grid, random, ids)."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bots.commands import Twist
+from bots.ctbot import CTBOT
+from sim.experiments import Bot, SpecError, change_robot, simulate, spec_from_dict
+from sim.experiments.plan import jobs, run_id, settings
+
+README = Path(__file__).resolve().parents[1] / "README.md"
+
+
+def test_simulate_gives_arrays_and_metrics():
+    result = simulate("square", Bot("square", params={"side_m": 0.3}), duration=1.0, seed=2)
+    robot = result.robots[0]
+    assert result.reason == "duration" and result.error is None
+    assert result.time.shape == (101,)  # 1 s at 10 ms, both ends
+    assert robot.truth.shape == (101, 3)
+    assert set(robot.estimates) == {"encoders", "firmware", "mouse", "fused"}
+    assert all(poses.shape == (101, 3) for poses in robot.estimates.values())
+    frame = result.metrics_frame()
+    assert list(frame["estimator"]) == list(robot.estimates)
+    assert frame.loc[frame.estimator == "mouse", "ate_rmse"].item() == robot.metrics["mouse"]["ate_rmse"]
+
+
+def test_same_seed_same_trajectory_and_controller_objects():
+    noisy = {"encoders.slip_std": 0.05}
+    a = simulate("empty", Bot(lambda t, r: Twist(0.2, 1.0), changes=noisy), duration=0.5, seed=7)
+    b = simulate("empty", Bot(lambda t, r: Twist(0.2, 1.0), changes=noisy), duration=0.5, seed=7)
+    c = simulate("empty", Bot(lambda t, r: Twist(0.2, 1.0), changes=noisy), duration=0.5, seed=8)
+    assert np.array_equal(a.robots[0].truth, b.robots[0].truth)
+    assert not np.array_equal(a.robots[0].truth, c.robots[0].truth)  # slip moves the body, drawn per seed
+
+
+def test_failing_controller_is_a_result_not_an_exception():
+    def broken(t, readings):
+        raise ZeroDivisionError("oops")
+
+    result = simulate("empty", Bot(broken), duration=1.0)
+    assert result.reason == "error" and "ZeroDivisionError" in result.error
+    assert len(result.robots[0].truth) == 1  # the first sample is kept
+
+
+def test_change_robot_by_dotted_name():
+    changed = change_robot(CTBOT, {"encoders.slip_std": 0.02, "ir.noise_std": 0.01, "encoders.diameter_error": [0.01, -0.01], "mass": 1.0})
+    assert changed.encoders.slip_std == 0.02 and changed.encoders.diameter_error == (0.01, -0.01)
+    assert all(s.noise_std == 0.01 for s in changed.ir) and changed.mass == 1.0
+    assert CTBOT.encoders.slip_std == 0.0  # a copy
+    with pytest.raises(ValueError, match="no field 'slipp'"):
+        change_robot(CTBOT, {"encoders.slipp": 0.1})
+
+
+def test_recording_is_written(tmp_path):
+    from rerun.chunk import RrdReader  # noqa: F401  (rerun 0.41 reads recordings back)
+
+    simulate("empty", Bot("idle"), duration=0.2, record=tmp_path / "run.rrd")
+    assert (tmp_path / "run.rrd").stat().st_size > 0
+
+
+def test_readme_examples_run(tmp_path, monkeypatch):
+    """Every ```python block of the README's 'Many runs' section runs as written, except the
+    dask-jobqueue one, which needs a SLURM cluster."""
+    text = README.read_text(encoding="utf-8")
+    section = text[text.index("## Many runs"):]
+    section = section[: section.find("\n## ", 1)]
+    blocks = [b for b in re.findall(r"```python\n(.*?)```", section, re.S) if "dask_jobqueue" not in b]
+    assert len(blocks) == 3
+    monkeypatch.chdir(tmp_path)
+    for block in blocks:
+        exec(compile(block, str(README), "exec"), {"__name__": "__main__"})
+
+
+def test_grid_plan_and_ids():
+    spec = spec_from_dict({"base": {"duration": 1.0}, "axes": {"seed": [0, 1, 2], "world": ["maze", "empty"]}})
+    planned = settings(spec)
+    assert len(planned) == 6 and planned[1] == {**planned[1], "seed": 0, "world": "empty"}  # last axis fastest
+    assert run_id({"a": 1, "b": 2}) == run_id({"b": 2, "a": 1})
+    assert len({job.run_id for job in jobs(spec)}) == 6
+
+
+def test_random_plan_is_reproducible_and_extends():
+    axes = {"robot.encoders.slip_std": {"log_uniform": [0.001, 0.1]}, "seed": {"integers": [0, 9]}, "world": ["maze", "empty"]}
+    small = settings(spec_from_dict({"sweep": {"mode": "random", "samples": 5, "seed": 3}, "axes": axes}))
+    large = settings(spec_from_dict({"sweep": {"mode": "random", "samples": 9, "seed": 3}, "axes": axes}))
+    assert large[:5] == small
+    assert all(0.001 <= s["robot.encoders.slip_std"] <= 0.1 and 0 <= s["seed"] <= 9 for s in large)
+
+
+@pytest.mark.parametrize(
+    "data, message",
+    [
+        ({"axes": {"colour": [1]}}, "unknown setting 'colour'"),
+        ({"axes": {"seed": 3}}, "must be a list"),
+        ({"axes": {"seed": {"uniform": [0, 1]}}}, "need mode"),
+        ({"sweep": {"mode": "random"}}, "samples"),
+        ({"sweep": {"mode": "random", "samples": 2}, "axes": {"dt": {"log_uniform": [0, 1]}}}, "positive bounds"),
+        ({"base": {"seed": 1}, "axes": {"seed": [1, 2]}}, "both"),
+        ({"runs": {}}, "unknown table"),
+    ],
+)
+def test_spec_mistakes_name_the_key(data, message):
+    with pytest.raises(SpecError, match=message):
+        spec_from_dict(data, "spec.toml")

@@ -1,0 +1,185 @@
+"""Sweeps: 200 runs give the same table on local processes and on a Dask LocalCluster; a sweep
+killed half-way finishes on restart with every row once; a worker that dies costs only its run;
+a run that raises is a row with its error; spec mistakes stop the CLI before anything runs."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from sim.cli import main
+from sim.experiments import Dask, Processes, Serial, load_results, sweep
+from sim.experiments.store import PARTS
+
+SPEC = """
+[base]
+duration = 0.2
+[axes]
+world = ["maze", "square", "empty", "line", "holes_lights"]
+controller = ["solve_maze", "wander"]
+"robot.encoders.slip_std" = [0.0, 0.01, 0.02, 0.05]
+seed = [0, 1, 2, 3, 4]
+"""
+RUNS = 200  # 5 worlds x 2 controllers x 4 noise levels x 5 seeds
+
+CRASH = """
+import os
+from pathlib import Path
+from bots.commands import Twist
+
+MARKER = Path(__file__).with_suffix(".died")
+
+class Crash:
+    '''Kills its process the first time it runs (always, with always=true); then drives on.'''
+    def __init__(self, always: bool = False):
+        self.always = always
+
+    def step(self, t, readings):
+        if self.always or not MARKER.exists():
+            MARKER.touch()
+            os._exit(3)
+        return Twist(0.1, 0.0)
+
+class Raise:
+    def step(self, t, readings):
+        raise ValueError("no good")
+"""
+
+
+def measured(table: pd.DataFrame) -> pd.DataFrame:
+    """The table without the wall time, the one column that depends on the machine."""
+    return table.drop(columns="wall_time_s")
+
+
+@pytest.fixture(scope="module")
+def spec_file(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("spec") / "noise.toml"
+    path.write_text(SPEC)
+    return path
+
+
+@pytest.fixture(scope="module")
+def reference(spec_file, tmp_path_factory) -> pd.DataFrame:
+    """The 200-run sweep on local processes (2 workers)."""
+    return sweep(spec_file, tmp_path_factory.mktemp("processes"), Processes(2), progress=False)
+
+
+def test_200_runs_on_processes(reference):
+    assert len(reference) == RUNS and reference["run_id"].is_unique
+    assert (reference["reason"] == "duration").all(), reference.loc[reference.reason != "duration", "error"].tolist()
+    assert list(reference["run"]) == list(range(RUNS))
+    assert {"mouse.ate_rmse", "encoders.final_position_error", "robot.encoders.slip_std"} <= set(reference.columns)
+
+
+def test_dask_local_cluster_gives_the_same_table(spec_file, reference, tmp_path):
+    runner = Dask(workers=2)
+    try:
+        table = sweep(spec_file, tmp_path, runner, progress=False)
+    finally:
+        runner.close()
+    pd.testing.assert_frame_equal(measured(table), measured(reference))
+
+
+def test_killed_half_way_resumes_with_every_row_once(spec_file, reference, tmp_path):
+    process = subprocess.Popen(
+        [sys.executable, "-m", "sim.cli", "sweep", str(spec_file), "--out", str(tmp_path), "--jobs", "2"],
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True,
+    )
+    try:
+        deadline = time.monotonic() + 300
+        while len(list((tmp_path / PARTS).glob("*.parquet"))) < RUNS // 2:
+            assert process.poll() is None, "the sweep ended before it was killed"
+            assert time.monotonic() < deadline, "the sweep made no progress"
+            time.sleep(0.05)
+    finally:
+        os.killpg(process.pid, signal.SIGKILL)  # the parent and its workers, mid-run
+        process.wait()
+    kept = load_results(tmp_path)
+    assert RUNS // 2 <= len(kept) < RUNS and kept["run_id"].is_unique
+    ran = []
+    table = sweep(spec_file, tmp_path, Processes(2), on_row=ran.append, progress=False)
+    assert len(ran) == RUNS - len(kept)  # only the missing runs executed
+    pd.testing.assert_frame_equal(measured(table), measured(reference))
+    assert not list((tmp_path / PARTS).glob("*.parquet"))  # folded into results.parquet
+
+
+@pytest.fixture()
+def crash(tmp_path) -> Path:
+    path = tmp_path / "crash.py"
+    path.write_text(CRASH)
+    return path
+
+
+def _spec(controllers: list[str]) -> dict:
+    return {"base": {"duration": 0.3, "world": "empty"}, "axes": {"controller": controllers, "seed": [0, 1]}}
+
+
+@pytest.mark.parametrize("make_runner", [lambda: Processes(2), lambda: Dask(workers=2)], ids=["processes", "dask"])
+def test_a_dying_worker_costs_only_its_run(crash, tmp_path, make_runner):
+    runner = make_runner()
+    try:
+        table = sweep(_spec([f"{crash}:Crash", "wander"]), tmp_path / "out", runner, progress=False)
+    finally:
+        runner.close()
+    assert crash.with_suffix(".died").exists()  # a worker did die
+    assert len(table) == 4 and (table["reason"] == "duration").all()  # its run was retried
+
+
+def test_a_run_that_always_kills_its_worker_is_recorded_lost(crash, tmp_path):
+    spec = {"base": {"duration": 0.3, "world": "empty", "controller": f"{crash}:Crash", "params.always": True}, "axes": {"seed": [0]}}
+    table = sweep(spec, tmp_path / "out", Processes(2, retries=1), progress=False)
+    assert len(table) == 1 and (table["reason"] == "error").all()
+    assert table["error"].str.contains("worker process died 2 times").all()
+
+
+def test_a_run_that_raises_is_a_row_with_its_error(crash, tmp_path):
+    table = sweep(_spec([f"{crash}:Raise", "wander"]), tmp_path / "out", Serial(), progress=False)
+    failed = table[table["controller"].str.endswith("Raise")]
+    assert len(table) == 4 and len(failed) == 2
+    assert (failed["reason"] == "error").all() and failed["error"].str.contains("ValueError: no good").all()
+    assert (table.loc[table.controller == "wander", "reason"] == "duration").all()
+
+
+def test_artefacts_only_when_asked(tmp_path):
+    spec = {"sweep": {"artefacts": ["tum", "recording"]}, "base": {"duration": 0.2, "world": "empty"}, "axes": {"seed": [0]}}
+    table = sweep(spec, tmp_path / "with", Serial(), progress=False)
+    folder = tmp_path / "with" / "runs" / table["run_id"][0]
+    assert {p.name for p in folder.iterdir()} >= {"run.rrd", "truth.tum", "mouse.tum"}
+    sweep({**spec, "sweep": {}}, tmp_path / "without", Serial(), progress=False)
+    assert not (tmp_path / "without" / "runs").exists()
+
+
+def test_cli_sweep_and_report(tmp_path, capsys):
+    spec = tmp_path / "s.toml"
+    spec.write_text('[base]\nduration = 0.3\nworld = "empty"\n[axes]\nseed = [0, 1]\n"robot.mouse.noise_std" = [0.0, 2.0]\ncontroller = ["wander", "idle"]\n')
+    assert main(["sweep", str(spec), "--out", str(tmp_path / "out"), "--engine", "serial"]) == 0
+    assert "8 runs, 0 failed" in capsys.readouterr().out
+    assert main(["sweep", "report", str(tmp_path / "out")]) == 0
+    names = {Path(line).name for line in capsys.readouterr().out.split()}
+    assert names == {"ate_rmse_per_estimator.png", "ate_rmse_vs_robot.mouse.noise_std.png", "success_per_controller.png"}
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ('[axes]\nworld = ["maze", "nowhere"]\n', "run 1, world 'nowhere'"),
+        ('[axes]\ncontroller = ["solve_maze", "solve_mase"]\n', "did you mean 'solve_maze'"),
+        ('[axes]\n"robot.encoders.slipp" = [0.1]\n', "no field 'slipp'"),
+        ('[base]\nduration = -1\n', "duration must be"),
+        ("[axes\n", "s.toml"),
+    ],
+)
+def test_cli_spec_mistakes_exit_2_before_anything_runs(tmp_path, capsys, text, message):
+    spec = tmp_path / "s.toml"
+    spec.write_text(text)
+    assert main(["sweep", str(spec), "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("ctsim: error:") and message in err and err.count("\n") == 1
+    assert not (tmp_path / "out").exists()
