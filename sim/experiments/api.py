@@ -148,7 +148,7 @@ class Result:
 
 def result_of(raw: RunResult) -> Result:
     """The API's view of a run loop result."""
-    metrics = compare_run(raw) if len(raw.times) else {}
+    metrics = compare_run(raw) if len(raw) else {}
     robots = [
         RobotResult(
             name=log.name,
