@@ -10,19 +10,21 @@ naming it and the step, and everything up to that step is kept.
 from __future__ import annotations
 
 import math
+import re
 import traceback
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 import numpy as np
 
+from bots.chassis_commands import chassis_setpoints
 from bots.commands import BadCommand, motor_commands, wheel_speeds_for
 from bots.controller import Controller, reset
 from bots.odometry import Estimator, default_estimators
 from bots.spec import RobotSpec
 from sim.world import World
 from sim.world.readings import Readings
-from sim.world.spec import Start, WorldSpec
+from sim.world.spec import Start, WheelFault, WorldSpec
 
 
 @dataclass
@@ -35,6 +37,8 @@ class RobotSetup:
     params: dict[str, str] = field(default_factory=dict)
     start: Start | tuple[float, float, float] | None = None
     estimators: list[Estimator] | None = None
+    faults: tuple[WheelFault, ...] = ()
+    """Wheel faults of this robot (a general chassis) scheduled by its environment; `robot` is ignored."""
 
 
 @dataclass
@@ -53,6 +57,18 @@ class RobotLog:
     collisions: int = 0
     fell: bool = False
     goal_time: float | None = None
+    notes: dict[str, list] = field(default_factory=dict)
+    """What the run did other than asked (projected infeasible twists): kind -> [first message, count]."""
+
+    @property
+    def latest(self) -> Readings:
+        """The current sample's readings."""
+        return self.readings[-1]
+
+    def note(self, message: str) -> None:
+        """Count a message; messages that differ only in their numbers are one kind (bounded memory)."""
+        entry = self.notes.setdefault(re.sub(r"-?\d[\d.e+-]*", "#", message), [message, 0])
+        entry[1] += 1
 
     def truth_array(self) -> np.ndarray:
         """(T, 3) ground-truth poses."""
@@ -136,6 +152,7 @@ def run(
         logs.append(RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params)))
         controllers.append(setup.controller)
         estimators.append(chosen)
+    world.chassis.schedule = [*world_spec.faults, *(replace(f, robot=i) for i, setup in enumerate(robots) for f in setup.faults)]
     result = RunResult(world_spec, seed, dt, [], logs)
     steps = int(round(duration / dt))
     commands = np.zeros((len(robots), 2))
@@ -153,6 +170,9 @@ def run(
                 readings = log.readings[-1]
                 try:
                     command = controller.step(world.time, readings)
+                    if robot.spec.chassis is not None:
+                        _drive_chassis(world, i, log, command, readings, step)
+                        continue
                     left, right = wheel_speeds_for(command, robot.spec)
                 except BadCommand as err:
                     raise _Stop(f"controller {log.controller_name!r} of {log.name} returned a bad command at step {step} (t = {world.time:.2f} s): {err}") from None
@@ -179,6 +199,14 @@ def run(
 
 class _Stop(Exception):
     pass
+
+
+def _drive_chassis(world: World, index: int, log: RobotLog, command, readings: Readings, step: int) -> None:
+    """Turn a chassis robot's command into wheel set-points (the core's inverse kinematics) for the world."""
+    setpoint = chassis_setpoints(command, log.spec, readings)
+    if setpoint.note:
+        log.note(f"step {step} (t = {world.time:.2f} s): {setpoint.note}")
+    world.chassis.command(index, setpoint.phi_dot, setpoint.beta)
 
 
 def _last_frame(err: BaseException) -> str:
