@@ -5,8 +5,10 @@ pose ← pose ∘ se2_exp(ξ·dt), the same motion model the world drives with:
 
 - encoders: every wheel's encoder angle Δφ and its steering sensor's β give the core's forward
   kinematics (rolling rows of all wheels, sliding rows of fixed and steered ones). Wheels that agree
-  on one rigid motion give it exactly; wheels that slip disagree and the least-squares compromise
-  differs from the truth: slip shows as encoder error.
+  on one rigid motion give it exactly. Driven wheels commanded against each other slip; the world
+  settles them by the same least squares, so the estimate stays exact and the misfit (`residual`)
+  equals the world's slip. Random slip of the rims (EncoderSpec.slip_std) moves the body by other
+  speeds than the wheels turn: it shows as encoder error.
 - mouse: each sensor at (m_x, m_y) reads the ground under it, (t_x − ω m_y, t_y + ω m_x) for the
   step's twist t (DESIGN.md §4); one sensor gives two equations, the chassis's sliding constraints
   more (a car or differential drive: enough), two sensors four. A set that cannot observe all three
@@ -49,7 +51,8 @@ class _TwistOdometry:
 
 
 class ChassisEncoderOdometry(_TwistOdometry):
-    """Every wheel's encoder and steering angle through the core's forward kinematics."""
+    """Every wheel's encoder and steering angle through the core's forward kinematics. `residual` (m)
+    is the last step's least-squares misfit: how far the wheels disagreed, the slip the robot can see."""
 
     name = "encoders"
 
@@ -57,16 +60,19 @@ class ChassisEncoderOdometry(_TwistOdometry):
         super().reset(robot, pose)
         self.rad_per_tick = 2 * math.pi / robot.encoders.ticks_per_rev
         self._solver: tuple = ()
+        self.residual = 0.0
 
     def displacement(self, readings: Readings) -> np.ndarray:
         beta = readings.steering if len(readings.steering) == self.chassis.n else self.chassis.beta
         key = beta.tobytes()
         if not self._solver or self._solver[0] != key:
             a, _ = forward_system(self.chassis, np.zeros(self.chassis.n), beta)
-            self._solver = (key, forward_pinv(a))
+            self._solver = (key, a, forward_pinv(a))
         angles = np.asarray(readings.encoder_ticks, dtype=np.float64) * self.rad_per_tick
         _, rhs = forward_system(self.chassis, angles, beta)
-        return self._solver[1] @ rhs
+        displacement = self._solver[2] @ rhs
+        self.residual = float(np.linalg.norm(self._solver[1] @ displacement - rhs))
+        return displacement
 
 
 class ChassisMouseOdometry(_TwistOdometry):
