@@ -63,7 +63,7 @@ def _positive(kind: Callable[[str], Any]) -> Callable[[str], Any]:
 
 def _add_robot_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("world", nargs="?", default=DEFAULT_WORLD, help=f"a shipped world's name (see `ctsim worlds`) or a .toml/.xml world file (default: {DEFAULT_WORLD})")
-    parser.add_argument("--robot", default="ctbot", metavar="NAME|FILE.toml", help="robot description: a built-in name (ctbot) or a TOML robot file (default: ctbot)")
+    parser.add_argument("--robot", default="ctbot", metavar="NAME|FILE.toml", help="robot description: a built-in name (ctbot, omni3, mecanum4, car, ocp_vehicle) or a TOML robot file (default: ctbot)")
     parser.add_argument("--seed", type=int, default=0, help="seed of every random number in the run; same seed, same run (default: 0)")
     parser.add_argument("--dt", type=_positive(float), default=0.01, metavar="SECONDS", help="simulation step (default: 0.01)")
     parser.add_argument("--out", type=Path, metavar="DIR", help="folder for run.rrd, summary.json, TUM/CSV trajectories and figures (default: runs/<world>-<controller>-<time>)")
@@ -126,7 +126,9 @@ def load_robot_spec(name: str):
     """A built-in robot by name or a TOML robot file."""
     from bots.ctbot import ROBOTS
     from bots.spec import load_robot
+    from bots.wheeled import WHEELED_ROBOTS
 
+    ROBOTS = {**ROBOTS, **WHEELED_ROBOTS}
     if name in ROBOTS:
         return ROBOTS[name]
     if name.endswith(".toml") or Path(name).exists():
@@ -222,6 +224,9 @@ def finish(result, out: Path, options: dict[str, Any], report: bool = True) -> i
 
         written += report_run_dir(out)
     print(table(summary))
+    for log in result.robots:  # what a general chassis did other than asked (projected twists)
+        for message, count in log.notes.values():
+            print(f"ctsim: note: {log.name}: {message} ({count} step{'s' if count != 1 else ''} like it)", file=sys.stderr)
     print("wrote:")
     for path in written:
         print(f"  {path}")

@@ -23,6 +23,7 @@ from bots.controller import Controller, reset
 from bots.odometry import Estimator, default_estimators
 from bots.spec import RobotSpec
 from sim.world import World
+from sim.world.chassis_drive import FaultError
 from sim.world.readings import Readings
 from sim.world.spec import Start, WheelFault, WorldSpec
 
@@ -152,7 +153,10 @@ def run(
         logs.append(RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params)))
         controllers.append(setup.controller)
         estimators.append(chosen)
-    world.chassis.schedule = [*world_spec.faults, *(replace(f, robot=i) for i, setup in enumerate(robots) for f in setup.faults)]
+    try:
+        world.chassis.schedule_faults([*world_spec.faults, *(replace(f, robot=i) for i, setup in enumerate(robots) for f in setup.faults)])
+    except FaultError as err:
+        raise RunError(str(err)) from None
     result = RunResult(world_spec, seed, dt, [], logs)
     steps = int(round(duration / dt))
     commands = np.zeros((len(robots), 2))

@@ -159,6 +159,19 @@ class ChassisDrive:
             target_beta=chassis.beta.copy(), tick_carry=np.zeros(chassis.n), ticks=np.zeros(chassis.n, dtype=np.int64),
         )
 
+    def schedule_faults(self, faults: list[WheelFault]) -> None:
+        """Schedule faults, checked now: each must name a chassis robot, one of its wheels and a known kind."""
+        for f in faults:
+            drive = self.drives.get(f.robot)
+            if drive is None:
+                raise FaultError(f"a wheel fault names robot {f.robot}, which is not a robot on a general chassis")
+            if f.kind not in FAULT_KINDS or not 0 <= f.wheel < drive.nominal.n:
+                raise FaultError(f"a wheel fault of {drive.robot.name} names wheel {f.wheel} ({drive.nominal.n} wheels) "
+                                 f"and kind {f.kind!r} ({', '.join(FAULT_KINDS)})")
+            if f.kind == "steering" and drive.nominal.kind[f.wheel] != WheelType.STEERED:
+                raise FaultError(f"{drive.robot.name}: {drive.nominal.names[f.wheel]} is not steered; its steering cannot fail")
+        self.schedule = list(faults)
+
     def command(self, index: int, phi_dot: np.ndarray, beta: np.ndarray) -> None:
         """Set robot `index`'s wheel speed (rad/s) and wheel-plane angle (rad) targets, one per wheel."""
         drive = self.drives[index]
