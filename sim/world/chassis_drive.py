@@ -20,7 +20,8 @@ from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 
-from sim.kinematics import counts_per_metre, mouse_displacement_from_increment, quantize, relative_increment, se2_exp
+from sim.kinematics import counts_per_metre, mouse_displacement_from_increment, quantize, relative_increment
+from sim.kinematics.batch import half_angle
 from sim.kinematics.arc import wrap_angle
 from sim.kinematics.chassis import (
     Chassis,
@@ -74,6 +75,7 @@ class _Drive:
 
     def __post_init__(self) -> None:
         self.chassis = self.nominal
+        self.passive = bool(np.isin(self.nominal.kind, (WheelType.CASTOR, WheelType.SPHERICAL)).any())
 
     def strike(self, wheel: int, kind: FaultKind) -> None:
         """Apply a fault now; the core's `degrade` gives the new chassis state."""
@@ -106,12 +108,12 @@ class _Drive:
         rhs = np.concatenate([self.phi_dot * c.radius * np.cos(c.gamma) * (1.0 + slip) * measured, np.zeros(c.n)])
         self.twist = pinv @ rhs
         self.slip = float(np.linalg.norm(a @ self.twist - rhs))
-        rolls = rolling_rows(c.alpha, self.beta, c.l, c.gamma) @ self.twist / (c.radius * np.cos(c.gamma))
-        self.phi_dot = np.where(measured, self.phi_dot, rolls)
+        if not measured.all():
+            rolls = rolling_rows(c.alpha, self.beta, c.l, c.gamma) @ self.twist / (c.radius * np.cos(c.gamma))
+            self.phi_dot = np.where(measured, self.phi_dot, rolls)
         self._swivel(dt)
-        ticks, self.tick_carry = quantize(self.phi_dot * dt * self.ticks_per_rad, self.tick_carry)
-        self.ticks = ticks
-        return se2_exp(self.twist * dt)
+        self.ticks, self.tick_carry = quantize(self.phi_dot * dt * self.ticks_per_rad, self.tick_carry)
+        return _se2_exp(*(self.twist * dt))
 
     def _system(self, measured: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """A and pinv(A) of the forward kinematics, kept while β and the measured wheels stay the same."""
@@ -124,6 +126,8 @@ class _Drive:
     def _swivel(self, dt: float) -> None:
         """Passive wheels turn with the motion: castors by their swivel rate (2.51), balls to align."""
         c = self.chassis
+        if not self.passive:
+            return
         castor, ball = c.kind == WheelType.CASTOR, c.kind == WheelType.SPHERICAL
         if castor.any():
             d = np.where(castor, c.offset, 1.0)
@@ -143,6 +147,7 @@ class ChassisDrive:
         self.dt = dt
         self.drives: dict[int, _Drive] = {}
         self.schedule: list[WheelFault] = []
+        self._holes: bool | None = None
 
     def add(self, robot: Robot) -> None:
         """Take over the drive of a robot whose spec has a `chassis`."""
@@ -219,9 +224,12 @@ class ChassisDrive:
 
     def after_step(self, before: np.ndarray, after: np.ndarray, fallen: np.ndarray, floor: FloorMap) -> None:
         """Wheels over holes drop their robot; the second mouse reads the body's true motion."""
+        if self._holes is None:  # the floor never changes: look for holes once
+            self._holes = floor.outside_is_hole or bool(floor.hole.any())
+        holes = self._holes
         for i, drive in self.drives.items():
             spec = drive.robot.spec
-            if not fallen[i] and _over_hole(after[i], drive.nominal.positions, floor).any():
+            if holes and not fallen[i] and _over_hole(after[i], drive.nominal.positions, floor).any():
                 fallen[i] = True
             mouse = spec.chassis.mouse2
             if mouse is None:
@@ -242,6 +250,16 @@ class ChassisDrive:
             r.steering = drive.beta.copy()
             r.mouse2_counts = drive.mouse2_counts.copy()
             r.failures = tuple(drive.failures)
+
+
+def _se2_exp(dx: float, dy: float, dtheta: float) -> tuple[float, float, float]:
+    """`sim.kinematics.se2_exp` of one displacement ξ·dt, scalar (numpy's per-call cost would dominate
+    a step); the compiled `half_angle` keeps the limit dθ → 0 continuous. Tests hold the two together."""
+    h = 0.5 * dtheta
+    cos_h, sinc_h = half_angle(h)
+    sin_h = sinc_h * h
+    tx, ty = dx * sinc_h, dy * sinc_h
+    return cos_h * tx - sin_h * ty, sin_h * tx + cos_h * ty, dtheta
 
 
 def _over_hole(pose: np.ndarray, points: np.ndarray, floor: FloorMap) -> np.ndarray:
