@@ -282,3 +282,29 @@ def test_the_inverse_kinematics_the_run_uses_is_the_cores():
     setpoint = chassis_setpoints(Twist(0.2, 0.1, vy=-0.1), MECANUM4, readings)
     assert_allclose(setpoint.phi_dot, inverse_kinematics(MECANUM4.chassis.chassis, [0.2, -0.1, 0.1]).phi_dot)
     assert_allclose(nearest_feasible(MECANUM4.chassis.chassis, setpoint.twist), setpoint.twist)
+
+
+def test_the_drawn_icr_is_the_fixed_point_of_the_step_and_wheels_sit_on_the_body():
+    from sim.views.chassis_view import chassis_shapes
+
+    previous = np.array([1.0, 2.0, 0.3])
+    centre = np.array([1.5, 2.7])  # rotate the body about this point by 0.2 rad
+    c, s = np.cos(0.2), np.sin(0.2)
+    position = centre + np.array([[c, -s], [s, c]]) @ (previous[:2] - centre)
+    pose = np.array([*position, 0.5])
+    shapes = chassis_shapes(CAR, pose, CAR.chassis.chassis.beta, previous, (-10, -10, 10, 10))
+    assert_allclose(shapes.icr, centre, atol=1e-12)
+    assert_allclose(shapes.wheels.mean(axis=1), CAR.chassis.chassis.positions @ np.array([[np.cos(0.5), np.sin(0.5)], [-np.sin(0.5), np.cos(0.5)]]) + pose[:2], atol=1e-12)
+    assert chassis_shapes(CAR, pose, CAR.chassis.chassis.beta, previous, (-1, -1, 0, 0)).icr is None
+
+
+def test_a_recording_of_a_chassis_robot_holds_wheels_outline_and_icr(tmp_path):
+    import rerun.chunk
+
+    from sim.views.recording import Recorder
+
+    path = tmp_path / "run.rrd"
+    run(EMPTY, [RobotSetup(CAR, constant(Twist(0.3, 0.4)))], 0.5, observers=(Recorder(path),))
+    entities = {str(chunk.entity_path) for chunk in rerun.chunk.RrdReader(path).stream().to_chunks()}
+    for entity in ("/world/car/chassis/wheels", "/world/car/chassis/outline", "/world/car/chassis/icr"):
+        assert entity in entities, sorted(entities)

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 import numpy as np
 
@@ -38,7 +38,6 @@ from sim.world.spec import FAULT_KINDS, WheelFault
 
 if TYPE_CHECKING:
     from sim.world.floor import FloorMap
-    from sim.world.physics import Robot
     from sim.world.readings import Readings
 
 FaultKind = Literal["lock", "free", "steering"]
@@ -50,9 +49,9 @@ class FaultError(ValueError):
 
 @dataclass
 class _Drive:
-    """One chassis robot's drive state."""
+    """One chassis robot's drive state; `robot` is its `sim.world.physics.Robot`."""
 
-    robot: Robot
+    robot: Any
     nominal: Chassis
     steer_rate: float
     max_phi: np.ndarray
@@ -149,8 +148,8 @@ class ChassisDrive:
         self.schedule: list[WheelFault] = []
         self._holes: bool | None = None
 
-    def add(self, robot: Robot) -> None:
-        """Take over the drive of a robot whose spec has a `chassis`."""
+    def add(self, robot: Any) -> None:
+        """Take over the drive of a world's `Robot` whose spec has a `chassis`."""
         spec = robot.spec
         chassis = spec.chassis.chassis
         motor = spec.motor
