@@ -308,3 +308,20 @@ def test_a_recording_of_a_chassis_robot_holds_wheels_outline_and_icr(tmp_path):
     entities = {str(chunk.entity_path) for chunk in rerun.chunk.RrdReader(path).stream().to_chunks()}
     for entity in ("/world/car/chassis/wheels", "/world/car/chassis/outline", "/world/car/chassis/icr"):
         assert entity in entities, sorted(entities)
+
+
+def test_follow_path_ocp_drives_a_mecanum_robot_through_a_path_and_refuses_a_ctbot():
+    from bots.behaviours import FollowPathOCP
+    from bots.controller import Status
+    from bots.ctbot import CTBOT
+
+    follower = FollowPathOCP("1,0;1,1", speed=0.5, lookahead_m=0.3)
+    start = WorldSpec("empty", (-5, -5, 5, 5), starts=(Start(0.0, 0.0, 0.0),))
+    result = run(start, [RobotSetup(MECANUM4, follower)], 8.0)
+    truth = result.robots[0].truth_array()
+    assert follower.status is Status.SUCCESS
+    assert np.hypot(*(truth[-1, :2] - [1.0, 1.0])) < 0.03  # ARRIVED (2 cm, by odometry) + encoder drift
+    off_path = np.minimum(np.abs(truth[:, 1]) + np.maximum(truth[:, 0] - 1, 0), np.abs(truth[:, 0] - 1))
+    assert off_path.max() < 0.2  # corner cut by at most about the look-ahead
+    with pytest.raises(ValueError, match="differential drive"):
+        FollowPathOCP().reset(CTBOT)
