@@ -28,10 +28,21 @@ class WheelSpeeds:
 
 @dataclass(frozen=True)
 class Twist:
-    """Body twist: forward speed v (m/s) and yaw rate omega (rad/s, counter-clockwise)."""
+    """Body twist: forward speed v (m/s), yaw rate omega (rad/s, counter-clockwise) and sideways
+    speed vy (m/s, to the left; only a holonomic chassis can, a differential drive refuses it)."""
 
     v: float
     omega: float
+    vy: float = 0.0
+
+
+@dataclass(frozen=True)
+class WheelCommands:
+    """Per-wheel set-points of a robot on a general chassis: wheel speeds (rad/s, the chassis's sign
+    convention) and wheel-plane angles β (rad) for the steered wheels (None: keep them as they are)."""
+
+    speeds: tuple[float, ...]
+    steering: tuple[float, ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -46,7 +57,7 @@ class CurveCommand:
 
 
 STOP = WheelSpeeds(0.0, 0.0)
-Command = WheelSpeeds | Twist | CurveCommand
+Command = WheelSpeeds | Twist | CurveCommand | WheelCommands
 
 
 class BadCommand(ValueError):
@@ -58,6 +69,8 @@ def wheel_speeds_for(command: Command, robot: RobotSpec) -> tuple[float, float]:
     if isinstance(command, WheelSpeeds):
         left, right = command.left, command.right
     elif isinstance(command, Twist):
+        if command.vy != 0:
+            raise BadCommand(f"refused {command!r}: a differential drive cannot move sideways (vy must be 0)")
         left, right = wheel_speeds_from_twist(command.v, command.omega, robot.track_width)
     elif isinstance(command, CurveCommand):
         chassis = differential_drive(track=robot.track_width, wheel_radius=robot.wheel_radius)

@@ -17,6 +17,7 @@ from typing import Literal, Protocol
 
 import numpy as np
 
+from bots.chassis_odometry import chassis_estimators
 from bots.spec import RobotSpec
 from sim.kinematics import MouseEstimator, advance, wheel_arcs_to_arc
 from sim.kinematics.mouse import counts_per_metre
@@ -217,7 +218,10 @@ def _mouse_applies(robot: RobotSpec) -> bool:
 
 def default_estimators(robot: RobotSpec, geometry: Geometry | None = None) -> list[Estimator]:
     """The estimators a run compares by default for this robot: encoders and firmware always,
-    mouse and fused where the robot has a mouse that can see rotation."""
+    mouse and fused where the robot has a mouse that can see rotation; for a general chassis, its
+    encoder and mouse estimators (`bots.chassis_odometry`)."""
+    if robot.chassis is not None:
+        return chassis_estimators(robot)
     chosen: list[Estimator] = [EncoderOdometry(geometry), FirmwareOdometry(geometry)]
     if _mouse_applies(robot):
         chosen += [MouseOdometry(), FusedOdometry(geometry=geometry)]

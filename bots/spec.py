@@ -1,4 +1,5 @@
-"""Robot descriptions as data: geometry, motors and sensor layout of a differential-drive robot.
+"""Robot descriptions as data: geometry, motors and sensor layout of a differential-drive robot,
+or of a robot on any wheeled chassis (`chassis`, see `wheeled_robot`).
 
 Body frame: x forward, y left, origin at the middle of the wheel axle (m, rad). A robot other
 than the c't-Bot is a different `RobotSpec` (in Python or in a TOML file, see `load_robot`).
@@ -11,6 +12,8 @@ import tomllib
 from dataclasses import MISSING, dataclass, field, fields, is_dataclass, replace
 from pathlib import Path
 from typing import Any
+
+from bots.chassis_spec import ChassisSpec, chassis_from_dict, inscribed_radius
 
 Point = tuple[float, float]
 
@@ -108,7 +111,12 @@ class LightSensorSpec:
 
 @dataclass(frozen=True)
 class RobotSpec:
-    """A differential-drive robot: geometry (m, kg), motors and sensors."""
+    """A differential-drive robot: geometry (m, kg), motors and sensors.
+
+    With `chassis` set, the robot drives that general chassis instead (built by `wheeled_robot`):
+    wheel_diameter and track_width then only describe its first wheel for the shared bookkeeping,
+    the motor's time constant and acceleration limit act on every wheel, encoders count every wheel.
+    """
 
     name: str
     wheel_diameter: float
@@ -123,6 +131,7 @@ class RobotSpec:
     line: tuple[FloorSensorSpec, ...] = ()
     border: tuple[FloorSensorSpec, ...] = ()
     light: tuple[LightSensorSpec, ...] = ()
+    chassis: ChassisSpec | None = None
 
     @property
     def wheel_radius(self) -> float:
@@ -144,7 +153,10 @@ class RobotSpec:
             )
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0)
         ]
-        if not problems and self.track_width > 2 * self.body_radius + 1e-9:
+        if self.chassis is not None and (self.encoders.diameter_error != (0.0, 0.0) or self.encoders.track_error):
+            problems.append("encoders.diameter_error and track_error describe a differential drive; "
+                            "give a general chassis's wheels their real radius instead")
+        if not problems and self.chassis is None and self.track_width > 2 * self.body_radius + 1e-9:
             problems.append("track_width is wider than the body (2 x body_radius)")
         if problems:
             raise ValueError(f"robot {self.name!r}: " + "; ".join(problems))
@@ -177,8 +189,29 @@ def _build(cls: type, data: dict, where: str) -> Any:
         raise ValueError(f"{where}: {err}") from None
 
 
+def wheeled_robot(name: str, chassis: ChassisSpec, body_radius: float | None = None, **fields: Any) -> RobotSpec:
+    """A robot on a general chassis; body_radius defaults to the outline's inscribed radius (m)."""
+    if body_radius is None:
+        if not chassis.outline:
+            raise ValueError(f"robot {name!r}: a chassis without an outline needs body_radius (a circle)")
+        body_radius = inscribed_radius(chassis.outline)
+    first = chassis.chassis
+    return RobotSpec(name=name, wheel_diameter=2 * float(first.radius[0]), track_width=body_radius,
+                     body_radius=body_radius, chassis=chassis, **fields)
+
+
+def _chassis_spec(data: dict, where: str) -> ChassisSpec:
+    chassis, rest = chassis_from_dict(data, where)
+    if isinstance(rest.get("mouse2"), dict):
+        rest["mouse2"] = _build(MouseSpec, rest["mouse2"], f"{where}: [chassis.mouse2]")
+    if "outline" in rest:
+        rest["outline"] = tuple(tuple(p) for p in rest["outline"])
+    return _build(ChassisSpec, {"chassis": chassis, **rest}, where)
+
+
 def robot_from_dict(data: dict, where: str = "robot") -> RobotSpec:
-    """Build a `RobotSpec` from plain data (as read from TOML), with messages naming the key."""
+    """Build a `RobotSpec` from plain data (as read from TOML), with messages naming the key.
+    A `[chassis]` table makes it a robot on a general chassis (`wheeled_robot`)."""
     data = dict(data)
     for key, cls in _NESTED.items():
         if isinstance(data.get(key), dict):
@@ -186,7 +219,17 @@ def robot_from_dict(data: dict, where: str = "robot") -> RobotSpec:
     for key, cls in _LISTS.items():
         if key in data:
             data[key] = tuple(_build(cls, item, f"{where}: [[{key}]] #{i + 1}") for i, item in enumerate(data[key]))
-    return _build(RobotSpec, data, where)
+    if not isinstance(data.get("chassis"), dict):
+        return _build(RobotSpec, data, where)
+    chassis = _chassis_spec(data.pop("chassis"), f"{where}: [chassis]")
+    unknown = sorted(set(data) - {f.name for f in fields(RobotSpec)} - {"wheel_diameter", "track_width"})
+    if unknown or "name" not in data:
+        raise ValueError(f"{where}: " + (f"unknown key(s) {', '.join(unknown)}" if unknown else "missing key name"))
+    try:
+        return wheeled_robot(chassis=chassis, **{k: tuple(v) if isinstance(v, list) else v for k, v in data.items()
+                                                 if k not in ("wheel_diameter", "track_width")})
+    except TypeError as err:
+        raise ValueError(f"{where}: {err}") from None
 
 
 def load_robot(path: str | Path) -> RobotSpec:

@@ -89,7 +89,7 @@ def _positive(kind: Callable[[str], Any]) -> Callable[[str], Any]:
 
 def _add_robot_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("world", nargs="?", default=DEFAULT_WORLD, help=f"a shipped world's name (see `ctsim worlds`) or a .toml/.xml world file (default: {DEFAULT_WORLD})")
-    parser.add_argument("--robot", default="ctbot", metavar="NAME|FILE.toml", help="robot description: a built-in name (ctbot) or a TOML robot file (default: ctbot)")
+    parser.add_argument("--robot", default="ctbot", metavar="NAME|FILE.toml", help="robot description: a built-in name (ctbot, omni3, mecanum4, car, ocp_vehicle) or a TOML robot file (default: ctbot)")
     parser.add_argument("--seed", type=_seed, default=0, help="seed of every random number in the run (the noise of --noise realistic or harsh); same seed, same run (default: 0)")
     parser.add_argument("--noise", choices=NOISE_PRESETS, default="none", help="sensor and odometry noise of the robot: none (exact sensors), realistic (the c't-Bot's figures, see bots/noise.py) or harsh (default: none)")
     parser.add_argument("--robot-set", action="append", type=_param, default=[], metavar="SECTION.FIELD=VALUE", help="override one field of the robot description after --noise, repeatable: encoders.slip_std=0.02, mouse.dpi=415, ir.noise_std=0")
@@ -187,7 +187,9 @@ def load_robot_spec(args: argparse.Namespace):
     from bots.ctbot import ROBOTS
     from bots.noise import with_noise, with_settings
     from bots.spec import load_robot
+    from bots.wheeled import WHEELED_ROBOTS
 
+    ROBOTS = {**ROBOTS, **WHEELED_ROBOTS}
     if args.robot in ROBOTS:
         robot = ROBOTS[args.robot]
     elif args.robot.endswith(".toml") or Path(args.robot).exists():
@@ -328,6 +330,9 @@ def finish(result, out: Path, options: dict[str, Any], report: bool = True) -> i
 
         written += report_run_dir(out)
     print(table(summary))
+    for log in result.robots:  # what a general chassis did other than asked (projected twists)
+        for message, count in log.notes.values():
+            print(f"ctsim: note: {log.name}: {message} ({count} step{'s' if count != 1 else ''} like it)", file=sys.stderr)
     print("wrote:")
     for path in written:
         print(f"  {path}")

@@ -10,19 +10,22 @@ naming it and the step, and everything up to that step is kept.
 from __future__ import annotations
 
 import math
+import re
 import traceback
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Protocol
 
 import numpy as np
 
+from bots.chassis_commands import chassis_setpoints
 from bots.commands import BadCommand, motor_commands, wheel_speeds_for
 from bots.controller import Controller, ControllerStopped, reset
 from bots.odometry import Estimator, default_estimators
 from bots.spec import RobotSpec
 from sim.world import World
+from sim.world.chassis_drive import FaultError
 from sim.world.readings import Readings
-from sim.world.spec import Start, WorldSpec
+from sim.world.spec import Start, WheelFault, WorldSpec
 
 
 @dataclass
@@ -35,6 +38,8 @@ class RobotSetup:
     params: dict[str, str] = field(default_factory=dict)
     start: Start | tuple[float, float, float] | None = None
     estimators: list[Estimator] | None = None
+    faults: tuple[WheelFault, ...] = ()
+    """Wheel faults of this robot (a general chassis) scheduled by its environment; `robot` is ignored."""
 
 
 class RobotLog:
@@ -51,6 +56,8 @@ class RobotLog:
         self.collisions = 0
         self.fell = False
         self.goal_time: float | None = None
+        self.notes: dict[str, list] = {}
+        """What the run did other than asked (projected infeasible twists): kind -> [first message, count]."""
         self._truth = np.empty((capacity, 3))
         self._estimates = {label: np.empty((capacity, 3)) for label in estimators}
         self._count = 0
@@ -70,6 +77,11 @@ class RobotLog:
 
     def __len__(self) -> int:
         return self._count
+
+    def note(self, message: str) -> None:
+        """Count a message; messages that differ only in their numbers are one kind (bounded memory)."""
+        entry = self.notes.setdefault(re.sub(r"-?\d[\d.e+-]*", "#", message), [message, 0])
+        entry[1] += 1
 
     def truth_array(self) -> np.ndarray:
         """(T, 3) ground-truth poses (a view, no copy)."""
@@ -174,6 +186,10 @@ def run(
         logs.append(RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params), names, steps + 1))
         controllers.append(setup.controller)
         estimators.append(chosen)
+    try:
+        world.chassis.schedule_faults([*world_spec.faults, *(replace(f, robot=i) for i, setup in enumerate(robots) for f in setup.faults)])
+    except FaultError as err:
+        raise RunError(str(err)) from None
     result = RunResult(world_spec, seed, dt, logs, steps + 1)
     commands = np.zeros((len(robots), 2))
     _notify(observers, "on_start", world, logs)
@@ -189,6 +205,9 @@ def run(
             for i, (robot, log, controller) in enumerate(zip(world.robots, logs, controllers)):
                 try:
                     command = controller.step(world.time, log.latest)
+                    if robot.spec.chassis is not None:
+                        _drive_chassis(world, i, log, command, log.latest, step)
+                        continue
                     left, right = wheel_speeds_for(command, robot.spec)
                 except BadCommand as err:
                     raise _Stop(f"controller {log.controller_name!r} of {log.name} returned a bad command at step {step} (t = {world.time:.2f} s): {err}") from None
@@ -217,6 +236,14 @@ def run(
 
 class _Stop(Exception):
     pass
+
+
+def _drive_chassis(world: World, index: int, log: RobotLog, command, readings: Readings, step: int) -> None:
+    """Turn a chassis robot's command into wheel set-points (the core's inverse kinematics) for the world."""
+    setpoint = chassis_setpoints(command, log.spec, readings)
+    if setpoint.note:
+        log.note(f"step {step} (t = {world.time:.2f} s): {setpoint.note}")
+    world.chassis.command(index, setpoint.phi_dot, setpoint.beta)
 
 
 def _last_frame(err: BaseException) -> str:

@@ -85,6 +85,7 @@ class Chassis:
 
     `beta` holds the current wheel-plane angles: fixed for FIXED and OMNI wheels, the current steering
     state for STEERED and CASTOR wheels (frozen after a steering failure), unused for SPHERICAL.
+    `locked` marks seized wheels (see `Failure`).
     """
 
     kind: NDArray[np.int_]
@@ -100,12 +101,15 @@ class Chassis:
     steer_min: Array
     steer_max: Array
     names: tuple[str, ...] = field(default=())
+    locked: NDArray[np.bool_] | None = None
 
     def __post_init__(self) -> None:
         n = len(self.kind)
-        for name in ("kind", *_FIELDS, "driven", "steer_ok", "steer_min", "steer_max"):
+        if self.locked is None:
+            object.__setattr__(self, "locked", np.zeros(n, dtype=bool))
+        for name in ("kind", *_FIELDS, "driven", "steer_ok", "steer_min", "steer_max", "locked"):
             value = np.array(getattr(self, name), dtype=int if name == "kind" else
-                             bool if name in ("driven", "steer_ok") else float)
+                             bool if name in ("driven", "steer_ok", "locked") else float)
             if value.shape != (n,):
                 raise ValueError(f"chassis field {name!r} has shape {value.shape}, expected ({n},)")
             value.setflags(write=False)
@@ -179,29 +183,36 @@ class Failure:
     `drive`: the drive runs free (not locked): the wheel keeps its constraint but loses control.
     `steering`: a STEERED wheel's steering freezes at `frozen_beta` (rad; default: its current β),
     so it becomes a fixed wheel.
+    `locked`: the wheel seizes (φ̇ = 0, and a steered wheel's steering with it): beyond the thesis
+    (note 906), it adds its rolling row j·ξ = 0 as a constraint and loses its drive.
     """
 
     wheel: int
     drive: bool = False
     steering: bool = False
     frozen_beta: float | None = None
+    locked: bool = False
 
 
 def degrade(chassis: Chassis, *failures: Failure) -> Chassis:
     """The chassis after `failures` (a new `Chassis`; the original is unchanged)."""
     driven, steer_ok, beta = chassis.driven.copy(), chassis.steer_ok.copy(), chassis.beta.copy()
+    locked = chassis.locked.copy()
     for f in failures:
         if not 0 <= f.wheel < chassis.n:
             raise ValueError(f"failure names wheel {f.wheel}, chassis has {chassis.n} wheels")
-        if f.drive:
+        if f.drive or f.locked:
             driven[f.wheel] = False
+        if f.locked:
+            locked[f.wheel] = True
+            steer_ok[f.wheel] &= chassis.kind[f.wheel] != WheelType.STEERED
         if f.steering:
             if chassis.kind[f.wheel] != WheelType.STEERED:
                 raise ValueError(f"{chassis.names[f.wheel]} is not a steered wheel; its steering cannot fail")
             steer_ok[f.wheel] = False
             if f.frozen_beta is not None:
                 beta[f.wheel] = f.frozen_beta
-    return replace(chassis, driven=driven, steer_ok=steer_ok, beta=beta)
+    return replace(chassis, driven=driven, steer_ok=steer_ok, beta=beta, locked=locked)
 
 
 # --- constraint rows and matrices -------------------------------------------------------------------
@@ -251,6 +262,7 @@ def qualitative_matrices(chassis: Chassis) -> tuple[Array, Array]:
     A working steered wheel can push its contact point any way: two rolling rows (β = 0 and π/2) and no
     constraint (it is assumed aligned). A frozen one is a fixed wheel. A failed (free-running) or absent
     drive zeroes the wheel's rolling rows but keeps its constraint. Castor and ball wheels add nothing.
+    A locked wheel adds its rolling row as one more constraint row (note 906).
     """
     j_rows, c_rows = [], []
     zero = np.zeros(3)
@@ -269,6 +281,8 @@ def qualitative_matrices(chassis: Chassis) -> tuple[Array, Array]:
         else:
             j_rows.append(zero)
             c_rows.append(zero)
+        if chassis.locked[i]:
+            c_rows.append(rolling_rows(a, b, l, g))
     return np.array(j_rows, dtype=float).reshape(-1, 3), np.array(c_rows, dtype=float).reshape(-1, 3)
 
 
@@ -452,8 +466,11 @@ def check_feasible(chassis: Chassis, twist: ArrayLike) -> None:
         return
     example = twist[bad][0]
     slide = (np.abs(sliding_matrix(chassis) @ example) > _tolerance(example)) & chassis.fixed_like
-    if slide.any():
-        why = "it would make " + ", ".join(chassis.names[i] for i in np.flatnonzero(slide)) + " slide sideways"
+    roll = (np.abs(rolling_matrix(chassis) @ example) > _tolerance(example)) & chassis.locked
+    if slide.any() or roll.any():
+        parts = [", ".join(chassis.names[i] for i in np.flatnonzero(slide)) + " slide sideways"] if slide.any() else []
+        parts += [f"locked {chassis.names[i]} roll" for i in np.flatnonzero(roll)]
+        why = "it would make " + " and ".join(parts)
     else:
         failed = [chassis.names[i] for i in range(chassis.n) if not chassis.driven[i]]
         why = ("no working drive can produce part of it (admissible but uncontrollable"
@@ -554,6 +571,25 @@ class ForwardSolution:
         return np.sqrt(np.sum(self.rolling**2, axis=-1) + np.sum(self.sliding**2, axis=-1))
 
 
+def forward_system(chassis: Chassis, phi_dot: ArrayLike, beta: ArrayLike,
+                   measured: ArrayLike | None = None) -> tuple[Array, Array]:
+    """The stacked equations A ξ = b (m/s) of `forward_kinematics`: A (..., 2n, 3) holds the rolling rows
+    of the measured wheels (zero rows for the others), then the sliding rows of fixed and steered wheels;
+    b (..., 2n) the measured rim speeds r φ̇ cos γ, then zeros. The least-squares twist is pinv(A)·b."""
+    phi_dot, beta = np.asarray(phi_dot, dtype=float), np.asarray(beta, dtype=float)
+    use = np.ones(chassis.n, bool) if measured is None else np.asarray(measured, dtype=bool)
+    constrains = np.isin(chassis.kind, (WheelType.FIXED, WheelType.STEERED))
+    roll = rolling_rows(chassis.alpha, beta, chassis.l, chassis.gamma) * use[:, None]
+    slide = sliding_rows(chassis.alpha, beta, chassis.l) * constrains[:, None]
+    rhs = np.concatenate([phi_dot * chassis.radius * np.cos(chassis.gamma) * use, np.zeros_like(phi_dot)], axis=-1)
+    return np.concatenate([roll, slide], axis=-2), rhs
+
+
+def forward_pinv(a: ArrayLike) -> Array:
+    """pinv(A) with the core's rank cut-off, for reusing one `forward_system` matrix over many steps."""
+    return np.linalg.pinv(np.asarray(a, dtype=float), rcond=_RANK_TOL)
+
+
 def forward_kinematics(
     chassis: Chassis,
     phi_dot: ArrayLike,
@@ -567,13 +603,8 @@ def forward_kinematics(
     """
     phi_dot, beta = np.broadcast_arrays(np.asarray(phi_dot, dtype=float),
                                         chassis.beta if beta is None else np.asarray(beta, dtype=float))
-    use = np.ones(chassis.n, bool) if measured is None else np.asarray(measured, dtype=bool)
-    constrains = np.isin(chassis.kind, (WheelType.FIXED, WheelType.STEERED))
-    roll = rolling_rows(chassis.alpha, beta, chassis.l, chassis.gamma) * use[:, None]
-    slide = sliding_rows(chassis.alpha, beta, chassis.l) * constrains[:, None]
-    a = np.concatenate([roll, slide], axis=-2)
-    rhs = np.concatenate([phi_dot * chassis.radius * np.cos(chassis.gamma) * use, np.zeros_like(phi_dot)], axis=-1)
-    twist = np.einsum("...ij,...j->...i", np.linalg.pinv(a, rcond=_RANK_TOL), rhs)
+    a, rhs = forward_system(chassis, phi_dot, beta, measured)
+    twist = np.einsum("...ij,...j->...i", forward_pinv(a), rhs)
     residual = np.einsum("...ij,...j->...i", a, twist) - rhs
     rank = np.linalg.matrix_rank(a, tol=None)
     return ForwardSolution(twist=twist, rolling=residual[..., : chassis.n], sliding=residual[..., chassis.n:],

@@ -30,6 +30,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from sim.kinematics import wrap_angle
+from sim.views.chassis_view import ChassisLayer
 from sim.world import IR_RAY_LENGTH, World
 
 if TYPE_CHECKING:
@@ -88,6 +89,7 @@ class Recorder:
         self.application_id = application_id
         self.rec: Any = None
         self._tracks: list[_Track] = []
+        self._chassis: ChassisLayer | None = None
 
     # --- observer interface ---------------------------------------------------------------
 
@@ -107,6 +109,7 @@ class Recorder:
         self.rec.log("world", rr.Transform3D(scale=(1.0, -1.0, 1.0)), static=True)
         log_world(self.rec, world.spec)
         self._tracks = []
+        self._chassis = ChassisLayer.for_world(self.rec, world, TIMELINE)
 
     def on_sample(self, world: World, logs: list[RobotLog]) -> None:
         """Copy this sample's truth, estimates and readings into the buffers. Rays are drawn from
@@ -127,6 +130,8 @@ class Recorder:
             track.count = n + 1
             if track.count == CHUNK:
                 self._send(track)
+        if self._chassis is not None:
+            self._chassis.on_sample(world, logs)
 
     def on_end(self, result: RunResult) -> None:
         """Flush what is buffered and close the file (also after an error or Ctrl-C)."""

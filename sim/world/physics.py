@@ -23,6 +23,7 @@ import sim
 from bots.spec import RobotSpec
 from sim.kinematics import counts_per_metre
 from sim.world import kernels
+from sim.world.chassis_drive import ChassisDrive
 from sim.world.floor import FloorMap, rasterize
 from sim.world.readings import Readings
 from sim.world.sensors import CNY70_MAX, LDR_MAX, IRCurve, builtin_gp2d12, load_ir_curve
@@ -87,7 +88,7 @@ class Robot:
     name: str
     spec: RobotSpec
     body: pymunk.Body
-    shape: pymunk.Circle
+    shape: pymunk.Circle | pymunk.Poly
     query_filter: pymunk.ShapeFilter
     ir_curves: tuple[IRCurve, ...]
     rngs: dict[str, np.random.Generator]
@@ -137,6 +138,8 @@ class World:
         self._floor_origin = np.array(self.floor.origin)
         self._state = _BatchState.empty()
         self._poses = np.zeros((0, 3))
+        self.chassis = ChassisDrive(dt)
+        """The drive of robots on a general chassis (commands, faults; see `sim.world.chassis_drive`)."""
 
     # --- robots -----------------------------------------------------------------------------
 
@@ -146,13 +149,18 @@ class World:
         if start is None:
             start = self.spec.start_for(index)
         x, y, heading = (start.x, start.y, start.heading) if isinstance(start, Start) else start
-        body = pymunk.Body(spec.mass, pymunk.moment_for_circle(spec.mass, 0, spec.body_radius))
+        outline = spec.chassis.outline if spec.chassis is not None else ()
+        if outline:
+            body = pymunk.Body(spec.mass, pymunk.moment_for_poly(spec.mass, outline))
+            shape = pymunk.Poly(body, outline)
+        else:
+            body = pymunk.Body(spec.mass, pymunk.moment_for_circle(spec.mass, 0, spec.body_radius))
+            shape = pymunk.Circle(body, spec.body_radius)
         body.position = (x, y)
         body.angle = heading
-        shape = pymunk.Circle(body, spec.body_radius)
         shape.friction = 0.0
         shape.filter = pymunk.ShapeFilter(group=index + 1)
-        sensors = ["encoders", "mouse"] + [s.name for s in (*spec.ir, *spec.line, *spec.border, *spec.light)]
+        sensors = ["encoders", "mouse", "mouse2"] + [s.name for s in (*spec.ir, *spec.line, *spec.border, *spec.light)]
         robot = Robot(
             index=index,
             name=name or (spec.name if index == 0 else f"{spec.name}{index}"),
@@ -168,6 +176,8 @@ class World:
         self._robot_of_shape[shape] = robot
         self.space.add(body, shape)
         self.robots.append(robot)
+        if spec.chassis is not None:
+            self.chassis.add(robot)
         self._state = _BatchState.build(self.robots, self.dt)
         self._poses = self._read_poses()
         return robot
@@ -209,6 +219,7 @@ class World:
             readings.append(
                 Readings(self.time, ticks[i], counts[i], ir_raw[r0:r1], ir_distance[r0:r1], floor[f0:f1], floor[f1:f2], light[l0:l1])
             )
+        self.chassis.fill(readings)
         return readings
 
     def _add_noise(self, sensors: list[tuple[Robot, object]], values: np.ndarray, top: int) -> np.ndarray:
@@ -247,7 +258,8 @@ class World:
     # --- motion -----------------------------------------------------------------------------
 
     def step(self, commands: np.ndarray) -> None:
-        """Advance the world by dt with signed motor commands (n_robots, 2) = (left, right)."""
+        """Advance the world by dt with signed motor commands (n_robots, 2) = (left, right); robots on
+        a general chassis ignore theirs and drive what `self.chassis.command` set."""
         commands = np.asarray(commands, dtype=np.float64)
         if commands.shape != (len(self.robots), 2):
             raise CommandError(f"expected motor commands of shape ({len(self.robots)}, 2), got {commands.shape}")
@@ -262,6 +274,8 @@ class World:
             st.ticks_per_rad, st.tick_carry, st.tick_offset, st.ticks, st.real_radius, st.slip, st.track,
             before, st.fallen, st.move, st.alpha,
         )  # fmt: skip
+        if self.chassis.drives:
+            self.chassis.drive(self.time, before, st.move, st.alpha, st.fallen)
         # cut each exact-arc move where the body would first sink deeper than SWEEP_CLEARANCE into
         # a wall or another robot, so that no speed the motors allow tunnels through anything
         kernels.sweep_walls(before, st.move, st.sweep_radius, SLIDE_MARGIN, self._walls.vertices, self._walls.ranges, self._walls.boxes)
@@ -279,6 +293,8 @@ class World:
             before, after, st.contacts, st.fallen, st.mount, st.counts_per_metre, st.max_step, st.mouse_noise,
             st.mouse_carry, st.counts, self.floor.hole, self._floor_origin, self.floor.cell, self.floor.outside_is_hole,
         )  # fmt: skip
+        if self.chassis.drives:
+            self.chassis.after_step(before, after, st.fallen, self.floor)
         for i in np.flatnonzero(newly_fallen & st.fallen):
             self.robots[i].fallen = True
         self.steps += 1
@@ -334,6 +350,15 @@ class _WallArrays:
             ranges=np.stack((starts, ends), axis=1).reshape(-1, 2),
             boxes=np.array([(*p.min(axis=0), *p.max(axis=0)) for p in polygons]).reshape(-1, 4),
         )
+
+
+def _contacts(spec: RobotSpec) -> np.ndarray:
+    """The three ground contacts the measure kernel checks for holes: the c't-Bot's wheels and skid; a
+    general chassis's first wheels (all its wheels are checked by `ChassisDrive.after_step`)."""
+    if spec.chassis is None:
+        return np.array(((0.0, spec.track_width / 2), (0.0, -spec.track_width / 2), spec.skid))
+    wheels = spec.chassis.chassis.positions
+    return wheels[np.arange(3) % len(wheels)]
 
 
 @dataclass
@@ -426,7 +451,7 @@ class _BatchState:
             ticks_per_rad=np.array([s.encoders.ticks_per_rev / (2 * math.pi) for s in specs], dtype=np.float64),
             real_radius=np.array([[s.wheel_radius * (1 + e) for e in s.encoders.diameter_error] for s in specs]).reshape(n, 2),
             track=np.array([s.track_width * (1 + s.encoders.track_error) for s in specs], dtype=np.float64),
-            contacts=np.array([((0.0, s.track_width / 2), (0.0, -s.track_width / 2), s.skid) for s in specs]).reshape(n, 3, 2),
+            contacts=np.array([_contacts(s) for s in specs]).reshape(n, 3, 2),
             mount=np.array([s.mouse.mount if s.mouse else (0.0, 0.0) for s in specs], dtype=np.float64).reshape(n, 2),
             counts_per_metre=np.array(
                 [counts_per_metre(s.mouse.dpi) * (1 + s.mouse.scale_error) if s.mouse else 0.0 for s in specs], dtype=np.float64

@@ -31,3 +31,6 @@ class Readings:
     line: np.ndarray = field(default_factory=_ints)
     border: np.ndarray = field(default_factory=_ints)
     light: np.ndarray = field(default_factory=_ints)
+    steering: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    mouse2_counts: np.ndarray = field(default_factory=lambda: _ints(2))
+    failures: tuple = ()

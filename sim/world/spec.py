@@ -96,6 +96,22 @@ class Movable:
     mass: float = 0.05
 
 
+FAULT_KINDS = ("lock", "free", "steering")
+"""lock: the wheel seizes (φ̇ = 0); free: its drive fails and it rolls free; steering: its steering
+freezes where it stands (thesis 2.2.2.2, failure table; lock per its note 906)."""
+
+
+@dataclass(frozen=True)
+class WheelFault:
+    """A wheel of a general chassis fails at `time` (s): "lock" (seizes), "free" (its drive fails and it
+    rolls free) or "steering" (its steering freezes); `robot` is the robot's index in the world (0-based)."""
+
+    time: float
+    wheel: int
+    kind: str
+    robot: int = 0
+
+
 @dataclass(frozen=True)
 class WorldSpec:
     """A complete world. `bounds` = (xmin, ymin, xmax, ymax); outside it the floor is a hole when
@@ -111,6 +127,7 @@ class WorldSpec:
     starts: tuple[Start, ...] = ()
     goals: tuple[Goal, ...] = ()
     movables: tuple[Movable, ...] = ()
+    faults: tuple[WheelFault, ...] = ()
     floor_colour: Colour = DEFAULT_FLOOR
     outside_is_hole: bool = False
     source: str | None = None

@@ -18,6 +18,7 @@ from typing import Any, NoReturn
 from sim.world.spec import (
     BLACK,
     DEFAULT_FLOOR,
+    FAULT_KINDS,
     Colour,
     FloorLine,
     FloorRegion,
@@ -28,6 +29,7 @@ from sim.world.spec import (
     Point,
     Start,
     Wall,
+    WheelFault,
     WorldFileError,
     WorldSpec,
 )
@@ -35,7 +37,7 @@ from sim.world.spec import (
 from .geometry import bbox, convex_ccw, segment_box
 from .grid import DEFAULT_CELL, KNOWN_TILES, GridPieces, build_grid
 
-ARRAYS = ("wall", "floor", "line", "hole", "light", "start", "goal", "movable")
+ARRAYS = ("wall", "floor", "line", "hole", "light", "start", "goal", "movable", "fault")
 TOP_KEYS = ("name", "description", "bounds", "floor_colour", "outside_is_hole", "grid", *ARRAYS)
 _REQUIRED: Any = object()
 _WALL_COLOUR = Wall(()).colour
@@ -260,6 +262,7 @@ def load_toml(path: Path) -> WorldSpec:
     starts = [_start(t) for t in _keys(tables["start"], "position", "heading_deg", "heading", "slot")]
     goals = [Goal(t.area()) for t in _keys(tables["goal"], "box", "polygon")]
     movables = [Movable(t.point("position"), t.number("radius", 0.025, positive=True), t.number("mass", 0.05, positive=True)) for t in _keys(tables["movable"], "position", "radius", "mass")]  # fmt: skip
+    faults = [_fault(t) for t in _keys(tables["fault"], "time", "robot", "wheel", "kind")]
     if grid is not None:
         walls[:0], floor[:0], lines[:0] = grid.walls, grid.floor, grid.lines
         holes[:0], lights[:0], starts[:0] = grid.holes, grid.lights, grid.starts
@@ -285,6 +288,7 @@ def load_toml(path: Path) -> WorldSpec:
         starts=tuple(starts),
         goals=tuple(goals),
         movables=tuple(movables),
+        faults=tuple(faults),
         floor_colour=floor_colour,
         outside_is_hole=outside_is_hole,
         source=str(path),
@@ -303,6 +307,17 @@ def _keys(tables: list[_Table], *allowed: str) -> list[_Table]:
     for t in tables:
         t.check_keys(allowed)
     return tables
+
+
+def _fault(t: _Table) -> WheelFault:
+    """A scheduled wheel fault of a robot on a general chassis (`sim.world.chassis_drive`)."""
+    kind = t.text("kind", "")
+    if kind not in FAULT_KINDS:
+        t.fail(f"`kind` must be one of {', '.join(FAULT_KINDS)}, not {kind!r}", "kind")
+    robot, wheel = t.integer("robot", 0), t.integer("wheel", -1)
+    if robot < 0 or wheel < 0:
+        t.fail("`robot` and `wheel` are indices from 0", "wheel" if wheel < 0 else "robot")
+    return WheelFault(t.number("time"), wheel, kind, robot)
 
 
 def _line(t: _Table) -> FloorLine:

@@ -1,0 +1,278 @@
+"""The world's drive for robots on a general wheeled chassis (the c't-Bot keeps its compiled kernel).
+
+Per step and robot, in the order of DESIGN.md §4: faults due by now strike; working steered wheels
+turn towards their commanded angle at most `steer_rate`·dt (within their limits); driven wheels
+follow their commanded speed through the motor model (clip, lag, acceleration limit); the body twist
+is the core's least-squares forward kinematics of the driven wheels' rim speeds (a locked wheel
+counts as 0, a free-running one not at all) together with the sliding constraints of fixed and
+steered wheels, and its residual is the wheels' slip; the unobstructed motion over the step is the
+exact `se2_exp(twist·dt)`. Passive wheels roll with the body; every wheel's encoder counts its own
+rotation (quantised, remainder carried). The world then cuts the move at walls and robots as for any
+robot. After the step, a second mouse sensor (if any) reads the body's true motion, and a wheel over
+a hole drops the robot.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any, Literal
+
+import numpy as np
+
+from sim.kinematics import (
+    counts_per_metre,
+    mouse_displacement_from_increment,
+    quantize,
+    relative_increment,
+)
+from sim.kinematics.arc import wrap_angle
+from sim.kinematics.batch import half_angle
+from sim.kinematics.chassis import (
+    Chassis,
+    Failure,
+    WheelType,
+    contact_velocities,
+    degrade,
+    forward_pinv,
+    forward_system,
+    rolling_rows,
+    sliding_rows,
+)
+from sim.world.spec import FAULT_KINDS, WheelFault
+
+if TYPE_CHECKING:
+    from sim.world.floor import FloorMap
+    from sim.world.readings import Readings
+
+FaultKind = Literal["lock", "free", "steering"]
+
+
+class FaultError(ValueError):
+    """A fault that cannot strike (no such robot or wheel, a steering fault on an unsteered wheel)."""
+
+
+@dataclass
+class _Drive:
+    """One chassis robot's drive state; `robot` is its `sim.world.physics.Robot`."""
+
+    robot: Any
+    nominal: Chassis
+    steer_rate: float
+    max_phi: np.ndarray
+    lag: float
+    max_change: float
+    ticks_per_rad: float
+    phi_dot: np.ndarray
+    beta: np.ndarray
+    target_phi: np.ndarray
+    target_beta: np.ndarray
+    tick_carry: np.ndarray
+    ticks: np.ndarray
+    failures: list[Failure] = field(default_factory=list)
+    chassis: Chassis | None = None
+    slip: float = 0.0
+    twist: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    mouse2_carry: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    mouse2_counts: np.ndarray = field(default_factory=lambda: np.zeros(2, dtype=np.int64))
+    _solver: tuple = ()
+
+    def __post_init__(self) -> None:
+        self.chassis = self.nominal
+        self.passive = bool(np.isin(self.nominal.kind, (WheelType.CASTOR, WheelType.SPHERICAL)).any())
+
+    def strike(self, wheel: int, kind: FaultKind) -> None:
+        """Apply a fault now; the core's `degrade` gives the new chassis state."""
+        if not 0 <= wheel < self.nominal.n:
+            raise FaultError(f"{self.robot.name} has wheels 0..{self.nominal.n - 1}, a fault names wheel {wheel}")
+        if kind == "steering" and self.nominal.kind[wheel] != WheelType.STEERED:
+            raise FaultError(f"{self.robot.name}: {self.nominal.names[wheel]} is not steered; its steering cannot fail")
+        frozen = float(self.beta[wheel]) if kind in ("steering", "lock") else None
+        failure = Failure(wheel, drive=kind == "free", steering=kind == "steering", frozen_beta=frozen,
+                          locked=kind == "lock")
+        if kind == "lock" and self.nominal.kind[wheel] == WheelType.STEERED:
+            failure = Failure(wheel, steering=True, frozen_beta=frozen, locked=True)
+        self.failures.append(failure)
+        self.chassis = degrade(self.nominal.with_beta(self.beta), *self.failures)
+
+    def step(self, dt: float, slip: np.ndarray) -> np.ndarray:
+        """Steering, motors, forward kinematics and encoders for one step; the body increment (dx, dy, dθ)."""
+        c = self.chassis
+        steer = (c.kind == WheelType.STEERED) & c.steer_ok
+        if steer.any():
+            turn = np.clip(wrap_angle(self.target_beta - self.beta), -self.steer_rate * dt, self.steer_rate * dt)
+            heading = np.clip(wrap_angle(c.alpha + self.beta + turn - np.pi / 2), c.steer_min, c.steer_max)
+            self.beta = np.where(steer, wrap_angle(heading - c.alpha + np.pi / 2), self.beta)
+        driven = c.driven
+        target = np.clip(self.target_phi, -self.max_phi, self.max_phi)
+        change = np.clip((target - self.phi_dot) * self.lag, -self.max_change, self.max_change)
+        self.phi_dot = np.where(driven, self.phi_dot + change, np.where(c.locked, 0.0, self.phi_dot))
+        measured = driven | c.locked
+        a, pinv = self._system(measured)
+        rhs = np.concatenate([self.phi_dot * c.radius * np.cos(c.gamma) * (1.0 + slip) * measured, np.zeros(c.n)])
+        self.twist = pinv @ rhs
+        self.slip = float(np.linalg.norm(a @ self.twist - rhs))
+        if not measured.all():
+            rolls = rolling_rows(c.alpha, self.beta, c.l, c.gamma) @ self.twist / (c.radius * np.cos(c.gamma))
+            self.phi_dot = np.where(measured, self.phi_dot, rolls)
+        self._swivel(dt)
+        self.ticks, self.tick_carry = quantize(self.phi_dot * dt * self.ticks_per_rad, self.tick_carry)
+        return _se2_exp(*(self.twist * dt))
+
+    def _system(self, measured: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """A and pinv(A) of the forward kinematics, kept while β and the measured wheels stay the same."""
+        key = (self.beta.tobytes(), measured.tobytes(), len(self.failures))
+        if not self._solver or self._solver[0] != key:
+            a, _ = forward_system(self.chassis, np.zeros(self.chassis.n), self.beta, measured)
+            self._solver = (key, a, forward_pinv(a))
+        return self._solver[1], self._solver[2]
+
+    def _swivel(self, dt: float) -> None:
+        """Passive wheels turn with the motion: castors by their swivel rate (2.51), balls to align."""
+        c = self.chassis
+        if not self.passive:
+            return
+        castor, ball = c.kind == WheelType.CASTOR, c.kind == WheelType.SPHERICAL
+        if castor.any():
+            d = np.where(castor, c.offset, 1.0)
+            rate = -(sliding_rows(c.alpha, self.beta, c.l) @ self.twist + d * self.twist[2]) / d
+            self.beta = np.where(castor, wrap_angle(self.beta + rate * dt), self.beta)
+        if ball.any():
+            v = contact_velocities(c, self.twist)
+            moving = np.hypot(v[:, 0], v[:, 1]) > 1e-12
+            aligned = wrap_angle(np.arctan2(v[:, 0], -v[:, 1]) - c.alpha)
+            self.beta = np.where(ball & moving, aligned, self.beta)
+
+
+class ChassisDrive:
+    """The drives of all chassis robots of a world, with the fault schedule."""
+
+    def __init__(self, dt: float) -> None:
+        self.dt = dt
+        self.drives: dict[int, _Drive] = {}
+        self.schedule: list[WheelFault] = []
+        self._holes: bool | None = None
+
+    def add(self, robot: Any) -> None:
+        """Take over the drive of a world's `Robot` whose spec has a `chassis`."""
+        spec = robot.spec
+        chassis = spec.chassis.chassis
+        motor = spec.motor
+        limit = np.where(np.isfinite(chassis.max_speed), chassis.max_speed / chassis.radius, motor.max_wheel_speed)
+        self.drives[robot.index] = _Drive(
+            robot=robot, nominal=chassis, steer_rate=spec.chassis.steer_rate, max_phi=limit,
+            lag=1.0 - math.exp(-self.dt / motor.time_constant) if motor.time_constant > 0 else 1.0,
+            max_change=motor.max_acceleration * self.dt,
+            ticks_per_rad=spec.encoders.ticks_per_rev / (2 * math.pi),
+            phi_dot=np.zeros(chassis.n), beta=chassis.beta.copy(), target_phi=np.zeros(chassis.n),
+            target_beta=chassis.beta.copy(), tick_carry=np.zeros(chassis.n), ticks=np.zeros(chassis.n, dtype=np.int64),
+        )
+
+    def schedule_faults(self, faults: list[WheelFault]) -> None:
+        """Schedule faults, checked now: each must name a chassis robot, one of its wheels and a known kind."""
+        for f in faults:
+            drive = self.drives.get(f.robot)
+            if drive is None:
+                raise FaultError(f"a wheel fault names robot {f.robot}, which is not a robot on a general chassis")
+            if f.kind not in FAULT_KINDS or not 0 <= f.wheel < drive.nominal.n:
+                raise FaultError(f"a wheel fault of {drive.robot.name} names wheel {f.wheel} ({drive.nominal.n} wheels) "
+                                 f"and kind {f.kind!r} ({', '.join(FAULT_KINDS)})")
+            if f.kind == "steering" and drive.nominal.kind[f.wheel] != WheelType.STEERED:
+                raise FaultError(f"{drive.robot.name}: {drive.nominal.names[f.wheel]} is not steered; its steering cannot fail")
+        self.schedule = list(faults)
+
+    def command(self, index: int, phi_dot: np.ndarray, beta: np.ndarray) -> None:
+        """Set robot `index`'s wheel speed (rad/s) and wheel-plane angle (rad) targets, one per wheel."""
+        drive = self.drives[index]
+        phi_dot, beta = np.asarray(phi_dot, dtype=float), np.asarray(beta, dtype=float)
+        n = drive.nominal.n
+        if phi_dot.shape != (n,) or beta.shape != (n,):
+            raise ValueError(f"{drive.robot.name}: expected {n} wheel speeds and {n} steering angles, "
+                             f"got shapes {phi_dot.shape} and {beta.shape}")
+        if not (np.all(np.isfinite(phi_dot)) and np.all(np.isfinite(beta))):
+            raise ValueError(f"{drive.robot.name}: non-finite wheel command")
+        drive.target_phi, drive.target_beta = phi_dot, beta
+
+    def fail(self, index: int, wheel: int, kind: FaultKind) -> None:
+        """Make a wheel of robot `index` fail now."""
+        if kind not in FAULT_KINDS:
+            raise FaultError(f"unknown fault kind {kind!r} (known: {', '.join(FAULT_KINDS)})")
+        if index not in self.drives:
+            raise FaultError(f"robot {index} has no general chassis; only its wheels can fail")
+        self.drives[index].strike(wheel, kind)
+
+    def drive(self, time: float, pose: np.ndarray, move: np.ndarray, alpha: np.ndarray, fallen: np.ndarray) -> None:
+        """Overwrite the planned world move (n, 2) and heading change (n,) of every chassis robot."""
+        due = [f for f in self.schedule if f.time <= time + 1e-9 * self.dt]
+        for fault in due:
+            self.fail(fault.robot, fault.wheel, fault.kind)
+            self.schedule.remove(fault)
+        for i, drive in self.drives.items():
+            slip = self._slip(drive)
+            dx, dy, dtheta = drive.step(self.dt, slip)
+            c, s = math.cos(pose[i, 2]), math.sin(pose[i, 2])
+            if fallen[i]:
+                move[i], alpha[i] = 0.0, 0.0
+            else:
+                move[i, 0], move[i, 1], alpha[i] = c * dx - s * dy, s * dx + c * dy, dtheta
+
+    @staticmethod
+    def _slip(drive: _Drive) -> np.ndarray:
+        """Random relative slip of each wheel's rim speed this step (EncoderSpec.slip_std; tick_noise is
+        a differential-drive model)."""
+        enc = drive.robot.spec.encoders
+        n = drive.nominal.n
+        if not enc.slip_std:
+            return np.zeros(n)
+        return drive.robot.rngs["encoders"].normal(0.0, enc.slip_std, size=n)
+
+    def after_step(self, before: np.ndarray, after: np.ndarray, fallen: np.ndarray, floor: FloorMap) -> None:
+        """Wheels over holes drop their robot; the second mouse reads the body's true motion."""
+        if self._holes is None:  # the floor never changes: look for holes once
+            self._holes = floor.outside_is_hole or bool(floor.hole.any())
+        holes = self._holes
+        for i, drive in self.drives.items():
+            spec = drive.robot.spec
+            if holes and not fallen[i] and _over_hole(after[i], drive.nominal.positions, floor).any():
+                fallen[i] = True
+            mouse = spec.chassis.mouse2
+            if mouse is None:
+                continue
+            increment = relative_increment(before[i], after[i])
+            metres = mouse_displacement_from_increment(increment, np.asarray(mouse.mount))
+            if _over_hole(after[i], np.asarray([mouse.mount]), floor)[0] or np.hypot(*metres) > mouse.max_speed * self.dt:
+                metres = np.zeros(2)
+            noise = drive.robot.rngs["mouse2"].normal(0.0, mouse.noise_std, size=2) if mouse.noise_std else 0.0
+            scale = counts_per_metre(mouse.dpi) * (1 + mouse.scale_error)
+            drive.mouse2_counts, drive.mouse2_carry = quantize(metres * scale + noise, drive.mouse2_carry)
+
+    def fill(self, readings: list[Readings]) -> None:
+        """Put each chassis robot's per-wheel ticks, steering angles, second mouse and faults into its readings."""
+        for i, drive in self.drives.items():
+            r = readings[i]
+            r.encoder_ticks = drive.ticks.copy()
+            r.steering = drive.beta.copy()
+            r.mouse2_counts = drive.mouse2_counts.copy()
+            r.failures = tuple(drive.failures)
+
+
+def _se2_exp(dx: float, dy: float, dtheta: float) -> tuple[float, float, float]:
+    """`sim.kinematics.se2_exp` of one displacement ξ·dt, scalar (numpy's per-call cost would dominate
+    a step); the compiled `half_angle` keeps the limit dθ → 0 continuous. Tests hold the two together."""
+    h = 0.5 * dtheta
+    cos_h, sinc_h = half_angle(h)
+    sin_h = sinc_h * h
+    tx, ty = dx * sinc_h, dy * sinc_h
+    return cos_h * tx - sin_h * ty, sin_h * tx + cos_h * ty, dtheta
+
+
+def _over_hole(pose: np.ndarray, points: np.ndarray, floor: FloorMap) -> np.ndarray:
+    """Whether body-frame points (k, 2) of a robot at `pose` lie over a hole."""
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    x = pose[0] + c * points[:, 0] - s * points[:, 1]
+    y = pose[1] + s * points[:, 0] + c * points[:, 1]
+    ix = np.floor((x - floor.origin[0]) / floor.cell).astype(int)
+    iy = np.floor((y - floor.origin[1]) / floor.cell).astype(int)
+    inside = (ix >= 0) & (iy >= 0) & (iy < floor.hole.shape[0]) & (ix < floor.hole.shape[1])
+    return np.where(inside, floor.hole[np.clip(iy, 0, floor.hole.shape[0] - 1), np.clip(ix, 0, floor.hole.shape[1] - 1)],
+                    floor.outside_is_hole)

@@ -1,0 +1,331 @@
+"""Robots on general wheeled chassis in the world: exact motion, ICR, refusals, faults, odometry, slip."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose
+
+from bots.chassis_commands import InfeasibleCommand, chassis_setpoints
+from bots.chassis_odometry import (
+    ChassisEncoderOdometry,
+    ChassisMouseOdometry,
+    mouse_applies,
+)
+from bots.chassis_spec import PRESETS, ChassisSpec
+from bots.commands import Twist, WheelCommands
+from bots.controller import FunctionController
+from bots.spec import EncoderSpec, MotorSpec, MouseSpec, load_robot, wheeled_robot
+from bots.wheeled import CAR, MECANUM4, WHEELED_ROBOTS
+from sim.kinematics import apply_increment, relative_increment, se2_exp, se2_log
+from sim.kinematics.chassis import (
+    Failure,
+    degrade,
+    forward_kinematics,
+    inverse_kinematics,
+    motion_subspaces,
+    nearest_feasible,
+    null_space,
+)
+from sim.run import RobotSetup, run
+from sim.world import World
+from sim.world.readings import Readings
+from sim.world.spec import Start, Wall, WheelFault, WorldSpec, box
+
+DT = 0.01
+EMPTY = WorldSpec("empty", (-20, -20, 20, 20), starts=(Start(0.3, -0.2, 0.4),))
+FAST = MotorSpec(max_wheel_speed=200.0)  # no motor limit in the way of the commanded speeds
+FINE = EncoderSpec(ticks_per_rev=2**40)  # quantisation below 1e-11 rad per step: "without quantisation"
+
+
+def robot_on(chassis, **fields):
+    return wheeled_robot("test", ChassisSpec(chassis, **fields.pop("chassis_fields", {})), body_radius=0.3,
+                         motor=fields.pop("motor", FAST), **fields)
+
+
+def drive_world(spec, phi_dot, beta, steps: int, world_spec: WorldSpec = EMPTY) -> tuple[World, np.ndarray]:
+    """Step a world with constant wheel set-points; the truth poses (steps + 1, 3)."""
+    world = World(world_spec, dt=DT)
+    world.add_robot(spec)
+    poses = [world.poses()[0]]
+    for _ in range(steps):
+        world.chassis.command(0, phi_dot, beta)
+        world.step(np.zeros((1, 2)))
+        poses.append(world.poses()[0])
+    return world, np.array(poses)
+
+
+def integrate(pose: np.ndarray, twist: np.ndarray, steps: int) -> np.ndarray:
+    for _ in range(steps):
+        pose = apply_increment(pose, se2_exp(twist * DT))
+    return pose
+
+
+@pytest.mark.parametrize("preset", sorted(PRESETS))
+def test_unobstructed_truth_is_the_exact_integral_of_forward_kinematics(preset):
+    """Random (generally inconsistent) wheel speeds at fixed steering: the least-squares twist, exactly."""
+    chassis = PRESETS[preset]()
+    rng = np.random.default_rng(sum(map(ord, preset)))
+    phi_dot = rng.uniform(-8, 8, chassis.n)
+    beta = chassis.beta + rng.uniform(-0.5, 0.5, chassis.n) * (chassis.kind == 1)
+    _, poses = drive_world(robot_on(chassis), phi_dot, beta, 300)
+    twist = forward_kinematics(chassis, phi_dot * chassis.driven, beta, measured=chassis.driven).twist
+    # 300 compositions of rounding (1e-16 relative) on metres: far below the 1e-9 m contract
+    assert np.linalg.norm(poses[-1, :2] - integrate(poses[0], twist, 300)[:2]) < 1e-9
+    assert abs(poses[-1, 2] - integrate(poses[0], twist, 300)[2]) < 1e-9
+
+
+@pytest.mark.parametrize("radius", [1.0, -0.7, 3.0])
+def test_ackermann_icr_lies_on_the_rear_axle_where_the_wheel_angles_meet(radius):
+    """Front wheels at the closed-form Ackermann angles δ = atan(a/(R ∓ b/2)) and rear wheels at
+    ω(R ∓ b/2)/r turn the body about (0, R) (thesis 2.2.2, Abb. 23)."""
+    a, b, r, omega = 0.5, 0.4, 0.05, 0.3
+    chassis = PRESETS["ackermann"](wheelbase=a, track=b, wheel_radius=r)
+    delta = np.arctan(a / (radius - np.array([b / 2, -b / 2])))
+    heading = np.array([*delta, 0.0, 0.0])
+    beta = heading - chassis.alpha + np.pi / 2
+    phi_dot = np.array([0.0, 0.0, omega * (radius - b / 2) / r, omega * (radius + b / 2) / r])
+    _, poses = drive_world(robot_on(chassis), phi_dot, beta, 50)
+    step = se2_log(relative_increment(poses[10], poses[11])) / DT
+    icr = np.array([-step[1], step[0]]) / step[2]
+    assert_allclose(icr, [0.0, radius], atol=1e-9)  # rounding of a 1e-2 rad step, divided by ω
+    assert_allclose(step[2], omega, rtol=1e-9)
+
+
+def constant(command):
+    return FunctionController(lambda t, readings: command)
+
+
+def test_a_car_refuses_to_move_sideways_and_says_which_wheels():
+    result = run(EMPTY, [RobotSetup(CAR, constant(Twist(0.0, 0.0, vy=0.3)))], 1.0)
+    assert result.reason == "error"
+    assert "refused" in result.error and "rear left, rear right slide sideways" in result.error
+    assert "nearest feasible" in result.error
+
+
+def test_a_projecting_car_drives_the_nearest_feasible_twist_and_says_so():
+    car = CAR.with_changes(chassis={"infeasible": "project"})
+    result = run(EMPTY, [RobotSetup(car, constant(Twist(0.4, 0.0, vy=0.3)))], 1.0)
+    log = result.robots[0]
+    assert result.reason == "duration"
+    (message, count), = log.notes.values()
+    assert "projected" in message and "slide sideways" in message and count == 100
+    truth = log.truth_array()
+    sideways = [relative_increment(truth[k], truth[k + 1])[1] for k in range(len(truth) - 1)]
+    assert np.max(np.abs(sideways)) < 1e-12  # the projection has no lateral part: none at all
+
+
+THESIS_FAULTS = {
+    "omni4 drive 4": ("omni4", [(3, "free")]),
+    "omni4 drives 3+4": ("omni4", [(2, "free"), (3, "free")]),
+    "omni4 drives 2+4": ("omni4", [(1, "free"), (3, "free")]),
+    "omni4 drives 2+3+4": ("omni4", [(1, "free"), (2, "free"), (3, "free")]),
+    "steered3 steering 3 at 30°": ("steered3", [(2, "steering")]),
+    "steered3 steering 1, drive 2": ("steered3", [(0, "steering"), (1, "free")]),
+    "mecanum4 wheel 1 locked": ("mecanum4", [(0, "lock")]),
+}
+
+
+@pytest.mark.parametrize("case", sorted(THESIS_FAULTS))
+def test_after_each_thesis_failure_the_robot_follows_every_feasible_twist_and_refuses_the_rest(case):
+    preset, faults = THESIS_FAULTS[case]
+    nominal = PRESETS[preset]()
+    pre_steer = nominal.beta.copy()
+    if preset == "steered3":
+        pre_steer[[w for w, _ in faults if _ == "steering"]] += math.radians(30)
+    believed = degrade(nominal.with_beta(pre_steer), *(
+        Failure(w, drive=k == "free", steering=k == "steering", locked=k == "lock") for w, k in faults))
+    b = motion_subspaces(believed).B
+    feasible = [0.1 * b[:, k] for k in range(b.shape[1])] + ([0.07 * b.sum(axis=1)] if b.shape[1] else [])
+    infeasible = [0.1 * v for v in null_space(b.T).T] if b.shape[1] < 3 else []
+    assert feasible or infeasible
+    for twist in feasible + infeasible:
+        def controller(t, readings, twist=twist):
+            if t < 0.02:  # pre-steer, then the faults strike at t = 0.015 s
+                return WheelCommands(tuple(np.zeros(nominal.n)), tuple(pre_steer))
+            return Twist(twist[0], twist[2], vy=twist[1])
+        spec = robot_on(nominal, chassis_fields={"steer_rate": math.inf})
+        setup = RobotSetup(spec, FunctionController(controller), faults=tuple(WheelFault(0.015, w, k) for w, k in faults))
+        result = run(EMPTY, [setup], 0.2)
+        if any(twist is v for v in infeasible):
+            assert result.reason == "error" and "refused" in result.error, case
+            continue
+        assert result.reason == "duration", result.error
+        truth = result.robots[0].truth_array()
+        expected = integrate(truth[3], twist, len(truth) - 4)
+        assert np.linalg.norm(truth[-1, :2] - expected[:2]) < 1e-9, case  # exact motion, rounding only
+        assert result.robots[0].latest.failures
+
+
+@pytest.mark.parametrize("name", sorted(WHEELED_ROBOTS))
+def test_encoder_odometry_is_exact_without_quantisation(name):
+    spec = WHEELED_ROBOTS[name].with_changes(encoders=FINE, motor=FAST)
+    result = run(EMPTY, [RobotSetup(spec, constant(Twist(0.3, 0.4)))], 3.0)
+    log = result.robots[0]
+    error = np.linalg.norm(log.estimate_arrays()["encoders"][:, :2] - log.truth_array()[:, :2], axis=1)
+    assert error.max() < 1e-9  # 2**40 ticks per turn: 6e-12 rad per wheel, 3e-13 m of rim
+
+
+def quantisation_bound(spec, distance: float) -> float:
+    """|position error| of encoder odometry along a straight path of `distance` m: every wheel's running
+    tick count lags the truth by less than one tick (carry), so the summed twist lags by at most
+    B = Σ_i |pinv(A)_ki| r_i cos γ_i · 2π/ticks per component k; the heading error ≤ B_ω tilts
+    the path, adding ≤ B_ω·distance; 10 % for the second-order terms of small angles."""
+    c = spec.chassis.chassis
+    from sim.kinematics.chassis import forward_pinv, forward_system
+
+    a, _ = forward_system(c, np.zeros(c.n), c.beta)
+    per_tick = np.abs(forward_pinv(a)[:, : c.n]) @ (c.radius * np.cos(c.gamma)) * 2 * np.pi / spec.encoders.ticks_per_rev
+    return 1.1 * (math.hypot(per_tick[0], per_tick[1]) + per_tick[2] * distance)
+
+
+@pytest.mark.parametrize("name", sorted(WHEELED_ROBOTS))
+def test_encoder_odometry_stays_within_the_derived_quantisation_bound(name):
+    spec = WHEELED_ROBOTS[name].with_changes(motor=FAST)
+    result = run(EMPTY, [RobotSetup(spec, constant(Twist(0.3, 0.0)))], 4.0)
+    log = result.robots[0]
+    truth = log.truth_array()
+    error = np.linalg.norm(log.estimate_arrays()["encoders"][:, :2] - truth[:, :2], axis=1)
+    distance = np.linalg.norm(truth[-1, :2] - truth[0, :2])
+    assert 1e-6 < error.max() <= quantisation_bound(spec, distance)
+
+
+def test_wheels_commanded_against_each_other_slip_and_the_encoders_see_it():
+    """Rear wheels that disagree with the steering: the world's least squares leaves a residual (slip);
+    the encoders of all four wheels measure exactly that misfit, and the pose stays exact because the
+    robot's least squares is the world's."""
+    spec = CAR.with_changes(encoders=FINE, motor=FAST)
+    beta = spec.chassis.chassis.beta
+
+    def drive(phi_dot):
+        world = World(EMPTY, dt=DT)
+        world.add_robot(spec)
+        odometry = ChassisEncoderOdometry()
+        odometry.reset(spec, world.poses()[0])
+        for _ in range(100):
+            world.chassis.command(0, phi_dot, beta)
+            world.step(np.zeros((1, 2)))
+            odometry.update(world.read_all()[0])
+        error = np.linalg.norm(odometry.pose[:2] - world.poses()[0, :2])
+        return world.chassis.drives[0].slip * DT, odometry.residual, error
+
+    slip, residual, error = drive(np.array([0.0, 0.0, 6.0, 6.0]))
+    assert slip < 1e-12 and residual < 1e-9 and error < 1e-9
+    slip, residual, error = drive(np.array([0.0, 0.0, 4.0, 8.0]))
+    assert slip > 1e-4 and residual == pytest.approx(slip, rel=1e-6)  # 1e-11 rad ticks against 1e-3 m
+    assert error < 1e-9
+
+
+def test_random_wheel_slip_shows_as_encoder_error():
+    spec = MECANUM4.with_changes(encoders=EncoderSpec(ticks_per_rev=2**40, slip_std=0.05), motor=FAST)
+    log = run(EMPTY, [RobotSetup(spec, constant(Twist(0.3, 0.2, vy=0.2)))], 2.0).robots[0]
+    assert np.linalg.norm(log.estimate_arrays()["encoders"][-1, :2] - log.truth_array()[-1, :2]) > 1e-3
+
+
+def test_two_mice_see_an_omni_robot_exactly_and_one_mouse_is_refused():
+    spec = MECANUM4.with_changes(mouse={"dpi": 1e12}, chassis={"mouse2": MouseSpec((-0.1, 0.08), dpi=1e12)}, motor=FAST)
+    log = run(EMPTY, [RobotSetup(spec, constant(Twist(0.3, 0.4, vy=0.2)))], 2.0).robots[0]
+    assert np.abs(log.estimate_arrays()["mouse"] - log.truth_array()).max() < 1e-9  # 2.5e-14 m per count
+    one = MECANUM4.with_changes(chassis={"mouse2": None})
+    assert not mouse_applies(one)
+    with pytest.raises(ValueError, match="add a second mouse"):
+        ChassisMouseOdometry().reset(one, np.zeros(3))
+    assert mouse_applies(CAR)  # one mouse and the rear axle's constraint
+
+
+def test_a_polygon_robot_stops_at_a_wall_without_tunnelling_and_slides_along_it():
+    wall = Wall(box(1.0, -2.0, 1.02, 2.0))
+    world = WorldSpec("wall", (-3, -3, 3, 3), walls=(wall,), starts=(Start(0.0, 0.0, 0.3),))
+    result = run(world, [RobotSetup(MECANUM4, constant(Twist(1.0, 0.0, vy=0.3)))], 3.0)
+    truth = result.robots[0].truth_array()
+    corners = np.array(MECANUM4.chassis.outline)
+    for x, y, th in truth:
+        world_x = x + np.cos(th) * corners[:, 0] - np.sin(th) * corners[:, 1]
+        assert world_x.max() < 1.0 + 0.02  # never through the 2 cm wall; pymunk's contact depth is mm
+    assert truth[-1, 1] - truth[0, 1] > 0.3  # slid along it
+
+
+def test_command_and_fault_errors_are_clear():
+    readings = Readings(steering=MECANUM4.chassis.chassis.beta)
+    with pytest.raises(InfeasibleCommand, match="slide sideways"):
+        chassis_setpoints(Twist(0.0, 0.0, vy=0.2), CAR, Readings(steering=CAR.chassis.chassis.beta))
+    with pytest.raises(ValueError, match="4 speeds"):
+        chassis_setpoints(WheelCommands((1.0, 2.0)), MECANUM4, readings)
+    world = World(EMPTY)
+    world.add_robot(MECANUM4)
+    with pytest.raises(ValueError, match="not steered"):
+        world.chassis.fail(0, 1, "steering")
+
+
+def test_robot_files_name_a_preset_or_list_wheels(tmp_path):
+    preset = tmp_path / "m.toml"
+    preset.write_text('name = "m"\nmass = 4.0\n[chassis]\npreset = "mecanum4"\nwheelbase = 0.5\n'
+                      'outline = [[0.3, -0.2], [0.3, 0.2], [-0.3, 0.2], [-0.3, -0.2]]\ninfeasible = "project"\n')
+    spec = load_robot(preset)
+    assert spec.chassis.chassis.n == 4 and spec.body_radius == pytest.approx(0.2)
+    wheels = tmp_path / "w.toml"
+    wheels.write_text('name = "w"\nbody_radius = 0.3\n[chassis]\n'
+                      '[[chassis.wheels]]\ntype = "steered"\nx = 0.2\ny = 0.0\nradius = 0.05\n'
+                      '[[chassis.wheels]]\ntype = "fixed"\nx = 0.0\ny = 0.15\nradius = 0.05\ndriven = false\n'
+                      '[[chassis.wheels]]\ntype = "fixed"\nx = 0.0\ny = -0.15\nradius = 0.05\ndriven = false\n')
+    assert load_robot(wheels).chassis.chassis.kind.tolist() == [1, 0, 0]
+    bad = tmp_path / "bad.toml"
+    bad.write_text('name = "b"\nbody_radius = 0.3\n[chassis]\npreset = "hovercraft"\n')
+    with pytest.raises(ValueError, match=r"bad.toml: \[chassis\]: unknown preset 'hovercraft'"):
+        load_robot(bad)
+    wheel = tmp_path / "wheel.toml"
+    wheel.write_text('name = "b"\nbody_radius = 0.3\n[chassis]\n[[chassis.wheels]]\ntype = "omni"\nx = 0.1\ny = 0\nradus = 1\n')
+    with pytest.raises(ValueError, match=r"\[\[wheels\]\] #1: unknown key\(s\) radus"):
+        load_robot(wheel)
+
+
+def test_the_inverse_kinematics_the_run_uses_is_the_cores():
+    readings = Readings(steering=MECANUM4.chassis.chassis.beta)
+    setpoint = chassis_setpoints(Twist(0.2, 0.1, vy=-0.1), MECANUM4, readings)
+    assert_allclose(setpoint.phi_dot, inverse_kinematics(MECANUM4.chassis.chassis, [0.2, -0.1, 0.1]).phi_dot)
+    assert_allclose(nearest_feasible(MECANUM4.chassis.chassis, setpoint.twist), setpoint.twist)
+
+
+def test_the_drawn_icr_is_the_fixed_point_of_the_step_and_wheels_sit_on_the_body():
+    from sim.views.chassis_view import chassis_shapes
+
+    previous = np.array([1.0, 2.0, 0.3])
+    centre = np.array([1.5, 2.7])  # rotate the body about this point by 0.2 rad
+    c, s = np.cos(0.2), np.sin(0.2)
+    position = centre + np.array([[c, -s], [s, c]]) @ (previous[:2] - centre)
+    pose = np.array([*position, 0.5])
+    shapes = chassis_shapes(CAR, pose, CAR.chassis.chassis.beta, previous, (-10, -10, 10, 10))
+    assert_allclose(shapes.icr, centre, atol=1e-12)
+    assert_allclose(shapes.wheels.mean(axis=1), CAR.chassis.chassis.positions @ np.array([[np.cos(0.5), np.sin(0.5)], [-np.sin(0.5), np.cos(0.5)]]) + pose[:2], atol=1e-12)
+    assert chassis_shapes(CAR, pose, CAR.chassis.chassis.beta, previous, (-1, -1, 0, 0)).icr is None
+
+
+def test_a_recording_of_a_chassis_robot_holds_wheels_outline_and_icr(tmp_path):
+    import rerun.chunk
+
+    from sim.views.recording import Recorder
+
+    path = tmp_path / "run.rrd"
+    run(EMPTY, [RobotSetup(CAR, constant(Twist(0.3, 0.4)))], 0.5, observers=(Recorder(path),))
+    entities = {str(chunk.entity_path) for chunk in rerun.chunk.RrdReader(path).stream().to_chunks()}
+    for entity in ("/world/car/chassis/wheels", "/world/car/chassis/outline", "/world/car/chassis/icr"):
+        assert entity in entities, sorted(entities)
+
+
+def test_follow_path_ocp_drives_a_mecanum_robot_through_a_path_and_refuses_a_ctbot():
+    from bots.behaviours import FollowPathOCP
+    from bots.controller import Status
+    from bots.ctbot import CTBOT
+
+    follower = FollowPathOCP("1,0;1,1", speed=0.5, lookahead_m=0.3)
+    start = WorldSpec("empty", (-5, -5, 5, 5), starts=(Start(0.0, 0.0, 0.0),))
+    result = run(start, [RobotSetup(MECANUM4, follower)], 8.0)
+    truth = result.robots[0].truth_array()
+    assert follower.status is Status.SUCCESS
+    assert np.hypot(*(truth[-1, :2] - [1.0, 1.0])) < 0.03  # ARRIVED (2 cm, by odometry) + encoder drift
+    off_path = np.minimum(np.abs(truth[:, 1]) + np.maximum(truth[:, 0] - 1, 0), np.abs(truth[:, 0] - 1))
+    assert off_path.max() < 0.2  # corner cut by at most about the look-ahead
+    with pytest.raises(ValueError, match="differential drive"):
+        FollowPathOCP().reset(CTBOT)
