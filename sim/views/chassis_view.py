@@ -79,7 +79,7 @@ class ChassisLayer:
 
         self.samples += 1
         for i in self.robots:
-            pose = logs[i].truth[-1]
+            pose = logs[i].truth_array()[-1]
             previous = self.previous.get(i, pose)
             self.previous[i] = pose
             if (self.samples - 1) % EVERY:
