@@ -67,7 +67,8 @@ def _add_robot_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=0, help="seed of every random number in the run; same seed, same run (default: 0)")
     parser.add_argument("--dt", type=_positive(float), default=0.01, metavar="SECONDS", help="simulation step (default: 0.01)")
     parser.add_argument("--out", type=Path, metavar="DIR", help="folder for run.rrd, summary.json, TUM/CSV trajectories and figures (default: runs/<world>-<controller>-<time>)")
-    parser.add_argument("--live", action="store_true", help="also stream the recording to a rerun viewer it starts")
+    parser.add_argument("--live", action="store_true", help="also stream the recording to a rerun viewer it starts; without one the run goes on, recorded to the file")
+    parser.add_argument("--connect", metavar="URL", help="also stream the recording to the rerun viewer at URL (e.g. rerun+http://127.0.0.1:9876/proxy)")
     parser.add_argument("--no-report", action="store_true", help="skip the PNG figures")
 
 
@@ -193,7 +194,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     spec = load_robot_spec(args.robot)
     setups = _setups(args, spec)
     out = _out_dir(args.out, args.world, setups[0].controller_name)
-    recorder = Recorder(out / "run.rrd", live=args.live)
+    facts = {"controller parameters": ", ".join(f"{k}={v}" for k, v in args.param) or "defaults", "duration": f"{args.duration:g} s" + (" or until a goal" if args.until_goal else "")}
+    recorder = Recorder(out / "run.rrd", live=args.live, connect=args.connect, facts=facts)
     result = run(world, setups, args.duration, dt=args.dt, seed=args.seed, until_goal=args.until_goal, observers=(recorder, Progress(args.duration, args.dt)))
     return finish(result, out, {"duration": args.duration, "until_goal": args.until_goal}, report=not args.no_report)
 
@@ -205,7 +207,7 @@ def cmd_play(args: argparse.Namespace) -> int:
     world = load_world(args.world)
     spec = load_robot_spec(args.robot)
     out = _out_dir(args.out, args.world, "teleop")
-    result = play(world, spec, out / "run.rrd", seed=args.seed, dt=args.dt, fps=args.fps, frames=args.frames, scale=args.scale, live=args.live)
+    result = play(world, spec, out / "run.rrd", seed=args.seed, dt=args.dt, fps=args.fps, frames=args.frames, scale=args.scale, live=args.live, connect=args.connect)
     return finish(result, out, {"duration": result.times[-1] if result.times else 0.0, "until_goal": False}, report=not args.no_report)
 
 

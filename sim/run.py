@@ -54,6 +54,11 @@ class RobotLog:
     fell: bool = False
     goal_time: float | None = None
 
+    @property
+    def latest(self) -> Readings | None:
+        """The readings of the current sample (None before the first)."""
+        return self.readings[-1] if self.readings else None
+
     def truth_array(self) -> np.ndarray:
         """(T, 3) ground-truth poses."""
         return np.array(self.truth).reshape(-1, 3)
@@ -133,7 +138,7 @@ def run(
         for estimator in chosen:
             estimator.reset(setup.spec, pose)
         reset(setup.controller, setup.spec)
-        logs.append(RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params)))
+        logs.append(RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params), estimates={e.name: [] for e in chosen}))
         controllers.append(setup.controller)
         estimators.append(chosen)
     result = RunResult(world_spec, seed, dt, [], logs)

@@ -179,6 +179,7 @@ def play(
     frames: int | None = None,
     scale: float | None = None,
     live: bool = False,
+    connect: str | None = None,
     events: dict[int, Iterable[Any]] | None = None,
 ) -> RunResult:
     """Open the window and run until it is closed (or for `frames` frames); each frame advances
@@ -188,7 +189,7 @@ def play(
     duration = frames * steps_per_frame * dt if frames is not None else SESSION_LIMIT
     window = Window(drive, fps, steps_per_frame, scale, {k: list(v) for k, v in (events or {}).items()})
     setup = RobotSetup(spec, drive, controller_name="teleop")
-    result = run(world, [setup], duration, dt=dt, seed=seed, observers=(Recorder(recording, live=live), window))
+    result = run(world, [setup], duration, dt=dt, seed=seed, observers=(Recorder(recording, live=live, connect=connect), window))
     if window.quit:
         result.reason, result.error = "duration", None
     return result
