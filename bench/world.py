@@ -47,36 +47,22 @@ def maze_ctbot(steps: int) -> float:
     return _steps_per_second(world, steps, np.array([[200.0, 180.0]]))
 
 
-def maze_ctbot_recording(steps: int, repeats: int = 3) -> float:
-    """`maze_ctbot` with the rerun recorder observing every step into a temporary .rrd, fed a
-    RobotLog as the run loop does (readings and truth), closing the file included; best of
-    `repeats` after a warm-up, like the others."""
+def maze_run(steps: int, record: bool) -> float:
+    """Steps per second of a whole run (`sim.run.run`: sensors, odometry, controller, physics) of
+    a c't-Bot solving the maze for `steps` steps, with or without the rerun recorder writing
+    every step to a temporary .rrd (closing the file included)."""
     import tempfile
     from pathlib import Path
 
-    from sim.run import RobotLog
+    from bots.behaviours import make
+    from sim.run import RobotSetup, run
     from sim.views.recording import Recorder
 
-    world = World(load_world("maze"))
-    robot = world.add_robot(CTBOT)
-    commands = np.array([[200.0, 180.0]])
-
-    def record(count: int) -> float:
-        logs = [RobotLog(robot.name, CTBOT, "constant", {})]
-        with tempfile.TemporaryDirectory() as folder:
-            recorder = Recorder(Path(folder) / "bench.rrd")
-            recorder.on_start(world, logs)
-            start = time.perf_counter()
-            for _ in range(count):
-                logs[0].readings.append(world.read_all()[0])
-                logs[0].truth.append(robot.pose)
-                recorder.on_sample(world, logs)
-                world.step(commands)
-            recorder.close()
-            return count / (time.perf_counter() - start)
-
-    record(min(steps, 2000))
-    return max(record(steps) for _ in range(repeats))
+    with tempfile.TemporaryDirectory() as folder:
+        observers = [Recorder(Path(folder) / "bench.rrd")] if record else []
+        start = time.perf_counter()
+        run(load_world("maze"), [RobotSetup(CTBOT, make("solve_maze", {}))], steps * 0.01, observers=observers)
+        return steps / (time.perf_counter() - start)
 
 
 def many_ctbots(steps: int, count: int = 100) -> float:
@@ -96,5 +82,15 @@ def figures(scale: float):
     """(name, unit, thunk) for the world benchmarks."""
     yield "world_empty_1bot", "steps/s", lambda: empty_1bot(int(20000 * scale))
     yield "world_maze_ctbot_all_sensors", "steps/s", lambda: maze_ctbot(int(10000 * scale))
-    yield "world_maze_ctbot_recording", "steps/s", lambda: maze_ctbot_recording(int(10000 * scale))
+    steps = int(180_000 * scale)  # 30 simulated minutes (full), 6 (quick)
+    measured: dict[bool, float] = {}
+
+    def once(record: bool) -> float:
+        if record not in measured:
+            measured[record] = maze_run(steps, record)
+        return measured[record]
+
+    yield "world_maze_ctbot_run", "steps/s", lambda: once(False)
+    yield "world_maze_ctbot_recording", "steps/s", lambda: once(True)
+    yield "world_maze_ctbot_recording_ratio", "(recording / run, same run; bar >= 0.75)", lambda: once(True) / once(False)
     yield "world_100_ctbots", "steps/s", lambda: many_ctbots(int(300 * scale))

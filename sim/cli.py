@@ -100,7 +100,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _add_robot_options(play)
     play.add_argument("--frames", type=int, metavar="N", help="quit after N frames (for scripts and tests)")
-    play.add_argument("--fps", type=_positive(float), default=60.0, help="frames per second; each frame advances real time (default: 60)")
+    play.add_argument("--fps", type=_positive(float), default=60.0, help="frames per second drawn (default: 60)")
+    play.add_argument("--speed", type=_positive(float), default=1.0, metavar="FACTOR", help="simulated time per real time: 2 runs twice as fast (default: 1, real time)")
     play.add_argument("--scale", type=_positive(float), default=None, metavar="PX_PER_M", help="pixels per metre (default: fit the world in 900x700)")
     play.set_defaults(handler=cmd_play)
 
@@ -207,7 +208,7 @@ def cmd_play(args: argparse.Namespace) -> int:
     world = load_world(args.world)
     spec = load_robot_spec(args.robot)
     out = _out_dir(args.out, args.world, "teleop")
-    result = play(world, spec, out / "run.rrd", seed=args.seed, dt=args.dt, fps=args.fps, frames=args.frames, scale=args.scale, live=args.live, connect=args.connect)
+    result = play(world, spec, out / "run.rrd", seed=args.seed, dt=args.dt, fps=args.fps, speed=args.speed, frames=args.frames, scale=args.scale, live=args.live, connect=args.connect)
     return finish(result, out, {"duration": result.times[-1] if result.times else 0.0, "until_goal": False}, report=not args.no_report)
 
 

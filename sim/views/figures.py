@@ -56,12 +56,13 @@ def draw_world(ax, world: WorldSpec, legend: bool = False) -> None:
     for light in world.lights:
         ax.plot(*light.position, marker="*", markersize=13, color=_c(palette.LIGHT), markeredgecolor=_c(palette.LIGHT_EDGE), zorder=2.5, linestyle="none")
     if legend:
+        from matplotlib.lines import Line2D
         from matplotlib.patches import Patch
 
         keys = [("wall", palette.WALL, bool(world.walls)), ("goal", palette.GOAL, bool(world.goals)), ("hole", palette.HOLE, bool(world.holes))]
         handles = [Patch(facecolor=_c(rgb), label=label) for label, rgb, present in keys if present]
         handles += [Patch(facecolor=world.lines[0].colour, label="line")] if world.lines else []
-        handles += [ax.plot([], [], marker="*", color=_c(palette.LIGHT), linestyle="none", label="light")[0]] if world.lights else []
+        handles += [Line2D([], [], marker="*", color=_c(palette.LIGHT), linestyle="none", label="light")] if world.lights else []
         ax.add_artist(ax.legend(handles=handles, loc="lower left", bbox_to_anchor=(1.01, 0.0), fontsize=8, frameon=False, title="map", title_fontsize=8))
     ax.set_aspect("equal")
 
@@ -157,7 +158,7 @@ def write_figures(
             score = ate.get(name, {}).get(label)
             text = prefix + label + (f" (ATE {1000 * score:.1f} mm)" if score is not None else "")
             for axis, values in ((top, position * 1000), (bottom, np.degrees(heading))):
-                axis.plot(t, values, color=colour, linewidth=0.5, alpha=0.35)
+                axis.plot(t, values, color=colour, linewidth=0.4, alpha=0.2)
                 axis.plot(t, moving_mean(t, values, MEAN_WINDOW_S), color=colour, linewidth=1.6, linestyle=DASHES[k % len(DASHES)], label=text)
     top.set_ylabel("position error (mm)")
     bottom.set_ylabel("heading error (deg, unwrapped)")
