@@ -137,7 +137,15 @@ class Recorder:
     # --- observer interface ---------------------------------------------------------------
 
     def on_start(self, world: World, logs: list[RobotLog]) -> None:
-        """Open the recording (and the live view), send the blueprint, draw the world once."""
+        """Open the recording (and the live view), send the blueprint, draw the world once; an
+        interrupt meanwhile still closes what was opened."""
+        try:
+            self._open(world, logs)
+        except BaseException:
+            self.close()
+            raise
+
+    def _open(self, world: World, logs: list[RobotLog]) -> None:
         rr = _rerun()
         groups = [g for g, (_, fields) in SENSOR_GROUPS.items() if any(_width(log.spec, f) for log in logs for f in fields)]
         blueprint = self.blueprint(world.spec, {log.name: list(log.estimate_arrays()) for log in logs}, groups)
