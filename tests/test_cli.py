@@ -106,8 +106,8 @@ def test_sigint_leaves_a_verified_recording(tmp_path, drive):
     process = subprocess.Popen([*CTSIM, "run", "--controller", drive, "--duration", "3600", "--out", str(out), "--no-report"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 30
     recording = out / "run.rrd"
-    while not (recording.exists() and recording.stat().st_size > 100_000) and time.monotonic() < deadline:
-        time.sleep(0.1)  # until the first chunk is out: mid-run, not mid-start-up
+    while not (recording.exists() and recording.stat().st_size > 1_000_000) and time.monotonic() < deadline:
+        time.sleep(0.1)  # until chunks are out (start-up alone writes ~0.3 MB): mid-run, not mid-start-up
     process.send_signal(signal.SIGINT)
     stdout, stderr = process.communicate(timeout=60)
     assert process.returncode == 130, stderr
