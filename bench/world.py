@@ -39,20 +39,6 @@ def empty_1bot(steps: int) -> float:
     return _steps_per_second(world, steps, np.array([[120.0, 160.0]]), read=False)
 
 
-def mecanum_4wheel(steps: int) -> float:
-    """`empty_1bot` for the Mecanum-4 robot (general chassis drive: motors, least-squares forward
-    kinematics, exact SE(2) step, four encoders), crabbing along a curve."""
-    from bots.wheeled import MECANUM4
-    from sim.kinematics.chassis import inverse_kinematics
-
-    bare = MECANUM4.with_changes(name="bare", mouse=None, ir=(), chassis={"mouse2": None})
-    world = World(WorldSpec("empty", (-5, -5, 5, 5), starts=(Start(0, 0, 0),)))
-    world.add_robot(bare)
-    wheels = inverse_kinematics(bare.chassis.chassis, [0.3, 0.2, 0.4])
-    world.chassis.command(0, wheels.phi_dot, wheels.beta)
-    return _steps_per_second(world, steps, np.zeros((1, 2)), read=False)
-
-
 def maze_ctbot(steps: int) -> float:
     """One c't-Bot reading every sensor each step in the shipped maze, turning gently so that it
     meets walls (contacts, sliding and ray hits included)."""
@@ -61,35 +47,22 @@ def maze_ctbot(steps: int) -> float:
     return _steps_per_second(world, steps, np.array([[200.0, 180.0]]))
 
 
-def maze_ctbot_recording(steps: int, repeats: int = 3) -> float:
-    """`maze_ctbot` with the rerun recorder observing every step into a temporary .rrd, fed a
-    RobotLog as the run loop does (readings and truth), closing the file included; best of
-    `repeats` after a warm-up, like the others."""
+def maze_run(steps: int, record: bool) -> float:
+    """Steps per second of a whole run (`sim.run.run`: sensors, odometry, controller, physics) of
+    a c't-Bot solving the maze for `steps` steps, with or without the rerun recorder writing
+    every step to a temporary .rrd (closing the file included)."""
     import tempfile
     from pathlib import Path
 
-    from sim.run import RobotLog
+    from bots.behaviours import make
+    from sim.run import RobotSetup, run
     from sim.views.recording import Recorder
 
-    world = World(load_world("maze"))
-    robot = world.add_robot(CTBOT)
-    commands = np.array([[200.0, 180.0]])
-
-    def record(count: int) -> float:
-        logs = [RobotLog(robot.name, CTBOT, "constant", {}, [], count)]
-        with tempfile.TemporaryDirectory() as folder:
-            recorder = Recorder(Path(folder) / "bench.rrd")
-            recorder.on_start(world, logs)
-            start = time.perf_counter()
-            for _ in range(count):
-                logs[0].append(world.read_all()[0], robot.pose, [])
-                recorder.on_sample(world, logs)
-                world.step(commands)
-            recorder.close()
-            return count / (time.perf_counter() - start)
-
-    record(min(steps, 2000))
-    return max(record(steps) for _ in range(repeats))
+    with tempfile.TemporaryDirectory() as folder:
+        observers = [Recorder(Path(folder) / "bench.rrd")] if record else []
+        start = time.perf_counter()
+        run(load_world("maze"), [RobotSetup(CTBOT, make("solve_maze", {}))], steps * 0.01, observers=observers)
+        return steps / (time.perf_counter() - start)
 
 
 def many_ctbots(steps: int, count: int = 100) -> float:
@@ -108,7 +81,16 @@ def many_ctbots(steps: int, count: int = 100) -> float:
 def figures(scale: float):
     """(name, unit, thunk) for the world benchmarks."""
     yield "world_empty_1bot", "steps/s", lambda: empty_1bot(int(20000 * scale))
-    yield "world_mecanum_4wheel", "steps/s", lambda: mecanum_4wheel(int(20000 * scale))
     yield "world_maze_ctbot_all_sensors", "steps/s", lambda: maze_ctbot(int(10000 * scale))
-    yield "world_maze_ctbot_recording", "steps/s", lambda: maze_ctbot_recording(int(10000 * scale))
+    steps = int(180_000 * scale)  # 30 simulated minutes (full), 6 (quick)
+    measured: dict[bool, float] = {}
+
+    def once(record: bool) -> float:
+        if record not in measured:
+            measured[record] = maze_run(steps, record)
+        return measured[record]
+
+    yield "world_maze_ctbot_run", "steps/s", lambda: once(False)
+    yield "world_maze_ctbot_recording", "steps/s", lambda: once(True)
+    yield "world_maze_ctbot_recording_ratio", "(recording / run, same run; bar >= 0.75)", lambda: once(True) / once(False)
     yield "world_100_ctbots", "steps/s", lambda: many_ctbots(int(300 * scale))

@@ -95,7 +95,8 @@ def _add_robot_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--robot-set", action="append", type=_param, default=[], metavar="SECTION.FIELD=VALUE", help="override one field of the robot description after --noise, repeatable: encoders.slip_std=0.02, mouse.dpi=415, ir.noise_std=0")
     parser.add_argument("--dt", type=_positive(float), default=0.01, metavar="SECONDS", help="simulation step (default: 0.01)")
     parser.add_argument("--out", type=Path, metavar="DIR", help="folder for run.rrd, summary.json, TUM/CSV trajectories and figures (default: runs/<world>-<controller>-<time>)")
-    parser.add_argument("--live", action="store_true", help="also stream the recording to a rerun viewer it starts")
+    parser.add_argument("--live", action="store_true", help="also stream the recording to a rerun viewer it starts; without one the run goes on, recorded to the file")
+    parser.add_argument("--connect", metavar="URL", help="also stream the recording to the rerun viewer at URL (e.g. rerun+http://127.0.0.1:9876/proxy)")
     parser.add_argument("--no-report", action="store_true", help="skip the PNG figures")
 
 
@@ -127,7 +128,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _add_robot_options(play)
     play.add_argument("--frames", type=int, metavar="N", help="quit after N frames (for scripts and tests)")
-    play.add_argument("--fps", type=_positive(float), default=60.0, help="frames per second; each frame advances real time (default: 60)")
+    play.add_argument("--fps", type=_positive(float), default=60.0, help="frames per second drawn (default: 60)")
+    play.add_argument("--speed", type=_positive(float), default=1.0, metavar="FACTOR", help="simulated time per real time: 2 runs twice as fast (default: 1, real time)")
     play.add_argument("--scale", type=_positive(float), default=None, metavar="PX_PER_M", help="pixels per metre (default: fit the world in 900x700)")
     play.set_defaults(handler=cmd_play)
 
@@ -276,6 +278,7 @@ def _setups(args: argparse.Namespace, spec) -> list:
 
 def cmd_run(args: argparse.Namespace) -> int:
     from sim.experiments import simulate, world
+    from sim.views.recording import Recorder
     from sim.world.files import world_warnings
 
     place = world(args.world)
@@ -284,8 +287,11 @@ def cmd_run(args: argparse.Namespace) -> int:
         print(f"ctsim: warning: {args.world}: {warning}", file=sys.stderr)
     until_goal = bool(place.goals) if args.until_goal is None else args.until_goal
     out = _out_dir(args.out, args.world, setups[0].controller_name)
+    facts = {"controller parameters": ", ".join(f"{k}={v}" for k, v in args.param) or "defaults", "noise": args.noise,
+             "duration": f"{args.duration:g} s" + (" or until a goal" if until_goal else "")}
+    recorder = Recorder(out / "run.rrd", live=args.live, connect=args.connect, facts=facts)
     result = simulate(place, *setups, duration=args.duration, dt=args.dt, seed=args.seed, until_goal=until_goal,
-                      record=out / "run.rrd", live=args.live, observers=(Progress(args.duration, args.dt),))
+                      observers=(recorder, Progress(args.duration, args.dt)))
     return finish(result.raw, out, {"duration": args.duration, "until_goal": until_goal, **_robot_options(args)}, report=not args.no_report)
 
 
@@ -313,7 +319,7 @@ def cmd_play(args: argparse.Namespace) -> int:
     world = load_world(args.world)
     spec = load_robot_spec(args)
     out = _out_dir(args.out, args.world, "teleop")
-    result = play(world, spec, out / "run.rrd", seed=args.seed, dt=args.dt, fps=args.fps, frames=args.frames, scale=args.scale, live=args.live)
+    result = play(world, spec, out / "run.rrd", seed=args.seed, dt=args.dt, fps=args.fps, speed=args.speed, frames=args.frames, scale=args.scale, live=args.live, connect=args.connect)
     return finish(result, out, {"duration": result.duration, "until_goal": False, **_robot_options(args)}, report=not args.no_report)
 
 

@@ -109,8 +109,8 @@ def test_a_signal_leaves_a_verified_recording(tmp_path, drive, sig, status, reas
     process = subprocess.Popen([*CTSIM, "run", "--controller", drive, "--duration", "3600", "--out", str(out), "--no-report"], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 120  # generous: start-up on a loaded machine; not a timing assertion
     recording = out / "run.rrd"
-    while not (recording.exists() and recording.stat().st_size > 100_000) and time.monotonic() < deadline:
-        time.sleep(0.1)  # until the first chunk is out: mid-run, not mid-start-up
+    while not (recording.exists() and recording.stat().st_size > 1_000_000) and time.monotonic() < deadline:
+        time.sleep(0.1)  # until chunks are out (start-up alone writes ~0.3 MB): mid-run
     process.send_signal(sig)
     stdout, stderr = process.communicate(timeout=120)
     assert process.returncode == status, stderr

@@ -22,7 +22,7 @@ def _key(kind: int, key: int) -> pygame.event.Event:
 
 def test_up_arrow_drives_forward(tmp_path):
     events = {10: [_key(pygame.KEYDOWN, pygame.K_UP)], 150: [_key(pygame.KEYUP, pygame.K_UP)]}
-    result = play(load_world("empty"), CTBOT, tmp_path / "play.rrd", frames=300, fps=1000, events=events)
+    result = play(load_world("empty"), CTBOT, tmp_path / "play.rrd", frames=300, fps=1000, speed=10, events=events)
     truth = result.robots[0].truth_array()
     assert result.reason == "duration" and len(truth) == 301
     assert np.allclose(truth[:10], truth[0])  # nothing pressed yet

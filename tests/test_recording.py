@@ -1,17 +1,20 @@
-"""The rerun recording read back: truth, every estimate and the sensor series, in full."""
+"""The rerun recording read back: truth, every estimate, the sensor series, events, and a blueprint
+whose every view and override names something the recording logs."""
 
 from __future__ import annotations
+
+import socket
+import threading
 
 import numpy as np
 import pyarrow as pa
 import pytest
-from observers import KeepReadings
 
 from bots.commands import WheelSpeeds
 from bots.controller import FunctionController
 from bots.ctbot import CTBOT
 from sim.run import RobotSetup, run
-from sim.views.recording import CHUNK, Recorder
+from sim.views.recording import CHUNK, TRAIL_EVERY, Recorder
 from sim.world.files import load_world
 
 
@@ -26,6 +29,8 @@ def _columns(path) -> dict[str, dict[str, list]]:
         columns = found.setdefault(chunk.entity_path, {})
         batch = chunk.to_record_batch()
         for name in batch.schema.names:
+            if name in ("log_time", "log_tick"):  # rerun's own wall-clock timelines of `log` calls
+                continue
             column = batch.column(name)
             values = column.cast(pa.int64()).to_pylist() if name == "sim_time" else column.to_pylist()
             columns.setdefault(name, []).extend(values)
@@ -36,54 +41,150 @@ def _columns(path) -> dict[str, dict[str, list]]:
     return found
 
 
+def _entities(path) -> set[str]:
+    """Every entity path the recording logs data at (static or temporal)."""
+    import rerun.chunk
+
+    return {chunk.entity_path for chunk in rerun.chunk.RrdReader(path).stream().to_chunks()}
+
+
+def _blueprint(path) -> tuple[list[tuple[str, list[str]]], list[str]]:
+    """The recording's own blueprint store: (origin, queries) of each view, and the entity path of
+    every override."""
+    import rerun.chunk
+
+    reader = rerun.chunk.RrdReader(path)
+    (store,) = reader.blueprints()
+    origins, queries, overrides = {}, {}, []
+    for chunk in reader.stream(store=store).to_chunks():
+        batch, where = chunk.to_record_batch(), chunk.entity_path
+        if "ViewBlueprint:space_origin" in batch.schema.names:
+            origins[where] = batch.column("ViewBlueprint:space_origin").to_pylist()[-1][0]
+        if "ViewContents:query" in batch.schema.names:
+            queries[where.removesuffix("/ViewContents")] = batch.column("ViewContents:query").to_pylist()[-1]
+        if "/ViewContents/overrides/" in where:
+            overrides.append("/" + where.split("/ViewContents/overrides/", 1)[1].removesuffix("/visualizers"))
+    return [(origins[view], queries[view]) for view in origins], overrides
+
+
+def _names_logged(path_expression: str, entities: set[str]) -> bool:
+    """Whether an entity path (or `path/**` subtree) holds something the recording logs."""
+    root = path_expression.removesuffix("/**").rstrip("/") or "/"
+    return any(e == root or e.startswith(root.rstrip("/") + "/") for e in entities)
+
+
+def _drive(t, readings):
+    return WheelSpeeds(0.12, 0.15)
+
+
 @pytest.fixture(scope="module")
 def recorded(tmp_path_factory):
     path = tmp_path_factory.mktemp("rec") / "run.rrd"
-    drive = FunctionController(lambda t, r: WheelSpeeds(0.12, 0.15))
-    # more samples than one chunk, so that a chunk boundary is crossed
-    keep = KeepReadings()
-    result = run(load_world("maze"), [RobotSetup(CTBOT, drive)], duration=(CHUNK + 234) * 0.01, observers=[Recorder(path), keep])
-    return result, _columns(path), keep.readings
+    # more samples than one chunk, and not a whole number of trail pieces
+    result = run(load_world("maze"), [RobotSetup(CTBOT, FunctionController(_drive))], duration=(CHUNK + 234) * 0.01, observers=[Recorder(path)])
+    return result, path, _columns(path)
 
 
-def test_truth_trail_has_every_sample(recorded):
-    result, columns, _ = recorded
+def test_truth_pose_and_trail_have_every_sample(recorded):
+    result, _, columns = recorded
     log = result.robots[0]
     truth = log.truth_array()
-    strips = columns[f"/world/{log.name}/trail/truth"]["LineStrips2D:strips"]
-    assert len(strips) == len(result.time) == len(truth)
-    ends = np.array([row[0][1] for row in strips])
-    np.testing.assert_allclose(ends, truth[:, :2], atol=1e-6)  # stored as float32
-    starts = np.array([row[0][0] for row in strips])
-    np.testing.assert_allclose(starts[1:], truth[:-1, :2], atol=1e-6)  # continuous across chunks
-    times = np.array(columns[f"/world/{log.name}/body"]["sim_time"]) * 1e-9  # nanoseconds
+    body = columns[f"/world/{log.name}/body"]
+    assert len(body["Transform3D:translation"]) == len(result.times) == len(truth)
+    np.testing.assert_allclose(np.array(body["Transform3D:translation"])[:, 0, :2], truth[:, :2], atol=1e-6)  # float32
+    times = np.array(body["sim_time"]) * 1e-9  # nanoseconds
     np.testing.assert_allclose(times, result.time, atol=1e-8)
+    pieces = columns[f"/world/{log.name}/trail/truth"]["LineStrips2D:strips"]
+    assert len(pieces) == -(-len(truth) // TRAIL_EVERY)  # one piece per TRAIL_EVERY samples, the last shorter
+    joined = np.concatenate([np.array(row[0])[1:] for row in pieces])  # each piece starts at the last one's end
+    np.testing.assert_allclose(joined, truth[1:, :2], atol=1e-6)
 
 
-def test_every_estimate_and_its_errors(recorded):
-    result, columns, _ = recorded
+def test_every_estimate_and_its_errors_in_mm_and_degrees(recorded):
+    result, _, columns = recorded
     log = result.robots[0]
     truth = log.truth_array()
     assert log.estimate_arrays(), "the run loop should have estimators"
     for name, poses in log.estimate_arrays().items():
-        ghost = np.array([row[0] for row in columns[f"/world/{log.name}/ghost/{name}"]["Points2D:positions"]])
-        np.testing.assert_allclose(ghost, poses[:, :2], atol=1e-6)
+        where = np.array(columns[f"/world/{log.name}/estimate/{name}"]["Transform3D:translation"])[:, 0, :2]
+        np.testing.assert_allclose(where, poses[:, :2], atol=1e-6)
         error = np.array(columns[f"/errors/{log.name}/position/{name}"]["Scalars:scalars"]).ravel()
-        np.testing.assert_allclose(error, np.hypot(*(poses[:, :2] - truth[:, :2]).T), atol=1e-12)
+        np.testing.assert_allclose(error, 1000 * np.hypot(*(poses[:, :2] - truth[:, :2]).T), atol=1e-9)
         heading = np.array(columns[f"/errors/{log.name}/heading/{name}"]["Scalars:scalars"]).ravel()
-        assert len(heading) == len(truth) and np.all(np.abs(heading) <= np.pi)
+        assert len(heading) == len(truth) and np.all(np.abs(heading) <= 180.0)
 
 
-def test_sensor_series(recorded):
-    result, columns, readings = recorded
+def test_sensor_series_grouped_by_sensor(recorded):
+    result, _, columns = recorded
     log = result.robots[0]
-    for field, width in (("ir_raw", 2), ("encoder_ticks", 2), ("mouse_counts", 2), ("line", 2), ("light", 2)):
-        rows = columns[f"/sensors/{log.name}/{field}"]["Scalars:scalars"]
-        expected = np.array([getattr(r, field) for r in readings], dtype=float)
-        assert np.array(rows).shape == (len(result.time), width)
-        np.testing.assert_array_equal(np.array(rows), expected)
+    readings = log.readings
+    for group, field, scale in (("ir_raw", "ir_raw", 1), ("ir_distance", "ir_distance", 1000), ("encoders", "encoder_ticks", 1), ("mouse", "mouse_counts", 1), ("floor", "line", 1), ("floor", "border", 1), ("light", "light", 1)):
+        rows = np.array(columns[f"/sensors/{group}/{log.name}/{field}"]["Scalars:scalars"], dtype=float)
+        expected = np.array([getattr(r, field) for r in readings], dtype=float) * scale
+        assert rows.shape == expected.shape == (len(result.times), 2)
+        np.testing.assert_array_equal(rows, expected)
     rays = columns[f"/world/{log.name}/rays"]["LineStrips2D:strips"]
-    assert len(rays) == len(result.time) and all(len(row) == len(CTBOT.ir) for row in rays)
+    assert len(rays) == len(result.times) and all(len(row) == len(CTBOT.ir) for row in rays)
+
+
+@pytest.mark.parametrize("robots", [1, 3])
+def test_blueprint_names_only_what_is_logged(tmp_path, robots):
+    path = tmp_path / "run.rrd"
+    setups = [RobotSetup(CTBOT, FunctionController(_drive), start=(0.36 + 0.24 * k, 0.36, 0.0)) for k in range(robots)]
+    run(load_world("maze"), setups, duration=0.5, observers=[Recorder(path)])
+    entities = _entities(path)
+    views, overrides = _blueprint(path)
+    assert len(views) >= 2 + 2 * robots + 6  # map, events, facts, two error plots per robot, six sensor groups
+    for origin, queries in views:
+        for query in queries:
+            expression = query.removeprefix("+ ").replace("$origin", origin.rstrip("/"))
+            assert _names_logged(expression, entities), f"view at {origin} queries {query}: nothing logged there"
+    trails = [o for o in overrides if "/trail/" in o]
+    assert len(trails) == robots * 5  # truth and four estimates each
+    for override in overrides:
+        assert override in entities, f"override on {override}, which holds no data"
+
+
+def test_map_view_shows_the_y_flip(recorded):
+    """The flip is logged on /world; the map view must look at /world's content from above it."""
+    import rerun.chunk
+
+    _, path, _ = recorded
+    flips = []
+    for chunk in rerun.chunk.RrdReader(path).stream().to_chunks():
+        batch = chunk.to_record_batch()
+        if "Transform3D:scale" in batch.schema.names and chunk.entity_path.count("/") == 1:
+            flips += [(chunk.entity_path, scale) for (scale,) in batch.column("Transform3D:scale").to_pylist()]
+    assert flips == [("/world", [1.0, -1.0, 1.0])]
+    views, _ = _blueprint(path)
+    (origin, queries), = [(o, q) for o, q in views if any("/world" in query for query in q)]
+    assert "/world".startswith(origin.rstrip("/") + "/") or origin == "/"  # the view's space is above the flip
+    assert queries == ["+ /world/**"]
+
+
+def test_events_say_start_collision_and_end(tmp_path):
+    path = tmp_path / "run.rrd"
+    result = run(load_world("maze"), [RobotSetup(CTBOT, FunctionController(lambda t, r: WheelSpeeds(0.3, 0.3)))], duration=4.0, observers=[Recorder(path)])
+    assert result.robots[0].collisions >= 1  # straight ahead from the start meets the wall
+    text = [row[0] for row in _columns(path)["/events"]["TextLog:text"]]
+    assert text[0].startswith("start: ctbot") and text[-1] == "end: duration"
+    assert sum("collision" in line for line in text) == result.robots[0].collisions
+
+
+def test_controller_messages_reach_the_events(tmp_path):
+    import logging
+
+    path = tmp_path / "run.rrd"
+
+    def talk(t, readings):
+        if abs(t - 0.5) < 1e-9:
+            logging.getLogger("my_controller").warning("half a second gone")
+        return WheelSpeeds(0.0, 0.0)
+
+    run(load_world("empty"), [RobotSetup(CTBOT, FunctionController(talk))], duration=1.0, observers=[Recorder(path)])
+    events = _columns(path)["/events"]
+    said = [(t * 1e-9, row[0]) for t, row in zip(events["sim_time"], events["TextLog:text"]) if "half" in row[0]]
+    assert said == [(pytest.approx(0.5), "my_controller: half a second gone")]
 
 
 def test_interrupted_run_is_still_readable(tmp_path):
@@ -98,4 +199,52 @@ def test_interrupted_run_is_still_readable(tmp_path):
     result = run(load_world("maze"), [RobotSetup(CTBOT, FunctionController(drive))], duration=5.0, observers=[Recorder(path)])
     assert result.reason == "interrupted"
     body = _columns(path)[f"/world/{result.robots[0].name}/body"]
-    assert len(body["Points2D:positions"]) == len(result.time)
+    assert len(body["Transform3D:translation"]) == len(result.times)
+
+
+def _closed_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]  # closed again when this returns: nothing listens there
+
+
+def test_no_viewer_costs_the_live_view_only(tmp_path, capsys):
+    from sim.cli import main
+
+    out = tmp_path / "o"
+    code = main(["run", "empty", "--controller", "square", "--duration", "2", "--connect", f"rerun+http://127.0.0.1:{_closed_port()}/proxy", "--out", str(out), "--no-report"])
+    err = capsys.readouterr().err
+    assert code == 0
+    assert err.count("\n") == 1 and err.startswith("ctsim: live view off: no rerun viewer answers at ")
+    assert len(_columns(out / "run.rrd")["/world/ctbot/body"]["sim_time"]) == 201
+    assert (out / "summary.json").is_file() and (out / "truth.tum").is_file()
+
+
+def test_viewer_that_goes_away_costs_the_live_view_only(tmp_path, capsys):
+    """Something accepts the connection, then hangs up on every gRPC call (as a viewer that was
+    closed mid-run): the run and its file carry on."""
+    server = socket.socket()
+    server.bind(("127.0.0.1", 0))
+    server.listen()
+    server.settimeout(30.0)
+
+    def hang_up():
+        try:
+            while True:
+                connection, _ = server.accept()
+                connection.close()
+        except OSError:
+            return
+
+    threading.Thread(target=hang_up, daemon=True).start()
+    path = tmp_path / "run.rrd"
+    recorder = Recorder(path, connect=f"rerun+http://127.0.0.1:{server.getsockname()[1]}/proxy")
+    try:
+        result = run(load_world("empty"), [RobotSetup(CTBOT, FunctionController(_drive))], duration=(2 * CHUNK) * 0.01, observers=[recorder])
+    finally:
+        server.close()
+    err = capsys.readouterr().err
+    assert result.reason == "duration"
+    assert err.count("\n") == 1 and err.startswith("ctsim: live view off: the rerun viewer stopped taking data")
+    assert recorder.live_lost and recorder.streams == []
+    assert len(_columns(path)["/world/ctbot/body"]["sim_time"]) == len(result.times)

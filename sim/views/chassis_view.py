@@ -84,7 +84,7 @@ class ChassisLayer:
             self.previous[i] = pose
             if (self.samples - 1) % EVERY:
                 continue
-            shapes = chassis_shapes(logs[i].spec, pose, logs[i].readings[-1].steering, previous, world.spec.bounds)
+            shapes = chassis_shapes(logs[i].spec, pose, logs[i].latest.steering, previous, world.spec.bounds)
             self.rec.set_time(self.timeline, duration=world.time)
             base = f"world/{logs[i].name}/chassis"
             self.rec.log(f"{base}/outline", rr.LineStrips2D([shapes.outline], radii=0.004, colors=OUTLINE_COLOUR))

@@ -1,123 +1,206 @@
 """PNG figures of a run: trajectories over the map, and estimate errors over time (matplotlib, Agg).
 
 Works from a run folder as `ctsim run` leaves it (summary.json and TUM files), so that
-`ctsim report RUN_DIR` and the report at the end of a run draw the same thing.
+`ctsim report RUN_DIR` and the report at the end of a run draw the same thing. The map is drawn
+here once for everyone: the figures, and the rerun recording's floor image (`map_png`).
 """
 
 from __future__ import annotations
 
+import io
 import json
 from pathlib import Path
 
 import numpy as np
 
 from sim.analysis.export import read_tum
+from sim.views import palette
 from sim.world.spec import WorldSpec
 
 Trajectory = tuple[np.ndarray, np.ndarray]
 """(times (T,), poses (T, 3))."""
 
-TRUTH_STYLE = dict(color="#1e9c3c", linewidth=3.0, alpha=0.8, label="truth", zorder=4)
-ESTIMATE_STYLES = tuple(
-    dict(color=colour, linestyle=dash, linewidth=width)
-    for colour, dash, width in (
-        ("#e6781e", "-", 2.2),
-        ("#2868dc", (0, (4, 2)), 1.6),
-        ("#aa3cbe", "-", 2.2),
-        ("#14a096", (0, (4, 2)), 1.6),
-        ("#c8283c", (0, (1, 1.5)), 1.6),
-    )
-)
+MEAN_WINDOW_S = 1.0
+"""Moving mean drawn over the raw error trace (s): encoder quantisation makes a sawtooth."""
+DASHES = ("-", (0, (5, 2)), "-", (0, (2, 1.5)), (0, (6, 2, 1, 2)))
 """Estimates often coincide (encoders and firmware, mouse and fused): alternate solid and dashed
 lines so that one drawn over another still shows both."""
 
 
-def draw_world(ax, world: WorldSpec) -> None:
-    """Walls, floor regions, lines, holes, goals, cans (at their start) and lights of a world on
-    matplotlib axes (m)."""
+def _c(rgb: palette.RGB) -> tuple[float, float, float]:
+    return palette.unit(rgb)
+
+
+def draw_world(ax, world: WorldSpec, legend: bool = False) -> None:
+    """Ground, floor regions, painted lines (at their true width), holes, goals, filled walls, cans
+    (at their start) and lights of a world on matplotlib axes (m), all beneath anything drawn later (zorder < 3)."""
     from matplotlib.patches import Circle, Polygon
 
     xmin, ymin, xmax, ymax = world.bounds
-    ax.add_patch(Polygon([(xmin, ymin), (xmax, ymin), (xmax, ymax), (xmin, ymax)], facecolor=world.floor_colour, alpha=0.25, edgecolor="0.5", zorder=0))
+    ax.add_patch(Polygon([(xmin, ymin), (xmax, ymin), (xmax, ymax), (xmin, ymax)], facecolor=world.floor_colour, edgecolor="0.6", linewidth=0.5, zorder=0))
     for region in world.floor:
-        ax.add_patch(Polygon(region.vertices, facecolor=region.colour, alpha=0.45, edgecolor="none", zorder=1))
+        ax.add_patch(Polygon(region.vertices, facecolor=region.colour, edgecolor="none", zorder=0.5))
     for line in world.lines:
-        points = np.asarray(line.points)
-        ax.plot(points[:, 0], points[:, 1], color=line.colour, linewidth=2.0, solid_capstyle="butt", zorder=2)
+        points, half = np.asarray(line.points, dtype=float), line.width / 2
+        for a, b in zip(points[:-1], points[1:]):
+            normal = np.array((a[1] - b[1], b[0] - a[0])) / max(np.hypot(*(b - a)), 1e-12) * half
+            ax.add_patch(Polygon([a + normal, b + normal, b - normal, a - normal], facecolor=line.colour, edgecolor="none", zorder=1))
+        for p in points:
+            ax.add_patch(Circle(p, half, facecolor=line.colour, edgecolor="none", zorder=1))
     for hole in world.holes:
-        ax.add_patch(Polygon(hole.vertices, facecolor="black", edgecolor="black", zorder=2))
+        ax.add_patch(Polygon(hole.vertices, facecolor=_c(palette.HOLE), edgecolor="none", zorder=1.2))
     for goal in world.goals:
-        ax.add_patch(Polygon(goal.vertices, facecolor="#7be38f", alpha=0.6, edgecolor="#2a9c45", zorder=2))
+        ax.add_patch(Polygon(goal.vertices, facecolor=_c(palette.GOAL), edgecolor=_c(palette.GOAL_EDGE), linewidth=0.8, zorder=1.2))
     for wall in world.walls:
-        ax.add_patch(Polygon(wall.vertices, facecolor="#5a5a5a", edgecolor="#3a3a3a", linewidth=0.5, zorder=3))
+        ax.add_patch(Polygon(wall.vertices, facecolor=_c(palette.WALL), edgecolor=_c(palette.WALL_EDGE), linewidth=0.6, zorder=2))
     for can in world.movables:
-        ax.add_patch(Circle(can.position, can.radius, facecolor="#c8782a", edgecolor="#6b3c10", linewidth=0.5, zorder=3))
+        ax.add_patch(Circle(can.position, can.radius, facecolor=_c(palette.CAN), edgecolor=_c(palette.WALL_EDGE), linewidth=0.5, zorder=2))
     for light in world.lights:
-        ax.plot(*light.position, marker="*", markersize=14, color="#ffd21e", markeredgecolor="#a08000", zorder=4)
+        ax.plot(*light.position, marker="*", markersize=13, color=_c(palette.LIGHT), markeredgecolor=_c(palette.LIGHT_EDGE), zorder=2.5, linestyle="none")
+    if legend:
+        from matplotlib.lines import Line2D
+        from matplotlib.patches import Patch
+
+        keys = [("wall", palette.WALL, bool(world.walls)), ("goal", palette.GOAL, bool(world.goals)), ("hole", palette.HOLE, bool(world.holes))]
+        handles = [Patch(facecolor=_c(rgb), label=label) for label, rgb, present in keys if present]
+        handles += [Patch(facecolor=world.lines[0].colour, label="line")] if world.lines else []
+        handles += [Line2D([], [], marker="*", color=_c(palette.LIGHT), linestyle="none", label="light")] if world.lights else []
+        ax.add_artist(ax.legend(handles=handles, loc="lower left", bbox_to_anchor=(1.01, 0.0), fontsize=8, frameon=False, title="map", title_fontsize=8))
     ax.set_aspect("equal")
 
 
+def map_png(world: WorldSpec, max_pixels: int = 2000) -> tuple[bytes, float]:
+    """The map exactly as `draw_world` draws it, as PNG bytes covering `world.bounds` edge to
+    edge, and its resolution (pixels per metre); the rerun recording's floor."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from matplotlib.figure import Figure
+
+    xmin, ymin, xmax, ymax = world.bounds
+    per_metre = min(500.0, max_pixels / max(xmax - xmin, ymax - ymin))
+    width, height = max(1, round((xmax - xmin) * per_metre)), max(1, round((ymax - ymin) * per_metre))
+    fig = Figure(figsize=(width / 100, height / 100), dpi=100)
+    ax = fig.add_axes((0, 0, 1, 1))
+    draw_world(ax, world)
+    ax.set_aspect("auto")
+    ax.set_xlim(xmin, xmax)
+    ax.set_ylim(ymin, ymax)
+    ax.set_axis_off()
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=100)
+    return buffer.getvalue(), width / (xmax - xmin)
+
+
 def _errors(truth: Trajectory, estimate: Trajectory) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(times, position error m, wrapped heading error rad) of an estimate sampled with truth."""
+    """(times, position error m, heading error rad) of an estimate sampled with truth; the heading
+    error is unwrapped, so that one that drifts past 180° keeps going instead of jumping."""
     n = min(len(truth[0]), len(estimate[0]))
     diff = estimate[1][:n] - truth[1][:n]
-    heading = (diff[:, 2] + np.pi) % (2 * np.pi) - np.pi
+    heading = np.unwrap((diff[:, 2] + np.pi) % (2 * np.pi) - np.pi)
     return truth[0][:n], np.hypot(diff[:, 0], diff[:, 1]), heading
 
 
-def write_figures(world: WorldSpec, robots: dict[str, dict[str, Trajectory]], out: str | Path) -> list[Path]:
-    """`trajectories.png` (every robot's truth and estimates over the map) and `errors.png`
-    (position and heading error of each estimate over time) in `out`. `robots` maps a robot
-    name to its trajectories by label, 'truth' among them."""
+def moving_mean(t: np.ndarray, values: np.ndarray, window_s: float) -> np.ndarray:
+    """Centred moving mean over about `window_s` seconds of evenly spaced samples."""
+    if len(t) < 3:
+        return values
+    width = max(1, int(round(window_s / max(np.median(np.diff(t)), 1e-12))))
+    width = min(width | 1, len(values) - (1 - len(values) % 2))  # odd, at most the length
+    padded = np.pad(values, width // 2, mode="edge")
+    return np.convolve(padded, np.ones(width) / width, mode="valid")
+
+
+def write_figures(
+    world: WorldSpec,
+    robots: dict[str, dict[str, Trajectory]],
+    out: str | Path,
+    subtitle: str = "",
+    ate: dict[str, dict[str, float]] | None = None,
+) -> list[Path]:
+    """`trajectories.png` (every robot's truth and estimates over the map, beside the end of the
+    run magnified) and `errors.png` (position and heading error of each estimate over time) in
+    `out`. `robots` maps a robot name to its trajectories by label, 'truth' among them; `ate`
+    the ATE RMS (m) of each estimate by robot, shown in the legends; `subtitle` says what ran."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    out = Path(out)
-    written = []
+    out, ate = Path(out), ate or {}
     xmin, ymin, xmax, ymax = world.bounds
     aspect = (ymax - ymin) / max(xmax - xmin, 1e-9)
-    fig, ax = plt.subplots(figsize=(8.0, max(3.0, min(8.0 * aspect, 10.0)) + 0.6), dpi=120)
-    draw_world(ax, world)
+    fig, (ax, zoom) = plt.subplots(1, 2, figsize=(12.0, max(4.0, min(6.5 * aspect, 9.0)) + 0.8), dpi=120, width_ratios=(1.6, 1))
     several = len(robots) > 1
-    for name, tracks in robots.items():
-        prefix = f"{name}: " if several else ""
-        t, truth = tracks["truth"]
-        ax.plot(truth[:, 0], truth[:, 1], **{**TRUTH_STYLE, "label": prefix + "truth"})
-        ax.plot(*truth[0, :2], marker="o", color=TRUTH_STYLE["color"], markersize=7, zorder=6)
-        ax.plot(*truth[-1, :2], marker="s", color=TRUTH_STYLE["color"], markersize=7, zorder=6)
-        for (label, (_, poses)), style in zip(_estimates(tracks), ESTIMATE_STYLES):
-            ax.plot(poses[:, 0], poses[:, 1], **style, label=prefix + label, zorder=5)
-            ax.plot(*poses[-1, :2], marker="s", color=style["color"], markersize=6, zorder=6)
+    for axis in (ax, zoom):
+        draw_world(axis, world, legend=axis is ax)
+        for name, tracks in robots.items():
+            _draw_tracks(axis, name if several else "", tracks, ate.get(name, {}), label=axis is ax)
     ax.autoscale()
     _include(ax, world.bounds)
-    ax.set_xlabel("x (m)")
+    factor = _magnify(zoom, ax, robots)
+    ax.set_title(f"{world.name}: trajectories (o start, \u25a0 end)", fontsize=11)
+    zoom.set_title(f"end of the run, magnified \u00d7{factor:.0f}", fontsize=11)
+    for axis in (ax, zoom):
+        axis.set_xlabel("x (m)")
+        axis.grid(True, linewidth=0.3, alpha=0.5)
     ax.set_ylabel("y (m)")
-    ax.set_title(f"{world.name}: trajectories (o start, \u25a0 end)")
-    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=9, frameon=False)
-    ax.grid(True, linewidth=0.3, alpha=0.5)
+    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
+    if subtitle:
+        fig.suptitle(subtitle, fontsize=9, color="0.3", y=0.995)
     fig.tight_layout()
-    written.append(_save(fig, out / "trajectories.png"))
+    written = [_save(fig, out / "trajectories.png")]
 
-    fig, (top, bottom) = plt.subplots(2, 1, figsize=(8.0, 6.0), dpi=120, sharex=True)
+    fig, (top, bottom) = plt.subplots(2, 1, figsize=(10.0, 6.5), dpi=120, sharex=True)
     for name, tracks in robots.items():
         prefix = f"{name}: " if several else ""
-        for (label, estimate), style in zip(_estimates(tracks), ESTIMATE_STYLES):
+        for k, (label, estimate) in enumerate(_estimates(tracks)):
+            colour = _c(palette.estimate_colour(label, list(tracks)))
             t, position, heading = _errors(tracks["truth"], estimate)
-            top.plot(t, position * 1000, **style, label=prefix + label)
-            bottom.plot(t, np.degrees(heading), **style, label=prefix + label)
+            score = ate.get(name, {}).get(label)
+            text = prefix + label + (f" (ATE {1000 * score:.1f} mm)" if score is not None else "")
+            for axis, values in ((top, position * 1000), (bottom, np.degrees(heading))):
+                axis.plot(t, values, color=colour, linewidth=0.4, alpha=0.2)
+                axis.plot(t, moving_mean(t, values, MEAN_WINDOW_S), color=colour, linewidth=1.6, linestyle=DASHES[k % len(DASHES)], label=text)
     top.set_ylabel("position error (mm)")
-    bottom.set_ylabel("heading error (deg)")
+    bottom.set_ylabel("heading error (deg, unwrapped)")
     bottom.set_xlabel("simulated time (s)")
-    top.set_title("odometry error against ground truth")
+    top.set_title(f"odometry error against ground truth (thin: every sample; thick: {MEAN_WINDOW_S:g} s moving mean)", fontsize=10)
     for axis in (top, bottom):
         axis.grid(True, linewidth=0.3, alpha=0.6)
-        if axis.get_legend_handles_labels()[0]:
-            axis.legend(fontsize=9, loc="upper left")
+    if top.get_legend_handles_labels()[0]:
+        top.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
+    if subtitle:
+        fig.suptitle(subtitle, fontsize=9, color="0.3", y=0.995)
     fig.tight_layout()
     written.append(_save(fig, out / "errors.png"))
     return written
+
+
+def _draw_tracks(ax, prefix: str, tracks: dict[str, Trajectory], ate: dict[str, float], label: bool) -> None:
+    """Truth and each estimate of one robot, thin and above the map; start and end marked."""
+    lead = f"{prefix}: " if prefix else ""
+    _, truth = tracks["truth"]
+    truth_colour = _c(palette.TRUTH)
+    ax.plot(truth[:, 0], truth[:, 1], color=truth_colour, linewidth=1.8, alpha=0.9, zorder=4, label=lead + "truth" if label else None)
+    ax.plot(*truth[0, :2], marker="o", color=truth_colour, markersize=6, zorder=6)
+    ax.plot(*truth[-1, :2], marker="s", color=truth_colour, markersize=6, zorder=6)
+    for k, (name, (_, poses)) in enumerate(_estimates(tracks)):
+        colour = _c(palette.estimate_colour(name, list(tracks)))
+        text = lead + name + (f" (ATE {1000 * ate[name]:.1f} mm)" if name in ate else "")
+        ax.plot(poses[:, 0], poses[:, 1], color=colour, linewidth=1.1, linestyle=DASHES[k % len(DASHES)], zorder=5, label=text if label else None)
+        ax.plot(*poses[-1, :2], marker="s", color=colour, markersize=4, zorder=6)
+
+
+def _magnify(zoom, main, robots: dict[str, dict[str, Trajectory]]) -> float:
+    """Frame `zoom` on the robot whose final estimates lie furthest apart; the magnification
+    against `main` (at least 2 cm of view, so millimetre differences still show)."""
+    ends = max((np.array([poses[-1, :2] for _, poses in tracks.values()]) for tracks in robots.values()), key=lambda e: np.ptp(e, axis=0).max())
+    centre, half = ends.mean(axis=0), max(0.6 * np.ptp(ends, axis=0).max(), 0.02)
+    zoom.set_xlim(centre[0] - half, centre[0] + half)
+    zoom.set_ylim(centre[1] - half, centre[1] + half)
+    main.indicate_inset((centre[0] - half, centre[1] - half, 2 * half, 2 * half), inset_ax=None, edgecolor="0.2", linewidth=0.8)
+    return float(np.ptp(main.get_xlim()) / (2 * half))
 
 
 def _include(ax, bounds: tuple[float, float, float, float], margin: float = 0.05) -> None:
@@ -140,6 +223,15 @@ def _save(fig, path: Path) -> Path:
     return path
 
 
+def describe(summary: dict) -> str:
+    """One line saying what ran: world, controller(s), seed, simulated time, dt."""
+    controllers = sorted({robot["controller"] for robot in summary["robots"]})
+    return (
+        f"world {summary['world']['name']} \u00b7 controller {', '.join(controllers)} \u00b7 seed {summary['seed']} \u00b7 "
+        f"{summary['time']:.1f} s simulated (dt {1000 * summary['dt']:g} ms, {summary['reason']}) \u00b7 ctsim {summary['ctsim_version']}"
+    )
+
+
 def report_run_dir(run_dir: str | Path) -> list[Path]:
     """Draw the figures of a run folder written by `ctsim run` into that folder."""
     from sim.world.files import load_world
@@ -155,4 +247,5 @@ def report_run_dir(run_dir: str | Path) -> list[Path]:
         robot["name"]: {label: read_tum(run_dir / name) for label, name in robot["tum"].items()}
         for robot in summary["robots"]
     }
-    return write_figures(world, robots, run_dir)
+    ate = {robot["name"]: {label: e["ate_rmse"] for label, e in robot["estimates"].items() if e.get("ate_rmse") is not None} for robot in summary["robots"]}
+    return write_figures(world, robots, run_dir, subtitle=describe(summary), ate=ate)

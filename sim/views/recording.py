@@ -1,37 +1,48 @@
-"""Record a run to a rerun `.rrd` file (and optionally live to a viewer): an observer of `sim.run.run`.
+"""Record a run to a rerun `.rrd` file (and live to a viewer): an observer of `sim.run.run`.
 
 Layout (all on the timeline "sim_time", seconds of simulated time):
 
-    world                         Transform3D scale (1, -1, 1): y up in rerun's y-down 2D view
-    world/map/{walls,floor,lines,holes,goals,lights,starts}   static, drawn once
-    world/<robot>/body            Points2D, the body circle at the true pose
-    world/<robot>/heading         Arrows2D from the centre along the true heading
-    world/<robot>/rays, hits      IR rays (LineStrips2D) to the distance each sensor reports, and
-                                  that point (Points2D) when it reports one (0.1-0.8 m)
-    world/<robot>/trail/truth     one 2-point segment per sample; the blueprint shows all history
-    world/<robot>/trail/<est>     same for each odometry estimate
-    world/<robot>/ghost/<est>     Points2D, where the estimate believes the robot is
-    errors/<robot>/position/<est> Scalars, |estimate - truth| (m)
-    errors/<robot>/heading/<est>  Scalars, wrapped heading error (rad)
-    sensors/<robot>/<sensor>      Scalars, raw readings (one series per channel)
+    world                              Transform3D scale (1, -1, 1): y up in rerun's y-down 2D view
+    world/map/floor                    the map as an image (drawn like the PNG figures), static
+    world/map/starts                   start poses (arrows), static
+    world/<robot>/body                 Transform3D: the true pose; body/outline is static in it
+    world/<robot>/estimate/<est>       Transform3D: the estimated pose; estimate/<est>/outline static
+    world/<robot>/rays, hits           IR rays to the distance each sensor reports, and that point
+    world/<robot>/trail/<label>        LineStrips2D, one piece per TRAIL_EVERY samples (truth and
+                                       each estimate); the blueprint shows all history
+    errors/<robot>/position/<est>      Scalars, |estimate - truth| (mm)
+    errors/<robot>/heading/<est>       Scalars, wrapped heading error (deg)
+    sensors/<group>/<robot>/<field>    Scalars, readings in their units (SENSOR_GROUPS)
+    events                             TextLog: start, collisions, falls, goal, messages, end, errors
+    facts                              TextDocument: world, robots, controllers, seed, dt, version
 
 Per-sample values go into numpy buffers and leave in chunks with `send_columns` (DESIGN.md §6):
 per-step `log` calls would cost more than the simulation. On the end of a run, whatever the
 reason (goal, error, Ctrl-C), the buffers are flushed and the file closed, so it stays readable.
+The live view is a second stream beside the file's: a viewer that is missing or goes away costs
+the live view only, with one line on stderr.
 """
 
 from __future__ import annotations
 
+import logging
 import math
+import os
+import socket
+import sys
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
+from urllib.parse import urlsplit
 
 import numpy as np
 
 from sim.kinematics import wrap_angle
+from sim.views import palette
 from sim.views.chassis_view import ChassisLayer
 from sim.world import IR_RAY_LENGTH, World
+from sim.world.spec import WorldSpec
 
 if TYPE_CHECKING:
     from sim.run import RobotLog, RunResult
@@ -39,212 +50,379 @@ if TYPE_CHECKING:
 TIMELINE = "sim_time"
 CHUNK = 1000
 """Samples per `send_columns` batch."""
+TRAIL_EVERY = 10
+"""Samples per trail piece: every pose is in the trail, but in 10x fewer rows for the viewer."""
+LIVE_PORT = 9876
+"""Port of a viewer that `--live` spawns (rerun's default)."""
+LIVE_WAIT_S = 10.0
+"""How long to wait for a spawned viewer to listen, and for a live chunk to reach the viewer."""
 
-SENSORS = ("encoder_ticks", "mouse_counts", "ir_raw", "line", "border", "light")
+FIELDS = ("ir_raw", "ir_distance", "line", "border", "light", "encoder_ticks", "mouse_counts")
 """Readings fields recorded as time series, in buffer column order."""
+SENSOR_GROUPS = {
+    "ir_raw": ("IR raw (ADC)", ("ir_raw",)),
+    "ir_distance": ("IR distance (mm)", ("ir_distance",)),
+    "floor": ("floor: line and border (0 white, 1023 black)", ("line", "border")),
+    "light": ("light (0 bright, 1023 dark)", ("light",)),
+    "encoders": ("encoders (ticks per step)", ("encoder_ticks",)),
+    "mouse": ("mouse (counts per step: forward, left)", ("mouse_counts",)),
+}
+"""Sensor plot -> (title, readings fields); each field is logged under sensors/<group>/<robot>/<field>."""
+SCALE = {"ir_distance": 1000.0}
+"""Recorded unit per SI unit where a field is shown in other units (m -> mm)."""
+CHANNELS = {"mouse_counts": ("forward", "left")}
+"""Channel names other than left/right."""
 
-ESTIMATE_COLOURS = ((230, 120, 20), (40, 110, 220), (170, 60, 190), (20, 160, 150), (200, 40, 60))
-TRUTH_COLOUR = (30, 170, 60)
+def _rerun():
+    """rerun, imported lazily (0.5 s, 80 MB); its own log lines about a lost viewer are silenced
+    (unless RUST_LOG says otherwise): the recorder says so itself, in one line."""
+    os.environ.setdefault("RUST_LOG", "warn,re_grpc_client=off,re_sdk=off")
+    import rerun
+
+    return rerun
 
 
-def _colour(rgb: tuple[float, float, float]) -> tuple[int, int, int]:
-    return tuple(int(round(255 * c)) for c in rgb)
-
-
-def _closed(vertices) -> np.ndarray:
-    v = np.asarray(vertices, dtype=np.float64)
-    return np.vstack((v, v[:1]))
+def _rgb(rgb: palette.RGB) -> tuple[int, int, int]:
+    return tuple(rgb)
 
 
 @dataclass
 class _Track:
-    """Per-robot buffers of one chunk of samples."""
+    """One robot's buffers for one chunk of samples; poses come from its RobotLog at flush."""
 
-    name: str
+    log: RobotLog
     estimates: list[str]
     ir: np.ndarray  # (k, 3) body-frame (x, y, direction) of each IR sensor
-    body_radius: float
     widths: list[int]
+    names: list[str] = field(init=False)  # fields with channels, in buffer column order
     time: np.ndarray = field(init=False)
-    poses: np.ndarray = field(init=False)  # (n, 1 + len(estimates), 3): truth first
     sensors: np.ndarray = field(init=False)
-    ray: np.ndarray = field(init=False)  # (n, k) IR distances as the sensors report them
-    last: np.ndarray | None = None  # the previous chunk's last poses, for continuous trails
+    start: int = 0  # index of the buffer's first sample in the run
     count: int = 0
+    tail: np.ndarray | None = None  # the last trail point of each label, (1 + estimates, 2)
+    collisions: int = 0
+    fell: bool = False
+    goal: bool = False
 
     def __post_init__(self) -> None:
+        self.names = [f for f, width in zip(FIELDS, self.widths) if width]
         self.time = np.empty(CHUNK)
-        self.poses = np.empty((CHUNK, 1 + len(self.estimates), 3))
         self.sensors = np.empty((CHUNK, sum(self.widths)))
-        self.ray = np.empty((CHUNK, len(self.ir)))
+
+    def column(self, name: str) -> np.ndarray:
+        """This chunk's buffered values of readings field `name`, (n, width)."""
+        k = FIELDS.index(name)
+        left = sum(self.widths[:k])
+        return self.sensors[: self.count, left : left + self.widths[k]]
 
 
 class Recorder:
-    """Run observer that writes a rerun recording to `path` (None: none) and, with `live`, streams
-    it to a viewer it spawns. Use as `observers=[Recorder(path)]`."""
+    """Run observer that writes a rerun recording to `path` (None: none) and, with `live`, also
+    streams it to a viewer: the one at `connect` (a rerun+http:// URL) or else one it spawns.
+    `facts` are extra lines for the run's facts document (option -> value).
+    Use as `observers=[Recorder(path)]`."""
 
-    def __init__(self, path: str | Path | None, live: bool = False, application_id: str = "ctsim"):
+    def __init__(self, path: str | Path | None, live: bool = False, connect: str | None = None, application_id: str = "ctsim", facts: dict[str, Any] | None = None):
         self.path = Path(path) if path is not None else None
-        self.live = live
+        self.live = live or connect is not None
+        self.connect = connect
         self.application_id = application_id
-        self.rec: Any = None
+        self.facts = dict(facts or {})
+        self.streams: list[Any] = []
+        self.live_lost: str | None = None
+        self._live: Any = None
         self._tracks: list[_Track] = []
         self._chassis: ChassisLayer | None = None
+        self._messages: _Messages | None = None
+        self._now = 0.0
 
     # --- observer interface ---------------------------------------------------------------
 
     def on_start(self, world: World, logs: list[RobotLog]) -> None:
-        """Open the recording, send the blueprint and draw the world once."""
-        import rerun as rr
+        """Open the recording (and the live view), send the blueprint, draw the world once; an
+        interrupt meanwhile still closes what was opened."""
+        try:
+            self._open(world, logs)
+        except BaseException:
+            self.close()
+            raise
 
-        self.rec = rr.RecordingStream(self.application_id, send_properties=False)
-        blueprint = self.blueprint([log.name for log in logs])
-        sinks = []
+    def _open(self, world: World, logs: list[RobotLog]) -> None:
+        rr = _rerun()
+        groups = [g for g, (_, fields) in SENSOR_GROUPS.items() if any(_width(log.spec, f) for log in logs for f in fields)]
+        blueprint = self.blueprint(world.spec, {log.name: list(log.estimate_arrays()) for log in logs}, groups)
+        self.streams = []
         if self.path is not None:
-            sinks.append(rr.FileSink(str(self.path)))
+            rec = rr.RecordingStream(self.application_id, send_properties=False)
+            rec.set_sinks(rr.FileSink(str(self.path)), default_blueprint=blueprint)
+            self.streams.append(rec)
         if self.live:
-            self.rec.spawn(connect=False)
-            sinks.append(rr.GrpcSink())
-        self.rec.set_sinks(*sinks, default_blueprint=blueprint)
-        self.rec.log("world", rr.Transform3D(scale=(1.0, -1.0, 1.0)), static=True)
-        log_world(self.rec, world.spec)
-        self._tracks = []
+            self._open_live(rr, blueprint)
+        self._log("world", rr.Transform3D(scale=(1.0, -1.0, 1.0)), static=True)
+        log_world(self._log, world.spec)
+        self._log("facts", rr.TextDocument(self._facts_text(world, logs), media_type=rr.MediaType.MARKDOWN), static=True)
+        self._tracks = [self._track(log) for log in logs]
         self._chassis = ChassisLayer.for_world(self.rec, world, TIMELINE)
+        self._style()
+        self._now = world.time
+        names = ", ".join(f"{log.name} ({log.controller_name})" for log in logs)
+        self._event(f"start: {names} in {world.spec.name}", "INFO")
+        self._messages = _Messages(self)
+        logging.getLogger().addHandler(self._messages)
 
     def on_sample(self, world: World, logs: list[RobotLog]) -> None:
-        """Copy this sample's truth, estimates and readings into the buffers. Rays are drawn from
-        the readings' distances, not cast again: a second ray cast per sensor would cost more
-        than all the rest of the recording."""
-        if not self._tracks:
-            self._tracks = [self._track(log) for log in logs]
-            self._style()
-        for log, track in zip(logs, self._tracks):
+        """Copy this sample's readings into the buffers and note events. Rays are drawn from the
+        readings' distances, not cast again: a second ray cast per sensor would cost more than
+        all the rest of the recording."""
+        self._now = world.time
+        for robot, log, track in zip(world.robots, logs, self._tracks):
             n = track.count
             track.time[n] = world.time
-            track.poses[n, 0] = log.truth_array()[-1]
-            for k, poses in enumerate(log.estimate_arrays().values(), 1):
-                track.poses[n, k] = poses[-1]
             readings = log.latest
-            track.sensors[n] = np.concatenate([getattr(readings, f) for f in SENSORS])
-            track.ray[n] = readings.ir_distance
+            track.sensors[n] = np.concatenate([getattr(readings, f) for f in track.names])
             track.count = n + 1
+            if robot.collisions != track.collisions:
+                track.collisions = robot.collisions
+                self._event(f"{log.name}: collision {robot.collisions} at ({robot.pose[0]:.3f}, {robot.pose[1]:.3f}) m", "WARN")
+            if robot.fallen and not track.fell:
+                track.fell = True
+                self._event(f"{log.name}: fell into a hole at ({robot.pose[0]:.3f}, {robot.pose[1]:.3f}) m", "ERROR")
+            if log.goal_time is not None and not track.goal:
+                track.goal = True
+                self._event(f"{log.name}: reached the goal at {log.goal_time:.2f} s", "INFO")
             if track.count == CHUNK:
                 self._send(track)
         if self._chassis is not None:
             self._chassis.on_sample(world, logs)
+        if self._live is not None and self._tracks[0].count == 0:
+            self._check_live()
 
     def on_end(self, result: RunResult) -> None:
-        """Flush what is buffered and close the file (also after an error or Ctrl-C)."""
+        """Note how the run ended, flush what is buffered and close (also after an error or Ctrl-C)."""
+        if self.streams:
+            level = {"error": "ERROR", "interrupted": "WARN"}.get(result.reason, "INFO")
+            self._event(f"end: {result.reason}" + (f": {result.error}" if result.error else ""), level)
         self.close()
 
     def close(self) -> None:
         """Send the buffered samples and finish the recording; safe to call twice."""
-        if self.rec is None:
+        if self._messages is not None:
+            logging.getLogger().removeHandler(self._messages)
+            self._messages = None
+        if not self.streams:
             return
         try:
             for track in self._tracks:
                 if track.count:
                     self._send(track)
-            self.rec.flush()
+            if self._live is not None:
+                self._check_live()
         finally:
-            self.rec.disconnect()
-            self.rec = None
+            for rec in self.streams:
+                rec.flush()
+                rec.disconnect()
+            self.streams, self._live = [], None
+
+    # --- streams ----------------------------------------------------------------------------
+
+    def _log(self, path: str, data: Any, static: bool = False) -> None:
+        for rec in self.streams:
+            rec.log(path, data, static=static)
+
+    def _columns(self, path: str, times: list, columns: Any) -> None:
+        for rec in self.streams:
+            rec.send_columns(path, times, columns)
+
+    def _event(self, text: str, level: str) -> None:
+        rr = _rerun()
+        for rec in self.streams:
+            rec.set_time(TIMELINE, duration=self._now)
+            rec.log("events", rr.TextLog(text, level=level))
+
+    def _open_live(self, rr: Any, blueprint: Any) -> None:
+        """A second stream to the viewer at `connect` (or one spawned here), sharing the file's
+        recording id; if no viewer answers, say so and record to the file alone."""
+        url = self.connect or f"rerun+http://127.0.0.1:{LIVE_PORT}/proxy"
+        wait = 0.0
+        if self.connect is None:
+            try:
+                rr.spawn(port=LIVE_PORT, connect=False, hide_welcome_screen=True)
+            except Exception as err:  # no viewer executable, no display: the file still counts
+                return self._lose_live(f"could not start a rerun viewer ({err})")
+            wait = LIVE_WAIT_S
+        if not _listening(url, wait):
+            return self._lose_live(f"no rerun viewer answers at {url}")
+        same = {"recording_id": self.streams[0].get_recording_id()} if self.streams else {}
+        self._live = rr.RecordingStream(self.application_id, send_properties=False, **same)
+        self._live.set_sinks(rr.GrpcSink(url), default_blueprint=blueprint)
+        self.streams.append(self._live)
+
+    def _check_live(self) -> None:
+        """Wait for the live stream to deliver what it has; a viewer that went away or stalls
+        ends the live view, never the run."""
+        try:
+            self._live.flush(timeout_sec=LIVE_WAIT_S)
+        except Exception as err:  # rerun raises RuntimeError with gRPC's own words
+            self.streams.remove(self._live)
+            self._live = None
+            self._lose_live(f"the rerun viewer stopped taking data ({str(err).splitlines()[0]})")
+
+    def _lose_live(self, why: str) -> None:
+        self.live_lost = why
+        target = f"; still recording to {self.path}" if self.path is not None else ""
+        print(f"ctsim: live view off: {why}{target}", file=sys.stderr)
 
     # --- internals ------------------------------------------------------------------------
 
     def _track(self, log: RobotLog) -> _Track:
         spec = log.spec
-        first = log.latest
         return _Track(
-            name=log.name,
+            log=log,
             estimates=list(log.estimate_arrays()),
             ir=np.array([(*s.position, s.direction) for s in spec.ir]).reshape(-1, 3),
-            body_radius=spec.body_radius,
-            widths=[len(getattr(first, f)) for f in SENSORS],
+            widths=[_width(spec, f) for f in FIELDS],
         )
 
-    def _style(self) -> None:
-        """Static colours of each robot's trails and ghosts (the data itself is temporal)."""
-        import rerun as rr
+    def _facts_text(self, world: World, logs: list[RobotLog]) -> str:
+        import sim
 
+        rows = [
+            ("world", f"{world.spec.name} ({world.spec.source or 'built in'})"),
+            ("seed", str(world.seed)),
+            ("dt", f"{1000 * world.dt:g} ms"),
+            *((key, str(value)) for key, value in self.facts.items()),
+            ("ctsim", sim.__version__),
+            ("recorded", time.strftime("%Y-%m-%d %H:%M:%S")),
+        ]
+        lines = [f"# {world.spec.name}", "", "| | |", "|---|---|", *(f"| {k} | {v} |" for k, v in rows), ""]
+        for log in logs:
+            params = ", ".join(f"{k}={v}" for k, v in log.params.items()) or "defaults"
+            lines += [f"## {log.name}", "", f"- robot: {log.spec.name}", f"- controller: {log.controller_name} ({params})", f"- estimates: {', '.join(log.estimate_arrays())}", ""]
+        return "\n".join(lines)
+
+    def _style(self) -> None:
+        """Static parts: each robot's outline in its body frame, the estimates' markers, the
+        colours of trails and plot series (the data itself is temporal)."""
+        rr = _rerun()
+        several = len(self._tracks) > 1
         for track in self._tracks:
-            base = f"world/{track.name}"
-            self.rec.log(f"{base}/trail/truth", rr.LineStrips2D.from_fields(colors=TRUTH_COLOUR, radii=0.003), static=True)
-            self.rec.log(f"{base}/body", rr.Points2D.from_fields(colors=(*TRUTH_COLOUR, 90)), static=True)
-            for label, colour in zip(track.estimates, ESTIMATE_COLOURS):
-                self.rec.log(f"{base}/trail/{label}", rr.LineStrips2D.from_fields(colors=colour, radii=0.002), static=True)
-                self.rec.log(f"{base}/ghost/{label}", rr.Points2D.from_fields(colors=colour, radii=0.01), static=True)
+            name, r = track.log.name, track.log.spec.body_radius
+            base = f"world/{name}"
+            self._log(f"{base}/body/outline", rr.LineStrips2D([_circle(r), [(0.0, 0.0), (1.35 * r, 0.0)]], colors=_rgb(palette.TRUTH), radii=-2.0, draw_order=60), static=True)
+            self._log(f"{base}/rays", rr.LineStrips2D.from_fields(colors=_rgb(palette.RAY), radii=-0.75, draw_order=55), static=True)
+            self._log(f"{base}/hits", rr.Points2D.from_fields(colors=_rgb(palette.HIT), radii=-2.5, draw_order=56), static=True)
+            self._log(f"{base}/trail/truth", rr.LineStrips2D.from_fields(colors=_rgb(palette.TRUTH), radii=-2.5, draw_order=48), static=True)
+            for label in track.estimates:
+                colour = _rgb(palette.estimate_colour(label, track.estimates))
+                self._log(f"{base}/trail/{label}", rr.LineStrips2D.from_fields(colors=colour, radii=-1.0, draw_order=50), static=True)
+                self._log(f"{base}/estimate/{label}/outline", rr.LineStrips2D([_circle(0.6 * r), [(0.0, 0.0), (r, 0.0)]], colors=colour, radii=-1.2, draw_order=58), static=True)
+                who = f"{name} {label}" if several else label
+                self._log(f"errors/{name}/position/{label}", rr.SeriesLines(colors=colour, names=who, widths=1.2), static=True)
+                self._log(f"errors/{name}/heading/{label}", rr.SeriesLines(colors=colour, names=who, widths=1.2), static=True)
+            for group, (_, fields) in SENSOR_GROUPS.items():
+                for f in fields:
+                    width = track.widths[FIELDS.index(f)]
+                    if width:
+                        sides = CHANNELS.get(f, ("left", "right") if width == 2 else tuple(str(i) for i in range(width)))
+                        names = [" ".join(filter(None, (name if several else "", f if len(fields) > 1 else "", side))) for side in sides]
+                        colours = [palette.CHANNELS[(i + 2 * fields.index(f)) % len(palette.CHANNELS)] for i in range(width)]
+                        self._log(f"sensors/{group}/{name}/{f}", rr.SeriesLines(colors=colours, names=names, widths=1.0), static=True)
 
     def _send(self, track: _Track) -> None:
         """Send one chunk of a robot's samples as columns."""
-        import rerun as rr
-
-        n = track.count
-        rec, base = self.rec, f"world/{track.name}"
+        rr = _rerun()
+        name = track.log.name
+        base = f"world/{name}"
+        truth_all = track.log.truth_array()
+        n = min(track.count, len(truth_all) - track.start)
+        span = slice(track.start, track.start + n)
         times = [rr.TimeColumn(TIMELINE, duration=track.time[:n].copy())]
-        poses = track.poses[:n]
-        truth = poses[:, 0]
-        ones = [1] * n
+        truth = truth_all[span]
+        estimates = {label: poses[span] for label, poses in track.log.estimate_arrays().items()}
 
-        rec.send_columns(f"{base}/body", times, rr.Points2D.columns(positions=truth[:, :2], radii=np.full(n, track.body_radius)).partition(ones))
-        heading = track.body_radius * np.column_stack((np.cos(truth[:, 2]), np.sin(truth[:, 2])))
-        rec.send_columns(f"{base}/heading", times, rr.Arrows2D.columns(origins=truth[:, :2], vectors=heading).partition(ones))
-
-        previous = track.last if track.last is not None else poses[0]
-        starts = np.concatenate((previous[None], poses[:-1]))
-        for k, label in enumerate(["truth", *track.estimates]):
-            segments = np.stack((starts[:, k, :2], poses[:, k, :2]), axis=1)
-            rec.send_columns(f"{base}/trail/{label}", times, rr.LineStrips2D.columns(strips=segments).partition(ones))
-            if k:
-                rec.send_columns(f"{base}/ghost/{label}", times, rr.Points2D.columns(positions=poses[:, k, :2]).partition(ones))
-                error = poses[:, k] - truth
-                rec.send_columns(f"errors/{track.name}/position/{label}", times, rr.Scalars.columns(scalars=np.hypot(error[:, 0], error[:, 1])))
-                rec.send_columns(f"errors/{track.name}/heading/{label}", times, rr.Scalars.columns(scalars=wrap_angle(error[:, 2])))
-        track.last = poses[-1].copy()
-
+        self._columns(f"{base}/body", times, rr.Transform3D.columns(translation=_xyz(truth), quaternion=_turn(truth[:, 2])))
+        for label, poses in estimates.items():
+            self._columns(f"{base}/estimate/{label}", times, rr.Transform3D.columns(translation=_xyz(poses), quaternion=_turn(poses[:, 2])))
+            error = poses - truth
+            self._columns(f"errors/{name}/position/{label}", times, rr.Scalars.columns(scalars=1000 * np.hypot(error[:, 0], error[:, 1])))
+            self._columns(f"errors/{name}/heading/{label}", times, rr.Scalars.columns(scalars=np.degrees(wrap_angle(error[:, 2]))))
+        self._send_trails(track, truth, estimates)
         if len(track.ir):
             self._send_rays(track, times, truth)
-        column = 0
-        for name, width in zip(SENSORS, track.widths):
-            if width:
-                values = track.sensors[:n, column : column + width].ravel()
-                rec.send_columns(f"sensors/{track.name}/{name}", times, rr.Scalars.columns(scalars=values).partition([width] * n))
-            column += width
+        for group, (_, fields) in SENSOR_GROUPS.items():
+            for f in fields:
+                values = track.column(f)[:n] * SCALE.get(f, 1.0)
+                if values.shape[1]:
+                    self._columns(f"sensors/{group}/{name}/{f}", times, rr.Scalars.columns(scalars=values.ravel()).partition([values.shape[1]] * n))
+        track.start += n
         track.count = 0
 
-    def _send_rays(self, track: _Track, times: list, truth: np.ndarray) -> None:
-        import rerun as rr
+    def _send_trails(self, track: _Track, truth: np.ndarray, estimates: dict[str, np.ndarray]) -> None:
+        """Trail pieces of TRAIL_EVERY samples, each starting where the last ended."""
+        rr = _rerun()
+        n = len(truth)
+        points = np.stack([truth[:, :2], *(poses[:, :2] for poses in estimates.values())], axis=1)  # (n, labels, 2)
+        ends = np.arange(TRAIL_EVERY - 1 - track.start % TRAIL_EVERY, n, TRAIL_EVERY)
+        if track.count < CHUNK and (len(ends) == 0 or ends[-1] != n - 1):
+            ends = np.append(ends, n - 1)  # the run's last chunk: close the trail at its end
+        if len(ends) == 0:
+            return
+        starts = np.concatenate(([0], ends[:-1] + 1))
+        times = [rr.TimeColumn(TIMELINE, duration=track.time[ends].copy())]
+        for k, label in enumerate(["truth", *estimates]):
+            pieces, previous = [], track.tail[k : k + 1] if track.tail is not None else points[:0, k]
+            for a, b in zip(starts, ends):
+                pieces.append(np.vstack((previous, points[a : b + 1, k])))
+                previous = points[b : b + 1, k]
+            self._columns(f"world/{track.log.name}/trail/{label}", times, rr.LineStrips2D.columns(strips=pieces).partition([1] * len(pieces)))
+        track.tail = points[ends[-1]].copy()
 
+    def _send_rays(self, track: _Track, times: list, truth: np.ndarray) -> None:
+        rr = _rerun()
         n, k = len(truth), len(track.ir)
         c, s = np.cos(truth[:, 2])[:, None], np.sin(truth[:, 2])[:, None]
         x, y, direction = track.ir.T
         origin = np.stack((truth[:, :1] + c * x - s * y, truth[:, 1:2] + s * x + c * y), axis=-1)
-        distance = track.ray[:n]
+        distance = track.column("ir_distance")[:n]
         hit = np.isfinite(distance)
         reach = np.where(hit, distance, IR_RAY_LENGTH)[..., None]
         angle = truth[:, 2:3] + direction
         end = origin + reach * np.stack((np.cos(angle), np.sin(angle)), axis=-1)
         rays = np.stack((origin, end), axis=2).reshape(n * k, 2, 2)
-        self.rec.send_columns(f"world/{track.name}/rays", times, rr.LineStrips2D.columns(strips=rays).partition([k] * n))
-        self.rec.send_columns(f"world/{track.name}/hits", times, rr.Points2D.columns(positions=end[hit]).partition(hit.sum(axis=1)))
+        self._columns(f"world/{track.log.name}/rays", times, rr.LineStrips2D.columns(strips=rays).partition([k] * n))
+        self._columns(f"world/{track.log.name}/hits", times, rr.Points2D.columns(positions=end[hit]).partition(hit.sum(axis=1)))
 
     @staticmethod
-    def blueprint(robots: list[str]) -> Any:
-        """The map (with full trails) beside the error plots, sensors below them."""
+    def blueprint(world: WorldSpec, robots: dict[str, list[str]], groups: list[str]) -> Any:
+        """The map framed on the world with every trail, events and facts below it; per robot
+        its error plots, and one plot per sensor group in `groups`, beside it. `robots` maps each
+        robot's name to its estimates' names."""
         import rerun.blueprint as rrb
 
-        history = rrb.VisibleTimeRanges(
-            [rrb.VisibleTimeRange(TIMELINE, start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.cursor_relative())]
-        )
-        trails = {f"/world/{name}/trail": history for name in robots}
+        history = rrb.VisibleTimeRanges([rrb.VisibleTimeRange(TIMELINE, start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.cursor_relative())])
+        trails = {f"/world/{name}/trail/{label}": history for name, labels in robots.items() for label in ["truth", *labels]}
+        xmin, ymin, xmax, ymax = world.bounds
+        margin = 0.03 * max(xmax - xmin, ymax - ymin)
+        bounds = rrb.VisualBounds2D(x_range=(xmin - margin, xmax + margin), y_range=(-ymax - margin, -ymin + margin))  # y flipped, see `world`
+        world_map = rrb.Spatial2DView(origin="/", contents="+ /world/**", name=f"map: {world.name}", visual_bounds=bounds, background=_rgb(palette.BACKGROUND), overrides=trails)
+        legend = rrb.PlotLegend(corner=rrb.Corner2D.LeftTop)
+        errors = [
+            rrb.Vertical(
+                rrb.TimeSeriesView(origin=f"/errors/{name}/position", name=f"{name}: position error (mm)", plot_legend=legend),
+                rrb.TimeSeriesView(origin=f"/errors/{name}/heading", name=f"{name}: heading error (deg)", plot_legend=legend),
+                name=f"errors: {name}",
+            )
+            for name in robots
+        ]
+        sensors = [rrb.TimeSeriesView(origin=f"/sensors/{group}", name=title, plot_legend=legend) for group, (title, _) in SENSOR_GROUPS.items() if group in groups]
         return rrb.Blueprint(
             rrb.Horizontal(
-                rrb.Spatial2DView(origin="/world", name="map", overrides=trails),
                 rrb.Vertical(
-                    rrb.TimeSeriesView(origin="/errors", contents="$origin/*/position/**", name="position error (m)"),
-                    rrb.TimeSeriesView(origin="/errors", contents="$origin/*/heading/**", name="heading error (rad)"),
-                    rrb.TimeSeriesView(origin="/sensors", name="sensors (raw)"),
+                    world_map,
+                    rrb.Tabs(rrb.TextLogView(origin="/events", name="events"), rrb.TextDocumentView(origin="/facts", name="run facts")),
+                    row_shares=[4, 1],
                 ),
+                rrb.Vertical(rrb.Tabs(*errors), rrb.Tabs(*sensors), row_shares=[3, 2]),
                 column_shares=[3, 2],
             ),
             rrb.TimePanel(timeline=TIMELINE),
@@ -252,30 +430,69 @@ class Recorder:
         )
 
 
-def log_world(rec: Any, spec) -> None:
-    """Draw a WorldSpec once, as static data under world/map."""
-    import rerun as rr
+class _Messages(logging.Handler):
+    """Controller messages: Python `logging` records of INFO and above emitted during the run go
+    to the events log at the simulated time they were emitted."""
 
-    def strips(path: str, shapes, colour, radius: float = 0.002) -> None:
-        if shapes:
-            rec.log(path, rr.LineStrips2D([_closed(v) for v in shapes], colors=colour, radii=radius), static=True)
+    def __init__(self, recorder: Recorder):
+        super().__init__(logging.INFO)
+        self.recorder = recorder
 
+    def emit(self, record: logging.LogRecord) -> None:
+        level = {"WARNING": "WARN", "CRITICAL": "ERROR"}.get(record.levelname, record.levelname)
+        self.recorder._event(f"{record.name}: {record.getMessage()}", level)
+
+
+def _width(spec, name: str) -> int:
+    """Channels of readings field `name` for a robot spec (before the first reading)."""
+    counts = {"ir_raw": len(spec.ir), "ir_distance": len(spec.ir), "line": len(spec.line), "border": len(spec.border), "light": len(spec.light), "mouse_counts": 2 * (spec.mouse is not None)}
+    return counts.get(name, 2)
+
+
+def _listening(url: str, wait_s: float) -> bool:
+    """Whether something accepts TCP connections at the URL's host and port, trying for up to
+    `wait_s` seconds (a spawned viewer takes a moment to listen)."""
+    parts = urlsplit(url)
+    host, port = parts.hostname or "127.0.0.1", parts.port or LIVE_PORT
+    deadline = time.monotonic() + wait_s
+    while True:
+        try:
+            with socket.create_connection((host, port), timeout=1.0):
+                return True
+        except OSError:
+            if time.monotonic() >= deadline:
+                return False
+            time.sleep(0.2)
+
+
+def _circle(radius: float, segments: int = 36) -> np.ndarray:
+    angle = np.linspace(0.0, 2 * np.pi, segments + 1)
+    return radius * np.column_stack((np.cos(angle), np.sin(angle)))
+
+
+def _xyz(poses: np.ndarray) -> np.ndarray:
+    return np.column_stack((poses[:, 0], poses[:, 1], np.zeros(len(poses))))
+
+
+def _turn(heading: np.ndarray) -> np.ndarray:
+    """Quaternions (x, y, z, w) of rotations by `heading` about z."""
+    half = 0.5 * np.asarray(heading)
+    zero = np.zeros_like(half)
+    return np.column_stack((zero, zero, np.sin(half), np.cos(half)))
+
+
+def log_world(log: Any, spec: WorldSpec) -> None:
+    """Draw a WorldSpec once, as static data under world/map, with `log(path, data, static=True)`:
+    the floor as an image drawn like the PNG figures (filled walls, lines at their width), starts."""
+    rr = _rerun()
+    from sim.views.figures import map_png
+
+    png, per_metre = map_png(spec)
     xmin, ymin, xmax, ymax = spec.bounds
-    strips("world/map/bounds", [((xmin, ymin), (xmax, ymin), (xmax, ymax), (xmin, ymax))], (120, 120, 120), 0.001)
-    for i, region in enumerate(spec.floor):
-        strips(f"world/map/floor/{i}", [region.vertices], _colour(region.colour), 0.003)
-    strips("world/map/walls", [w.vertices for w in spec.walls], (200, 200, 200), 0.004)
-    strips("world/map/holes", [h.vertices for h in spec.holes], (10, 10, 10), 0.006)
-    strips("world/map/goals", [g.vertices for g in spec.goals], (60, 220, 90), 0.004)
-    if spec.lines:
-        rec.log(
-            "world/map/lines",
-            rr.LineStrips2D([np.asarray(line.points) for line in spec.lines], radii=[line.width / 2 for line in spec.lines], colors=[_colour(line.colour) for line in spec.lines]),
-            static=True,
-        )
-    if spec.lights:
-        rec.log("world/map/lights", rr.Points2D([light.position for light in spec.lights], radii=0.03, colors=(255, 220, 40)), static=True)
+    # image pixel (u, v) lies at world (xmin + u/s, ymax - v/s): rows run down from the top edge
+    log("world/map/floor", rr.Transform3D(translation=(xmin, ymax, 0.0), scale=(1 / per_metre, -1 / per_metre, 1.0)), static=True)
+    log("world/map/floor", rr.EncodedImage(contents=png, media_type="image/png", draw_order=-100.0), static=True)
     if spec.starts:
         origins = [(s.x, s.y) for s in spec.starts]
-        vectors = [(0.1 * math.cos(s.heading), 0.1 * math.sin(s.heading)) for s in spec.starts]
-        rec.log("world/map/starts", rr.Arrows2D(origins=origins, vectors=vectors, colors=(90, 160, 255)), static=True)
+        vectors = [(0.08 * math.cos(s.heading), 0.08 * math.sin(s.heading)) for s in spec.starts]
+        log("world/map/starts", rr.Arrows2D(origins=origins, vectors=vectors, colors=_rgb(palette.START), radii=-1.5, draw_order=10.0), static=True)

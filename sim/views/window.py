@@ -8,6 +8,7 @@ SDL_VIDEODRIVER=dummy, a frame limit and injected events (tests).
 
 from __future__ import annotations
 
+import io
 import math
 import os
 from collections.abc import Iterable
@@ -19,6 +20,7 @@ import numpy as np
 from bots.behaviours.motion import Teleop
 from bots.spec import RobotSpec
 from sim.run import RobotLog, RobotSetup, RunResult, run
+from sim.views import palette
 from sim.views.recording import Recorder
 from sim.world import IR_RAY_LENGTH, World
 from sim.world.spec import WorldSpec
@@ -31,9 +33,10 @@ TURN_DEG_S = 143.0
 """Teleop turn rate (deg/s, 2.5 rad/s)."""
 SESSION_LIMIT = 24 * 3600.0
 """Simulated seconds a session without a frame limit may last."""
-WINDOW = (900, 700)
-PANEL = 300
-ESTIMATE_COLOURS = ((230, 120, 20), (40, 110, 220), (170, 60, 190), (20, 160, 150), (200, 40, 60))
+WINDOW = (1000, 720)
+PANEL = 320
+TRAIL_POINTS = 2000
+"""Most points drawn per trail each frame (a long session is thinned, not slowed)."""
 
 
 class _Quit(KeyboardInterrupt):
@@ -41,12 +44,15 @@ class _Quit(KeyboardInterrupt):
 
 
 class Window:
-    """Run observer drawing the world every `steps_per_frame` samples, paced to `fps`."""
+    """Run observer drawing the world every `steps_per_frame` samples, `fps` frames per second of
+    wall-clock time, so that simulated time runs `speed` times real time."""
 
-    def __init__(self, drive: Teleop, fps: float, steps_per_frame: int, scale: float | None, events: dict[int, list[Any]]):
-        self.drive, self.fps, self.steps_per_frame = drive, fps, steps_per_frame
+    def __init__(self, drive: Teleop, fps: float, steps_per_frame: int, speed: float, scale: float | None, events: dict[int, list[Any]]):
+        self.drive, self.fps, self.steps_per_frame, self.speed = drive, fps, steps_per_frame, speed
         self.scale, self.events = scale, events
         self.frame = 0
+        self.snapshot: Path | None = None
+        """Where to save the last frame as an image when the window closes (None: nowhere)."""
         self.quit = False
         self._samples = 0
 
@@ -59,7 +65,7 @@ class Window:
         if self.scale is None:
             self.scale = min((WINDOW[0] - PANEL - 20) / (xmax - xmin), (WINDOW[1] - 20) / (ymax - ymin))
         self.origin = (xmin, ymax)
-        size = (int((xmax - xmin) * self.scale) + PANEL + 20, max(int((ymax - ymin) * self.scale) + 20, 420))
+        size = (int((xmax - xmin) * self.scale) + PANEL + 20, max(int((ymax - ymin) * self.scale) + 20, 480))
         self.screen = pygame.display.set_mode(size)
         pygame.display.set_caption(f"ctsim play: {world.spec.name}")
         self.font = pygame.font.Font(None, 20)
@@ -80,6 +86,8 @@ class Window:
     def on_end(self, result: RunResult) -> None:
         import pygame
 
+        if self.snapshot is not None and self.frame:
+            pygame.image.save(self.screen, str(self.snapshot))
         pygame.quit()
 
     # --- drawing ------------------------------------------------------------------------------
@@ -94,64 +102,108 @@ class Window:
         pygame.draw.polygon(surface, colour, [self.px(*v) for v in vertices], width)
 
     def _draw_map(self, spec: WorldSpec, size: tuple[int, int]):
+        """The static map, drawn once: the same picture as the figures and the recording."""
         import pygame
 
+        from sim.views.figures import map_png
+
         surface = pygame.Surface(size)
-        surface.fill((235, 235, 235))
+        surface.fill(palette.BACKGROUND)
         xmin, ymin, xmax, ymax = spec.bounds
-        rgb = lambda c, light=0.0: tuple(int(255 * (v + (1 - v) * light)) for v in c)  # noqa: E731
-        self._polygon(surface, rgb(spec.floor_colour, 0.7), ((xmin, ymin), (xmax, ymin), (xmax, ymax), (xmin, ymax)))
-        for region in spec.floor:
-            self._polygon(surface, rgb(region.colour, 0.3), region.vertices)
-        for line in spec.lines:
-            pygame.draw.lines(surface, rgb(line.colour), False, [self.px(*p) for p in line.points], max(1, int(line.width * self.scale)))
-        for hole in spec.holes:
-            self._polygon(surface, (0, 0, 0), hole.vertices)
-        for goal in spec.goals:
-            self._polygon(surface, (120, 225, 140), goal.vertices)
-        for wall in spec.walls:
-            self._polygon(surface, (80, 80, 80), wall.vertices)
-        for light in spec.lights:
-            pygame.draw.circle(surface, (255, 215, 30), self.px(*light.position), 7)
+        png, _ = map_png(spec)
+        image = pygame.image.load(io.BytesIO(png), "map.png")
+        corner, far = self.px(xmin, ymax), self.px(xmax, ymin)
+        surface.blit(pygame.transform.smoothscale(image, (far[0] - corner[0], far[1] - corner[1])), corner)
         return surface
 
     def _draw(self, world: World, logs: list[RobotLog]) -> None:
         import pygame
 
         self.screen.blit(self.map, (0, 0))
-        text = ["arrows/WASD drive, space stop, Esc quit", f"t = {world.time:.2f} s"]
+        left = self.screen.get_width() - PANEL
+        lines: list[tuple[str, tuple[int, int, int]]] = [(f"t = {world.time:7.2f} s   speed x{self.speed:g}", palette.ROBOT_EDGE)]
         for robot, log in zip(world.robots, logs):
             pose, r = robot.pose, robot.spec.body_radius
-            for (name, poses), colour in zip(log.estimate_arrays().items(), ESTIMATE_COLOURS):
-                ghost = poses[-1]
-                pygame.draw.circle(self.screen, colour, self.px(*ghost[:2]), int(r * self.scale), 2)
-                tip = ghost[:2] + r * np.array([math.cos(ghost[2]), math.sin(ghost[2])])
-                pygame.draw.line(self.screen, colour, self.px(*ghost[:2]), self.px(*tip), 2)
-                text.append(f"{name:<9} error {1000 * math.hypot(*(ghost[:2] - pose[:2])):7.1f} mm")
-            for sensor in robot.spec.ir:
+            truth, estimates = log.truth_array(), log.estimate_arrays()
+            self._trail(truth, palette.TRUTH, 3)
+            for name, poses in estimates.items():
+                self._trail(poses, palette.estimate_colour(name, list(estimates)), 1)
+            for sensor, distance in zip(robot.spec.ir, log.latest.ir_distance):
                 c, s = math.cos(pose[2]), math.sin(pose[2])
                 x, y = sensor.position
                 origin = np.array((pose[0] + c * x - s * y, pose[1] + s * x + c * y))
                 direction = pose[2] + sensor.direction
-                reach = min(world.ray_distance(robot, origin, direction), IR_RAY_LENGTH)
+                reach = distance if np.isfinite(distance) else IR_RAY_LENGTH
                 end = origin + reach * np.array((math.cos(direction), math.sin(direction)))
-                pygame.draw.line(self.screen, (220, 40, 40), self.px(*origin), self.px(*end), 1)
-            centre = self.px(*pose[:2])
-            pygame.draw.circle(self.screen, (40, 150, 70), centre, int(r * self.scale))
-            tip = pose[:2] + r * np.array([math.cos(pose[2]), math.sin(pose[2])])
-            pygame.draw.line(self.screen, (255, 255, 255), centre, self.px(*tip), 3)
-            readings = log.latest
-            text += [
-                f"{log.name}: x {pose[0]:.3f}  y {pose[1]:.3f}  th {math.degrees(pose[2]):.1f} deg",
-                f"IR raw {readings.ir_raw.tolist()}  d {np.round(readings.ir_distance, 3).tolist()}",
-                f"encoders {readings.encoder_ticks.tolist()}  mouse {readings.mouse_counts.tolist()}",
-                f"line {readings.line.tolist()}  border {readings.border.tolist()}",
-                f"light {readings.light.tolist()}  collisions {robot.collisions}",
-            ]
-        left = self.screen.get_width() - PANEL
-        for k, line in enumerate(text):
-            self.screen.blit(self.font.render(line, True, (20, 20, 20)), (left, 10 + 18 * k))
+                pygame.draw.line(self.screen, palette.RAY, self.px(*origin), self.px(*end), 1)
+                if np.isfinite(distance):
+                    pygame.draw.circle(self.screen, palette.HIT, self.px(*end), 3)
+            for name, poses in estimates.items():
+                self._outline(poses[-1], 0.6 * r, palette.estimate_colour(name, list(estimates)), 1)
+            self._outline(pose, r, palette.TRUTH, 2)
+            lines += self._readout(log, robot, pose, estimates)
+        self._scale_bar()
+        for k, (text, colour) in enumerate(lines):
+            if colour != palette.ROBOT_EDGE:
+                pygame.draw.rect(self.screen, colour, (left, 14 + 18 * k, 10, 10))
+            self.screen.blit(self.font.render(text, True, palette.ROBOT_EDGE), (left + 16 * (colour != palette.ROBOT_EDGE), 12 + 18 * k))
+        help_line = "arrows/WASD drive   space stop   Esc/q quit"
+        self.screen.blit(self.font.render(help_line, True, palette.ROBOT_EDGE), (left, self.screen.get_height() - 24))
         pygame.display.flip()
+
+    def _readout(self, log: RobotLog, robot, pose: np.ndarray, estimates: dict[str, np.ndarray]) -> list[tuple[str, tuple[int, int, int]]]:
+        """The robot's pose, each estimate's error (its colour as the key) and the sensors in their units."""
+        readings = log.latest
+        mm = lambda values: "  ".join("  -  " if not np.isfinite(v) else f"{1000 * v:4.0f}" for v in values)  # noqa: E731
+        ints = lambda values: "  ".join(f"{int(v):5d}" for v in values)  # noqa: E731
+        lines = [
+            ("", palette.ROBOT_EDGE),
+            (f"{log.name}: x {pose[0]:6.3f} m  y {pose[1]:6.3f} m", palette.ROBOT_EDGE),
+            (f"heading {math.degrees(pose[2]):7.1f} deg  collisions {robot.collisions}", palette.ROBOT_EDGE),
+            ("truth", palette.TRUTH),
+        ]
+        for name, poses in estimates.items():
+            error = 1000 * math.hypot(*(poses[-1, :2] - pose[:2]))
+            lines.append((f"{name:<9} error {error:6.1f} mm", palette.estimate_colour(name, list(estimates))))
+        lines += [
+            (f"IR distance mm   {mm(readings.ir_distance)}", palette.ROBOT_EDGE),
+            (f"IR raw           {ints(readings.ir_raw)}", palette.ROBOT_EDGE),
+            (f"line   (0-1023)  {ints(readings.line)}", palette.ROBOT_EDGE),
+            (f"border (0-1023)  {ints(readings.border)}", palette.ROBOT_EDGE),
+            (f"light  (0-1023)  {ints(readings.light)}", palette.ROBOT_EDGE),
+            (f"encoders ticks   {ints(readings.encoder_ticks)}", palette.ROBOT_EDGE),
+            (f"mouse counts     {ints(readings.mouse_counts)}", palette.ROBOT_EDGE),
+        ]
+        return lines
+
+    def _trail(self, poses: np.ndarray, colour, width: int) -> None:
+        """The path so far, thinned to at most TRAIL_POINTS points."""
+        import pygame
+
+        if len(poses) > 1:
+            step = max(1, len(poses) // TRAIL_POINTS)
+            points = [self.px(x, y) for x, y in poses[::step, :2]] + [self.px(*poses[-1, :2])]
+            pygame.draw.lines(self.screen, colour, False, points, width)
+
+    def _outline(self, pose: np.ndarray, radius: float, colour, width: int) -> None:
+        """A robot as its outline with a line to the front beyond its edge (the heading)."""
+        import pygame
+
+        centre = self.px(*pose[:2])
+        pygame.draw.circle(self.screen, colour, centre, max(2, int(radius * self.scale)), width)
+        tip = pose[:2] + 1.35 * radius * np.array([math.cos(pose[2]), math.sin(pose[2])])
+        pygame.draw.line(self.screen, colour, centre, self.px(*tip), width + 1)
+
+    def _scale_bar(self) -> None:
+        """A bar of a round length (about 100 px) in the map's bottom left corner."""
+        import pygame
+
+        metres = next(m for m in (0.05, 0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0) if m * self.scale >= 80 or m == 50.0)
+        x, y = 20, self.screen.get_height() - 22
+        pygame.draw.rect(self.screen, palette.BACKGROUND, (x - 6, y - 20, metres * self.scale + 12, 28))
+        pygame.draw.line(self.screen, palette.SCALE_BAR, (x, y), (x + int(metres * self.scale), y), 3)
+        label = f"{metres * 100:g} cm" if metres < 1 else f"{metres:g} m"
+        self.screen.blit(self.font.render(label, True, palette.SCALE_BAR), (x, y - 17))
 
     def _handle_events(self) -> None:
         import pygame
@@ -176,19 +228,25 @@ def play(
     seed: int = 0,
     dt: float = 0.01,
     fps: float = 60.0,
+    speed: float = 1.0,
     frames: int | None = None,
     scale: float | None = None,
     live: bool = False,
+    connect: str | None = None,
     events: dict[int, Iterable[Any]] | None = None,
+    snapshot: str | Path | None = None,
 ) -> RunResult:
     """Open the window and run until it is closed (or for `frames` frames); each frame advances
-    1/fps of simulated time. `events` maps a frame number to pygame events posted before it."""
+    `speed`/fps of simulated time, shown 1/fps of a second: simulated time runs `speed` times
+    real time (up to about `fps` frames per second). `events` maps a frame number to pygame events
+    posted before it; `snapshot` saves the last frame there (PNG)."""
     drive = Teleop(speed_m_s=FORWARD, turn_deg_s=TURN_DEG_S)
-    steps_per_frame = max(1, round(1.0 / (fps * dt)))
+    steps_per_frame = max(1, round(speed / (fps * dt)))
     duration = frames * steps_per_frame * dt if frames is not None else SESSION_LIMIT
-    window = Window(drive, fps, steps_per_frame, scale, {k: list(v) for k, v in (events or {}).items()})
+    window = Window(drive, speed / (steps_per_frame * dt), steps_per_frame, speed, scale, {k: list(v) for k, v in (events or {}).items()})
+    window.snapshot = Path(snapshot) if snapshot is not None else None
     setup = RobotSetup(spec, drive, controller_name="teleop")
-    result = run(world, [setup], duration, dt=dt, seed=seed, observers=(Recorder(recording, live=live), window))
+    result = run(world, [setup], duration, dt=dt, seed=seed, observers=(Recorder(recording, live=live, connect=connect), window))
     if window.quit:
         result.reason, result.error = "duration", None
     return result

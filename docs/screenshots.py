@@ -1,0 +1,72 @@
+"""Make the README's pictures from fresh runs: the rerun viewer on the maze, the line course and
+three robots; the two PNG figures of the maze run; the pygame window (SDL offscreen).
+
+    .venv/bin/python docs/screenshots.py [--shot ../shared/tools/rerun-shot]
+
+The viewer screenshots need `rerun-shot` (the real rerun viewer on a virtual display); without it
+they are skipped, saying so, and the rest is still made.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
+os.environ.setdefault("SDL_AUDIODRIVER", "dummy")
+
+DOCS = Path(__file__).resolve().parent
+ROOT = DOCS.parent
+RUNS = {
+    "viewer_maze": (["maze", "--duration", "60"], 59),
+    "viewer_line": (["line", "--controller", "follow_line", "--duration", "40"], 39),
+    "viewer_three_robots": (["maze", "--robots", "3", "--duration", "30"], 29),
+}
+"""Picture name -> (ctsim run arguments, simulated second to show)."""
+
+
+def _window(path: Path) -> None:
+    """Drive the c't-Bot up the maze's first corridor and save the window's last frame."""
+    import pygame
+
+    from bots.ctbot import CTBOT
+    from sim.views.window import play
+    from sim.world.files import load_world
+
+    press = lambda key: pygame.event.Event(pygame.KEYDOWN, key=key)  # noqa: E731
+    release = lambda key: pygame.event.Event(pygame.KEYUP, key=key)  # noqa: E731
+    events = {5: [press(pygame.K_UP)], 140: [release(pygame.K_UP), press(pygame.K_RIGHT)], 170: [release(pygame.K_RIGHT), press(pygame.K_UP)], 260: [release(pygame.K_UP)]}
+    with tempfile.TemporaryDirectory() as folder:
+        play(load_world("maze"), CTBOT, Path(folder) / "play.rrd", frames=300, fps=1000, speed=10, events=events, snapshot=path)
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--shot", default=str(ROOT.parent / "shared" / "tools" / "rerun-shot"), help="the rerun-shot tool")
+    args = parser.parse_args()
+    python = sys.executable
+    with tempfile.TemporaryDirectory() as folder:
+        for name, (arguments, second) in RUNS.items():
+            out = Path(folder) / name
+            subprocess.run([python, "-m", "sim.cli", "run", *arguments, "--out", str(out)], cwd=ROOT, check=True, stdout=subprocess.DEVNULL)
+            if name == "viewer_maze":
+                for figure in ("trajectories.png", "errors.png"):
+                    shutil.copy(out / figure, DOCS / f"figure_{figure}")
+            if Path(args.shot).is_file():
+                prefix = Path(folder) / name
+                subprocess.run([args.shot, str(out / "run.rrd"), str(prefix), str(second), python], cwd=ROOT, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                shutil.copy(f"{prefix}_t{second:g}.png", DOCS / f"{name}.png")
+            else:
+                print(f"screenshots: no rerun-shot at {args.shot}: viewer picture {name}.png not made", file=sys.stderr)
+    _window(DOCS / "window.png")
+    print("\n".join(str(p.relative_to(ROOT)) for p in sorted(DOCS.glob("*.png"))))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

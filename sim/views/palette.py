@@ -1,0 +1,66 @@
+"""One visual language for the rerun recording, the PNG figures and the pygame window.
+
+Truth is always the same green and each odometry estimate always the same colour (by name, so
+"mouse" is purple whatever else ran); the map's elements share their colours too. Colours are
+0-255 RGB tuples; `hex_colour` and `unit` convert for matplotlib.
+"""
+
+from __future__ import annotations
+
+RGB = tuple[int, int, int]
+
+TRUTH: RGB = (34, 150, 64)
+ESTIMATES: dict[str, RGB] = {
+    "encoders": (230, 120, 20),
+    "firmware": (40, 104, 220),
+    "mouse": (170, 60, 190),
+    "fused": (20, 160, 160),
+    "fused_blend": (200, 40, 60),
+    "arc": (140, 100, 40),
+}
+SPARE: tuple[RGB, ...] = ((120, 120, 120), (230, 170, 0), (90, 60, 160))
+"""Colours of estimates without one of their own, in order of appearance."""
+
+WALL: RGB = (30, 32, 40)
+WALL_EDGE: RGB = (120, 124, 136)
+"""Walls are near black with a light edge: they stand out on c't-Sim's mid-grey floor (#606060)
+as on a white one."""
+BACKGROUND: RGB = (210, 210, 214)
+"""Around the map (rerun view, window)."""
+HOLE: RGB = (12, 12, 12)
+GOAL: RGB = (120, 220, 140)
+GOAL_EDGE: RGB = (30, 140, 60)
+CAN: RGB = (200, 120, 42)
+"""Movable cans (c't-Sim's 30 mm objects), drawn at their start."""
+LIGHT: RGB = (255, 205, 30)
+LIGHT_EDGE: RGB = (150, 110, 0)
+START: RGB = (60, 130, 240)
+RAY: RGB = (225, 40, 40)
+HIT: RGB = (255, 90, 0)
+ROBOT_EDGE: RGB = (20, 20, 20)
+SCALE_BAR: RGB = (20, 20, 20)
+CHANNELS: tuple[RGB, ...] = ((31, 119, 180), (214, 39, 40), (44, 160, 44), (148, 103, 189), (140, 86, 75), (23, 190, 207))
+"""Colours of a sensor's channels (left, right, ...)."""
+
+
+def estimate_colour(name: str, others: list[str] | tuple[str, ...] = ()) -> RGB:
+    """The colour of estimate `name`; unnamed ones take spare colours by their place in `others`."""
+    if name in ESTIMATES:
+        return ESTIMATES[name]
+    unknown = [n for n in others if n not in ESTIMATES]
+    return SPARE[unknown.index(name) % len(SPARE)] if name in unknown else SPARE[0]
+
+
+def unit(rgb: RGB) -> tuple[float, float, float]:
+    """0-255 to the 0-1 floats matplotlib takes."""
+    return tuple(c / 255 for c in rgb)
+
+
+def hex_colour(rgb: RGB) -> str:
+    """'#rrggbb' of an RGB tuple."""
+    return "#{:02x}{:02x}{:02x}".format(*rgb)
+
+
+def from_unit(rgb: tuple[float, float, float]) -> RGB:
+    """A world file's 0-1 colour as 0-255."""
+    return tuple(int(round(255 * c)) for c in rgb)
