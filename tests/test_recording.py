@@ -17,6 +17,8 @@ from sim.run import RobotSetup, run
 from sim.views.recording import CHUNK, TRAIL_EVERY, Recorder
 from sim.world.files import load_world
 
+from observers import KeepReadings
+
 
 def _columns(path) -> dict[str, dict[str, list]]:
     """Entity path -> column name -> values, temporal chunks concatenated in time order."""
@@ -81,7 +83,9 @@ def _drive(t, readings):
 def recorded(tmp_path_factory):
     path = tmp_path_factory.mktemp("rec") / "run.rrd"
     # more samples than one chunk, and not a whole number of trail pieces
-    result = run(load_world("maze"), [RobotSetup(CTBOT, FunctionController(_drive))], duration=(CHUNK + 234) * 0.01, observers=[Recorder(path)])
+    keep = KeepReadings()
+    result = run(load_world("maze"), [RobotSetup(CTBOT, FunctionController(_drive))], duration=(CHUNK + 234) * 0.01, observers=[Recorder(path), keep])
+    result.readings_seen = keep.readings  # the run loop keeps only the current readings
     return result, path, _columns(path)
 
 
@@ -90,7 +94,7 @@ def test_truth_pose_and_trail_have_every_sample(recorded):
     log = result.robots[0]
     truth = log.truth_array()
     body = columns[f"/world/{log.name}/body"]
-    assert len(body["Transform3D:translation"]) == len(result.times) == len(truth)
+    assert len(body["Transform3D:translation"]) == len(result.time) == len(truth)
     np.testing.assert_allclose(np.array(body["Transform3D:translation"])[:, 0, :2], truth[:, :2], atol=1e-6)  # float32
     times = np.array(body["sim_time"]) * 1e-9  # nanoseconds
     np.testing.assert_allclose(times, result.time, atol=1e-8)
@@ -117,14 +121,14 @@ def test_every_estimate_and_its_errors_in_mm_and_degrees(recorded):
 def test_sensor_series_grouped_by_sensor(recorded):
     result, _, columns = recorded
     log = result.robots[0]
-    readings = log.readings
+    readings = result.readings_seen
     for group, field, scale in (("ir_raw", "ir_raw", 1), ("ir_distance", "ir_distance", 1000), ("encoders", "encoder_ticks", 1), ("mouse", "mouse_counts", 1), ("floor", "line", 1), ("floor", "border", 1), ("light", "light", 1)):
         rows = np.array(columns[f"/sensors/{group}/{log.name}/{field}"]["Scalars:scalars"], dtype=float)
         expected = np.array([getattr(r, field) for r in readings], dtype=float) * scale
-        assert rows.shape == expected.shape == (len(result.times), 2)
+        assert rows.shape == expected.shape == (len(result.time), 2)
         np.testing.assert_array_equal(rows, expected)
     rays = columns[f"/world/{log.name}/rays"]["LineStrips2D:strips"]
-    assert len(rays) == len(result.times) and all(len(row) == len(CTBOT.ir) for row in rays)
+    assert len(rays) == len(result.time) and all(len(row) == len(CTBOT.ir) for row in rays)
 
 
 @pytest.mark.parametrize("robots", [1, 3])
@@ -199,7 +203,7 @@ def test_interrupted_run_is_still_readable(tmp_path):
     result = run(load_world("maze"), [RobotSetup(CTBOT, FunctionController(drive))], duration=5.0, observers=[Recorder(path)])
     assert result.reason == "interrupted"
     body = _columns(path)[f"/world/{result.robots[0].name}/body"]
-    assert len(body["Transform3D:translation"]) == len(result.times)
+    assert len(body["Transform3D:translation"]) == len(result.time)
 
 
 def _closed_port() -> int:
@@ -247,4 +251,4 @@ def test_viewer_that_goes_away_costs_the_live_view_only(tmp_path, capsys):
     assert result.reason == "duration"
     assert err.count("\n") == 1 and err.startswith("ctsim: live view off: the rerun viewer stopped taking data")
     assert recorder.live_lost and recorder.streams == []
-    assert len(_columns(path)["/world/ctbot/body"]["sim_time"]) == len(result.times)
+    assert len(_columns(path)["/world/ctbot/body"]["sim_time"]) == len(result.time)

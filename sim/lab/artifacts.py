@@ -12,8 +12,9 @@ from pathlib import Path
 
 import numpy as np
 
+from sim.views import palette
 from sim.views.figures import write_figures
-from sim.views.recording import ESTIMATE_COLOURS, TIMELINE, TRUTH_COLOUR
+from sim.views.recording import TIMELINE
 from sim.world.spec import Start, WorldSpec
 
 Tracks = dict[str, tuple[np.ndarray, np.ndarray]]
@@ -46,7 +47,8 @@ def write_tracks_recording(path: Path, tracks: Tracks) -> Path:
     rec.save(str(path))
     rec.log("world", rr.Transform3D(scale=(1.0, -1.0, 1.0)), static=True)
     times, truth = tracks["truth"]
-    colours = {"truth": TRUTH_COLOUR} | {label: c for label, c in zip([k for k in tracks if k != "truth"], ESTIMATE_COLOURS)}
+    estimates = [k for k in tracks if k != "truth"]
+    colours = {"truth": palette.TRUTH} | {label: palette.estimate_colour(label, estimates) for label in estimates}
     for label, (t, poses) in tracks.items():
         rec.log(f"world/{label}", rr.LineStrips2D([poses[:, :2]], colors=colours[label], radii=0.002), static=True)
         column = [rr.TimeColumn(TIMELINE, duration=t)]

@@ -162,7 +162,7 @@ class Recorder:
         log_world(self._log, world.spec)
         self._log("facts", rr.TextDocument(self._facts_text(world, logs), media_type=rr.MediaType.MARKDOWN), static=True)
         self._tracks = [self._track(log) for log in logs]
-        self._chassis = ChassisLayer.for_world(self.rec, world, TIMELINE)
+        self._chassis = ChassisLayer.for_world(self.rec, world, TIMELINE) if self.rec is not None else None
         self._style()
         self._now = world.time
         names = ", ".join(f"{log.name} ({log.controller_name})" for log in logs)
@@ -224,6 +224,12 @@ class Recorder:
             self.streams, self._live = [], None
 
     # --- streams ----------------------------------------------------------------------------
+
+    @property
+    def rec(self) -> Any:
+        """The first open stream (the file's), for layers that log per sample themselves (chassis,
+        bridge); None when closed."""
+        return self.streams[0] if self.streams else None
 
     def _log(self, path: str, data: Any, static: bool = False) -> None:
         for rec in self.streams:
