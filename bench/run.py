@@ -26,9 +26,9 @@ def figures(quick: bool):
         from bench import world
     except ImportError:
         return
-    from bench import bridge, experiments, lab
+    from bench import bridge, experiments, lab, memory
 
-    for module in (world, bridge, lab, experiments):
+    for module in (world, bridge, lab, experiments, memory):
         yield from module.figures(scale)
 
 

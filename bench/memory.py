@@ -1,0 +1,45 @@
+"""Peak memory and wall time of whole `ctsim run` commands, short against long (issue 17).
+
+Each run is its own process (`/usr/bin/time`-style: `resource.getrusage(RUSAGE_CHILDREN)`), the
+default c't-Bot solving the maze and carrying on to the time limit, recording on, no figures. The
+short run is the reference measured beside the long one: the difference is what the run's length
+costs (poses kept for the metrics: 120 bytes a step), the ratio of wall times shows linear growth.
+"""
+
+from __future__ import annotations
+
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+
+
+def _peak_of_run(duration: float) -> tuple[float, float]:
+    """(peak RSS in MB, wall seconds) of `ctsim run maze` for `duration` simulated seconds."""
+    with tempfile.TemporaryDirectory() as out:
+        script = (
+            "import resource, subprocess, sys; "
+            f"subprocess.run([sys.executable, '-m', 'sim.cli', 'run', 'maze', '--duration', '{duration}', '--no-until-goal', "
+            f"'--no-report', '--out', '{out}'], stdout=subprocess.DEVNULL, check=True); "
+            "print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)"
+        )
+        start = time.perf_counter()
+        done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, check=True)
+        return int(done.stdout.strip()) / 1024, time.perf_counter() - start
+
+
+def figures(scale: float):
+    """(name, unit, thunk): the long run is 2 simulated hours (12 minutes with --quick)."""
+    results: dict[str, tuple[float, float]] = {}
+
+    def measure(key: str, duration: float) -> tuple[float, float]:
+        if key not in results:
+            results[key] = _peak_of_run(duration)
+        return results[key]
+
+    long = 7200.0 if scale >= 1 else 720.0
+    yield "short_run_60s_peak_rss_mb", "MB", lambda: measure("short", 60.0)[0]
+    yield "long_run_peak_rss_mb", "MB", lambda: measure("long", long)[0]
+    yield "long_run_rss_growth_mb_per_hour", "MB/h", lambda: (measure("long", long)[0] - measure("short", 60.0)[0]) / ((long - 60.0) / 3600)
+    yield "long_run_wall_time_ratio", f"x (simulated ratio {long / 60:g})", lambda: measure("long", long)[1] / measure("short", 60.0)[1]
