@@ -192,8 +192,8 @@ def run(
         raise RunError(str(err)) from None
     result = RunResult(world_spec, seed, dt, logs, steps + 1)
     commands = np.zeros((len(robots), 2))
-    _notify(observers, "on_start", world, logs)
     try:
+        _notify(observers, "on_start", world, logs)  # inside: Ctrl-C while a recorder opens still ends the run
         for step in range(steps + 1):
             _sample(world, logs, estimators, result)
             _notify(observers, "on_sample", world, logs)
