@@ -232,13 +232,16 @@ def robot_from_dict(data: dict, where: str = "robot") -> RobotSpec:
         raise ValueError(f"{where}: {err}") from None
 
 
+def read_toml(path: Path, error: type[Exception] = ValueError) -> dict:
+    """A TOML file's data, or `error("path: problem")` for a file that cannot be read or parsed."""
+    try:
+        return tomllib.loads(path.read_text(encoding="utf-8"))
+    except OSError as err:
+        raise error(f"{path}: {err.strerror or err}") from None
+    except tomllib.TOMLDecodeError as err:
+        raise error(f"{path}: {err}") from None
+
+
 def load_robot(path: str | Path) -> RobotSpec:
     """Read a robot description from a TOML file (the keys are the `RobotSpec` fields)."""
-    path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except OSError as err:
-        raise ValueError(f"{path}: {err.strerror or err}") from None
-    except tomllib.TOMLDecodeError as err:
-        raise ValueError(f"{path}: {err}") from None
-    return robot_from_dict(data, str(path))
+    return robot_from_dict(read_toml(Path(path)), str(path))

@@ -21,12 +21,13 @@ import hashlib
 import itertools
 import json
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from bots.spec import read_toml
 
 DEFAULTS: dict[str, Any] = {
     "world": "maze",
@@ -130,14 +131,7 @@ def spec_from_dict(data: dict[str, Any], source: str = "<sweep>") -> SweepSpec:
 
 def load_sweep(path: str | Path) -> SweepSpec:
     """Read and check a sweep spec from a TOML file."""
-    path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except OSError as err:
-        raise SpecError(f"{path}: {err.strerror or err}") from None
-    except tomllib.TOMLDecodeError as err:
-        raise SpecError(f"{path}: {err}") from None
-    return spec_from_dict(data, str(path))
+    return spec_from_dict(read_toml(Path(path), SpecError), str(path))
 
 
 def _draw(values: Any, rng: np.random.Generator) -> Any:

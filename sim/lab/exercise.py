@@ -24,6 +24,8 @@ from typing import Any
 
 import numpy as np
 
+from bots.spec import read_toml
+
 SHIPPED = Path(__file__).resolve().parent / "exercises"
 LANGUAGES = ("en", "de")
 ENVIRONMENT = "CTSIM_LAB_EXERCISES"
@@ -148,12 +150,7 @@ def load_exercise(folder: str | Path) -> Exercise:
     """Read an exercise folder; mistakes are reported as `file: problem`."""
     folder = Path(folder)
     path = folder / "exercise.toml"
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except OSError as err:
-        raise ExerciseError(f"{path}: {err.strerror}") from None
-    except tomllib.TOMLDecodeError as err:
-        raise ExerciseError(f"{path}: {err}") from None
+    data = read_toml(path, ExerciseError)
     for required in ("number", "file"):
         if required not in data:
             raise ExerciseError(f"{path}: missing key '{required}'")
