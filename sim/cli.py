@@ -223,6 +223,38 @@ def _terminate(signum: int, frame: Any) -> None:
     raise Terminated
 
 
+class StopOnSignal:
+    """Run observer and context: while a run goes, Ctrl-C and SIGTERM only ask it to stop, and it
+    stops at the next step boundary. A signal raised wherever the process happens to be (inside
+    rerun's stream, a compiled kernel, a socket call) can leave a lock held, and the run would hang
+    instead of writing what it has. A second signal stops at once."""
+
+    def __init__(self) -> None:
+        self.received: int | None = None
+        self._previous: dict[int, Any] = {}
+
+    def __enter__(self) -> StopOnSignal:
+        self._previous = {s: signal.signal(s, self._handle) for s in (signal.SIGINT, signal.SIGTERM)}
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        for number, handler in self._previous.items():
+            signal.signal(number, handler)
+
+    def _handle(self, signum: int, frame: Any) -> None:
+        if self.received is not None:
+            self._raise(signum)
+        self.received = signum
+
+    @staticmethod
+    def _raise(signum: int) -> None:
+        raise Terminated if signum == signal.SIGTERM else KeyboardInterrupt
+
+    def on_sample(self, world: Any, logs: Any) -> None:
+        if self.received is not None:
+            self._raise(self.received)
+
+
 def _json_safe(value: Any) -> Any:
     """Plain JSON: NaN and infinities as null (strict parsers reject them)."""
     if isinstance(value, float):
@@ -290,8 +322,9 @@ def cmd_run(args: argparse.Namespace) -> int:
     facts = {"controller parameters": ", ".join(f"{k}={v}" for k, v in args.param) or "defaults", "noise": args.noise,
              "duration": f"{args.duration:g} s" + (" or until a goal" if until_goal else "")}
     recorder = Recorder(out / "run.rrd", live=args.live, connect=args.connect, facts=facts)
-    result = simulate(place, *setups, duration=args.duration, dt=args.dt, seed=args.seed, until_goal=until_goal,
-                      observers=(recorder, Progress(args.duration, args.dt)))
+    with StopOnSignal() as stop:
+        result = simulate(place, *setups, duration=args.duration, dt=args.dt, seed=args.seed, until_goal=until_goal,
+                          observers=(recorder, Progress(args.duration, args.dt), stop))
     return finish(result.raw, out, {"duration": args.duration, "until_goal": until_goal, **_robot_options(args)}, report=not args.no_report)
 
 
@@ -485,8 +518,9 @@ def cmd_bridge(args: argparse.Namespace) -> int:
         setups = [bridge.setup(spec, rc5=args.rc5, calls=calls) for _ in range(args.robots)] + python
         print(f"ctsim bridge: listening on {bridge.address} for {args.robots} firmware bot(s); start the firmware now", file=sys.stderr, flush=True)
         recorder = Recorder(out / "run.rrd", live=args.live)
-        observers = (recorder, bridge.observer(recorder, realtime=args.realtime), Progress(args.duration, args.dt))
-        result = run(world, setups, args.duration, dt=args.dt, seed=args.seed, observers=observers)
+        with StopOnSignal() as stop:
+            observers = (recorder, bridge.observer(recorder, realtime=args.realtime), Progress(args.duration, args.dt), stop)
+            result = run(world, setups, args.duration, dt=args.dt, seed=args.seed, observers=observers)
     for bot in bridge.summary():
         for call in bot["calls"]:
             outcome = f"result {call['result']} at step {call['done_step']}" if call["result"] is not None else "no result (r/D) yet"
