@@ -23,6 +23,7 @@ WRONG = {
     1: ["swapped", "degrees", "straight", "radius_factor"],
     2: ["euler", "old_heading", "degrees", "swapped", "straight"],
     3: ["euler", "swapped", "hardcoded", "end_heading"],
+    4: ["axle", "chord", "flipped", "no_my"],
 }
 
 
