@@ -109,6 +109,20 @@ def robot(params: dict) -> RobotSpec:
     return CTBOT.with_changes(name="labbot", **changes)
 
 
+def path_distance(points: np.ndarray, path: np.ndarray) -> np.ndarray:
+    """Distance (m) of each of `points` (T, 2) from the polyline `path` (K, 2)."""
+    a, b = path[:-1], path[1:]
+    ab = b - a
+    t = np.clip(np.einsum("tkd,kd->tk", points[:, None] - a, ab) / np.maximum((ab**2).sum(axis=1), 1e-12), 0.0, 1.0)
+    closest = a + t[..., None] * ab
+    return np.hypot(*(points[:, None] - closest).transpose(2, 0, 1)).min(axis=1)
+
+
+def moved(truth: np.ndarray, dt: float, seconds: float = 1.0) -> float:
+    """Distance (m) between the last pose of `truth` (T, 3) and the one `seconds` before."""
+    return float(np.hypot(*(truth[-1, :2] - truth[max(0, len(truth) - 1 - round(seconds / dt)), :2])))
+
+
 def check_estimator(scenario, spec: RobotSpec, student: Student, reference, mistakes: dict) -> Outcome:  # noqa: ANN001
     """An estimator exercise: the student's `Odometry` beside `reference` (an estimator) in a run
     on the scenario's wheel-speed `segments` on an open floor (sampled every `dt` s, default

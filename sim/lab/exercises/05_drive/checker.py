@@ -9,7 +9,7 @@ import numpy as np
 from sim.kinematics import wrap_angle
 from sim.lab.artifacts import observers
 from sim.lab.checking import Outcome
-from sim.lab.runs import RemoteController, robot
+from sim.lab.runs import RemoteController, moved, path_distance, robot
 from sim.run import RobotSetup, run
 from sim.world.spec import Start, Wall, WorldSpec
 
@@ -26,15 +26,6 @@ def draw(rng, index, ranges):
     length = sum(float(np.hypot(*(b - a))) for a, b in zip(points, points[1:]))
     return {"waypoints": [p.tolist() for p in points[1:]], "heading": float(rng.uniform(*ranges["heading"])),
             "time": round(2.0 + length / SPEED + 2.0 * len(points), 1)}  # fmt: skip
-
-
-def path_distance(points: np.ndarray, path: np.ndarray) -> np.ndarray:
-    """Distance (m) of each of `points` (T, 2) from the polyline `path` (K, 2)."""
-    a, b = path[:-1], path[1:]
-    ab = b - a
-    t = np.clip(np.einsum("tkd,kd->tk", points[:, None] - a, ab) / np.maximum((ab**2).sum(axis=1), 1e-12), 0.0, 1.0)
-    closest = a + t[..., None] * ab
-    return np.hypot(*(points[:, None] - closest).transpose(2, 0, 1)).min(axis=1)
 
 
 def floor(scenario) -> WorldSpec:
@@ -64,7 +55,7 @@ def check(scenario, student):
            + f", path ±{deviation:.2f} m, {log.collisions} collisions")  # fmt: skip
     expected = f"({goal[0]:.2f}, {goal[1]:.2f}, {goal[2]:.2f}) by {float(scenario['time']):g} s"
     tolerance = f"{tol['position']:g} m, {tol['heading']:g} rad, path {tol['path']:g} m, 0 collisions"
-    moving = float(np.hypot(*(truth[-1, :2] - truth[max(0, len(truth) - 1 - round(1.0 / result.dt)), :2]))) > 0.005
+    moving = moved(truth, result.dt) > 0.005  # m in the last second: still on its way
     hint = ("collision" if log.collisions else "path" if deviation > tol["path"]
             else ("slow" if moving else "position") if distance[-1] > tol["position"]
             else "heading" if error[-1] > tol["heading"] else None)  # fmt: skip
