@@ -51,8 +51,8 @@ def check(scenario, student):
     outside = np.flatnonzero(~inside)
     arrival = None if not inside[-1] else float(result.time[outside[-1] + 1] if outside.size else 0.0)
     deviation = float(path_distance(truth[:, :2], np.vstack([truth[0, :2], scenario["waypoints"]])).max())
-    got = (f"{distance[-1]:.3f} m, {error[-1]:.2f} rad, " + (f"there at {arrival:.1f} s" if arrival is not None else "not there")
-           + f", path ±{deviation:.2f} m, {log.collisions} collisions")  # fmt: skip
+    there = f"at {arrival:.1f} s" if arrival is not None else "not there"
+    got = f"{distance[-1] * 1000:.0f} mm {error[-1]:.2f} rad {there}; path {deviation * 1000:.0f} mm; {log.collisions} collisions"
     expected = f"({goal[0]:.2f}, {goal[1]:.2f}, {goal[2]:.2f}) by {float(scenario['time']):g} s"
     tolerance = f"{tol['position']:g} m, {tol['heading']:g} rad, path {tol['path']:g} m, 0 collisions"
     moving = moved(truth, result.dt) > 0.005  # m in the last second: still on its way
