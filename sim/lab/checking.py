@@ -39,7 +39,7 @@ class Outcome:
 
 @dataclass
 class Row:
-    """One line of the table."""
+    """One line of the table; `problem` is the key of its hint (what went wrong)."""
 
     scenario: str
     expected: str
@@ -48,6 +48,7 @@ class Row:
     passed: bool
     hint: str = ""
     hidden: bool = False
+    problem: str = ""
 
 
 @dataclass
@@ -104,11 +105,12 @@ def _one(exercise: Exercise, scenario: Scenario, student: Student, lang: str, sh
     except StudentError as err:
         hint = exercise.hint(err.kind, lang, shared, limit=exercise.time_limit)
         got = err.public if scenario.hidden else err.detail
-        return Row(scenario.name, HIDDEN if scenario.hidden else "", got, "", False, hint, scenario.hidden), None
-    hint = "" if outcome.passed else exercise.hint(outcome.hint or "wrong", lang, shared, **outcome.hint_args)
+        return Row(scenario.name, HIDDEN if scenario.hidden else "", got, "", False, hint, scenario.hidden, err.kind), None
+    problem = "" if outcome.passed else outcome.hint or "wrong"
+    hint = exercise.hint(problem, lang, shared, **outcome.hint_args) if problem else ""
     if scenario.hidden:
-        return Row(scenario.name, HIDDEN, HIDDEN, outcome.tolerance, outcome.passed, hint, True), outcome
-    return Row(scenario.name, outcome.expected, outcome.got, outcome.tolerance, outcome.passed, hint), outcome
+        return Row(scenario.name, HIDDEN, HIDDEN, outcome.tolerance, outcome.passed, hint, True, problem), outcome
+    return Row(scenario.name, outcome.expected, outcome.got, outcome.tolerance, outcome.passed, hint, problem=problem), outcome
 
 
 def table(report: CheckReport, lang: str = "en") -> str:

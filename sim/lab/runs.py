@@ -13,7 +13,10 @@ import numpy as np
 from bots.commands import Command, WheelSpeeds
 from bots.ctbot import CTBOT
 from bots.spec import RobotSpec
+from sim.lab.artifacts import observers
+from sim.lab.checking import Outcome, fmt
 from sim.lab.sandbox import Student, StudentError, command, numbers
+from sim.run import RobotSetup, run
 from sim.world.readings import Readings
 from sim.world.spec import Start, WorldSpec
 
@@ -104,3 +107,41 @@ def robot(params: dict) -> RobotSpec:
     """The c't-Bot with the scenario's wheel diameter and track (m) where it names them."""
     changes = {k: float(params[k]) for k in ("wheel_diameter", "track_width") if k in params}
     return CTBOT.with_changes(name="labbot", **changes)
+
+
+def path_distance(points: np.ndarray, path: np.ndarray) -> np.ndarray:
+    """Distance (m) of each of `points` (T, 2) from the polyline `path` (K, 2)."""
+    a, b = path[:-1], path[1:]
+    ab = b - a
+    t = np.clip(np.einsum("tkd,kd->tk", points[:, None] - a, ab) / np.maximum((ab**2).sum(axis=1), 1e-12), 0.0, 1.0)
+    closest = a + t[..., None] * ab
+    return np.hypot(*(points[:, None] - closest).transpose(2, 0, 1)).min(axis=1)
+
+
+def moved(truth: np.ndarray, dt: float, seconds: float = 1.0) -> float:
+    """Distance (m) between the last pose of `truth` (T, 3) and the one `seconds` before."""
+    return float(np.hypot(*(truth[-1, :2] - truth[max(0, len(truth) - 1 - round(seconds / dt)), :2])))
+
+
+def check_estimator(scenario, spec: RobotSpec, student: Student, reference, mistakes: dict) -> Outcome:  # noqa: ANN001
+    """An estimator exercise: the student's `Odometry` beside `reference` (an estimator) in a run
+    on the scenario's wheel-speed `segments` on an open floor (sampled every `dt` s, default
+    0.01), compared over the whole run (the
+    scenario's tolerances `position` m and `heading` rad); a failure is matched against
+    `mistakes` (hint key -> estimator), each replayed on the same readings."""
+    schedule, collect = Schedule(scenario["segments"]), Collect()
+    setup = RobotSetup(spec, schedule, "schedule", estimators=[reference, RemoteEstimator(student, "Odometry")])
+    result = run(open_floor(), [setup], schedule.duration + 0.5, float(scenario.params.get("dt", 0.01)), scenario.seed, observers=(collect, *observers(scenario)))
+    log = result.robots[0]
+    expected, yours = log.estimate_arrays()[reference.name], log.estimate_arrays()["yours"]
+    tol_p, tol_h = scenario.tolerance["position"], scenario.tolerance["heading"]
+    worst = float(np.hypot(*(yours[:, :2] - expected[:, :2]).T).max())
+    heading = abs(yours[-1, 2] - expected[-1, 2])
+    tracks = {"truth": (result.time, log.truth_array()), "reference": (result.time, expected), "yours": (result.time, yours)}
+    tolerance = f"{tol_p:g} m, {tol_h:g} rad"
+    if worst <= tol_p and heading <= tol_h:
+        return Outcome(fmt(expected[-1]), fmt(yours[-1]), True, tolerance, tracks=tracks)
+    start = log.truth_array()[0]
+    hint = next((key for key, wrong in mistakes.items()
+                 if np.allclose(replay(wrong, spec, start, collect.samples), yours[-1], atol=tol_p, rtol=0)), None)  # fmt: skip
+    return Outcome(fmt(expected[-1]), fmt(yours[-1]), False, tolerance, hint, {"error": worst}, tracks=tracks)
