@@ -23,6 +23,7 @@ import sim
 from bots.spec import RobotSpec
 from sim.kinematics import counts_per_metre
 from sim.world import kernels
+from sim.world.bodies import BodyArrays
 from sim.world.chassis_drive import ChassisDrive
 from sim.world.floor import FloorMap, rasterize
 from sim.world.readings import Readings
@@ -41,14 +42,6 @@ MOVABLE_DAMPING = 0.05
 """Velocity fraction movable obstacles keep after a second: they slide a little and stop."""
 ROBOT = 1
 """pymunk collision type of robot bodies (to count their contacts)."""
-
-
-# pymunk routes every attribute assignment through a pass-through __setattr__ (about 1 us); the
-# four assignments per robot and step go to the property setters directly.
-_set_velocity = pymunk.Body.velocity.fset
-_set_angular_velocity = pymunk.Body.angular_velocity.fset
-_set_force = pymunk.Body.force.fset
-_set_torque = pymunk.Body.torque.fset
 
 
 class CommandError(ValueError):
@@ -137,7 +130,9 @@ class World:
         self._lights = np.array([(*light.position, light.height, light.radius) for light in spec.lights], dtype=np.float64).reshape(-1, 4)
         self._floor_origin = np.array(self.floor.origin)
         self._state = _BatchState.empty()
+        self._bodies = BodyArrays(self.space, [])
         self._poses = np.zeros((0, 3))
+        self._stale = False
         self.chassis = ChassisDrive(dt)
         """The drive of robots on a general chassis (commands, faults; see `sim.world.chassis_drive`)."""
 
@@ -178,22 +173,29 @@ class World:
         self.robots.append(robot)
         if spec.chassis is not None:
             self.chassis.add(robot)
-        self._state = _BatchState.build(self.robots, self.dt)
-        self._poses = self._read_poses()
+        self._stale = True
         return robot
+
+    def _batch(self) -> _BatchState:
+        """The kernels' arrays, rebuilt once after robots joined (not once per robot added: a
+        thousand robots would cost a million rows)."""
+        if self._stale:
+            self._state = _BatchState.build(self.robots, self.dt)
+            self._bodies = BodyArrays(self.space, [r.body for r in self.robots])
+            self._poses = self._bodies.poses()
+            self._stale = False
+        return self._state
 
     def poses(self) -> np.ndarray:
         """(n, 3) ground-truth poses of all robots (a copy)."""
+        self._batch()
         return self._poses.copy()
-
-    def _read_poses(self) -> np.ndarray:
-        return np.array([(r.body.position.x, r.body.position.y, r.body.angle) for r in self.robots]).reshape(-1, 3)
 
     # --- sensors ----------------------------------------------------------------------------
 
     def read_all(self) -> list[Readings]:
         """Every robot's sensor readings from the current state (the start of the next step)."""
-        st = self._state
+        st = self._batch()
         pose = self._poses
         floor = np.empty(len(st.floor_owner), dtype=np.int64)
         if len(floor):
@@ -236,7 +238,7 @@ class World:
         return hit.alpha * length if hit is not None else math.inf
 
     def _read_ir(self, pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        st = self._state
+        st = self._batch()
         n = len(st.ir_sensors)
         distance = np.empty(n)
         if n:
@@ -266,7 +268,7 @@ class World:
         if not np.all(np.isfinite(commands)):
             bad = [self.robots[i].name for i in np.unique(np.nonzero(~np.isfinite(commands))[0])]
             raise CommandError(f"non-finite motor command for {', '.join(bad)} at step {self.steps}")
-        st = self._state
+        st = self._batch()
         before = self._poses
         st.draw_encoder_noise(self.robots)
         kernels.drive(
@@ -281,12 +283,11 @@ class World:
         kernels.sweep_walls(before, st.move, st.sweep_radius, SLIDE_MARGIN, self._walls.vertices, self._walls.ranges, self._walls.boxes)
         if len(self.robots) > 1:
             kernels.keep_apart(before, st.move, st.apart_radius)
-        for robot in self.robots:
-            self._apply_motion(robot, st.move[robot.index], st.alpha[robot.index])
+        self._apply_motion(st)
         self.space.step(self.dt)
         for robot in self.robots:
             pymunk.Body.update_position(robot.body, self.dt)
-        after = self._poses = self._read_poses()
+        after = self._poses = self._bodies.poses()
         newly_fallen = ~st.fallen
         st.draw_mouse_noise(self.robots)
         kernels.measure(
@@ -300,23 +301,17 @@ class World:
         self.steps += 1
         self.time = self.steps * self.dt
 
-    def _apply_motion(self, robot: Robot, move: np.ndarray, alpha: float) -> None:
-        """Make the body's velocity after pymunk's velocity phase move/dt and alpha/dt.
+    def _apply_motion(self, st: _BatchState) -> None:
+        """Make each body's velocity after pymunk's velocity phase move/dt and alpha/dt.
 
         pymunk moves bodies *before* it solves contacts, with the velocity they have; a velocity
         set before `space.step` would push the body into a wall unchecked. So the body enters the
         step at rest (it does not move then), a force gives it the planned velocity in the
         velocity phase (v = f dt / m), the contact solver corrects it, and the position is
         integrated after the step (`update_position`): the same order as setting the velocity
-        inside `velocity_func`, without a Python callback per body."""
-        body = robot.body
-        _set_velocity(body, (0.0, 0.0))
-        _set_angular_velocity(body, 0.0)
-        if robot.fallen:
-            return
-        per_step = body.mass / (self.dt * self.dt)
-        _set_force(body, (float(move[0]) * per_step, float(move[1]) * per_step))
-        _set_torque(body, float(alpha) * body.moment / (self.dt * self.dt))
+        inside `velocity_func`, without a Python callback per body. A fallen robot's move is zero."""
+        dt2 = self.dt * self.dt
+        self._bodies.push(st.move * (st.mass / dt2)[:, None], st.alpha * st.moment / dt2)
 
     def _count_contact(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:  # noqa: ANN001
         """A robot started touching something: one more collision for it (for both, robot on robot)."""
@@ -365,6 +360,8 @@ def _contacts(spec: RobotSpec) -> np.ndarray:
 class _BatchState:
     """Per-robot parameters and state as arrays for the kernels (rebuilt when a robot joins)."""
 
+    mass: np.ndarray
+    moment: np.ndarray
     command_max: np.ndarray
     max_speed: np.ndarray
     lag: np.ndarray
@@ -444,6 +441,8 @@ class _BatchState:
             key = (id(curve), sensor.min_range, sensor.max_range)
             groups.setdefault(key, (curve, [], (sensor.min_range, sensor.max_range)))[1].append(k)
         state = cls(
+            mass=np.array([r.body.mass for r in robots], dtype=np.float64),
+            moment=np.array([r.body.moment for r in robots], dtype=np.float64),
             command_max=np.array([m.command_max for m in motor], dtype=np.float64),
             max_speed=np.array([m.max_wheel_speed for m in motor], dtype=np.float64),
             lag=np.array(lag, dtype=np.float64),
