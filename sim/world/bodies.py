@@ -25,8 +25,11 @@ class BodyArrays:
         batch.get_space_bodies(space, batch.BodyFields.BODY_ID, ids)
         order = np.frombuffer(ids.int_buf(), dtype=np.uintp)
         row = {body_id: k for k, body_id in enumerate(order.tolist())}
-        self.rows = np.array([row[body.id] for body in bodies], dtype=np.int64)
-        """Each robot's row in pymunk's walk over the bodies."""
+        rows = np.array([row[body.id] for body in bodies], dtype=np.int64)
+        self._others = len(order) > len(rows)
+        """Other bodies (movable obstacles) are walked too: their values are read and written back."""
+        self.rows = rows if self._others or np.any(rows != np.arange(len(rows))) else slice(None)
+        """Each robot's row in pymunk's walk over the bodies (all rows in order: a slice, cheaper)."""
         self._read = batch.Buffer()
         self._motion = np.zeros((len(order), 6))  # vx, vy, w, fx, fy, torque per body
         self._write = batch.Buffer()
@@ -36,15 +39,16 @@ class BodyArrays:
         """(n, 3) robot poses (x, y m; heading rad), a new array."""
         self._read.clear()
         batch.get_space_bodies(self.space, _POSE, self._read)
-        return np.frombuffer(self._read.float_buf()).reshape(-1, 3)[self.rows]
+        return np.frombuffer(self._read.float_buf()).reshape(-1, 3)[self.rows].copy()
 
     def push(self, force: np.ndarray, torque: np.ndarray) -> None:
         """Robots at rest with `force` (n, 2) N and `torque` (n,) N m on them for the next step; the
         other bodies keep their velocities and forces."""
-        self._read.clear()
-        batch.get_space_bodies(self.space, _MOTION, self._read)
-        self._motion[:] = np.frombuffer(self._read.float_buf()).reshape(-1, 6)
-        self._motion[self.rows, :3] = 0.0
+        if self._others:
+            self._read.clear()
+            batch.get_space_bodies(self.space, _MOTION, self._read)
+            self._motion[:] = np.frombuffer(self._read.float_buf()).reshape(-1, 6)
+            self._motion[self.rows, :3] = 0.0  # (without others, the velocities stay the zeros they started as)
         self._motion[self.rows, 3:5] = force
         self._motion[self.rows, 5] = torque
         batch.set_space_bodies(self.space, _MOTION, self._write)
