@@ -26,12 +26,17 @@ class BodyArrays:
         order = np.frombuffer(ids.int_buf(), dtype=np.uintp)
         row = {body_id: k for k, body_id in enumerate(order.tolist())}
         rows = np.array([row[body.id] for body in bodies], dtype=np.int64)
-        self._others = len(order) > len(rows)
-        """Other bodies (movable obstacles) are walked too: their values are read and written back."""
-        self.rows = rows if self._others or np.any(rows != np.arange(len(rows))) else slice(None)
-        """Each robot's row in pymunk's walk over the bodies (all rows in order: a slice, cheaper)."""
+        robots = {body.id for body in bodies}
+        self._others = any(body.id not in robots for body in space.bodies)
+        """Movable obstacles are walked too: their velocities and forces are read and written back
+        every step (the static body's never change: read once here)."""
+        consecutive = len(rows) > 0 and np.array_equal(rows, np.arange(rows[0], rows[0] + len(rows)))
+        self.rows = slice(int(rows[0]), int(rows[0]) + len(rows)) if consecutive else rows
+        """Each robot's row in pymunk's walk over the bodies (consecutive rows: a slice, cheaper)."""
         self._read = batch.Buffer()
-        self._motion = np.zeros((len(order), 6))  # vx, vy, w, fx, fy, torque per body
+        batch.get_space_bodies(space, _MOTION, self._read)
+        self._motion = np.frombuffer(self._read.float_buf()).reshape(-1, 6).copy()  # vx, vy, w, fx, fy, torque per body
+        self._motion[self.rows, :3] = 0.0
         self._write = batch.Buffer()
         self._write.set_float_buf(self._motion)  # pymunk reads this array in place
 
@@ -48,7 +53,7 @@ class BodyArrays:
             self._read.clear()
             batch.get_space_bodies(self.space, _MOTION, self._read)
             self._motion[:] = np.frombuffer(self._read.float_buf()).reshape(-1, 6)
-            self._motion[self.rows, :3] = 0.0  # (without others, the velocities stay the zeros they started as)
+            self._motion[self.rows, :3] = 0.0  # (without them, the robots' velocities stay the zeros set above)
         self._motion[self.rows, 3:5] = force
         self._motion[self.rows, 5] = torque
         batch.set_space_bodies(self.space, _MOTION, self._write)
