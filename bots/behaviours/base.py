@@ -15,7 +15,7 @@ import numpy as np
 from bots.commands import STOP, Command, wheel_speeds_for
 from bots.controller import Status
 from bots.spec import RobotSpec
-from sim.kinematics import advance, arcs_from_ticks, relative_increment
+from sim.kinematics import advance, arcs_from_ticks, relative_pose
 from sim.world.readings import Readings
 
 # The firmware's speeds (BOT_SPEED_* in mm/s) as rim speeds in m/s.
@@ -137,7 +137,7 @@ class Behaviour:
     @property
     def pose(self) -> np.ndarray:
         """Believed pose (x m, y m, heading rad) in this behaviour's frame."""
-        return relative_increment(self.origin, self.odometry.pose)
+        return relative_pose(self.origin, self.odometry.pose)
 
     @property
     def dt(self) -> float:
