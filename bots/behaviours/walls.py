@@ -98,7 +98,7 @@ class SolveMaze(Plan):
         super().start()
 
     def act(self, t: float, readings: Readings) -> Command:
-        if self.entering is None and np.any(np.abs(readings.line - GROUND_GOAL) <= GOAL_TOLERANCE):
+        if self.entering is None and any(abs(v - GROUND_GOAL) <= GOAL_TOLERANCE for v in readings.line.tolist()):
             self.entering = self.run(DriveToRoom(self.cell / 4, 0.0, self.speed))
         if self.entering is None:
             return super().act(t, readings)
