@@ -66,14 +66,14 @@ def maze_run(steps: int, record: bool) -> float:
 
 
 def many_ctbots(steps: int, count: int = 100) -> float:
-    """`count` c't-Bots with every sensor in one open world, on a grid, each driving a circle."""
+    """`count` c't-Bots with every sensor in one open floor sized for them (a square grid, 0.3 m
+    apart), each driving a wide circle, so that neighbours meet now and then."""
     side = int(np.ceil(np.sqrt(count)))
-    world = World(load_world("empty"))
-    xmin, ymin, xmax, ymax = world.spec.bounds
-    xs = np.linspace(xmin + 0.2, xmax - 0.2, side)
-    ys = np.linspace(ymin + 0.2, ymax - 0.2, side)
+    spacing = 0.3
+    # a coarse floor raster: the default 2 mm cells of a 10 m floor would take hundreds of MB
+    world = World(WorldSpec("open", (0.0, 0.0, side * spacing, side * spacing)), floor_cell=0.01)
     for k in range(count):
-        world.add_robot(CTBOT, (xs[k % side], ys[k // side], 0.0))
+        world.add_robot(CTBOT, ((k % side + 0.5) * spacing, (k // side + 0.5) * spacing, 0.0))
     commands = np.tile([150.0, 170.0], (count, 1))
     return _steps_per_second(world, steps, commands)
 
@@ -81,7 +81,14 @@ def many_ctbots(steps: int, count: int = 100) -> float:
 def figures(scale: float):
     """(name, unit, thunk) for the world benchmarks."""
     yield "world_empty_1bot", "steps/s", lambda: empty_1bot(int(20000 * scale))
-    yield "world_maze_ctbot_all_sensors", "steps/s", lambda: maze_ctbot(int(10000 * scale))
+    bare: list[float] = []
+
+    def world_step() -> float:
+        if not bare:
+            bare.append(maze_ctbot(int(10000 * scale)))
+        return bare[0]
+
+    yield "world_maze_ctbot_all_sensors", "steps/s", world_step
     steps = int(180_000 * scale)  # 30 simulated minutes (full), 6 (quick)
     measured: dict[bool, float] = {}
 
@@ -90,7 +97,17 @@ def figures(scale: float):
             measured[record] = maze_run(steps, record)
         return measured[record]
 
-    yield "world_maze_ctbot_run", "steps/s", lambda: once(False)
-    yield "world_maze_ctbot_recording", "steps/s", lambda: once(True)
-    yield "world_maze_ctbot_recording_ratio", "(recording / run, same run; bar >= 0.75)", lambda: once(True) / once(False)
-    yield "world_100_ctbots", "steps/s", lambda: many_ctbots(int(300 * scale))
+    yield "run_maze_solve", "steps/s", lambda: once(False)
+    yield "run_maze_solve_over_world_step", "(whole run / bare world step, same run; bar >= 0.5)", lambda: once(False) / world_step()
+    yield "run_maze_solve_recording", "steps/s", lambda: once(True)
+    yield "run_maze_solve_recording_ratio", "(recording / run, same run; bar >= 0.75)", lambda: once(True) / once(False)
+    crowds: dict[int, float] = {}
+
+    def crowd(count: int) -> float:
+        if count not in crowds:
+            crowds[count] = many_ctbots(max(int(30_000 * scale) // count, 10), count)
+        return crowds[count]
+
+    yield "world_100_ctbots", "steps/s", lambda: crowd(100)
+    yield "world_1000_ctbots", "steps/s", lambda: crowd(1000)
+    yield "world_ctbots_cost_1000_over_10", "(cost per robot-step at 1,000 / at 10 robots, same run; bar <= 1.5)", lambda: 10 * crowd(10) / (1000 * crowd(1000))

@@ -71,7 +71,8 @@ def wheel_speeds_for(command: Command, robot: RobotSpec) -> tuple[float, float]:
     elif isinstance(command, Twist):
         if command.vy != 0:
             raise BadCommand(f"refused {command!r}: a differential drive cannot move sideways (vy must be 0)")
-        left, right = wheel_speeds_from_twist(command.v, command.omega, robot.track_width)
+        half = 0.5 * float(command.omega) * robot.track_width  # `wheel_speeds_from_twist` in floats: once a step
+        left, right = float(command.v) - half, float(command.v) + half
     elif isinstance(command, CurveCommand):
         chassis = differential_drive(track=robot.track_width, wheel_radius=robot.wheel_radius)
         v_top = robot.max_wheel_surface_speed

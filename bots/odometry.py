@@ -19,7 +19,7 @@ import numpy as np
 
 from bots.chassis_odometry import chassis_estimators
 from bots.spec import RobotSpec
-from sim.kinematics import MouseEstimator, advance, wheel_arcs_to_arc
+from sim.kinematics import MouseEstimator, advance
 from sim.kinematics.mouse import counts_per_metre
 from sim.world.readings import Readings
 
@@ -95,9 +95,11 @@ class EncoderOdometry(_ArcOdometry):
         self.metres_per_tick = tuple(math.pi * d / robot.encoders.ticks_per_rev for d in believed.wheel_diameters)
 
     def arc(self, readings: Readings) -> tuple[float, float]:
-        s_left, s_right = (float(t) * m for t, m in zip(readings.encoder_ticks, self.metres_per_tick))
-        s, alpha = wheel_arcs_to_arc(s_left, s_right, self.track)
-        return float(s), float(alpha)
+        # `wheel_arcs_to_arc` in plain floats (the same operations): numpy's per-call cost on
+        # two numbers is most of an estimator's step
+        left, right = readings.encoder_ticks.tolist()
+        s_left, s_right = left * self.metres_per_tick[0], right * self.metres_per_tick[1]
+        return 0.5 * (s_left + s_right), (s_right - s_left) / self.track
 
 
 class FirmwareOdometry(EncoderOdometry):
@@ -119,10 +121,14 @@ class MouseOdometry(_ArcOdometry):
             raise ValueError(f"robot {robot.name!r} has no mouse sensor: mouse odometry does not apply")
         super().reset(robot, pose)
         self.model = MouseEstimator(tuple(robot.mouse.mount), robot.mouse.dpi)
+        self.mount = tuple(float(m) for m in self.model.mount)
+        self.per_metre = float(counts_per_metre(self.model.dpi))
 
     def arc(self, readings: Readings) -> tuple[float, float]:
-        s, alpha = self.model.arc(readings.mouse_counts)
-        return float(s), float(alpha)
+        # `MouseEstimator.arc` in plain floats (the same operations), as `EncoderOdometry.arc`
+        forward, lateral = readings.mouse_counts.tolist()
+        alpha = lateral / self.per_metre / self.mount[0]
+        return forward / self.per_metre + alpha * self.mount[1], alpha
 
 
 class FusedOdometry(_ArcOdometry):

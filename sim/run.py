@@ -149,17 +149,6 @@ def _notify(observers, method: str, *args) -> None:
             handler(*args)
 
 
-def _in_goal(world: WorldSpec, pose: np.ndarray) -> bool:
-    for goal in world.goals:
-        v = np.asarray(goal.vertices)
-        edges = np.roll(v, -1, axis=0) - v
-        rel = pose[:2] - v
-        cross = edges[:, 0] * rel[:, 1] - edges[:, 1] * rel[:, 0]
-        if np.all(cross >= 0) or np.all(cross <= 0):
-            return True
-    return False
-
-
 def run(
     world_spec: WorldSpec,
     robots: list[RobotSetup],
@@ -262,10 +251,10 @@ def _complete_samples(result: RunResult) -> None:
 def _sample(world: World, logs: list[RobotLog], estimators: list[list[Estimator]], result: RunResult) -> None:
     """Read every robot's sensors at the current state and log truth and estimates."""
     result.append(world.time)
-    for robot, log, chosen, readings in zip(world.robots, logs, estimators, world.read_all()):
-        pose = robot.pose
+    poses = world.poses()
+    for pose, xy, log, chosen, readings in zip(poses, poses[:, :2].tolist(), logs, estimators, world.read_all()):
         for estimator in chosen:
             estimator.update(readings)
         log.append(readings, pose, [estimator.pose for estimator in chosen])
-        if log.goal_time is None and _in_goal(world.spec, pose):
+        if log.goal_time is None and world.spec.in_goal(*xy):
             log.goal_time = world.time

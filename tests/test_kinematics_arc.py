@@ -30,6 +30,7 @@ from sim.kinematics import (
     half_angle_terms,
     integrate_arcs,
     relative_increment,
+    relative_pose,
     se2_exp,
     se2_log,
     twist_from_wheel_speeds,
@@ -315,3 +316,10 @@ def test_firmware_path_for_varying_arcs(wheels: list[tuple[float, float]], start
         predicted = predicted + rotate_about(exact[j + 1, :2] - exact[j, :2], np.zeros(2), a[j] / 2)
         np.testing.assert_allclose(firmware[:2], predicted, rtol=0, atol=1e-12 * (1 + np.abs(start[:2]).max()))
         assert firmware[2] == pytest.approx(exact[j + 1, 2], abs=1e-12)
+
+
+@given(pose, pose)
+def test_relative_pose_is_relative_increment_of_one_pair(start, end) -> None:
+    """The scalar form gives the numpy form's numbers (the same operations; the tolerance allows
+    a libm whose sine rounds differently from numpy's in the last bit, times coordinates of metres)."""
+    np.testing.assert_allclose(relative_pose(start, end), relative_increment(np.array(start), np.array(end)), rtol=0, atol=1e-12)

@@ -15,7 +15,7 @@ import numpy as np
 from bots.commands import STOP, Command, wheel_speeds_for
 from bots.controller import Status
 from bots.spec import RobotSpec
-from sim.kinematics import advance, arcs_from_ticks, relative_increment
+from sim.kinematics import advance, arcs_from_ticks, relative_pose
 from sim.world.readings import Readings
 
 # The firmware's speeds (BOT_SPEED_* in mm/s) as rim speeds in m/s.
@@ -61,24 +61,37 @@ class TickOdometry:
     def __init__(self, robot: RobotSpec):
         self.robot = robot
         self.metres_per_tick = float(arcs_from_ticks(1, robot.wheel_radius, robot.encoders.ticks_per_rev))
-        self.counted = np.zeros(2)
-        self.turned = np.zeros(2)
+        self._counted = [0.0, 0.0]
+        self._turned = [0.0, 0.0]
         self.pose = np.zeros(3)
         self.time: float | None = None
         self.dt = DEFAULT_DT
 
+    @property
+    def counted(self) -> np.ndarray:
+        """Ticks counted per wheel (left, right)."""
+        return np.array(self._counted)
+
+    @property
+    def turned(self) -> np.ndarray:
+        """Ticks each wheel is believed to have turned, within [counted, counted + 1)."""
+        return np.array(self._turned)
+
     def update(self, readings: Readings, speeds: tuple[float, float]) -> None:
-        """Take one step's readings; `speeds` are the rim speeds (m/s) commanded in the step before."""
-        if self.time is not None and readings.time > self.time:
+        """Take one step's readings; `speeds` are the rim speeds (m/s) commanded in the step before.
+        (Plain floats per wheel: numpy's per-call cost on two numbers was most of this step.)"""
+        stepped = self.time is not None and readings.time > self.time
+        if stepped:
             self.dt = readings.time - self.time
-            guess = self.turned + np.asarray(speeds) * self.dt / self.metres_per_tick
-        else:
-            guess = self.turned
         self.time = readings.time
-        self.counted += readings.encoder_ticks
-        turned = np.clip(guess, self.counted, self.counted + 1.0)
-        left, right = (turned - self.turned) * self.metres_per_tick
-        self.turned = turned
+        arcs = []
+        for w, ticks in enumerate(readings.encoder_ticks.tolist()):
+            guess = self._turned[w] + float(speeds[w]) * self.dt / self.metres_per_tick if stepped else self._turned[w]
+            counted = self._counted[w] = self._counted[w] + ticks
+            turned = min(max(guess, counted), counted + 1.0)
+            arcs.append((turned - self._turned[w]) * self.metres_per_tick)
+            self._turned[w] = turned
+        left, right = arcs
         self.pose = advance(self.pose, 0.5 * (left + right), (right - left) / self.robot.track_width)
 
 
@@ -124,7 +137,7 @@ class Behaviour:
     @property
     def pose(self) -> np.ndarray:
         """Believed pose (x m, y m, heading rad) in this behaviour's frame."""
-        return relative_increment(self.origin, self.odometry.pose)
+        return relative_pose(self.origin, self.odometry.pose)
 
     @property
     def dt(self) -> float:

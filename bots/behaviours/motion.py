@@ -10,7 +10,7 @@ import numpy as np
 from bots.behaviours.base import SPEED_NORMAL, Behaviour, Plan, ramp
 from bots.commands import STOP, Command, Twist
 from bots.controller import Status, register
-from sim.kinematics import relative_increment, wrap_angle
+from sim.kinematics import relative_pose, wrap_angle
 from sim.world.readings import Readings
 
 DISTANCE_TOLERANCE = 2e-4
@@ -92,7 +92,7 @@ class DriveTo(Behaviour):
         self.speed = speed_m_s
 
     def act(self, t: float, readings: Readings) -> Command:
-        local = relative_increment(self.pose, self.target)
+        local = relative_pose(self.pose, self.target)
         distance = math.hypot(local[0], local[1])
         if distance <= DISTANCE_TOLERANCE:
             return self.finish()
@@ -124,7 +124,7 @@ class GoToPose(Plan):
             bearing = math.atan2(gy - y, gx - x)
             departure = bearing + float(np.clip(wrap_angle(bearing - final), -MAX_ARC_HALF_ANGLE, MAX_ARC_HALF_ANGLE))
             yield Turn(math.degrees(float(wrap_angle(departure - heading))), self.speed)
-            local = relative_increment(self.pose, np.array([gx, gy, 0.0]))
+            local = relative_pose(self.pose, (gx, gy, 0.0))
             if (yield DriveTo(local[0], local[1], self.speed)) is Status.FAILURE:
                 return Status.FAILURE
         yield Turn(math.degrees(float(wrap_angle(final - self.pose[2]))), self.speed)

@@ -18,7 +18,7 @@ from bots.behaviours.base import (
 from bots.behaviours.motion import DriveDistance, DriveTo, Turn
 from bots.commands import Command, Twist
 from bots.controller import Status, register
-from sim.kinematics import apply_increment, relative_increment, wrap_angle
+from sim.kinematics import apply_increment, relative_increment, relative_pose, wrap_angle
 from sim.world.readings import Readings
 
 GOAL_TOLERANCE = 0x10
@@ -98,7 +98,7 @@ class SolveMaze(Plan):
         super().start()
 
     def act(self, t: float, readings: Readings) -> Command:
-        if self.entering is None and np.any(np.abs(readings.line - GROUND_GOAL) <= GOAL_TOLERANCE):
+        if self.entering is None and any(abs(v - GROUND_GOAL) <= GOAL_TOLERANCE for v in readings.line.tolist()):
             self.entering = self.run(DriveToRoom(self.cell / 4, 0.0, self.speed))
         if self.entering is None:
             return super().act(t, readings)
@@ -108,7 +108,7 @@ class SolveMaze(Plan):
     @property
     def grid_pose(self) -> np.ndarray:
         """Believed pose on the grid: room (i, j) has its centre at (i, j) * cell."""
-        return relative_increment(self.frame, self.pose)
+        return relative_pose(self.frame, self.pose)
 
     def _face(self, quarter: int) -> Turn:
         return Turn(math.degrees(float(wrap_angle(quarter * math.pi / 2 - self.grid_pose[2]))), self.speed)

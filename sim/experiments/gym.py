@@ -80,16 +80,6 @@ def _goal_centre(world: WorldSpec) -> np.ndarray:
     return np.mean(np.asarray(world.goals[0].vertices), axis=0)
 
 
-def _in_goal(world: WorldSpec, xy: np.ndarray) -> bool:
-    for goal in world.goals:
-        v = np.asarray(goal.vertices)
-        edges, rel = np.roll(v, -1, axis=0) - v, xy - v
-        cross = edges[:, 0] * rel[:, 1] - edges[:, 1] * rel[:, 0]
-        if np.all(cross >= 0) or np.all(cross <= 0):
-            return True
-    return False
-
-
 class CtsimEnv(gymnasium.Env):
     """A robot in a world with a task (`"maze"` or `"line"`); see the module docstring."""
 
@@ -185,7 +175,7 @@ class CtsimEnv(gymnasium.Env):
             distance = float(np.hypot(*(after[:2] - _goal_centre(self.world_spec))))
             progress, episode.distance_to_goal = episode.distance_to_goal - distance, distance
             reward = progress - TIME_COST * self.control_dt - COLLISION_COST * new_collisions
-            if _in_goal(self.world_spec, after[:2]):
+            if self.world_spec.in_goal(float(after[0]), float(after[1])):
                 return reward + GOAL_BONUS, True
             return reward, False
         forward = float(np.dot(after[:2] - before[:2], (math.cos(before[2]), math.sin(before[2]))))

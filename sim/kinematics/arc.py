@@ -180,3 +180,13 @@ def advance(pose: np.ndarray, s: float, alpha: float, end_heading: bool = False)
     direction = pose[2] + (alpha if end_heading else h)
     chord = s * sinc
     return np.array((pose[0] + chord * math.cos(direction), pose[1] + chord * math.sin(direction), pose[2] + alpha))
+
+
+def relative_pose(start: np.ndarray, end: np.ndarray) -> np.ndarray:
+    """The scalar form of `relative_increment` for one pair of poses (x, y, theta), for code that
+    steps one robot at a time (behaviours), as `advance` is of `apply_increment`."""
+    x0, y0, theta0 = (float(v) for v in start)
+    x1, y1, theta1 = (float(v) for v in end)
+    c, s = math.cos(theta0), math.sin(theta0)
+    dx, dy = x1 - x0, y1 - y0
+    return np.array((c * dx + s * dy, -s * dx + c * dy, theta1 - theta0))

@@ -8,11 +8,18 @@ the same arithmetic in one pass per robot (tests check it against the reference 
 from __future__ import annotations
 
 import math
+import os
 
-import numba
-import numpy as np
+# The parallel kernel is called once per step between serial work; OpenMP's default of spinning
+# idle threads for a while after each call takes the cores from that work (and from anyone else on
+# a shared machine). Threads that sleep cost a wake-up per call instead. A user's own setting wins;
+# it must be in place before numba loads its OpenMP pool (the first parallel call).
+os.environ.setdefault("OMP_WAIT_POLICY", "passive")
 
-from sim.kinematics.arc import _COS, _SERIES_LIMIT, _SINC
+import numba  # noqa: E402
+import numpy as np  # noqa: E402
+
+from sim.kinematics.arc import _COS, _SERIES_LIMIT, _SINC  # noqa: E402
 
 
 @numba.njit(cache=True, inline="always")
@@ -51,6 +58,31 @@ def quantize_one(total: float) -> tuple[float, float]:
     return whole, fraction
 
 
+@numba.njit(cache=True, inline="always")
+def _step_one(
+    i: int, pose: np.ndarray, heading_dir: np.ndarray, wheel_arcs: np.ndarray, track: float, ticks_per_metre: float,
+    tick_carry: np.ndarray, ticks: np.ndarray, mount: np.ndarray, counts_per_metre: float, mouse_carry: np.ndarray,
+    counts: np.ndarray,
+) -> None:
+    """Robot i of `step_batch`: it touches row i of every array only, so robots may run in any order
+    or on any core with the same result."""
+    s_l, s_r = wheel_arcs[i, 0], wheel_arcs[i, 1]
+    s = 0.5 * (s_l + s_r)
+    chord, alpha, cos_h, sin_h = exact_arc(s_l, s_r, track)
+    c, sn = heading_dir[i, 0], heading_dir[i, 1]
+    mid_c, mid_s = c * cos_h - sn * sin_h, sn * cos_h + c * sin_h
+    pose[i, 0] += chord * mid_c
+    pose[i, 1] += chord * mid_s
+    pose[i, 2] += alpha
+    c, sn = mid_c * cos_h - mid_s * sin_h, mid_s * cos_h + mid_c * sin_h
+    norm = 1.5 - 0.5 * (c * c + sn * sn)  # one Newton step back onto the unit circle
+    heading_dir[i, 0], heading_dir[i, 1] = c * norm, sn * norm
+    for w in range(2):
+        ticks[i, w], tick_carry[i, w] = quantize_one(wheel_arcs[i, w] * ticks_per_metre + tick_carry[i, w])
+    for axis, metres in enumerate((s - alpha * mount[1], alpha * mount[0])):
+        counts[i, axis], mouse_carry[i, axis] = quantize_one(metres * counts_per_metre + mouse_carry[i, axis])
+
+
 @numba.njit(cache=True)
 def step_batch(
     pose: np.ndarray,
@@ -72,18 +104,25 @@ def step_batch(
     tick_carry/ticks (N, 2) encoder carries and this step's ticks; mount (2,) mouse position in the
     body frame; mouse_carry/counts (N, 2) the mouse's carries and counts (forward, left)."""
     for i in range(pose.shape[0]):
-        s_l, s_r = wheel_arcs[i, 0], wheel_arcs[i, 1]
-        s = 0.5 * (s_l + s_r)
-        chord, alpha, cos_h, sin_h = exact_arc(s_l, s_r, track)
-        c, sn = heading_dir[i, 0], heading_dir[i, 1]
-        mid_c, mid_s = c * cos_h - sn * sin_h, sn * cos_h + c * sin_h
-        pose[i, 0] += chord * mid_c
-        pose[i, 1] += chord * mid_s
-        pose[i, 2] += alpha
-        c, sn = mid_c * cos_h - mid_s * sin_h, mid_s * cos_h + mid_c * sin_h
-        norm = 1.5 - 0.5 * (c * c + sn * sn)  # one Newton step back onto the unit circle
-        heading_dir[i, 0], heading_dir[i, 1] = c * norm, sn * norm
-        for w in range(2):
-            ticks[i, w], tick_carry[i, w] = quantize_one(wheel_arcs[i, w] * ticks_per_metre + tick_carry[i, w])
-        for axis, metres in enumerate((s - alpha * mount[1], alpha * mount[0])):
-            counts[i, axis], mouse_carry[i, axis] = quantize_one(metres * counts_per_metre + mouse_carry[i, axis])
+        _step_one(i, pose, heading_dir, wheel_arcs, track, ticks_per_metre, tick_carry, ticks, mount, counts_per_metre, mouse_carry, counts)
+
+
+@numba.njit(cache=True, parallel=True)
+def step_batch_parallel(
+    pose: np.ndarray,
+    heading_dir: np.ndarray,
+    wheel_arcs: np.ndarray,
+    track: float,
+    ticks_per_metre: float,
+    tick_carry: np.ndarray,
+    ticks: np.ndarray,
+    mount: np.ndarray,
+    counts_per_metre: float,
+    mouse_carry: np.ndarray,
+    counts: np.ndarray,
+) -> None:
+    """`step_batch` (same arguments) with the robots shared out over the cores (numba threads):
+    bit-identical to it, since each robot's arithmetic is the same and touches its own rows only.
+    Worth it from some thousands of robots; below, waking the threads costs more than it saves."""
+    for i in numba.prange(pose.shape[0]):
+        _step_one(i, pose, heading_dir, wheel_arcs, track, ticks_per_metre, tick_carry, ticks, mount, counts_per_metre, mouse_carry, counts)

@@ -283,26 +283,81 @@ def _contact_time(pose: np.ndarray, move: np.ndarray, reach: np.ndarray, i: int,
 
 
 @numba.njit(cache=True)
+def _near_pairs(pose: np.ndarray, move: np.ndarray, reach: np.ndarray) -> np.ndarray:
+    """(m, 2) pairs i < j, in the order of a double loop over i then j, of robots that could touch
+    this step: a uniform grid with cells wider than any pair's reach plus both moves, so robots
+    in cells that are not neighbours can never meet. Cells are found by sorting their keys, which
+    costs n log n whatever the spread of the robots (a dense array of cells could not hold a
+    kilometre of sparse robots)."""
+    n = pose.shape[0]
+    longest = 0.0
+    for i in range(n):
+        longest = max(longest, math.hypot(move[i, 0], move[i, 1]))
+    # the widest conflict distance, with a margin so that a pair at exactly this distance (whose
+    # contact time rounds to just below 1) still falls in neighbouring cells
+    cell = (2.0 * (reach.max() + longest)) * (1.0 + 1e-9) + 1e-9
+    x0, y0 = pose[:, 0].min(), pose[:, 1].min()
+    cx = np.empty(n, dtype=np.int64)
+    cy = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        cx[i] = int((pose[i, 0] - x0) / cell)
+        cy[i] = int((pose[i, 1] - y0) / cell)
+    rows = cy.max() + 3  # keys of the cells one beyond either side stay distinct
+    key = (cx + 1) * rows + (cy + 1)
+    order = np.argsort(key, kind="mergesort")
+    sorted_key = key[order]
+    pairs = np.empty((4 * n + 16, 2), dtype=np.int64)
+    count = 0
+    found = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        m = 0
+        for dx in range(-1, 2):
+            for dy in range(-1, 2):
+                k = key[i] + dx * rows + dy
+                start = np.searchsorted(sorted_key, k)
+                for p in range(start, n):
+                    if sorted_key[p] != k:
+                        break
+                    if order[p] > i:
+                        found[m] = order[p]
+                        m += 1
+        neighbours = np.sort(found[:m])
+        if count + m > pairs.shape[0]:
+            grown = np.empty((2 * (count + m), 2), dtype=np.int64)
+            grown[:count] = pairs[:count]
+            pairs = grown
+        for q in range(m):
+            pairs[count, 0], pairs[count, 1] = i, neighbours[q]
+            count += 1
+    return pairs[:count]
+
+
+@numba.njit(cache=True)
 def keep_apart(pose: np.ndarray, move: np.ndarray, reach: np.ndarray) -> None:
     """Shorten the moves (n, 2), in place, of robots that would run into each other: both moves
     of a pair are cut at the moment the pair would touch (closer than reach[i] + reach[j]).
     Cuts only shorten moves, but a shorter move can let a follower catch up, so the pairs are
-    checked again until none closes in; robots still in conflict after that stand still."""
-    n = pose.shape[0]
+    checked again until none closes in; robots still in conflict after that stand still.
+
+    Only pairs near enough to meet are checked (`_near_pairs`, found once: cuts never lengthen
+    a move), in the order of checking all pairs, so the cuts are those of all pairs."""
+    if pose.shape[0] < 2:
+        return
+    pairs = _near_pairs(pose, move, reach)
     for _ in range(100):
         changed = False
-        for i in range(n):
-            for j in range(i + 1, n):
-                t = _contact_time(pose, move, reach, i, j)
-                if t < 1.0 - 1e-12:
-                    move[i, 0] *= t
-                    move[i, 1] *= t
-                    move[j, 0] *= t
-                    move[j, 1] *= t
-                    changed = True
+        for p in range(pairs.shape[0]):
+            i, j = pairs[p, 0], pairs[p, 1]
+            t = _contact_time(pose, move, reach, i, j)
+            if t < 1.0 - 1e-12:
+                move[i, 0] *= t
+                move[i, 1] *= t
+                move[j, 0] *= t
+                move[j, 1] *= t
+                changed = True
         if not changed:
             return
-    for i in range(n):
-        for j in range(i + 1, n):
-            if _contact_time(pose, move, reach, i, j) < 1.0:
-                move[i, 0] = move[i, 1] = move[j, 0] = move[j, 1] = 0.0
+    for p in range(pairs.shape[0]):
+        i, j = pairs[p, 0], pairs[p, 1]
+        if _contact_time(pose, move, reach, i, j) < 1.0:
+            move[i, 0] = move[i, 1] = move[j, 0] = move[j, 1] = 0.0

@@ -23,6 +23,7 @@ import sim
 from bots.spec import RobotSpec
 from sim.kinematics import counts_per_metre
 from sim.world import kernels
+from sim.world.bodies import BodyArrays
 from sim.world.chassis_drive import ChassisDrive
 from sim.world.floor import FloorMap, rasterize
 from sim.world.readings import Readings
@@ -43,12 +44,20 @@ ROBOT = 1
 """pymunk collision type of robot bodies (to count their contacts)."""
 
 
-# pymunk routes every attribute assignment through a pass-through __setattr__ (about 1 us); the
-# four assignments per robot and step go to the property setters directly.
-_set_velocity = pymunk.Body.velocity.fset
-_set_angular_velocity = pymunk.Body.angular_velocity.fset
-_set_force = pymunk.Body.force.fset
-_set_torque = pymunk.Body.torque.fset
+def _frozen(values: np.ndarray) -> np.ndarray:
+    values.flags.writeable = False
+    return values
+
+
+_NO_STEERING = _frozen(np.zeros(0))
+_NO_MOUSE2 = _frozen(np.zeros(2, dtype=np.int64))
+"""What a c't-Bot's readings hold for a chassis's steering angles and second mouse (shared, read-only)."""
+
+
+def _add_noise(noisy: list[tuple[int, np.random.Generator, float]], values: np.ndarray, top: int) -> None:
+    """Gaussian noise on the sensors `noisy` lists (index, generator, std), rounded into 0..top."""
+    for k, rng, std in noisy:
+        values[k] = min(top, max(0, round(values[k] + rng.normal(0.0, std))))
 
 
 class CommandError(ValueError):
@@ -137,7 +146,10 @@ class World:
         self._lights = np.array([(*light.position, light.height, light.radius) for light in spec.lights], dtype=np.float64).reshape(-1, 4)
         self._floor_origin = np.array(self.floor.origin)
         self._state = _BatchState.empty()
+        self._bodies = BodyArrays(self.space, [])
         self._poses = np.zeros((0, 3))
+        self._stale = False
+        self._fallen_count = 0
         self.chassis = ChassisDrive(dt)
         """The drive of robots on a general chassis (commands, faults; see `sim.world.chassis_drive`)."""
 
@@ -178,55 +190,54 @@ class World:
         self.robots.append(robot)
         if spec.chassis is not None:
             self.chassis.add(robot)
-        self._state = _BatchState.build(self.robots, self.dt)
-        self._poses = self._read_poses()
+        self._stale = True
         return robot
+
+    def _batch(self) -> _BatchState:
+        """The kernels' arrays, rebuilt once after robots joined (not once per robot added: a
+        thousand robots would cost a million rows)."""
+        if self._stale:
+            self._state = _BatchState.build(self.robots, self.dt)
+            self._bodies = BodyArrays(self.space, [r.body for r in self.robots])
+            self._poses = self._bodies.poses()
+            self._fallen_count = int(self._state.fallen.sum())
+            self._stale = False
+        return self._state
 
     def poses(self) -> np.ndarray:
         """(n, 3) ground-truth poses of all robots (a copy)."""
+        self._batch()
         return self._poses.copy()
-
-    def _read_poses(self) -> np.ndarray:
-        return np.array([(r.body.position.x, r.body.position.y, r.body.angle) for r in self.robots]).reshape(-1, 3)
 
     # --- sensors ----------------------------------------------------------------------------
 
     def read_all(self) -> list[Readings]:
         """Every robot's sensor readings from the current state (the start of the next step)."""
-        st = self._state
+        st = self._batch()
         pose = self._poses
         floor = np.empty(len(st.floor_owner), dtype=np.int64)
         if len(floor):
             points = np.empty((len(floor), 2))
             kernels.to_world(pose, st.floor_offsets, st.floor_owner, points)
             kernels.sample_floor(points, self.floor.value, self._floor_origin, self.floor.cell, self.floor.outside_reading, floor)
-            floor = self._add_noise(st.floor_sensors, floor, CNY70_MAX)
+            _add_noise(st.floor_noise, floor, CNY70_MAX)
         light = np.empty(len(st.light_owner), dtype=np.int64)
         if len(light):
             points = np.empty((len(light), 2))
             kernels.to_world(pose, st.light_offsets, st.light_owner, points)
             look = pose[st.light_owner, 2] + st.light_direction
             kernels.sense_light(points, st.light_height, look, st.light_half_opening, st.light_reach, self._lights, light)
-            light = self._add_noise(st.light_sensors, light, LDR_MAX)
+            _add_noise(st.light_noise, light, LDR_MAX)
         ir_raw, ir_distance = self._read_ir(pose)
-        ticks, counts = st.ticks.copy(), st.counts.copy()
-        readings = []
-        for robot in self.robots:
-            i = robot.index
-            f0, f1, f2 = st.floor_slices[i]
-            l0, l1 = st.light_slices[i]
-            r0, r1 = st.ir_slices[i]
-            readings.append(
-                Readings(self.time, ticks[i], counts[i], ir_raw[r0:r1], ir_distance[r0:r1], floor[f0:f1], floor[f1:f2], light[l0:l1])
-            )
-        self.chassis.fill(readings)
+        # every robot's readings are views into this step's arrays (fresh ones: a caller may keep them)
+        ticks, counts, now = st.ticks.copy(), st.counts.copy(), self.time
+        readings = [
+            Readings(now, tick, count, ir_raw[ir], ir_distance[ir], floor[line], floor[border], light[lamp], _NO_STEERING, _NO_MOUSE2)
+            for tick, count, (line, border, lamp, ir) in zip(ticks, counts, st.reading_slices)
+        ]
+        if self.chassis.drives:
+            self.chassis.fill(readings)
         return readings
-
-    def _add_noise(self, sensors: list[tuple[Robot, object]], values: np.ndarray, top: int) -> np.ndarray:
-        noisy = [(k, robot.rngs[s.name], s.noise_std) for k, (robot, s) in enumerate(sensors) if s.noise_std]
-        for k, rng, std in noisy:
-            values[k] = min(top, max(0, round(values[k] + rng.normal(0.0, std))))
-        return values
 
     def ray_distance(self, robot: Robot, origin, direction: float, length: float = IR_RAY_LENGTH) -> float:
         """Distance (m) from `origin` along world `direction` to the first body other than the
@@ -236,7 +247,7 @@ class World:
         return hit.alpha * length if hit is not None else math.inf
 
     def _read_ir(self, pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        st = self._state
+        st = self._batch()
         n = len(st.ir_sensors)
         distance = np.empty(n)
         if n:
@@ -263,12 +274,12 @@ class World:
         commands = np.asarray(commands, dtype=np.float64)
         if commands.shape != (len(self.robots), 2):
             raise CommandError(f"expected motor commands of shape ({len(self.robots)}, 2), got {commands.shape}")
-        if not np.all(np.isfinite(commands)):
+        if not np.isfinite(commands).all():
             bad = [self.robots[i].name for i in np.unique(np.nonzero(~np.isfinite(commands))[0])]
             raise CommandError(f"non-finite motor command for {', '.join(bad)} at step {self.steps}")
-        st = self._state
+        st = self._batch()
         before = self._poses
-        st.draw_encoder_noise(self.robots)
+        st.draw_encoder_noise()
         kernels.drive(
             commands, st.wheel_speed, st.command_max, st.max_speed, st.lag, st.max_change, self.dt,
             st.ticks_per_rad, st.tick_carry, st.tick_offset, st.ticks, st.real_radius, st.slip, st.track,
@@ -281,42 +292,37 @@ class World:
         kernels.sweep_walls(before, st.move, st.sweep_radius, SLIDE_MARGIN, self._walls.vertices, self._walls.ranges, self._walls.boxes)
         if len(self.robots) > 1:
             kernels.keep_apart(before, st.move, st.apart_radius)
-        for robot in self.robots:
-            self._apply_motion(robot, st.move[robot.index], st.alpha[robot.index])
+        self._apply_motion(st)
         self.space.step(self.dt)
         for robot in self.robots:
             pymunk.Body.update_position(robot.body, self.dt)
-        after = self._poses = self._read_poses()
-        newly_fallen = ~st.fallen
-        st.draw_mouse_noise(self.robots)
+        after = self._poses = self._bodies.poses()
+        fallen_before = self._fallen_count
+        st.draw_mouse_noise()
         kernels.measure(
             before, after, st.contacts, st.fallen, st.mount, st.counts_per_metre, st.max_step, st.mouse_noise,
             st.mouse_carry, st.counts, self.floor.hole, self._floor_origin, self.floor.cell, self.floor.outside_is_hole,
         )  # fmt: skip
         if self.chassis.drives:
             self.chassis.after_step(before, after, st.fallen, self.floor)
-        for i in np.flatnonzero(newly_fallen & st.fallen):
-            self.robots[i].fallen = True
+        if st.fallen.sum() != fallen_before:  # (robots never get up again)
+            for i in np.flatnonzero(st.fallen):
+                self.robots[i].fallen = True
+            self._fallen_count = int(st.fallen.sum())
         self.steps += 1
         self.time = self.steps * self.dt
 
-    def _apply_motion(self, robot: Robot, move: np.ndarray, alpha: float) -> None:
-        """Make the body's velocity after pymunk's velocity phase move/dt and alpha/dt.
+    def _apply_motion(self, st: _BatchState) -> None:
+        """Make each body's velocity after pymunk's velocity phase move/dt and alpha/dt.
 
         pymunk moves bodies *before* it solves contacts, with the velocity they have; a velocity
         set before `space.step` would push the body into a wall unchecked. So the body enters the
         step at rest (it does not move then), a force gives it the planned velocity in the
         velocity phase (v = f dt / m), the contact solver corrects it, and the position is
         integrated after the step (`update_position`): the same order as setting the velocity
-        inside `velocity_func`, without a Python callback per body."""
-        body = robot.body
-        _set_velocity(body, (0.0, 0.0))
-        _set_angular_velocity(body, 0.0)
-        if robot.fallen:
-            return
-        per_step = body.mass / (self.dt * self.dt)
-        _set_force(body, (float(move[0]) * per_step, float(move[1]) * per_step))
-        _set_torque(body, float(alpha) * body.moment / (self.dt * self.dt))
+        inside `velocity_func`, without a Python callback per body. A fallen robot's move is zero."""
+        dt2 = self.dt * self.dt
+        self._bodies.push(st.move * (st.mass / dt2)[:, None], st.alpha * st.moment / dt2)
 
     def _count_contact(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:  # noqa: ANN001
         """A robot started touching something: one more collision for it (for both, robot on robot)."""
@@ -365,6 +371,8 @@ def _contacts(spec: RobotSpec) -> np.ndarray:
 class _BatchState:
     """Per-robot parameters and state as arrays for the kernels (rebuilt when a robot joins)."""
 
+    mass: np.ndarray
+    moment: np.ndarray
     command_max: np.ndarray
     max_speed: np.ndarray
     lag: np.ndarray
@@ -389,24 +397,24 @@ class _BatchState:
     alpha: np.ndarray
     sweep_radius: np.ndarray
     apart_radius: np.ndarray
-    floor_sensors: list
+    floor_noise: list
     floor_offsets: np.ndarray
     floor_owner: np.ndarray
-    floor_slices: list
-    light_sensors: list
+    light_noise: list
     light_offsets: np.ndarray
     light_owner: np.ndarray
     light_direction: np.ndarray
     light_half_opening: np.ndarray
     light_reach: np.ndarray
     light_height: np.ndarray
-    light_slices: list
     ir_sensors: list
     ir_offsets: np.ndarray
     ir_owner: np.ndarray
     ir_direction: np.ndarray
     ir_groups: list
-    ir_slices: list
+    reading_slices: list
+    noisy_encoders: list
+    noisy_mice: list
 
     @classmethod
     def empty(cls) -> _BatchState:
@@ -438,12 +446,17 @@ class _BatchState:
         def owner(items):
             return np.array([r.index for r, _ in items], dtype=np.int64)
 
+        def noisy(items):
+            return [(k, robot.rngs[s.name], s.noise_std) for k, (robot, s) in enumerate(items) if s.noise_std]
+
         groups: dict[tuple, tuple[IRCurve, list[int], tuple[float, float]]] = {}
         for k, (robot, sensor) in enumerate(ir):
             curve = robot.ir_curves[robot.spec.ir.index(sensor)]
             key = (id(curve), sensor.min_range, sensor.max_range)
             groups.setdefault(key, (curve, [], (sensor.min_range, sensor.max_range)))[1].append(k)
         state = cls(
+            mass=np.array([r.body.mass for r in robots], dtype=np.float64),
+            moment=np.array([r.body.moment for r in robots], dtype=np.float64),
             command_max=np.array([m.command_max for m in motor], dtype=np.float64),
             max_speed=np.array([m.max_wheel_speed for m in motor], dtype=np.float64),
             lag=np.array(lag, dtype=np.float64),
@@ -470,40 +483,38 @@ class _BatchState:
             alpha=np.zeros(n),
             sweep_radius=np.array([s.body_radius - SWEEP_CLEARANCE for s in specs], dtype=np.float64),
             apart_radius=np.array([s.body_radius - SWEEP_CLEARANCE / 2 for s in specs], dtype=np.float64),
-            floor_sensors=floor,
+            floor_noise=noisy(floor),
             floor_offsets=offsets(floor),
             floor_owner=owner(floor),
-            floor_slices=slices("line", "border"),
-            light_sensors=light,
+            light_noise=noisy(light),
             light_offsets=offsets(light),
             light_owner=owner(light),
             light_direction=np.array([s.direction for _, s in light], dtype=np.float64),
             light_half_opening=np.array([s.opening / 2 for _, s in light], dtype=np.float64),
             light_reach=np.array([s.reach for _, s in light], dtype=np.float64),
             light_height=np.array([s.height for _, s in light], dtype=np.float64),
-            light_slices=slices("light"),
             ir_sensors=ir,
             ir_offsets=offsets(ir),
             ir_owner=owner(ir),
             ir_direction=np.array([s.direction for _, s in ir], dtype=np.float64),
             ir_groups=[(curve, np.array(members), curve.inverse(*bounds)) for curve, members, bounds in groups.values()],
-            ir_slices=slices("ir"),
+            noisy_encoders=[(r.index, r.rngs["encoders"], r.spec.encoders) for r in robots if r.spec.encoders.slip_std or r.spec.encoders.tick_noise],
+            noisy_mice=[(r.index, r.rngs["mouse"], r.spec.mouse.noise_std) for r in robots if r.spec.mouse is not None and r.spec.mouse.noise_std],
+            reading_slices=[
+                (slice(f0, f1), slice(f1, f2), slice(l0, l1), slice(r0, r1))
+                for (f0, f1, f2), (l0, l1), (r0, r1) in zip(slices("line", "border"), slices("light"), slices("ir"))
+            ],
         )
         return state
 
-    def draw_encoder_noise(self, robots: list[Robot]) -> None:
+    def draw_encoder_noise(self) -> None:
         """Random slip and spurious ticks for the robots whose encoders have them."""
-        for robot in robots:
-            enc = robot.spec.encoders
-            if enc.slip_std or enc.tick_noise:
-                rng = robot.rngs["encoders"]
-                i = robot.index
-                self.slip[i] = rng.normal(0.0, enc.slip_std, size=2) if enc.slip_std else 0.0
-                if enc.tick_noise:
-                    self.tick_offset[i] = (rng.random(2) < enc.tick_noise) * rng.choice((-1.0, 1.0), size=2)
+        for i, rng, enc in self.noisy_encoders:
+            self.slip[i] = rng.normal(0.0, enc.slip_std, size=2) if enc.slip_std else 0.0
+            if enc.tick_noise:
+                self.tick_offset[i] = (rng.random(2) < enc.tick_noise) * rng.choice((-1.0, 1.0), size=2)
 
-    def draw_mouse_noise(self, robots: list[Robot]) -> None:
+    def draw_mouse_noise(self) -> None:
         """Count noise for the robots whose mouse has it."""
-        for robot in robots:
-            if robot.spec.mouse is not None and robot.spec.mouse.noise_std:
-                self.mouse_noise[robot.index] = robot.rngs["mouse"].normal(0.0, robot.spec.mouse.noise_std, size=2)
+        for i, rng, std in self.noisy_mice:
+            self.mouse_noise[i] = rng.normal(0.0, std, size=2)

@@ -86,6 +86,18 @@ class Goal:
 
     vertices: tuple[Point, ...]
 
+    def contains(self, x: float, y: float) -> bool:
+        """Whether (x, y) is inside or on the edge (the point is on one side of every edge; plain
+        floats: the run loop asks every step, where numpy's per-call cost would dominate)."""
+        above = below = False
+        vertices = self.vertices
+        for k, (ax, ay) in enumerate(vertices):
+            bx, by = vertices[k + 1 - len(vertices)]
+            cross = (bx - ax) * (y - ay) - (by - ay) * (x - ax)
+            above |= cross > 0
+            below |= cross < 0
+        return not (above and below)
+
 
 @dataclass(frozen=True)
 class Movable:
@@ -138,6 +150,10 @@ class WorldSpec:
         ... that the world names, then the default slot 0 (per slot the last start counts)."""
         by_slot = {s.slot: s for s in self.starts}
         return [by_slot[k] for k in sorted(by_slot) if k > 0] + ([by_slot[0]] if 0 in by_slot else [])
+
+    def in_goal(self, x: float, y: float) -> bool:
+        """Whether (x, y) is in any goal area."""
+        return any(goal.contains(x, y) for goal in self.goals)
 
     def start_for(self, index: int) -> Start:
         """The start pose of the `index`-th robot (0-based) from `start_order`. Where the world

@@ -1,0 +1,59 @@
+"""The robots' pymunk bodies read and written as arrays, one C call per step instead of a Python
+loop of property accesses per robot (`pymunk.batch`).
+
+pymunk's batch functions walk every dynamic body of the space (robots and movable obstacles) in
+the space's own order; `BodyArrays` keeps the row of each robot in that walk, and writes back
+the other bodies' values unchanged.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pymunk
+import pymunk.batch as batch
+
+_POSE = batch.BodyFields.POSITION | batch.BodyFields.ANGLE
+_MOTION = batch.BodyFields.VELOCITY | batch.BodyFields.ANGULAR_VELOCITY | batch.BodyFields.FORCE | batch.BodyFields.TORQUE
+
+
+class BodyArrays:
+    """Poses of, and forces on, the given robot bodies of `space` (built once the bodies are in)."""
+
+    def __init__(self, space: pymunk.Space, bodies: list[pymunk.Body]):
+        self.space = space
+        ids = batch.Buffer()
+        batch.get_space_bodies(space, batch.BodyFields.BODY_ID, ids)
+        order = np.frombuffer(ids.int_buf(), dtype=np.uintp)
+        row = {body_id: k for k, body_id in enumerate(order.tolist())}
+        rows = np.array([row[body.id] for body in bodies], dtype=np.int64)
+        robots = {body.id for body in bodies}
+        self._others = any(body.id not in robots for body in space.bodies)
+        """Movable obstacles are walked too: their velocities and forces are read and written back
+        every step (the static body's never change: read once here)."""
+        consecutive = len(rows) > 0 and np.array_equal(rows, np.arange(rows[0], rows[0] + len(rows)))
+        self.rows = slice(int(rows[0]), int(rows[0]) + len(rows)) if consecutive else rows
+        """Each robot's row in pymunk's walk over the bodies (consecutive rows: a slice, cheaper)."""
+        self._read = batch.Buffer()
+        batch.get_space_bodies(space, _MOTION, self._read)
+        self._motion = np.frombuffer(self._read.float_buf()).reshape(-1, 6).copy()  # vx, vy, w, fx, fy, torque per body
+        self._motion[self.rows, :3] = 0.0
+        self._write = batch.Buffer()
+        self._write.set_float_buf(self._motion)  # pymunk reads this array in place
+
+    def poses(self) -> np.ndarray:
+        """(n, 3) robot poses (x, y m; heading rad), a new array."""
+        self._read.clear()
+        batch.get_space_bodies(self.space, _POSE, self._read)
+        return np.frombuffer(self._read.float_buf()).reshape(-1, 3)[self.rows].copy()
+
+    def push(self, force: np.ndarray, torque: np.ndarray) -> None:
+        """Robots at rest with `force` (n, 2) N and `torque` (n,) N m on them for the next step; the
+        other bodies keep their velocities and forces."""
+        if self._others:
+            self._read.clear()
+            batch.get_space_bodies(self.space, _MOTION, self._read)
+            self._motion[:] = np.frombuffer(self._read.float_buf()).reshape(-1, 6)
+            self._motion[self.rows, :3] = 0.0  # (without them, the robots' velocities stay the zeros set above)
+        self._motion[self.rows, 3:5] = force
+        self._motion[self.rows, 5] = torque
+        batch.set_space_bodies(self.space, _MOTION, self._write)

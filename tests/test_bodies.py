@@ -1,0 +1,51 @@
+"""Issue 16: the robots' pymunk bodies read and written as arrays (`sim.world.bodies`) give what the
+bodies' own properties say, with movable obstacles and the static walls in the same space."""
+
+from __future__ import annotations
+
+import numpy as np
+import pymunk
+
+from sim.world.bodies import BodyArrays
+
+
+def space_with_everything(robots: int, cans: int) -> tuple[pymunk.Space, list[pymunk.Body], list[pymunk.Body]]:
+    """Cans added first, robots after, a wall on the static body: robots' rows are not 0..n-1."""
+    rng = np.random.default_rng(robots * 10 + cans)
+    space = pymunk.Space()
+    space.add(pymunk.Poly(space.static_body, [(5, 5), (6, 5), (6, 6)]))
+
+    def body(kind: str) -> pymunk.Body:
+        b = pymunk.Body(0.05 if kind == "can" else 1.0, 0.01)
+        b.position = tuple(rng.uniform(-3, 3, 2))
+        b.angle = float(rng.uniform(-10, 10))
+        b.velocity = tuple(rng.uniform(-1, 1, 2))
+        b.angular_velocity = float(rng.uniform(-1, 1))
+        space.add(b, pymunk.Circle(b, 0.05))
+        return b
+
+    cans_ = [body("can") for _ in range(cans)]
+    robots_ = [body("robot") for _ in range(robots)]
+    return space, robots_, cans_
+
+
+def test_poses_are_the_bodies_positions_and_angles() -> None:
+    for robots, cans in ((1, 0), (5, 0), (3, 4)):
+        space, bodies, _ = space_with_everything(robots, cans)
+        expected = [[b.position.x, b.position.y, b.angle] for b in bodies]
+        assert BodyArrays(space, bodies).poses().tolist() == expected
+
+
+def test_push_sets_the_robots_and_keeps_the_cans() -> None:
+    for robots, cans in ((1, 0), (4, 3)):
+        space, bodies, others = space_with_everything(robots, cans)
+        arrays = BodyArrays(space, bodies)
+        kept = [(tuple(b.velocity), b.angular_velocity) for b in others]
+        force = np.arange(2.0 * robots).reshape(robots, 2) + 0.5
+        torque = -np.arange(1.0 * robots) - 0.25
+        for _ in range(2):  # a second push meets the state the first left
+            arrays.push(force, torque)
+            assert [(tuple(b.velocity), b.angular_velocity) for b in others] == kept
+            for k, b in enumerate(bodies):
+                assert tuple(b.velocity) == (0.0, 0.0) and b.angular_velocity == 0.0
+                assert tuple(b.force) == tuple(force[k]) and b.torque == torque[k]
