@@ -302,17 +302,36 @@ def test_the_drawn_icr_is_the_fixed_point_of_the_step_and_wheels_sit_on_the_body
     assert chassis_shapes(CAR, pose, CAR.chassis.chassis.beta, previous, (-1, -1, 0, 0)).icr is None
 
 
-@pytest.mark.xfail(strict=True, reason="the merged recorder sizes the encoder series for two wheels; a chassis robot has one per wheel")
 def test_a_recording_of_a_chassis_robot_holds_wheels_outline_and_icr(tmp_path):
     import rerun.chunk
 
+    from sim.views.chassis_view import body_outline
     from sim.views.recording import Recorder
 
     path = tmp_path / "run.rrd"
-    run(EMPTY, [RobotSetup(CAR, constant(Twist(0.3, 0.4)))], 0.5, observers=(Recorder(path),))
-    entities = {str(chunk.entity_path) for chunk in rerun.chunk.RrdReader(path).stream().to_chunks()}
-    for entity in ("/world/car/chassis/wheels", "/world/car/chassis/outline", "/world/car/chassis/icr"):
-        assert entity in entities, sorted(entities)
+    result = run(EMPTY, [RobotSetup(CAR, constant(Twist(0.3, 0.2)))], 2.0, observers=(Recorder(path),))
+    rows: dict[str, list[tuple[float, dict]]] = {}  # entity -> (time s, -1 static; row) in time order
+    for chunk in rerun.chunk.RrdReader(path).stream().to_chunks():
+        for row in chunk.to_record_batch().to_pylist():
+            time = row["sim_time"].total_seconds() if "sim_time" in row else -1.0
+            rows.setdefault(str(chunk.entity_path), []).append((time, row))
+    last = {entity: sorted(entries, key=lambda entry: entry[0])[-1][1] for entity, entries in rows.items()}
+    # the outline is the chassis's polygon, static in the body frame: it moves with the true pose
+    outline = np.array(last["/world/car/body/outline"]["LineStrips2D:strips"][0])
+    assert_allclose(outline, body_outline(CAR), atol=1e-6)  # float32 storage
+    # one encoder series per wheel, one steering series per steered wheel
+    assert len(last["/sensors/encoders/car/encoder_ticks"]["Scalars:scalars"]) == 4
+    assert len(last["/sensors/steering/car/steering"]["Scalars:scalars"]) == 2
+    # wheels in the body frame, drawn again as the steering turns: the last ones at the final angles
+    origins, vectors = (np.array(last["/world/car/body/wheels"][f"Arrows2D:{f}"]) for f in ("origins", "vectors"))
+    c = CAR.chassis.chassis
+    assert_allclose(origins + 0.5 * vectors, c.positions, atol=1e-6)
+    heading = c.alpha + result.robots[0].latest.steering - np.pi / 2  # steering settled long before the end
+    assert_allclose(vectors, 2 * c.radius[:, None] * np.stack([np.cos(heading), np.sin(heading)], axis=1), atol=1e-6)
+    # the last ICR: v/ω = 1.5 m to the left of the rear axle's middle, where the last pose puts it
+    icr = sorted(rows["/world/car/chassis/icr"], key=lambda entry: entry[0])[-1]
+    pose = result.robots[0].truth_array()[round(icr[0] / DT)]
+    assert_allclose(icr[1]["Points2D:positions"][0], pose[:2] + 1.5 * np.array([-np.sin(pose[2]), np.cos(pose[2])]), atol=1e-5)  # float32 (of 1.5 m)
 
 
 def test_follow_path_ocp_drives_a_mecanum_robot_through_a_path_and_refuses_a_ctbot():
