@@ -19,7 +19,7 @@ from bots.commands import Twist, WheelCommands
 from bots.controller import FunctionController
 from bots.spec import EncoderSpec, MotorSpec, MouseSpec, load_robot, wheeled_robot
 from bots.wheeled import CAR, MECANUM4, WHEELED_ROBOTS
-from sim.kinematics import apply_increment, relative_increment, se2_exp, se2_log
+from sim.kinematics import apply_increment, relative_increment, se2_exp, se2_log, wrap_angle
 from sim.kinematics.chassis import (
     Failure,
     degrade,
@@ -321,7 +321,8 @@ def test_a_recording_of_a_chassis_robot_holds_wheels_outline_and_icr(tmp_path):
     assert_allclose(outline, body_outline(CAR), atol=1e-6)  # float32 storage
     # one encoder series per wheel, one steering series per steered wheel
     assert len(last["/sensors/encoders/car/encoder_ticks"]["Scalars:scalars"]) == 4
-    assert len(last["/sensors/steering/car/steering"]["Scalars:scalars"]) == 2
+    steered = np.degrees(wrap_angle(result.robots[0].latest.steering - CAR.chassis.chassis.beta))[:2]  # from straight
+    assert_allclose(last["/sensors/steering/car/steering"]["Scalars:scalars"], steered, atol=1e-9)  # float64 series
     # wheels in the body frame, drawn again as the steering turns: the last ones at the final angles
     origins, vectors = (np.array(last["/world/car/body/wheels"][f"Arrows2D:{f}"]) for f in ("origins", "vectors"))
     c = CAR.chassis.chassis

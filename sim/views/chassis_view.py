@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from sim.kinematics import relative_increment
+from sim.kinematics import relative_increment, wrap_angle
 from sim.views import palette
 
 EVERY = 5
@@ -56,6 +56,12 @@ def wheel_segments(chassis: Any, steering: np.ndarray) -> np.ndarray:
     return np.stack([chassis.positions - half, chassis.positions + half], axis=1)
 
 
+def steering_deflection(chassis: Any, steering: np.ndarray) -> np.ndarray:
+    """How far each wheel is steered from straight (rad, counter-clockwise): its wheel-plane angle β
+    from the readings against the chassis's nominal β, which for the car's right wheels is π."""
+    return wrap_angle(np.asarray(steering) - chassis.beta)
+
+
 def step_icr(previous: np.ndarray, pose: np.ndarray) -> np.ndarray | None:
     """The world point (2,) that the rigid step from `previous` to `pose` turns about; None for a step
     without rotation (ICR at infinity)."""
@@ -65,7 +71,7 @@ def step_icr(previous: np.ndarray, pose: np.ndarray) -> np.ndarray | None:
     # the fixed point c of the rigid step: (I − R(dθ)) c = d, c = ½(d_x − d_y cot h, d_y + d_x cot h)
     cot = 1.0 / np.tan(0.5 * increment[2])
     local = 0.5 * np.array([increment[0] - increment[1] * cot, increment[1] + increment[0] * cot])
-    return _to_world(previous, local[None])[0]
+    return to_world(previous, local[None])[0]
 
 
 def in_view(point: np.ndarray | None, view: tuple[float, float, float, float]) -> np.ndarray | None:
@@ -81,11 +87,12 @@ def chassis_shapes(spec: Any, pose: np.ndarray, steering: np.ndarray, previous: 
     """World-frame shapes of a chassis robot (`RobotSpec` with `chassis`) at `pose` with wheel-plane
     angles `steering`; the ICR of its last step from the `previous` pose, kept if inside `view`."""
     wheels = wheel_segments(spec.chassis.chassis, steering)
-    return ChassisShapes(_to_world(pose, body_outline(spec)), _to_world(pose, wheels.reshape(-1, 2)).reshape(wheels.shape),
+    return ChassisShapes(to_world(pose, body_outline(spec)), to_world(pose, wheels.reshape(-1, 2)).reshape(wheels.shape),
                          in_view(step_icr(previous, pose), view))
 
 
-def _to_world(pose: np.ndarray, points: np.ndarray) -> np.ndarray:
+def to_world(pose: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Body-frame points (k, 2) of a robot at `pose` in the world frame."""
     c, s = np.cos(pose[2]), np.sin(pose[2])
     return points @ np.array([[c, s], [-s, c]]) + pose[:2]
 

@@ -69,7 +69,7 @@ SENSOR_GROUPS = {
     "light": ("light (0 bright, 1023 dark)", ("light",)),
     "encoders": ("encoders (ticks per step)", ("encoder_ticks",)),
     "mouse": ("mouse (counts per step: forward, left)", ("mouse_counts", "mouse2_counts")),
-    "steering": ("steering (deg)", ("steering",)),
+    "steering": ("steered from straight (deg)", ("steering",)),
 }
 """Sensor plot -> (title, readings fields); each field is logged under sensors/<group>/<robot>/<field>."""
 SCALE = {"ir_distance": 1000.0, "steering": 180.0 / math.pi}
@@ -378,9 +378,12 @@ class Recorder:
             self._send_rays(track, times, truth)
         for group, (_, fields) in SENSOR_GROUPS.items():
             for f in fields:
-                values = track.column(f)[:n] * SCALE.get(f, 1.0)
-                if values.shape[1]:
-                    self._columns(f"sensors/{group}/{name}/{f}", times, rr.Scalars.columns(scalars=values.ravel()).partition([values.shape[1]] * n))
+                values = track.column(f)[:n]
+                if not values.shape[1]:
+                    continue
+                if f == "steering":  # from straight, as `chassis_view.steering_deflection`
+                    values = wrap_angle(values - track.log.spec.chassis.chassis.beta[track.picks[FIELDS.index(f)]])
+                self._columns(f"sensors/{group}/{name}/{f}", times, rr.Scalars.columns(scalars=(values * SCALE.get(f, 1.0)).ravel()).partition([values.shape[1]] * n))
         track.start += n
         track.count = 0
 
