@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from numpy.testing import assert_allclose
+from numpy.testing import assert_allclose, assert_array_equal
 
 from bots.chassis_commands import InfeasibleCommand, chassis_setpoints
 from bots.chassis_odometry import (
@@ -22,6 +22,7 @@ from bots.wheeled import CAR, MECANUM4, WHEELED_ROBOTS
 from sim.kinematics import apply_increment, relative_increment, se2_exp, se2_log, wrap_angle
 from sim.kinematics.chassis import (
     Failure,
+    WheelType,
     degrade,
     forward_kinematics,
     inverse_kinematics,
@@ -350,3 +351,40 @@ def test_follow_path_ocp_drives_a_mecanum_robot_through_a_path_and_refuses_a_ctb
     assert off_path.max() < 0.2  # corner cut by at most about the look-ahead
     with pytest.raises(ValueError, match="differential drive"):
         FollowPathOCP().reset(CTBOT)
+
+
+@pytest.mark.parametrize("name", sorted(PRESETS))
+def test_the_compiled_wheel_step_is_the_cores_forward_kinematics_motor_and_encoders(name):
+    """`chassis_drive._wheels` against the core's functions: the motor model, the least-squares twist
+    and its residual (`forward_kinematics`), rolling of an unmeasured (free) wheel, the encoders
+    (`quantize`) and the exact step (`se2_exp`)."""
+    from sim.kinematics import quantize
+    from sim.kinematics.chassis import forward_pinv, forward_system, rolling_rows
+    from sim.world.chassis_drive import _wheels
+
+    chassis = PRESETS[name]()
+    n, rng = chassis.n, np.random.default_rng(15)
+    degraded = degrade(chassis, Failure(0, drive=True)) if chassis.driven.sum() > 1 else chassis
+    measured = degraded.driven | degraded.locked
+    beta = chassis.beta + rng.uniform(-0.2, 0.2, n) * (chassis.kind == WheelType.STEERED)  # steered somewhere
+    a, _ = forward_system(degraded, np.zeros(n), beta, measured)
+    rolls = rolling_rows(degraded.alpha, beta, degraded.l, degraded.gamma)
+    rim = degraded.radius * np.cos(degraded.gamma)
+    phi, target, top = rng.uniform(-5, 5, n), rng.uniform(-20, 20, n), np.full(n, 12.0)
+    slip, carry = rng.normal(0, 0.05, n), rng.uniform(0, 1, n)
+    lag, max_change, dt, ticks_per_rad = 0.3, 1.5, 0.01, 60 / (2 * np.pi)
+
+    phi_dot, tick_carry, ticks, twist = phi.copy(), carry.copy(), np.zeros(n, dtype=np.int64), np.zeros(3)
+    *increment, residual = _wheels(dt, phi_dot, target, top, lag, max_change, degraded.driven, degraded.locked, measured,
+                                   rim, slip, a, forward_pinv(a), rolls, ticks_per_rad, tick_carry, ticks, twist)
+
+    expected = np.where(degraded.driven, phi + np.clip((np.clip(target, -top, top) - phi) * lag, -max_change, max_change), phi)
+    solution = forward_kinematics(degraded, expected * (1 + slip), beta, measured=measured)
+    assert_allclose(twist, solution.twist, atol=1e-12)  # the same pinv, summed in another order
+    assert residual == pytest.approx(float(solution.slip), abs=1e-12)
+    expected = np.where(measured, expected, rolls @ solution.twist / rim)  # the free wheel rolls with the body
+    assert_allclose(phi_dot, expected, atol=1e-12)
+    counts, rest = quantize(expected * dt * ticks_per_rad, carry)
+    assert_array_equal(ticks, counts)
+    assert_allclose(tick_carry, rest, atol=1e-12)
+    assert_allclose(increment, se2_exp(solution.twist * dt), atol=1e-15)
