@@ -95,6 +95,65 @@ def test_ackermann_icr_lies_on_the_rear_axle_where_the_wheel_angles_meet(radius)
     assert_allclose(step[2], omega, rtol=1e-9)
 
 
+def wheels_about(chassis, centre: np.ndarray, omega: float, keep: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Wheel speeds φ̇ and angles β that turn the body about `centre` (body frame) at `omega`, by the
+    thesis's rule (2.99-2.110): each wheel rolls along ω × (wheel − ICR), at that contact speed; a
+    steered wheel whose direction lies beyond its limits rolls the other way round. Fixed wheels
+    (and those in `keep`) keep their β: the ICR must lie on their axles."""
+    offset = chassis.positions - centre
+    velocity = omega * np.stack([-offset[:, 1], offset[:, 0]], axis=1)
+    heading = np.arctan2(velocity[:, 1], velocity[:, 0])
+    heading = np.where((heading < chassis.steer_min) | (heading > chassis.steer_max), wrap_angle(heading + np.pi), heading)
+    keep = (chassis.kind == WheelType.FIXED) | (False if keep is None else keep)
+    beta = np.where(keep, chassis.beta, heading - chassis.alpha + np.pi / 2)
+    rolls = chassis.alpha + beta - np.pi / 2
+    return (velocity[:, 0] * np.cos(rolls) + velocity[:, 1] * np.sin(rolls)) / chassis.radius, beta
+
+
+STEERED_ICRS = {  # preset -> ICRs (body frame, m) its wheels can point at within their limits
+    "tricycle": [(0.0, 1.2), (0.0, -0.6), (0.0, 0.1)],  # on the rear axle, even between the wheels
+    "steered3": [(0.5, -0.3), (0.05, 0.1), (-0.4, 0.0)],  # anywhere: outside, inside the chassis
+    "steered4": [(0.1, 0.6), (-0.8, 0.0), (0.0, 0.0)],  # the OCP vehicle: beside, behind, on the spot
+}
+
+
+@pytest.mark.parametrize("preset, centre", [(p, c) for p, centres in STEERED_ICRS.items() for c in centres])
+def test_steered_chassis_turn_about_the_icr_their_wheels_point_at(preset, centre):
+    """The ICR of the world's motion is where the thesis puts it for the commanded wheel angles."""
+    chassis = PRESETS[preset]()
+    phi_dot, beta = wheels_about(chassis, np.array(centre), 0.4)
+    _, poses = drive_world(robot_on(chassis), phi_dot, beta, 20)
+    step = se2_log(relative_increment(poses[10], poses[11])) / DT
+    assert step[2] == pytest.approx(0.4, rel=1e-9)  # the wheels agree: no least-squares compromise
+    assert_allclose(np.array([-step[1], step[0]]) / step[2], centre, atol=1e-9)  # rounding, divided by ω
+
+
+def test_steered3_with_wheel_3_frozen_at_30_degrees_turns_only_about_points_of_its_axle():
+    """Thesis §3.4 case 2: with wheel 3's steering frozen at β₃ = 30° the ICR lies on wheel 3's axle
+    line; the other two wheels, pointed at a point of that line, turn the robot about it."""
+    chassis = PRESETS["steered3"]()
+    frozen = chassis.beta.copy()
+    frozen[2] = wrap_angle(frozen[2] + math.radians(30))
+    heading = chassis.alpha[2] + frozen[2] - np.pi / 2  # wheel 3 rolls along this; its axle is normal to it
+    centre = chassis.positions[2] + 0.7 * np.array([-np.sin(heading), np.cos(heading)])
+    phi_dot, beta = wheels_about(chassis.with_beta(frozen), centre, -0.3, keep=np.arange(3) == 2)
+    spec = robot_on(chassis, chassis_fields={"steer_rate": math.inf})
+    world = World(EMPTY, dt=DT)
+    world.add_robot(spec)
+    world.chassis.command(0, np.zeros(3), frozen)
+    world.step(np.zeros((1, 2)))
+    world.chassis.fail(0, 2, "steering")
+    poses = []
+    for _ in range(12):
+        world.chassis.command(0, phi_dot, beta + np.array([0.0, 0.0, 0.5]))  # wheel 3's steering ignores its command
+        world.step(np.zeros((1, 2)))
+        poses.append(world.poses()[0])
+    step = se2_log(relative_increment(poses[-2], poses[-1])) / DT
+    assert_allclose(world.chassis.drives[0].beta[2], frozen[2], atol=1e-12)
+    assert step[2] == pytest.approx(-0.3, rel=1e-9)
+    assert_allclose(np.array([-step[1], step[0]]) / step[2], centre, atol=1e-9)
+
+
 def constant(command):
     return FunctionController(lambda t, readings: command)
 
