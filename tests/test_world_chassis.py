@@ -395,6 +395,26 @@ def test_a_recording_of_a_chassis_robot_holds_wheels_outline_and_icr(tmp_path):
     assert_allclose(icr[1]["Points2D:positions"][0], pose[:2] + 1.5 * np.array([-np.sin(pose[2]), np.cos(pose[2])]), atol=1e-5)  # float32 (of 1.5 m)
 
 
+def test_a_recorded_wheel_fault_is_an_event_and_turns_the_wheel_red(tmp_path):
+    import rerun.chunk
+
+    from sim.views import palette
+    from sim.views.recording import Recorder
+
+    path = tmp_path / "run.rrd"
+    setup = RobotSetup(MECANUM4, constant(Twist(0.2, 0.3)), faults=(WheelFault(0.2, 1, "free"),))
+    run(EMPTY, [setup], 0.5, observers=(Recorder(path),))
+    rows = {}
+    for chunk in rerun.chunk.RrdReader(path).stream().to_chunks():
+        for row in chunk.to_record_batch().to_pylist():
+            rows.setdefault(str(chunk.entity_path), []).append(row)
+    events = [row["TextLog:text"][0] for row in rows["/events"]]
+    assert any("mecanum4: front right rolls free" in text for text in events), events
+    wheels = sorted((row["sim_time"], row["Arrows2D:colors"]) for row in rows["/world/mecanum4/body/wheels"] if "sim_time" in row)
+    red, black = (int.from_bytes(bytes([*rgb, 255]), "big") for rgb in (palette.FAULT, palette.WHEEL))  # rerun's packed RGBA
+    assert wheels[0][1] == [black] * 4 and wheels[-1][1] == [black, red, black, black]
+
+
 def test_follow_path_ocp_drives_a_mecanum_robot_through_a_path_and_refuses_a_ctbot():
     from bots.behaviours import FollowPathOCP
     from bots.controller import Status

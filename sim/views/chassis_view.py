@@ -62,6 +62,16 @@ def steering_deflection(chassis: Any, steering: np.ndarray) -> np.ndarray:
     return wrap_angle(np.asarray(steering) - chassis.beta)
 
 
+def fault_text(chassis: Any, failure: Any) -> str:
+    """A wheel fault (`sim.kinematics.chassis.Failure`) in words, naming the wheel."""
+    name = chassis.names[failure.wheel]
+    if failure.locked:
+        return f"{name} locked"
+    if failure.steering:
+        return f"{name}: steering frozen" + (f" at {np.degrees(failure.frozen_beta):.0f}°" if failure.frozen_beta is not None else "")
+    return f"{name} rolls free (drive lost)"
+
+
 def step_icr(previous: np.ndarray, pose: np.ndarray) -> np.ndarray | None:
     """The world point (2,) that the rigid step from `previous` to `pose` turns about; None for a step
     without rotation (ICR at infinity)."""
@@ -104,7 +114,7 @@ class ChassisLayer:
     def __init__(self, log: Callable[..., None], robots: list[int], timeline: str):
         self.log, self.robots, self.timeline, self.samples = log, robots, timeline, 0
         self.previous: dict[int, np.ndarray] = {}
-        self.steering: dict[int, np.ndarray] = {}
+        self.steering: dict[int, tuple[np.ndarray, int]] = {}  # the wheels last drawn: angles, faults
         self.icr: dict[int, bool] = {}
 
     @classmethod
@@ -114,12 +124,14 @@ class ChassisLayer:
         return cls(log, robots, timeline) if robots else None
 
     def style(self, names: dict[int, str]) -> None:
-        """Static colours and sizes of each robot's wheels and ICR (`names`: robot index -> name)."""
+        """Static sizes of each robot's wheels and ICR, and the ICR's colour (`names`: robot index ->
+        name); wheels get their colours as they are drawn (static ones would hide those: a failed
+        wheel turns red)."""
         import rerun as rr
 
         for i in self.robots:
             base = f"world/{names[i]}"
-            self.log(f"{base}/body/wheels", rr.Arrows2D.from_fields(colors=palette.WHEEL, radii=WHEEL_RADIUS_M, draw_order=62), static=True)
+            self.log(f"{base}/body/wheels", rr.Arrows2D.from_fields(radii=WHEEL_RADIUS_M, draw_order=62), static=True)
             self.log(f"{base}/chassis/icr", rr.Points2D.from_fields(colors=palette.ICR, radii=-5.0, draw_order=64), static=True)
 
     def on_sample(self, world: Any, logs: list) -> None:
@@ -134,11 +146,15 @@ class ChassisLayer:
             if (self.samples - 1) % EVERY:
                 continue
             base = f"world/{logs[i].name}"
-            steering = logs[i].latest.steering
-            if i not in self.steering or not np.array_equal(steering, self.steering[i]):
-                self.steering[i] = steering.copy()
-                wheels = wheel_segments(logs[i].spec.chassis.chassis, steering)
-                self.log(f"{base}/body/wheels", rr.Arrows2D(origins=wheels[:, 0], vectors=wheels[:, 1] - wheels[:, 0]))
+            steering, failures = logs[i].latest.steering, logs[i].latest.failures
+            drawn = self.steering.get(i)
+            if drawn is None or drawn[1] != len(failures) or not np.array_equal(steering, drawn[0]):
+                self.steering[i] = (steering.copy(), len(failures))
+                chassis = logs[i].spec.chassis.chassis
+                wheels = wheel_segments(chassis, steering)
+                failed = {f.wheel for f in failures}
+                colours = [palette.FAULT if k in failed else palette.WHEEL for k in range(chassis.n)]
+                self.log(f"{base}/body/wheels", rr.Arrows2D(origins=wheels[:, 0], vectors=wheels[:, 1] - wheels[:, 0], colors=colours))
             icr = in_view(step_icr(previous, pose), world.spec.bounds)
             if icr is not None or self.icr.get(i, True):
                 self.log(f"{base}/chassis/icr", rr.Points2D([] if icr is None else [icr]))

@@ -41,7 +41,7 @@ import numpy as np
 from sim.kinematics import wrap_angle
 from sim.kinematics.chassis import WheelType
 from sim.views import palette
-from sim.views.chassis_view import ChassisLayer, body_outline
+from sim.views.chassis_view import ChassisLayer, body_outline, fault_text
 from sim.world import IR_RAY_LENGTH, World
 from sim.world.spec import WorldSpec
 
@@ -104,6 +104,7 @@ class _Track:
     count: int = 0
     tail: np.ndarray | None = None  # the last trail point of each label, (1 + estimates, 2)
     collisions: int = 0
+    failures: int = 0
     fell: bool = False
     goal: bool = False
 
@@ -198,6 +199,10 @@ class Recorder:
             if robot.collisions != track.collisions:
                 track.collisions = robot.collisions
                 self._event(f"{log.name}: collision {robot.collisions} at ({robot.pose[0]:.3f}, {robot.pose[1]:.3f}) m", "WARN")
+            if len(readings.failures) != track.failures:
+                for failure in readings.failures[track.failures :]:
+                    self._event(f"{log.name}: {fault_text(log.spec.chassis.chassis, failure)}", "WARN")
+                track.failures = len(readings.failures)
             if robot.fallen and not track.fell:
                 track.fell = True
                 self._event(f"{log.name}: fell into a hole at ({robot.pose[0]:.3f}, {robot.pose[1]:.3f}) m", "ERROR")

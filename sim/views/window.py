@@ -143,7 +143,7 @@ class Window:
             for name, poses in estimates.items():
                 self._body(poses[-1], 0.6 * outline, palette.estimate_colour(name, list(estimates)), 1)
             if robot.spec.chassis is not None:
-                self._chassis(robot.spec, truth, log.latest.steering, world.spec.bounds)
+                self._chassis(robot.spec, truth, log.latest, world.spec.bounds)
             self._body(pose, outline, palette.TRUTH, 2)
             lines += self._readout(log, robot, pose, estimates)
         self._scale_bar()
@@ -204,19 +204,21 @@ class Window:
         pygame.draw.lines(self.screen, colour, True, [self.px(*p) for p in to_world(pose, outline[:-1])], width)
         pygame.draw.line(self.screen, colour, self.px(*pose[:2]), self.px(*tip), width + 1)
 
-    def _chassis(self, spec: RobotSpec, truth: np.ndarray, steering: np.ndarray, view: tuple[float, float, float, float]) -> None:
-        """Each wheel along the way it rolls (an arrow head at its front, so steering shows), and the
-        ICR of the last step when it lies in the world."""
+    def _chassis(self, spec: RobotSpec, truth: np.ndarray, readings, view: tuple[float, float, float, float]) -> None:
+        """Each wheel along the way it rolls (an arrow head at its front, so steering shows; red once
+        it failed), and the ICR of the last step when it lies in the world."""
         import pygame
 
-        shapes = chassis_shapes(spec, truth[-1], steering, truth[-2] if len(truth) > 1 else truth[-1], view)
+        shapes = chassis_shapes(spec, truth[-1], readings.steering, truth[-2] if len(truth) > 1 else truth[-1], view)
         thick = max(3, round(2 * WHEEL_RADIUS_M * self.scale))
-        for back, front in shapes.wheels:
+        failed = {f.wheel for f in readings.failures}
+        for k, (back, front) in enumerate(shapes.wheels):
+            colour = palette.FAULT if k in failed else palette.WHEEL
             along = front - back
             side = np.array([-along[1], along[0]]) * 0.35
-            pygame.draw.line(self.screen, palette.WHEEL, self.px(*back), self.px(*front), thick)
+            pygame.draw.line(self.screen, colour, self.px(*back), self.px(*front), thick)
             head = [front + 0.3 * along, front - 0.2 * along + side, front - 0.2 * along - side]
-            pygame.draw.polygon(self.screen, palette.WHEEL, [self.px(*p) for p in head])
+            pygame.draw.polygon(self.screen, colour, [self.px(*p) for p in head])
         if shapes.icr is not None:
             centre = self.px(*shapes.icr)
             pygame.draw.line(self.screen, palette.ICR, centre, self.px(*truth[-1, :2]), 1)
