@@ -109,19 +109,22 @@ def to_world(pose: np.ndarray, points: np.ndarray) -> np.ndarray:
 
 class ChassisLayer:
     """Recording of the chassis robots of a run, for `sim.views.recording.Recorder`: `log(path, data,
-    static)` logs to every stream of the recording at the current sample's time."""
+    static=True)` logs static data to every stream; `columns(path, times, columns)` sends columns to
+    every stream. Wheels and ICR are buffered and leave with the recorder's chunk of the robot's
+    poses (`flush`), so that a live view never shows them ahead of the body."""
 
-    def __init__(self, log: Callable[..., None], robots: list[int], timeline: str):
-        self.log, self.robots, self.timeline, self.samples = log, robots, timeline, 0
+    def __init__(self, log: Callable[..., None], columns: Callable[..., None], robots: list[int], timeline: str):
+        self.log, self.columns, self.robots, self.timeline, self.samples = log, columns, robots, timeline, 0
         self.previous: dict[int, np.ndarray] = {}
-        self.steering: dict[int, tuple[np.ndarray, int]] = {}  # the wheels last drawn: angles, faults
-        self.icr: dict[int, bool] = {}
+        self.drawn: dict[int, tuple[np.ndarray, int]] = {}  # the wheels last drawn: angles, faults
+        self.wheels: dict[str, list[tuple[float, np.ndarray, list]]] = {}  # name -> (time, segments, colours)
+        self.icr: dict[str, list[tuple[float, np.ndarray | None]]] = {}  # name -> (time, ICR or None)
 
     @classmethod
-    def for_world(cls, log: Callable[..., None], world: Any, timeline: str) -> ChassisLayer | None:
+    def for_world(cls, log: Callable[..., None], columns: Callable[..., None], world: Any, timeline: str) -> ChassisLayer | None:
         """A layer for the world's chassis robots, None if it has none."""
         robots = [r.index for r in world.robots if r.spec.chassis is not None]
-        return cls(log, robots, timeline) if robots else None
+        return cls(log, columns, robots, timeline) if robots else None
 
     def style(self, names: dict[int, str]) -> None:
         """Static sizes of each robot's wheels and ICR, and the ICR's colour (`names`: robot index ->
@@ -135,9 +138,7 @@ class ChassisLayer:
             self.log(f"{base}/chassis/icr", rr.Points2D.from_fields(colors=palette.ICR, radii=-5.0, draw_order=64), static=True)
 
     def on_sample(self, world: Any, logs: list) -> None:
-        """Every EVERY-th sample: the wheels if a steering angle changed, the ICR of the last step."""
-        import rerun as rr
-
+        """Every EVERY-th sample: the wheels if a steering angle or fault changed, the ICR of the last step."""
         self.samples += 1
         for i in self.robots:
             pose = logs[i].truth_array()[-1]
@@ -145,17 +146,29 @@ class ChassisLayer:
             self.previous[i] = pose
             if (self.samples - 1) % EVERY:
                 continue
-            base = f"world/{logs[i].name}"
-            steering, failures = logs[i].latest.steering, logs[i].latest.failures
-            drawn = self.steering.get(i)
+            name, steering, failures = logs[i].name, logs[i].latest.steering, logs[i].latest.failures
+            drawn = self.drawn.get(i)
             if drawn is None or drawn[1] != len(failures) or not np.array_equal(steering, drawn[0]):
-                self.steering[i] = (steering.copy(), len(failures))
+                self.drawn[i] = (steering.copy(), len(failures))
                 chassis = logs[i].spec.chassis.chassis
-                wheels = wheel_segments(chassis, steering)
                 failed = {f.wheel for f in failures}
                 colours = [palette.FAULT if k in failed else palette.WHEEL for k in range(chassis.n)]
-                self.log(f"{base}/body/wheels", rr.Arrows2D(origins=wheels[:, 0], vectors=wheels[:, 1] - wheels[:, 0], colors=colours))
-            icr = in_view(step_icr(previous, pose), world.spec.bounds)
-            if icr is not None or self.icr.get(i, True):
-                self.log(f"{base}/chassis/icr", rr.Points2D([] if icr is None else [icr]))
-                self.icr[i] = icr is not None
+                self.wheels.setdefault(name, []).append((world.time, wheel_segments(chassis, steering), colours))
+            self.icr.setdefault(name, []).append((world.time, in_view(step_icr(previous, pose), world.spec.bounds)))
+
+    def flush(self, name: str) -> None:
+        """Send robot `name`'s buffered wheels and ICRs."""
+        import rerun as rr
+
+        base = f"world/{name}"
+        wheels, self.wheels[name] = self.wheels.get(name, []), []
+        if wheels:
+            segments = np.concatenate([w[1] for w in wheels])
+            self.columns(f"{base}/body/wheels", [rr.TimeColumn(self.timeline, duration=[w[0] for w in wheels])],
+                         rr.Arrows2D.columns(origins=segments[:, 0], vectors=segments[:, 1] - segments[:, 0],
+                                             colors=np.concatenate([w[2] for w in wheels])).partition([len(w[1]) for w in wheels]))
+        icr, self.icr[name] = self.icr.get(name, []), []
+        if icr:
+            points = np.array([p for _, p in icr if p is not None]).reshape(-1, 2)
+            self.columns(f"{base}/chassis/icr", [rr.TimeColumn(self.timeline, duration=[t for t, _ in icr])],
+                         rr.Points2D.columns(positions=points).partition([int(p is not None) for _, p in icr]))

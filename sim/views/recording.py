@@ -175,7 +175,7 @@ class Recorder:
         log_world(self._log, world.spec)
         self._log("facts", rr.TextDocument(self._facts_text(world, logs), media_type=rr.MediaType.MARKDOWN), static=True)
         self._tracks = [self._track(log) for log in logs]
-        self._chassis = ChassisLayer.for_world(self._log_now, world, TIMELINE)
+        self._chassis = ChassisLayer.for_world(self._log, self._columns, world, TIMELINE)
         self._style()
         if self._chassis is not None:
             self._chassis.style({i: log.name for i, log in enumerate(logs)})
@@ -246,8 +246,8 @@ class Recorder:
 
     @property
     def rec(self) -> Any:
-        """The first open stream (the file's), for layers that log per sample themselves (chassis,
-        bridge); None when closed."""
+        """The first open stream (the file's), for layers that log per sample themselves (the bridge;
+        the chassis layer logs to every stream); None when closed."""
         return self.streams[0] if self.streams else None
 
     def _log(self, path: str, data: Any, static: bool = False) -> None:
@@ -379,6 +379,8 @@ class Recorder:
             self._columns(f"errors/{name}/position/{label}", times, rr.Scalars.columns(scalars=1000 * np.hypot(error[:, 0], error[:, 1])))
             self._columns(f"errors/{name}/heading/{label}", times, rr.Scalars.columns(scalars=np.degrees(wrap_angle(error[:, 2]))))
         self._send_trails(track, truth, estimates)
+        if self._chassis is not None:
+            self._chassis.flush(name)
         if len(track.ir):
             self._send_rays(track, times, truth)
         for group, (_, fields) in SENSOR_GROUPS.items():
