@@ -6,6 +6,9 @@ Layout (all on the timeline "sim_time", seconds of simulated time):
     world/map/floor                    the map as an image (drawn like the PNG figures), static
     world/map/starts                   start poses (arrows), static
     world/<robot>/body                 Transform3D: the true pose; body/outline is static in it
+                                       (a chassis's polygon, else a circle); body/wheels of a
+                                       general chassis: Arrows2D, as the steering turns
+    world/<robot>/chassis/icr          Points2D: the ICR of a general chassis's motion, in view
     world/<robot>/estimate/<est>       Transform3D: the estimated pose; estimate/<est>/outline static
     world/<robot>/rays, hits           IR rays to the distance each sensor reports, and that point
     world/<robot>/trail/<label>        LineStrips2D, one piece per TRAIL_EVERY samples (truth and
@@ -13,7 +16,8 @@ Layout (all on the timeline "sim_time", seconds of simulated time):
     errors/<robot>/position/<est>      Scalars, |estimate - truth| (mm)
     errors/<robot>/heading/<est>       Scalars, wrapped heading error (deg)
     sensors/<group>/<robot>/<field>    Scalars, readings in their units (SENSOR_GROUPS)
-    events                             TextLog: start, collisions, falls, goal, messages, end, errors
+    events                             TextLog: start, collisions, wheel faults, falls, goal,
+                                       messages, end, errors
     facts                              TextDocument: world, robots, controllers, seed, dt, version
 
 Per-sample values go into numpy buffers and leave in chunks with `send_columns` (DESIGN.md §6):
@@ -97,7 +101,6 @@ class _Track:
     ir: np.ndarray  # (k, 3) body-frame (x, y, direction) of each IR sensor
     channels: list[tuple[str, ...]]  # per FIELDS, the names of its recorded channels (the spec's)
     picks: list[np.ndarray | None]  # per FIELDS, which entries of the readings field (None: all)
-    names: list[str] = field(init=False)  # fields with channels, in buffer column order
     time: np.ndarray = field(init=False)
     sensors: np.ndarray = field(init=False)
     start: int = 0  # index of the buffer's first sample in the run
@@ -109,14 +112,9 @@ class _Track:
     goal: bool = False
 
     def __post_init__(self) -> None:
-        self.names = [f for f, channels in zip(FIELDS, self.channels) if channels]
         self._read = [(f, pick) for f, channels, pick in zip(FIELDS, self.channels, self.picks) if channels]
         self.time = np.empty(CHUNK)
         self.sensors = np.empty((CHUNK, sum(map(len, self.channels))))
-
-    def width(self, name: str) -> int:
-        """Channels recorded of readings field `name`."""
-        return len(self.channels[FIELDS.index(name)])
 
     def values(self, readings: Any) -> np.ndarray:
         """One sample's recorded channels, in buffer column order."""
@@ -254,18 +252,15 @@ class Recorder:
         for rec in self.streams:
             rec.log(path, data, static=static)
 
-    def _log_now(self, path: str, data: Any, static: bool = False) -> None:
-        """Log to every stream at the current sample's time."""
-        for rec in self.streams:
-            rec.set_time(TIMELINE, duration=self._now)
-            rec.log(path, data, static=static)
-
     def _columns(self, path: str, times: list, columns: Any) -> None:
         for rec in self.streams:
             rec.send_columns(path, times, columns)
 
     def _event(self, text: str, level: str) -> None:
-        self._log_now("events", _rerun().TextLog(text, level=level))
+        rr = _rerun()
+        for rec in self.streams:
+            rec.set_time(TIMELINE, duration=self._now)
+            rec.log("events", rr.TextLog(text, level=level))
 
     def _open_live(self, rr: Any, blueprint: Any) -> None:
         """A second stream to the viewer at `connect` (or one spawned here), sharing the file's

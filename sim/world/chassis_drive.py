@@ -9,7 +9,8 @@ steered wheels, and its residual is the wheels' slip; the unobstructed motion ov
 exact `se2_exp(twist·dt)`. Passive wheels roll with the body; every wheel's encoder counts its own
 rotation (quantised, remainder carried). The world then cuts the move at walls and robots as for any
 robot. After the step, a second mouse sensor (if any) reads the body's true motion, and a wheel over
-a hole drops the robot.
+a hole drops the robot. The per-step wheel maths is one compiled kernel (`_wheels`, numba, like
+`sim.world.kernels`); the least-squares matrices are rebuilt only when steering or faults change.
 """
 
 from __future__ import annotations
@@ -106,7 +107,7 @@ class _Drive:
         self.chassis = degrade(self.nominal.with_beta(self.beta), *self.failures)
         self._refresh()
 
-    def step(self, dt: float, slip: np.ndarray) -> np.ndarray:
+    def step(self, dt: float, slip: np.ndarray) -> list[float]:
         """Steering, motors, forward kinematics and encoders for one step; the body increment (dx, dy, dθ)."""
         c = self.chassis
         if self.steers:
