@@ -8,7 +8,6 @@ costs (poses kept for the metrics: 120 bytes a step), the ratio of wall times sh
 
 from __future__ import annotations
 
-import resource
 import subprocess
 import sys
 import tempfile

@@ -39,6 +39,20 @@ def empty_1bot(steps: int) -> float:
     return _steps_per_second(world, steps, np.array([[120.0, 160.0]]), read=False)
 
 
+def mecanum_4wheel(steps: int) -> float:
+    """`empty_1bot` for the Mecanum-4 robot (general chassis drive: motors, least-squares forward
+    kinematics, exact SE(2) step, four encoders), crabbing along a curve."""
+    from bots.wheeled import MECANUM4
+    from sim.kinematics.chassis import inverse_kinematics
+
+    bare = MECANUM4.with_changes(name="bare", mouse=None, ir=(), chassis={"mouse2": None})
+    world = World(WorldSpec("empty", (-5, -5, 5, 5), starts=(Start(0, 0, 0),)))
+    world.add_robot(bare)
+    wheels = inverse_kinematics(bare.chassis.chassis, [0.3, 0.2, 0.4])
+    world.chassis.command(0, wheels.phi_dot, wheels.beta)
+    return _steps_per_second(world, steps, np.zeros((1, 2)), read=False)
+
+
 def maze_ctbot(steps: int) -> float:
     """One c't-Bot reading every sensor each step in the shipped maze, turning gently so that it
     meets walls (contacts, sliding and ray hits included)."""
@@ -81,6 +95,7 @@ def many_ctbots(steps: int, count: int = 100) -> float:
 def figures(scale: float):
     """(name, unit, thunk) for the world benchmarks."""
     yield "world_empty_1bot", "steps/s", lambda: empty_1bot(int(20000 * scale))
+    yield "world_mecanum_4wheel", "steps/s", lambda: mecanum_4wheel(int(20000 * scale))
     bare: list[float] = []
 
     def world_step() -> float:

@@ -41,3 +41,28 @@ def test_escape_quits_and_cli_writes_outputs(tmp_path, monkeypatch):
     out = tmp_path / "o"
     assert main(["play", "maze", "--frames", "400", "--out", str(out), "--no-report"]) == 0
     assert (out / "run.rrd").is_file() and (out / "truth.tum").is_file()
+
+
+def _pixels(path, colour) -> int:
+    """How many pixels of a saved frame have exactly `colour`."""
+    image = pygame.surfarray.array3d(pygame.image.load(str(path)))
+    return int(np.all(image == colour, axis=-1).sum())
+
+
+def test_the_window_draws_a_chassis_robot_its_wheels_and_the_icr_of_a_turn(tmp_path):
+    from bots.wheeled import CAR
+    from sim.views import palette
+    from sim.views.chassis_view import body_outline
+
+    frames = {}
+    for keys in ((pygame.K_UP,), (pygame.K_UP, pygame.K_LEFT)):
+        snapshot = tmp_path / f"{len(keys)}.png"
+        result = play(load_world("chassis_yard"), CAR, None, frames=60, fps=1000, speed=1, snapshot=snapshot,
+                      events={2: [_key(pygame.KEYDOWN, k) for k in keys]})
+        assert result.reason == "duration" and result.robots[0].truth_array()[-1, 0] > 1.6  # drove forward
+        frames[keys] = snapshot
+    straight, turning = frames.values()
+    assert _pixels(straight, palette.WHEEL) > 4 * 3 and _pixels(turning, palette.WHEEL) > 4 * 3  # four wheels, 3 px thick
+    assert _pixels(straight, palette.ICR) == 0  # no rotation: the ICR is at infinity
+    assert _pixels(turning, palette.ICR) > 20  # a disc of 5 px radius about the ICR
+    assert _pixels(turning, palette.TRUTH) > 2 * np.ptp(body_outline(CAR)[:, 0]) * 60  # the car's outline at >= 60 px/m

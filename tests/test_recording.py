@@ -9,6 +9,7 @@ import threading
 import numpy as np
 import pyarrow as pa
 import pytest
+from observers import KeepReadings
 
 from bots.commands import WheelSpeeds
 from bots.controller import FunctionController
@@ -16,8 +17,6 @@ from bots.ctbot import CTBOT
 from sim.run import RobotSetup, run
 from sim.views.recording import CHUNK, TRAIL_EVERY, Recorder
 from sim.world.files import load_world
-
-from observers import KeepReadings
 
 
 def _columns(path) -> dict[str, dict[str, list]]:

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 import pytest
-from numpy.testing import assert_allclose
+from numpy.testing import assert_allclose, assert_array_equal
 
 from bots.chassis_commands import InfeasibleCommand, chassis_setpoints
 from bots.chassis_odometry import (
@@ -19,9 +19,16 @@ from bots.commands import Twist, WheelCommands
 from bots.controller import FunctionController
 from bots.spec import EncoderSpec, MotorSpec, MouseSpec, load_robot, wheeled_robot
 from bots.wheeled import CAR, MECANUM4, WHEELED_ROBOTS
-from sim.kinematics import apply_increment, relative_increment, se2_exp, se2_log
+from sim.kinematics import (
+    apply_increment,
+    relative_increment,
+    se2_exp,
+    se2_log,
+    wrap_angle,
+)
 from sim.kinematics.chassis import (
     Failure,
+    WheelType,
     degrade,
     forward_kinematics,
     inverse_kinematics,
@@ -92,6 +99,65 @@ def test_ackermann_icr_lies_on_the_rear_axle_where_the_wheel_angles_meet(radius)
     icr = np.array([-step[1], step[0]]) / step[2]
     assert_allclose(icr, [0.0, radius], atol=1e-9)  # rounding of a 1e-2 rad step, divided by ω
     assert_allclose(step[2], omega, rtol=1e-9)
+
+
+def wheels_about(chassis, centre: np.ndarray, omega: float, keep: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Wheel speeds φ̇ and angles β that turn the body about `centre` (body frame) at `omega`, by the
+    thesis's rule (2.99-2.110): each wheel rolls along ω × (wheel − ICR), at that contact speed; a
+    steered wheel whose direction lies beyond its limits rolls the other way round. Fixed wheels
+    (and those in `keep`) keep their β: the ICR must lie on their axles."""
+    offset = chassis.positions - centre
+    velocity = omega * np.stack([-offset[:, 1], offset[:, 0]], axis=1)
+    heading = np.arctan2(velocity[:, 1], velocity[:, 0])
+    heading = np.where((heading < chassis.steer_min) | (heading > chassis.steer_max), wrap_angle(heading + np.pi), heading)
+    keep = (chassis.kind == WheelType.FIXED) | (False if keep is None else keep)
+    beta = np.where(keep, chassis.beta, heading - chassis.alpha + np.pi / 2)
+    rolls = chassis.alpha + beta - np.pi / 2
+    return (velocity[:, 0] * np.cos(rolls) + velocity[:, 1] * np.sin(rolls)) / chassis.radius, beta
+
+
+STEERED_ICRS = {  # preset -> ICRs (body frame, m) its wheels can point at within their limits
+    "tricycle": [(0.0, 1.2), (0.0, -0.6), (0.0, 0.1)],  # on the rear axle, even between the wheels
+    "steered3": [(0.5, -0.3), (0.05, 0.1), (-0.4, 0.0)],  # anywhere: outside, inside the chassis
+    "steered4": [(0.1, 0.6), (-0.8, 0.0), (0.0, 0.0)],  # the OCP vehicle: beside, behind, on the spot
+}
+
+
+@pytest.mark.parametrize("preset, centre", [(p, c) for p, centres in STEERED_ICRS.items() for c in centres])
+def test_steered_chassis_turn_about_the_icr_their_wheels_point_at(preset, centre):
+    """The ICR of the world's motion is where the thesis puts it for the commanded wheel angles."""
+    chassis = PRESETS[preset]()
+    phi_dot, beta = wheels_about(chassis, np.array(centre), 0.4)
+    _, poses = drive_world(robot_on(chassis), phi_dot, beta, 20)
+    step = se2_log(relative_increment(poses[10], poses[11])) / DT
+    assert step[2] == pytest.approx(0.4, rel=1e-9)  # the wheels agree: no least-squares compromise
+    assert_allclose(np.array([-step[1], step[0]]) / step[2], centre, atol=1e-9)  # rounding, divided by ω
+
+
+def test_steered3_with_wheel_3_frozen_at_30_degrees_turns_only_about_points_of_its_axle():
+    """Thesis §3.4 case 2: with wheel 3's steering frozen at β₃ = 30° the ICR lies on wheel 3's axle
+    line; the other two wheels, pointed at a point of that line, turn the robot about it."""
+    chassis = PRESETS["steered3"]()
+    frozen = chassis.beta.copy()
+    frozen[2] = wrap_angle(frozen[2] + math.radians(30))
+    heading = chassis.alpha[2] + frozen[2] - np.pi / 2  # wheel 3 rolls along this; its axle is normal to it
+    centre = chassis.positions[2] + 0.7 * np.array([-np.sin(heading), np.cos(heading)])
+    phi_dot, beta = wheels_about(chassis.with_beta(frozen), centre, -0.3, keep=np.arange(3) == 2)
+    spec = robot_on(chassis, chassis_fields={"steer_rate": math.inf})
+    world = World(EMPTY, dt=DT)
+    world.add_robot(spec)
+    world.chassis.command(0, np.zeros(3), frozen)
+    world.step(np.zeros((1, 2)))
+    world.chassis.fail(0, 2, "steering")
+    poses = []
+    for _ in range(12):
+        world.chassis.command(0, phi_dot, beta + np.array([0.0, 0.0, 0.5]))  # wheel 3's steering ignores its command
+        world.step(np.zeros((1, 2)))
+        poses.append(world.poses()[0])
+    step = se2_log(relative_increment(poses[-2], poses[-1])) / DT
+    assert_allclose(world.chassis.drives[0].beta[2], frozen[2], atol=1e-12)
+    assert step[2] == pytest.approx(-0.3, rel=1e-9)
+    assert_allclose(np.array([-step[1], step[0]]) / step[2], centre, atol=1e-9)
 
 
 def constant(command):
@@ -302,17 +368,57 @@ def test_the_drawn_icr_is_the_fixed_point_of_the_step_and_wheels_sit_on_the_body
     assert chassis_shapes(CAR, pose, CAR.chassis.chassis.beta, previous, (-1, -1, 0, 0)).icr is None
 
 
-@pytest.mark.xfail(strict=True, reason="the merged recorder sizes the encoder series for two wheels; a chassis robot has one per wheel")
 def test_a_recording_of_a_chassis_robot_holds_wheels_outline_and_icr(tmp_path):
     import rerun.chunk
 
+    from sim.views.chassis_view import body_outline
     from sim.views.recording import Recorder
 
     path = tmp_path / "run.rrd"
-    run(EMPTY, [RobotSetup(CAR, constant(Twist(0.3, 0.4)))], 0.5, observers=(Recorder(path),))
-    entities = {str(chunk.entity_path) for chunk in rerun.chunk.RrdReader(path).stream().to_chunks()}
-    for entity in ("/world/car/chassis/wheels", "/world/car/chassis/outline", "/world/car/chassis/icr"):
-        assert entity in entities, sorted(entities)
+    result = run(EMPTY, [RobotSetup(CAR, constant(Twist(0.3, 0.2)))], 2.0, observers=(Recorder(path),))
+    rows: dict[str, list[tuple[float, dict]]] = {}  # entity -> (time s, -1 static; row) in time order
+    for chunk in rerun.chunk.RrdReader(path).stream().to_chunks():
+        for row in chunk.to_record_batch().to_pylist():
+            time = row["sim_time"].total_seconds() if "sim_time" in row else -1.0
+            rows.setdefault(str(chunk.entity_path), []).append((time, row))
+    last = {entity: sorted(entries, key=lambda entry: entry[0])[-1][1] for entity, entries in rows.items()}
+    # the outline is the chassis's polygon, static in the body frame: it moves with the true pose
+    outline = np.array(last["/world/car/body/outline"]["LineStrips2D:strips"][0])
+    assert_allclose(outline, body_outline(CAR), atol=1e-6)  # float32 storage
+    # one encoder series per wheel, one steering series per steered wheel
+    assert len(last["/sensors/encoders/car/encoder_ticks"]["Scalars:scalars"]) == 4
+    steered = np.degrees(wrap_angle(result.robots[0].latest.steering - CAR.chassis.chassis.beta))[:2]  # from straight
+    assert_allclose(last["/sensors/steering/car/steering"]["Scalars:scalars"], steered, atol=1e-9)  # float64 series
+    # wheels in the body frame, drawn again as the steering turns: the last ones at the final angles
+    origins, vectors = (np.array(last["/world/car/body/wheels"][f"Arrows2D:{f}"]) for f in ("origins", "vectors"))
+    c = CAR.chassis.chassis
+    assert_allclose(origins + 0.5 * vectors, c.positions, atol=1e-6)
+    heading = c.alpha + result.robots[0].latest.steering - np.pi / 2  # steering settled long before the end
+    assert_allclose(vectors, 2 * c.radius[:, None] * np.stack([np.cos(heading), np.sin(heading)], axis=1), atol=1e-6)
+    # the last ICR: v/ω = 1.5 m to the left of the rear axle's middle, where the last pose puts it
+    icr = sorted(rows["/world/car/chassis/icr"], key=lambda entry: entry[0])[-1]
+    pose = result.robots[0].truth_array()[round(icr[0] / DT)]
+    assert_allclose(icr[1]["Points2D:positions"][0], pose[:2] + 1.5 * np.array([-np.sin(pose[2]), np.cos(pose[2])]), atol=1e-5)  # float32 (of 1.5 m)
+
+
+def test_a_recorded_wheel_fault_is_an_event_and_turns_the_wheel_red(tmp_path):
+    import rerun.chunk
+
+    from sim.views import palette
+    from sim.views.recording import Recorder
+
+    path = tmp_path / "run.rrd"
+    setup = RobotSetup(MECANUM4, constant(Twist(0.2, 0.3)), faults=(WheelFault(0.2, 1, "free"),))
+    run(EMPTY, [setup], 0.5, observers=(Recorder(path),))
+    rows = {}
+    for chunk in rerun.chunk.RrdReader(path).stream().to_chunks():
+        for row in chunk.to_record_batch().to_pylist():
+            rows.setdefault(str(chunk.entity_path), []).append(row)
+    events = [row["TextLog:text"][0] for row in rows["/events"]]
+    assert any("mecanum4: front right rolls free" in text for text in events), events
+    wheels = sorted((row["sim_time"], row["Arrows2D:colors"]) for row in rows["/world/mecanum4/body/wheels"] if "sim_time" in row)
+    red, black = (int.from_bytes(bytes([*rgb, 255]), "big") for rgb in (palette.FAULT, palette.WHEEL))  # rerun's packed RGBA
+    assert wheels[0][1] == [black] * 4 and wheels[-1][1] == [black, red, black, black]
 
 
 def test_follow_path_ocp_drives_a_mecanum_robot_through_a_path_and_refuses_a_ctbot():
@@ -330,3 +436,40 @@ def test_follow_path_ocp_drives_a_mecanum_robot_through_a_path_and_refuses_a_ctb
     assert off_path.max() < 0.2  # corner cut by at most about the look-ahead
     with pytest.raises(ValueError, match="differential drive"):
         FollowPathOCP().reset(CTBOT)
+
+
+@pytest.mark.parametrize("name", sorted(PRESETS))
+def test_the_compiled_wheel_step_is_the_cores_forward_kinematics_motor_and_encoders(name):
+    """`chassis_drive._wheels` against the core's functions: the motor model, the least-squares twist
+    and its residual (`forward_kinematics`), rolling of an unmeasured (free) wheel, the encoders
+    (`quantize`) and the exact step (`se2_exp`)."""
+    from sim.kinematics import quantize
+    from sim.kinematics.chassis import forward_pinv, forward_system, rolling_rows
+    from sim.world.chassis_drive import _wheels
+
+    chassis = PRESETS[name]()
+    n, rng = chassis.n, np.random.default_rng(15)
+    degraded = degrade(chassis, Failure(0, drive=True)) if chassis.driven.sum() > 1 else chassis
+    measured = degraded.driven | degraded.locked
+    beta = chassis.beta + rng.uniform(-0.2, 0.2, n) * (chassis.kind == WheelType.STEERED)  # steered somewhere
+    a, _ = forward_system(degraded, np.zeros(n), beta, measured)
+    rolls = rolling_rows(degraded.alpha, beta, degraded.l, degraded.gamma)
+    rim = degraded.radius * np.cos(degraded.gamma)
+    phi, target, top = rng.uniform(-5, 5, n), rng.uniform(-20, 20, n), np.full(n, 12.0)
+    slip, carry = rng.normal(0, 0.05, n), rng.uniform(0, 1, n)
+    lag, max_change, dt, ticks_per_rad = 0.3, 1.5, 0.01, 60 / (2 * np.pi)
+
+    phi_dot, tick_carry, ticks, twist = phi.copy(), carry.copy(), np.zeros(n, dtype=np.int64), np.zeros(3)
+    *increment, residual = _wheels(dt, phi_dot, target, top, lag, max_change, degraded.driven, degraded.locked, measured,
+                                   rim, slip, a, forward_pinv(a), rolls, ticks_per_rad, tick_carry, ticks, twist)
+
+    expected = np.where(degraded.driven, phi + np.clip((np.clip(target, -top, top) - phi) * lag, -max_change, max_change), phi)
+    solution = forward_kinematics(degraded, expected * (1 + slip), beta, measured=measured)
+    assert_allclose(twist, solution.twist, atol=1e-12)  # the same pinv, summed in another order
+    assert residual == pytest.approx(float(solution.slip), abs=1e-12)
+    expected = np.where(measured, expected, rolls @ solution.twist / rim)  # the free wheel rolls with the body
+    assert_allclose(phi_dot, expected, atol=1e-12)
+    counts, rest = quantize(expected * dt * ticks_per_rad, carry)
+    assert_array_equal(ticks, counts)
+    assert_allclose(tick_carry, rest, atol=1e-12)
+    assert_allclose(increment, se2_exp(solution.twist * dt), atol=1e-15)

@@ -191,6 +191,10 @@ class Teleop(Behaviour):
         """All the keys held now."""
         self.keys = {key.lower() for key in keys}
 
+    def step(self, t: float, readings: Readings) -> Command:
+        """The keys' command: driving by hand needs no odometry, so any chassis can be driven."""
+        return self.act(t, readings)
+
     def act(self, t: float, readings: Readings) -> Command:
         forward = sum(TELEOP_KEYS[k][0] for k in self.keys if k in TELEOP_KEYS)
         turn = sum(TELEOP_KEYS[k][1] for k in self.keys if k in TELEOP_KEYS)

@@ -18,7 +18,12 @@ from bots.behaviours.base import (
 from bots.behaviours.motion import DriveDistance, DriveTo, Turn
 from bots.commands import Command, Twist
 from bots.controller import Status, register
-from sim.kinematics import apply_increment, relative_increment, relative_pose, wrap_angle
+from sim.kinematics import (
+    apply_increment,
+    relative_increment,
+    relative_pose,
+    wrap_angle,
+)
 from sim.world.readings import Readings
 
 GOAL_TOLERANCE = 0x10

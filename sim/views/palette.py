@@ -38,6 +38,12 @@ START: RGB = (60, 130, 240)
 RAY: RGB = (225, 40, 40)
 HIT: RGB = (255, 90, 0)
 ROBOT_EDGE: RGB = (20, 20, 20)
+WHEEL: RGB = (40, 40, 40)
+"""Wheels of a general chassis, drawn along their rolling direction with the head at the front."""
+FAULT: RGB = (225, 30, 30)
+"""A wheel that failed (locked, rolling free, steering frozen)."""
+ICR: RGB = (230, 60, 200)
+"""The instantaneous centre of rotation of a robot's motion."""
 SCALE_BAR: RGB = (20, 20, 20)
 CHANNELS: tuple[RGB, ...] = ((31, 119, 180), (214, 39, 40), (44, 160, 44), (148, 103, 189), (140, 86, 75), (23, 190, 207))
 """Colours of a sensor's channels (left, right, ...)."""

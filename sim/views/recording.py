@@ -6,6 +6,9 @@ Layout (all on the timeline "sim_time", seconds of simulated time):
     world/map/floor                    the map as an image (drawn like the PNG figures), static
     world/map/starts                   start poses (arrows), static
     world/<robot>/body                 Transform3D: the true pose; body/outline is static in it
+                                       (a chassis's polygon, else a circle); body/wheels of a
+                                       general chassis: Arrows2D, as the steering turns
+    world/<robot>/chassis/icr          Points2D: the ICR of a general chassis's motion, in view
     world/<robot>/estimate/<est>       Transform3D: the estimated pose; estimate/<est>/outline static
     world/<robot>/rays, hits           IR rays to the distance each sensor reports, and that point
     world/<robot>/trail/<label>        LineStrips2D, one piece per TRAIL_EVERY samples (truth and
@@ -13,7 +16,8 @@ Layout (all on the timeline "sim_time", seconds of simulated time):
     errors/<robot>/position/<est>      Scalars, |estimate - truth| (mm)
     errors/<robot>/heading/<est>       Scalars, wrapped heading error (deg)
     sensors/<group>/<robot>/<field>    Scalars, readings in their units (SENSOR_GROUPS)
-    events                             TextLog: start, collisions, falls, goal, messages, end, errors
+    events                             TextLog: start, collisions, wheel faults, falls, goal,
+                                       messages, end, errors
     facts                              TextDocument: world, robots, controllers, seed, dt, version
 
 Per-sample values go into numpy buffers and leave in chunks with `send_columns` (DESIGN.md §6):
@@ -39,8 +43,9 @@ from urllib.parse import urlsplit
 import numpy as np
 
 from sim.kinematics import wrap_angle
+from sim.kinematics.chassis import WheelType
 from sim.views import palette
-from sim.views.chassis_view import ChassisLayer
+from sim.views.chassis_view import ChassisLayer, body_outline, fault_text
 from sim.world import IR_RAY_LENGTH, World
 from sim.world.spec import WorldSpec
 
@@ -48,6 +53,8 @@ if TYPE_CHECKING:
     from sim.run import RobotLog, RunResult
 
 TIMELINE = "sim_time"
+TURNING = (WheelType.STEERED, WheelType.CASTOR, WheelType.SPHERICAL)
+"""Wheels whose steering angle changes in a run, and so is recorded."""
 CHUNK = 1000
 """Samples per `send_columns` batch."""
 TRAIL_EVERY = 10
@@ -57,7 +64,7 @@ LIVE_PORT = 9876
 LIVE_WAIT_S = 10.0
 """How long to wait for a spawned viewer to listen, and for a live chunk to reach the viewer."""
 
-FIELDS = ("ir_raw", "ir_distance", "line", "border", "light", "encoder_ticks", "mouse_counts")
+FIELDS = ("ir_raw", "ir_distance", "line", "border", "light", "encoder_ticks", "mouse_counts", "mouse2_counts", "steering")
 """Readings fields recorded as time series, in buffer column order."""
 SENSOR_GROUPS = {
     "ir_raw": ("IR raw (ADC)", ("ir_raw",)),
@@ -65,13 +72,12 @@ SENSOR_GROUPS = {
     "floor": ("floor: line and border (0 white, 1023 black)", ("line", "border")),
     "light": ("light (0 bright, 1023 dark)", ("light",)),
     "encoders": ("encoders (ticks per step)", ("encoder_ticks",)),
-    "mouse": ("mouse (counts per step: forward, left)", ("mouse_counts",)),
+    "mouse": ("mouse (counts per step: forward, left)", ("mouse_counts", "mouse2_counts")),
+    "steering": ("steered from straight (deg)", ("steering",)),
 }
 """Sensor plot -> (title, readings fields); each field is logged under sensors/<group>/<robot>/<field>."""
-SCALE = {"ir_distance": 1000.0}
-"""Recorded unit per SI unit where a field is shown in other units (m -> mm)."""
-CHANNELS = {"mouse_counts": ("forward", "left")}
-"""Channel names other than left/right."""
+SCALE = {"ir_distance": 1000.0, "steering": 180.0 / math.pi}
+"""Recorded unit per SI unit where a field is shown in other units (m -> mm, rad -> deg)."""
 
 def _rerun():
     """rerun, imported lazily (0.5 s, 80 MB); its own log lines about a lost viewer are silenced
@@ -93,27 +99,32 @@ class _Track:
     log: RobotLog
     estimates: list[str]
     ir: np.ndarray  # (k, 3) body-frame (x, y, direction) of each IR sensor
-    widths: list[int]
-    names: list[str] = field(init=False)  # fields with channels, in buffer column order
+    channels: list[tuple[str, ...]]  # per FIELDS, the names of its recorded channels (the spec's)
+    picks: list[np.ndarray | None]  # per FIELDS, which entries of the readings field (None: all)
     time: np.ndarray = field(init=False)
     sensors: np.ndarray = field(init=False)
     start: int = 0  # index of the buffer's first sample in the run
     count: int = 0
     tail: np.ndarray | None = None  # the last trail point of each label, (1 + estimates, 2)
     collisions: int = 0
+    failures: int = 0
     fell: bool = False
     goal: bool = False
 
     def __post_init__(self) -> None:
-        self.names = [f for f, width in zip(FIELDS, self.widths) if width]
+        self._read = [(f, pick) for f, channels, pick in zip(FIELDS, self.channels, self.picks) if channels]
         self.time = np.empty(CHUNK)
-        self.sensors = np.empty((CHUNK, sum(self.widths)))
+        self.sensors = np.empty((CHUNK, sum(map(len, self.channels))))
+
+    def values(self, readings: Any) -> np.ndarray:
+        """One sample's recorded channels, in buffer column order."""
+        return np.concatenate([getattr(readings, f) if pick is None else getattr(readings, f)[pick] for f, pick in self._read])
 
     def column(self, name: str) -> np.ndarray:
         """This chunk's buffered values of readings field `name`, (n, width)."""
         k = FIELDS.index(name)
-        left = sum(self.widths[:k])
-        return self.sensors[: self.count, left : left + self.widths[k]]
+        left = sum(map(len, self.channels[:k]))
+        return self.sensors[: self.count, left : left + len(self.channels[k])]
 
 
 class Recorder:
@@ -149,7 +160,7 @@ class Recorder:
 
     def _open(self, world: World, logs: list[RobotLog]) -> None:
         rr = _rerun()
-        groups = [g for g, (_, fields) in SENSOR_GROUPS.items() if any(_width(log.spec, f) for log in logs for f in fields)]
+        groups = [g for g, (_, fields) in SENSOR_GROUPS.items() if any(_channels(log.spec, f)[0] for log in logs for f in fields)]
         blueprint = self.blueprint(world.spec, {log.name: list(log.estimate_arrays()) for log in logs}, groups)
         self.streams = []
         if self.path is not None:
@@ -162,8 +173,10 @@ class Recorder:
         log_world(self._log, world.spec)
         self._log("facts", rr.TextDocument(self._facts_text(world, logs), media_type=rr.MediaType.MARKDOWN), static=True)
         self._tracks = [self._track(log) for log in logs]
-        self._chassis = ChassisLayer.for_world(self.rec, world, TIMELINE) if self.rec is not None else None
+        self._chassis = ChassisLayer.for_world(self._log, self._columns, world, TIMELINE)
         self._style()
+        if self._chassis is not None:
+            self._chassis.style({i: log.name for i, log in enumerate(logs)})
         self._now = world.time
         names = ", ".join(f"{log.name} ({log.controller_name})" for log in logs)
         self._event(f"start: {names} in {world.spec.name}", "INFO")
@@ -179,11 +192,15 @@ class Recorder:
             n = track.count
             track.time[n] = world.time
             readings = log.latest
-            track.sensors[n] = np.concatenate([getattr(readings, f) for f in track.names])
+            track.sensors[n] = track.values(readings)
             track.count = n + 1
             if robot.collisions != track.collisions:
                 track.collisions = robot.collisions
                 self._event(f"{log.name}: collision {robot.collisions} at ({robot.pose[0]:.3f}, {robot.pose[1]:.3f}) m", "WARN")
+            if len(readings.failures) != track.failures:
+                for failure in readings.failures[track.failures :]:
+                    self._event(f"{log.name}: {fault_text(log.spec.chassis.chassis, failure)}", "WARN")
+                track.failures = len(readings.failures)
             if robot.fallen and not track.fell:
                 track.fell = True
                 self._event(f"{log.name}: fell into a hole at ({robot.pose[0]:.3f}, {robot.pose[1]:.3f}) m", "ERROR")
@@ -227,8 +244,8 @@ class Recorder:
 
     @property
     def rec(self) -> Any:
-        """The first open stream (the file's), for layers that log per sample themselves (chassis,
-        bridge); None when closed."""
+        """The first open stream (the file's), for layers that log per sample themselves (the bridge;
+        the chassis layer logs to every stream); None when closed."""
         return self.streams[0] if self.streams else None
 
     def _log(self, path: str, data: Any, static: bool = False) -> None:
@@ -282,11 +299,13 @@ class Recorder:
 
     def _track(self, log: RobotLog) -> _Track:
         spec = log.spec
+        channels, picks = zip(*(_channels(spec, f) for f in FIELDS))
         return _Track(
             log=log,
             estimates=list(log.estimate_arrays()),
             ir=np.array([(*s.position, s.direction) for s in spec.ir]).reshape(-1, 3),
-            widths=[_width(spec, f) for f in FIELDS],
+            channels=list(channels),
+            picks=list(picks),
         )
 
     def _facts_text(self, world: World, logs: list[RobotLog]) -> str:
@@ -312,25 +331,27 @@ class Recorder:
         rr = _rerun()
         several = len(self._tracks) > 1
         for track in self._tracks:
-            name, r = track.log.name, track.log.spec.body_radius
+            name, spec = track.log.name, track.log.spec
             base = f"world/{name}"
-            self._log(f"{base}/body/outline", rr.LineStrips2D([_circle(r), [(0.0, 0.0), (1.35 * r, 0.0)]], colors=_rgb(palette.TRUTH), radii=-2.0, draw_order=60), static=True)
+            outline = body_outline(spec)
+            heading = [(0.0, 0.0), (outline[:, 0].max() + 0.35 * spec.body_radius, 0.0)]
+            self._log(f"{base}/body/outline", rr.LineStrips2D([outline, heading], colors=_rgb(palette.TRUTH), radii=-2.0, draw_order=60), static=True)
             self._log(f"{base}/rays", rr.LineStrips2D.from_fields(colors=_rgb(palette.RAY), radii=-0.75, draw_order=55), static=True)
             self._log(f"{base}/hits", rr.Points2D.from_fields(colors=_rgb(palette.HIT), radii=-2.5, draw_order=56), static=True)
             self._log(f"{base}/trail/truth", rr.LineStrips2D.from_fields(colors=_rgb(palette.TRUTH), radii=-2.5, draw_order=48), static=True)
             for label in track.estimates:
                 colour = _rgb(palette.estimate_colour(label, track.estimates))
                 self._log(f"{base}/trail/{label}", rr.LineStrips2D.from_fields(colors=colour, radii=-1.0, draw_order=50), static=True)
-                self._log(f"{base}/estimate/{label}/outline", rr.LineStrips2D([_circle(0.6 * r), [(0.0, 0.0), (r, 0.0)]], colors=colour, radii=-1.2, draw_order=58), static=True)
+                self._log(f"{base}/estimate/{label}/outline", rr.LineStrips2D([0.6 * outline, 0.75 * np.array(heading)], colors=colour, radii=-1.2, draw_order=58), static=True)
                 who = f"{name} {label}" if several else label
                 self._log(f"errors/{name}/position/{label}", rr.SeriesLines(colors=colour, names=who, widths=1.2), static=True)
                 self._log(f"errors/{name}/heading/{label}", rr.SeriesLines(colors=colour, names=who, widths=1.2), static=True)
             for group, (_, fields) in SENSOR_GROUPS.items():
                 for f in fields:
-                    width = track.widths[FIELDS.index(f)]
+                    sides = track.channels[FIELDS.index(f)]
+                    width = len(sides)
                     if width:
-                        sides = CHANNELS.get(f, ("left", "right") if width == 2 else tuple(str(i) for i in range(width)))
-                        names = [" ".join(filter(None, (name if several else "", f if len(fields) > 1 else "", side))) for side in sides]
+                        names = [f"{name} {side}" if several else side for side in sides]
                         colours = [palette.CHANNELS[(i + 2 * fields.index(f)) % len(palette.CHANNELS)] for i in range(width)]
                         self._log(f"sensors/{group}/{name}/{f}", rr.SeriesLines(colors=colours, names=names, widths=1.0), static=True)
 
@@ -353,13 +374,18 @@ class Recorder:
             self._columns(f"errors/{name}/position/{label}", times, rr.Scalars.columns(scalars=1000 * np.hypot(error[:, 0], error[:, 1])))
             self._columns(f"errors/{name}/heading/{label}", times, rr.Scalars.columns(scalars=np.degrees(wrap_angle(error[:, 2]))))
         self._send_trails(track, truth, estimates)
+        if self._chassis is not None:
+            self._chassis.flush(name)
         if len(track.ir):
             self._send_rays(track, times, truth)
         for group, (_, fields) in SENSOR_GROUPS.items():
             for f in fields:
-                values = track.column(f)[:n] * SCALE.get(f, 1.0)
-                if values.shape[1]:
-                    self._columns(f"sensors/{group}/{name}/{f}", times, rr.Scalars.columns(scalars=values.ravel()).partition([values.shape[1]] * n))
+                values = track.column(f)[:n]
+                if not values.shape[1]:
+                    continue
+                if f == "steering":  # from straight, as `chassis_view.steering_deflection`
+                    values = wrap_angle(values - track.log.spec.chassis.chassis.beta[track.picks[FIELDS.index(f)]])
+                self._columns(f"sensors/{group}/{name}/{f}", times, rr.Scalars.columns(scalars=(values * SCALE.get(f, 1.0)).ravel()).partition([values.shape[1]] * n))
         track.start += n
         track.count = 0
 
@@ -449,10 +475,26 @@ class _Messages(logging.Handler):
         self.recorder._event(f"{record.name}: {record.getMessage()}", level)
 
 
-def _width(spec, name: str) -> int:
-    """Channels of readings field `name` for a robot spec (before the first reading)."""
-    counts = {"ir_raw": len(spec.ir), "ir_distance": len(spec.ir), "line": len(spec.line), "border": len(spec.border), "light": len(spec.light), "mouse_counts": 2 * (spec.mouse is not None)}
-    return counts.get(name, 2)
+def _channels(spec: Any, name: str) -> tuple[tuple[str, ...], np.ndarray | None]:
+    """The channels of readings field `name` that a robot spec has (known before the first
+    reading): their names, and which entries of the field they are (None: all of them). A general
+    chassis has an encoder per wheel, may have a second mouse, and records the steering of the
+    wheels that turn (steered, castors, balls); the c't-Bot has two of each pair."""
+    chassis = spec.chassis.chassis if spec.chassis is not None else None
+    mouse = ("forward", "left")
+    if name == "encoder_ticks":
+        return (chassis.names if chassis is not None else ("left", "right")), None
+    if name == "mouse_counts":
+        return (mouse if spec.mouse is not None else ()), None
+    if name == "mouse2_counts":
+        return (tuple(f"mouse 2 {side}" for side in mouse) if chassis is not None and spec.chassis.mouse2 is not None else ()), None
+    if name == "steering":
+        if chassis is None:
+            return (), None
+        turning = np.flatnonzero(np.isin(chassis.kind, TURNING))
+        return tuple(chassis.names[i] for i in turning), turning
+    sensors = getattr(spec, {"ir_raw": "ir", "ir_distance": "ir"}.get(name, name))
+    return tuple(s.name for s in sensors), None
 
 
 def _listening(url: str, wait_s: float) -> bool:
@@ -469,11 +511,6 @@ def _listening(url: str, wait_s: float) -> bool:
             if time.monotonic() >= deadline:
                 return False
             time.sleep(0.2)
-
-
-def _circle(radius: float, segments: int = 36) -> np.ndarray:
-    angle = np.linspace(0.0, 2 * np.pi, segments + 1)
-    return radius * np.column_stack((np.cos(angle), np.sin(angle)))
 
 
 def _xyz(poses: np.ndarray) -> np.ndarray:

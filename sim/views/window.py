@@ -21,6 +21,13 @@ from bots.behaviours.motion import Teleop
 from bots.spec import RobotSpec
 from sim.run import RobotLog, RobotSetup, RunResult, run
 from sim.views import palette
+from sim.views.chassis_view import (
+    WHEEL_RADIUS_M,
+    body_outline,
+    chassis_shapes,
+    steering_deflection,
+    to_world,
+)
 from sim.views.recording import Recorder
 from sim.world import IR_RAY_LENGTH, World
 from sim.world.spec import WorldSpec
@@ -138,9 +145,12 @@ class Window:
                 pygame.draw.line(self.screen, palette.RAY, self.px(*origin), self.px(*end), 1)
                 if np.isfinite(distance):
                     pygame.draw.circle(self.screen, palette.HIT, self.px(*end), 3)
+            outline = body_outline(robot.spec)
             for name, poses in estimates.items():
-                self._outline(poses[-1], 0.6 * r, palette.estimate_colour(name, list(estimates)), 1)
-            self._outline(pose, r, palette.TRUTH, 2)
+                self._body(poses[-1], 0.6 * outline, palette.estimate_colour(name, list(estimates)), 1)
+            if robot.spec.chassis is not None:
+                self._chassis(robot.spec, truth, log.latest, world.spec.bounds)
+            self._body(pose, outline, palette.TRUTH, 2)
             lines += self._readout(log, robot, pose, estimates)
         self._scale_bar()
         for k, (text, colour) in enumerate(lines):
@@ -174,6 +184,11 @@ class Window:
             (f"encoders ticks   {ints(readings.encoder_ticks)}", palette.ROBOT_EDGE),
             (f"mouse counts     {ints(readings.mouse_counts)}", palette.ROBOT_EDGE),
         ]
+        if robot.spec.chassis is not None:
+            degrees = "  ".join(f"{math.degrees(b):5.0f}" for b in steering_deflection(robot.spec.chassis.chassis, readings.steering))
+            lines.append((f"steered deg      {degrees}", palette.ROBOT_EDGE))
+            if robot.spec.chassis.mouse2 is not None:
+                lines.append((f"mouse 2 counts   {ints(readings.mouse2_counts)}", palette.ROBOT_EDGE))
         return lines
 
     def _trail(self, poses: np.ndarray, colour, width: int) -> None:
@@ -185,14 +200,35 @@ class Window:
             points = [self.px(x, y) for x, y in poses[::step, :2]] + [self.px(*poses[-1, :2])]
             pygame.draw.lines(self.screen, colour, False, points, width)
 
-    def _outline(self, pose: np.ndarray, radius: float, colour, width: int) -> None:
-        """A robot as its outline with a line to the front beyond its edge (the heading)."""
+    def _body(self, pose: np.ndarray, outline: np.ndarray, colour, width: int) -> None:
+        """A robot as its outline (body frame, closed) with a line to the front beyond its edge (the
+        heading)."""
         import pygame
 
-        centre = self.px(*pose[:2])
-        pygame.draw.circle(self.screen, colour, centre, max(2, int(radius * self.scale)), width)
-        tip = pose[:2] + 1.35 * radius * np.array([math.cos(pose[2]), math.sin(pose[2])])
-        pygame.draw.line(self.screen, colour, centre, self.px(*tip), width + 1)
+        reach = outline[:, 0].max()
+        tip = pose[:2] + 1.35 * reach * np.array([math.cos(pose[2]), math.sin(pose[2])])
+        pygame.draw.lines(self.screen, colour, True, [self.px(*p) for p in to_world(pose, outline[:-1])], width)
+        pygame.draw.line(self.screen, colour, self.px(*pose[:2]), self.px(*tip), width + 1)
+
+    def _chassis(self, spec: RobotSpec, truth: np.ndarray, readings, view: tuple[float, float, float, float]) -> None:
+        """Each wheel along the way it rolls (an arrow head at its front, so steering shows; red once
+        it failed), and the ICR of the last step when it lies in the world."""
+        import pygame
+
+        shapes = chassis_shapes(spec, truth[-1], readings.steering, truth[-2] if len(truth) > 1 else truth[-1], view)
+        thick = max(3, round(2 * WHEEL_RADIUS_M * self.scale))
+        failed = {f.wheel for f in readings.failures}
+        for k, (back, front) in enumerate(shapes.wheels):
+            colour = palette.FAULT if k in failed else palette.WHEEL
+            along = front - back
+            side = np.array([-along[1], along[0]]) * 0.35
+            pygame.draw.line(self.screen, colour, self.px(*back), self.px(*front), thick)
+            head = [front + 0.3 * along, front - 0.2 * along + side, front - 0.2 * along - side]
+            pygame.draw.polygon(self.screen, colour, [self.px(*p) for p in head])
+        if shapes.icr is not None:
+            centre = self.px(*shapes.icr)
+            pygame.draw.line(self.screen, palette.ICR, centre, self.px(*truth[-1, :2]), 1)
+            pygame.draw.circle(self.screen, palette.ICR, centre, 5)
 
     def _scale_bar(self) -> None:
         """A bar of a round length (about 100 px) in the map's bottom left corner."""

@@ -9,7 +9,8 @@ steered wheels, and its residual is the wheels' slip; the unobstructed motion ov
 exact `se2_exp(twist·dt)`. Passive wheels roll with the body; every wheel's encoder counts its own
 rotation (quantised, remainder carried). The world then cuts the move at walls and robots as for any
 robot. After the step, a second mouse sensor (if any) reads the body's true motion, and a wheel over
-a hole drops the robot.
+a hole drops the robot. The per-step wheel maths is one compiled kernel (`_wheels`, numba, like
+`sim.world.kernels`); the least-squares matrices are rebuilt only when steering or faults change.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Literal
 
+import numba
 import numpy as np
 
 from sim.kinematics import (
@@ -27,7 +29,7 @@ from sim.kinematics import (
     relative_increment,
 )
 from sim.kinematics.arc import wrap_angle
-from sim.kinematics.batch import half_angle
+from sim.kinematics.batch import half_angle, quantize_one
 from sim.kinematics.chassis import (
     Chassis,
     Failure,
@@ -80,6 +82,15 @@ class _Drive:
     def __post_init__(self) -> None:
         self.chassis = self.nominal
         self.passive = bool(np.isin(self.nominal.kind, (WheelType.CASTOR, WheelType.SPHERICAL)).any())
+        self.rim = self.nominal.radius * np.cos(self.nominal.gamma)
+        self._refresh()
+
+    def _refresh(self) -> None:
+        """What the current (degraded) chassis steers, drives, locks and measures, for every step."""
+        c = self.chassis
+        self.steerable = (c.kind == WheelType.STEERED) & c.steer_ok
+        self.steers = bool(self.steerable.any())
+        self.measured = c.driven | c.locked
 
     def strike(self, wheel: int, kind: FaultKind) -> None:
         """Apply a fault now; the core's `degrade` gives the new chassis state."""
@@ -94,44 +105,36 @@ class _Drive:
             failure = Failure(wheel, steering=True, frozen_beta=frozen, locked=True)
         self.failures.append(failure)
         self.chassis = degrade(self.nominal.with_beta(self.beta), *self.failures)
+        self._refresh()
 
-    def step(self, dt: float, slip: np.ndarray) -> np.ndarray:
+    def step(self, dt: float, slip: np.ndarray) -> list[float]:
         """Steering, motors, forward kinematics and encoders for one step; the body increment (dx, dy, dθ)."""
         c = self.chassis
-        steer = (c.kind == WheelType.STEERED) & c.steer_ok
-        if steer.any():
+        if self.steers:
             turn = np.clip(wrap_angle(self.target_beta - self.beta), -self.steer_rate * dt, self.steer_rate * dt)
             heading = np.clip(wrap_angle(c.alpha + self.beta + turn - np.pi / 2), c.steer_min, c.steer_max)
-            self.beta = np.where(steer, wrap_angle(heading - c.alpha + np.pi / 2), self.beta)
-        driven = c.driven
-        target = np.clip(self.target_phi, -self.max_phi, self.max_phi)
-        change = np.clip((target - self.phi_dot) * self.lag, -self.max_change, self.max_change)
-        self.phi_dot = np.where(driven, self.phi_dot + change, np.where(c.locked, 0.0, self.phi_dot))
-        measured = driven | c.locked
-        a, pinv = self._system(measured)
-        rhs = np.concatenate([self.phi_dot * c.radius * np.cos(c.gamma) * (1.0 + slip) * measured, np.zeros(c.n)])
-        self.twist = pinv @ rhs
-        self.slip = float(np.linalg.norm(a @ self.twist - rhs))
-        if not measured.all():
-            rolls = rolling_rows(c.alpha, self.beta, c.l, c.gamma) @ self.twist / (c.radius * np.cos(c.gamma))
-            self.phi_dot = np.where(measured, self.phi_dot, rolls)
-        self._swivel(dt)
-        self.ticks, self.tick_carry = quantize(self.phi_dot * dt * self.ticks_per_rad, self.tick_carry)
-        return _se2_exp(*(self.twist * dt))
+            self.beta = np.where(self.steerable, wrap_angle(heading - c.alpha + np.pi / 2), self.beta)
+        a, pinv, rolls = self._system()
+        *increment, self.slip = _wheels(dt, self.phi_dot, self.target_phi, self.max_phi, self.lag, self.max_change,
+                                        c.driven, c.locked, self.measured, self.rim, slip, a, pinv, rolls,
+                                        self.ticks_per_rad, self.tick_carry, self.ticks, self.twist)
+        if self.passive:
+            self._swivel(dt)
+        return increment
 
-    def _system(self, measured: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """A and pinv(A) of the forward kinematics, kept while β and the measured wheels stay the same."""
-        key = (self.beta.tobytes(), measured.tobytes(), len(self.failures))
+    def _system(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """A and pinv(A) of the forward kinematics and the rolling rows (what unmeasured wheels turn
+        at), kept while β and the faults stay the same."""
+        key = (self.beta.tobytes(), len(self.failures))
         if not self._solver or self._solver[0] != key:
-            a, _ = forward_system(self.chassis, np.zeros(self.chassis.n), self.beta, measured)
-            self._solver = (key, a, forward_pinv(a))
-        return self._solver[1], self._solver[2]
+            c = self.chassis
+            a, _ = forward_system(c, np.zeros(c.n), self.beta, self.measured)
+            self._solver = (key, a, forward_pinv(a), rolling_rows(c.alpha, self.beta, c.l, c.gamma))
+        return self._solver[1:]
 
     def _swivel(self, dt: float) -> None:
         """Passive wheels turn with the motion: castors by their swivel rate (2.51), balls to align."""
         c = self.chassis
-        if not self.passive:
-            return
         castor, ball = c.kind == WheelType.CASTOR, c.kind == WheelType.SPHERICAL
         if castor.any():
             d = np.where(castor, c.offset, 1.0)
@@ -256,14 +259,46 @@ class ChassisDrive:
             r.failures = tuple(drive.failures)
 
 
-def _se2_exp(dx: float, dy: float, dtheta: float) -> tuple[float, float, float]:
-    """`sim.kinematics.se2_exp` of one displacement ξ·dt, scalar (numpy's per-call cost would dominate
-    a step); the compiled `half_angle` keeps the limit dθ → 0 continuous. Tests hold the two together."""
-    h = 0.5 * dtheta
+@numba.njit(cache=True)
+def _wheels(dt: float, phi_dot: np.ndarray, target_phi: np.ndarray, max_phi: np.ndarray, lag: float, max_change: float,
+            driven: np.ndarray, locked: np.ndarray, measured: np.ndarray, rim: np.ndarray, slip: np.ndarray,
+            a: np.ndarray, pinv: np.ndarray, rolls: np.ndarray, ticks_per_rad: float, tick_carry: np.ndarray,
+            ticks: np.ndarray, twist: np.ndarray) -> tuple[float, float, float, float]:
+    """One chassis's wheels over one step, compiled (numpy's per-call cost dominated the step): driven
+    wheels follow their targets through the motor model (clip, lag, acceleration limit), locked ones
+    stop; the body twist is pinv(A)·b of the measured wheels' rim speeds (b's sliding half is 0) and
+    the residual |A·twist − b| the slip; unmeasured wheels roll with the body; every encoder counts
+    its rotation (`quantize_one`, remainder carried). Writes phi_dot, tick_carry, ticks and twist;
+    returns the body increment `se2_exp(twist·dt)` (dx, dy, dθ; `half_angle` keeps dθ → 0
+    continuous) and the slip (m/s)."""
+    n = phi_dot.shape[0]
+    rhs = np.zeros(a.shape[0])
+    for i in range(n):
+        if driven[i]:
+            target = min(max(target_phi[i], -max_phi[i]), max_phi[i])
+            phi_dot[i] += min(max((target - phi_dot[i]) * lag, -max_change), max_change)
+        elif locked[i]:
+            phi_dot[i] = 0.0
+        if measured[i]:
+            rhs[i] = phi_dot[i] * rim[i] * (1.0 + slip[i])
+    for k in range(3):
+        total = 0.0
+        for j in range(rhs.shape[0]):
+            total += pinv[k, j] * rhs[j]
+        twist[k] = total
+    residual = 0.0
+    for j in range(rhs.shape[0]):
+        r = a[j, 0] * twist[0] + a[j, 1] * twist[1] + a[j, 2] * twist[2] - rhs[j]
+        residual += r * r
+    for i in range(n):
+        if not measured[i]:
+            phi_dot[i] = (rolls[i, 0] * twist[0] + rolls[i, 1] * twist[1] + rolls[i, 2] * twist[2]) / rim[i]
+        whole, tick_carry[i] = quantize_one(phi_dot[i] * dt * ticks_per_rad + tick_carry[i])
+        ticks[i] = int(whole)
+    h = 0.5 * twist[2] * dt
     cos_h, sinc_h = half_angle(h)
-    sin_h = sinc_h * h
-    tx, ty = dx * sinc_h, dy * sinc_h
-    return cos_h * tx - sin_h * ty, sin_h * tx + cos_h * ty, dtheta
+    tx, ty = twist[0] * dt * sinc_h, twist[1] * dt * sinc_h
+    return cos_h * tx - sinc_h * h * ty, sinc_h * h * tx + cos_h * ty, twist[2] * dt, math.sqrt(residual)
 
 
 def _over_hole(pose: np.ndarray, points: np.ndarray, floor: FloorMap) -> np.ndarray:
