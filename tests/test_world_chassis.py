@@ -473,3 +473,15 @@ def test_the_compiled_wheel_step_is_the_cores_forward_kinematics_motor_and_encod
     assert_array_equal(ticks, counts)
     assert_allclose(tick_carry, rest, atol=1e-12)
     assert_allclose(increment, se2_exp(solution.twist * dt), atol=1e-15)
+
+
+@pytest.mark.parametrize("name", sorted(WHEELED_ROBOTS))
+def test_the_path_follower_drives_on_after_the_yards_wheel_fault(name):
+    """The shipped yard frees a wheel at 20 s: every shipped chassis keeps following the path with
+    what the core still calls feasible (an omni robot that can only move along a skewed line
+    drives along that line) instead of stopping with an infeasible command."""
+    from bots.behaviours import make
+    from sim.world.files import load_world
+
+    result = run(load_world("chassis_yard"), [RobotSetup(WHEELED_ROBOTS[name], make("follow_path_ocp"))], 24.0)
+    assert result.reason == "duration", result.error  # (the car may scrape the yard's tight corners)

@@ -82,12 +82,15 @@ class FollowPathOCP:
         if holonomic:
             omega = HEADING_GAIN * wrap_angle(tangent - pose[2])
             twist = np.array([v * body[0] / distance, v * body[1] / distance, omega])
+            line = 0.0
         else:
             twist = np.array([v, 0.0, 2 * v * body[1] / distance**2])
             if not is_feasible(chassis, twist):
                 twist = nearest_feasible(chassis, twist)
+            # a chassis that lost a wheel may only move along a skewed line: its OCP line is that one
+            line = math.atan2(twist[1], twist[0]) if np.hypot(twist[0], twist[1]) > 1e-12 else 0.0
         kappa_n, beta, v_s = (float(x) for x in twist_to_ocp(
-            twist, self.kappa_g, convention="continuity" if holonomic else "line", beta_prev=self.beta_prev))
+            twist, self.kappa_g, convention="continuity" if holonomic else "line", beta_prev=self.beta_prev, beta0=line))
         kappa_n = self._allowed(kappa_n, beta)
         self.beta_prev = beta
         v_max = float(configuration_space(self.robot.chassis.chassis, kappa_n, beta).v_max)
