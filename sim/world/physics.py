@@ -26,7 +26,7 @@ from sim.world import kernels
 from sim.world.chassis_drive import ChassisDrive
 from sim.world.floor import FloorMap, rasterize
 from sim.world.readings import Readings
-from sim.world.sensors import CNY70_MAX, LDR_MAX, IRCurve, builtin_gp2d12, load_ir_curve
+from sim.world.sensors import CNY70_MAX, LDR_MAX, IRCurve, gp2d12, load_ir_curve
 from sim.world.spec import Start, WorldSpec
 
 SLOP = 0.0005
@@ -63,9 +63,9 @@ def find_shared_curves() -> Path | None:
 
 def ir_curve_for(name: str | None, side: str) -> IRCurve:
     """The characteristic a sensor names: a file path, a file name in the shared c't-Sim folder,
-    or (None) the built-in GP2D12 fit for its side."""
+    or (None) the c't-Bot's GP2D12 table for its side (`sensors.gp2d12`, shipped with ctsim)."""
     if name is None:
-        return builtin_gp2d12(side)
+        return gp2d12(side)
     path = Path(name)
     if not path.is_file():
         shared = find_shared_curves()
@@ -228,9 +228,29 @@ class World:
             values[k] = min(top, max(0, round(values[k] + rng.normal(0.0, std))))
         return values
 
-    def ray_distance(self, robot: Robot, origin, direction: float, length: float = IR_RAY_LENGTH) -> float:
-        """Distance (m) from `origin` along world `direction` to the first body other than the
-        robot's own; inf if nothing within `length`."""
+    def ray_distance(self, robot: Robot, origin, direction: float, length: float = IR_RAY_LENGTH, cone: float = 0.0) -> float:
+        """Distance (m) from `origin` to the nearest point of any body other than the robot's own
+        within `cone` (rad, half-angle) of world `direction` and within `length`; inf if none.
+
+        c't-Sim's IR sensors look with such a cone (Java3D `PickConeSegment`, 3°): across a wall
+        at a slant they read the cone's near edge, not the axis. Every body is convex, so its
+        nearest point in the cone is its nearest point overall when that lies inside the cone,
+        else where an edge ray first meets it: two rays and one nearest-point query are exact."""
+        if cone <= 0.0:
+            return self._cast(robot, origin, direction, length)
+        best = min(self._cast(robot, origin, direction - cone, length), self._cast(robot, origin, direction + cone, length))
+        c, s = math.cos(direction), math.sin(direction)
+        cos_cone = math.cos(cone)
+        for info in self.space.point_query((origin[0], origin[1]), min(best, length), robot.query_filter):
+            dx, dy = info.point.x - origin[0], info.point.y - origin[1]
+            if info.distance <= 0.0:
+                return 0.0  # the sensor is inside another body
+            if dx * c + dy * s >= cos_cone * info.distance:
+                best = min(best, info.distance)
+        return best
+
+    def _cast(self, robot: Robot, origin, direction: float, length: float) -> float:
+        """Distance (m) along one ray to the first body other than the robot's own; inf if none."""
         end = (origin[0] + length * math.cos(direction), origin[1] + length * math.sin(direction))
         hit = self.space.segment_query_first((origin[0], origin[1]), end, 0.0, robot.query_filter)
         return hit.alpha * length if hit is not None else math.inf
@@ -244,7 +264,7 @@ class World:
             kernels.to_world(pose, st.ir_offsets, st.ir_owner, origins)
             look = pose[st.ir_owner, 2] + st.ir_direction
             for k, (robot, sensor) in enumerate(st.ir_sensors):
-                d = self.ray_distance(robot, origins[k], look[k])
+                d = self.ray_distance(robot, origins[k], look[k], cone=sensor.cone)
                 if sensor.noise_std and d < math.inf:
                     d = max(0.0, d + robot.rngs[sensor.name].normal(0.0, sensor.noise_std))
                 distance[k] = d
