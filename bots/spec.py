@@ -89,11 +89,14 @@ class IRSensorSpec:
 
 @dataclass(frozen=True)
 class FloorSensorSpec:
-    """A CNY70 reflex sensor looking at the floor from `position` (line and border sensors)."""
+    """A CNY70 reflex sensor looking at the floor from `position` (line and border sensors),
+    `height` m above it: like c't-Sim it averages a "+" of rays up to 40° off vertical, which
+    meet the floor within height * tan 40° of the mount point (0: the mount point alone)."""
 
     name: str
     position: Point
     noise_std: float = 0.0
+    height: float = 0.0
 
 
 @dataclass(frozen=True)

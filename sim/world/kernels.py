@@ -133,16 +133,48 @@ def to_world(pose: np.ndarray, offsets: np.ndarray, owner: np.ndarray, out: np.n
         out[k, 1] = pose[i, 1] + s * offsets[k, 0] + c * offsets[k, 1]
 
 
+FAN = np.tan(np.radians(np.array((40.0, 20.0, 0.0, -20.0, -40.0))))
+"""Where c't-Sim's five rays of one fan of a CNY70 meet the floor, per metre of sensor height
+(80° opening in 20° steps, `World.sensGroundReflectionLine`)."""
+
+
 @numba.njit(cache=True)
-def sample_floor(points: np.ndarray, value: np.ndarray, origin: np.ndarray, cell: float, outside: int, out: np.ndarray) -> None:
-    """Raster floor values at world points (m, 2)."""
+def _absorption_at(x: float, y: float, absorption: np.ndarray, origin: np.ndarray, cell: float, outside: np.float32) -> np.float32:
+    ix = int(math.floor((x - origin[0]) / cell))
+    iy = int(math.floor((y - origin[1]) / cell))
+    if ix < 0 or iy < 0 or iy >= absorption.shape[0] or ix >= absorption.shape[1]:
+        return outside
+    return absorption[iy, ix]
+
+
+@numba.njit(cache=True)
+def sample_floor(
+    points: np.ndarray,
+    heading: np.ndarray,
+    height: np.ndarray,
+    absorption: np.ndarray,
+    origin: np.ndarray,
+    cell: float,
+    outside: float,
+    fan: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """CNY70 values (0..1023) of floor sensors at world points (m, 2), `height` m above the floor,
+    on robots facing `heading` (rad), as c't-Sim's `World.sensGroundReflectionCross`: a fan of
+    rays across the heading (left first) and one along it (back first) meet the floor at
+    height * `fan`; each fan's absorption is summed in float32 and truncated to 0..1023, and the
+    reading is the two fans' truncated mean. Height 0 reads the mount point alone."""
+    out_absorption = np.float32(outside)
     for k in range(points.shape[0]):
-        ix = int(math.floor((points[k, 0] - origin[0]) / cell))
-        iy = int(math.floor((points[k, 1] - origin[1]) / cell))
-        if ix < 0 or iy < 0 or iy >= value.shape[0] or ix >= value.shape[1]:
-            out[k] = outside
-        else:
-            out[k] = value[iy, ix]
+        c, s = math.cos(heading[k]), math.sin(heading[k])
+        total = 0
+        for ux, uy in ((-s, c), (-c, -s)):
+            swallowed = np.float32(0.0)
+            for j in range(fan.shape[0]):
+                r = height[k] * fan[j]
+                swallowed += _absorption_at(points[k, 0] + r * ux, points[k, 1] + r * uy, absorption, origin, cell, out_absorption)
+            total += int(swallowed * np.float32(1023.0) / np.float32(fan.shape[0]))
+        out[k] = total // 2
 
 
 @numba.njit(cache=True)

@@ -199,7 +199,11 @@ class World:
         if len(floor):
             points = np.empty((len(floor), 2))
             kernels.to_world(pose, st.floor_offsets, st.floor_owner, points)
-            kernels.sample_floor(points, self.floor.value, self._floor_origin, self.floor.cell, self.floor.outside_reading, floor)
+            heading = pose[st.floor_owner, 2]
+            kernels.sample_floor(
+                points, heading, st.floor_height, self.floor.absorption, self._floor_origin, self.floor.cell,
+                self.floor.outside_absorption, kernels.FAN, floor,
+            )  # fmt: skip
             floor = self._add_noise(st.floor_sensors, floor, CNY70_MAX)
         light = np.empty(len(st.light_owner), dtype=np.int64)
         if len(light):
@@ -412,6 +416,7 @@ class _BatchState:
     floor_sensors: list
     floor_offsets: np.ndarray
     floor_owner: np.ndarray
+    floor_height: np.ndarray
     floor_slices: list
     light_sensors: list
     light_offsets: np.ndarray
@@ -493,6 +498,7 @@ class _BatchState:
             floor_sensors=floor,
             floor_offsets=offsets(floor),
             floor_owner=owner(floor),
+            floor_height=np.array([s.height for _, s in floor], dtype=np.float64),
             floor_slices=slices("line", "border"),
             light_sensors=light,
             light_offsets=offsets(light),

@@ -55,7 +55,9 @@ class IRCurve:
 
     def distance_from_raw(self, raw: np.ndarray, min_range: float = 0.1, max_range: float = 0.8) -> np.ndarray:
         """The firmware's inverse (c't-Bot `sensor_dist_lookup`): distance (m) from a raw value on
-        the curve's falling branch within [min_range, max_range]; nan outside it."""
+        the curve's falling branch within [min_range, max_range]; nan outside it and for the
+        value that nothing in view reads (`beyond`: c't-Sim's right GP2D12 reads 80 for nothing,
+        which its table also reaches at 75-76 cm)."""
         return self.inverse(min_range, max_range)(raw)
 
     def inverse(self, min_range: float = 0.1, max_range: float = 0.8):
@@ -63,10 +65,11 @@ class IRCurve:
         keep = (self.distance >= min_range) & (self.distance <= max_range)
         d, v = self.distance[keep][::-1], self.raw[keep][::-1].astype(np.float64)  # raw rises as d falls
         low, high = v.min() - 0.5, v.max() + 0.5  # a raw value rounded from a distance in range is in range
+        nothing = np.floor(self.beyond + 0.5)
 
         def distance(raw: np.ndarray) -> np.ndarray:
             r = np.asarray(raw, dtype=np.float64)
-            return np.where((r > high) | (r < low), np.nan, np.interp(r, v, d))
+            return np.where((r > high) | (r < low) | (r == nothing), np.nan, np.interp(r, v, d))
 
         return distance
 
@@ -133,13 +136,18 @@ def gp2d12(side: str) -> IRCurve:
     return IRCurve(table[:, 0] / 100, table[:, 1], float(entry["beyond"]), name=f"gp2d12-{side}")
 
 
-def cny70_value(colour: np.ndarray) -> np.ndarray:
-    """CNY70 reflex sensor value for floor colours (..., 3) in 0..1: absorption 1 - mean(RGB)
-    scaled to 0 (white) .. 1023 (black) and truncated, in c't-Sim's float32 arithmetic
-    (`World.sensGroundReflectionCross`: normal floor #606060 -> 637, goal #66FF00 -> 545)."""
+def absorption(colour: np.ndarray) -> np.ndarray:
+    """The share of a CNY70's light a floor colour (..., 3) in 0..1 swallows, 1 - mean(RGB), in
+    c't-Sim's float32 arithmetic (`World.sensGroundReflectionLine`); a hole swallows 1."""
     rgb = np.asarray(colour, dtype=np.float32)
-    absorption = np.float32(1.0) - (rgb[..., 0] + rgb[..., 1] + rgb[..., 2]) / np.float32(3.0)
-    return np.floor(absorption * np.float32(CNY70_MAX)).astype(np.int64)
+    return np.float32(1.0) - (rgb[..., 0] + rgb[..., 1] + rgb[..., 2]) / np.float32(3.0)
+
+
+def cny70_value(colour: np.ndarray) -> np.ndarray:
+    """CNY70 reflex sensor value of a uniform floor colour (..., 3): its absorption scaled to
+    0 (white) .. 1023 (black) and truncated, as c't-Sim (normal floor #606060 -> 637, goal
+    #66FF00 -> 545). Sensors average a cross of rays: `kernels.sample_floor`."""
+    return np.floor(absorption(colour) * np.float32(CNY70_MAX)).astype(np.int64)
 
 
 def ldr_value(distance: np.ndarray, reach: float = 1.0) -> np.ndarray:
