@@ -571,7 +571,8 @@ def cmd_check(args: argparse.Namespace) -> int:
     counts = ", ".join(f"{len(getattr(world, k))} {k}" for k in ("walls", "floor", "lines", "holes", "lights", "starts", "goals", "movables"))
     for warning in warnings:
         print(f"{args.world}: warning: {warning}")
-    print(f"OK {args.world}: {world.name}, {xmax - xmin:.2f} x {ymax - ymin:.2f} m; {counts}")
+    room = len(world.start_order())
+    print(f"OK {args.world}: {world.name}, {xmax - xmin:.2f} x {ymax - ymin:.2f} m; {counts}; room for {room} robot(s)")
     return 0
 
 

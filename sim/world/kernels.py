@@ -33,7 +33,6 @@ def drive(
     slip: np.ndarray,
     track: np.ndarray,
     pose: np.ndarray,
-    fallen: np.ndarray,
     move: np.ndarray,
     alpha: np.ndarray,
 ) -> None:
@@ -52,9 +51,6 @@ def drive(
             whole, fraction = quantize_one(wheel_speed[i, w] * dt * ticks_per_rad[i] + tick_carry[i, w])
             ticks[i, w] = whole + tick_offset[i, w]
             tick_carry[i, w] = fraction
-        if fallen[i]:
-            move[i, 0] = move[i, 1] = alpha[i] = 0.0
-            continue
         s_l = wheel_speed[i, 0] * dt * real_radius[i, 0] * (1.0 + slip[i, 0])
         s_r = wheel_speed[i, 1] * dt * real_radius[i, 1] * (1.0 + slip[i, 1])
         chord, a, _, _ = exact_arc(s_l, s_r, track[i])
@@ -74,11 +70,45 @@ def _in_hole(x: float, y: float, hole: np.ndarray, origin: np.ndarray, cell: flo
 
 
 @numba.njit(cache=True)
+def hold_at_holes(
+    pose: np.ndarray,
+    move: np.ndarray,
+    alpha: np.ndarray,
+    contacts: np.ndarray,
+    anchored: np.ndarray,
+    hole: np.ndarray,
+    origin: np.ndarray,
+    cell: float,
+    outside_is_hole: bool,
+    in_hole: np.ndarray,
+) -> None:
+    """c't-Sim's ground-contact rule (`MasterSimulator`, "Bodenkontakt"): a robot whose planned
+    move (n, 2) and turn (n,) would bring a ground contact over a hole neither moves nor turns
+    this step (both zeroed in place; `in_hole` says so), and is asked again next step.
+
+    Contacts are body-frame points (n, m, 2) at the new heading; c't-Sim places the skid at the
+    new position but the wheels at the old one (`anchored`), so a skid stops at the edge and the
+    robot drives off again, while wheels are checked a step late, end over the hole and keep
+    every later move refused (c't-Sim's "falling")."""
+    for i in range(pose.shape[0]):
+        heading = pose[i, 2] + alpha[i]
+        c, s = math.cos(heading), math.sin(heading)
+        held = False
+        for k in range(contacts.shape[1]):
+            x, y = pose[i, 0], pose[i, 1]
+            if not anchored[i, k]:
+                x, y = x + move[i, 0], y + move[i, 1]
+            px, py = contacts[i, k, 0], contacts[i, k, 1]
+            held |= _in_hole(x + c * px - s * py, y + s * px + c * py, hole, origin, cell, outside_is_hole)
+        in_hole[i] = held
+        if held:
+            move[i, 0] = move[i, 1] = alpha[i] = 0.0
+
+
+@numba.njit(cache=True)
 def measure(
     before: np.ndarray,
     after: np.ndarray,
-    contacts: np.ndarray,
-    fallen: np.ndarray,
     mount: np.ndarray,
     counts_per_metre: np.ndarray,
     max_step: np.ndarray,
@@ -90,19 +120,14 @@ def measure(
     cell: float,
     outside_is_hole: bool,
 ) -> None:
-    """Ground contact (a wheel or the skid over a hole: fallen) and mouse counts from each
-    body's true motion `before` -> `after`, read as the constant twist between them.
+    """Mouse counts from each body's true motion `before` -> `after`, read as the constant twist
+    between them; a mouse over a hole reads nothing.
 
     counts_per_metre is 0 for a robot without a mouse; max_step the longest displacement per
     step (m) the sensor tracks; noise (n, 2) counts to add."""
     for i in range(before.shape[0]):
         c0, s0 = math.cos(before[i, 2]), math.sin(before[i, 2])
         c1, s1 = math.cos(after[i, 2]), math.sin(after[i, 2])
-        if not fallen[i]:
-            for k in range(contacts.shape[1]):
-                px, py = contacts[i, k, 0], contacts[i, k, 1]
-                if _in_hole(after[i, 0] + c1 * px - s1 * py, after[i, 1] + s1 * px + c1 * py, hole, origin, cell, outside_is_hole):
-                    fallen[i] = True
         if counts_per_metre[i] == 0.0:
             continue
         dx, dy = after[i, 0] - before[i, 0], after[i, 1] - before[i, 1]

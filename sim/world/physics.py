@@ -93,6 +93,8 @@ class Robot:
     ir_curves: tuple[IRCurve, ...]
     rngs: dict[str, np.random.Generator]
     fallen: bool = False
+    """In a hole (c't-Sim's IN_HOLE): the last step's move was refused because a wheel or the skid
+    would have been over a hole (`kernels.hold_at_holes`); clears when a move is allowed again."""
     collisions: int = 0
 
     @property
@@ -296,31 +298,34 @@ class World:
         kernels.drive(
             commands, st.wheel_speed, st.command_max, st.max_speed, st.lag, st.max_change, self.dt,
             st.ticks_per_rad, st.tick_carry, st.tick_offset, st.ticks, st.real_radius, st.slip, st.track,
-            before, st.fallen, st.move, st.alpha,
+            before, st.move, st.alpha,
         )  # fmt: skip
         if self.chassis.drives:
-            self.chassis.drive(self.time, before, st.move, st.alpha, st.fallen)
+            self.chassis.drive(self.time, before, st.move, st.alpha)
         # cut each exact-arc move where the body would first sink deeper than SWEEP_CLEARANCE into
         # a wall or another robot, so that no speed the motors allow tunnels through anything
         kernels.sweep_walls(before, st.move, st.sweep_radius, SLIDE_MARGIN, self._walls.vertices, self._walls.ranges, self._walls.boxes)
         if len(self.robots) > 1:
             kernels.keep_apart(before, st.move, st.apart_radius)
+        kernels.hold_at_holes(
+            before, st.move, st.alpha, st.contacts, st.anchored, self.floor.hole, self._floor_origin, self.floor.cell,
+            self.floor.outside_is_hole, st.fallen,
+        )  # fmt: skip
+        for robot in self.robots:
+            robot.fallen = bool(st.fallen[robot.index])
         for robot in self.robots:
             self._apply_motion(robot, st.move[robot.index], st.alpha[robot.index])
         self.space.step(self.dt)
         for robot in self.robots:
             pymunk.Body.update_position(robot.body, self.dt)
         after = self._poses = self._read_poses()
-        newly_fallen = ~st.fallen
         st.draw_mouse_noise(self.robots)
         kernels.measure(
-            before, after, st.contacts, st.fallen, st.mount, st.counts_per_metre, st.max_step, st.mouse_noise,
+            before, after, st.mount, st.counts_per_metre, st.max_step, st.mouse_noise,
             st.mouse_carry, st.counts, self.floor.hole, self._floor_origin, self.floor.cell, self.floor.outside_is_hole,
         )  # fmt: skip
         if self.chassis.drives:
-            self.chassis.after_step(before, after, st.fallen, self.floor)
-        for i in np.flatnonzero(newly_fallen & st.fallen):
-            self.robots[i].fallen = True
+            self.chassis.after_step(before, after, self.floor)
         self.steps += 1
         self.time = self.steps * self.dt
 
@@ -336,8 +341,6 @@ class World:
         body = robot.body
         _set_velocity(body, (0.0, 0.0))
         _set_angular_velocity(body, 0.0)
-        if robot.fallen:
-            return
         per_step = body.mass / (self.dt * self.dt)
         _set_force(body, (float(move[0]) * per_step, float(move[1]) * per_step))
         _set_torque(body, float(alpha) * body.moment / (self.dt * self.dt))
@@ -376,13 +379,21 @@ class _WallArrays:
         )
 
 
-def _contacts(spec: RobotSpec) -> np.ndarray:
-    """The three ground contacts the measure kernel checks for holes: the c't-Bot's wheels and skid; a
-    general chassis's first wheels (all its wheels are checked by `ChassisDrive.after_step`)."""
+def _contacts(spec: RobotSpec) -> tuple[np.ndarray, np.ndarray]:
+    """The ground contacts the hole rule checks (body frame, m) and which of them c't-Sim checks at
+    the robot's old position: the c't-Bot's wheels (old position) and skid (new position); every
+    wheel of a general chassis (new position)."""
     if spec.chassis is None:
-        return np.array(((0.0, spec.track_width / 2), (0.0, -spec.track_width / 2), spec.skid))
-    wheels = spec.chassis.chassis.positions
-    return wheels[np.arange(3) % len(wheels)]
+        points = np.array(((0.0, spec.track_width / 2), (0.0, -spec.track_width / 2), spec.skid))
+        return points, np.array((True, True, False))
+    points = np.asarray(spec.chassis.chassis.positions, dtype=np.float64)
+    return points, np.zeros(len(points), dtype=bool)
+
+
+def _padded(rows: list[np.ndarray], dtype: type, tail: tuple[int, ...] = ()) -> np.ndarray:
+    """Per-robot contact arrays stacked to the longest one, each padded by repeating its own rows."""
+    width = max((len(r) for r in rows), default=1)
+    return np.array([r[np.arange(width) % len(r)] for r in rows], dtype=dtype).reshape(len(rows), width, *tail)
 
 
 @dataclass
@@ -397,6 +408,7 @@ class _BatchState:
     real_radius: np.ndarray
     track: np.ndarray
     contacts: np.ndarray
+    anchored: np.ndarray
     mount: np.ndarray
     counts_per_metre: np.ndarray
     max_step: np.ndarray
@@ -476,7 +488,8 @@ class _BatchState:
             ticks_per_rad=np.array([s.encoders.ticks_per_rev / (2 * math.pi) for s in specs], dtype=np.float64),
             real_radius=np.array([[s.wheel_radius * (1 + e) for e in s.encoders.diameter_error] for s in specs]).reshape(n, 2),
             track=np.array([s.track_width * (1 + s.encoders.track_error) for s in specs], dtype=np.float64),
-            contacts=np.array([_contacts(s) for s in specs]).reshape(n, 3, 2),
+            contacts=_padded([_contacts(s)[0] for s in specs], np.float64, (2,)),
+            anchored=_padded([_contacts(s)[1] for s in specs], np.bool_),
             mount=np.array([s.mouse.mount if s.mouse else (0.0, 0.0) for s in specs], dtype=np.float64).reshape(n, 2),
             counts_per_metre=np.array(
                 [counts_per_metre(s.mouse.dpi) * (1 + s.mouse.scale_error) if s.mouse else 0.0 for s in specs], dtype=np.float64
