@@ -55,9 +55,10 @@ class IRCurve:
 
     def distance_from_raw(self, raw: np.ndarray, min_range: float = 0.1, max_range: float = 0.8) -> np.ndarray:
         """The firmware's inverse (c't-Bot `sensor_dist_lookup`): distance (m) from a raw value on
-        the curve's falling branch within [min_range, max_range]; nan outside it and for the
-        value that nothing in view reads (`beyond`: c't-Sim's right GP2D12 reads 80 for nothing,
-        which its table also reaches at 75-76 cm)."""
+        the curve's falling branch within [min_range, max_range]; above the branch (closer, or the
+        fold-back peak below min_range) min_range, as the firmware assumes; below it nan (nothing
+        in view), and nan for the value that nothing in view reads (`beyond`: c't-Sim's right
+        GP2D12 reads 80 for nothing, which its table also reaches at 75-76 cm)."""
         return self.inverse(min_range, max_range)(raw)
 
     def inverse(self, min_range: float = 0.1, max_range: float = 0.8):
@@ -69,7 +70,8 @@ class IRCurve:
 
         def distance(raw: np.ndarray) -> np.ndarray:
             r = np.asarray(raw, dtype=np.float64)
-            return np.where((r > high) | (r < low) | (r == nothing), np.nan, np.interp(r, v, d))
+            far = np.where((r < low) | (r == nothing), np.nan, np.interp(r, v, d))
+            return np.where(r > high, min_range, far)
 
         return distance
 
