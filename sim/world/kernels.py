@@ -203,6 +203,85 @@ def sample_floor(
 
 
 @numba.njit(cache=True)
+def _ray_polygon(ox: float, oy: float, ux: float, uy: float, vertices: np.ndarray, start: int, end: int) -> float:
+    """Distance along the ray (origin, unit direction) to its first crossing of the polygon's
+    edges vertices[start:end]; inf if none."""
+    best = math.inf
+    for k in range(start, end):
+        ax, ay = vertices[k, 0], vertices[k, 1]
+        nxt = k + 1 if k + 1 < end else start
+        ex, ey = vertices[nxt, 0] - ax, vertices[nxt, 1] - ay
+        denom = ux * ey - uy * ex
+        if denom == 0.0:
+            continue
+        wx, wy = ax - ox, ay - oy
+        t = (wx * ey - wy * ex) / denom
+        u = (wx * uy - wy * ux) / denom
+        if t >= 0.0 and 0.0 <= u <= 1.0 and t < best:
+            best = t
+    return best
+
+
+@numba.njit(cache=True)
+def _ray_circle(ox: float, oy: float, ux: float, uy: float, cx: float, cy: float, r: float) -> float:
+    along = (cx - ox) * ux + (cy - oy) * uy
+    across2 = (cx - ox) ** 2 + (cy - oy) ** 2 - along * along
+    if along < 0.0 or across2 > r * r:
+        return math.inf
+    return along - math.sqrt(r * r - across2)
+
+
+@numba.njit(cache=True)
+def sense_ir(
+    origins: np.ndarray,
+    look: np.ndarray,
+    cone: np.ndarray,
+    owner: np.ndarray,
+    length: float,
+    vertices: np.ndarray,
+    ranges: np.ndarray,
+    boxes: np.ndarray,
+    circles: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """Distance (m) from each IR sensor at `origins` to the nearest point of a wall (convex
+    polygons vertices[ranges[w, 0]:ranges[w, 1]], bounding boxes `boxes`) or a circle (x, y,
+    radius, owning robot; a sensor skips its own robot's) within `cone` (half-angle, rad) of
+    `look` and within `length`; inf if none. As `World.ray_distance`: per convex body the nearest
+    point if it lies in the cone, else the first hit of an edge ray."""
+    for k in range(origins.shape[0]):
+        ox, oy = origins[k, 0], origins[k, 1]
+        cx, cy = math.cos(look[k]), math.sin(look[k])
+        cos_cone = math.cos(cone[k])
+        l1x, l1y = math.cos(look[k] - cone[k]), math.sin(look[k] - cone[k])
+        l2x, l2y = math.cos(look[k] + cone[k]), math.sin(look[k] + cone[k])
+        best = math.inf
+        for w in range(ranges.shape[0]):
+            if boxes[w, 0] > ox + length or boxes[w, 2] < ox - length or boxes[w, 1] > oy + length or boxes[w, 3] < oy - length:
+                continue
+            start, end = ranges[w, 0], ranges[w, 1]
+            distance, qx, qy = _polygon_distance(ox, oy, vertices, start, end)
+            if distance <= 0.0:
+                best = 0.0
+                break
+            if (qx - ox) * cx + (qy - oy) * cy >= cos_cone * distance:
+                best = min(best, distance)
+            best = min(best, _ray_polygon(ox, oy, l1x, l1y, vertices, start, end), _ray_polygon(ox, oy, l2x, l2y, vertices, start, end))
+        for j in range(circles.shape[0]):
+            if int(circles[j, 3]) == owner[k]:
+                continue
+            px, py, r = circles[j, 0], circles[j, 1], circles[j, 2]
+            centre = math.hypot(px - ox, py - oy)
+            if centre <= r:
+                best = 0.0
+                break
+            if (px - ox) * cx + (py - oy) * cy >= cos_cone * centre:
+                best = min(best, centre - r)
+            best = min(best, _ray_circle(ox, oy, l1x, l1y, px, py, r), _ray_circle(ox, oy, l2x, l2y, px, py, r))
+        out[k] = best if best <= length else math.inf
+
+
+@numba.njit(cache=True)
 def sense_light(
     points: np.ndarray,
     height: np.ndarray,

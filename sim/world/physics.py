@@ -128,6 +128,9 @@ class World:
             self.space.add(shape)
         self._walls = _WallArrays.build(spec)
         self.movables: list[pymunk.Body] = []
+        self._movable_shapes: list[pymunk.Circle] = []
+        self._round_bodies = True
+        """Whether every robot is a circle: then the IR kernel sees walls, robots and cans itself."""
         for item in spec.movables:
             body = pymunk.Body(item.mass, pymunk.moment_for_circle(item.mass, 0, item.radius))
             body.position = item.position
@@ -136,6 +139,7 @@ class World:
             shape.friction = 0.3
             self.space.add(body, shape)
             self.movables.append(body)
+            self._movable_shapes.append(shape)
         self._lights = np.array([(*light.position, light.height, light.radius) for light in spec.lights], dtype=np.float64).reshape(-1, 4)
         self._floor_origin = np.array(self.floor.origin)
         self._state = _BatchState.empty()
@@ -175,6 +179,7 @@ class World:
         )
 
         shape.collision_type = ROBOT
+        self._round_bodies &= isinstance(shape, pymunk.Circle)
         self._robot_of_shape[shape] = robot
         self.space.add(body, shape)
         self.robots.append(robot)
@@ -269,11 +274,19 @@ class World:
             origins = np.empty((n, 2))
             kernels.to_world(pose, st.ir_offsets, st.ir_owner, origins)
             look = pose[st.ir_owner, 2] + st.ir_direction
+            if self._round_bodies:
+                circles = [(r.body.position.x, r.body.position.y, r.shape.radius, r.index) for r in self.robots]
+                circles += [(b.position.x, b.position.y, shape.radius, -1) for b, shape in zip(self.movables, self._movable_shapes)]
+                kernels.sense_ir(
+                    origins, look, st.ir_cone, st.ir_owner, IR_RAY_LENGTH, self._walls.vertices, self._walls.ranges,
+                    self._walls.boxes, np.array(circles, dtype=np.float64).reshape(-1, 4), distance,
+                )  # fmt: skip
+            else:  # a robot with a polygon outline: pymunk's queries see every shape
+                for k, (robot, sensor) in enumerate(st.ir_sensors):
+                    distance[k] = self.ray_distance(robot, origins[k], look[k], cone=sensor.cone)
             for k, (robot, sensor) in enumerate(st.ir_sensors):
-                d = self.ray_distance(robot, origins[k], look[k], cone=sensor.cone)
-                if sensor.noise_std and d < math.inf:
-                    d = max(0.0, d + robot.rngs[sensor.name].normal(0.0, sensor.noise_std))
-                distance[k] = d
+                if sensor.noise_std and distance[k] < math.inf:
+                    distance[k] = max(0.0, distance[k] + robot.rngs[sensor.name].normal(0.0, sensor.noise_std))
         raw = np.empty(n, dtype=np.int64)
         believed = np.empty(n)
         for curve, members, inverse in st.ir_groups:
@@ -442,6 +455,7 @@ class _BatchState:
     ir_offsets: np.ndarray
     ir_owner: np.ndarray
     ir_direction: np.ndarray
+    ir_cone: np.ndarray
     ir_groups: list
     ir_slices: list
 
@@ -525,6 +539,7 @@ class _BatchState:
             ir_offsets=offsets(ir),
             ir_owner=owner(ir),
             ir_direction=np.array([s.direction for _, s in ir], dtype=np.float64),
+            ir_cone=np.array([s.cone for _, s in ir], dtype=np.float64),
             ir_groups=[(curve, np.array(members), curve.inverse(*bounds)) for curve, members, bounds in groups.values()],
             ir_slices=slices("ir"),
         )
