@@ -37,8 +37,8 @@ CTBOT = RobotSpec(
         FloorSensorSpec("line_right", (0.009, -0.004)),
     ),
     border=(
-        FloorSensorSpec("border_left", (0.0384, 0.036)),
-        FloorSensorSpec("border_right", (0.0384, -0.036)),
+        FloorSensorSpec("border_left", (0.0384, 0.036), height=0.014),
+        FloorSensorSpec("border_right", (0.0384, -0.036), height=0.014),
     ),
     light=(
         LightSensorSpec("light_left", (0.048, 0.032)),
@@ -46,7 +46,11 @@ CTBOT = RobotSpec(
     ),
 )
 """The c't-Bot: wheels 56.7 mm, track 97.2 mm, body radius 60 mm, 60-tick encoders, mouse 15 mm
-behind the axle at 400 dpi, two IR, line, border and light sensors."""
+behind the axle at 400 dpi, two IR, line, border and light sensors. The border sensors' height is
+c't-Sim's: its bot stands 75 mm up to its centre on a floor 1 mm up and they sit 60 mm below the
+centre (14 mm over the floor: their rays reach ±12 mm). c't-Sim's line sensors, 11 mm lower, see
+±2.5 mm the same way; here they read one point (height 0), because averaging across the edge of the
+start tile passes through GROUND_GOAL and would end a maze run at the start."""
 
 ROBOTS = {"ctbot": CTBOT}
 """Robot descriptions by name, for the command line."""

@@ -72,7 +72,7 @@ class IRSensorSpec:
     """An IR distance sensor looking along `direction` (rad, body frame) from `position`.
 
     curve: name of the characteristic file in c't-Sim's `characteristics/` folder or a path to
-    such a file; None uses the project's built-in GP2D12 curve for `side`.
+    such a file; None uses c't-Sim's GP2D12 table for `side`, shipped with ctsim.
     """
 
     name: str
@@ -83,15 +83,20 @@ class IRSensorSpec:
     max_range: float = 0.8
     curve: str | None = None
     noise_std: float = 0.0
+    cone: float = math.radians(3.0)
+    """Half-angle (rad) of the cone the sensor sees the nearest body in (c't-Sim: 3°); 0 casts one ray."""
 
 
 @dataclass(frozen=True)
 class FloorSensorSpec:
-    """A CNY70 reflex sensor looking at the floor from `position` (line and border sensors)."""
+    """A CNY70 reflex sensor looking at the floor from `position` (line and border sensors),
+    `height` m above it: like c't-Sim it averages a "+" of rays up to 40° off vertical, which
+    meet the floor within height * tan 40° of the mount point (0: the mount point alone)."""
 
     name: str
     position: Point
     noise_std: float = 0.0
+    height: float = 0.0
 
 
 @dataclass(frozen=True)

@@ -597,15 +597,16 @@ def cmd_worlds(args: argparse.Namespace) -> int:
 
 
 def cmd_check(args: argparse.Namespace) -> int:
-    from sim.world.files import load_world, world_warnings
+    from sim.world.files import load_world, room_warning, world_warnings
 
     world = load_world(args.world)
-    warnings = world_warnings(world)
+    warnings = [w for w in (*world_warnings(world), room_warning(world)) if w]
     xmin, ymin, xmax, ymax = world.bounds
     counts = ", ".join(f"{len(getattr(world, k))} {k}" for k in ("walls", "floor", "lines", "holes", "lights", "starts", "goals", "movables"))
     for warning in warnings:
         print(f"{args.world}: warning: {warning}")
-    print(f"OK {args.world}: {world.name}, {xmax - xmin:.2f} x {ymax - ymin:.2f} m; {counts}")
+    room = len(world.start_order())
+    print(f"OK {args.world}: {world.name}, {xmax - xmin:.2f} x {ymax - ymin:.2f} m; {counts}; room for {room} robot(s)")
     return 0
 
 

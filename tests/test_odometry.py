@@ -218,5 +218,5 @@ def test_fused_heading_survives_sliding_along_walls():
     assert log.collisions > 0 and fused.contact_steps > 0
     bound = 2 * log.collisions * (TICK / CTBOT.track_width + COUNT / LEVER)
     assert heading_error(log, "fused").max() < bound < math.radians(45)
-    assert heading_error(log, "mouse").max() > math.radians(90)  # what it falls back from
+    assert heading_error(log, "mouse").max() > math.radians(45)  # what it falls back from (66 degrees since the IR cone of issue 12)
     assert heading_error(log, "encoders").max() < math.radians(2)

@@ -64,12 +64,15 @@ def test_a_black_line_under_one_sensor():
 
 
 def test_border_sensors_see_a_hole_ahead_before_the_wheels_reach_it():
-    """A hole starting 30 mm ahead of the axle: the border sensors (38.4 mm ahead) read 1023, the
-    line sensors (9 mm ahead) the floor, and the robot has not fallen."""
+    """A hole starting 30 mm ahead of the axle: the border sensors (38.4 mm ahead, 14 mm up) see it
+    with all five rays of their sideways fan (1023) and four of the fan along the heading (the
+    one 40 degrees back meets the floor at 38.4 - 11.7 mm: int((4 + 0.6235) * 1023 / 5) = 945),
+    so they read (1023 + 945) // 2 = 984; the line sensors (9 mm ahead) the floor, and the robot
+    has not fallen."""
     w = World(WorldSpec("hole", (-1, -1, 1, 1), holes=(Hole(box(0.03, -0.3, 0.3, 0.3)),)))
     robot = w.add_robot(CTBOT, (0.0, 0.0, 0.0))
     r = w.read_all()[0]
-    assert list(r.border) == [1023, 1023] and list(r.line) == [637, 637]
+    assert list(r.border) == [984, 984] and list(r.line) == [637, 637]
     assert not robot.fallen
 
 

@@ -179,7 +179,7 @@ def test_measure_kernel_agrees_with_the_reference_mouse():
     mouse_carry = carry.copy()
     hole = np.zeros((1, 1), dtype=bool)
     kernels.measure(
-        before, after, np.zeros((n, 3, 2)), np.zeros(n, dtype=bool), mount, cpm, np.full(n, np.inf), np.zeros((n, 2)),
+        before, after, mount, cpm, np.full(n, np.inf), np.zeros((n, 2)),
         mouse_carry, counts, hole, np.array((-10.0, -10.0)), 100.0, False,
     )  # fmt: skip
     displacement = mouse_displacement_from_increment(relative_increment(before, after), mount)
@@ -202,7 +202,7 @@ def test_drive_kernel_agrees_with_the_reference_arc():
     kernels.drive(
         commands, np.zeros((n, 2)), np.full(n, 255.0), np.full(n, wmax), np.ones(n), np.full(n, np.inf), dt,
         np.full(n, 60 / (2 * math.pi)), tick_carry, np.zeros((n, 2)), ticks, np.full((n, 2), radius), np.zeros((n, 2)),
-        np.full(n, track), pose, np.zeros(n, dtype=bool), move, alpha,
+        np.full(n, track), pose, move, alpha,
     )  # fmt: skip
     speed = np.clip(commands, -255, 255) / 255 * wmax
     s, a = wheel_arcs_to_arc(speed[:, 0] * dt * radius, speed[:, 1] * dt * radius, track)

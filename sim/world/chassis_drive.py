@@ -154,7 +154,6 @@ class ChassisDrive:
         self.dt = dt
         self.drives: dict[int, _Drive] = {}
         self.schedule: list[WheelFault] = []
-        self._holes: bool | None = None
 
     def add(self, robot: Any) -> None:
         """Take over the drive of a world's `Robot` whose spec has a `chassis`."""
@@ -204,7 +203,7 @@ class ChassisDrive:
             raise FaultError(f"robot {index} has no general chassis; only its wheels can fail")
         self.drives[index].strike(wheel, kind)
 
-    def drive(self, time: float, pose: np.ndarray, move: np.ndarray, alpha: np.ndarray, fallen: np.ndarray) -> None:
+    def drive(self, time: float, pose: np.ndarray, move: np.ndarray, alpha: np.ndarray) -> None:
         """Overwrite the planned world move (n, 2) and heading change (n,) of every chassis robot."""
         due = [f for f in self.schedule if f.time <= time + 1e-9 * self.dt]
         for fault in due:
@@ -214,10 +213,7 @@ class ChassisDrive:
             slip = self._slip(drive)
             dx, dy, dtheta = drive.step(self.dt, slip)
             c, s = math.cos(pose[i, 2]), math.sin(pose[i, 2])
-            if fallen[i]:
-                move[i], alpha[i] = 0.0, 0.0
-            else:
-                move[i, 0], move[i, 1], alpha[i] = c * dx - s * dy, s * dx + c * dy, dtheta
+            move[i, 0], move[i, 1], alpha[i] = c * dx - s * dy, s * dx + c * dy, dtheta
 
     @staticmethod
     def _slip(drive: _Drive) -> np.ndarray:
@@ -229,16 +225,10 @@ class ChassisDrive:
             return np.zeros(n)
         return drive.robot.rngs["encoders"].normal(0.0, enc.slip_std, size=n)
 
-    def after_step(self, before: np.ndarray, after: np.ndarray, fallen: np.ndarray, floor: FloorMap) -> None:
-        """Wheels over holes drop their robot; the second mouse reads the body's true motion."""
-        if self._holes is None:  # the floor never changes: look for holes once
-            self._holes = floor.outside_is_hole or bool(floor.hole.any())
-        holes = self._holes
+    def after_step(self, before: np.ndarray, after: np.ndarray, floor: FloorMap) -> None:
+        """The second mouse reads the body's true motion (nothing over a hole)."""
         for i, drive in self.drives.items():
-            spec = drive.robot.spec
-            if holes and not fallen[i] and _over_hole(after[i], drive.nominal.positions, floor).any():
-                fallen[i] = True
-            mouse = spec.chassis.mouse2
+            mouse = drive.robot.spec.chassis.mouse2
             if mouse is None:
                 continue
             increment = relative_increment(before[i], after[i])

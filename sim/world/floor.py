@@ -1,4 +1,4 @@
-"""The floor as a raster: CNY70 values and holes sampled in O(1) per point for any world.
+"""The floor as a raster: CNY70 absorption and holes sampled in O(1) per point for any world.
 
 Floor regions, painted lines and holes are drawn once into a grid (2 mm cells, coarser for very
 large worlds) so that line, border and hole tests cost an array lookup per sensor.
@@ -7,10 +7,11 @@ large worlds) so that line, border and hole tests cost an array lookup per senso
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
-from sim.world.sensors import CNY70_MAX, cny70_value
+from sim.world.sensors import CNY70_MAX, absorption
 from sim.world.spec import WorldSpec
 
 MAX_CELLS = 8_000_000
@@ -18,20 +19,26 @@ MAX_CELLS = 8_000_000
 
 @dataclass(frozen=True)
 class FloorMap:
-    """CNY70 values (uint16) and a hole mask on a grid with `origin` (m) and `cell` size (m);
-    sampled by the world's compiled kernels (`sim.world.kernels`)."""
+    """The floor's absorption (float32, 1 over holes; `sensors.absorption`) and a hole mask on a
+    grid with `origin` (m) and `cell` size (m); sampled by the world's compiled kernels
+    (`sim.world.kernels`)."""
 
-    value: np.ndarray
+    absorption: np.ndarray
     hole: np.ndarray
     origin: tuple[float, float]
     cell: float
-    outside_value: int
+    base_absorption: float
     outside_is_hole: bool
 
     @property
-    def outside_reading(self) -> int:
-        """What a CNY70 reads off the map: black where that is a hole, else the base floor."""
-        return CNY70_MAX if self.outside_is_hole else self.outside_value
+    def outside_absorption(self) -> float:
+        """What the floor swallows off the map: everything where that is a hole, else as the base floor."""
+        return 1.0 if self.outside_is_hole else self.base_absorption
+
+    @cached_property
+    def value(self) -> np.ndarray:
+        """The CNY70 value (uint16, 0..1023) of each cell, for pictures of the floor."""
+        return np.floor(self.absorption * np.float32(CNY70_MAX)).astype(np.uint16)
 
 
 def _pixel_centres(grid_shape, origin, cell, vertices, margin=0.0):
@@ -73,17 +80,17 @@ def rasterize(world: WorldSpec, cell: float = 0.002) -> FloorMap:
     cell = max(cell, float(np.sqrt(area / MAX_CELLS)))
     shape = (max(1, int(np.ceil((ymax - ymin) / cell))), max(1, int(np.ceil((xmax - xmin) / cell))))
     origin = np.array([xmin, ymin])
-    base = int(cny70_value(world.floor_colour))
-    value = np.full(shape, base, dtype=np.uint16)
+    base = absorption(world.floor_colour)
+    value = np.full(shape, base, dtype=np.float32)
     hole = np.zeros(shape, dtype=bool)
 
     for region in world.floor:
         cover = _pixel_centres(shape, origin, cell, region.vertices)
         if cover:
             window, xs, ys = cover
-            value[window][_convex_mask(xs, ys, region.vertices)] = cny70_value(region.colour)
+            value[window][_convex_mask(xs, ys, region.vertices)] = absorption(region.colour)
     for line in world.lines:
-        colour = cny70_value(line.colour)
+        colour = absorption(line.colour)
         for a, b in zip(line.points[:-1], line.points[1:]):
             cover = _pixel_centres(shape, origin, cell, (a, b), margin=line.width / 2)
             if cover:
@@ -95,5 +102,5 @@ def rasterize(world: WorldSpec, cell: float = 0.002) -> FloorMap:
             window, xs, ys = cover
             inside = _convex_mask(xs, ys, h.vertices)
             hole[window] |= inside
-            value[window][inside] = CNY70_MAX
-    return FloorMap(value, hole, (float(xmin), float(ymin)), cell, base, world.outside_is_hole)
+            value[window][inside] = 1.0
+    return FloorMap(value, hole, (float(xmin), float(ymin)), cell, float(base), world.outside_is_hole)

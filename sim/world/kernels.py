@@ -33,7 +33,6 @@ def drive(
     slip: np.ndarray,
     track: np.ndarray,
     pose: np.ndarray,
-    fallen: np.ndarray,
     move: np.ndarray,
     alpha: np.ndarray,
 ) -> None:
@@ -52,9 +51,6 @@ def drive(
             whole, fraction = quantize_one(wheel_speed[i, w] * dt * ticks_per_rad[i] + tick_carry[i, w])
             ticks[i, w] = whole + tick_offset[i, w]
             tick_carry[i, w] = fraction
-        if fallen[i]:
-            move[i, 0] = move[i, 1] = alpha[i] = 0.0
-            continue
         s_l = wheel_speed[i, 0] * dt * real_radius[i, 0] * (1.0 + slip[i, 0])
         s_r = wheel_speed[i, 1] * dt * real_radius[i, 1] * (1.0 + slip[i, 1])
         chord, a, _, _ = exact_arc(s_l, s_r, track[i])
@@ -74,11 +70,45 @@ def _in_hole(x: float, y: float, hole: np.ndarray, origin: np.ndarray, cell: flo
 
 
 @numba.njit(cache=True)
+def hold_at_holes(
+    pose: np.ndarray,
+    move: np.ndarray,
+    alpha: np.ndarray,
+    contacts: np.ndarray,
+    anchored: np.ndarray,
+    hole: np.ndarray,
+    origin: np.ndarray,
+    cell: float,
+    outside_is_hole: bool,
+    in_hole: np.ndarray,
+) -> None:
+    """c't-Sim's ground-contact rule (`MasterSimulator`, "Bodenkontakt"): a robot whose planned
+    move (n, 2) and turn (n,) would bring a ground contact over a hole neither moves nor turns
+    this step (both zeroed in place; `in_hole` says so), and is asked again next step.
+
+    Contacts are body-frame points (n, m, 2) at the new heading; c't-Sim places the skid at the
+    new position but the wheels at the old one (`anchored`), so a skid stops at the edge and the
+    robot drives off again, while wheels are checked a step late, end over the hole and keep
+    every later move refused (c't-Sim's "falling")."""
+    for i in range(pose.shape[0]):
+        heading = pose[i, 2] + alpha[i]
+        c, s = math.cos(heading), math.sin(heading)
+        held = False
+        for k in range(contacts.shape[1]):
+            x, y = pose[i, 0], pose[i, 1]
+            if not anchored[i, k]:
+                x, y = x + move[i, 0], y + move[i, 1]
+            px, py = contacts[i, k, 0], contacts[i, k, 1]
+            held |= _in_hole(x + c * px - s * py, y + s * px + c * py, hole, origin, cell, outside_is_hole)
+        in_hole[i] = held
+        if held:
+            move[i, 0] = move[i, 1] = alpha[i] = 0.0
+
+
+@numba.njit(cache=True)
 def measure(
     before: np.ndarray,
     after: np.ndarray,
-    contacts: np.ndarray,
-    fallen: np.ndarray,
     mount: np.ndarray,
     counts_per_metre: np.ndarray,
     max_step: np.ndarray,
@@ -90,19 +120,14 @@ def measure(
     cell: float,
     outside_is_hole: bool,
 ) -> None:
-    """Ground contact (a wheel or the skid over a hole: fallen) and mouse counts from each
-    body's true motion `before` -> `after`, read as the constant twist between them.
+    """Mouse counts from each body's true motion `before` -> `after`, read as the constant twist
+    between them; a mouse over a hole reads nothing.
 
     counts_per_metre is 0 for a robot without a mouse; max_step the longest displacement per
     step (m) the sensor tracks; noise (n, 2) counts to add."""
     for i in range(before.shape[0]):
         c0, s0 = math.cos(before[i, 2]), math.sin(before[i, 2])
         c1, s1 = math.cos(after[i, 2]), math.sin(after[i, 2])
-        if not fallen[i]:
-            for k in range(contacts.shape[1]):
-                px, py = contacts[i, k, 0], contacts[i, k, 1]
-                if _in_hole(after[i, 0] + c1 * px - s1 * py, after[i, 1] + s1 * px + c1 * py, hole, origin, cell, outside_is_hole):
-                    fallen[i] = True
         if counts_per_metre[i] == 0.0:
             continue
         dx, dy = after[i, 0] - before[i, 0], after[i, 1] - before[i, 1]
@@ -133,16 +158,127 @@ def to_world(pose: np.ndarray, offsets: np.ndarray, owner: np.ndarray, out: np.n
         out[k, 1] = pose[i, 1] + s * offsets[k, 0] + c * offsets[k, 1]
 
 
+FAN = np.tan(np.radians(np.array((40.0, 20.0, 0.0, -20.0, -40.0))))
+"""Where c't-Sim's five rays of one fan of a CNY70 meet the floor, per metre of sensor height
+(80° opening in 20° steps, `World.sensGroundReflectionLine`)."""
+
+
 @numba.njit(cache=True)
-def sample_floor(points: np.ndarray, value: np.ndarray, origin: np.ndarray, cell: float, outside: int, out: np.ndarray) -> None:
-    """Raster floor values at world points (m, 2)."""
+def _absorption_at(x: float, y: float, absorption: np.ndarray, origin: np.ndarray, cell: float, outside: np.float32) -> np.float32:
+    ix = int(math.floor((x - origin[0]) / cell))
+    iy = int(math.floor((y - origin[1]) / cell))
+    if ix < 0 or iy < 0 or iy >= absorption.shape[0] or ix >= absorption.shape[1]:
+        return outside
+    return absorption[iy, ix]
+
+
+@numba.njit(cache=True)
+def sample_floor(
+    points: np.ndarray,
+    heading: np.ndarray,
+    height: np.ndarray,
+    absorption: np.ndarray,
+    origin: np.ndarray,
+    cell: float,
+    outside: float,
+    fan: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """CNY70 values (0..1023) of floor sensors at world points (m, 2), `height` m above the floor,
+    on robots facing `heading` (rad), as c't-Sim's `World.sensGroundReflectionCross`: a fan of
+    rays across the heading (left first) and one along it (back first) meet the floor at
+    height * `fan`; each fan's absorption is summed in float32 and truncated to 0..1023, and the
+    reading is the two fans' truncated mean. Height 0 reads the mount point alone."""
+    out_absorption = np.float32(outside)
     for k in range(points.shape[0]):
-        ix = int(math.floor((points[k, 0] - origin[0]) / cell))
-        iy = int(math.floor((points[k, 1] - origin[1]) / cell))
-        if ix < 0 or iy < 0 or iy >= value.shape[0] or ix >= value.shape[1]:
-            out[k] = outside
-        else:
-            out[k] = value[iy, ix]
+        c, s = math.cos(heading[k]), math.sin(heading[k])
+        total = 0
+        for ux, uy in ((-s, c), (-c, -s)):
+            swallowed = np.float32(0.0)
+            for j in range(fan.shape[0]):
+                r = height[k] * fan[j]
+                swallowed += _absorption_at(points[k, 0] + r * ux, points[k, 1] + r * uy, absorption, origin, cell, out_absorption)
+            total += int(swallowed * np.float32(1023.0) / np.float32(fan.shape[0]))
+        out[k] = total // 2
+
+
+@numba.njit(cache=True)
+def _ray_polygon(ox: float, oy: float, ux: float, uy: float, vertices: np.ndarray, start: int, end: int) -> float:
+    """Distance along the ray (origin, unit direction) to its first crossing of the polygon's
+    edges vertices[start:end]; inf if none."""
+    best = math.inf
+    for k in range(start, end):
+        ax, ay = vertices[k, 0], vertices[k, 1]
+        nxt = k + 1 if k + 1 < end else start
+        ex, ey = vertices[nxt, 0] - ax, vertices[nxt, 1] - ay
+        denom = ux * ey - uy * ex
+        if denom == 0.0:
+            continue
+        wx, wy = ax - ox, ay - oy
+        t = (wx * ey - wy * ex) / denom
+        u = (wx * uy - wy * ux) / denom
+        if t >= 0.0 and 0.0 <= u <= 1.0 and t < best:
+            best = t
+    return best
+
+
+@numba.njit(cache=True)
+def _ray_circle(ox: float, oy: float, ux: float, uy: float, cx: float, cy: float, r: float) -> float:
+    along = (cx - ox) * ux + (cy - oy) * uy
+    across2 = (cx - ox) ** 2 + (cy - oy) ** 2 - along * along
+    if along < 0.0 or across2 > r * r:
+        return math.inf
+    return along - math.sqrt(r * r - across2)
+
+
+@numba.njit(cache=True)
+def sense_ir(
+    origins: np.ndarray,
+    look: np.ndarray,
+    cone: np.ndarray,
+    owner: np.ndarray,
+    length: float,
+    vertices: np.ndarray,
+    ranges: np.ndarray,
+    boxes: np.ndarray,
+    circles: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """Distance (m) from each IR sensor at `origins` to the nearest point of a wall (convex
+    polygons vertices[ranges[w, 0]:ranges[w, 1]], bounding boxes `boxes`) or a circle (x, y,
+    radius, owning robot; a sensor skips its own robot's) within `cone` (half-angle, rad) of
+    `look` and within `length`; inf if none. As `World.ray_distance`: per convex body the nearest
+    point if it lies in the cone, else the first hit of an edge ray."""
+    for k in range(origins.shape[0]):
+        ox, oy = origins[k, 0], origins[k, 1]
+        cx, cy = math.cos(look[k]), math.sin(look[k])
+        cos_cone = math.cos(cone[k])
+        l1x, l1y = math.cos(look[k] - cone[k]), math.sin(look[k] - cone[k])
+        l2x, l2y = math.cos(look[k] + cone[k]), math.sin(look[k] + cone[k])
+        best = math.inf
+        for w in range(ranges.shape[0]):
+            if boxes[w, 0] > ox + length or boxes[w, 2] < ox - length or boxes[w, 1] > oy + length or boxes[w, 3] < oy - length:
+                continue
+            start, end = ranges[w, 0], ranges[w, 1]
+            distance, qx, qy = _polygon_distance(ox, oy, vertices, start, end)
+            if distance <= 0.0:
+                best = 0.0
+                break
+            if (qx - ox) * cx + (qy - oy) * cy >= cos_cone * distance:
+                best = min(best, distance)
+            best = min(best, _ray_polygon(ox, oy, l1x, l1y, vertices, start, end), _ray_polygon(ox, oy, l2x, l2y, vertices, start, end))
+        for j in range(circles.shape[0]):
+            if int(circles[j, 3]) == owner[k]:
+                continue
+            px, py, r = circles[j, 0], circles[j, 1], circles[j, 2]
+            centre = math.hypot(px - ox, py - oy)
+            if centre <= r:
+                best = 0.0
+                break
+            if (px - ox) * cx + (py - oy) * cy >= cos_cone * centre:
+                best = min(best, centre - r)
+            best = min(best, _ray_circle(ox, oy, l1x, l1y, px, py, r), _ray_circle(ox, oy, l2x, l2y, px, py, r))
+        out[k] = best if best <= length else math.inf
 
 
 @numba.njit(cache=True)

@@ -27,7 +27,7 @@ from sim.world.bodies import BodyArrays
 from sim.world.chassis_drive import ChassisDrive
 from sim.world.floor import FloorMap, rasterize
 from sim.world.readings import Readings
-from sim.world.sensors import CNY70_MAX, LDR_MAX, IRCurve, builtin_gp2d12, load_ir_curve
+from sim.world.sensors import CNY70_MAX, LDR_MAX, IRCurve, gp2d12, load_ir_curve
 from sim.world.spec import Start, WorldSpec
 
 SLOP = 0.0005
@@ -72,9 +72,9 @@ def find_shared_curves() -> Path | None:
 
 def ir_curve_for(name: str | None, side: str) -> IRCurve:
     """The characteristic a sensor names: a file path, a file name in the shared c't-Sim folder,
-    or (None) the built-in GP2D12 fit for its side."""
+    or (None) the c't-Bot's GP2D12 table for its side (`sensors.gp2d12`, shipped with ctsim)."""
     if name is None:
-        return builtin_gp2d12(side)
+        return gp2d12(side)
     path = Path(name)
     if not path.is_file():
         shared = find_shared_curves()
@@ -102,6 +102,8 @@ class Robot:
     ir_curves: tuple[IRCurve, ...]
     rngs: dict[str, np.random.Generator]
     fallen: bool = False
+    """In a hole (c't-Sim's IN_HOLE): the last step's move was refused because a wheel or the skid
+    would have been over a hole (`kernels.hold_at_holes`); clears when a move is allowed again."""
     collisions: int = 0
 
     @property
@@ -135,6 +137,9 @@ class World:
             self.space.add(shape)
         self._walls = _WallArrays.build(spec)
         self.movables: list[pymunk.Body] = []
+        self._movable_shapes: list[pymunk.Circle] = []
+        self._round_bodies = True
+        """Whether every robot is a circle: then the IR kernel sees walls, robots and cans itself."""
         for item in spec.movables:
             body = pymunk.Body(item.mass, pymunk.moment_for_circle(item.mass, 0, item.radius))
             body.position = item.position
@@ -143,13 +148,13 @@ class World:
             shape.friction = 0.3
             self.space.add(body, shape)
             self.movables.append(body)
+            self._movable_shapes.append(shape)
         self._lights = np.array([(*light.position, light.height, light.radius) for light in spec.lights], dtype=np.float64).reshape(-1, 4)
         self._floor_origin = np.array(self.floor.origin)
         self._state = _BatchState.empty()
         self._bodies = BodyArrays(self.space, [])
         self._poses = np.zeros((0, 3))
         self._stale = False
-        self._fallen_count = 0
         self.chassis = ChassisDrive(dt)
         """The drive of robots on a general chassis (commands, faults; see `sim.world.chassis_drive`)."""
 
@@ -185,6 +190,7 @@ class World:
         )
 
         shape.collision_type = ROBOT
+        self._round_bodies &= isinstance(shape, pymunk.Circle)
         self._robot_of_shape[shape] = robot
         self.space.add(body, shape)
         self.robots.append(robot)
@@ -200,7 +206,6 @@ class World:
             self._state = _BatchState.build(self.robots, self.dt)
             self._bodies = BodyArrays(self.space, [r.body for r in self.robots])
             self._poses = self._bodies.poses()
-            self._fallen_count = int(self._state.fallen.sum())
             self._stale = False
         return self._state
 
@@ -219,7 +224,11 @@ class World:
         if len(floor):
             points = np.empty((len(floor), 2))
             kernels.to_world(pose, st.floor_offsets, st.floor_owner, points)
-            kernels.sample_floor(points, self.floor.value, self._floor_origin, self.floor.cell, self.floor.outside_reading, floor)
+            heading = pose[st.floor_owner, 2]
+            kernels.sample_floor(
+                points, heading, st.floor_height, self.floor.absorption, self._floor_origin, self.floor.cell,
+                self.floor.outside_absorption, kernels.FAN, floor,
+            )  # fmt: skip
             _add_noise(st.floor_noise, floor, CNY70_MAX)
         light = np.empty(len(st.light_owner), dtype=np.int64)
         if len(light):
@@ -239,9 +248,29 @@ class World:
             self.chassis.fill(readings)
         return readings
 
-    def ray_distance(self, robot: Robot, origin, direction: float, length: float = IR_RAY_LENGTH) -> float:
-        """Distance (m) from `origin` along world `direction` to the first body other than the
-        robot's own; inf if nothing within `length`."""
+    def ray_distance(self, robot: Robot, origin, direction: float, length: float = IR_RAY_LENGTH, cone: float = 0.0) -> float:
+        """Distance (m) from `origin` to the nearest point of any body other than the robot's own
+        within `cone` (rad, half-angle) of world `direction` and within `length`; inf if none.
+
+        c't-Sim's IR sensors look with such a cone (Java3D `PickConeSegment`, 3°): across a wall
+        at a slant they read the cone's near edge, not the axis. Every body is convex, so its
+        nearest point in the cone is its nearest point overall when that lies inside the cone,
+        else where an edge ray first meets it: two rays and one nearest-point query are exact."""
+        if cone <= 0.0:
+            return self._cast(robot, origin, direction, length)
+        best = min(self._cast(robot, origin, direction - cone, length), self._cast(robot, origin, direction + cone, length))
+        c, s = math.cos(direction), math.sin(direction)
+        cos_cone = math.cos(cone)
+        for info in self.space.point_query((origin[0], origin[1]), min(best, length), robot.query_filter):
+            dx, dy = info.point.x - origin[0], info.point.y - origin[1]
+            if info.distance <= 0.0:
+                return 0.0  # the sensor is inside another body
+            if dx * c + dy * s >= cos_cone * info.distance:
+                best = min(best, info.distance)
+        return best
+
+    def _cast(self, robot: Robot, origin, direction: float, length: float) -> float:
+        """Distance (m) along one ray to the first body other than the robot's own; inf if none."""
         end = (origin[0] + length * math.cos(direction), origin[1] + length * math.sin(direction))
         hit = self.space.segment_query_first((origin[0], origin[1]), end, 0.0, robot.query_filter)
         return hit.alpha * length if hit is not None else math.inf
@@ -254,11 +283,19 @@ class World:
             origins = np.empty((n, 2))
             kernels.to_world(pose, st.ir_offsets, st.ir_owner, origins)
             look = pose[st.ir_owner, 2] + st.ir_direction
+            if self._round_bodies:
+                circles = [(r.body.position.x, r.body.position.y, r.shape.radius, r.index) for r in self.robots]
+                circles += [(b.position.x, b.position.y, shape.radius, -1) for b, shape in zip(self.movables, self._movable_shapes)]
+                kernels.sense_ir(
+                    origins, look, st.ir_cone, st.ir_owner, IR_RAY_LENGTH, self._walls.vertices, self._walls.ranges,
+                    self._walls.boxes, np.array(circles, dtype=np.float64).reshape(-1, 4), distance,
+                )  # fmt: skip
+            else:  # a robot with a polygon outline: pymunk's queries see every shape
+                for k, (robot, sensor) in enumerate(st.ir_sensors):
+                    distance[k] = self.ray_distance(robot, origins[k], look[k], cone=sensor.cone)
             for k, (robot, sensor) in enumerate(st.ir_sensors):
-                d = self.ray_distance(robot, origins[k], look[k])
-                if sensor.noise_std and d < math.inf:
-                    d = max(0.0, d + robot.rngs[sensor.name].normal(0.0, sensor.noise_std))
-                distance[k] = d
+                if sensor.noise_std and distance[k] < math.inf:
+                    distance[k] = max(0.0, distance[k] + robot.rngs[sensor.name].normal(0.0, sensor.noise_std))
         raw = np.empty(n, dtype=np.int64)
         believed = np.empty(n)
         for curve, members, inverse in st.ir_groups:
@@ -283,32 +320,33 @@ class World:
         kernels.drive(
             commands, st.wheel_speed, st.command_max, st.max_speed, st.lag, st.max_change, self.dt,
             st.ticks_per_rad, st.tick_carry, st.tick_offset, st.ticks, st.real_radius, st.slip, st.track,
-            before, st.fallen, st.move, st.alpha,
+            before, st.move, st.alpha,
         )  # fmt: skip
         if self.chassis.drives:
-            self.chassis.drive(self.time, before, st.move, st.alpha, st.fallen)
+            self.chassis.drive(self.time, before, st.move, st.alpha)
         # cut each exact-arc move where the body would first sink deeper than SWEEP_CLEARANCE into
         # a wall or another robot, so that no speed the motors allow tunnels through anything
         kernels.sweep_walls(before, st.move, st.sweep_radius, SLIDE_MARGIN, self._walls.vertices, self._walls.ranges, self._walls.boxes)
         if len(self.robots) > 1:
             kernels.keep_apart(before, st.move, st.apart_radius)
+        kernels.hold_at_holes(
+            before, st.move, st.alpha, st.contacts, st.anchored, self.floor.hole, self._floor_origin, self.floor.cell,
+            self.floor.outside_is_hole, st.fallen,
+        )  # fmt: skip
+        for robot in self.robots:
+            robot.fallen = bool(st.fallen[robot.index])
         self._apply_motion(st)
         self.space.step(self.dt)
         for robot in self.robots:
             pymunk.Body.update_position(robot.body, self.dt)
         after = self._poses = self._bodies.poses()
-        fallen_before = self._fallen_count
         st.draw_mouse_noise()
         kernels.measure(
-            before, after, st.contacts, st.fallen, st.mount, st.counts_per_metre, st.max_step, st.mouse_noise,
+            before, after, st.mount, st.counts_per_metre, st.max_step, st.mouse_noise,
             st.mouse_carry, st.counts, self.floor.hole, self._floor_origin, self.floor.cell, self.floor.outside_is_hole,
         )  # fmt: skip
         if self.chassis.drives:
-            self.chassis.after_step(before, after, st.fallen, self.floor)
-        if st.fallen.sum() != fallen_before:  # (robots never get up again)
-            for i in np.flatnonzero(st.fallen):
-                self.robots[i].fallen = True
-            self._fallen_count = int(st.fallen.sum())
+            self.chassis.after_step(before, after, self.floor)
         self.steps += 1
         self.time = self.steps * self.dt
 
@@ -320,7 +358,7 @@ class World:
         step at rest (it does not move then), a force gives it the planned velocity in the
         velocity phase (v = f dt / m), the contact solver corrects it, and the position is
         integrated after the step (`update_position`): the same order as setting the velocity
-        inside `velocity_func`, without a Python callback per body. A fallen robot's move is zero."""
+        inside `velocity_func`, without a Python callback per body."""
         dt2 = self.dt * self.dt
         self._bodies.push(st.move * (st.mass / dt2)[:, None], st.alpha * st.moment / dt2)
 
@@ -358,13 +396,21 @@ class _WallArrays:
         )
 
 
-def _contacts(spec: RobotSpec) -> np.ndarray:
-    """The three ground contacts the measure kernel checks for holes: the c't-Bot's wheels and skid; a
-    general chassis's first wheels (all its wheels are checked by `ChassisDrive.after_step`)."""
+def _contacts(spec: RobotSpec) -> tuple[np.ndarray, np.ndarray]:
+    """The ground contacts the hole rule checks (body frame, m) and which of them c't-Sim checks at
+    the robot's old position: the c't-Bot's wheels (old position) and skid (new position); every
+    wheel of a general chassis (new position)."""
     if spec.chassis is None:
-        return np.array(((0.0, spec.track_width / 2), (0.0, -spec.track_width / 2), spec.skid))
-    wheels = spec.chassis.chassis.positions
-    return wheels[np.arange(3) % len(wheels)]
+        points = np.array(((0.0, spec.track_width / 2), (0.0, -spec.track_width / 2), spec.skid))
+        return points, np.array((True, True, False))
+    points = np.asarray(spec.chassis.chassis.positions, dtype=np.float64)
+    return points, np.zeros(len(points), dtype=bool)
+
+
+def _padded(rows: list[np.ndarray], dtype: type, tail: tuple[int, ...] = ()) -> np.ndarray:
+    """Per-robot contact arrays stacked to the longest one, each padded by repeating its own rows."""
+    width = max((len(r) for r in rows), default=1)
+    return np.array([r[np.arange(width) % len(r)] for r in rows], dtype=dtype).reshape(len(rows), width, *tail)
 
 
 @dataclass
@@ -381,6 +427,7 @@ class _BatchState:
     real_radius: np.ndarray
     track: np.ndarray
     contacts: np.ndarray
+    anchored: np.ndarray
     mount: np.ndarray
     counts_per_metre: np.ndarray
     max_step: np.ndarray
@@ -401,6 +448,7 @@ class _BatchState:
     floor_offsets: np.ndarray
     floor_owner: np.ndarray
     light_noise: list
+    floor_height: np.ndarray
     light_offsets: np.ndarray
     light_owner: np.ndarray
     light_direction: np.ndarray
@@ -411,6 +459,7 @@ class _BatchState:
     ir_offsets: np.ndarray
     ir_owner: np.ndarray
     ir_direction: np.ndarray
+    ir_cone: np.ndarray
     ir_groups: list
     reading_slices: list
     noisy_encoders: list
@@ -464,7 +513,8 @@ class _BatchState:
             ticks_per_rad=np.array([s.encoders.ticks_per_rev / (2 * math.pi) for s in specs], dtype=np.float64),
             real_radius=np.array([[s.wheel_radius * (1 + e) for e in s.encoders.diameter_error] for s in specs]).reshape(n, 2),
             track=np.array([s.track_width * (1 + s.encoders.track_error) for s in specs], dtype=np.float64),
-            contacts=np.array([_contacts(s) for s in specs]).reshape(n, 3, 2),
+            contacts=_padded([_contacts(s)[0] for s in specs], np.float64, (2,)),
+            anchored=_padded([_contacts(s)[1] for s in specs], np.bool_),
             mount=np.array([s.mouse.mount if s.mouse else (0.0, 0.0) for s in specs], dtype=np.float64).reshape(n, 2),
             counts_per_metre=np.array(
                 [counts_per_metre(s.mouse.dpi) * (1 + s.mouse.scale_error) if s.mouse else 0.0 for s in specs], dtype=np.float64
@@ -487,6 +537,7 @@ class _BatchState:
             floor_offsets=offsets(floor),
             floor_owner=owner(floor),
             light_noise=noisy(light),
+            floor_height=np.array([s.height for _, s in floor], dtype=np.float64),
             light_offsets=offsets(light),
             light_owner=owner(light),
             light_direction=np.array([s.direction for _, s in light], dtype=np.float64),
@@ -497,6 +548,7 @@ class _BatchState:
             ir_offsets=offsets(ir),
             ir_owner=owner(ir),
             ir_direction=np.array([s.direction for _, s in ir], dtype=np.float64),
+            ir_cone=np.array([s.cone for _, s in ir], dtype=np.float64),
             ir_groups=[(curve, np.array(members), curve.inverse(*bounds)) for curve, members, bounds in groups.values()],
             noisy_encoders=[(r.index, r.rngs["encoders"], r.spec.encoders) for r in robots if r.spec.encoders.slip_std or r.spec.encoders.tick_noise],
             noisy_mice=[(r.index, r.rngs["mouse"], r.spec.mouse.noise_std) for r in robots if r.spec.mouse is not None and r.spec.mouse.noise_std],

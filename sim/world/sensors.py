@@ -1,13 +1,14 @@
 """Sensor transfer functions: what a device outputs for what it senses, in its own units.
 
 Geometry (ray casts, floor sampling) lives in `sim.world`; here are the curves: IR distance ->
-raw value (c't-Sim's measured characteristic files or a built-in fit), the firmware's way back,
+raw value (c't-Sim's measured characteristic tables, shipped in `curves/`), the firmware's way back,
 floor colour -> CNY70 value, light distance -> LDR darkness (ctsim-reference.md §2).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import tomllib
+from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
 
@@ -21,24 +22,43 @@ class CurveFileError(ValueError):
     """A characteristic file that cannot be read; the message names the file and line."""
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class IRCurve:
-    """A distance sensor's characteristic: raw value at tabulated distances (m), interpolated
-    linearly and rounded like c't-Sim's `Characteristic.lookupPrecise`. Beyond the last
-    distance (nothing seen) the sensor reads the last value."""
+    """A distance sensor's characteristic, read as c't-Sim's `Characteristic` reads it: the rows
+    (distance m, raw value) fill a table per whole centimetre (linear in between, float32, rows at
+    a fractional centimetre count at the centimetre below); a distance is looked up between its
+    two neighbouring centimetres and rounded half up. Closer than the first row or farther than
+    the last (nothing seen) the sensor reads `beyond`."""
 
     distance: np.ndarray
     raw: np.ndarray
+    beyond: float
     name: str = "curve"
+    per_cm: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "per_cm", _per_centimetre(self.distance, self.raw, self.beyond))
 
     def lookup(self, distance: np.ndarray) -> np.ndarray:
-        """Raw values (int) for distances (m); inf or beyond the table reads the last value."""
-        d = np.asarray(distance, dtype=np.float64)
-        return np.rint(np.interp(d, self.distance, self.raw)).astype(np.int64)
+        """Raw values (int) for distances (m); inf, nan or outside the table read `beyond`."""
+        cm = np.asarray(distance, dtype=np.float64) * 100
+        table, beyond = self.per_cm, np.float32(self.beyond)
+        last = len(table) - 1
+        inside = (cm >= 0) & (cm <= last)
+        cm = np.where(inside, cm, 0.0)
+        index = np.floor(cm).astype(np.int64)
+        data = table[index].astype(np.float64)
+        slope = (table[np.minimum(index + 1, last)] - table[index]).astype(np.float64)  # a float32 difference, as in Java
+        between = inside & (table[index] != beyond) & (index < last)
+        data = np.where(between, data + (cm - index) * slope, data)
+        return np.floor(np.where(inside, data, float(beyond)) + 0.5).astype(np.int64)
 
     def distance_from_raw(self, raw: np.ndarray, min_range: float = 0.1, max_range: float = 0.8) -> np.ndarray:
         """The firmware's inverse (c't-Bot `sensor_dist_lookup`): distance (m) from a raw value on
-        the curve's falling branch within [min_range, max_range]; nan outside it."""
+        the curve's falling branch within [min_range, max_range]; above the branch (closer, or the
+        fold-back peak below min_range) min_range, as the firmware assumes; below it nan (nothing
+        in view), and nan for the value that nothing in view reads (`beyond`: c't-Sim's right
+        GP2D12 reads 80 for nothing, which its table also reaches at 75-76 cm)."""
         return self.inverse(min_range, max_range)(raw)
 
     def inverse(self, min_range: float = 0.1, max_range: float = 0.8):
@@ -46,16 +66,42 @@ class IRCurve:
         keep = (self.distance >= min_range) & (self.distance <= max_range)
         d, v = self.distance[keep][::-1], self.raw[keep][::-1].astype(np.float64)  # raw rises as d falls
         low, high = v.min() - 0.5, v.max() + 0.5  # a raw value rounded from a distance in range is in range
+        nothing = np.floor(self.beyond + 0.5)
 
         def distance(raw: np.ndarray) -> np.ndarray:
             r = np.asarray(raw, dtype=np.float64)
-            return np.where((r > high) | (r < low), np.nan, np.interp(r, v, d))
+            far = np.where((r < low) | (r == nothing), np.nan, np.interp(r, v, d))
+            return np.where(r > high, min_range, far)
 
         return distance
 
 
-def load_ir_curve(path: str | Path) -> IRCurve:
-    """Read a c't-Sim characteristic file (`distance cm; value;` per line after a two-line header)."""
+def _per_centimetre(distance: np.ndarray, raw: np.ndarray, beyond: float) -> np.ndarray:
+    """c't-Sim's lookup table: one float32 value per whole centimetre from 0 to the last row,
+    `beyond` before the first row, each row's value at its centimetre and steps of
+    (next - this) / gap centimetres up to the next row, summed in float32."""
+    cm = np.floor(np.asarray(distance, dtype=np.float64) * 100 + 1e-9).astype(np.int64)  # rows are given in cm
+    values = np.asarray(raw, dtype=np.float32)
+    table = np.full(cm[-1] + 1, np.float32(beyond), dtype=np.float32)
+    for k in range(len(cm)):
+        table[cm[k]] = values[k]
+        if k + 1 < len(cm):
+            gap = cm[k + 1] - cm[k]
+            delta = (values[k + 1] - values[k]) / np.float32(gap)
+            steps = np.arange(1, gap, dtype=np.float32)
+            table[cm[k] + 1 : cm[k + 1]] = values[k] + steps * delta
+    return table
+
+
+CTSIM_BEYOND = {"gp2d12Left": 100.0, "gp2d12Right": 80.0, "gp2y0a60Left": 100.0, "gp2y0a60Right": 100.0, "vl53l0xLeft": 2000.0, "vl53l0xRight": 2000.0}
+"""What c't-Sim reads from each of its characteristic files when nothing is in the table
+(the INF that `MasterSimulator.buisitDistanceSim` gives each file)."""
+
+
+def load_ir_curve(path: str | Path, beyond: float | None = None) -> IRCurve:
+    """Read a c't-Sim characteristic file (`distance cm; value;` per line after a two-line header).
+    Nothing in view reads `beyond`: by default c't-Sim's value for its own files (`CTSIM_BEYOND`),
+    the last row's value for any other file."""
     path = Path(path)
     try:
         lines = path.read_text(encoding="latin-1").splitlines()
@@ -71,30 +117,39 @@ def load_ir_curve(path: str | Path) -> IRCurve:
             raw.append(float(fields[1]))
         except (IndexError, ValueError):
             raise CurveFileError(f"{path}:{number}: expected 'distance_cm; value;', got {line.strip()!r}") from None
-    if len(distance) < 2 or np.any(np.diff(distance) <= 0):
-        raise CurveFileError(f"{path}: needs at least two rows with increasing distances")
-    return IRCurve(np.array(distance), np.array(raw), name=path.stem)
+    if len(distance) < 2 or np.any(np.diff(np.floor(np.array(distance) * 100 + 1e-9)) <= 0):
+        raise CurveFileError(f"{path}: needs at least two rows with increasing whole-centimetre distances")
+    if beyond is None:
+        beyond = CTSIM_BEYOND.get(path.stem, raw[-1])
+    return IRCurve(np.array(distance), np.array(raw), beyond, name=path.stem)
+
+
+CURVES = Path(__file__).with_name("curves")
+"""The project's shipped characteristic tables (`gp2d12.toml`: the c't-Bot's GP2D12 pair)."""
 
 
 @lru_cache(maxsize=None)
-def builtin_gp2d12(side: str) -> IRCurve:
-    """The project's own model of the c't-Bot's Sharp GP2D12 sensors: raw = a/(d + b) + c fitted
-    (max error 11 and 8 raw units) to the measured left and right curves between 0.1 and 0.8 m,
-    with the sensor's fold-back below 0.1 m drawn as a straight line to the value at 0 m."""
-    a, b, c, at_zero = {"left": (53.82, 0.0086, 40.48, 167), "right": (61.45, 0.0185, 0.36, 173)}[side]
-    d = np.concatenate(([0.0], np.linspace(0.1, 0.85, 76)))
-    raw = a / (d + b) + c
-    raw[0] = at_zero
-    return IRCurve(d, raw, name=f"gp2d12-{side}-builtin")
+def gp2d12(side: str) -> IRCurve:
+    """The c't-Bot's default IR characteristic for `side` ("left" or "right"): c't-Sim's measured
+    GP2D12 tables, shipped with ctsim as `sim/world/curves/gp2d12.toml` (origin noted there)."""
+    with (CURVES / "gp2d12.toml").open("rb") as file:
+        entry = tomllib.load(file)[side]
+    table = np.array(entry["table"], dtype=np.float64)
+    return IRCurve(table[:, 0] / 100, table[:, 1], float(entry["beyond"]), name=f"gp2d12-{side}")
+
+
+def absorption(colour: np.ndarray) -> np.ndarray:
+    """The share of a CNY70's light a floor colour (..., 3) in 0..1 swallows, 1 - mean(RGB), in
+    c't-Sim's float32 arithmetic (`World.sensGroundReflectionLine`); a hole swallows 1."""
+    rgb = np.asarray(colour, dtype=np.float32)
+    return np.float32(1.0) - (rgb[..., 0] + rgb[..., 1] + rgb[..., 2]) / np.float32(3.0)
 
 
 def cny70_value(colour: np.ndarray) -> np.ndarray:
-    """CNY70 reflex sensor value for floor colours (..., 3) in 0..1: absorption 1 - mean(RGB)
-    scaled to 0 (white) .. 1023 (black) and truncated, in c't-Sim's float32 arithmetic
-    (`World.sensGroundReflectionCross`: normal floor #606060 -> 637, goal #66FF00 -> 545)."""
-    rgb = np.asarray(colour, dtype=np.float32)
-    absorption = np.float32(1.0) - (rgb[..., 0] + rgb[..., 1] + rgb[..., 2]) / np.float32(3.0)
-    return np.floor(absorption * np.float32(CNY70_MAX)).astype(np.int64)
+    """CNY70 reflex sensor value of a uniform floor colour (..., 3): its absorption scaled to
+    0 (white) .. 1023 (black) and truncated, as c't-Sim (normal floor #606060 -> 637, goal
+    #66FF00 -> 545). Sensors average a cross of rays: `kernels.sample_floor`."""
+    return np.floor(absorption(colour) * np.float32(CNY70_MAX)).astype(np.int64)
 
 
 def ldr_value(distance: np.ndarray, reach: float = 1.0) -> np.ndarray:

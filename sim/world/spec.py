@@ -55,7 +55,8 @@ class FloorLine:
 
 @dataclass(frozen=True)
 class Hole:
-    """A convex hole in the floor; a robot with a wheel or its skid over it falls in."""
+    """A convex hole in the floor. As in c't-Sim a robot never drives over it: a move that would
+    bring its skid or a wheel over it is refused (see `kernels.hold_at_holes`)."""
 
     vertices: tuple[Point, ...]
 

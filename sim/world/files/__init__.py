@@ -24,6 +24,7 @@ __all__ = ["WorldFileError", "check_world", "load_world", "shipped_worlds", "wor
 
 _LOADERS = {".toml": load_toml, ".xml": load_parcours}
 ROBOT_RADIUS = 0.06  # m, half a c't-Bot's width: a start closer than this to a wall touches it
+COMMON_ROBOTS = 2  # c't-Sim's worlds give slots 1 and 2: a world is commonly run with two bots
 
 
 def worlds_dir() -> Path:
@@ -111,3 +112,15 @@ def _distance_to_walls(p: tuple[float, float], walls: list[tuple[tuple[float, fl
             t = max(0.0, min(1.0, ((p[0] - ax) * dx + (p[1] - ay) * dy) / (dx * dx + dy * dy or 1.0)))
             best = min(best, math.hypot(p[0] - ax - t * dx, p[1] - ay - t * dy))
     return best
+
+
+def room_warning(world: WorldSpec, robots: int = COMMON_ROBOTS) -> str | None:
+    """A warning when the world has start slots for fewer than `robots` robots (each robot needs
+    a slot of its own: a robot beyond them is refused, where c't-Sim puts it on top of another)."""
+    room = len(world.start_order())
+    if room >= robots:
+        return None
+    return (
+        f"room for {room} robot(s) only: the world has {room} start slot(s) and a robot beyond them is refused "
+        f"(c't-Sim would put it on top of another); add starts (slot 1, 2, ...) to run {robots} robots"
+    )
