@@ -76,7 +76,7 @@ class FakeFirmware:
         deadline = time.monotonic() + 10
         while True:
             try:
-                sock = socket.create_connection(("127.0.0.1", self.port), timeout=10)
+                sock = socket.create_connection(("127.0.0.1", self.port), timeout=60)  # the sim may compile its kernels first
                 break
             except ConnectionRefusedError:
                 if time.monotonic() > deadline:
