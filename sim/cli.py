@@ -325,7 +325,8 @@ def cmd_run(args: argparse.Namespace) -> int:
     with StopOnSignal() as stop:
         result = simulate(place, *setups, duration=args.duration, dt=args.dt, seed=args.seed, until_goal=until_goal,
                           observers=(recorder, Progress(args.duration, args.dt), stop))
-    return finish(result.raw, out, {"duration": args.duration, "until_goal": until_goal, **_robot_options(args)}, report=not args.no_report)
+    return finish(result.raw, out, {"duration": args.duration, "until_goal": until_goal, **_robot_options(args)}, report=not args.no_report,
+                  metrics={robot.name: robot.metrics for robot in result.robots})
 
 
 def _robot_options(args: argparse.Namespace) -> dict[str, Any]:
@@ -356,11 +357,12 @@ def cmd_play(args: argparse.Namespace) -> int:
     return finish(result, out, {"duration": result.duration, "until_goal": False, **_robot_options(args)}, report=not args.no_report)
 
 
-def finish(result, out: Path, options: dict[str, Any], report: bool = True) -> int:
+def finish(result, out: Path, options: dict[str, Any], report: bool = True, metrics: dict[str, dict[str, dict]] | None = None) -> int:
     """Write summary.json, TUM/CSV trajectories and figures of a run; print the table and the
-    files; the exit status (EXIT_STATUSES)."""
+    files; the exit status (EXIT_STATUSES). `metrics`: robot -> estimator -> metrics as a dict,
+    where the caller has them already (else they are computed here)."""
     written = [out / "run.rrd"]
-    summary = summarize(result, options)
+    summary = summarize(result, options, metrics)
     written += write_trajectories(result, out, summary)
     (out / "summary.json").write_text(json.dumps(_json_safe(summary), indent=2, allow_nan=False) + "\n", encoding="utf-8")
     written.append(out / "summary.json")
@@ -384,24 +386,25 @@ def finish(result, out: Path, options: dict[str, Any], report: bool = True) -> i
     return 0
 
 
-def summarize(result, options: dict[str, Any]) -> dict[str, Any]:
+def summarize(result, options: dict[str, Any], metrics: dict[str, dict[str, dict]] | None = None) -> dict[str, Any]:
     """The figures of the table and what produced them, as plain data for summary.json."""
     from dataclasses import asdict
 
-    from sim.analysis.metrics import compare_run, path_lengths
+    from sim.analysis.metrics import compare_run, path_length
 
-    metrics = compare_run(result) if len(result) else {}
+    if metrics is None:
+        metrics = {robot: {name: asdict(m) for name, m in by_name.items()} for robot, by_name in (compare_run(result) if len(result) else {}).items()}
     robots = [
         {
             "name": log.name,
             "robot": log.spec.name,
             "controller": log.controller_name,
             "params": {key: parse_value(value) for key, value in log.params.items()},
-            "distance": float(path_lengths(log.truth_array())[-1]) if len(log) else 0.0,
+            "distance": path_length(result, log),
             "collisions": log.collisions,
             "fell": log.fell,
             "goal_time": log.goal_time,
-            "estimates": {name: asdict(m) for name, m in metrics.get(log.name, {}).items()},
+            "estimates": metrics.get(log.name, {}),
         }
         for log in result.robots
     ]
@@ -421,20 +424,13 @@ def summarize(result, options: dict[str, Any]) -> dict[str, Any]:
 def write_trajectories(result, out: Path, summary: dict[str, Any]) -> list[Path]:
     """truth.tum and <estimate>.tum (prefixed with the robot name when there are several), and
     the same as CSV; records the TUM names in the summary for `ctsim report`."""
-    from sim.analysis.export import write_csv, write_tum
+    from sim.analysis.export import write_run
 
+    tums = write_run(result, out, prefix=len(result.robots) > 1, with_csv=True)
     written = []
-    prefix = len(result.robots) > 1
-    times = result.time
-    for log, entry in zip(result.robots, summary["robots"]):
-        tracks = {"truth": log.truth_array(), **log.estimate_arrays()}
-        entry["tum"] = {}
-        for label, poses in tracks.items():
-            stem = f"{log.name}_{label}" if prefix else label
-            write_tum(out / f"{stem}.tum", times[: len(poses)], poses)
-            write_csv(out / f"{stem}.csv", times[: len(poses)], poses)
-            entry["tum"][label] = f"{stem}.tum"
-            written += [out / f"{stem}.tum", out / f"{stem}.csv"]
+    for entry in summary["robots"]:
+        entry["tum"] = {label: path.name for label, path in tums[entry["name"]].items()}
+        written += [path for tum in tums[entry["name"]].values() for path in (tum, tum.with_suffix(".csv"))]
     return written
 
 

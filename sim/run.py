@@ -10,8 +10,11 @@ naming it and the step, and everything up to that step is kept.
 from __future__ import annotations
 
 import math
+import mmap
 import re
+import tempfile
 import traceback
+from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
 from typing import Protocol
 
@@ -42,11 +45,59 @@ class RobotSetup:
     """Wheel faults of this robot (a general chassis) scheduled by its environment; `robot` is ignored."""
 
 
+BLOCK = 65536
+"""Samples per block when a finished run is read through (metrics, files)."""
+RESIDENT = 4096
+"""Samples of a running log kept in resident memory (observers read the latest ones)."""
+
+
+class _Columns:
+    """Preallocated float64 arrays of a run's samples (name -> shape of one sample), backed by an
+    unlinked temporary file instead of anonymous memory. Pages are touched only when written, and
+    rows already written or read can be handed back to the operating system (`release`): they stay
+    readable (a read brings its page back from the file), so an hour-long run's resident memory
+    does not grow with its length, while every column stays an ordinary numpy array."""
+
+    def __init__(self, shapes: dict[str, tuple[int, ...]], capacity: int):
+        page = mmap.PAGESIZE
+        widths = {name: 8 * math.prod(shape) for name, shape in shapes.items()}  # bytes per row
+        sizes = {name: -(-max(capacity, 1) * width // page) * page for name, width in widths.items()}
+        with tempfile.TemporaryFile() as handle:
+            handle.truncate(sum(sizes.values()))
+            self._map = mmap.mmap(handle.fileno(), sum(sizes.values()))
+        self.arrays: dict[str, np.ndarray] = {}
+        self._regions: list[tuple[int, int]] = []  # (byte offset, bytes per row) of each column
+        offset = 0
+        for name, shape in shapes.items():
+            self.arrays[name] = np.frombuffer(self._map, np.float64, capacity * math.prod(shape), offset).reshape(capacity, *shape)
+            self._regions.append((offset, widths[name]))
+            offset += sizes[name]
+        self._released = 0
+
+    def release(self, start: int, stop: int) -> None:
+        """Take rows [start, stop) out of resident memory (whole pages inside that range)."""
+        if not hasattr(mmap, "MADV_DONTNEED"):  # not on every platform: memory then just grows
+            return
+        page = mmap.PAGESIZE
+        for offset, width in self._regions:
+            first, last = -(-start * width // page) * page, stop * width // page * page
+            if last > first:
+                self._map.madvise(mmap.MADV_DONTNEED, offset + first, last - first)
+
+    def release_written(self, count: int) -> None:
+        """While a run writes: release what lies more than RESIDENT rows behind `count`, once per
+        RESIDENT rows."""
+        if count - self._released >= 2 * RESIDENT:
+            self.release(self._released, count - RESIDENT)
+            self._released = count - RESIDENT
+
+
 class RobotLog:
     """Everything one robot did in a run, one row per sample (the start of every step, and the
     end of the run): ground truth and each estimate as (T, 3) arrays, and the current sample's
-    readings. Rows live in arrays allocated once for the whole run (pages are only touched when
-    written), so a long run costs 24 bytes per pose and sample, not a Python object per step."""
+    readings. Rows live in file-backed arrays allocated once for the whole run (`_Columns`), so a
+    long run costs 24 bytes of disk per pose and sample, not a Python object per step, and its
+    resident memory stays flat."""
 
     def __init__(self, name: str, spec: RobotSpec, controller_name: str, params: dict[str, str],
                  estimators: list[str], capacity: int):
@@ -58,8 +109,9 @@ class RobotLog:
         self.goal_time: float | None = None
         self.notes: dict[str, list] = {}
         """What the run did other than asked (projected infeasible twists): kind -> [first message, count]."""
-        self._truth = np.empty((capacity, 3))
-        self._estimates = {label: np.empty((capacity, 3)) for label in estimators}
+        self._columns = _Columns({label: (3,) for label in ("truth", *estimators)}, capacity)
+        self._truth, *estimates = self._columns.arrays.values()
+        self._estimates = dict(zip(estimators, estimates))
         self._count = 0
 
     def append(self, readings: Readings, truth: np.ndarray, estimates: list[np.ndarray]) -> None:
@@ -70,10 +122,15 @@ class RobotLog:
             column[n] = pose
         self.latest = readings
         self._count = n + 1
+        self._columns.release_written(n + 1)
 
     def truncate(self, count: int) -> None:
         """Keep the first `count` samples."""
         self._count = min(self._count, count)
+
+    def release(self, rows: slice) -> None:
+        """Take these rows out of resident memory (they stay readable)."""
+        self._columns.release(rows.start, rows.stop)
 
     def __len__(self) -> int:
         return self._count
@@ -100,7 +157,8 @@ class RunResult:
         self.world, self.seed, self.dt, self.robots = world, seed, dt, robots
         self.reason = "duration"
         self.error: str | None = None
-        self._time = np.empty(capacity)
+        self._columns = _Columns({"time": ()}, capacity)
+        self._time = self._columns.arrays["time"]
         self._count = 0
 
     @property
@@ -112,6 +170,7 @@ class RunResult:
         """Log one sample time."""
         self._time[self._count] = time
         self._count += 1
+        self._columns.release_written(self._count)
 
     def truncate(self, count: int) -> None:
         """Keep the first `count` samples."""
@@ -124,6 +183,17 @@ class RunResult:
     def duration(self) -> float:
         """Simulated seconds covered (0 before the first sample)."""
         return float(self._time[self._count - 1]) if self._count else 0.0
+
+    def blocks(self, size: int = BLOCK) -> Iterator[slice]:
+        """Row ranges that cover every sample, `size` at a time, to read a long run through with
+        bounded memory: once the next is asked for, the previous block's rows of the times and of
+        every robot's log leave resident memory again."""
+        for start in range(0, len(self), size):
+            rows = slice(start, min(start + size, len(self)))
+            yield rows
+            self._columns.release(rows.start, rows.stop)
+            for log in self.robots:
+                log.release(rows)
 
 
 class Observer(Protocol):

@@ -6,11 +6,14 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from bots.commands import Twist
 from bots.controller import FunctionController
 from bots.ctbot import CTBOT
 from sim.analysis.metrics import (
+    Comparison,
     compare,
     compare_run,
     path_lengths,
@@ -96,3 +99,57 @@ def test_compare_run_gives_metrics_per_robot_and_estimator():
     assert encoders.path_length == pytest.approx(0.2, rel=1e-6)
     assert math.isnan(encoders.rpe_per_metre)  # shorter than one 1 m stretch
     assert encoders.final_position_error < 0.01
+
+
+def _wander(seed: int, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """A random walk of n poses (steps up to 2 cm, stops included) and an estimate that drifts from it."""
+    rng = np.random.default_rng(seed)
+    step = rng.uniform(0, 0.02, n) * (rng.random(n) < 0.8)
+    heading = np.cumsum(rng.normal(0, 0.05, n))
+    truth = np.column_stack((np.cumsum(step * np.cos(heading)), np.cumsum(step * np.sin(heading)), heading))
+    return truth, truth + np.cumsum(rng.normal(0, 1e-4, (n, 3)), axis=0)
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(2, 600), cuts=st.lists(st.integers(1, 599), max_size=6))
+def test_a_comparison_read_in_blocks_equals_one_read_at_once(seed, n, cuts):
+    """Block boundaries change nothing but the order of the ATE sum: the stretches of the RPE and
+    the path length are the same additions in the same order (bit for bit); sums of squares
+    regrouped differ by round-off, 1e-12 relative for a few hundred positive terms."""
+    truth, estimate = _wander(seed, n)
+    times = np.arange(n) * 0.01
+    whole = compare(times, truth, estimate)
+    comparison = Comparison()
+    edges = [0, *sorted({c for c in cuts if c < n}), n]
+    for a, b in zip(edges[:-1], edges[1:]):
+        comparison.add(times[a:b], truth[a:b], estimate[a:b])
+    split = comparison.metrics()
+    assert (split.path_length, split.final_position_error, split.max_position_error, split.duration) == (
+        whole.path_length, whole.final_position_error, whole.max_position_error, whole.duration)
+    assert split.ate_rmse == pytest.approx(whole.ate_rmse, rel=1e-12)
+    assert split.rpe_per_metre == pytest.approx(whole.rpe_per_metre, rel=1e-12, nan_ok=True)
+
+
+def test_standing_still_adds_no_stretches():
+    """RPE stretches start every RPE_SPACING metres of true path, not every sample: a robot that
+    waits (here 5000 samples) weighs as much as one that does not."""
+    moving = np.column_stack((np.linspace(0, 3, 301), np.zeros(301), np.zeros(301)))
+    waiting = np.concatenate((moving[:150], np.repeat(moving[150:151], 5000, axis=0), moving[151:]))
+    count = len(relative_pose_errors(moving, moving, 1.0))
+    assert len(relative_pose_errors(waiting, waiting, 1.0)) == count
+    assert count in (200, 201)  # 2 m of starts every 1 cm; whether the start at 2 m has its end at 3 m is round-off
+
+
+def test_a_run_reads_back_whole_after_its_rows_left_memory():
+    """A run's logs live in file-backed columns whose pages are handed back to the system while
+    it runs and while it is read through (`blocks`); the values read afterwards are the same."""
+    result = run(load_world("empty"), [RobotSetup(CTBOT, FunctionController(lambda t, r: Twist(0.1, 0.3)))], 100.0)
+    log = result.robots[0]
+    before = result.time.copy(), log.truth_array().copy(), {k: v.copy() for k, v in log.estimate_arrays().items()}
+    blocks = list(result.blocks(size=777))
+    assert [b.start for b in blocks] == list(range(0, len(result), 777)) and blocks[-1].stop == len(result) == 10001
+    log.release(slice(0, len(result)))
+    np.testing.assert_array_equal(result.time, before[0])
+    np.testing.assert_array_equal(log.truth_array(), before[1])
+    for name, poses in log.estimate_arrays().items():
+        np.testing.assert_array_equal(poses, before[2][name])

@@ -5,7 +5,11 @@
     table = sweep("spec.toml", "runs/sweep")
 
 The Gymnasium environments live in `sim.experiments.gym` (imported on demand: it registers them).
+The sweep's names load on first use: they bring pandas and pyarrow (80 MB), which a single run
+(`ctsim run`, `simulate`) does not need.
 """
+
+from importlib import import_module
 
 from sim.experiments.api import (
     Bot,
@@ -18,8 +22,19 @@ from sim.experiments.api import (
 )
 from sim.experiments.engines import Dask, Processes, Serial, engine
 from sim.experiments.plan import SpecError, SweepSpec, load_sweep, spec_from_dict
-from sim.experiments.store import load as load_results
-from sim.experiments.sweep import sweep
+
+_ON_DEMAND = {"sweep": ("sim.experiments.sweep", "sweep"), "load_results": ("sim.experiments.store", "load")}
+
+
+def __getattr__(name: str):
+    """`sweep` and `load_results`, imported when first asked for (PEP 562)."""
+    if name not in _ON_DEMAND:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    module, attribute = _ON_DEMAND[name]
+    value = getattr(import_module(module), attribute)
+    globals()[name] = value
+    return value
+
 
 __all__ = [
     "Bot",

@@ -1,13 +1,12 @@
 """PNG figures of a run: trajectories over the map, and estimate errors over time (matplotlib, Agg).
 
 Works from a run folder as `ctsim run` leaves it (summary.json and TUM files), so that
-`ctsim report RUN_DIR` and the report at the end of a run draw the same thing. The map is drawn
-here once for everyone: the figures, and the rerun recording's floor image (`map_png`).
+`ctsim report RUN_DIR` and the report at the end of a run draw the same thing. The map is the
+shapes every view draws (`map_image.map_shapes`), here as vector patches.
 """
 
 from __future__ import annotations
 
-import io
 import json
 from pathlib import Path
 
@@ -15,6 +14,7 @@ import numpy as np
 
 from sim.analysis.export import read_tum
 from sim.views import palette
+from sim.views.map_image import map_shapes
 from sim.world.spec import WorldSpec
 
 Trajectory = tuple[np.ndarray, np.ndarray]
@@ -32,31 +32,20 @@ def _c(rgb: palette.RGB) -> tuple[float, float, float]:
 
 
 def draw_world(ax, world: WorldSpec, legend: bool = False) -> None:
-    """Ground, floor regions, painted lines (at their true width), holes, goals, filled walls, cans
-    (at their start) and lights of a world on matplotlib axes (m), all beneath anything drawn later (zorder < 3)."""
+    """The map's shapes (`map_image.map_shapes`: ground, floor regions, lines at their true width,
+    holes, goals, walls, cans at their start, lights) on matplotlib axes (m), in their order and all
+    beneath anything drawn later (zorder < 3)."""
     from matplotlib.patches import Circle, Polygon
 
-    xmin, ymin, xmax, ymax = world.bounds
-    ax.add_patch(Polygon([(xmin, ymin), (xmax, ymin), (xmax, ymax), (xmin, ymax)], facecolor=world.floor_colour, edgecolor="0.6", linewidth=0.5, zorder=0))
-    for region in world.floor:
-        ax.add_patch(Polygon(region.vertices, facecolor=region.colour, edgecolor="none", zorder=0.5))
-    for line in world.lines:
-        points, half = np.asarray(line.points, dtype=float), line.width / 2
-        for a, b in zip(points[:-1], points[1:]):
-            normal = np.array((a[1] - b[1], b[0] - a[0])) / max(np.hypot(*(b - a)), 1e-12) * half
-            ax.add_patch(Polygon([a + normal, b + normal, b - normal, a - normal], facecolor=line.colour, edgecolor="none", zorder=1))
-        for p in points:
-            ax.add_patch(Circle(p, half, facecolor=line.colour, edgecolor="none", zorder=1))
-    for hole in world.holes:
-        ax.add_patch(Polygon(hole.vertices, facecolor=_c(palette.HOLE), edgecolor="none", zorder=1.2))
-    for goal in world.goals:
-        ax.add_patch(Polygon(goal.vertices, facecolor=_c(palette.GOAL), edgecolor=_c(palette.GOAL_EDGE), linewidth=0.8, zorder=1.2))
-    for wall in world.walls:
-        ax.add_patch(Polygon(wall.vertices, facecolor=_c(palette.WALL), edgecolor=_c(palette.WALL_EDGE), linewidth=0.6, zorder=2))
-    for can in world.movables:
-        ax.add_patch(Circle(can.position, can.radius, facecolor=_c(palette.CAN), edgecolor=_c(palette.WALL_EDGE), linewidth=0.5, zorder=2))
-    for light in world.lights:
-        ax.plot(*light.position, marker="*", markersize=13, color=_c(palette.LIGHT), markeredgecolor=_c(palette.LIGHT_EDGE), zorder=2.5, linestyle="none")
+    shapes = map_shapes(world)
+    for k, shape in enumerate(shapes):
+        style = dict(facecolor=_c(shape.fill), edgecolor=_c(shape.edge) if shape.edge else "none", linewidth=shape.edge_pt, zorder=2.5 * k / len(shapes))
+        if shape.kind == "polygon":
+            ax.add_patch(Polygon(shape.points, **style))
+        elif shape.kind == "circle":
+            ax.add_patch(Circle(shape.points[0], shape.radius, **style))
+        else:
+            ax.plot(*shape.points[0], marker="*", markersize=13, color=style["facecolor"], markeredgecolor=style["edgecolor"], zorder=style["zorder"], linestyle="none")
     if legend:
         from matplotlib.lines import Line2D
         from matplotlib.patches import Patch
@@ -67,29 +56,6 @@ def draw_world(ax, world: WorldSpec, legend: bool = False) -> None:
         handles += [Line2D([], [], marker="*", color=_c(palette.LIGHT), linestyle="none", label="light")] if world.lights else []
         ax.add_artist(ax.legend(handles=handles, loc="lower left", bbox_to_anchor=(1.01, 0.0), fontsize=8, frameon=False, title="map", title_fontsize=8))
     ax.set_aspect("equal")
-
-
-def map_png(world: WorldSpec, max_pixels: int = 2000) -> tuple[bytes, float]:
-    """The map exactly as `draw_world` draws it, as PNG bytes covering `world.bounds` edge to
-    edge, and its resolution (pixels per metre); the rerun recording's floor."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    from matplotlib.figure import Figure
-
-    xmin, ymin, xmax, ymax = world.bounds
-    per_metre = min(500.0, max_pixels / max(xmax - xmin, ymax - ymin))
-    width, height = max(1, round((xmax - xmin) * per_metre)), max(1, round((ymax - ymin) * per_metre))
-    fig = Figure(figsize=(width / 100, height / 100), dpi=100)
-    ax = fig.add_axes((0, 0, 1, 1))
-    draw_world(ax, world)
-    ax.set_aspect("auto")
-    ax.set_xlim(xmin, xmax)
-    ax.set_ylim(ymin, ymax)
-    ax.set_axis_off()
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=100)
-    return buffer.getvalue(), width / (xmax - xmin)
 
 
 def _errors(truth: Trajectory, estimate: Trajectory) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

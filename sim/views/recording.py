@@ -526,9 +526,9 @@ def _turn(heading: np.ndarray) -> np.ndarray:
 
 def log_world(log: Any, spec: WorldSpec) -> None:
     """Draw a WorldSpec once, as static data under world/map, with `log(path, data, static=True)`:
-    the floor as an image drawn like the PNG figures (filled walls, lines at their width), starts."""
+    the floor as an image of the map's shapes (filled walls, lines at their width), starts."""
     rr = _rerun()
-    from sim.views.figures import map_png
+    from sim.views.map_image import map_png
 
     png, per_metre = map_png(spec)
     xmin, ymin, xmax, ymax = spec.bounds

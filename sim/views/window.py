@@ -8,7 +8,6 @@ SDL_VIDEODRIVER=dummy, a frame limit and injected events (tests).
 
 from __future__ import annotations
 
-import io
 import math
 import os
 from collections.abc import Iterable
@@ -109,18 +108,15 @@ class Window:
         pygame.draw.polygon(surface, colour, [self.px(*v) for v in vertices], width)
 
     def _draw_map(self, spec: WorldSpec, size: tuple[int, int]):
-        """The static map, drawn once: the same picture as the figures and the recording."""
+        """The static map, drawn once: the same shapes as the figures and the recording."""
         import pygame
 
-        from sim.views.figures import map_png
+        from sim.views.map_image import map_surface
 
         surface = pygame.Surface(size)
         surface.fill(palette.BACKGROUND)
-        xmin, ymin, xmax, ymax = spec.bounds
-        png, _ = map_png(spec)
-        image = pygame.image.load(io.BytesIO(png), "map.png")
-        corner, far = self.px(xmin, ymax), self.px(xmax, ymin)
-        surface.blit(pygame.transform.smoothscale(image, (far[0] - corner[0], far[1] - corner[1])), corner)
+        xmin, _, _, ymax = spec.bounds
+        surface.blit(map_surface(spec, self.scale), self.px(xmin, ymax))
         return surface
 
     def _draw(self, world: World, logs: list[RobotLog]) -> None:

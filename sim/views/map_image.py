@@ -1,0 +1,114 @@
+"""The map of a world as data (`map_shapes`) and as a raster image (`map_surface`, `map_png`).
+
+One list of shapes, in drawing order, is what every view draws: the PNG figures turn it into
+matplotlib patches (vector, `figures.draw_world`), the rerun recording and the pygame window into
+pixels here. The raster is drawn with pygame, not matplotlib: a run's recording then costs no
+plotting library (matplotlib alone is 35 MB of a run's memory).
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import os
+from dataclasses import dataclass
+from typing import Literal
+
+import numpy as np
+
+from sim.views import palette
+from sim.world.spec import WorldSpec
+
+STAR_RADIUS_PX = 9
+"""Outer radius of a light's star in the raster (about the figures' 13 pt marker at 100 px/inch)."""
+
+
+@dataclass(frozen=True)
+class Shape:
+    """One element of the map: a filled polygon (`points` (k, 2), m), a filled circle (`points`
+    the centre (1, 2) and `radius` m) or a light (a star marker at `points` (1, 2)); colours 0-255
+    RGB, `edge` None for none; `edge_pt` the edge's width in points (figures; 1 px in rasters)."""
+
+    kind: Literal["polygon", "circle", "light"]
+    points: np.ndarray
+    fill: palette.RGB
+    edge: palette.RGB | None = None
+    edge_pt: float = 0.0
+    radius: float = 0.0
+
+
+def map_shapes(world: WorldSpec) -> list[Shape]:
+    """Ground, floor regions, painted lines (at their true width), holes, goals, walls, cans (at
+    their start) and lights, bottom to top."""
+    xmin, ymin, xmax, ymax = world.bounds
+    ground = np.array([(xmin, ymin), (xmax, ymin), (xmax, ymax), (xmin, ymax)])
+    shapes = [Shape("polygon", ground, palette.from_unit(world.floor_colour), (153, 153, 153), 0.5)]
+    shapes += [Shape("polygon", np.asarray(r.vertices, float), palette.from_unit(r.colour)) for r in world.floor]
+    for line in world.lines:
+        points, half, colour = np.asarray(line.points, dtype=float), line.width / 2, palette.from_unit(line.colour)
+        for a, b in zip(points[:-1], points[1:]):
+            normal = np.array((a[1] - b[1], b[0] - a[0])) / max(np.hypot(*(b - a)), 1e-12) * half
+            shapes.append(Shape("polygon", np.array([a + normal, b + normal, b - normal, a - normal]), colour))
+        shapes += [Shape("circle", p[None], colour, radius=half) for p in points]
+    shapes += [Shape("polygon", np.asarray(h.vertices, float), palette.HOLE) for h in world.holes]
+    shapes += [Shape("polygon", np.asarray(g.vertices, float), palette.GOAL, palette.GOAL_EDGE, 0.8) for g in world.goals]
+    shapes += [Shape("polygon", np.asarray(w.vertices, float), palette.WALL, palette.WALL_EDGE, 0.6) for w in world.walls]
+    shapes += [Shape("circle", np.asarray(c.position, float)[None], palette.CAN, palette.WALL_EDGE, 0.5, c.radius) for c in world.movables]
+    shapes += [Shape("light", np.asarray(light.position, float)[None], palette.LIGHT, palette.LIGHT_EDGE, 1.0) for light in world.lights]
+    return shapes
+
+
+def _pygame():
+    """pygame, without its greeting; drawing on surfaces needs no display."""
+    os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
+    import pygame
+
+    return pygame
+
+
+def map_surface(world: WorldSpec, per_metre: float):
+    """A pygame Surface of `world.bounds` edge to edge at `per_metre` pixels per metre, y up."""
+    pygame = _pygame()
+    xmin, ymin, xmax, ymax = world.bounds
+    width, height = max(1, round((xmax - xmin) * per_metre)), max(1, round((ymax - ymin) * per_metre))
+    surface = pygame.Surface((width, height))
+    surface.fill(palette.BACKGROUND)
+
+    def px(points: np.ndarray) -> list[tuple[float, float]]:
+        return [((x - xmin) * per_metre, (ymax - y) * per_metre) for x, y in points]
+
+    for shape in map_shapes(world):
+        if shape.kind == "polygon":
+            pygame.draw.polygon(surface, shape.fill, px(shape.points))
+            if shape.edge is not None:
+                pygame.draw.polygon(surface, shape.edge, px(shape.points), 1)
+        elif shape.kind == "circle":
+            centre, radius = px(shape.points)[0], max(1.0, shape.radius * per_metre)
+            pygame.draw.circle(surface, shape.fill, centre, radius)
+            if shape.edge is not None:
+                pygame.draw.circle(surface, shape.edge, centre, radius, 1)
+        else:
+            star = _star(*px(shape.points)[0], STAR_RADIUS_PX)
+            pygame.draw.polygon(surface, shape.fill, star)
+            pygame.draw.polygon(surface, shape.edge, star, 1)
+    return surface
+
+
+def _star(x: float, y: float, radius: float) -> list[tuple[float, float]]:
+    """A five-pointed star around (x, y) in pixels, a point upwards."""
+    corners = []
+    for k in range(10):
+        r, angle = (radius if k % 2 == 0 else radius * 0.45), math.pi / 2 + k * math.pi / 5
+        corners.append((x + r * math.cos(angle), y - r * math.sin(angle)))
+    return corners
+
+
+def map_png(world: WorldSpec, max_pixels: int = 2000) -> tuple[bytes, float]:
+    """The map as PNG bytes covering `world.bounds` edge to edge, at most `max_pixels` (and 500
+    per metre) along its longer side, and its resolution (pixels per metre)."""
+    xmin, ymin, xmax, ymax = world.bounds
+    per_metre = min(500.0, max_pixels / max(xmax - xmin, ymax - ymin))
+    surface = map_surface(world, per_metre)
+    buffer = io.BytesIO()
+    _pygame().image.save(surface, buffer, "map.png")
+    return buffer.getvalue(), surface.get_width() / (xmax - xmin)
