@@ -164,16 +164,20 @@ def constant(command):
     return FunctionController(lambda t, readings: command)
 
 
+REFUSING_CAR = CAR.with_changes(chassis={"infeasible": "refuse"})
+"""The shipped car projects (a driver's car); robots refuse by default."""
+
+
 def test_a_car_refuses_to_move_sideways_and_says_which_wheels():
-    result = run(EMPTY, [RobotSetup(CAR, constant(Twist(0.0, 0.0, vy=0.3)))], 1.0)
+    result = run(EMPTY, [RobotSetup(REFUSING_CAR, constant(Twist(0.0, 0.0, vy=0.3)))], 1.0)
     assert result.reason == "error"
     assert "refused" in result.error and "rear left, rear right slide sideways" in result.error
     assert "nearest feasible" in result.error
 
 
 def test_a_projecting_car_drives_the_nearest_feasible_twist_and_says_so():
-    car = CAR.with_changes(chassis={"infeasible": "project"})
-    result = run(EMPTY, [RobotSetup(car, constant(Twist(0.4, 0.0, vy=0.3)))], 1.0)
+    assert CAR.chassis.infeasible == "project" and robot_on(CAR.chassis.chassis).chassis.infeasible == "refuse"
+    result = run(EMPTY, [RobotSetup(CAR, constant(Twist(0.4, 0.0, vy=0.3)))], 1.0)
     log = result.robots[0]
     assert result.reason == "duration"
     (message, count), = log.notes.values()
@@ -316,7 +320,7 @@ def test_a_polygon_robot_stops_at_a_wall_without_tunnelling_and_slides_along_it(
 def test_command_and_fault_errors_are_clear():
     readings = Readings(steering=MECANUM4.chassis.chassis.beta)
     with pytest.raises(InfeasibleCommand, match="slide sideways"):
-        chassis_setpoints(Twist(0.0, 0.0, vy=0.2), CAR, Readings(steering=CAR.chassis.chassis.beta))
+        chassis_setpoints(Twist(0.0, 0.0, vy=0.2), REFUSING_CAR, Readings(steering=CAR.chassis.chassis.beta))
     with pytest.raises(ValueError, match="4 speeds"):
         chassis_setpoints(WheelCommands((1.0, 2.0)), MECANUM4, readings)
     world = World(EMPTY)
