@@ -136,6 +136,8 @@ class _Drive:
         wheel turns the way inside them (never through the gap of a range wider than π); a wheel that
         reaches its target takes it exactly. A target within the core's `STEER_SLACK` of a stop is
         within it (a tightest turn puts a wheel on its stop up to rounding)."""
+        if not np.any(self.steerable & (self.beta != self.target_beta)):
+            return  # every wheel at its target (the common case: steering settled)
         c = self.chassis
         offset = c.alpha - np.pi / 2 - self.steer_mid  # heading − middle of the range = β + offset
         now, wanted = wrap_angle(self.beta + offset), wrap_angle(self.target_beta + offset)
