@@ -2,11 +2,15 @@
 
 The robot knows its chassis as its description states it, at the steering angles its sensors read,
 with the faults its fault observer reports (`Readings.failures`): `believed_chassis`. A twist or OCP
-command is checked against that chassis's feasible set (the core's B after the faults): a twist the
-chassis cannot perform is refused (`InfeasibleCommand`, naming the wheels that would slide or the
-drives that are missing) or, if the robot's `infeasible` policy is "project", replaced by the nearest
-feasible twist and reported in the set-point's `note`. Wheel speeds beyond a motor's limit are scaled
-down together, which keeps the path (the ICR) and slows the motion.
+command is checked against that chassis's feasible set (the core's B after the faults) and then
+against the steering limits of its steered wheels (each may take an angle or its mirror, rolling
+backwards): a twist the chassis cannot perform is refused (`InfeasibleCommand`, naming the wheels that
+would slide, the drives that are missing, or the wheels that would have to steer beyond their limits,
+with the angles) or, if the robot's `infeasible` policy is "project", replaced by the nearest
+feasible twist (`nearest_feasible`) and then by the tightest turn at its speed (`nearest_steerable`),
+and reported in the set-point's `note`. Wheel speeds beyond a motor's limit are scaled down together,
+which keeps the path (the ICR) and slows the motion. The steering angles sent are within the limits,
+so the world's steering stops are never reached by a twist.
 """
 
 from __future__ import annotations
@@ -28,9 +32,9 @@ from sim.kinematics.chassis import (
     Chassis,
     InfeasibleTwist,
     check_feasible,
+    check_steering,
     degrade,
     inverse_kinematics,
-    nearest_feasible,
 )
 from sim.kinematics.ocp import kappa_g_for, ocp_to_twist, v_max_for
 from sim.world.readings import Readings
@@ -89,17 +93,18 @@ def chassis_setpoints(command: Command, robot: RobotSpec, readings: Readings) ->
         raise BadCommand(f"expected WheelCommands, Twist or CurveCommand, got {type(command).__name__}: {command!r}")
     if not np.all(np.isfinite(twist)):
         raise BadCommand(f"non-finite command {command!r}")
-    note = None
-    try:
-        check_feasible(chassis, twist)
-    except InfeasibleTwist as err:
-        if robot.chassis.infeasible == "refuse":
-            raise InfeasibleCommand(f"refused: {err}") from None
-        twist = nearest_feasible(chassis, twist)
-        note = f"projected: {err}"
+    notes = []
+    for check in (check_feasible, check_steering):
+        try:
+            check(chassis, twist)
+        except InfeasibleTwist as err:
+            if robot.chassis.infeasible == "refuse":
+                raise InfeasibleCommand(f"refused: {err}") from None
+            twist = err.nearest
+            notes.append(f"projected: {err}")
     wheels = inverse_kinematics(chassis, twist)
     scale = max(1.0, float(np.max(np.abs(wheels.phi_dot) / wheel_limits(robot), where=chassis.driven, initial=0.0)))
-    return ChassisSetpoint(wheels.phi_dot / scale, wheels.beta, twist / scale, note)
+    return ChassisSetpoint(wheels.phi_dot / scale, wheels.beta, twist / scale, "; ".join(notes) or None)
 
 
 def _raw(command: WheelCommands, chassis: Chassis) -> ChassisSetpoint:

@@ -42,9 +42,10 @@ class ChassisSpec:
     chassis: the core's chassis (wheels, nominal state); outline: the body's convex polygon (m, body
     frame, counter-clockwise, around the reference point), () for a circle of the robot's body_radius;
     steer_rate: fastest steering of a steered wheel (rad/s); mouse2: an optional second mouse sensor
-    (a `MouseSpec`); infeasible: what a twist or OCP command the chassis cannot perform does, "refuse"
-    (the run stops with a message naming the wheels) or "project" (the nearest feasible twist is
-    driven and the run's notes say so).
+    (a `MouseSpec`); infeasible: what a twist or OCP command the chassis cannot perform (outside its
+    feasible set, or beyond its steering limits) does, "refuse" (the default: the run stops with a
+    message naming the wheels) or "project" (the nearest feasible twist, then the tightest turn the
+    steering allows, is driven and the run's notes say so; see `bots.chassis_commands`).
     """
 
     chassis: Chassis

@@ -4,9 +4,6 @@ four-wheel-steered example vehicle, each with a body outline, motors, mice and t
 from __future__ import annotations
 
 import math
-from dataclasses import replace
-
-import numpy as np
 
 from bots.chassis_spec import ChassisSpec
 from bots.spec import IRSensorSpec, MouseSpec, RobotSpec, wheeled_robot
@@ -37,17 +34,19 @@ MECANUM4 = wheeled_robot(
 )
 """Mecanum wheels at (±0.215, ±0.115) m, r = 50 mm, 1 m/s rims, a 0.6 × 0.4 m body; two mice."""
 
-_STEER = math.radians(35)
 CAR = wheeled_robot(
     "car",
-    ChassisSpec(replace(chassis_presets.ackermann(wheelbase=0.5, track=0.4, wheel_radius=0.05, max_speed=1.5),
-                        steer_min=np.full(4, -_STEER), steer_max=np.full(4, _STEER)),
-                outline=_box(0.65, 0.15, 0.25), steer_rate=2.0),
+    ChassisSpec(chassis_presets.ackermann(wheelbase=0.5, track=0.4, wheel_radius=0.05, max_speed=1.5,
+                                          steer_limit=math.radians(35)),
+                outline=_box(0.65, 0.15, 0.25), steer_rate=2.0, infeasible="project"),
     mass=10.0, mouse=MouseSpec(mount=(0.25, 0.0)), ir=_front_ir(0.64, 0.15),
 )
 """Ackermann car: free front wheels steered ±35° at 2 rad/s, driven rear axle (P mid rear axle),
 wheelbase 0.5 m, track 0.4 m, 1.5 m/s rims, a 0.8 × 0.5 m body; one mouse (the rear axle's
-constraint gives the rest)."""
+constraint gives the rest). It projects what it cannot do (`infeasible="project"`), as a driver
+would: a turn tighter than its R_min = 0.5 m / tan 35° + 0.2 m ≈ 0.914 m becomes its tightest turn
+at the commanded speed (turn on the spot: at the commanded yaw rate, driving forwards), a sideways
+twist loses its sideways part; each run notes what it changed."""
 
 OCP_VEHICLE = wheeled_robot(
     "ocp_vehicle",

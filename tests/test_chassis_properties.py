@@ -52,7 +52,9 @@ def test_inverse_then_forward_returns_the_feasible_twist(chassis, raw):
     cmd = inverse_kinematics(chassis, twist)
     fk = forward_kinematics(chassis, cmd.phi_dot, cmd.beta)
     assert fk.slip < 1e-9
-    if fk.rank == 3:
+    # a steered wheel on the ICR (within the core's 1e-9 m/s) carries no speed; if the rank of 3 rests
+    # on its rows (a wheel 6e-8 m from P turning on the spot), ω is lost in rounding: no exact twist
+    if fk.rank == 3 and not cmd.at_icr.any():
         assert_allclose(fk.twist, twist, atol=1e-8)
 
 

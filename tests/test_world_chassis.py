@@ -164,16 +164,20 @@ def constant(command):
     return FunctionController(lambda t, readings: command)
 
 
+REFUSING_CAR = CAR.with_changes(chassis={"infeasible": "refuse"})
+"""The shipped car projects (a driver's car); robots refuse by default."""
+
+
 def test_a_car_refuses_to_move_sideways_and_says_which_wheels():
-    result = run(EMPTY, [RobotSetup(CAR, constant(Twist(0.0, 0.0, vy=0.3)))], 1.0)
+    result = run(EMPTY, [RobotSetup(REFUSING_CAR, constant(Twist(0.0, 0.0, vy=0.3)))], 1.0)
     assert result.reason == "error"
     assert "refused" in result.error and "rear left, rear right slide sideways" in result.error
     assert "nearest feasible" in result.error
 
 
 def test_a_projecting_car_drives_the_nearest_feasible_twist_and_says_so():
-    car = CAR.with_changes(chassis={"infeasible": "project"})
-    result = run(EMPTY, [RobotSetup(car, constant(Twist(0.4, 0.0, vy=0.3)))], 1.0)
+    assert CAR.chassis.infeasible == "project" and robot_on(CAR.chassis.chassis).chassis.infeasible == "refuse"
+    result = run(EMPTY, [RobotSetup(CAR, constant(Twist(0.4, 0.0, vy=0.3)))], 1.0)
     log = result.robots[0]
     assert result.reason == "duration"
     (message, count), = log.notes.values()
@@ -181,6 +185,27 @@ def test_a_projecting_car_drives_the_nearest_feasible_twist_and_says_so():
     truth = log.truth_array()
     sideways = [relative_increment(truth[k], truth[k + 1])[1] for k in range(len(truth) - 1)]
     assert np.max(np.abs(sideways)) < 1e-12  # the projection has no lateral part: none at all
+
+
+@pytest.mark.parametrize("preset", sorted(PRESETS))
+def test_every_preset_refuses_or_projects_what_it_cannot_do_as_its_policy_says(preset):
+    """Each direction outside span(B) is refused naming the sliding wheels, or projected onto B with a
+    note; a twist in B passes unchanged (presets without fixed wheels can do any twist)."""
+    chassis = PRESETS[preset]()
+    readings = Readings(steering=chassis.beta)
+    b = motion_subspaces(chassis).B
+    inside = 0.1 * b.sum(axis=1)
+    setpoint = chassis_setpoints(Twist(inside[0], inside[2], vy=inside[1]), robot_on(chassis), readings)
+    assert setpoint.note is None
+    assert_allclose(setpoint.twist, inside, atol=1e-15)
+    assert (b.shape[1] < 3) == (preset in ("differential", "tricycle", "ackermann"))
+    for outside in 0.1 * null_space(b.T).T:
+        command = Twist(outside[0], outside[2], vy=outside[1])
+        with pytest.raises(InfeasibleCommand, match="refused: .* slide sideways"):
+            chassis_setpoints(command, robot_on(chassis), readings)
+        projected = chassis_setpoints(command, robot_on(chassis, chassis_fields={"infeasible": "project"}), readings)
+        assert "projected" in projected.note
+        assert_allclose(projected.twist, 0.0, atol=1e-15)  # orthogonal to B: its projection is standing still
 
 
 THESIS_FAULTS = {
@@ -225,9 +250,13 @@ def test_after_each_thesis_failure_the_robot_follows_every_feasible_twist_and_re
         assert result.robots[0].latest.failures
 
 
-@pytest.mark.parametrize("name", sorted(WHEELED_ROBOTS))
+ODOMETRY_ROBOTS = {**WHEELED_ROBOTS, **{f"preset {p}": robot_on(PRESETS[p]()) for p in PRESETS}}
+"""The shipped robots and every preset of the core (on a round body, no motor limit)."""
+
+
+@pytest.mark.parametrize("name", sorted(ODOMETRY_ROBOTS))
 def test_encoder_odometry_is_exact_without_quantisation(name):
-    spec = WHEELED_ROBOTS[name].with_changes(encoders=FINE, motor=FAST)
+    spec = ODOMETRY_ROBOTS[name].with_changes(encoders=FINE, motor=FAST)
     result = run(EMPTY, [RobotSetup(spec, constant(Twist(0.3, 0.4)))], 3.0)
     log = result.robots[0]
     error = np.linalg.norm(log.estimate_arrays()["encoders"][:, :2] - log.truth_array()[:, :2], axis=1)
@@ -247,9 +276,9 @@ def quantisation_bound(spec, distance: float) -> float:
     return 1.1 * (math.hypot(per_tick[0], per_tick[1]) + per_tick[2] * distance)
 
 
-@pytest.mark.parametrize("name", sorted(WHEELED_ROBOTS))
+@pytest.mark.parametrize("name", sorted(ODOMETRY_ROBOTS))
 def test_encoder_odometry_stays_within_the_derived_quantisation_bound(name):
-    spec = WHEELED_ROBOTS[name].with_changes(motor=FAST)
+    spec = ODOMETRY_ROBOTS[name].with_changes(motor=FAST)
     result = run(EMPTY, [RobotSetup(spec, constant(Twist(0.3, 0.0)))], 4.0)
     log = result.robots[0]
     truth = log.truth_array()
@@ -316,7 +345,7 @@ def test_a_polygon_robot_stops_at_a_wall_without_tunnelling_and_slides_along_it(
 def test_command_and_fault_errors_are_clear():
     readings = Readings(steering=MECANUM4.chassis.chassis.beta)
     with pytest.raises(InfeasibleCommand, match="slide sideways"):
-        chassis_setpoints(Twist(0.0, 0.0, vy=0.2), CAR, Readings(steering=CAR.chassis.chassis.beta))
+        chassis_setpoints(Twist(0.0, 0.0, vy=0.2), REFUSING_CAR, Readings(steering=CAR.chassis.chassis.beta))
     with pytest.raises(ValueError, match="4 speeds"):
         chassis_setpoints(WheelCommands((1.0, 2.0)), MECANUM4, readings)
     world = World(EMPTY)
@@ -485,3 +514,57 @@ def test_the_path_follower_drives_on_after_the_yards_wheel_fault(name):
 
     result = run(load_world("chassis_yard"), [RobotSetup(WHEELED_ROBOTS[name], make("follow_path_ocp"))], 24.0)
     assert result.reason == "duration", result.error  # (the car may scrape the yard's tight corners)
+
+
+class _FakeLive:
+    """Stands in for the live stream (a viewer): records which entities reach it."""
+
+    def __init__(self):
+        self.paths: set[str] = set()
+        self.events: list[str] = []
+
+    def log(self, path, data, static=False):
+        self.paths.add("/" + path)
+        if path == "events":
+            self.events.append(str(data.as_component_batches()[0].as_arrow_array()[0]))
+
+    def send_columns(self, path, times, columns):
+        self.paths.add("/" + path)
+
+    def set_time(self, *args, **kwargs):
+        pass
+
+    def flush(self, **kwargs):
+        pass
+
+    def disconnect(self):
+        pass
+
+
+def test_the_live_stream_gets_every_entity_of_the_file_and_the_projection_note(tmp_path):
+    """Outline, wheels and ICR of a chassis robot (and everything else) go to every stream, not only
+    the file; a projected command's note reaches the events of both."""
+    import rerun.chunk
+
+    from sim.views.recording import Recorder
+
+    live = _FakeLive()
+
+    class LiveRecorder(Recorder):
+        def _open_live(self, rr, blueprint):
+            self._live = live
+            self.streams.append(live)
+
+    path = tmp_path / "run.rrd"
+    result = run(EMPTY, [RobotSetup(CAR, constant(Twist(0.3, 2.0)))], 1.0, observers=(LiveRecorder(path, live=True),))
+    assert result.reason == "duration" and result.robots[0].notes
+    in_file: set[str] = set()
+    events = []
+    for chunk in rerun.chunk.RrdReader(path).stream().to_chunks():
+        in_file.add(str(chunk.entity_path))
+        if str(chunk.entity_path) == "/events":
+            events += [row["TextLog:text"][0] for row in chunk.to_record_batch().to_pylist()]
+    assert {"/world/car/body/outline", "/world/car/body/wheels", "/world/car/chassis/icr"} <= in_file
+    assert in_file == live.paths
+    notes = [text for text in events if "car: note: step" in text and "beyond the steering limits" in text]
+    assert len(notes) == 1 and notes[0] in live.events  # the first of its kind, once

@@ -3,7 +3,8 @@
 A chassis is data: a frozen `Chassis` of per-wheel arrays for the five wheel types. From it come the
 constraint matrices (J₁, J₂, C₁), the degree of mobility and steerability, the ICR of a twist and the
 ICR locus of the chassis, the motion subspaces Z, S̄, S, B, D (what the planner may command, also after
-failures), inverse kinematics (twist → steering angles and wheel speeds, with a typed refusal),
+failures), steering limits (which twists the steered wheels can point along, and the tightest turn
+when they cannot), inverse kinematics (twist → steering angles and wheel speeds, with a typed refusal),
 forward kinematics (wheel speeds → least-squares twist with the slip residual) and the kinetic torque
 allocation for constraint-free chassis. A constant twist moves the body by `arc.se2_exp(twist·dt)`.
 
@@ -52,7 +53,8 @@ class Wheel:
     `gamma` is the roller angle (OMNI only, |γ| < π/2), `offset` the castor offset d (CASTOR only, > 0).
     `driven` says whether the wheel has a working drive; `steer_ok` whether a STEERED wheel's
     steering works (if not, β stays frozen). `max_speed` is the rim-speed limit (m/s) and
-    `steer_limits` the allowed heading range (rad) of a steered wheel, both used by `sim.kinematics.ocp`.
+    `steer_limits` the allowed heading range (rad, within [−π, π]) of a steered wheel: `check_steering`,
+    `nearest_steerable` and `sim.kinematics.ocp` respect both.
     """
 
     kind: WheelType
@@ -480,6 +482,117 @@ def check_feasible(chassis: Chassis, twist: ArrayLike) -> None:
         f"nearest feasible {np.round(nearest[bad][0], 6).tolist()}", nearest, bad)
 
 
+# --- steering limits ------------------------------------------------------------------------------------
+
+STEER_SLACK = 1e-9
+"""rad: a heading exactly on its steering limit counts as within it, despite rounding."""
+
+
+def _limited(chassis: Chassis) -> NDArray[np.bool_]:
+    """Working steered wheels whose limits leave out some axle direction: with a range of π or more,
+    every direction or its mirror lies within, so only narrower ranges restrict the chassis."""
+    return ((chassis.kind == WheelType.STEERED) & chassis.steer_ok
+            & (chassis.steer_max - chassis.steer_min < np.pi - STEER_SLACK))
+
+
+def within_steering_limits(chassis: Chassis, heading: ArrayLike, *, mirror: bool = True) -> NDArray[np.bool_]:
+    """Whether each wheel (..., n) can roll along `heading` (rad, body frame) within its steering limits:
+    the heading itself or, with `mirror`, heading + π (the wheel turned round, rolling backwards)
+    lies in [steer_min, steer_max]. True for wheels without (restricting) limits; `mirror=False`
+    tests the heading alone, for every working steered wheel with finite limits."""
+    heading = np.asarray(heading, dtype=float)
+    if mirror:
+        limited = _limited(chassis)
+        period = np.pi
+    else:
+        limited = (chassis.kind == WheelType.STEERED) & chassis.steer_ok & (chassis.steer_max - chassis.steer_min < 2 * np.pi)
+        period = 2 * np.pi
+    low = np.where(limited, chassis.steer_min, 0.0)
+    offset = np.mod(heading - low, period)  # [0, period): from the lower limit, counter-clockwise
+    width = np.where(limited, chassis.steer_max - low, period)
+    return ~limited | (offset <= width + STEER_SLACK) | (offset >= period - STEER_SLACK)
+
+
+def _needed_headings(chassis: Chassis, twist: Array) -> tuple[Array, NDArray[np.bool_]]:
+    """Headings (..., n) each wheel's contact point moves along for `twist`, and whether it moves at all
+    (a steered wheel on the ICR may point anywhere)."""
+    v_a = contact_velocities(chassis, twist)
+    moving = np.hypot(v_a[..., 0], v_a[..., 1]) > _tolerance(twist)[..., None]
+    return np.arctan2(v_a[..., 1], v_a[..., 0]), moving
+
+
+def is_steerable(chassis: Chassis, twist: ArrayLike) -> NDArray[np.bool_]:
+    """Whether each twist (..., 3) needs only steering angles within the limits of the working steered
+    wheels, each wheel taking the angle or its mirror (β + π, rolling backwards). Feasibility in
+    the sense of span(B) is `is_feasible`; a command must pass both."""
+    twist = np.asarray(twist, dtype=float)
+    heading, moving = _needed_headings(chassis, twist)
+    return np.all(within_steering_limits(chassis, heading) | ~moving, axis=-1)
+
+
+def nearest_steerable(chassis: Chassis, twist: ArrayLike) -> Array:
+    """The steerable twist (..., 3) nearest to each twist in span(B) in the sense of driving: the
+    tightest turn at the commanded speed.
+
+    Steering limits bound how tight a turn is (a car's ICR must stay R_min from its rear axle's
+    middle), not how fast; so the speed of the reference point P is kept and the rotation reduced:
+    ξ + t·d for the least t ≥ 0 that is steerable, with d the translation of ξ (projected onto B),
+    rescaled to the commanded speed at P. A rotation on the spot (no translation) keeps its yaw rate
+    and gains the least forward speed instead (d = forward, projected onto B): a car asked to turn on
+    the spot drives its tightest circle. t follows in closed form (a wheel's heading crosses a limit
+    where its contact velocity, affine in t, crosses the limit's line). Twists already steerable come
+    back unchanged; a twist for which no such t exists gives the zero twist (standing still).
+    """
+    twist = np.asarray(twist, dtype=float)
+    flat = twist.reshape(-1, 3)
+    return np.array([_nearest_steerable(chassis, t) for t in flat]).reshape(twist.shape)
+
+
+def _nearest_steerable(chassis: Chassis, twist: Array) -> Array:
+    if is_steerable(chassis, twist):
+        return twist
+    b = projector(motion_subspaces(chassis).B)
+    moves = np.hypot(twist[0], twist[1]) > _tolerance(twist)
+    direction = (np.array([twist[0], twist[1], 0.0]) if moves else np.array([1.0, 0.0, 0.0])) @ b
+    limited = _limited(chassis)
+    # contact velocities of the limited wheels: v(t) = v0 + t·dv, against the normals of both limit lines
+    v0, dv = contact_velocities(chassis, twist)[limited], contact_velocities(chassis, direction)[limited]
+    candidates = []
+    for limit in (chassis.steer_min[limited], chassis.steer_max[limited]):
+        normal = np.stack([-np.sin(limit), np.cos(limit)], axis=-1)
+        a, slope = np.sum(normal * v0, axis=-1), np.sum(normal * dv, axis=-1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            candidates.extend((-a / slope)[slope != 0])
+    for t in sorted(t for t in candidates if t > 0):
+        moved = twist + t * direction
+        if is_steerable(chassis, moved):
+            keep = np.hypot(twist[0], twist[1]) / np.hypot(moved[0], moved[1]) if moves else abs(twist[2] / moved[2])
+            return moved * keep
+    return np.zeros(3)
+
+
+def check_steering(chassis: Chassis, twist: ArrayLike) -> None:
+    """Raise `InfeasibleTwist`, naming the wheels, the angles they would need and their limits, if any
+    twist (..., 3) needs a steering angle (or its mirror) beyond a wheel's limits; `.nearest` is
+    `nearest_steerable`."""
+    twist = np.asarray(twist, dtype=float)
+    heading, moving = _needed_headings(chassis, twist)
+    outside = ~within_steering_limits(chassis, heading) & moving
+    bad = np.any(outside, axis=-1)
+    if not bad.any():
+        return
+    example, wheels, angles = twist[bad][0], outside[bad][0], heading[bad][0]
+    deg = np.degrees
+    why = "; ".join(
+        f"{chassis.names[i]} would have to roll at {deg(angles[i]):.1f}° or {deg(wrap_angle(angles[i] + np.pi)):.1f}°, "
+        f"beyond its steering limits {deg(chassis.steer_min[i]):.1f}°..{deg(chassis.steer_max[i]):.1f}°"
+        for i in np.flatnonzero(wheels))
+    nearest = nearest_steerable(chassis, twist)
+    raise InfeasibleTwist(
+        f"{int(bad.sum())} of {bad.size} twists beyond the steering limits, e.g. {np.round(example, 6).tolist()}: "
+        f"{why}; tightest steerable turn {np.round(nearest[bad][0], 6).tolist()}", nearest, bad)
+
+
 # --- inverse kinematics ---------------------------------------------------------------------------------
 
 
@@ -525,10 +638,11 @@ def inverse_kinematics(
 
     Steered and ball wheels point along their contact velocity (β = atan2(v_Ax, −v_Ay) − α, equivalent
     to the ICR method (2.103)/(2.106) without its ω = 0 branch). Of the two equivalent settings (β, v)
-    and (β + π, −v), `branch="nearest"` takes the one closest to `previous_beta` (default: the chassis's
-    current β), avoiding π slews (2.2.6); `"forward"` always rolls forwards (v ≥ 0). Every wheel's speed
+    and (β + π, −v), `branch="nearest"` takes the one within the wheel's steering limits, or if both
+    (or neither) are, the one closest to `previous_beta` (default: the chassis's current β), avoiding
+    π slews (2.2.6); `"forward"` always rolls forwards (v ≥ 0). Every wheel's speed
     is then its rolling row: φ̇ = j(β)·ξ / (r cos γ) (2.80, 2.116). Raises `InfeasibleTwist` for a twist
-    outside span(B).
+    outside span(B); steering limits are the caller's (`check_steering`: OCP maps them as blocked).
     """
     twist = np.asarray(twist, dtype=float)
     check_feasible(chassis, twist)
@@ -538,7 +652,12 @@ def inverse_kinematics(
     at_icr = chassis.steered_like & (speed <= _tolerance(twist)[..., None])
     aligned = wrap_angle(np.arctan2(v_a[..., 0], -v_a[..., 1]) - chassis.alpha)
     if branch == "nearest":
-        aligned = np.where(np.abs(wrap_angle(aligned - prev)) > np.pi / 2, wrap_angle(aligned + np.pi), aligned)
+        flip = np.abs(wrap_angle(aligned - prev)) > np.pi / 2
+        heading = chassis.alpha + aligned - np.pi / 2
+        fits = within_steering_limits(chassis, heading, mirror=False)
+        fits_flipped = within_steering_limits(chassis, heading + np.pi, mirror=False)
+        flip = np.where(fits == fits_flipped, flip, fits_flipped)  # a steering limit overrules nearness
+        aligned = np.where(flip, wrap_angle(aligned + np.pi), aligned)
     beta = np.where(chassis.steered_like & ~at_icr, aligned, prev)
     phi_dot = np.einsum("...ij,...j->...i", rolling_rows(chassis.alpha, beta, chassis.l, chassis.gamma), twist)
     phi_dot = phi_dot / (chassis.radius * np.cos(chassis.gamma))

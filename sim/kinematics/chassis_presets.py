@@ -30,28 +30,34 @@ def ctbot() -> Chassis:
 
 
 def tricycle(wheelbase: float = 0.5, track: float = 0.4, wheel_radius: float = 0.05,
-             max_speed: float = np.inf) -> Chassis:
-    """Steered, driven front wheel at (a, 0), free fixed rear wheels at (0, ±b/2); P mid rear axle.
+             max_speed: float = np.inf, steer_limit: float = np.inf) -> Chassis:
+    """Steered, driven front wheel at (a, 0), free fixed rear wheels at (0, ±b/2); P mid rear axle;
+    the front wheel's heading limited to ±`steer_limit` (rad).
 
     With track = 0 it is the paper's single-track (bicycle) model of Ackermann steering (OCP §2.7).
     """
     return Chassis.from_wheels([
-        Wheel.placed(WheelType.STEERED, wheelbase, 0.0, radius=wheel_radius, max_speed=max_speed, name="front"),
+        Wheel.placed(WheelType.STEERED, wheelbase, 0.0, radius=wheel_radius, max_speed=max_speed,
+                     steer_limits=(-steer_limit, steer_limit), name="front"),
         Wheel.placed(WheelType.FIXED, 0.0, track / 2, radius=wheel_radius, driven=False, name="rear left"),
         Wheel.placed(WheelType.FIXED, 0.0, -track / 2, radius=wheel_radius, driven=False, name="rear right"),
     ])
 
 
 def ackermann(wheelbase: float = 0.5, track: float = 0.4, wheel_radius: float = 0.05,
-              max_speed: float = np.inf) -> Chassis:
+              max_speed: float = np.inf, steer_limit: float = np.inf) -> Chassis:
     """Car: free steered front wheels at (a, ±b/2), driven fixed rear wheels at (0, ±b/2); P mid rear axle.
 
-    Steering each front wheel at the ICR gives the Ackermann angles (thesis 2.2.2, Abb. 23).
+    Steering each front wheel at the ICR gives the Ackermann angles (thesis 2.2.2, Abb. 23). With the
+    front wheels' headings limited to ±`steer_limit` (rad), the inner wheel limits the turn: the ICR
+    stays at least R_min = a / tan(steer_limit) + b/2 from P.
     """
+    limits = (-steer_limit, steer_limit)
     return Chassis.from_wheels([
-        Wheel.placed(WheelType.STEERED, wheelbase, track / 2, radius=wheel_radius, driven=False, name="front left"),
+        Wheel.placed(WheelType.STEERED, wheelbase, track / 2, radius=wheel_radius, driven=False,
+                     steer_limits=limits, name="front left"),
         Wheel.placed(WheelType.STEERED, wheelbase, -track / 2, radius=wheel_radius, driven=False,
-                     name="front right"),
+                     steer_limits=limits, name="front right"),
         Wheel.placed(WheelType.FIXED, 0.0, track / 2, radius=wheel_radius, max_speed=max_speed, name="rear left"),
         Wheel.placed(WheelType.FIXED, 0.0, -track / 2, radius=wheel_radius, max_speed=max_speed, name="rear right"),
     ])

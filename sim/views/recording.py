@@ -17,7 +17,7 @@ Layout (all on the timeline "sim_time", seconds of simulated time):
     errors/<robot>/heading/<est>       Scalars, wrapped heading error (deg)
     sensors/<group>/<robot>/<field>    Scalars, readings in their units (SENSOR_GROUPS)
     events                             TextLog: start, collisions, wheel faults, falls, goal,
-                                       messages, end, errors
+                                       notes (the first of each kind), messages, end, errors
     facts                              TextDocument: world, robots, controllers, seed, dt, version
 
 Per-sample values go into numpy buffers and leave in chunks with `send_columns` (DESIGN.md §6):
@@ -108,6 +108,7 @@ class _Track:
     tail: np.ndarray | None = None  # the last trail point of each label, (1 + estimates, 2)
     collisions: int = 0
     failures: int = 0
+    notes: int = 0  # kinds of the RobotLog's notes already in the events
     fell: bool = False
     goal: bool = False
 
@@ -201,6 +202,10 @@ class Recorder:
                 for failure in readings.failures[track.failures :]:
                     self._event(f"{log.name}: {fault_text(log.spec.chassis.chassis, failure)}", "WARN")
                 track.failures = len(readings.failures)
+            if len(log.notes) != track.notes:  # a new kind of projected command: its first message
+                for message, _ in list(log.notes.values())[track.notes :]:
+                    self._event(f"{log.name}: note: {message}", "WARN")
+                track.notes = len(log.notes)
             if robot.fallen and not track.fell:
                 track.fell = True
                 self._event(f"{log.name}: fell into a hole at ({robot.pose[0]:.3f}, {robot.pose[1]:.3f}) m", "ERROR")

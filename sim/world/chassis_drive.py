@@ -1,7 +1,9 @@
 """The world's drive for robots on a general wheeled chassis (the c't-Bot keeps its compiled kernel).
 
 Per step and robot, in the order of DESIGN.md §4: faults due by now strike; working steered wheels
-turn towards their commanded angle at most `steer_rate`·dt (within their limits); driven wheels
+turn towards their commanded angle at most `steer_rate`·dt, the way that stays within their
+steering limits (the stops: a target beyond them holds the wheel at the nearer stop, logged once
+per wheel as a warning; twist commands never send one, `bots.chassis_commands`); driven wheels
 follow their commanded speed through the motor model (clip, lag, acceleration limit); the body twist
 is the core's least-squares forward kinematics of the driven wheels' rim speeds (a locked wheel
 counts as 0, a free-running one not at all) together with the sliding constraints of fixed and
@@ -15,6 +17,7 @@ a hole drops the robot. The per-step wheel maths is one compiled kernel (`_wheel
 
 from __future__ import annotations
 
+import logging
 import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Literal
@@ -31,6 +34,7 @@ from sim.kinematics import (
 from sim.kinematics.arc import wrap_angle
 from sim.kinematics.batch import half_angle, quantize_one
 from sim.kinematics.chassis import (
+    STEER_SLACK,
     Chassis,
     Failure,
     WheelType,
@@ -48,6 +52,7 @@ if TYPE_CHECKING:
     from sim.world.readings import Readings
 
 FaultKind = Literal["lock", "free", "steering"]
+_log = logging.getLogger(__name__)
 
 
 class FaultError(ValueError):
@@ -81,6 +86,11 @@ class _Drive:
 
     def __post_init__(self) -> None:
         self.chassis = self.nominal
+        c = self.nominal
+        self.stops = c.steer_max - c.steer_min < 2 * np.pi  # wheels with steering stops
+        low, high = (np.where(self.stops, limit, 0.0) for limit in (c.steer_min, c.steer_max))
+        self.steer_mid, self.steer_half = (low + high) / 2, np.where(self.stops, (high - low) / 2, np.inf)
+        self.held: set[int] = set()  # wheels reported held at a stop
         self.passive = bool(np.isin(self.nominal.kind, (WheelType.CASTOR, WheelType.SPHERICAL)).any())
         self.rim = self.nominal.radius * np.cos(self.nominal.gamma)
         self._refresh()
@@ -111,9 +121,7 @@ class _Drive:
         """Steering, motors, forward kinematics and encoders for one step; the body increment (dx, dy, dθ)."""
         c = self.chassis
         if self.steers:
-            turn = np.clip(wrap_angle(self.target_beta - self.beta), -self.steer_rate * dt, self.steer_rate * dt)
-            heading = np.clip(wrap_angle(c.alpha + self.beta + turn - np.pi / 2), c.steer_min, c.steer_max)
-            self.beta = np.where(self.steerable, wrap_angle(heading - c.alpha + np.pi / 2), self.beta)
+            self._steer(self.steer_rate * dt)
         a, pinv, rolls = self._system()
         *increment, self.slip = _wheels(dt, self.phi_dot, self.target_phi, self.max_phi, self.lag, self.max_change,
                                         c.driven, c.locked, self.measured, self.rim, slip, a, pinv, rolls,
@@ -121,6 +129,29 @@ class _Drive:
         if self.passive:
             self._swivel(dt)
         return increment
+
+    def _steer(self, max_turn: float) -> None:
+        """Turn the working steered wheels towards their targets by at most `max_turn` rad. Headings are
+        taken from the middle of each wheel's range, so that between two angles within the stops the
+        wheel turns the way inside them (never through the gap of a range wider than π); a wheel that
+        reaches its target takes it exactly. A target within the core's `STEER_SLACK` of a stop is
+        within it (a tightest turn puts a wheel on its stop up to rounding)."""
+        if not np.any(self.steerable & (self.beta != self.target_beta)):
+            return  # every wheel at its target (the common case: steering settled)
+        c = self.chassis
+        offset = c.alpha - np.pi / 2 - self.steer_mid  # heading − middle of the range = β + offset
+        now, wanted = wrap_angle(self.beta + offset), wrap_angle(self.target_beta + offset)
+        goal = np.clip(wanted, -self.steer_half - STEER_SLACK, self.steer_half + STEER_SLACK)
+        turn = np.where(self.stops, goal - now, wrap_angle(goal - now))
+        beyond = self.steerable & (goal != wanted)
+        for wheel in set(np.flatnonzero(beyond)) - self.held:
+            self.held.add(wheel)
+            _log.warning("%s: %s steered to %.1f°, beyond its stops %.1f°..%.1f°: held at the stop", self.robot.name,
+                         c.names[wheel], math.degrees(wanted[wheel] + self.steer_mid[wheel]),
+                         math.degrees(c.steer_min[wheel]), math.degrees(c.steer_max[wheel]))
+        reached = np.abs(turn) <= max_turn
+        moved = np.where(reached & ~beyond, self.target_beta, wrap_angle(now + np.clip(turn, -max_turn, max_turn) - offset))
+        self.beta = np.where(self.steerable, wrap_angle(moved), self.beta)
 
     def _system(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """A and pinv(A) of the forward kinematics and the rolling rows (what unmeasured wheels turn
