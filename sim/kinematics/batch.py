@@ -273,8 +273,9 @@ def step_batch_parallel(
     counts: np.ndarray,
 ) -> None:
     """`step_batch` (same arguments) with the chunks shared out over the cores (numba threads):
-    bit-identical to it, since each chunk runs the same code on its own columns. Worth it from some
-    thousands of robots; below, waking the threads costs more than it saves."""
+    bit-identical to it, since each chunk runs the same code on its own columns. Each call wakes the
+    sleeping threads (about 5 µs on a 2-core VM, against 37 µs for 10,000 robots on one core), so it
+    pays from some thousands of robots, and only on cores that other work leaves free."""
     robots = _check_poses(pose, heading_dir, wheel_arcs)
     _check_counts(robots, tick_carry, ticks, mount, mouse_carry, counts)
     for k in numba.prange((robots + CHUNK - 1) // CHUNK):
