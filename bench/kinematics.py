@@ -1,4 +1,5 @@
-"""Kinematics-core benchmarks: batch throughput and step-size independence."""
+"""Kinematics-core benchmarks: batch throughput (against numpy and a C++ peer) and step-size
+independence."""
 
 from __future__ import annotations
 
@@ -6,6 +7,7 @@ import os
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 
 import numpy as np
 
@@ -20,29 +22,37 @@ from sim.kinematics import (
     twist_from_wheel_speeds,
     wheel_arcs_to_arc,
 )
-from sim.kinematics.batch import step_batch, step_batch_parallel
+from sim.kinematics.batch import step_batch, step_batch_parallel, step_poses, step_poses_parallel
 
 
-def kinematics_batch(robots: int = 10_000, steps: int = 2_000, seed: int = 0, parallel: bool = False, repeats: int = 3) -> float:
+def kinematics_batch(robots: int = 10_000, steps: int = 2_000, seed: int = 0, parallel: bool = False, repeats: int = 3,
+                     poses: bool = False) -> float:
     """Robot-steps per second of the fused kernel (arc + encoders + mouse, one call per step) for
     a batch of c't-Bots whose random wheel speeds change every step; best of `repeats` timed runs
-    (the others met a busy machine). `parallel`: the variant over all cores."""
-    kernel = step_batch_parallel if parallel else step_batch
+    (the others met a busy machine). `parallel`: the variant over all cores; `poses`: the pose-only
+    kernel (exact arc and carried heading direction, no encoders or mouse)."""
+    if poses:
+        kernel = step_poses_parallel if parallel else step_poses
+    else:
+        kernel = step_batch_parallel if parallel else step_batch
     rng = np.random.default_rng(seed)
     dt = 0.01
     v_max = CTBOT.max_wheel_surface_speed
-    pool = rng.uniform(-v_max, v_max, size=(64, robots, 2)) * dt
-    pose = np.zeros((robots, 3))
-    heading_dir = np.tile([1.0, 0.0], (robots, 1))
-    tick_carry, mouse_carry = np.zeros((robots, 2)), np.zeros((robots, 2))
-    ticks, counts = np.zeros((robots, 2), np.int64), np.zeros((robots, 2), np.int64)
+    pool = rng.uniform(-v_max, v_max, size=(64, 2, robots)) * dt
+    pose = np.zeros((3, robots))
+    heading_dir = np.stack((np.ones(robots), np.zeros(robots)))
+    tick_carry, mouse_carry = np.zeros((2, robots)), np.zeros((2, robots))
+    ticks, counts = np.zeros((2, robots), np.int64), np.zeros((2, robots), np.int64)
     mount = np.asarray(CTBOT.mouse.mount, dtype=np.float64)
     per_metre = float(ticks_per_metre(CTBOT.wheel_radius, CTBOT.encoders.ticks_per_rev))
     per_count = float(counts_per_metre(CTBOT.mouse.dpi))
 
     def step(k: int) -> None:
-        kernel(pose, heading_dir, pool[k % 64], CTBOT.track_width, per_metre, tick_carry, ticks,
-               mount, per_count, mouse_carry, counts)
+        if poses:
+            kernel(pose, heading_dir, pool[k % 64], CTBOT.track_width)
+        else:
+            kernel(pose, heading_dir, pool[k % 64], CTBOT.track_width, per_metre, tick_carry, ticks,
+                   mount, per_count, mouse_carry, counts)
 
     step(0)  # compile (or load the cached machine code) before timing
     best = 0.0
@@ -54,14 +64,28 @@ def kinematics_batch(robots: int = 10_000, steps: int = 2_000, seed: int = 0, pa
     return best
 
 
-def parallel_ratio(robots: int = 10_000, steps: int = 500, pairs: int = 5) -> float:
-    """Parallel over serial kernel throughput, from interleaved pairs of short runs (a shared
-    machine's load hits both alike), the best of each."""
-    serial = parallel = 0.0
+def _interleaved(ours: Callable[[], float], theirs: Callable[[], float], pairs: int) -> float:
+    """Best of `ours` over best of `theirs` from interleaved runs: a shared machine's load hits both
+    alike."""
+    a = b = 0.0
     for _ in range(pairs):
-        serial = max(serial, kinematics_batch(robots, steps, repeats=1))
-        parallel = max(parallel, kinematics_batch(robots, steps, parallel=True, repeats=1))
-    return parallel / serial
+        a, b = max(a, ours()), max(b, theirs())
+    return a / b
+
+
+def parallel_ratio(robots: int = 10_000, steps: int = 500, pairs: int = 5, poses: bool = False) -> float:
+    """Parallel over serial kernel throughput, from interleaved pairs of short runs."""
+    return _interleaved(lambda: kinematics_batch(robots, steps, parallel=True, repeats=1, poses=poses),
+                        lambda: kinematics_batch(robots, steps, repeats=1, poses=poses), pairs)
+
+
+def irsim_ratio(robots: int = 10_000, steps: int = 1_000, pairs: int = 3, poses: bool = False) -> float:
+    """Our serial kernel over irsim-x's batch step (one thread each), from interleaved runs; nan
+    where irsim-x is not installed. irsim-x's step for differential drive clips (v, ω) to the
+    limits, moves x, y by v·dt along the heading at the start of the step (Euler, float32), adds
+    ω·dt to θ and takes cos and sin of the new θ: a pose-only step, the work of `step_poses`
+    (exact arc, float64); `step_batch` adds encoder ticks and mouse counts on top."""
+    return _interleaved(lambda: kinematics_batch(robots, steps, repeats=1, poses=poses), lambda: irsim_batch(robots, steps), pairs)
 
 
 _IRSIM = """
@@ -89,8 +113,8 @@ print(best)
 
 def irsim_batch(robots: int = 10_000, steps: int = 2_000) -> float:
     """irsim-x's (C++, float32) batch step of `robots` differential-drive robots, one thread
-    (OMP_NUM_THREADS=1, in a child process), robot-steps/s; nan where irsim-x is not installed
-    (`pip install irsim-x`: a peer to compare with, not a dependency)."""
+    (OMP_NUM_THREADS=1, in a child process), robot-steps/s, best of 3; nan where irsim-x is not
+    installed (`pip install irsim-x`: a peer to compare with, not a dependency)."""
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
     done = subprocess.run([sys.executable, "-c", _IRSIM, str(robots), str(steps)], env=env, capture_output=True, text=True, timeout=300)
     return float(done.stdout) if done.returncode == 0 else float("nan")

@@ -22,8 +22,12 @@ def figures(quick: bool):
     yield "kinematics_batch_10k", "robot-steps/s", lambda: kinematics.kinematics_batch(steps=int(3000 * scale))
     yield "kinematics_batch_10k_numpy", "robot-steps/s", lambda: kinematics.kinematics_batch_numpy(steps=int(1000 * scale))
     yield "kinematics_batch_10k_irsim_x", "robot-steps/s (C++ peer, one thread; nan: not installed)", lambda: kinematics.irsim_batch(steps=int(2000 * scale))
+    yield "kinematics_batch_10k_over_irsim_x", "(fused kernel / irsim-x's pose-only step, interleaved; nan: not installed)", lambda: kinematics.irsim_ratio(steps=int(1000 * scale))
+    yield "kinematics_poses_10k", "robot-steps/s (pose-only kernel)", lambda: kinematics.kinematics_batch(steps=int(3000 * scale), poses=True)
+    yield "kinematics_poses_10k_over_irsim_x", "(pose-only kernel / irsim-x, the same work, interleaved; nan: not installed)", lambda: kinematics.irsim_ratio(steps=int(1000 * scale), poses=True)
     yield "kinematics_batch_10k_parallel", "robot-steps/s", lambda: kinematics.kinematics_batch(steps=int(3000 * scale), parallel=True)
     yield "kinematics_batch_parallel_ratio", "(parallel / serial, same run; bar >= 1.7 on two cores)", lambda: kinematics.parallel_ratio(steps=int(500 * scale))
+    yield "kinematics_poses_parallel_ratio", "(parallel / serial pose-only kernel, same run)", lambda: kinematics.parallel_ratio(steps=int(500 * scale), poses=True)
     yield "arc_circle_error_dt0.1", "m", lambda: kinematics.arc_circle_error(dt=0.1)
     try:
         from bench import world
