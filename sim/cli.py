@@ -405,6 +405,7 @@ def summarize(result, options: dict[str, Any], metrics: dict[str, dict[str, dict
             "fell": log.fell,
             "goal_time": log.goal_time,
             "estimates": metrics.get(log.name, {}),
+            "notes": [{"message": message, "steps": count} for message, count in log.notes.values()],
         }
         for log in result.robots
     ]

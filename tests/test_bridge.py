@@ -18,6 +18,7 @@ from hypothesis import strategies as st
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from fake_firmware import FakeFirmware  # noqa: E402
+from observers import FakeLive  # noqa: E402
 
 from bots.behaviours import make  # noqa: E402
 from bots.ctbot import CTBOT  # noqa: E402
@@ -157,7 +158,9 @@ def test_rc5_key_3_drives_at_c_t_sims_speed_two_steps_later():
 
 
 def test_remote_bot_turn_finishes_with_result_1_near_90_degrees_and_is_recorded(tmp_path):
-    recorder = Recorder(tmp_path / "run.rrd")
+    """... and the firmware's log, LEDs and motors reach a live viewer as well as the file."""
+    live = FakeLive()
+    recorder = live.recorder(tmp_path / "run.rrd")
     result, bridge, _ = bridged(4.0, calls=[(0.2, "bot_turn(90)")], recorder=recorder)
     (call,) = bridge.summary()[0]["calls"]
     assert call["result"] == 1 and call["sent_step"] == 20 and call["done_step"] > call["sent_step"]
@@ -169,6 +172,7 @@ def test_remote_bot_turn_finishes_with_result_1_near_90_degrees_and_is_recorded(
     assert "/firmware/ctbot/leds/orange" in recorded and "/firmware/ctbot/motors" in recorded
     texts = [str(v) for column in recorded["/firmware/ctbot/call"].values() for v in column]
     assert any("bot_turn finished with result 1" in t for t in texts)
+    assert {path for path in recorded if path.startswith("/firmware/")} <= live.paths
 
 
 def test_two_firmware_bots_beside_a_python_controller():

@@ -149,3 +149,25 @@ def test_report_redraws_a_run(tmp_path, drive, capsys):
     assert main(["report", str(out)]) == 0
     assert (out / "trajectories.png").stat().st_size > 10_000 and (out / "errors.png").is_file()
     assert main(["report", str(tmp_path)]) == 2
+
+
+SPIN = """
+from bots.commands import Twist
+
+
+class Spin:
+    def step(self, t, readings):
+        return Twist(0.0, 1.0)  # on the spot: a car cannot
+"""
+
+
+def test_a_projected_command_is_in_the_summary_and_on_stderr(tmp_path, capsys):
+    """The shipped car projects a turn on the spot to its tightest turn (DESIGN: reported, never
+    silently done): the summary lists the kind of note with the number of steps, stderr says it."""
+    spin = tmp_path / "spin.py"
+    spin.write_text(SPIN)
+    out = tmp_path / "car"
+    assert main(["run", "chassis_yard", "--robot", "car", "--controller", f"{spin}:Spin", "--duration", "0.5", "--out", str(out), "--no-report"]) == 0
+    (note,) = json.loads((out / "summary.json").read_text())["robots"][0]["notes"]
+    assert "steering limits" in note["message"] and note["steps"] == 50
+    assert "ctsim: note: car:" in capsys.readouterr().err

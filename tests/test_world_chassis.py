@@ -516,47 +516,16 @@ def test_the_path_follower_drives_on_after_the_yards_wheel_fault(name):
     assert result.reason == "duration", result.error  # (the car may scrape the yard's tight corners)
 
 
-class _FakeLive:
-    """Stands in for the live stream (a viewer): records which entities reach it."""
-
-    def __init__(self):
-        self.paths: set[str] = set()
-        self.events: list[str] = []
-
-    def log(self, path, data, static=False):
-        self.paths.add("/" + path)
-        if path == "events":
-            self.events.append(str(data.as_component_batches()[0].as_arrow_array()[0]))
-
-    def send_columns(self, path, times, columns):
-        self.paths.add("/" + path)
-
-    def set_time(self, *args, **kwargs):
-        pass
-
-    def flush(self, **kwargs):
-        pass
-
-    def disconnect(self):
-        pass
-
-
 def test_the_live_stream_gets_every_entity_of_the_file_and_the_projection_note(tmp_path):
     """Outline, wheels and ICR of a chassis robot (and everything else) go to every stream, not only
     the file; a projected command's note reaches the events of both."""
     import rerun.chunk
 
-    from sim.views.recording import Recorder
-
-    live = _FakeLive()
-
-    class LiveRecorder(Recorder):
-        def _open_live(self, rr, blueprint):
-            self._live = live
-            self.streams.append(live)
+    from observers import FakeLive
 
     path = tmp_path / "run.rrd"
-    result = run(EMPTY, [RobotSetup(CAR, constant(Twist(0.3, 2.0)))], 1.0, observers=(LiveRecorder(path, live=True),))
+    live = FakeLive()
+    result = run(EMPTY, [RobotSetup(CAR, constant(Twist(0.3, 2.0)))], 1.0, observers=(live.recorder(path),))
     assert result.reason == "duration" and result.robots[0].notes
     in_file: set[str] = set()
     events = []

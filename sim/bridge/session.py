@@ -101,32 +101,37 @@ class BridgeObserver:
         self.wall_start = time.monotonic()
 
     def on_sample(self, world: World, logs: list[RobotLog]) -> None:
-        rec = self.recorder.rec if self.recorder is not None else None
-        if rec is not None:
+        streams = self.recorder.streams if self.recorder is not None else []
+        if streams:
             for bot in self.bridge.bots:
-                self._record(rec, bot, world.time)
+                self._record(streams, bot, world.time)
         if self.realtime:
             ahead = self.wall_start + world.time - time.monotonic()
             if ahead > 0:
                 time.sleep(ahead)
 
-    def _record(self, rec: Any, bot: FirmwareController, t: float) -> None:
+    def _record(self, streams: list[Any], bot: FirmwareController, t: float) -> None:
+        """What changed on a firmware bot since the last sample (log lines, LEDs, motors), to every
+        stream of the recording (the file and a live viewer)."""
         import rerun as rr
 
         name = self.names[id(bot)]
         shown, leds, motors = self.seen.get(id(bot), (0, -1, ()))
         if shown == len(bot.events) and leds == bot.state.leds and motors == bot.state.motors:
             return
-        rec.set_time(TIMELINE, duration=t)
+        entries = []
         for event in bot.events[shown:]:
             level = {"lcd": "DEBUG", "call": "INFO"}.get(event.kind, "TRACE")
-            rec.log(f"firmware/{name}/{event.kind}", rr.TextLog(f"step {event.step}: {event.text}", level=level))
+            entries.append((f"firmware/{name}/{event.kind}", rr.TextLog(f"step {event.step}: {event.text}", level=level)))
         if leds != bot.state.leds:
             bits = [(bot.state.leds >> k) & 1 for k in range(len(p.LED_NAMES))]
-            for led, bit in zip(p.LED_NAMES, bits):
-                rec.log(f"firmware/{name}/leds/{led}", rr.Scalars(bit))
+            entries += [(f"firmware/{name}/leds/{led}", rr.Scalars(bit)) for led, bit in zip(p.LED_NAMES, bits)]
         if motors != bot.state.motors:
-            rec.log(f"firmware/{name}/motors", rr.Scalars(list(bot.state.motors)))
+            entries.append((f"firmware/{name}/motors", rr.Scalars(list(bot.state.motors))))
+        for rec in streams:
+            rec.set_time(TIMELINE, duration=t)
+            for path, data in entries:
+                rec.log(path, data)
         self.seen[id(bot)] = (len(bot.events), bot.state.leds, bot.state.motors)
 
     def on_end(self, result: RunResult) -> None:

@@ -247,12 +247,6 @@ class Recorder:
 
     # --- streams ----------------------------------------------------------------------------
 
-    @property
-    def rec(self) -> Any:
-        """The first open stream (the file's), for layers that log per sample themselves (the bridge;
-        the chassis layer logs to every stream); None when closed."""
-        return self.streams[0] if self.streams else None
-
     def _log(self, path: str, data: Any, static: bool = False) -> None:
         for rec in self.streams:
             rec.log(path, data, static=static)
