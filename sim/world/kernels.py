@@ -232,6 +232,28 @@ def _ray_circle(ox: float, oy: float, ux: float, uy: float, cx: float, cy: float
 
 
 @numba.njit(cache=True)
+def ir_rays(pose: np.ndarray, offsets: np.ndarray, owner: np.ndarray, direction: np.ndarray, origins: np.ndarray, look: np.ndarray) -> None:
+    """World origins (m, 2) and view directions (m,) of IR sensors mounted at body-frame `offsets`
+    looking along body-frame `direction` on robots `owner` (as `to_world` and heading + direction)."""
+    to_world(pose, offsets, owner, origins)
+    for k in range(offsets.shape[0]):
+        look[k] = pose[owner[k], 2] + direction[k]
+
+
+@numba.njit(cache=True)
+def _circle_in_view(ox: float, oy: float, cx: float, cy: float, cos_cone: float, l1x: float, l1y: float, l2x: float, l2y: float,
+                    px: float, py: float, r: float, best: float) -> float:
+    """`best` lowered to the distance of the circle (px, py, r) in the cone, as in `sense_ir`; -1 when
+    the origin is inside the circle."""
+    centre = math.hypot(px - ox, py - oy)
+    if centre <= r:
+        return -1.0
+    if (px - ox) * cx + (py - oy) * cy >= cos_cone * centre:
+        best = min(best, centre - r)
+    return min(best, _ray_circle(ox, oy, l1x, l1y, px, py, r), _ray_circle(ox, oy, l2x, l2y, px, py, r))
+
+
+@numba.njit(cache=True)
 def sense_ir(
     origins: np.ndarray,
     look: np.ndarray,
@@ -243,12 +265,21 @@ def sense_ir(
     boxes: np.ndarray,
     circles: np.ndarray,
     out: np.ndarray,
+    grid_above: int = 32,
 ) -> None:
     """Distance (m) from each IR sensor at `origins` to the nearest point of a wall (convex
     polygons vertices[ranges[w, 0]:ranges[w, 1]], bounding boxes `boxes`) or a circle (x, y,
     radius, owning robot; a sensor skips its own robot's) within `cone` (half-angle, rad) of
     `look` and within `length`; inf if none. As `World.ray_distance`: per convex body the nearest
-    point if it lies in the cone, else the first hit of an edge ray."""
+    point if it lies in the cone, else the first hit of an edge ray.
+
+    With more than `grid_above` circles, each sensor checks only the circles in the grid cells
+    its cone's bounding box overlaps (a crowd would otherwise cost sensors x robots); the nearest
+    distance is a minimum, so the grid gives the all-circles result bit for bit."""
+    use_grid = circles.shape[0] > grid_above
+    cell, x0, y0, cols, rows, order, sorted_key, widest = 1.0, 0.0, 0.0, 1, 1, np.empty(0, np.int64), np.empty(0, np.int64), 0.0
+    if use_grid:
+        cell, x0, y0, cols, rows, order, sorted_key, widest = _circle_grid(circles, length)
     for k in range(origins.shape[0]):
         ox, oy = origins[k, 0], origins[k, 1]
         cx, cy = math.cos(look[k]), math.sin(look[k])
@@ -267,18 +298,116 @@ def sense_ir(
             if (qx - ox) * cx + (qy - oy) * cy >= cos_cone * distance:
                 best = min(best, distance)
             best = min(best, _ray_polygon(ox, oy, l1x, l1y, vertices, start, end), _ray_polygon(ox, oy, l2x, l2y, vertices, start, end))
-        for j in range(circles.shape[0]):
-            if int(circles[j, 3]) == owner[k]:
-                continue
-            px, py, r = circles[j, 0], circles[j, 1], circles[j, 2]
-            centre = math.hypot(px - ox, py - oy)
-            if centre <= r:
-                best = 0.0
-                break
-            if (px - ox) * cx + (py - oy) * cy >= cos_cone * centre:
-                best = min(best, centre - r)
-            best = min(best, _ray_circle(ox, oy, l1x, l1y, px, py, r), _ray_circle(ox, oy, l2x, l2y, px, py, r))
+        if use_grid:
+            lo_x, lo_y, hi_x, hi_y = _cone_box(ox, oy, cx, cy, l1x, l1y, l2x, l2y, cone[k], length, widest)
+            gx0 = max(int(math.floor((lo_x - x0) / cell)), 0)
+            gx1 = min(int(math.floor((hi_x - x0) / cell)), cols - 1)
+            gy0 = max(int(math.floor((lo_y - y0) / cell)), 0)
+            gy1 = min(int(math.floor((hi_y - y0) / cell)), rows - 1)
+            inside = False
+            for gy in range(gy0, gy1 + 1):
+                if gx0 > gx1 or inside:
+                    break
+                last = gy * cols + gx1
+                for p in range(np.searchsorted(sorted_key, gy * cols + gx0), sorted_key.shape[0]):
+                    if sorted_key[p] > last:
+                        break
+                    j = order[p]
+                    if int(circles[j, 3]) == owner[k]:
+                        continue
+                    best = _circle_in_view(ox, oy, cx, cy, cos_cone, l1x, l1y, l2x, l2y, circles[j, 0], circles[j, 1], circles[j, 2], best)
+                    if best < 0.0:
+                        inside = True
+                        break
+        else:
+            for j in range(circles.shape[0]):
+                if int(circles[j, 3]) == owner[k]:
+                    continue
+                best = _circle_in_view(ox, oy, cx, cy, cos_cone, l1x, l1y, l2x, l2y, circles[j, 0], circles[j, 1], circles[j, 2], best)
+                if best < 0.0:
+                    break
+        best = max(best, 0.0)  # -1: inside a circle
         out[k] = best if best <= length else math.inf
+
+
+@numba.njit(cache=True)
+def _circle_grid(circles: np.ndarray, length: float):
+    """A uniform grid over the circles' centres: (cell size, origin x, y, columns, rows, circle
+    order by cell, sorted cell keys, largest radius); key = row * columns + column, so a row's run
+    of cells is one run of keys. Cells are a quarter of the ray length (at least two diameters), so
+    a cone's bounding box spans a handful of cells."""
+    n = circles.shape[0]
+    widest = circles[:, 2].max()
+    cell = max(0.25 * length, 4.0 * widest)
+    x0, y0 = circles[:, 0].min(), circles[:, 1].min()
+    cx = np.empty(n, dtype=np.int64)
+    cy = np.empty(n, dtype=np.int64)
+    for j in range(n):
+        cx[j] = int(math.floor((circles[j, 0] - x0) / cell))
+        cy[j] = int(math.floor((circles[j, 1] - y0) / cell))
+    cols, rows = cx.max() + 1, cy.max() + 1
+    key = cy * cols + cx
+    order = np.argsort(key, kind="mergesort")
+    return cell, x0, y0, cols, rows, order, key[order], widest
+
+
+@numba.njit(cache=True)
+def _cone_box(ox: float, oy: float, cx: float, cy: float, l1x: float, l1y: float, l2x: float, l2y: float, cone: float, length: float,
+              grow: float):
+    """(xmin, ymin, xmax, ymax) holding the centre of every circle of radius up to `grow` that can
+    matter to a cone of `length`: the box of its apex and its arc's ends and middle, grown by the
+    arc's sagitta (a cone wider than 45 degrees: the box of the whole disc) and by `grow`."""
+    if cone > 0.25 * math.pi:
+        margin = length + grow + 1e-9
+        return ox - margin, oy - margin, ox + margin, oy + margin
+    ax, bx, mx = ox + length * l1x, ox + length * l2x, ox + length * cx
+    ay, by, my = oy + length * l1y, oy + length * l2y, oy + length * cy
+    margin = length * (1.0 - math.cos(cone)) + grow + 1e-9
+    return min(ox, ax, bx, mx) - margin, min(oy, ay, by, my) - margin, max(ox, ax, bx, mx) + margin, max(oy, ay, by, my) + margin
+
+
+@numba.njit(cache=True)
+def ir_values(
+    distance: np.ndarray,
+    noise_row: np.ndarray,
+    noise_std: np.ndarray,
+    normals: np.ndarray,
+    used: np.ndarray,
+    curve: np.ndarray,
+    tables: np.ndarray,
+    last: np.ndarray,
+    beyond: np.ndarray,
+    inverse: np.ndarray,
+    lowest: np.ndarray,
+    raw: np.ndarray,
+    believed: np.ndarray,
+) -> None:
+    """Raw value and believed distance of each IR sensor from its true `distance` (m).
+
+    A sensor with noise (noise_row[k] = q >= 0) and something in view reads its distance plus
+    noise_std[q] times its next standard normal (normals[q, used[q]], `used` advanced), not below
+    0. The raw value is `IRCurve.lookup` on curve c = curve[k] (its per-centimetre float32 table
+    tables[c, :last[c] + 1] and beyond[c]), the believed distance the curve's inverse for the
+    sensor's range tabulated per raw value from lowest[c] (`IRCurve.inverse_table`): the same
+    arithmetic, so the same bits."""
+    for k in range(distance.shape[0]):
+        d = distance[k]
+        q = noise_row[k]
+        if q >= 0 and d < math.inf:
+            d = max(0.0, d + (0.0 + noise_std[q] * normals[q, used[q]]))  # as rng.normal(0.0, std)
+            used[q] += 1
+        c = curve[k]
+        cm = d * 100.0
+        value = np.float64(beyond[c])
+        if cm >= 0.0 and cm <= last[c]:
+            i = int(math.floor(cm))
+            here = tables[c, i]
+            value = np.float64(here)
+            if here != beyond[c] and i < last[c]:
+                value = value + (cm - i) * np.float64(tables[c, i + 1] - here)  # a float32 difference, as in Java
+        r = int(math.floor(value + 0.5))
+        raw[k] = r
+        believed[k] = inverse[c, r - lowest[c]]
 
 
 @numba.njit(cache=True)
