@@ -81,7 +81,7 @@ def hold_at_holes(
     cell: float,
     outside_is_hole: bool,
     in_hole: np.ndarray,
-) -> None:
+) -> bool:
     """c't-Sim's ground-contact rule (`MasterSimulator`, "Bodenkontakt"): a robot whose planned
     move (n, 2) and turn (n,) would bring a ground contact over a hole neither moves nor turns
     this step (both zeroed in place; `in_hole` says so), and is asked again next step.
@@ -89,7 +89,8 @@ def hold_at_holes(
     Contacts are body-frame points (n, m, 2) at the new heading; c't-Sim places the skid at the
     new position but the wheels at the old one (`anchored`), so a skid stops at the edge and the
     robot drives off again, while wheels are checked a step late, end over the hole and keep
-    every later move refused (c't-Sim's "falling")."""
+    every later move refused (c't-Sim's "falling"). Returns whether any robot's `in_hole` changed."""
+    changed = False
     for i in range(pose.shape[0]):
         heading = pose[i, 2] + alpha[i]
         c, s = math.cos(heading), math.sin(heading)
@@ -100,9 +101,62 @@ def hold_at_holes(
                 x, y = x + move[i, 0], y + move[i, 1]
             px, py = contacts[i, k, 0], contacts[i, k, 1]
             held |= _in_hole(x + c * px - s * py, y + s * px + c * py, hole, origin, cell, outside_is_hole)
+        changed |= in_hole[i] != held
         in_hole[i] = held
         if held:
             move[i, 0] = move[i, 1] = alpha[i] = 0.0
+    return changed
+
+
+@numba.njit(cache=True)
+def first_bad(commands: np.ndarray) -> int:
+    """Index of the first robot with a non-finite command (n, 2); -1 if none."""
+    for i in range(commands.shape[0]):
+        if not (math.isfinite(commands[i, 0]) and math.isfinite(commands[i, 1])):
+            return i
+    return -1
+
+
+@numba.njit(cache=True)
+def settle(
+    pose: np.ndarray,
+    move: np.ndarray,
+    alpha: np.ndarray,
+    sweep_radius: np.ndarray,
+    slide_margin: float,
+    vertices: np.ndarray,
+    ranges: np.ndarray,
+    boxes: np.ndarray,
+    apart_radius: np.ndarray,
+    contacts: np.ndarray,
+    anchored: np.ndarray,
+    hole: np.ndarray,
+    origin: np.ndarray,
+    cell: float,
+    outside_is_hole: bool,
+    in_hole: np.ndarray,
+    mass: np.ndarray,
+    moment: np.ndarray,
+    dt: float,
+    rows: np.ndarray,
+    motion: np.ndarray,
+) -> bool:
+    """The planned moves (n, 2) and turns (n,) cut where walls (`sweep_walls`), other robots
+    (`keep_apart`) or holes (`hold_at_holes`) stop them, and the force and torque that give each
+    robot that motion in pymunk's velocity phase (m move / dt^2, I alpha / dt^2) written into its
+    row of pymunk's body data (motion[rows[i], 3:6]): the world step's arithmetic between the
+    drive and pymunk in one call. Returns whether any robot's `in_hole` changed."""
+    sweep_walls(pose, move, sweep_radius, slide_margin, vertices, ranges, boxes)
+    if pose.shape[0] > 1:
+        keep_apart(pose, move, apart_radius)
+    changed = hold_at_holes(pose, move, alpha, contacts, anchored, hole, origin, cell, outside_is_hole, in_hole)
+    dt2 = dt * dt
+    for i in range(pose.shape[0]):
+        scale = mass[i] / dt2
+        motion[rows[i], 3] = move[i, 0] * scale
+        motion[rows[i], 4] = move[i, 1] * scale
+        motion[rows[i], 5] = alpha[i] * moment[i] / dt2
+    return changed
 
 
 @numba.njit(cache=True)

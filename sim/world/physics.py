@@ -336,7 +336,7 @@ class World:
         commands = np.asarray(commands, dtype=np.float64)
         if commands.shape != (len(self.robots), 2):
             raise CommandError(f"expected motor commands of shape ({len(self.robots)}, 2), got {commands.shape}")
-        if not np.isfinite(commands).all():
+        if kernels.first_bad(commands) >= 0:
             bad = [self.robots[i].name for i in np.unique(np.nonzero(~np.isfinite(commands))[0])]
             raise CommandError(f"non-finite motor command for {', '.join(bad)} at step {self.steps}")
         st = self._batch()
@@ -351,19 +351,17 @@ class World:
             self.chassis.drive(self.time, before, st.move, st.alpha)
         # cut each exact-arc move where the body would first sink deeper than SWEEP_CLEARANCE into
         # a wall or another robot, so that no speed the motors allow tunnels through anything
-        kernels.sweep_walls(before, st.move, st.sweep_radius, SLIDE_MARGIN, self._walls.vertices, self._walls.ranges, self._walls.boxes)
-        if len(self.robots) > 1:
-            kernels.keep_apart(before, st.move, st.apart_radius)
-        kernels.hold_at_holes(
-            before, st.move, st.alpha, st.contacts, st.anchored, self.floor.hole, self._floor_origin, self.floor.cell,
-            self.floor.outside_is_hole, st.fallen,
-        )  # fmt: skip
-        for robot in self.robots:
-            robot.fallen = bool(st.fallen[robot.index])
-        self._apply_motion(st)
-        self.space.step(self.dt)
-        for robot in self.robots:
-            pymunk.Body.update_position(robot.body, self.dt)
+        # then hold robots at holes, and give pymunk the motion as forces (see `_apply_motion`)
+        self._bodies.refresh()
+        if kernels.settle(
+            before, st.move, st.alpha, st.sweep_radius, SLIDE_MARGIN, self._walls.vertices, self._walls.ranges,
+            self._walls.boxes, st.apart_radius, st.contacts, st.anchored, self.floor.hole, self._floor_origin,
+            self.floor.cell, self.floor.outside_is_hole, st.fallen, st.mass, st.moment, self.dt, self._bodies.row_index,
+            self._bodies.motion,
+        ):  # fmt: skip
+            for robot in self.robots:
+                robot.fallen = bool(st.fallen[robot.index])
+        self._apply_motion()
         after = self._poses = self._bodies.poses()
         st.draw_mouse_noise()
         kernels.measure(
@@ -375,8 +373,9 @@ class World:
         self.steps += 1
         self.time = self.steps * self.dt
 
-    def _apply_motion(self, st: _BatchState) -> None:
-        """Make each body's velocity after pymunk's velocity phase move/dt and alpha/dt.
+    def _apply_motion(self) -> None:
+        """Make each body's velocity after pymunk's velocity phase move/dt and alpha/dt (the forces
+        `kernels.settle` wrote), step pymunk and move the robots.
 
         pymunk moves bodies *before* it solves contacts, with the velocity they have; a velocity
         set before `space.step` would push the body into a wall unchecked. So the body enters the
@@ -384,8 +383,11 @@ class World:
         velocity phase (v = f dt / m), the contact solver corrects it, and the position is
         integrated after the step (`update_position`): the same order as setting the velocity
         inside `velocity_func`, without a Python callback per body."""
-        dt2 = self.dt * self.dt
-        self._bodies.push(st.move * (st.mass / dt2)[:, None], st.alpha * st.moment / dt2)
+        self._bodies.send()
+        self.space.step(self.dt)
+        update, dt = pymunk.Body.update_position, self.dt
+        for robot in self.robots:
+            update(robot.body, dt)
 
     def _count_contact(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:  # noqa: ANN001
         """A robot started touching something: one more collision for it (for both, robot on robot)."""
