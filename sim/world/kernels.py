@@ -228,8 +228,9 @@ def _absorption_at(x: float, y: float, absorption: np.ndarray, origin: np.ndarra
 
 @numba.njit(cache=True)
 def sample_floor(
-    points: np.ndarray,
-    heading: np.ndarray,
+    pose: np.ndarray,
+    offsets: np.ndarray,
+    owner: np.ndarray,
     height: np.ndarray,
     absorption: np.ndarray,
     origin: np.ndarray,
@@ -238,14 +239,16 @@ def sample_floor(
     fan: np.ndarray,
     out: np.ndarray,
 ) -> None:
-    """CNY70 values (0..1023) of floor sensors at world points (m, 2), `height` m above the floor,
-    on robots facing `heading` (rad), as c't-Sim's `World.sensGroundReflectionCross`: a fan of
+    """CNY70 values (0..1023) of floor sensors mounted at body-frame `offsets` (m, 2) of robots
+    `owner`, `height` m above the floor, as c't-Sim's `World.sensGroundReflectionCross`: a fan of
     rays across the heading (left first) and one along it (back first) meet the floor at
     height * `fan`; each fan's absorption is summed in float32 and truncated to 0..1023, and the
     reading is the two fans' truncated mean. Height 0 reads the mount point alone."""
     out_absorption = np.float32(outside)
+    points = np.empty((offsets.shape[0], 2))
+    to_world(pose, offsets, owner, points)
     for k in range(points.shape[0]):
-        c, s = math.cos(heading[k]), math.sin(heading[k])
+        c, s = math.cos(pose[owner[k], 2]), math.sin(pose[owner[k], 2])
         total = 0
         for ux, uy in ((-s, c), (-c, -s)):
             swallowed = np.float32(0.0)
@@ -465,22 +468,64 @@ def ir_values(
 
 
 @numba.njit(cache=True)
+def read_ir(
+    pose: np.ndarray,
+    offsets: np.ndarray,
+    owner: np.ndarray,
+    direction: np.ndarray,
+    cone: np.ndarray,
+    length: float,
+    vertices: np.ndarray,
+    ranges: np.ndarray,
+    boxes: np.ndarray,
+    circles: np.ndarray,
+    noise_row: np.ndarray,
+    noise_std: np.ndarray,
+    normals: np.ndarray,
+    used: np.ndarray,
+    curve: np.ndarray,
+    tables: np.ndarray,
+    last: np.ndarray,
+    beyond: np.ndarray,
+    inverse: np.ndarray,
+    lowest: np.ndarray,
+    raw: np.ndarray,
+    believed: np.ndarray,
+) -> None:
+    """Every IR reading of a world whose robots are all circles, in one call: the sensors' rays
+    (`ir_rays`), the robots (the first rows of `circles`, positions taken from `pose`) and the
+    other circles and walls they see (`sense_ir`), and noise and curves (`ir_values`)."""
+    m = offsets.shape[0]
+    origins, look, distance = np.empty((m, 2)), np.empty(m), np.empty(m)
+    ir_rays(pose, offsets, owner, direction, origins, look)
+    for i in range(pose.shape[0]):
+        circles[i, 0], circles[i, 1] = pose[i, 0], pose[i, 1]
+    sense_ir(origins, look, cone, owner, length, vertices, ranges, boxes, circles, distance)
+    ir_values(distance, noise_row, noise_std, normals, used, curve, tables, last, beyond, inverse, lowest, raw, believed)
+
+
+@numba.njit(cache=True)
 def sense_light(
-    points: np.ndarray,
+    pose: np.ndarray,
+    offsets: np.ndarray,
+    owner: np.ndarray,
     height: np.ndarray,
-    look: np.ndarray,
+    direction: np.ndarray,
     half_opening: np.ndarray,
     reach: np.ndarray,
     lights: np.ndarray,
     out: np.ndarray,
 ) -> None:
-    """LDR darkness (0..1023) of sensors at world `points`, `height` m up, looking horizontally
-    along `look` (rad): the distance from the sensor to the surface of the nearest lamp (x, y,
+    """LDR darkness (0..1023) of sensors mounted at body-frame `offsets` (m, 2) of robots `owner`,
+    `height` m up, looking horizontally along body-frame `direction` (rad): the distance from the sensor to the surface of the nearest lamp (x, y,
     height, radius) whose centre is within `half_opening` of the view axis in 3-D, over `reach`,
     truncated; 1023 with none (c't-Sim `World.sensLight`)."""
+    points = np.empty((offsets.shape[0], 2))
+    to_world(pose, offsets, owner, points)
     for k in range(points.shape[0]):
         nearest = math.inf
-        cx, cy = math.cos(look[k]), math.sin(look[k])
+        look = pose[owner[k], 2] + direction[k]
+        cx, cy = math.cos(look), math.sin(look)
         cos_limit = math.cos(half_opening[k])
         for j in range(lights.shape[0]):
             ox, oy, oz = lights[j, 0] - points[k, 0], lights[j, 1] - points[k, 1], lights[j, 2] - height[k]

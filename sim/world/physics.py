@@ -242,22 +242,17 @@ class World:
         st = self._batch()
         pose = self._poses
         floor = np.empty(len(st.floor_owner), dtype=np.int64)
-        if len(floor):
-            points = np.empty((len(floor), 2))
-            kernels.to_world(pose, st.floor_offsets, st.floor_owner, points)
-            heading = pose[st.floor_owner, 2]
-            kernels.sample_floor(
-                points, heading, st.floor_height, self.floor.absorption, self._floor_origin, self.floor.cell,
-                self.floor.outside_absorption, kernels.FAN, floor,
-            )  # fmt: skip
-            st.floor_noise.add_rounded(floor, CNY70_MAX)
+        kernels.sample_floor(
+            pose, st.floor_offsets, st.floor_owner, st.floor_height, self.floor.absorption, self._floor_origin,
+            self.floor.cell, self.floor.outside_absorption, kernels.FAN, floor,
+        )  # fmt: skip
+        st.floor_noise.add_rounded(floor, CNY70_MAX)
         light = np.empty(len(st.light_owner), dtype=np.int64)
-        if len(light):
-            points = np.empty((len(light), 2))
-            kernels.to_world(pose, st.light_offsets, st.light_owner, points)
-            look = pose[st.light_owner, 2] + st.light_direction
-            kernels.sense_light(points, st.light_height, look, st.light_half_opening, st.light_reach, self._lights, light)
-            st.light_noise.add_rounded(light, LDR_MAX)
+        kernels.sense_light(
+            pose, st.light_offsets, st.light_owner, st.light_height, st.light_direction, st.light_half_opening,
+            st.light_reach, self._lights, light,
+        )  # fmt: skip
+        st.light_noise.add_rounded(light, LDR_MAX)
         ir_raw, ir_distance = self._read_ir(pose)
         # every robot's readings are views into this step's arrays (fresh ones: a caller may keep them)
         ticks, counts, now = st.ticks.copy(), st.counts.copy(), self.time
@@ -302,30 +297,27 @@ class World:
         st = self._batch()
         ir = st.ir
         n = len(ir.owner)
-        distance = np.empty(n)
         raw = np.empty(n, dtype=np.int64)
         believed = np.empty(n)
         if n == 0:
             return raw, believed
-        kernels.ir_rays(pose, ir.offsets, ir.owner, ir.direction, ir.origins, ir.look)
-        if self._round_bodies:
-            circles = st.circles
-            circles[: len(pose), :2] = pose[:, :2]
-            for k, body in enumerate(self.movables, start=len(pose)):
-                circles[k, 0], circles[k, 1] = body.position
-            kernels.sense_ir(
-                ir.origins, ir.look, ir.cone, ir.owner, IR_RAY_LENGTH, self._walls.vertices, self._walls.ranges,
-                self._walls.boxes, circles, distance,
-            )  # fmt: skip
-        else:  # a robot with a polygon outline: pymunk's queries see every shape
-            for k, (robot, sensor) in enumerate(st.ir_sensors):
-                distance[k] = self.ray_distance(robot, ir.origins[k], ir.look[k], cone=sensor.cone)
         if len(ir.noise.rows):
             ir.noise.normals.reserve(1)
-        kernels.ir_values(
-            distance, ir.noise_row, ir.noise.std, ir.noise.normals.values, ir.noise.normals.used, ir.curve, ir.tables,
-            ir.last, ir.beyond, ir.inverse, ir.lowest, raw, believed,
-        )  # fmt: skip
+        noise, curves = (ir.noise_row, ir.noise.std, ir.noise.normals.values, ir.noise.normals.used), ir.curves
+        if self._round_bodies:
+            for k, body in enumerate(self.movables, start=len(pose)):
+                st.circles[k, 0], st.circles[k, 1] = body.position
+            kernels.read_ir(
+                pose, ir.offsets, ir.owner, ir.direction, ir.cone, IR_RAY_LENGTH, self._walls.vertices, self._walls.ranges,
+                self._walls.boxes, st.circles, *noise, *curves, raw, believed,
+            )  # fmt: skip
+            return raw, believed
+        # a robot with a polygon outline: pymunk's queries see every shape
+        origins, look, distance = np.empty((n, 2)), np.empty(n), np.empty(n)
+        kernels.ir_rays(pose, ir.offsets, ir.owner, ir.direction, origins, look)
+        for k, (robot, sensor) in enumerate(st.ir_sensors):
+            distance[k] = self.ray_distance(robot, origins[k], look[k], cone=sensor.cone)
+        kernels.ir_values(distance, *noise, *curves, raw, believed)
         return raw, believed
 
     # --- motion -----------------------------------------------------------------------------
@@ -614,9 +606,11 @@ class _IRArrays:
     beyond: np.ndarray
     inverse: np.ndarray
     lowest: np.ndarray
-    origins: np.ndarray
-    look: np.ndarray
-    """Where each sensor is and looks this step (filled by `kernels.ir_rays`)."""
+
+    @property
+    def curves(self) -> tuple[np.ndarray, ...]:
+        """The curve arguments of `kernels.ir_values` (curve .. lowest)."""
+        return self.curve, self.tables, self.last, self.beyond, self.inverse, self.lowest
 
     @classmethod
     def build(cls, ir: list[tuple[Robot, object]], noise: _Noisy) -> _IRArrays:
@@ -653,6 +647,4 @@ class _IRArrays:
             beyond=np.array([table.beyond for table, _, _ in chosen], dtype=np.float32),
             inverse=inverses,
             lowest=np.array([table.raw_range()[0] for table, _, _ in chosen], dtype=np.int64),
-            origins=np.zeros((n, 2)),
-            look=np.zeros(n),
         )
