@@ -111,3 +111,27 @@ def test_blocks_hand_out_each_generators_own_sequence(block):
     reference = np.random.default_rng(3)
     for _ in range(20):
         assert np.array_equal(even.take(2)[0], reference.normal(0.0, 1.0, size=2))
+
+
+def test_each_robot_reads_its_own_sensors_in_mixed_and_uniform_fleets():
+    """Readings are views into the step's arrays: for robots with different sensor sets (slices)
+    and for robots all alike (rows), each robot's views hold its own sensors' values."""
+    from bots.ctbot import CTBOT
+    from sim.world import World
+    from sim.world.files import load_world
+
+    blind = CTBOT.with_changes(name="blind", ir=(), light=CTBOT.light[:1], border=())
+    for fleet in ((CTBOT, CTBOT, CTBOT), (CTBOT, blind, CTBOT)):
+        world = World(load_world("maze"))
+        for k, spec in enumerate(fleet):
+            world.add_robot(spec, (0.4 + 0.3 * k, 0.4, 0.5 * k))
+        readings = world.read_all()
+        alone = []
+        for k, spec in enumerate(fleet):
+            single = World(load_world("maze"))
+            single.add_robot(spec, (0.4 + 0.3 * k, 0.4, 0.5 * k))
+            alone.append(single.read_all()[0])
+        for mine, own, spec in zip(readings, alone, fleet):
+            for kind in ("line", "border", "light"):
+                assert getattr(mine, kind).tolist() == getattr(own, kind).tolist() and len(getattr(mine, kind)) == len(getattr(spec, kind))
+            assert len(mine.ir_raw) == len(spec.ir) and len(mine.ir_distance) == len(spec.ir)

@@ -256,10 +256,14 @@ class World:
         ir_raw, ir_distance = self._read_ir(pose)
         # every robot's readings are views into this step's arrays (fresh ones: a caller may keep them)
         ticks, counts, now = st.ticks.copy(), st.counts.copy(), self.time
+        split = st.per_robot
         readings = [
-            Readings(now, tick, count, ir_raw[ir], ir_distance[ir], floor[line], floor[border], light[lamp], _NO_STEERING, _NO_MOUSE2)
-            for tick, count, (line, border, lamp, ir) in zip(ticks, counts, st.reading_slices)
-        ]
+            Readings(now, tick, count, raw, distance, line, border, lamp, _NO_STEERING, _NO_MOUSE2)
+            for tick, count, raw, distance, line, border, lamp in zip(
+                ticks, counts, split["ir"].views(ir_raw), split["ir"].views(ir_distance), split["line"].views(floor),
+                split["border"].views(floor), split["light"].views(light),
+            )
+        ]  # fmt: skip
         if self.chassis.drives:
             self.chassis.fill(readings)
         return readings
@@ -479,7 +483,8 @@ class _BatchState:
     circles: np.ndarray
     """Robots then movable obstacles as circles (x, y, radius, robot index or -1) for the IR kernel;
     positions are filled in at each read."""
-    reading_slices: list
+    per_robot: dict[str, _PerRobot]
+    """Each robot's part of the step's array of a sensor kind ("line", "border", "light", "ir")."""
     noisy_encoders: list
     noisy_mice: _Noisy
 
@@ -496,16 +501,6 @@ class _BatchState:
         floor = [(r, s) for r in robots for s in (*r.spec.line, *r.spec.border)]
         light = [(r, s) for r in robots for s in r.spec.light]
         ir = [(r, s) for r in robots for s in r.spec.ir]
-
-        def slices(*groups):
-            out, start = [], 0
-            for spec in specs:
-                bounds = [start]
-                for group in groups:
-                    start += len(getattr(spec, group))
-                    bounds.append(start)
-                out.append(tuple(bounds))
-            return out
 
         def offsets(items):
             return np.array([s.position for _, s in items], dtype=np.float64).reshape(-1, 2)
@@ -566,10 +561,12 @@ class _BatchState:
             ).reshape(-1, 4),
             noisy_encoders=[(r.index, r.rngs["encoders"], r.spec.encoders) for r in robots if r.spec.encoders.slip_std or r.spec.encoders.tick_noise],
             noisy_mice=_Noisy.of([(r.index, r.rngs["mouse"], r.spec.mouse.noise_std) for r in robots if r.spec.mouse is not None and r.spec.mouse.noise_std]),
-            reading_slices=[
-                (slice(f0, f1), slice(f1, f2), slice(l0, l1), slice(r0, r1))
-                for (f0, f1, f2), (l0, l1), (r0, r1) in zip(slices("line", "border"), slices("light"), slices("ir"))
-            ],
+            per_robot={
+                "line": _PerRobot.of(specs, ("line", "border"), 0),
+                "border": _PerRobot.of(specs, ("line", "border"), 1),
+                "light": _PerRobot.of(specs, ("light",), 0),
+                "ir": _PerRobot.of(specs, ("ir",), 0),
+            },
         )
         return state
 
@@ -648,3 +645,34 @@ class _IRArrays:
             inverse=inverses,
             lowest=np.array([table.raw_range()[0] for table, _, _ in chosen], dtype=np.int64),
         )
+
+
+@dataclass(frozen=True)
+class _PerRobot:
+    """Where each robot's sensors of one kind lie in a step's array that holds, robot after robot,
+    the sensors of some kinds (`kinds`; the floor array: each robot's line then border sensors)."""
+
+    slices: list[slice]
+    rows: tuple[int, int, int] | None
+    """(block, start, stop) when every robot has the same sensors: each robot's block of the array
+    holds this kind at start:stop, and the views come from numpy's own row iteration (a crowd's
+    readings are built each step)."""
+
+    @classmethod
+    def of(cls, specs: list[RobotSpec], kinds: tuple[str, ...], kind: int) -> _PerRobot:
+        counts = [[len(getattr(spec, k)) for k in kinds] for spec in specs]
+        slices, start = [], 0
+        for row in counts:
+            first = start + sum(row[:kind])
+            slices.append(slice(first, first + row[kind]))
+            start += sum(row)
+        same = all(row == counts[0] for row in counts)
+        rows = (sum(counts[0]), sum(counts[0][:kind]), sum(counts[0][: kind + 1])) if counts and same else None
+        return cls(slices, rows)
+
+    def views(self, values: np.ndarray) -> list[np.ndarray]:
+        """Each robot's part of `values` (views)."""
+        if self.rows is None:
+            return [values[part] for part in self.slices]
+        block, start, stop = self.rows
+        return list(values.reshape(len(self.slices), block)[:, start:stop])
