@@ -114,24 +114,28 @@ def test_blocks_hand_out_each_generators_own_sequence(block):
 
 
 def test_each_robot_reads_its_own_sensors_in_mixed_and_uniform_fleets():
-    """Readings are views into the step's arrays: for robots with different sensor sets (slices)
-    and for robots all alike (rows), each robot's views hold its own sensors' values."""
+    """Readings are views into the step's arrays: for robots with different sensor sets (a slice
+    per robot) and for a crowd of robots all alike (rows), each robot's views hold its own
+    sensors' values, as the robot alone in the world reads them (IR aside: the others are in view)."""
     from bots.ctbot import CTBOT
     from sim.world import World
+    from sim.world.physics import ROWS_FROM
     from sim.world.files import load_world
 
     blind = CTBOT.with_changes(name="blind", ir=(), light=CTBOT.light[:1], border=())
-    for fleet in ((CTBOT, CTBOT, CTBOT), (CTBOT, blind, CTBOT)):
-        world = World(load_world("maze"))
-        for k, spec in enumerate(fleet):
-            world.add_robot(spec, (0.4 + 0.3 * k, 0.4, 0.5 * k))
-        readings = world.read_all()
-        alone = []
-        for k, spec in enumerate(fleet):
-            single = World(load_world("maze"))
-            single.add_robot(spec, (0.4 + 0.3 * k, 0.4, 0.5 * k))
-            alone.append(single.read_all()[0])
-        for mine, own, spec in zip(readings, alone, fleet):
+    spec = load_world("holes_lights")  # lamps and holes: each robot's light and floor readings its own
+    for fleet in ((CTBOT, blind, CTBOT), (CTBOT,) * ROWS_FROM):
+        seen = set()
+        starts = [(0.3 + 0.45 * (k % 6), 0.3 + 0.45 * (k // 6), 0.5 * k) for k in range(len(fleet))]
+        world = World(spec, floor_cell=0.01)
+        for robot, start in zip(fleet, starts):
+            world.add_robot(robot, start)
+        for mine, robot, start in zip(world.read_all(), fleet, starts):
+            single = World(spec, floor_cell=0.01)
+            single.add_robot(robot, start)
+            own = single.read_all()[0]
             for kind in ("line", "border", "light"):
-                assert getattr(mine, kind).tolist() == getattr(own, kind).tolist() and len(getattr(mine, kind)) == len(getattr(spec, kind))
-            assert len(mine.ir_raw) == len(spec.ir) and len(mine.ir_distance) == len(spec.ir)
+                assert getattr(mine, kind).tolist() == getattr(own, kind).tolist() and len(getattr(mine, kind)) == len(getattr(robot, kind))
+            assert len(mine.ir_raw) == len(robot.ir) and len(mine.ir_distance) == len(robot.ir)
+            seen.add((tuple(mine.light.tolist()), tuple(mine.border.tolist())))
+        assert len(seen) >= 2  # the robots read different values: a mix-up would show

@@ -256,14 +256,10 @@ class World:
         ir_raw, ir_distance = self._read_ir(pose)
         # every robot's readings are views into this step's arrays (fresh ones: a caller may keep them)
         ticks, counts, now = st.ticks.copy(), st.counts.copy(), self.time
-        split = st.per_robot
         readings = [
             Readings(now, tick, count, raw, distance, line, border, lamp, _NO_STEERING, _NO_MOUSE2)
-            for tick, count, raw, distance, line, border, lamp in zip(
-                ticks, counts, split["ir"].views(ir_raw), split["ir"].views(ir_distance), split["line"].views(floor),
-                split["border"].views(floor), split["light"].views(light),
-            )
-        ]  # fmt: skip
+            for tick, count, (raw, distance, line, border, lamp) in zip(ticks, counts, st.layout.views(ir_raw, ir_distance, floor, light))
+        ]
         if self.chassis.drives:
             self.chassis.fill(readings)
         return readings
@@ -483,8 +479,7 @@ class _BatchState:
     circles: np.ndarray
     """Robots then movable obstacles as circles (x, y, radius, robot index or -1) for the IR kernel;
     positions are filled in at each read."""
-    per_robot: dict[str, _PerRobot]
-    """Each robot's part of the step's array of a sensor kind ("line", "border", "light", "ir")."""
+    layout: _Layout
     noisy_encoders: list
     noisy_mice: _Noisy
 
@@ -561,12 +556,7 @@ class _BatchState:
             ).reshape(-1, 4),
             noisy_encoders=[(r.index, r.rngs["encoders"], r.spec.encoders) for r in robots if r.spec.encoders.slip_std or r.spec.encoders.tick_noise],
             noisy_mice=_Noisy.of([(r.index, r.rngs["mouse"], r.spec.mouse.noise_std) for r in robots if r.spec.mouse is not None and r.spec.mouse.noise_std]),
-            per_robot={
-                "line": _PerRobot.of(specs, ("line", "border"), 0),
-                "border": _PerRobot.of(specs, ("line", "border"), 1),
-                "light": _PerRobot.of(specs, ("light",), 0),
-                "ir": _PerRobot.of(specs, ("ir",), 0),
-            },
+            layout=_Layout.of(specs),
         )
         return state
 
@@ -647,32 +637,37 @@ class _IRArrays:
         )
 
 
-@dataclass(frozen=True)
-class _PerRobot:
-    """Where each robot's sensors of one kind lie in a step's array that holds, robot after robot,
-    the sensors of some kinds (`kinds`; the floor array: each robot's line then border sensors)."""
+ROWS_FROM = 16
+"""Robots from which, all alike, readings are cut from a step's arrays by rows (one numpy call per
+kind) rather than by a slice per robot and kind (cheaper for a few robots)."""
 
-    slices: list[slice]
-    rows: tuple[int, int, int] | None
-    """(block, start, stop) when every robot has the same sensors: each robot's block of the array
-    holds this kind at start:stop, and the views come from numpy's own row iteration (a crowd's
-    readings are built each step)."""
+
+@dataclass(frozen=True)
+class _Layout:
+    """Where each robot's sensors lie in a step's arrays: robot after robot, the IR array holds its
+    IR sensors, the floor array its line then its border sensors, the light array its light sensors."""
+
+    slices: list[tuple[slice, slice, slice, slice]]
+    """Per robot: its IR, line, border and light sensors."""
+    counts: tuple[int, int, int, int] | None
+    """IR, line, border and light sensors of every robot, when ROWS_FROM or more are all alike."""
 
     @classmethod
-    def of(cls, specs: list[RobotSpec], kinds: tuple[str, ...], kind: int) -> _PerRobot:
-        counts = [[len(getattr(spec, k)) for k in kinds] for spec in specs]
-        slices, start = [], 0
-        for row in counts:
-            first = start + sum(row[:kind])
-            slices.append(slice(first, first + row[kind]))
-            start += sum(row)
-        same = all(row == counts[0] for row in counts)
-        rows = (sum(counts[0]), sum(counts[0][:kind]), sum(counts[0][: kind + 1])) if counts and same else None
-        return cls(slices, rows)
+    def of(cls, specs: list[RobotSpec]) -> _Layout:
+        counts = [(len(s.ir), len(s.line), len(s.border), len(s.light)) for s in specs]
+        slices, ir, floor, light = [], 0, 0, 0
+        for n_ir, n_line, n_border, n_light in counts:
+            slices.append((slice(ir, ir + n_ir), slice(floor, floor + n_line), slice(floor + n_line, floor + n_line + n_border),
+                           slice(light, light + n_light)))  # fmt: skip
+            ir, floor, light = ir + n_ir, floor + n_line + n_border, light + n_light
+        alike = len(specs) >= ROWS_FROM and all(c == counts[0] for c in counts)
+        return cls(slices, counts[0] if alike else None)
 
-    def views(self, values: np.ndarray) -> list[np.ndarray]:
-        """Each robot's part of `values` (views)."""
-        if self.rows is None:
-            return [values[part] for part in self.slices]
-        block, start, stop = self.rows
-        return list(values.reshape(len(self.slices), block)[:, start:stop])
+    def views(self, ir_raw: np.ndarray, ir_distance: np.ndarray, floor: np.ndarray, light: np.ndarray):
+        """Per robot (IR raw, IR distance, line, border, light): views into the step's arrays."""
+        if self.counts is None:
+            return ((ir_raw[r], ir_distance[r], floor[f], floor[b], light[li]) for r, f, b, li in self.slices)
+        n = len(self.slices)
+        n_ir, n_line, n_border, n_light = self.counts
+        floors = floor.reshape(n, n_line + n_border)
+        return zip(ir_raw.reshape(n, n_ir), ir_distance.reshape(n, n_ir), floors[:, :n_line], floors[:, n_line:], light.reshape(n, n_light))
