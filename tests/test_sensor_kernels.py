@@ -139,3 +139,14 @@ def test_each_robot_reads_its_own_sensors_in_mixed_and_uniform_fleets():
             assert len(mine.ir_raw) == len(robot.ir) and len(mine.ir_distance) == len(robot.ir)
             seen.add((tuple(mine.light.tolist()), tuple(mine.border.tolist())))
         assert len(seen) >= 2  # the robots read different values: a mix-up would show
+
+
+def test_a_crowd_of_noisy_sensors_draws_shorter_blocks():
+    """Memory stays bounded for thousands of noisy sensors; each still gets its own sequence."""
+    from sim.world.noise import HELD, MIN_BLOCK
+
+    blocks = NormalBlocks([np.random.default_rng(s) for s in range(5000)])
+    assert MIN_BLOCK <= blocks.values.shape[1] and blocks.values.size <= max(HELD, 5000 * MIN_BLOCK)
+    reference = np.random.default_rng(4999)
+    for _ in range(3 * blocks.values.shape[1]):
+        assert blocks.take(1)[4999, 0] == reference.normal(0.0, 1.0)

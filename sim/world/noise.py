@@ -11,7 +11,11 @@ from __future__ import annotations
 import numpy as np
 
 BLOCK = 1024
-"""Normals drawn ahead per generator."""
+"""Normals drawn ahead per generator..."""
+HELD = 1 << 17
+"""...unless that would hold more than this many (1 MB) for all of them: a crowd of noisy robots
+draws shorter blocks (at least MIN_BLOCK) rather than tens of megabytes."""
+MIN_BLOCK = 16
 
 
 class NormalBlocks:
@@ -19,8 +23,10 @@ class NormalBlocks:
     generator's next ones. Consumers take from a row and advance `used` (compiled kernels too);
     `reserve(count)` before each step that takes at most `count` from any row."""
 
-    def __init__(self, rngs: list[np.random.Generator], block: int = BLOCK):
+    def __init__(self, rngs: list[np.random.Generator], block: int | None = None):
         self.rngs = rngs
+        if block is None:
+            block = max(MIN_BLOCK, min(BLOCK, HELD // max(len(rngs), 1)))
         self.values = np.zeros((len(rngs), block))
         self.used = np.full(len(rngs), block, dtype=np.int64)
         self._left = 0
