@@ -36,7 +36,7 @@ def test_poses_are_the_bodies_positions_and_angles() -> None:
         assert BodyArrays(space, bodies).poses().tolist() == expected
 
 
-def test_push_sets_the_robots_and_keeps_the_cans() -> None:
+def test_send_sets_the_robots_and_keeps_the_cans() -> None:
     for robots, cans in ((1, 0), (4, 3)):
         space, bodies, others = space_with_everything(robots, cans)
         arrays = BodyArrays(space, bodies)
@@ -44,7 +44,10 @@ def test_push_sets_the_robots_and_keeps_the_cans() -> None:
         force = np.arange(2.0 * robots).reshape(robots, 2) + 0.5
         torque = -np.arange(1.0 * robots) - 0.25
         for _ in range(2):  # a second push meets the state the first left
-            arrays.push(force, torque)
+            arrays.refresh()
+            arrays.motion[arrays.row_index, 3:5] = force
+            arrays.motion[arrays.row_index, 5] = torque
+            arrays.send()
             assert [(tuple(b.velocity), b.angular_velocity) for b in others] == kept
             for k, b in enumerate(bodies):
                 assert tuple(b.velocity) == (0.0, 0.0) and b.angular_velocity == 0.0

@@ -58,7 +58,7 @@ class DriveToRoom(DriveTo):
     abyss = False
 
     def act(self, t: float, readings: Readings) -> Command:
-        if np.any(readings.border > BORDER_DANGEROUS):
+        if any(value > BORDER_DANGEROUS for value in readings.border.tolist()):
             self.abyss = True
             return self.finish(Status.FAILURE)
         return super().act(t, readings)

@@ -175,18 +175,24 @@ def advance(pose: np.ndarray, s: float, alpha: float, end_heading: bool = False)
     `apply_increment(pose, arc_increment(s, alpha))` (resp. `firmware_increment`) for code that
     steps one robot at a time (odometry on the robot), where numpy's per-call overhead (40 us)
     would dominate; the tests hold the two forms together."""
+    x, y, theta = _floats(pose)
     h = 0.5 * alpha
     sinc = math.sin(h) / h if abs(h) > 1e-4 else 1.0 - h * h / 6.0  # series error < h^4/120 < 1e-18
-    direction = pose[2] + (alpha if end_heading else h)
+    direction = theta + (alpha if end_heading else h)
     chord = s * sinc
-    return np.array((pose[0] + chord * math.cos(direction), pose[1] + chord * math.sin(direction), pose[2] + alpha))
+    return np.array((x + chord * math.cos(direction), y + chord * math.sin(direction), theta + alpha))
 
 
 def relative_pose(start: np.ndarray, end: np.ndarray) -> np.ndarray:
     """The scalar form of `relative_increment` for one pair of poses (x, y, theta), for code that
     steps one robot at a time (behaviours), as `advance` is of `apply_increment`."""
-    x0, y0, theta0 = (float(v) for v in start)
-    x1, y1, theta1 = (float(v) for v in end)
+    x0, y0, theta0 = _floats(start)
+    x1, y1, theta1 = _floats(end)
     c, s = math.cos(theta0), math.sin(theta0)
     dx, dy = x1 - x0, y1 - y0
     return np.array((c * dx + s * dy, -s * dx + c * dy, theta1 - theta0))
+
+
+def _floats(pose) -> list[float]:
+    """A pose as plain floats (arithmetic on numpy scalars costs several times more)."""
+    return pose.tolist() if isinstance(pose, np.ndarray) else [float(v) for v in pose]

@@ -33,12 +33,15 @@ class BodyArrays:
         consecutive = len(rows) > 0 and np.array_equal(rows, np.arange(rows[0], rows[0] + len(rows)))
         self.rows = slice(int(rows[0]), int(rows[0]) + len(rows)) if consecutive else rows
         """Each robot's row in pymunk's walk over the bodies (consecutive rows: a slice, cheaper)."""
+        self.row_index = rows
+        """The same rows as an array (for compiled kernels)."""
         self._read = batch.Buffer()
         batch.get_space_bodies(space, _MOTION, self._read)
-        self._motion = np.frombuffer(self._read.float_buf()).reshape(-1, 6).copy()  # vx, vy, w, fx, fy, torque per body
-        self._motion[self.rows, :3] = 0.0
+        self.motion = np.frombuffer(self._read.float_buf()).reshape(-1, 6).copy()
+        """vx, vy, w, fx, fy, torque per body, as `send` writes them: the robots' rows at rest."""
+        self.motion[self.rows, :3] = 0.0
         self._write = batch.Buffer()
-        self._write.set_float_buf(self._motion)  # pymunk reads this array in place
+        self._write.set_float_buf(self.motion)  # pymunk reads this array in place
 
     def poses(self) -> np.ndarray:
         """(n, 3) robot poses (x, y m; heading rad), a new array."""
@@ -46,14 +49,16 @@ class BodyArrays:
         batch.get_space_bodies(self.space, _POSE, self._read)
         return np.frombuffer(self._read.float_buf()).reshape(-1, 3)[self.rows].copy()
 
-    def push(self, force: np.ndarray, torque: np.ndarray) -> None:
-        """Robots at rest with `force` (n, 2) N and `torque` (n,) N m on them for the next step; the
-        other bodies keep their velocities and forces."""
+    def refresh(self) -> None:
+        """Take the other bodies' current velocities and forces into `motion` (call before writing
+        the robots' forces into it); nothing to do without other bodies."""
         if self._others:
             self._read.clear()
             batch.get_space_bodies(self.space, _MOTION, self._read)
-            self._motion[:] = np.frombuffer(self._read.float_buf()).reshape(-1, 6)
-            self._motion[self.rows, :3] = 0.0  # (without them, the robots' velocities stay the zeros set above)
-        self._motion[self.rows, 3:5] = force
-        self._motion[self.rows, 5] = torque
+            self.motion[:] = np.frombuffer(self._read.float_buf()).reshape(-1, 6)
+            self.motion[self.rows, :3] = 0.0  # (without them, the robots' velocities stay the zeros set above)
+
+    def send(self) -> None:
+        """Give every body its row of `motion`: the robots at rest with the forces and torques
+        written into their rows, the other bodies as `refresh` found them."""
         batch.set_space_bodies(self.space, _MOTION, self._write)

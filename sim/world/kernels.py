@@ -81,7 +81,7 @@ def hold_at_holes(
     cell: float,
     outside_is_hole: bool,
     in_hole: np.ndarray,
-) -> None:
+) -> bool:
     """c't-Sim's ground-contact rule (`MasterSimulator`, "Bodenkontakt"): a robot whose planned
     move (n, 2) and turn (n,) would bring a ground contact over a hole neither moves nor turns
     this step (both zeroed in place; `in_hole` says so), and is asked again next step.
@@ -89,7 +89,8 @@ def hold_at_holes(
     Contacts are body-frame points (n, m, 2) at the new heading; c't-Sim places the skid at the
     new position but the wheels at the old one (`anchored`), so a skid stops at the edge and the
     robot drives off again, while wheels are checked a step late, end over the hole and keep
-    every later move refused (c't-Sim's "falling")."""
+    every later move refused (c't-Sim's "falling"). Returns whether any robot's `in_hole` changed."""
+    changed = False
     for i in range(pose.shape[0]):
         heading = pose[i, 2] + alpha[i]
         c, s = math.cos(heading), math.sin(heading)
@@ -100,9 +101,62 @@ def hold_at_holes(
                 x, y = x + move[i, 0], y + move[i, 1]
             px, py = contacts[i, k, 0], contacts[i, k, 1]
             held |= _in_hole(x + c * px - s * py, y + s * px + c * py, hole, origin, cell, outside_is_hole)
+        changed |= in_hole[i] != held
         in_hole[i] = held
         if held:
             move[i, 0] = move[i, 1] = alpha[i] = 0.0
+    return changed
+
+
+@numba.njit(cache=True)
+def first_bad(commands: np.ndarray) -> int:
+    """Index of the first robot with a non-finite command (n, 2); -1 if none."""
+    for i in range(commands.shape[0]):
+        if not (math.isfinite(commands[i, 0]) and math.isfinite(commands[i, 1])):
+            return i
+    return -1
+
+
+@numba.njit(cache=True)
+def settle(
+    pose: np.ndarray,
+    move: np.ndarray,
+    alpha: np.ndarray,
+    sweep_radius: np.ndarray,
+    slide_margin: float,
+    vertices: np.ndarray,
+    ranges: np.ndarray,
+    boxes: np.ndarray,
+    apart_radius: np.ndarray,
+    contacts: np.ndarray,
+    anchored: np.ndarray,
+    hole: np.ndarray,
+    origin: np.ndarray,
+    cell: float,
+    outside_is_hole: bool,
+    in_hole: np.ndarray,
+    mass: np.ndarray,
+    moment: np.ndarray,
+    dt: float,
+    rows: np.ndarray,
+    motion: np.ndarray,
+) -> bool:
+    """The planned moves (n, 2) and turns (n,) cut where walls (`sweep_walls`), other robots
+    (`keep_apart`) or holes (`hold_at_holes`) stop them, and the force and torque that give each
+    robot that motion in pymunk's velocity phase (m move / dt^2, I alpha / dt^2) written into its
+    row of pymunk's body data (motion[rows[i], 3:6]): the world step's arithmetic between the
+    drive and pymunk in one call. Returns whether any robot's `in_hole` changed."""
+    sweep_walls(pose, move, sweep_radius, slide_margin, vertices, ranges, boxes)
+    if pose.shape[0] > 1:
+        keep_apart(pose, move, apart_radius)
+    changed = hold_at_holes(pose, move, alpha, contacts, anchored, hole, origin, cell, outside_is_hole, in_hole)
+    dt2 = dt * dt
+    for i in range(pose.shape[0]):
+        scale = mass[i] / dt2
+        motion[rows[i], 3] = move[i, 0] * scale
+        motion[rows[i], 4] = move[i, 1] * scale
+        motion[rows[i], 5] = alpha[i] * moment[i] / dt2
+    return changed
 
 
 @numba.njit(cache=True)
@@ -174,8 +228,9 @@ def _absorption_at(x: float, y: float, absorption: np.ndarray, origin: np.ndarra
 
 @numba.njit(cache=True)
 def sample_floor(
-    points: np.ndarray,
-    heading: np.ndarray,
+    pose: np.ndarray,
+    offsets: np.ndarray,
+    owner: np.ndarray,
     height: np.ndarray,
     absorption: np.ndarray,
     origin: np.ndarray,
@@ -184,14 +239,16 @@ def sample_floor(
     fan: np.ndarray,
     out: np.ndarray,
 ) -> None:
-    """CNY70 values (0..1023) of floor sensors at world points (m, 2), `height` m above the floor,
-    on robots facing `heading` (rad), as c't-Sim's `World.sensGroundReflectionCross`: a fan of
+    """CNY70 values (0..1023) of floor sensors mounted at body-frame `offsets` (m, 2) of robots
+    `owner`, `height` m above the floor, as c't-Sim's `World.sensGroundReflectionCross`: a fan of
     rays across the heading (left first) and one along it (back first) meet the floor at
     height * `fan`; each fan's absorption is summed in float32 and truncated to 0..1023, and the
     reading is the two fans' truncated mean. Height 0 reads the mount point alone."""
     out_absorption = np.float32(outside)
+    points = np.empty((offsets.shape[0], 2))
+    to_world(pose, offsets, owner, points)
     for k in range(points.shape[0]):
-        c, s = math.cos(heading[k]), math.sin(heading[k])
+        c, s = math.cos(pose[owner[k], 2]), math.sin(pose[owner[k], 2])
         total = 0
         for ux, uy in ((-s, c), (-c, -s)):
             swallowed = np.float32(0.0)
@@ -232,6 +289,28 @@ def _ray_circle(ox: float, oy: float, ux: float, uy: float, cx: float, cy: float
 
 
 @numba.njit(cache=True)
+def ir_rays(pose: np.ndarray, offsets: np.ndarray, owner: np.ndarray, direction: np.ndarray, origins: np.ndarray, look: np.ndarray) -> None:
+    """World origins (m, 2) and view directions (m,) of IR sensors mounted at body-frame `offsets`
+    looking along body-frame `direction` on robots `owner` (as `to_world` and heading + direction)."""
+    to_world(pose, offsets, owner, origins)
+    for k in range(offsets.shape[0]):
+        look[k] = pose[owner[k], 2] + direction[k]
+
+
+@numba.njit(cache=True)
+def _circle_in_view(ox: float, oy: float, cx: float, cy: float, cos_cone: float, l1x: float, l1y: float, l2x: float, l2y: float,
+                    px: float, py: float, r: float, best: float) -> float:
+    """`best` lowered to the distance of the circle (px, py, r) in the cone, as in `sense_ir`; -1 when
+    the origin is inside the circle."""
+    centre = math.hypot(px - ox, py - oy)
+    if centre <= r:
+        return -1.0
+    if (px - ox) * cx + (py - oy) * cy >= cos_cone * centre:
+        best = min(best, centre - r)
+    return min(best, _ray_circle(ox, oy, l1x, l1y, px, py, r), _ray_circle(ox, oy, l2x, l2y, px, py, r))
+
+
+@numba.njit(cache=True)
 def sense_ir(
     origins: np.ndarray,
     look: np.ndarray,
@@ -243,12 +322,21 @@ def sense_ir(
     boxes: np.ndarray,
     circles: np.ndarray,
     out: np.ndarray,
+    grid_above: int = 32,
 ) -> None:
     """Distance (m) from each IR sensor at `origins` to the nearest point of a wall (convex
     polygons vertices[ranges[w, 0]:ranges[w, 1]], bounding boxes `boxes`) or a circle (x, y,
     radius, owning robot; a sensor skips its own robot's) within `cone` (half-angle, rad) of
     `look` and within `length`; inf if none. As `World.ray_distance`: per convex body the nearest
-    point if it lies in the cone, else the first hit of an edge ray."""
+    point if it lies in the cone, else the first hit of an edge ray.
+
+    With more than `grid_above` circles, each sensor checks only the circles in the grid cells
+    its cone's bounding box overlaps (a crowd would otherwise cost sensors x robots); the nearest
+    distance is a minimum, so the grid gives the all-circles result bit for bit."""
+    use_grid = circles.shape[0] > grid_above
+    cell, x0, y0, cols, rows, order, sorted_key, widest = 1.0, 0.0, 0.0, 1, 1, np.empty(0, np.int64), np.empty(0, np.int64), 0.0
+    if use_grid:
+        cell, x0, y0, cols, rows, order, sorted_key, widest = _circle_grid(circles, length)
     for k in range(origins.shape[0]):
         ox, oy = origins[k, 0], origins[k, 1]
         cx, cy = math.cos(look[k]), math.sin(look[k])
@@ -267,37 +355,177 @@ def sense_ir(
             if (qx - ox) * cx + (qy - oy) * cy >= cos_cone * distance:
                 best = min(best, distance)
             best = min(best, _ray_polygon(ox, oy, l1x, l1y, vertices, start, end), _ray_polygon(ox, oy, l2x, l2y, vertices, start, end))
-        for j in range(circles.shape[0]):
-            if int(circles[j, 3]) == owner[k]:
-                continue
-            px, py, r = circles[j, 0], circles[j, 1], circles[j, 2]
-            centre = math.hypot(px - ox, py - oy)
-            if centre <= r:
-                best = 0.0
-                break
-            if (px - ox) * cx + (py - oy) * cy >= cos_cone * centre:
-                best = min(best, centre - r)
-            best = min(best, _ray_circle(ox, oy, l1x, l1y, px, py, r), _ray_circle(ox, oy, l2x, l2y, px, py, r))
+        if use_grid:
+            lo_x, lo_y, hi_x, hi_y = _cone_box(ox, oy, cx, cy, l1x, l1y, l2x, l2y, cone[k], length, widest)
+            gx0 = max(int(math.floor((lo_x - x0) / cell)), 0)
+            gx1 = min(int(math.floor((hi_x - x0) / cell)), cols - 1)
+            gy0 = max(int(math.floor((lo_y - y0) / cell)), 0)
+            gy1 = min(int(math.floor((hi_y - y0) / cell)), rows - 1)
+            inside = False
+            for gy in range(gy0, gy1 + 1):
+                if gx0 > gx1 or inside:
+                    break
+                last = gy * cols + gx1
+                for p in range(_first_at_least(sorted_key, gy * cols + gx0), sorted_key.shape[0]):
+                    if sorted_key[p] > last:
+                        break
+                    j = order[p]
+                    if int(circles[j, 3]) == owner[k]:
+                        continue
+                    best = _circle_in_view(ox, oy, cx, cy, cos_cone, l1x, l1y, l2x, l2y, circles[j, 0], circles[j, 1], circles[j, 2], best)
+                    if best < 0.0:
+                        inside = True
+                        break
+        else:
+            for j in range(circles.shape[0]):
+                if int(circles[j, 3]) == owner[k]:
+                    continue
+                best = _circle_in_view(ox, oy, cx, cy, cos_cone, l1x, l1y, l2x, l2y, circles[j, 0], circles[j, 1], circles[j, 2], best)
+                if best < 0.0:
+                    break
+        best = max(best, 0.0)  # -1: inside a circle
         out[k] = best if best <= length else math.inf
 
 
 @numba.njit(cache=True)
+def _circle_grid(circles: np.ndarray, length: float):
+    """A uniform grid over the circles' centres: (cell size, origin x, y, columns, rows, circle
+    order by cell, sorted cell keys, largest radius); key = row * columns + column, so a row's run
+    of cells is one run of keys. Cells are a quarter of the ray length (at least two diameters), so
+    a cone's bounding box spans a handful of cells."""
+    n = circles.shape[0]
+    widest = circles[:, 2].max()
+    cell = max(0.25 * length, 4.0 * widest)
+    x0, y0 = circles[:, 0].min(), circles[:, 1].min()
+    cx = np.empty(n, dtype=np.int64)
+    cy = np.empty(n, dtype=np.int64)
+    for j in range(n):
+        cx[j] = int(math.floor((circles[j, 0] - x0) / cell))
+        cy[j] = int(math.floor((circles[j, 1] - y0) / cell))
+    cols, rows = cx.max() + 1, cy.max() + 1
+    key = cy * cols + cx
+    order = np.argsort(key, kind="mergesort")
+    return cell, x0, y0, cols, rows, order, key[order], widest
+
+
+@numba.njit(cache=True)
+def _cone_box(ox: float, oy: float, cx: float, cy: float, l1x: float, l1y: float, l2x: float, l2y: float, cone: float, length: float,
+              grow: float):
+    """(xmin, ymin, xmax, ymax) holding the centre of every circle of radius up to `grow` that can
+    matter to a cone of `length`: the box of its apex and its arc's ends and middle, grown by the
+    arc's sagitta (a cone wider than 45 degrees: the box of the whole disc) and by `grow`."""
+    if cone > 0.25 * math.pi:
+        margin = length + grow + 1e-9
+        return ox - margin, oy - margin, ox + margin, oy + margin
+    ax, bx, mx = ox + length * l1x, ox + length * l2x, ox + length * cx
+    ay, by, my = oy + length * l1y, oy + length * l2y, oy + length * cy
+    margin = length * (1.0 - math.cos(cone)) + grow + 1e-9
+    return min(ox, ax, bx, mx) - margin, min(oy, ay, by, my) - margin, max(ox, ax, bx, mx) + margin, max(oy, ay, by, my) + margin
+
+
+@numba.njit(cache=True)
+def ir_values(
+    distance: np.ndarray,
+    noise_row: np.ndarray,
+    noise_std: np.ndarray,
+    normals: np.ndarray,
+    used: np.ndarray,
+    curve: np.ndarray,
+    tables: np.ndarray,
+    last: np.ndarray,
+    beyond: np.ndarray,
+    inverse: np.ndarray,
+    lowest: np.ndarray,
+    raw: np.ndarray,
+    believed: np.ndarray,
+) -> None:
+    """Raw value and believed distance of each IR sensor from its true `distance` (m).
+
+    A sensor with noise (noise_row[k] = q >= 0) and something in view reads its distance plus
+    noise_std[q] times its next standard normal (normals[q, used[q]], `used` advanced), not below
+    0. The raw value is `IRCurve.lookup` on curve c = curve[k] (its per-centimetre float32 table
+    tables[c, :last[c] + 1] and beyond[c]), the believed distance the curve's inverse for the
+    sensor's range tabulated per raw value from lowest[c] (`IRCurve.inverse_table`): the same
+    arithmetic, so the same bits."""
+    for k in range(distance.shape[0]):
+        d = distance[k]
+        q = noise_row[k]
+        if q >= 0 and d < math.inf:
+            d = max(0.0, d + (0.0 + noise_std[q] * normals[q, used[q]]))  # as rng.normal(0.0, std)
+            used[q] += 1
+        c = curve[k]
+        cm = d * 100.0
+        value = np.float64(beyond[c])
+        if cm >= 0.0 and cm <= last[c]:
+            i = int(math.floor(cm))
+            here = tables[c, i]
+            value = np.float64(here)
+            if here != beyond[c] and i < last[c]:
+                value = value + (cm - i) * np.float64(tables[c, i + 1] - here)  # a float32 difference, as in Java
+        r = int(math.floor(value + 0.5))
+        raw[k] = r
+        believed[k] = inverse[c, r - lowest[c]]
+
+
+@numba.njit(cache=True)
+def read_ir(
+    pose: np.ndarray,
+    offsets: np.ndarray,
+    owner: np.ndarray,
+    direction: np.ndarray,
+    cone: np.ndarray,
+    length: float,
+    vertices: np.ndarray,
+    ranges: np.ndarray,
+    boxes: np.ndarray,
+    circles: np.ndarray,
+    noise_row: np.ndarray,
+    noise_std: np.ndarray,
+    normals: np.ndarray,
+    used: np.ndarray,
+    curve: np.ndarray,
+    tables: np.ndarray,
+    last: np.ndarray,
+    beyond: np.ndarray,
+    inverse: np.ndarray,
+    lowest: np.ndarray,
+    raw: np.ndarray,
+    believed: np.ndarray,
+) -> None:
+    """Every IR reading of a world whose robots are all circles, in one call: the sensors' rays
+    (`ir_rays`), the robots (the first rows of `circles`, positions taken from `pose`) and the
+    other circles and walls they see (`sense_ir`), and noise and curves (`ir_values`)."""
+    m = offsets.shape[0]
+    origins, look, distance = np.empty((m, 2)), np.empty(m), np.empty(m)
+    ir_rays(pose, offsets, owner, direction, origins, look)
+    for i in range(pose.shape[0]):
+        circles[i, 0], circles[i, 1] = pose[i, 0], pose[i, 1]
+    sense_ir(origins, look, cone, owner, length, vertices, ranges, boxes, circles, distance)
+    ir_values(distance, noise_row, noise_std, normals, used, curve, tables, last, beyond, inverse, lowest, raw, believed)
+
+
+@numba.njit(cache=True)
 def sense_light(
-    points: np.ndarray,
+    pose: np.ndarray,
+    offsets: np.ndarray,
+    owner: np.ndarray,
     height: np.ndarray,
-    look: np.ndarray,
+    direction: np.ndarray,
     half_opening: np.ndarray,
     reach: np.ndarray,
     lights: np.ndarray,
     out: np.ndarray,
 ) -> None:
-    """LDR darkness (0..1023) of sensors at world `points`, `height` m up, looking horizontally
-    along `look` (rad): the distance from the sensor to the surface of the nearest lamp (x, y,
+    """LDR darkness (0..1023) of sensors mounted at body-frame `offsets` (m, 2) of robots `owner`,
+    `height` m up, looking horizontally along body-frame `direction` (rad): the distance from the sensor to the surface of the nearest lamp (x, y,
     height, radius) whose centre is within `half_opening` of the view axis in 3-D, over `reach`,
     truncated; 1023 with none (c't-Sim `World.sensLight`)."""
+    points = np.empty((offsets.shape[0], 2))
+    to_world(pose, offsets, owner, points)
     for k in range(points.shape[0]):
         nearest = math.inf
-        cx, cy = math.cos(look[k]), math.sin(look[k])
+        look = pose[owner[k], 2] + direction[k]
+        cx, cy = math.cos(look), math.sin(look)
         cos_limit = math.cos(half_opening[k])
         for j in range(lights.shape[0]):
             ox, oy, oz = lights[j, 0] - points[k, 0], lights[j, 1] - points[k, 1], lights[j, 2] - height[k]
@@ -419,6 +647,20 @@ def _contact_time(pose: np.ndarray, move: np.ndarray, reach: np.ndarray, i: int,
 
 
 @numba.njit(cache=True)
+def _first_at_least(values: np.ndarray, key: int) -> int:
+    """Index of the first of the ascending `values` that is >= key (len(values) if none): a
+    binary search without numpy's per-call setup (a crowd asks nine times per robot)."""
+    lo, hi = 0, values.shape[0]
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if values[mid] < key:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+@numba.njit(cache=True)
 def _near_pairs(pose: np.ndarray, move: np.ndarray, reach: np.ndarray) -> np.ndarray:
     """(m, 2) pairs i < j, in the order of a double loop over i then j, of robots that could touch
     this step: a uniform grid with cells wider than any pair's reach plus both moves, so robots
@@ -448,22 +690,25 @@ def _near_pairs(pose: np.ndarray, move: np.ndarray, reach: np.ndarray) -> np.nda
     for i in range(n):
         m = 0
         for dx in range(-1, 2):
-            for dy in range(-1, 2):
-                k = key[i] + dx * rows + dy
-                start = np.searchsorted(sorted_key, k)
-                for p in range(start, n):
-                    if sorted_key[p] != k:
-                        break
-                    if order[p] > i:
-                        found[m] = order[p]
-                        m += 1
-        neighbours = np.sort(found[:m])
+            low = key[i] + dx * rows - 1  # the column's three cells dy = -1, 0, 1 are consecutive keys
+            for p in range(_first_at_least(sorted_key, low), n):
+                if sorted_key[p] > low + 2:
+                    break
+                if order[p] > i:
+                    found[m] = order[p]
+                    m += 1
+        for q in range(1, m):  # ascending, in place (few neighbours: no allocation per robot)
+            j, p = found[q], q
+            while p > 0 and found[p - 1] > j:
+                found[p] = found[p - 1]
+                p -= 1
+            found[p] = j
         if count + m > pairs.shape[0]:
             grown = np.empty((2 * (count + m), 2), dtype=np.int64)
             grown[:count] = pairs[:count]
             pairs = grown
         for q in range(m):
-            pairs[count, 0], pairs[count, 1] = i, neighbours[q]
+            pairs[count, 0], pairs[count, 1] = i, found[q]
             count += 1
     return pairs[:count]
 

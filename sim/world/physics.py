@@ -26,6 +26,7 @@ from sim.world import kernels
 from sim.world.bodies import BodyArrays
 from sim.world.chassis_drive import ChassisDrive
 from sim.world.floor import FloorMap, rasterize
+from sim.world.noise import NormalBlocks
 from sim.world.readings import Readings
 from sim.world.sensors import CNY70_MAX, LDR_MAX, IRCurve, gp2d12, load_ir_curve
 from sim.world.spec import Start, WorldSpec
@@ -54,10 +55,30 @@ _NO_MOUSE2 = _frozen(np.zeros(2, dtype=np.int64))
 """What a c't-Bot's readings hold for a chassis's steering angles and second mouse (shared, read-only)."""
 
 
-def _add_noise(noisy: list[tuple[int, np.random.Generator, float]], values: np.ndarray, top: int) -> None:
-    """Gaussian noise on the sensors `noisy` lists (index, generator, std), rounded into 0..top."""
-    for k, rng, std in noisy:
-        values[k] = min(top, max(0, round(values[k] + rng.normal(0.0, std))))
+@dataclass(frozen=True)
+class _Noisy:
+    """The sensors of one kind that have noise: their rows in the kind's values, their standard
+    deviations and their generators' normals."""
+
+    rows: np.ndarray
+    std: np.ndarray
+    normals: NormalBlocks
+
+    @classmethod
+    def of(cls, items: list[tuple[int, np.random.Generator, float]]) -> _Noisy:
+        """From (row, generator, std) per noisy sensor."""
+        return cls(
+            rows=np.array([k for k, _, _ in items], dtype=np.int64),
+            std=np.array([std for _, _, std in items], dtype=np.float64),
+            normals=NormalBlocks([rng for _, rng, _ in items]),
+        )
+
+    def add_rounded(self, values: np.ndarray, top: int) -> None:
+        """Gaussian noise on the noisy sensors' integer `values`, rounded (half to even, as
+        Python's round) into 0..top."""
+        if len(self.rows):
+            noise = 0.0 + self.std * self.normals.take(1)[:, 0]  # what rng.normal(0.0, std) gives
+            values[self.rows] = np.clip(np.rint(values[self.rows] + noise), 0, top)
 
 
 class CommandError(ValueError):
@@ -203,7 +224,7 @@ class World:
         """The kernels' arrays, rebuilt once after robots joined (not once per robot added: a
         thousand robots would cost a million rows)."""
         if self._stale:
-            self._state = _BatchState.build(self.robots, self.dt)
+            self._state = _BatchState.build(self.robots, self.dt, self._movable_shapes)
             self._bodies = BodyArrays(self.space, [r.body for r in self.robots])
             self._poses = self._bodies.poses()
             self._stale = False
@@ -221,28 +242,23 @@ class World:
         st = self._batch()
         pose = self._poses
         floor = np.empty(len(st.floor_owner), dtype=np.int64)
-        if len(floor):
-            points = np.empty((len(floor), 2))
-            kernels.to_world(pose, st.floor_offsets, st.floor_owner, points)
-            heading = pose[st.floor_owner, 2]
-            kernels.sample_floor(
-                points, heading, st.floor_height, self.floor.absorption, self._floor_origin, self.floor.cell,
-                self.floor.outside_absorption, kernels.FAN, floor,
-            )  # fmt: skip
-            _add_noise(st.floor_noise, floor, CNY70_MAX)
+        kernels.sample_floor(
+            pose, st.floor_offsets, st.floor_owner, st.floor_height, self.floor.absorption, self._floor_origin,
+            self.floor.cell, self.floor.outside_absorption, kernels.FAN, floor,
+        )  # fmt: skip
+        st.floor_noise.add_rounded(floor, CNY70_MAX)
         light = np.empty(len(st.light_owner), dtype=np.int64)
-        if len(light):
-            points = np.empty((len(light), 2))
-            kernels.to_world(pose, st.light_offsets, st.light_owner, points)
-            look = pose[st.light_owner, 2] + st.light_direction
-            kernels.sense_light(points, st.light_height, look, st.light_half_opening, st.light_reach, self._lights, light)
-            _add_noise(st.light_noise, light, LDR_MAX)
+        kernels.sense_light(
+            pose, st.light_offsets, st.light_owner, st.light_height, st.light_direction, st.light_half_opening,
+            st.light_reach, self._lights, light,
+        )  # fmt: skip
+        st.light_noise.add_rounded(light, LDR_MAX)
         ir_raw, ir_distance = self._read_ir(pose)
         # every robot's readings are views into this step's arrays (fresh ones: a caller may keep them)
         ticks, counts, now = st.ticks.copy(), st.counts.copy(), self.time
         readings = [
-            Readings(now, tick, count, ir_raw[ir], ir_distance[ir], floor[line], floor[border], light[lamp], _NO_STEERING, _NO_MOUSE2)
-            for tick, count, (line, border, lamp, ir) in zip(ticks, counts, st.reading_slices)
+            Readings(now, tick, count, raw, distance, line, border, lamp, _NO_STEERING, _NO_MOUSE2)
+            for tick, count, (raw, distance, line, border, lamp) in zip(ticks, counts, st.layout.views(ir_raw, ir_distance, floor, light))
         ]
         if self.chassis.drives:
             self.chassis.fill(readings)
@@ -276,31 +292,32 @@ class World:
         return hit.alpha * length if hit is not None else math.inf
 
     def _read_ir(self, pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Raw values and believed distances of every IR sensor: the true distances (compiled for
+        round robots, pymunk's queries otherwise), then noise and the curves (`kernels.ir_values`)."""
         st = self._batch()
-        n = len(st.ir_sensors)
-        distance = np.empty(n)
-        if n:
-            origins = np.empty((n, 2))
-            kernels.to_world(pose, st.ir_offsets, st.ir_owner, origins)
-            look = pose[st.ir_owner, 2] + st.ir_direction
-            if self._round_bodies:
-                circles = [(r.body.position.x, r.body.position.y, r.shape.radius, r.index) for r in self.robots]
-                circles += [(b.position.x, b.position.y, shape.radius, -1) for b, shape in zip(self.movables, self._movable_shapes)]
-                kernels.sense_ir(
-                    origins, look, st.ir_cone, st.ir_owner, IR_RAY_LENGTH, self._walls.vertices, self._walls.ranges,
-                    self._walls.boxes, np.array(circles, dtype=np.float64).reshape(-1, 4), distance,
-                )  # fmt: skip
-            else:  # a robot with a polygon outline: pymunk's queries see every shape
-                for k, (robot, sensor) in enumerate(st.ir_sensors):
-                    distance[k] = self.ray_distance(robot, origins[k], look[k], cone=sensor.cone)
-            for k, (robot, sensor) in enumerate(st.ir_sensors):
-                if sensor.noise_std and distance[k] < math.inf:
-                    distance[k] = max(0.0, distance[k] + robot.rngs[sensor.name].normal(0.0, sensor.noise_std))
+        ir = st.ir
+        n = len(ir.owner)
         raw = np.empty(n, dtype=np.int64)
         believed = np.empty(n)
-        for curve, members, inverse in st.ir_groups:
-            raw[members] = curve.lookup(distance[members])
-            believed[members] = inverse(raw[members])
+        if n == 0:
+            return raw, believed
+        if len(ir.noise.rows):
+            ir.noise.normals.reserve(1)
+        noise, curves = (ir.noise_row, ir.noise.std, ir.noise.normals.values, ir.noise.normals.used), ir.curves
+        if self._round_bodies:
+            for k, body in enumerate(self.movables, start=len(pose)):
+                st.circles[k, 0], st.circles[k, 1] = body.position
+            kernels.read_ir(
+                pose, ir.offsets, ir.owner, ir.direction, ir.cone, IR_RAY_LENGTH, self._walls.vertices, self._walls.ranges,
+                self._walls.boxes, st.circles, *noise, *curves, raw, believed,
+            )  # fmt: skip
+            return raw, believed
+        # a robot with a polygon outline: pymunk's queries see every shape
+        origins, look, distance = np.empty((n, 2)), np.empty(n), np.empty(n)
+        kernels.ir_rays(pose, ir.offsets, ir.owner, ir.direction, origins, look)
+        for k, (robot, sensor) in enumerate(st.ir_sensors):
+            distance[k] = self.ray_distance(robot, origins[k], look[k], cone=sensor.cone)
+        kernels.ir_values(distance, *noise, *curves, raw, believed)
         return raw, believed
 
     # --- motion -----------------------------------------------------------------------------
@@ -311,7 +328,7 @@ class World:
         commands = np.asarray(commands, dtype=np.float64)
         if commands.shape != (len(self.robots), 2):
             raise CommandError(f"expected motor commands of shape ({len(self.robots)}, 2), got {commands.shape}")
-        if not np.isfinite(commands).all():
+        if kernels.first_bad(commands) >= 0:
             bad = [self.robots[i].name for i in np.unique(np.nonzero(~np.isfinite(commands))[0])]
             raise CommandError(f"non-finite motor command for {', '.join(bad)} at step {self.steps}")
         st = self._batch()
@@ -326,19 +343,17 @@ class World:
             self.chassis.drive(self.time, before, st.move, st.alpha)
         # cut each exact-arc move where the body would first sink deeper than SWEEP_CLEARANCE into
         # a wall or another robot, so that no speed the motors allow tunnels through anything
-        kernels.sweep_walls(before, st.move, st.sweep_radius, SLIDE_MARGIN, self._walls.vertices, self._walls.ranges, self._walls.boxes)
-        if len(self.robots) > 1:
-            kernels.keep_apart(before, st.move, st.apart_radius)
-        kernels.hold_at_holes(
-            before, st.move, st.alpha, st.contacts, st.anchored, self.floor.hole, self._floor_origin, self.floor.cell,
-            self.floor.outside_is_hole, st.fallen,
-        )  # fmt: skip
-        for robot in self.robots:
-            robot.fallen = bool(st.fallen[robot.index])
-        self._apply_motion(st)
-        self.space.step(self.dt)
-        for robot in self.robots:
-            pymunk.Body.update_position(robot.body, self.dt)
+        # then hold robots at holes, and give pymunk the motion as forces (see `_apply_motion`)
+        self._bodies.refresh()
+        if kernels.settle(
+            before, st.move, st.alpha, st.sweep_radius, SLIDE_MARGIN, self._walls.vertices, self._walls.ranges,
+            self._walls.boxes, st.apart_radius, st.contacts, st.anchored, self.floor.hole, self._floor_origin,
+            self.floor.cell, self.floor.outside_is_hole, st.fallen, st.mass, st.moment, self.dt, self._bodies.row_index,
+            self._bodies.motion,
+        ):  # fmt: skip
+            for robot in self.robots:
+                robot.fallen = bool(st.fallen[robot.index])
+        self._apply_motion()
         after = self._poses = self._bodies.poses()
         st.draw_mouse_noise()
         kernels.measure(
@@ -350,8 +365,9 @@ class World:
         self.steps += 1
         self.time = self.steps * self.dt
 
-    def _apply_motion(self, st: _BatchState) -> None:
-        """Make each body's velocity after pymunk's velocity phase move/dt and alpha/dt.
+    def _apply_motion(self) -> None:
+        """Make each body's velocity after pymunk's velocity phase move/dt and alpha/dt (the forces
+        `kernels.settle` wrote), step pymunk and move the robots.
 
         pymunk moves bodies *before* it solves contacts, with the velocity they have; a velocity
         set before `space.step` would push the body into a wall unchecked. So the body enters the
@@ -359,8 +375,11 @@ class World:
         velocity phase (v = f dt / m), the contact solver corrects it, and the position is
         integrated after the step (`update_position`): the same order as setting the velocity
         inside `velocity_func`, without a Python callback per body."""
-        dt2 = self.dt * self.dt
-        self._bodies.push(st.move * (st.mass / dt2)[:, None], st.alpha * st.moment / dt2)
+        self._bodies.send()
+        self.space.step(self.dt)
+        update, dt = pymunk.Body.update_position, self.dt
+        for robot in self.robots:
+            update(robot.body, dt)
 
     def _count_contact(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:  # noqa: ANN001
         """A robot started touching something: one more collision for it (for both, robot on robot)."""
@@ -444,10 +463,10 @@ class _BatchState:
     alpha: np.ndarray
     sweep_radius: np.ndarray
     apart_radius: np.ndarray
-    floor_noise: list
+    floor_noise: _Noisy
     floor_offsets: np.ndarray
     floor_owner: np.ndarray
-    light_noise: list
+    light_noise: _Noisy
     floor_height: np.ndarray
     light_offsets: np.ndarray
     light_owner: np.ndarray
@@ -456,21 +475,20 @@ class _BatchState:
     light_reach: np.ndarray
     light_height: np.ndarray
     ir_sensors: list
-    ir_offsets: np.ndarray
-    ir_owner: np.ndarray
-    ir_direction: np.ndarray
-    ir_cone: np.ndarray
-    ir_groups: list
-    reading_slices: list
+    ir: _IRArrays
+    circles: np.ndarray
+    """Robots then movable obstacles as circles (x, y, radius, robot index or -1) for the IR kernel;
+    positions are filled in at each read."""
+    layout: _Layout
     noisy_encoders: list
-    noisy_mice: list
+    noisy_mice: _Noisy
 
     @classmethod
     def empty(cls) -> _BatchState:
-        return cls.build([], 0.01)
+        return cls.build([], 0.01, [])
 
     @classmethod
-    def build(cls, robots: list[Robot], dt: float) -> _BatchState:
+    def build(cls, robots: list[Robot], dt: float, movable_shapes: list[pymunk.Circle]) -> _BatchState:
         n = len(robots)
         specs = [r.spec for r in robots]
         motor = [s.motor for s in specs]
@@ -479,16 +497,6 @@ class _BatchState:
         light = [(r, s) for r in robots for s in r.spec.light]
         ir = [(r, s) for r in robots for s in r.spec.ir]
 
-        def slices(*groups):
-            out, start = [], 0
-            for spec in specs:
-                bounds = [start]
-                for group in groups:
-                    start += len(getattr(spec, group))
-                    bounds.append(start)
-                out.append(tuple(bounds))
-            return out
-
         def offsets(items):
             return np.array([s.position for _, s in items], dtype=np.float64).reshape(-1, 2)
 
@@ -496,13 +504,8 @@ class _BatchState:
             return np.array([r.index for r, _ in items], dtype=np.int64)
 
         def noisy(items):
-            return [(k, robot.rngs[s.name], s.noise_std) for k, (robot, s) in enumerate(items) if s.noise_std]
+            return _Noisy.of([(k, robot.rngs[s.name], s.noise_std) for k, (robot, s) in enumerate(items) if s.noise_std])
 
-        groups: dict[tuple, tuple[IRCurve, list[int], tuple[float, float]]] = {}
-        for k, (robot, sensor) in enumerate(ir):
-            curve = robot.ir_curves[robot.spec.ir.index(sensor)]
-            key = (id(curve), sensor.min_range, sensor.max_range)
-            groups.setdefault(key, (curve, [], (sensor.min_range, sensor.max_range)))[1].append(k)
         state = cls(
             mass=np.array([r.body.mass for r in robots], dtype=np.float64),
             moment=np.array([r.body.moment for r in robots], dtype=np.float64),
@@ -545,17 +548,15 @@ class _BatchState:
             light_reach=np.array([s.reach for _, s in light], dtype=np.float64),
             light_height=np.array([s.height for _, s in light], dtype=np.float64),
             ir_sensors=ir,
-            ir_offsets=offsets(ir),
-            ir_owner=owner(ir),
-            ir_direction=np.array([s.direction for _, s in ir], dtype=np.float64),
-            ir_cone=np.array([s.cone for _, s in ir], dtype=np.float64),
-            ir_groups=[(curve, np.array(members), curve.inverse(*bounds)) for curve, members, bounds in groups.values()],
+            ir=_IRArrays.build(ir, noisy(ir)),
+            circles=np.array(
+                [(0.0, 0.0, r.shape.radius, r.index) for r in robots if isinstance(r.shape, pymunk.Circle)]
+                + [(0.0, 0.0, shape.radius, -1) for shape in movable_shapes],
+                dtype=np.float64,
+            ).reshape(-1, 4),
             noisy_encoders=[(r.index, r.rngs["encoders"], r.spec.encoders) for r in robots if r.spec.encoders.slip_std or r.spec.encoders.tick_noise],
-            noisy_mice=[(r.index, r.rngs["mouse"], r.spec.mouse.noise_std) for r in robots if r.spec.mouse is not None and r.spec.mouse.noise_std],
-            reading_slices=[
-                (slice(f0, f1), slice(f1, f2), slice(l0, l1), slice(r0, r1))
-                for (f0, f1, f2), (l0, l1), (r0, r1) in zip(slices("line", "border"), slices("light"), slices("ir"))
-            ],
+            noisy_mice=_Noisy.of([(r.index, r.rngs["mouse"], r.spec.mouse.noise_std) for r in robots if r.spec.mouse is not None and r.spec.mouse.noise_std]),
+            layout=_Layout.of(specs),
         )
         return state
 
@@ -568,5 +569,105 @@ class _BatchState:
 
     def draw_mouse_noise(self) -> None:
         """Count noise for the robots whose mouse has it."""
-        for i, rng, std in self.noisy_mice:
-            self.mouse_noise[i] = rng.normal(0.0, std, size=2)
+        mice = self.noisy_mice
+        if len(mice.rows):
+            self.mouse_noise[mice.rows] = 0.0 + mice.std[:, None] * mice.normals.take(2)  # as rng.normal(0.0, std, size=2)
+
+
+@dataclass(frozen=True)
+class _IRArrays:
+    """The IR sensors of all robots as arrays for the kernels: mounts, owners, cones, their noise,
+    and each distinct (curve, range)'s tables padded into one 2-D array per kind."""
+
+    offsets: np.ndarray
+    owner: np.ndarray
+    direction: np.ndarray
+    cone: np.ndarray
+    noise: _Noisy
+    noise_row: np.ndarray
+    """Each sensor's row in `noise` (-1: none)."""
+    curve: np.ndarray
+    """Each sensor's index into the tables below."""
+    tables: np.ndarray
+    last: np.ndarray
+    beyond: np.ndarray
+    inverse: np.ndarray
+    lowest: np.ndarray
+
+    @property
+    def curves(self) -> tuple[np.ndarray, ...]:
+        """The curve arguments of `kernels.ir_values` (curve .. lowest)."""
+        return self.curve, self.tables, self.last, self.beyond, self.inverse, self.lowest
+
+    @classmethod
+    def build(cls, ir: list[tuple[Robot, object]], noise: _Noisy) -> _IRArrays:
+        n = len(ir)
+        index: dict[tuple, int] = {}
+        chosen: list[tuple[IRCurve, float, float]] = []
+        curve = np.empty(n, dtype=np.int64)
+        for k, (robot, sensor) in enumerate(ir):
+            table = robot.ir_curves[robot.spec.ir.index(sensor)]
+            key = (id(table), sensor.min_range, sensor.max_range)
+            if key not in index:
+                index[key] = len(chosen)
+                chosen.append((table, sensor.min_range, sensor.max_range))
+            curve[k] = index[key]
+        per_cm = [table.per_cm for table, _, _ in chosen]
+        inverse = [table.inverse_table(low, high) for table, low, high in chosen]
+        tables = np.zeros((len(chosen), max((len(t) for t in per_cm), default=1)), dtype=np.float32)
+        inverses = np.zeros((len(chosen), max((len(t) for t in inverse), default=1)))
+        for c, (t, v) in enumerate(zip(per_cm, inverse)):
+            tables[c, : len(t)] = t
+            inverses[c, : len(v)] = v
+        noise_row = np.full(n, -1, dtype=np.int64)
+        noise_row[noise.rows] = np.arange(len(noise.rows))
+        return cls(
+            offsets=np.array([s.position for _, s in ir], dtype=np.float64).reshape(-1, 2),
+            owner=np.array([r.index for r, _ in ir], dtype=np.int64),
+            direction=np.array([s.direction for _, s in ir], dtype=np.float64),
+            cone=np.array([s.cone for _, s in ir], dtype=np.float64),
+            noise=noise,
+            noise_row=noise_row,
+            curve=curve,
+            tables=tables,
+            last=np.array([len(t) - 1 for t in per_cm], dtype=np.int64),
+            beyond=np.array([table.beyond for table, _, _ in chosen], dtype=np.float32),
+            inverse=inverses,
+            lowest=np.array([table.raw_range()[0] for table, _, _ in chosen], dtype=np.int64),
+        )
+
+
+ROWS_FROM = 16
+"""Robots from which, all alike, readings are cut from a step's arrays by rows (one numpy call per
+kind) rather than by a slice per robot and kind (cheaper for a few robots)."""
+
+
+@dataclass(frozen=True)
+class _Layout:
+    """Where each robot's sensors lie in a step's arrays: robot after robot, the IR array holds its
+    IR sensors, the floor array its line then its border sensors, the light array its light sensors."""
+
+    slices: list[tuple[slice, slice, slice, slice]]
+    """Per robot: its IR, line, border and light sensors."""
+    counts: tuple[int, int, int, int] | None
+    """IR, line, border and light sensors of every robot, when ROWS_FROM or more are all alike."""
+
+    @classmethod
+    def of(cls, specs: list[RobotSpec]) -> _Layout:
+        counts = [(len(s.ir), len(s.line), len(s.border), len(s.light)) for s in specs]
+        slices, ir, floor, light = [], 0, 0, 0
+        for n_ir, n_line, n_border, n_light in counts:
+            slices.append((slice(ir, ir + n_ir), slice(floor, floor + n_line), slice(floor + n_line, floor + n_line + n_border),
+                           slice(light, light + n_light)))  # fmt: skip
+            ir, floor, light = ir + n_ir, floor + n_line + n_border, light + n_light
+        alike = len(specs) >= ROWS_FROM and all(c == counts[0] for c in counts)
+        return cls(slices, counts[0] if alike else None)
+
+    def views(self, ir_raw: np.ndarray, ir_distance: np.ndarray, floor: np.ndarray, light: np.ndarray):
+        """Per robot (IR raw, IR distance, line, border, light): views into the step's arrays."""
+        if self.counts is None:
+            return ((ir_raw[r], ir_distance[r], floor[f], floor[b], light[li]) for r, f, b, li in self.slices)
+        n = len(self.slices)
+        n_ir, n_line, n_border, n_light = self.counts
+        floors = floor.reshape(n, n_line + n_border)
+        return zip(ir_raw.reshape(n, n_ir), ir_distance.reshape(n, n_ir), floors[:, :n_line], floors[:, n_line:], light.reshape(n, n_light))

@@ -11,7 +11,7 @@ def _ints(n: int = 0) -> np.ndarray:
     return np.zeros(n, dtype=np.int64)
 
 
-@dataclass
+@dataclass(slots=True)
 class Readings:
     """Sensor values read at the start of a step, in the devices' own units.
 
@@ -21,6 +21,8 @@ class Readings:
     ir_distance: distance the robot's firmware would infer from ir_raw (m); nan outside 0.1-0.8 m.
     line, border: CNY70 reflex sensors, 0 (white) .. 1023 (black or hole).
     light: light sensors, 0 (bright) .. 1023 (dark), c't-Sim's convention.
+
+    (Slots: the world builds one per robot and step, and controllers read its fields often.)
     """
 
     time: float = 0.0

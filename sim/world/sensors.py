@@ -75,6 +75,17 @@ class IRCurve:
 
         return distance
 
+    def raw_range(self) -> tuple[int, int]:
+        """The lowest and highest raw value `lookup` can give (it rounds between table values)."""
+        values = np.append(self.per_cm, np.float32(self.beyond)).astype(np.float64)
+        return int(np.floor(values.min() + 0.5)), int(np.floor(values.max() + 0.5))
+
+    def inverse_table(self, min_range: float = 0.1, max_range: float = 0.8) -> np.ndarray:
+        """`inverse(min_range, max_range)` of every raw value in `raw_range()`, lowest first: what a
+        compiled lookup reads (`kernels.ir_values`) instead of interpolating each step."""
+        low, high = self.raw_range()
+        return self.inverse(min_range, max_range)(np.arange(low, high + 1))
+
 
 def _per_centimetre(distance: np.ndarray, raw: np.ndarray, beyond: float) -> np.ndarray:
     """c't-Sim's lookup table: one float32 value per whole centimetre from 0 to the last row,

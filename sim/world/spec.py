@@ -6,7 +6,7 @@ Everything is in metres and radians, world frame x right, y up. Loaders (`sim.wo
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 Point = tuple[float, float]
@@ -86,10 +86,19 @@ class Goal:
     """A goal area: convex polygon; a robot whose centre is inside has reached it."""
 
     vertices: tuple[Point, ...]
+    box: tuple[float, float, float, float] = field(init=False, repr=False, compare=False)
+    """(xmin, ymin, xmax, ymax): most points the run loop asks about are outside it."""
+
+    def __post_init__(self) -> None:
+        xs, ys = [v[0] for v in self.vertices], [v[1] for v in self.vertices]
+        object.__setattr__(self, "box", (min(xs), min(ys), max(xs), max(ys)))
 
     def contains(self, x: float, y: float) -> bool:
         """Whether (x, y) is inside or on the edge (the point is on one side of every edge; plain
         floats: the run loop asks every step, where numpy's per-call cost would dominate)."""
+        xmin, ymin, xmax, ymax = self.box
+        if not (xmin <= x <= xmax and ymin <= y <= ymax):
+            return False
         above = below = False
         vertices = self.vertices
         for k, (ax, ay) in enumerate(vertices):
