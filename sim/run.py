@@ -47,8 +47,9 @@ class RobotSetup:
 
 BLOCK = 65536
 """Samples per block when a finished run is read through (metrics, files)."""
-RESIDENT = 4096
-"""Samples of a running log kept in resident memory (observers read the latest ones)."""
+RESIDENT = 8192
+"""Samples of a running log kept in resident memory: observers read the latest ones (the
+recorder up to `sim.views.recording.CHUNK` back)."""
 
 
 class _Columns:

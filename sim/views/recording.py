@@ -55,8 +55,10 @@ if TYPE_CHECKING:
 TIMELINE = "sim_time"
 TURNING = (WheelType.STEERED, WheelType.CASTOR, WheelType.SPHERICAL)
 """Wheels whose steering angle changes in a run, and so is recorded."""
-CHUNK = 1000
-"""Samples per `send_columns` batch."""
+CHUNK = 4000
+"""Samples per `send_columns` batch. rerun keeps some 400 bytes per chunk sent until the file is
+closed (its footer), so fewer, longer chunks keep a long run's memory flat; at most
+`sim.run.RESIDENT` samples, which the run's logs keep in memory for the recorder to read."""
 TRAIL_EVERY = 10
 """Samples per trail piece: every pose is in the trail, but in 10x fewer rows for the viewer."""
 LIVE_PORT = 9876
