@@ -185,10 +185,11 @@ class RunResult:
         """Simulated seconds covered (0 before the first sample)."""
         return float(self._time[self._count - 1]) if self._count else 0.0
 
-    def blocks(self, size: int = BLOCK) -> Iterator[slice]:
-        """Row ranges that cover every sample, `size` at a time, to read a long run through with
-        bounded memory: once the next is asked for, the previous block's rows of the times and of
-        every robot's log leave resident memory again."""
+    def blocks(self, size: int | None = None) -> Iterator[slice]:
+        """Row ranges that cover every sample, `size` (default BLOCK) at a time, to read a long run
+        through with bounded memory: once the next is asked for, the previous block's rows of the
+        times and of every robot's log leave resident memory again."""
+        size = size or BLOCK
         for start in range(0, len(self), size):
             rows = slice(start, min(start + size, len(self)))
             yield rows

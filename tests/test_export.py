@@ -94,3 +94,30 @@ def test_export_run_writes_truth_and_every_estimate(tmp_path):
     times, truth = read_tum(tmp_path / "out" / "ctbot_truth.tum")
     assert np.array_equal(times, result.time)
     assert np.allclose(truth, result.robots[0].truth_array(), atol=1e-12)
+
+
+def test_a_run_written_in_blocks_equals_its_arrays_written_at_once(tmp_path, monkeypatch):
+    """`write_run` reads a run through in blocks (here 37 samples, so the 201 samples of two robots
+    cross five block edges): every file is byte for byte what the whole arrays give, and the
+    metrics read through the same way equal those of the whole arrays (regrouped sums of squares:
+    1e-12 relative)."""
+    import sim.run
+    from sim.analysis.export import write_run
+    from sim.analysis.metrics import compare, compare_run
+
+    robots = [RobotSetup(CTBOT, FunctionController(lambda t, r: Twist(0.1, 0.5))), RobotSetup(CTBOT, FunctionController(lambda t, r: Twist(0.2, -0.3)))]
+    result = run(load_world("maze"), robots, 2.0)
+    monkeypatch.setattr(sim.run, "BLOCK", 37)
+    written = write_run(result, tmp_path / "blocks", prefix=True, with_csv=True)
+    metrics = compare_run(result)
+    for log in result.robots:
+        for label, poses in {"truth": log.truth_array(), **log.estimate_arrays()}.items():
+            tum = written[log.name][label]
+            write_tum(tmp_path / "whole.tum", result.time, poses)
+            write_csv(tmp_path / "whole.csv", result.time, poses)
+            assert tum.read_bytes() == (tmp_path / "whole.tum").read_bytes()
+            assert tum.with_suffix(".csv").read_bytes() == (tmp_path / "whole.csv").read_bytes()
+            if label != "truth":
+                whole = compare(result.time, log.truth_array(), poses)
+                assert metrics[log.name][label].ate_rmse == pytest.approx(whole.ate_rmse, rel=1e-12)
+                assert metrics[log.name][label].path_length == whole.path_length
