@@ -256,12 +256,13 @@ class World:
             for k, body in enumerate(self.movables, start=len(pose)):
                 st.circles[k, 0], st.circles[k, 1] = body.position
         walls, normals = self._walls, ir.noise.normals
-        kernels.read_sensors(
-            pose, st.sensors, st.index, st.n_floor, self.floor.absorption, self._scalars, self._lights, walls.vertices,
-            walls.ranges, walls.boxes, st.circles, ir.noise.std, normals.values, normals.used, ir.tables, ir.curve_ends,
-            ir.beyond, ir.inverse, values, believed if round_ir else believed[:0],
-        )  # fmt: skip
         lights = st.n_floor + st.n_light
+        sensors, index, out = (st.sensors, st.index, values) if round_ir else (st.sensors[:lights], st.index[:lights], values[:lights])
+        kernels.read_sensors(
+            pose, sensors, index, st.n_floor, self.floor.absorption, self._scalars, self._lights, walls.vertices, walls.ranges,
+            walls.boxes, st.circles, ir.noise.std, normals.values, normals.used, ir.tables, ir.curve_ends, ir.beyond, ir.inverse,
+            out, believed if round_ir else believed[:0],
+        )  # fmt: skip  (without the IR rows when pymunk reads them below)
         floor, light, ir_raw = values[: st.n_floor], values[st.n_floor : lights], values[lights:]
         st.floor_noise.add_rounded(floor, CNY70_MAX)
         st.light_noise.add_rounded(light, LDR_MAX)
