@@ -316,9 +316,10 @@ class World:
             return
         if len(ir.noise.rows):
             ir.noise.normals.reserve(1)
-        rows = st.sensors[st.n_floor + st.n_light :]
+        first = st.n_floor + st.n_light
+        mounts, owner = st.sensors[first:], st.index[first:, kernels.OWNER]
         origins, look, distance = np.empty((n, 2)), np.empty(n), np.empty(n)
-        kernels.ir_rays(pose, rows[:, kernels.AT : kernels.AT + 2], st.index[st.n_floor + st.n_light :, kernels.OWNER], rows[:, kernels.DIRECTION], origins, look)
+        kernels.ir_rays(pose, mounts[:, kernels.AT : kernels.AT + 2], owner, mounts[:, kernels.DIRECTION], origins, look)
         for k, (robot, sensor) in enumerate(st.ir_sensors):
             distance[k] = self.ray_distance(robot, origins[k], look[k], cone=sensor.cone)
         kernels.ir_values(distance, ir.noise_row, ir.noise.std, ir.noise.normals.values, ir.noise.normals.used, *ir.curves, raw, believed)
