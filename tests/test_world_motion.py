@@ -165,6 +165,23 @@ def test_non_finite_commands_are_refused_before_pymunk(bad):
     assert world.steps == 6
 
 
+def test_a_refused_step_draws_no_noise():
+    """A step refused for a non-finite command draws nothing from the encoders' generators: a
+    noisy world that met one runs on exactly as one that never did."""
+    noisy = CTBOT.with_changes(encoders={"slip_std": 0.05, "tick_noise": 0.2})
+    worlds = [World(OPEN, dt=0.01, seed=3) for _ in range(2)]
+    for world in worlds:
+        world.add_robot(noisy, (0.0, 0.0, 0.0))
+    with pytest.raises(CommandError):
+        worlds[0].step(np.array([[math.nan, 100.0]]))
+    ticks = [[], []]
+    for _ in range(20):
+        for world, seen in zip(worlds, ticks):
+            world.step(np.array([[120.0, 100.0]]))
+            seen.append(world.read_all()[0].encoder_ticks)
+    assert np.array_equal(ticks[0], ticks[1])
+
+
 def test_measure_kernel_agrees_with_the_reference_mouse():
     """`world_kernels.measure` gives the counts of `mouse_displacement_from_increment` + `quantize`
     (carry included) for random true motions, including bent (non-arc) ones."""

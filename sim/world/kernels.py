@@ -15,6 +15,30 @@ import numpy as np
 
 from sim.kinematics.batch import exact_arc, half_angle, quantize_one
 
+# A kernel call costs tens of nanoseconds per argument, so a world's step passes its per-robot
+# values packed into a few 2-D arrays (`sim.world.physics` keeps named views of the columns):
+# per-robot parameters (n, PARAMS) float64, fixed once the robots are in
+COMMAND_MAX, MAX_SPEED, LAG, MAX_CHANGE, TICKS_PER_RAD = 0, 1, 2, 3, 4
+REAL_RADIUS = 5  # left, right wheel (m)
+TRACK = 7
+MOUNT = 8  # the mouse's x, y in the body frame (m)
+COUNTS_PER_METRE, MAX_STEP, SWEEP_RADIUS, APART_RADIUS, MASS, MOMENT = 10, 11, 12, 13, 14, 15
+PARAMS = 16
+# per-robot state (n, STATE) float64, two columns (left, right or x, y) each but ALPHA
+WHEEL_SPEED, TICK_CARRY, TICK_OFFSET, SLIP, MOUSE_NOISE, MOUSE_CARRY, MOVE, ALPHA = 0, 2, 4, 6, 8, 10, 12, 14
+STATE = 15
+# per-robot counts (n, TALLIES) int64: encoder ticks (left, right), mouse counts (x, y)
+TICKS, COUNTS, TALLIES = 0, 2, 4
+# the world's scalars (SCALARS,) float64: floor raster origin (x, y m), cell (m), whether outside
+# it is a hole (0/1), the absorption outside it, IR ray length (m), slide margin (m), dt (s)
+ORIGIN, CELL, OUTSIDE_IS_HOLE, OUTSIDE_ABSORPTION, IR_LENGTH, SLIDE_MARGIN, DT = 0, 2, 3, 4, 5, 6, 7
+SCALARS = 8
+# sensors of all robots (m, SENSOR) float64, floor then light then IR sensors: mount x, y (m),
+# height (m; floor, light), view direction (rad; light, IR), half opening or cone (rad; light,
+# IR), reach (m; light); and (m, INDEX) int64: owning robot, noise row and curve (IR)
+AT, HEIGHT, DIRECTION, OPENING, REACH, SENSOR = 0, 2, 3, 4, 5, 6
+OWNER, NOISE_ROW, CURVE, INDEX = 0, 1, 2, 3
+
 
 @numba.njit(cache=True)
 def drive(
@@ -118,44 +142,56 @@ def first_bad(commands: np.ndarray) -> int:
 
 
 @numba.njit(cache=True)
+def plan(commands: np.ndarray, params: np.ndarray, state: np.ndarray, tallies: np.ndarray, pose: np.ndarray, dt: float) -> int:
+    """`drive` on the packed arrays (column layout above) when every command (n, 2) is finite;
+    otherwise nothing changes and the first robot with a non-finite one is returned (-1: none)."""
+    bad = first_bad(commands)
+    if bad < 0:
+        drive(
+            commands, state[:, WHEEL_SPEED : WHEEL_SPEED + 2], params[:, COMMAND_MAX], params[:, MAX_SPEED], params[:, LAG],
+            params[:, MAX_CHANGE], dt, params[:, TICKS_PER_RAD], state[:, TICK_CARRY : TICK_CARRY + 2],
+            state[:, TICK_OFFSET : TICK_OFFSET + 2], tallies[:, TICKS : TICKS + 2], params[:, REAL_RADIUS : REAL_RADIUS + 2],
+            state[:, SLIP : SLIP + 2], params[:, TRACK], pose, state[:, MOVE : MOVE + 2], state[:, ALPHA],
+        )  # fmt: skip
+    return bad
+
+
+@numba.njit(cache=True)
 def settle(
     pose: np.ndarray,
-    move: np.ndarray,
-    alpha: np.ndarray,
-    sweep_radius: np.ndarray,
-    slide_margin: float,
+    params: np.ndarray,
+    state: np.ndarray,
+    scalars: np.ndarray,
     vertices: np.ndarray,
     ranges: np.ndarray,
     boxes: np.ndarray,
-    apart_radius: np.ndarray,
     contacts: np.ndarray,
     anchored: np.ndarray,
     hole: np.ndarray,
-    origin: np.ndarray,
-    cell: float,
-    outside_is_hole: bool,
     in_hole: np.ndarray,
-    mass: np.ndarray,
-    moment: np.ndarray,
-    dt: float,
     rows: np.ndarray,
     motion: np.ndarray,
 ) -> bool:
-    """The planned moves (n, 2) and turns (n,) cut where walls (`sweep_walls`), other robots
-    (`keep_apart`) or holes (`hold_at_holes`) stop them, and the force and torque that give each
-    robot that motion in pymunk's velocity phase (m move / dt^2, I alpha / dt^2) written into its
-    row of pymunk's body data (motion[rows[i], 3:6]): the world step's arithmetic between the
+    """The planned moves and turns (state's MOVE, ALPHA) cut where walls (`sweep_walls`), other
+    robots (`keep_apart`) or holes (`hold_at_holes`) stop them, and the force and torque that give
+    each robot that motion in pymunk's velocity phase (m move / dt^2, I alpha / dt^2) written into
+    its row of pymunk's body data (motion[rows[i], 3:6]): the world step's arithmetic between the
     drive and pymunk in one call. Returns whether any robot's `in_hole` changed."""
-    sweep_walls(pose, move, sweep_radius, slide_margin, vertices, ranges, boxes)
+    move, alpha = state[:, MOVE : MOVE + 2], state[:, ALPHA]
+    sweep_walls(pose, move, params[:, SWEEP_RADIUS], scalars[SLIDE_MARGIN], vertices, ranges, boxes)
     if pose.shape[0] > 1:
-        keep_apart(pose, move, apart_radius)
-    changed = hold_at_holes(pose, move, alpha, contacts, anchored, hole, origin, cell, outside_is_hole, in_hole)
+        keep_apart(pose, move, params[:, APART_RADIUS])
+    changed = hold_at_holes(
+        pose, move, alpha, contacts, anchored, hole, scalars[ORIGIN : ORIGIN + 2], scalars[CELL], scalars[OUTSIDE_IS_HOLE] != 0.0,
+        in_hole,
+    )  # fmt: skip
+    dt = scalars[DT]
     dt2 = dt * dt
     for i in range(pose.shape[0]):
-        scale = mass[i] / dt2
+        scale = params[i, MASS] / dt2
         motion[rows[i], 3] = move[i, 0] * scale
         motion[rows[i], 4] = move[i, 1] * scale
-        motion[rows[i], 5] = alpha[i] * moment[i] / dt2
+        motion[rows[i], 5] = alpha[i] * params[i, MOMENT] / dt2
     return changed
 
 
@@ -200,6 +236,18 @@ def measure(
             whole, fraction = quantize_one(metres * counts_per_metre[i] + noise[i, axis] + mouse_carry[i, axis])
             counts[i, axis] = whole
             mouse_carry[i, axis] = fraction
+
+
+@numba.njit(cache=True)
+def measure_all(
+    before: np.ndarray, after: np.ndarray, params: np.ndarray, state: np.ndarray, tallies: np.ndarray, hole: np.ndarray, scalars: np.ndarray
+) -> None:
+    """`measure` on the packed arrays (column layout above)."""
+    measure(
+        before, after, params[:, MOUNT : MOUNT + 2], params[:, COUNTS_PER_METRE], params[:, MAX_STEP], state[:, MOUSE_NOISE : MOUSE_NOISE + 2],
+        state[:, MOUSE_CARRY : MOUSE_CARRY + 2], tallies[:, COUNTS : COUNTS + 2], hole, scalars[ORIGIN : ORIGIN + 2], scalars[CELL],
+        scalars[OUTSIDE_IS_HOLE] != 0.0,
+    )  # fmt: skip
 
 
 @numba.njit(cache=True)
@@ -533,6 +581,52 @@ def sense_light(
             if ox * cx + oy * cy >= cos_limit * centre - 1e-12:
                 nearest = min(nearest, max(centre - lights[j, 3], 0.0))
         out[k] = int(math.floor(min(nearest / reach[k], 1.0) * 1023))
+
+
+@numba.njit(cache=True)
+def read_sensors(
+    pose: np.ndarray,
+    sensors: np.ndarray,
+    index: np.ndarray,
+    n_floor: int,
+    absorption: np.ndarray,
+    scalars: np.ndarray,
+    lights: np.ndarray,
+    vertices: np.ndarray,
+    ranges: np.ndarray,
+    boxes: np.ndarray,
+    circles: np.ndarray,
+    noise_std: np.ndarray,
+    normals: np.ndarray,
+    used: np.ndarray,
+    tables: np.ndarray,
+    curve_ends: np.ndarray,
+    beyond: np.ndarray,
+    inverse: np.ndarray,
+    values: np.ndarray,
+    believed: np.ndarray,
+) -> None:
+    """Every floor, light and IR reading of the world in one call, on the packed sensor arrays
+    (column layout above): the first `n_floor` rows are floor sensors (`sample_floor`), the last
+    len(believed) IR sensors (`read_ir`; curve_ends holds each curve's `last` and `lowest`), the
+    rows between light sensors (`sense_light`); `values` gets each row's integer reading. A world
+    that reads its IR sensors with pymunk passes only the floor and light rows and no `believed`."""
+    lo, hi = n_floor, sensors.shape[0] - believed.shape[0]
+    origin = scalars[ORIGIN : ORIGIN + 2]
+    sample_floor(
+        pose, sensors[:lo, AT : AT + 2], index[:lo, OWNER], sensors[:lo, HEIGHT], absorption, origin, scalars[CELL],
+        scalars[OUTSIDE_ABSORPTION], FAN, values[:lo],
+    )  # fmt: skip
+    sense_light(
+        pose, sensors[lo:hi, AT : AT + 2], index[lo:hi, OWNER], sensors[lo:hi, HEIGHT], sensors[lo:hi, DIRECTION],
+        sensors[lo:hi, OPENING], sensors[lo:hi, REACH], lights, values[lo:hi],
+    )  # fmt: skip
+    if believed.shape[0]:
+        read_ir(
+            pose, sensors[hi:, AT : AT + 2], index[hi:, OWNER], sensors[hi:, DIRECTION], sensors[hi:, OPENING], scalars[IR_LENGTH],
+            vertices, ranges, boxes, circles, index[hi:, NOISE_ROW], noise_std, normals, used, index[hi:, CURVE], tables,
+            curve_ends[:, 0], beyond, inverse, curve_ends[:, 1], values[hi:], believed,
+        )  # fmt: skip
 
 
 @numba.njit(cache=True)

@@ -171,8 +171,13 @@ class World:
             self.movables.append(body)
             self._movable_shapes.append(shape)
         self._lights = np.array([(*light.position, light.height, light.radius) for light in spec.lights], dtype=np.float64).reshape(-1, 4)
-        self._floor_origin = np.array(self.floor.origin)
-        self._state = _BatchState.empty()
+        self._scalars = np.array(
+            (*self.floor.origin, self.floor.cell, self.floor.outside_is_hole, self.floor.outside_absorption, IR_RAY_LENGTH, SLIDE_MARGIN, dt),
+            dtype=np.float64,
+        )
+        """The world's scalars for the kernels (`kernels.SCALARS`; writeable: numba types read-only
+        arrays on a slow path)."""
+        self._state = _BatchState([], dt, [])
         self._bodies = BodyArrays(self.space, [])
         self._poses = np.zeros((0, 3))
         self._stale = False
@@ -224,7 +229,7 @@ class World:
         """The kernels' arrays, rebuilt once after robots joined (not once per robot added: a
         thousand robots would cost a million rows)."""
         if self._stale:
-            self._state = _BatchState.build(self.robots, self.dt, self._movable_shapes)
+            self._state = _BatchState(self.robots, self.dt, self._movable_shapes)
             self._bodies = BodyArrays(self.space, [r.body for r in self.robots])
             self._poses = self._bodies.poses()
             self._stale = False
@@ -241,24 +246,33 @@ class World:
         """Every robot's sensor readings from the current state (the start of the next step)."""
         st = self._batch()
         pose = self._poses
-        floor = np.empty(len(st.floor_owner), dtype=np.int64)
-        kernels.sample_floor(
-            pose, st.floor_offsets, st.floor_owner, st.floor_height, self.floor.absorption, self._floor_origin,
-            self.floor.cell, self.floor.outside_absorption, kernels.FAN, floor,
-        )  # fmt: skip
+        values = np.empty(len(st.sensors), dtype=np.int64)
+        ir = st.ir
+        round_ir = self._round_bodies and len(ir.curve)
+        believed = np.empty(len(ir.curve))
+        if round_ir:
+            if len(ir.noise.rows):
+                ir.noise.normals.reserve(1)
+            for k, body in enumerate(self.movables, start=len(pose)):
+                st.circles[k, 0], st.circles[k, 1] = body.position
+        walls, normals = self._walls, ir.noise.normals
+        lights = st.n_floor + st.n_light
+        sensors, index, out = (st.sensors, st.index, values) if round_ir else (st.sensors[:lights], st.index[:lights], values[:lights])
+        kernels.read_sensors(
+            pose, sensors, index, st.n_floor, self.floor.absorption, self._scalars, self._lights, walls.vertices, walls.ranges,
+            walls.boxes, st.circles, ir.noise.std, normals.values, normals.used, ir.tables, ir.curve_ends, ir.beyond, ir.inverse,
+            out, believed if round_ir else believed[:0],
+        )  # fmt: skip  (without the IR rows when pymunk reads them below)
+        floor, light, ir_raw = values[: st.n_floor], values[st.n_floor : lights], values[lights:]
         st.floor_noise.add_rounded(floor, CNY70_MAX)
-        light = np.empty(len(st.light_owner), dtype=np.int64)
-        kernels.sense_light(
-            pose, st.light_offsets, st.light_owner, st.light_height, st.light_direction, st.light_half_opening,
-            st.light_reach, self._lights, light,
-        )  # fmt: skip
         st.light_noise.add_rounded(light, LDR_MAX)
-        ir_raw, ir_distance = self._read_ir(pose)
+        if not round_ir:
+            self._read_ir_with_pymunk(pose, ir_raw, believed)
         # every robot's readings are views into this step's arrays (fresh ones: a caller may keep them)
-        ticks, counts, now = st.ticks.copy(), st.counts.copy(), self.time
+        tallies, now = st.tallies.copy(), self.time
         readings = [
-            Readings(now, tick, count, raw, distance, line, border, lamp, _NO_STEERING, _NO_MOUSE2)
-            for tick, count, (raw, distance, line, border, lamp) in zip(ticks, counts, st.layout.views(ir_raw, ir_distance, floor, light))
+            Readings(now, tally[:2], tally[2:], raw, distance, line, border, lamp, _NO_STEERING, _NO_MOUSE2)
+            for tally, (raw, distance, line, border, lamp) in zip(tallies, st.layout.views(ir_raw, believed, floor, light))
         ]
         if self.chassis.drives:
             self.chassis.fill(readings)
@@ -291,34 +305,24 @@ class World:
         hit = self.space.segment_query_first((origin[0], origin[1]), end, 0.0, robot.query_filter)
         return hit.alpha * length if hit is not None else math.inf
 
-    def _read_ir(self, pose: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Raw values and believed distances of every IR sensor: the true distances (compiled for
-        round robots, pymunk's queries otherwise), then noise and the curves (`kernels.ir_values`)."""
+    def _read_ir_with_pymunk(self, pose: np.ndarray, raw: np.ndarray, believed: np.ndarray) -> None:
+        """Raw values and believed distances of every IR sensor in a world with a robot of polygon
+        outline, whose true distances pymunk's queries give (they see every shape), then noise and
+        the curves (`kernels.ir_values`)."""
         st = self._batch()
         ir = st.ir
-        n = len(ir.owner)
-        raw = np.empty(n, dtype=np.int64)
-        believed = np.empty(n)
+        n = len(ir.curve)
         if n == 0:
-            return raw, believed
+            return
         if len(ir.noise.rows):
             ir.noise.normals.reserve(1)
-        noise, curves = (ir.noise_row, ir.noise.std, ir.noise.normals.values, ir.noise.normals.used), ir.curves
-        if self._round_bodies:
-            for k, body in enumerate(self.movables, start=len(pose)):
-                st.circles[k, 0], st.circles[k, 1] = body.position
-            kernels.read_ir(
-                pose, ir.offsets, ir.owner, ir.direction, ir.cone, IR_RAY_LENGTH, self._walls.vertices, self._walls.ranges,
-                self._walls.boxes, st.circles, *noise, *curves, raw, believed,
-            )  # fmt: skip
-            return raw, believed
-        # a robot with a polygon outline: pymunk's queries see every shape
+        first = st.n_floor + st.n_light
+        mounts, owner = st.sensors[first:], st.index[first:, kernels.OWNER]
         origins, look, distance = np.empty((n, 2)), np.empty(n), np.empty(n)
-        kernels.ir_rays(pose, ir.offsets, ir.owner, ir.direction, origins, look)
+        kernels.ir_rays(pose, mounts[:, kernels.AT : kernels.AT + 2], owner, mounts[:, kernels.DIRECTION], origins, look)
         for k, (robot, sensor) in enumerate(st.ir_sensors):
             distance[k] = self.ray_distance(robot, origins[k], look[k], cone=sensor.cone)
-        kernels.ir_values(distance, *noise, *curves, raw, believed)
-        return raw, believed
+        kernels.ir_values(distance, ir.noise_row, ir.noise.std, ir.noise.normals.values, ir.noise.normals.used, *ir.curves, raw, believed)
 
     # --- motion -----------------------------------------------------------------------------
 
@@ -328,38 +332,34 @@ class World:
         commands = np.asarray(commands, dtype=np.float64)
         if commands.shape != (len(self.robots), 2):
             raise CommandError(f"expected motor commands of shape ({len(self.robots)}, 2), got {commands.shape}")
-        if kernels.first_bad(commands) >= 0:
-            bad = [self.robots[i].name for i in np.unique(np.nonzero(~np.isfinite(commands))[0])]
-            raise CommandError(f"non-finite motor command for {', '.join(bad)} at step {self.steps}")
         st = self._batch()
         before = self._poses
-        st.draw_encoder_noise()
-        kernels.drive(
-            commands, st.wheel_speed, st.command_max, st.max_speed, st.lag, st.max_change, self.dt,
-            st.ticks_per_rad, st.tick_carry, st.tick_offset, st.ticks, st.real_radius, st.slip, st.track,
-            before, st.move, st.alpha,
-        )  # fmt: skip
+        bad = kernels.first_bad(commands) if st.noisy_encoders else -1  # a refused step draws no noise
+        if bad < 0:
+            if st.noisy_encoders:
+                st.draw_encoder_noise()
+            bad = kernels.plan(commands, st.params, st.state, st.tallies, before, self.dt)
+        if bad >= 0:
+            names = [self.robots[i].name for i in np.unique(np.nonzero(~np.isfinite(commands))[0])]
+            raise CommandError(f"non-finite motor command for {', '.join(names)} at step {self.steps}")
         if self.chassis.drives:
             self.chassis.drive(self.time, before, st.move, st.alpha)
         # cut each exact-arc move where the body would first sink deeper than SWEEP_CLEARANCE into
         # a wall or another robot, so that no speed the motors allow tunnels through anything
         # then hold robots at holes, and give pymunk the motion as forces (see `_apply_motion`)
         self._bodies.refresh()
+        walls = self._walls
         if kernels.settle(
-            before, st.move, st.alpha, st.sweep_radius, SLIDE_MARGIN, self._walls.vertices, self._walls.ranges,
-            self._walls.boxes, st.apart_radius, st.contacts, st.anchored, self.floor.hole, self._floor_origin,
-            self.floor.cell, self.floor.outside_is_hole, st.fallen, st.mass, st.moment, self.dt, self._bodies.row_index,
-            self._bodies.motion,
+            before, st.params, st.state, self._scalars, walls.vertices, walls.ranges, walls.boxes, st.contacts, st.anchored,
+            self.floor.hole, st.fallen, self._bodies.row_index, self._bodies.motion,
         ):  # fmt: skip
             for robot in self.robots:
                 robot.fallen = bool(st.fallen[robot.index])
         self._apply_motion()
         after = self._poses = self._bodies.poses()
-        st.draw_mouse_noise()
-        kernels.measure(
-            before, after, st.mount, st.counts_per_metre, st.max_step, st.mouse_noise,
-            st.mouse_carry, st.counts, self.floor.hole, self._floor_origin, self.floor.cell, self.floor.outside_is_hole,
-        )  # fmt: skip
+        if len(st.noisy_mice.rows):
+            st.draw_mouse_noise()
+        kernels.measure_all(before, after, st.params, st.state, st.tallies, self.floor.hole, self._scalars)
         if self.chassis.drives:
             self.chassis.after_step(before, after, self.floor)
         self.steps += 1
@@ -432,133 +432,81 @@ def _padded(rows: list[np.ndarray], dtype: type, tail: tuple[int, ...] = ()) -> 
     return np.array([r[np.arange(width) % len(r)] for r in rows], dtype=dtype).reshape(len(rows), width, *tail)
 
 
-@dataclass
+def _columns(array: np.ndarray, start: int, width: int = 2) -> np.ndarray:
+    """A named view of a packed array's columns: one column (width 1) or `width` of them."""
+    return array[:, start] if width == 1 else array[:, start : start + width]
+
+
 class _BatchState:
-    """Per-robot parameters and state as arrays for the kernels (rebuilt when a robot joins)."""
+    """Per-robot parameters and state as arrays for the kernels (rebuilt when a robot joins):
+    packed into a few 2-D arrays in the column layout of `sim.world.kernels` (one argument each
+    per kernel call), with named views of the columns the Python side uses."""
 
-    mass: np.ndarray
-    moment: np.ndarray
-    command_max: np.ndarray
-    max_speed: np.ndarray
-    lag: np.ndarray
-    max_change: np.ndarray
-    ticks_per_rad: np.ndarray
-    real_radius: np.ndarray
-    track: np.ndarray
-    contacts: np.ndarray
-    anchored: np.ndarray
-    mount: np.ndarray
-    counts_per_metre: np.ndarray
-    max_step: np.ndarray
-    wheel_speed: np.ndarray
-    tick_carry: np.ndarray
-    tick_offset: np.ndarray
-    ticks: np.ndarray
-    slip: np.ndarray
-    mouse_carry: np.ndarray
-    mouse_noise: np.ndarray
-    counts: np.ndarray
-    fallen: np.ndarray
-    move: np.ndarray
-    alpha: np.ndarray
-    sweep_radius: np.ndarray
-    apart_radius: np.ndarray
-    floor_noise: _Noisy
-    floor_offsets: np.ndarray
-    floor_owner: np.ndarray
-    light_noise: _Noisy
-    floor_height: np.ndarray
-    light_offsets: np.ndarray
-    light_owner: np.ndarray
-    light_direction: np.ndarray
-    light_half_opening: np.ndarray
-    light_reach: np.ndarray
-    light_height: np.ndarray
-    ir_sensors: list
-    ir: _IRArrays
-    circles: np.ndarray
-    """Robots then movable obstacles as circles (x, y, radius, robot index or -1) for the IR kernel;
-    positions are filled in at each read."""
-    layout: _Layout
-    noisy_encoders: list
-    noisy_mice: _Noisy
-
-    @classmethod
-    def empty(cls) -> _BatchState:
-        return cls.build([], 0.01, [])
-
-    @classmethod
-    def build(cls, robots: list[Robot], dt: float, movable_shapes: list[pymunk.Circle]) -> _BatchState:
+    def __init__(self, robots: list[Robot], dt: float, movable_shapes: list[pymunk.Circle]):
         n = len(robots)
         specs = [r.spec for r in robots]
         motor = [s.motor for s in specs]
-        lag = [1.0 - math.exp(-dt / m.time_constant) if m.time_constant > 0 else 1.0 for m in motor]
+        self.params = np.zeros((n, kernels.PARAMS))
+        p = self.params
+        p[:, kernels.COMMAND_MAX] = [m.command_max for m in motor]
+        p[:, kernels.MAX_SPEED] = [m.max_wheel_speed for m in motor]
+        p[:, kernels.LAG] = [1.0 - math.exp(-dt / m.time_constant) if m.time_constant > 0 else 1.0 for m in motor]
+        p[:, kernels.MAX_CHANGE] = [m.max_acceleration * dt for m in motor]
+        p[:, kernels.TICKS_PER_RAD] = [s.encoders.ticks_per_rev / (2 * math.pi) for s in specs]
+        _columns(p, kernels.REAL_RADIUS)[:] = np.array([[s.wheel_radius * (1 + e) for e in s.encoders.diameter_error] for s in specs]).reshape(n, 2)
+        p[:, kernels.TRACK] = [s.track_width * (1 + s.encoders.track_error) for s in specs]
+        _columns(p, kernels.MOUNT)[:] = np.array([s.mouse.mount if s.mouse else (0.0, 0.0) for s in specs], dtype=np.float64).reshape(n, 2)
+        p[:, kernels.COUNTS_PER_METRE] = [counts_per_metre(s.mouse.dpi) * (1 + s.mouse.scale_error) if s.mouse else 0.0 for s in specs]
+        p[:, kernels.MAX_STEP] = [s.mouse.max_speed * dt if s.mouse else 0.0 for s in specs]
+        p[:, kernels.SWEEP_RADIUS] = [s.body_radius - SWEEP_CLEARANCE for s in specs]
+        p[:, kernels.APART_RADIUS] = [s.body_radius - SWEEP_CLEARANCE / 2 for s in specs]
+        p[:, kernels.MASS] = [r.body.mass for r in robots]
+        p[:, kernels.MOMENT] = [r.body.moment for r in robots]
+        self.contacts = _padded([_contacts(s)[0] for s in specs], np.float64, (2,))
+        self.anchored = _padded([_contacts(s)[1] for s in specs], np.bool_)
+        self.state = np.zeros((n, kernels.STATE))
+        self.slip = _columns(self.state, kernels.SLIP)
+        self.tick_offset = _columns(self.state, kernels.TICK_OFFSET)
+        self.mouse_noise = _columns(self.state, kernels.MOUSE_NOISE)
+        self.move = _columns(self.state, kernels.MOVE)
+        self.alpha = _columns(self.state, kernels.ALPHA, 1)
+        self.tallies = np.zeros((n, kernels.TALLIES), dtype=np.int64)
+        """Encoder ticks then mouse counts of the last step."""
+        self.fallen = np.array([r.fallen for r in robots], dtype=np.bool_)
+        self.noisy_encoders = [(r.index, r.rngs["encoders"], r.spec.encoders) for r in robots if r.spec.encoders.slip_std or r.spec.encoders.tick_noise]
+        self.noisy_mice = _Noisy.of([(r.index, r.rngs["mouse"], r.spec.mouse.noise_std) for r in robots if r.spec.mouse is not None and r.spec.mouse.noise_std])
+
         floor = [(r, s) for r in robots for s in (*r.spec.line, *r.spec.border)]
         light = [(r, s) for r in robots for s in r.spec.light]
         ir = [(r, s) for r in robots for s in r.spec.ir]
-
-        def offsets(items):
-            return np.array([s.position for _, s in items], dtype=np.float64).reshape(-1, 2)
-
-        def owner(items):
-            return np.array([r.index for r, _ in items], dtype=np.int64)
+        self.ir_sensors = ir
+        self.n_floor, self.n_light = len(floor), len(light)
+        every = floor + light + ir
+        self.sensors = np.zeros((len(every), kernels.SENSOR))
+        self.sensors[:, kernels.AT : kernels.AT + 2] = np.array([s.position for _, s in every], dtype=np.float64).reshape(-1, 2)
+        self.sensors[: len(floor) + len(light), kernels.HEIGHT] = [s.height for _, s in floor + light]
+        self.sensors[len(floor) :, kernels.DIRECTION] = [s.direction for _, s in light + ir]
+        self.sensors[len(floor) :, kernels.OPENING] = [s.opening / 2 for _, s in light] + [s.cone for _, s in ir]
+        self.sensors[len(floor) : len(floor) + len(light), kernels.REACH] = [s.reach for _, s in light]
 
         def noisy(items):
             return _Noisy.of([(k, robot.rngs[s.name], s.noise_std) for k, (robot, s) in enumerate(items) if s.noise_std])
 
-        state = cls(
-            mass=np.array([r.body.mass for r in robots], dtype=np.float64),
-            moment=np.array([r.body.moment for r in robots], dtype=np.float64),
-            command_max=np.array([m.command_max for m in motor], dtype=np.float64),
-            max_speed=np.array([m.max_wheel_speed for m in motor], dtype=np.float64),
-            lag=np.array(lag, dtype=np.float64),
-            max_change=np.array([m.max_acceleration * dt for m in motor], dtype=np.float64),
-            ticks_per_rad=np.array([s.encoders.ticks_per_rev / (2 * math.pi) for s in specs], dtype=np.float64),
-            real_radius=np.array([[s.wheel_radius * (1 + e) for e in s.encoders.diameter_error] for s in specs]).reshape(n, 2),
-            track=np.array([s.track_width * (1 + s.encoders.track_error) for s in specs], dtype=np.float64),
-            contacts=_padded([_contacts(s)[0] for s in specs], np.float64, (2,)),
-            anchored=_padded([_contacts(s)[1] for s in specs], np.bool_),
-            mount=np.array([s.mouse.mount if s.mouse else (0.0, 0.0) for s in specs], dtype=np.float64).reshape(n, 2),
-            counts_per_metre=np.array(
-                [counts_per_metre(s.mouse.dpi) * (1 + s.mouse.scale_error) if s.mouse else 0.0 for s in specs], dtype=np.float64
-            ),
-            max_step=np.array([s.mouse.max_speed * dt if s.mouse else 0.0 for s in specs], dtype=np.float64),
-            wheel_speed=np.zeros((n, 2)),
-            tick_carry=np.zeros((n, 2)),
-            tick_offset=np.zeros((n, 2)),
-            ticks=np.zeros((n, 2), dtype=np.int64),
-            slip=np.zeros((n, 2)),
-            mouse_carry=np.zeros((n, 2)),
-            mouse_noise=np.zeros((n, 2)),
-            counts=np.zeros((n, 2), dtype=np.int64),
-            fallen=np.array([r.fallen for r in robots], dtype=np.bool_),
-            move=np.zeros((n, 2)),
-            alpha=np.zeros(n),
-            sweep_radius=np.array([s.body_radius - SWEEP_CLEARANCE for s in specs], dtype=np.float64),
-            apart_radius=np.array([s.body_radius - SWEEP_CLEARANCE / 2 for s in specs], dtype=np.float64),
-            floor_noise=noisy(floor),
-            floor_offsets=offsets(floor),
-            floor_owner=owner(floor),
-            light_noise=noisy(light),
-            floor_height=np.array([s.height for _, s in floor], dtype=np.float64),
-            light_offsets=offsets(light),
-            light_owner=owner(light),
-            light_direction=np.array([s.direction for _, s in light], dtype=np.float64),
-            light_half_opening=np.array([s.opening / 2 for _, s in light], dtype=np.float64),
-            light_reach=np.array([s.reach for _, s in light], dtype=np.float64),
-            light_height=np.array([s.height for _, s in light], dtype=np.float64),
-            ir_sensors=ir,
-            ir=_IRArrays.build(ir, noisy(ir)),
-            circles=np.array(
-                [(0.0, 0.0, r.shape.radius, r.index) for r in robots if isinstance(r.shape, pymunk.Circle)]
-                + [(0.0, 0.0, shape.radius, -1) for shape in movable_shapes],
-                dtype=np.float64,
-            ).reshape(-1, 4),
-            noisy_encoders=[(r.index, r.rngs["encoders"], r.spec.encoders) for r in robots if r.spec.encoders.slip_std or r.spec.encoders.tick_noise],
-            noisy_mice=_Noisy.of([(r.index, r.rngs["mouse"], r.spec.mouse.noise_std) for r in robots if r.spec.mouse is not None and r.spec.mouse.noise_std]),
-            layout=_Layout.of(specs),
-        )
-        return state
+        self.floor_noise = noisy(floor)
+        self.light_noise = noisy(light)
+        self.ir = _IRArrays.build(ir, noisy(ir))
+        self.index = np.zeros((len(every), kernels.INDEX), dtype=np.int64)
+        self.index[:, kernels.OWNER] = [r.index for r, _ in every]
+        self.index[len(floor) + len(light) :, kernels.NOISE_ROW] = self.ir.noise_row
+        self.index[len(floor) + len(light) :, kernels.CURVE] = self.ir.curve
+        self.circles = np.array(
+            [(0.0, 0.0, r.shape.radius, r.index) for r in robots if isinstance(r.shape, pymunk.Circle)]
+            + [(0.0, 0.0, shape.radius, -1) for shape in movable_shapes],
+            dtype=np.float64,
+        ).reshape(-1, 4)
+        """Robots then movable obstacles as circles (x, y, radius, robot index or -1) for the IR
+        kernel; positions are filled in at each read."""
+        self.layout = _Layout.of(specs)
 
     def draw_encoder_noise(self) -> None:
         """Random slip and spurious ticks for the robots whose encoders have them."""
@@ -570,34 +518,29 @@ class _BatchState:
     def draw_mouse_noise(self) -> None:
         """Count noise for the robots whose mouse has it."""
         mice = self.noisy_mice
-        if len(mice.rows):
-            self.mouse_noise[mice.rows] = 0.0 + mice.std[:, None] * mice.normals.take(2)  # as rng.normal(0.0, std, size=2)
+        self.mouse_noise[mice.rows] = 0.0 + mice.std[:, None] * mice.normals.take(2)  # as rng.normal(0.0, std, size=2)
 
 
 @dataclass(frozen=True)
 class _IRArrays:
-    """The IR sensors of all robots as arrays for the kernels: mounts, owners, cones, their noise,
-    and each distinct (curve, range)'s tables padded into one 2-D array per kind."""
+    """The IR sensors' noise and curves as arrays for the kernels: each distinct (curve, range)'s
+    tables padded into one 2-D array per kind (the mounts are in `_BatchState.sensors`)."""
 
-    offsets: np.ndarray
-    owner: np.ndarray
-    direction: np.ndarray
-    cone: np.ndarray
     noise: _Noisy
     noise_row: np.ndarray
     """Each sensor's row in `noise` (-1: none)."""
     curve: np.ndarray
     """Each sensor's index into the tables below."""
     tables: np.ndarray
-    last: np.ndarray
+    curve_ends: np.ndarray
+    """Per curve: the last centimetre of its table and its lowest raw value."""
     beyond: np.ndarray
     inverse: np.ndarray
-    lowest: np.ndarray
 
     @property
     def curves(self) -> tuple[np.ndarray, ...]:
         """The curve arguments of `kernels.ir_values` (curve .. lowest)."""
-        return self.curve, self.tables, self.last, self.beyond, self.inverse, self.lowest
+        return self.curve, self.tables, self.curve_ends[:, 0], self.beyond, self.inverse, self.curve_ends[:, 1]
 
     @classmethod
     def build(cls, ir: list[tuple[Robot, object]], noise: _Noisy) -> _IRArrays:
@@ -622,18 +565,13 @@ class _IRArrays:
         noise_row = np.full(n, -1, dtype=np.int64)
         noise_row[noise.rows] = np.arange(len(noise.rows))
         return cls(
-            offsets=np.array([s.position for _, s in ir], dtype=np.float64).reshape(-1, 2),
-            owner=np.array([r.index for r, _ in ir], dtype=np.int64),
-            direction=np.array([s.direction for _, s in ir], dtype=np.float64),
-            cone=np.array([s.cone for _, s in ir], dtype=np.float64),
             noise=noise,
             noise_row=noise_row,
             curve=curve,
             tables=tables,
-            last=np.array([len(t) - 1 for t in per_cm], dtype=np.int64),
+            curve_ends=np.array([(len(t) - 1, table.raw_range()[0]) for t, (table, _, _) in zip(per_cm, chosen)], dtype=np.int64).reshape(-1, 2),
             beyond=np.array([table.beyond for table, _, _ in chosen], dtype=np.float32),
             inverse=inverses,
-            lowest=np.array([table.raw_range()[0] for table, _, _ in chosen], dtype=np.int64),
         )
 
 
