@@ -29,7 +29,12 @@ from sim.world.readings import Readings
 GOAL_TOLERANCE = 0x10
 """How far (raw units) a line sensor may read from GROUND_GOAL on the goal floor."""
 LOOK_STEPS = 8
-"""Steps a look averages the IR distances over: 5 mm of noise becomes 1.8 mm."""
+"""Steps a look averages the IR distances over at least (all it needs when the readings are steady)."""
+LOOK_MAX_STEPS = 64
+"""Steps a look averages noisy IR distances over at most: 5 mm of noise becomes 0.6 mm, which
+squares up within 1 degree from the two sensors 72 mm apart."""
+LOOK_ERROR = 0.0006
+"""A look goes on while a sensor's mean has a larger standard error than this (m)."""
 SQUARE_BAND = (0.27, 0.7)
 """IR distances (m) trusted for squaring up on a wall: above the 0.1-0.26 m that a wall closer than
 0.1 m folds back to, below the curve's flat end."""
@@ -129,7 +134,7 @@ class SolveMaze(Plan):
         key = (*room, quarter % 4)
         if key not in self.known:
             yield self._face(quarter)
-            look = Look(LOOK_STEPS)
+            look = Look(LOOK_STEPS, LOOK_MAX_STEPS, LOOK_ERROR)
             yield look
             self._square_up(look.ir_distance, room, quarter)
             self._learn(room, quarter, clear_ahead(look.ir_distance, OPEN_FRACTION * self.cell))
@@ -162,13 +167,14 @@ class SolveMaze(Plan):
         target = np.array([(room[0] + step[0]) * self.cell, (room[1] + step[1]) * self.cell, 0.0])
         local = relative_increment(self.pose, apply_increment(self.frame, target))
         drive = DriveToRoom(local[0], local[1], self.speed)
-        if (yield drive) is Status.SUCCESS:
-            self._learn(room, quarter, True)
+        status = yield drive
+        out = float(np.dot(self.grid_pose[:2] - np.asarray(room) * self.cell, step))
+        if status is Status.SUCCESS or (not drive.abyss and out > self.cell / 2):
+            self._learn(room, quarter, True)  # there, or passed the centre (slip on the last millimetres)
             return True
         if not drive.abyss:
-            return False  # overshot by its own odometry: try the next way from here
+            return False  # stopped short by its own odometry: try the next way from here
         self._learn(room, quarter, False)
-        out = float(np.dot(self.grid_pose[:2] - np.asarray(room) * self.cell, step))
         yield DriveDistance(-out, self.speed)
         return False
 
