@@ -94,6 +94,11 @@ class TickOdometry:
         left, right = arcs
         self.pose = advance(self.pose, 0.5 * (left + right), (right - left) / self.robot.track_width)
 
+    def turn_by(self, angle: float) -> None:
+        """Correct the believed heading by `angle` (rad), the position kept: for a behaviour that
+        knows from another sensor that a tick was spurious."""
+        self.pose = self.pose + np.array([0.0, 0.0, angle])
+
 
 class Behaviour:
     """A controller that may end: `reset`, then `step` until `status` is no longer RUNNING.

@@ -38,12 +38,23 @@ LOOK_ERROR = 0.0006
 SQUARE_BAND = (0.27, 0.7)
 """IR distances (m) trusted for squaring up on a wall: above the 0.1-0.26 m that a wall closer than
 0.1 m folds back to, below the curve's flat end."""
+SKEW_RANGE = 0.7
+"""IR distances (m) below which the two sensors' difference gives the angle to the face: beyond it
+the curve flattens to 6 mm or more per raw unit, and a unit's difference is 5 degrees or more."""
+CALIBRATION_MIN = 8
+"""Square-ups the odometry's calibration waits for before it fits two coefficients."""
+CALIBRATION_SIGNIFICANCE = 3.0
+"""Standard errors a calibration coefficient must lie from zero to be used."""
 MAX_SKEW = math.radians(15)
 """Largest angle to a wall face (rad) a look squares up on; more means the two rays hit two faces."""
 OPEN_FRACTION = 0.9
 """A way is open when both IR sensors see nothing nearer than this many cells: a room's neighbour
 wall reads at most 0.2 m (0.065 m away, folded back), the wall beyond an open neighbour at least
 0.3 m (cell 0.24 m)."""
+
+FOLD_REACH = 0.42
+"""IR distance (m) below which a reading may be a wall touching the sensor: the GP2D12 curves fold
+back below 0.1 m, and at 0-1 cm read 0.41 m (left) and 0.33 m (right)."""
 
 STEPS = ((1, 0), (0, 1), (-1, 0), (0, -1))
 """Grid step of each quarter turn, counter-clockwise from the start heading."""
@@ -105,15 +116,74 @@ class SolveMaze(Plan):
         left, right = self.robot.ir[0].position, self.robot.ir[1].position
         self.ir_ahead = 0.5 * (left[0] + right[0])  # sensors ahead of the axle (m)
         self.ir_baseline = left[1] - right[1]  # left sensor to right sensor (m)
+        mouse = self.robot.mouse
+        self.mouse_turn = None if mouse is None else 0.0254 / mouse.dpi / mouse.mount[0]  # rad per lateral count
+        self.tick_turn = self.odometry.metres_per_tick / self.robot.track_width  # rad per tick of one wheel
+        self.heading: float | None = None  # the odometry's heading after the last step
+        self.position = np.zeros(2)  # and its position
+        self.calibration = np.zeros(2)  # heading error per radian turned and per metre driven
+        self.since = np.zeros(3)  # turned (rad), driven (m), corrected (rad) since the last square-up
+        self.errors: list[tuple[float, float, float]] = []
         super().start()
 
     def act(self, t: float, readings: Readings) -> Command:
+        self._correct_odometry(readings)
         if self.entering is None and any(abs(v - GROUND_GOAL) <= GOAL_TOLERANCE for v in readings.line.tolist()):
             self.entering = self.run(DriveToRoom(self.cell / 4, 0.0, self.speed))
         if self.entering is None:
             return super().act(t, readings)
         command = self.entering.step(t, readings)
         return command if self.entering.status is Status.RUNNING else self.finish(self.entering.status)
+
+    def _correct_odometry(self, readings: Readings) -> None:
+        """Correct this step's turn of the shared odometry, which the children steer by.
+
+        A spurious encoder tick turns the belief by 1.75 degrees at once and would lead the robot
+        off its line for good: where the encoders' turn differs from the mouse's by more than half
+        a tick's, the mouse's is taken (15 mm behind the axle it sees a turn as lateral counts,
+        0.24 degrees each; noise-free the two agree within 0.25 degrees a step).
+
+        A track width or wheel diameter off by a percent turns the belief by a percent of every
+        turn and by 2 degrees a metre: `calibration` holds the belief's error per radian turned and
+        per metre driven, fitted to the heading errors the square-ups find (`_calibrate`)."""
+        heading = float(self.odometry.pose[2])
+        if self.heading is not None:
+            turned = heading - self.heading
+            if self.mouse_turn is not None:
+                mouse = float(readings.mouse_counts[1]) * self.mouse_turn
+                if abs(turned - mouse) > self.tick_turn / 2:
+                    self.odometry.turn_by(mouse - turned)
+                    turned = mouse
+            step = self.odometry.pose[:2] - self.position
+            driven = float(step[0] * math.cos(heading) + step[1] * math.sin(heading))
+            correction = self.calibration[0] * turned + self.calibration[1] * driven
+            if correction:
+                self.odometry.turn_by(correction)
+            self.since += (turned, driven, correction)
+        self.heading = float(self.odometry.pose[2])
+        self.position = self.odometry.pose[:2].copy()
+
+    def _calibrate(self, error: float) -> None:
+        """Learn from the heading error (rad) a square-up found: the error the uncorrected
+        odometry would have had since the last one against what it turned (rad) and drove (m)
+        in between. A coefficient is used once it is three standard errors from zero, so the
+        quantisation of noise-free readings (about 1 degree a square-up, uncorrelated with the
+        motion) teaches it nothing."""
+        turned, driven, corrected = self.since
+        self.since = np.zeros(3)
+        self.errors.append((turned, driven, error + corrected))
+        if len(self.errors) < CALIBRATION_MIN:
+            return
+        data = np.array(self.errors)
+        x, y = data[:, :2], data[:, 2]
+        normal = x.T @ x
+        if abs(np.linalg.det(normal)) < 1e-12:
+            return
+        inverse = np.linalg.inv(normal)
+        fit = inverse @ (x.T @ y)
+        variance = float(np.sum((y - x @ fit) ** 2)) / (len(y) - 2)
+        spread = np.sqrt(np.maximum(variance * np.diag(inverse), 0.0))
+        self.calibration = np.where(np.abs(fit) > CALIBRATION_SIGNIFICANCE * spread, fit, 0.0)
 
     @property
     def grid_pose(self) -> np.ndarray:
@@ -137,8 +207,20 @@ class SolveMaze(Plan):
             look = Look(LOOK_STEPS, LOOK_MAX_STEPS, LOOK_ERROR)
             yield look
             self._square_up(look.ir_distance, room, quarter)
-            self._learn(room, quarter, clear_ahead(look.ir_distance, OPEN_FRACTION * self.cell))
+            self._learn(room, quarter, self._open(look.ir_distance))
         return self.known[key]
+
+    def _open(self, distance: np.ndarray) -> bool:
+        """Whether a look sees a way open: both sensors see nothing nearer than OPEN_FRACTION
+        cells, and where one sees something within FOLD_REACH, both see the same face (their
+        difference within MAX_SKEW): a wall touching the sensors reads as far as 0.41 m on one and
+        0.33 m on the other, a wall one room further on reads the same on both."""
+        if not clear_ahead(distance, OPEN_FRACTION * self.cell):
+            return False
+        left, right = np.nan_to_num(distance[:2], nan=math.inf)
+        if min(left, right) >= FOLD_REACH:
+            return True
+        return abs(left - right) <= self.ir_baseline * math.tan(MAX_SKEW)
 
     def _square_up(self, distance: np.ndarray, room: tuple[int, int], quarter: int) -> None:
         """Correct the grid pose from one wall face seen by both IR sensors facing `quarter`."""
@@ -150,13 +232,19 @@ class SolveMaze(Plan):
         if abs(skew) > MAX_SKEW:
             return
         pose = self.grid_pose
+        near = max(left, right) < SKEW_RANGE
+        if not near:
+            skew = float(wrap_angle(pose[2] - quarter * math.pi / 2))  # keep the heading, correct the distance
         axis = np.array(STEPS[quarter % 4], dtype=float)
         along = float(np.dot(pose[:2] - np.asarray(room) * self.cell, axis))  # from the room centre
         wall = (0.5 * (left + right) + self.ir_ahead) * math.cos(skew)  # robot centre to the face
         face = (round((along + wall) / self.cell - 0.5) + 0.5) * self.cell  # the nearest tile edge
         corrected = pose.copy()
         corrected[:2] += (face - wall - along) * axis
-        corrected[2] += float(wrap_angle(quarter * math.pi / 2 + skew - pose[2]))
+        error = float(wrap_angle(quarter * math.pi / 2 + skew - pose[2]))
+        corrected[2] += error
+        if near:
+            self._calibrate(error)
         self.frame = apply_increment(self.pose, relative_increment(corrected, np.zeros(3)))
 
     def _drive(self, room: tuple[int, int], quarter: int) -> Generator[Behaviour, Status, bool]:
