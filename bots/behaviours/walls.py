@@ -38,13 +38,11 @@ LOOK_ERROR = 0.0006
 SQUARE_BAND = (0.27, 0.7)
 """IR distances (m) trusted for squaring up on a wall: above the 0.1-0.26 m that a wall closer than
 0.1 m folds back to, below the curve's flat end."""
-SKEW_RANGE = 0.7
-"""IR distances (m) below which the two sensors' difference gives the angle to the face: beyond it
-the curve flattens to 6 mm or more per raw unit, and a unit's difference is 5 degrees or more."""
-CALIBRATION_MIN = 8
-"""Square-ups the odometry's calibration waits for before it fits two coefficients."""
-CALIBRATION_SIGNIFICANCE = 3.0
-"""Standard errors a calibration coefficient must lie from zero to be used."""
+MOUSE_LEARN_M = 0.1
+"""Straight distance (m) after which the mouse's scale is taken from its counts against the encoders'."""
+TURN_TOLERANCE = 0.004
+"""Relative difference between the encoders' and the mouse's turns below which the encoders' is kept:
+0.4 % is 0.4 degrees a quarter turn, and noise-free the two agree within 0.01 % over a run."""
 MAX_SKEW = math.radians(15)
 """Largest angle to a wall face (rad) a look squares up on; more means the two rays hit two faces."""
 OPEN_FRACTION = 0.9
@@ -118,12 +116,13 @@ class SolveMaze(Plan):
         self.ir_baseline = left[1] - right[1]  # left sensor to right sensor (m)
         mouse = self.robot.mouse
         self.mouse_turn = None if mouse is None else 0.0254 / mouse.dpi / mouse.mount[0]  # rad per lateral count
+        self.mouse_metre = None if mouse is None else 0.0254 / mouse.dpi  # m per count at the nominal dpi
         self.tick_turn = self.odometry.metres_per_tick / self.robot.track_width  # rad per tick of one wheel
         self.heading: float | None = None  # the odometry's heading after the last step
         self.position = np.zeros(2)  # and its position
-        self.calibration = np.zeros(2)  # heading error per radian turned and per metre driven
-        self.since = np.zeros(3)  # turned (rad), driven (m), corrected (rad) since the last square-up
-        self.errors: list[tuple[float, float, float]] = []
+        self.disagreement = 0.0  # encoders' turn less the mouse's driving straight, since the last correction
+        self.mouse_sums = np.zeros(2)  # driving straight: the mouse's distance at its nominal dpi, the encoders' (m)
+        self.turn_sums = np.zeros(2)  # turning: sums of encoders' x mouse's turn and of encoders' squared (rad^2)
         super().start()
 
     def act(self, t: float, readings: Readings) -> Command:
@@ -138,52 +137,40 @@ class SolveMaze(Plan):
     def _correct_odometry(self, readings: Readings) -> None:
         """Correct this step's turn of the shared odometry, which the children steer by.
 
-        A spurious encoder tick turns the belief by 1.75 degrees at once and would lead the robot
-        off its line for good: where the encoders' turn differs from the mouse's by more than half
-        a tick's, the mouse's is taken (15 mm behind the axle it sees a turn as lateral counts,
-        0.24 degrees each; noise-free the two agree within 0.25 degrees a step).
-
-        A track width or wheel diameter off by a percent turns the belief by a percent of every
-        turn and by 2 degrees a metre: `calibration` holds the belief's error per radian turned and
-        per metre driven, fitted to the heading errors the square-ups find (`_calibrate`)."""
+        The encoders' turn drifts: a spurious tick turns the belief by 1.75 degrees at once, slip
+        and a wheel diameter off by 0.3 % by a few degrees a room, a track width off by 1 % by 1
+        degree a quarter turn; each would lead the robot off its line for good. The mouse, 15 mm
+        behind the axle, sees the body's turn as lateral counts (0.24 degrees each) but reads
+        3.75 % off on the real c't-Bot; its scale is learnt from its distance against the
+        encoders' while driving straight, which a 0.3 % diameter error hardly spoils. So:
+        - in a step where the two turns differ by more than half a tick's, the mouse's is taken;
+        - driving straight, the mouse's turn is taken once the two have disagreed by half a tick's
+          since the last correction (noise-free they agree within a count a step);
+        - turning, the encoders' turn is scaled by the ratio of the mouse's turn to theirs over all
+          turns so far, once that is more than TURN_TOLERANCE off 1.
+        Without a mouse only the square-ups correct the heading."""
         heading = float(self.odometry.pose[2])
-        if self.heading is not None:
+        if self.heading is not None and self.mouse_turn is not None:
             turned = heading - self.heading
-            if self.mouse_turn is not None:
-                mouse = float(readings.mouse_counts[1]) * self.mouse_turn
-                if abs(turned - mouse) > self.tick_turn / 2:
-                    self.odometry.turn_by(mouse - turned)
-                    turned = mouse
             step = self.odometry.pose[:2] - self.position
             driven = float(step[0] * math.cos(heading) + step[1] * math.sin(heading))
-            correction = self.calibration[0] * turned + self.calibration[1] * driven
-            if correction:
-                self.odometry.turn_by(correction)
-            self.since += (turned, driven, correction)
+            scale = self.mouse_sums[0] / self.mouse_sums[1] if self.mouse_sums[1] > MOUSE_LEARN_M else 1.0
+            mouse = float(readings.mouse_counts[1]) * self.mouse_turn / scale
+            if abs(turned - mouse) > self.tick_turn / 2:
+                self.odometry.turn_by(mouse - turned)
+            elif driven and max(abs(turned), abs(mouse)) < self.tick_turn / 4:  # straight: scale errors are nil
+                self.mouse_sums += (float(readings.mouse_counts[0]) * self.mouse_metre * math.copysign(1.0, driven), abs(driven))
+                self.disagreement += turned - mouse
+                if abs(self.disagreement) > self.tick_turn / 2:
+                    self.odometry.turn_by(-self.disagreement)
+                    self.disagreement = 0.0
+            else:  # turning on the spot, or standing still
+                self.turn_sums += (turned * mouse, turned * turned)
+                track = self.turn_sums[0] / self.turn_sums[1]
+                if abs(track - 1.0) > TURN_TOLERANCE:
+                    self.odometry.turn_by((track - 1.0) * turned)
         self.heading = float(self.odometry.pose[2])
         self.position = self.odometry.pose[:2].copy()
-
-    def _calibrate(self, error: float) -> None:
-        """Learn from the heading error (rad) a square-up found: the error the uncorrected
-        odometry would have had since the last one against what it turned (rad) and drove (m)
-        in between. A coefficient is used once it is three standard errors from zero, so the
-        quantisation of noise-free readings (about 1 degree a square-up, uncorrelated with the
-        motion) teaches it nothing."""
-        turned, driven, corrected = self.since
-        self.since = np.zeros(3)
-        self.errors.append((turned, driven, error + corrected))
-        if len(self.errors) < CALIBRATION_MIN:
-            return
-        data = np.array(self.errors)
-        x, y = data[:, :2], data[:, 2]
-        normal = x.T @ x
-        if abs(np.linalg.det(normal)) < 1e-12:
-            return
-        inverse = np.linalg.inv(normal)
-        fit = inverse @ (x.T @ y)
-        variance = float(np.sum((y - x @ fit) ** 2)) / (len(y) - 2)
-        spread = np.sqrt(np.maximum(variance * np.diag(inverse), 0.0))
-        self.calibration = np.where(np.abs(fit) > CALIBRATION_SIGNIFICANCE * spread, fit, 0.0)
 
     @property
     def grid_pose(self) -> np.ndarray:
@@ -232,19 +219,13 @@ class SolveMaze(Plan):
         if abs(skew) > MAX_SKEW:
             return
         pose = self.grid_pose
-        near = max(left, right) < SKEW_RANGE
-        if not near:
-            skew = float(wrap_angle(pose[2] - quarter * math.pi / 2))  # keep the heading, correct the distance
         axis = np.array(STEPS[quarter % 4], dtype=float)
         along = float(np.dot(pose[:2] - np.asarray(room) * self.cell, axis))  # from the room centre
         wall = (0.5 * (left + right) + self.ir_ahead) * math.cos(skew)  # robot centre to the face
         face = (round((along + wall) / self.cell - 0.5) + 0.5) * self.cell  # the nearest tile edge
         corrected = pose.copy()
         corrected[:2] += (face - wall - along) * axis
-        error = float(wrap_angle(quarter * math.pi / 2 + skew - pose[2]))
-        corrected[2] += error
-        if near:
-            self._calibrate(error)
+        corrected[2] += float(wrap_angle(quarter * math.pi / 2 + skew - pose[2]))
         self.frame = apply_increment(self.pose, relative_increment(corrected, np.zeros(3)))
 
     def _drive(self, room: tuple[int, int], quarter: int) -> Generator[Behaviour, Status, bool]:
