@@ -40,6 +40,9 @@ SQUARE_BAND = (0.27, 0.7)
 0.1 m folds back to, below the curve's flat end."""
 MOUSE_LEARN_M = 0.1
 """Straight distance (m) after which the mouse's scale is taken from its counts against the encoders'."""
+TURN_LEARN_RAD = 4 * math.pi
+"""Turning (rad) after which the encoders' turns are scaled to the mouse's: two whole turns, over
+which the mouse's 0.24 degree counts average to 0.1 %."""
 TURN_TOLERANCE = 0.004
 """Relative difference between the encoders' and the mouse's turns below which the encoders' is kept:
 0.4 % is 0.4 degrees a quarter turn, and noise-free the two agree within 0.01 % over a run."""
@@ -122,7 +125,7 @@ class SolveMaze(Plan):
         self.position = np.zeros(2)  # and its position
         self.disagreement = 0.0  # encoders' turn less the mouse's driving straight, since the last correction
         self.mouse_sums = np.zeros(2)  # driving straight: the mouse's distance at its nominal dpi, the encoders' (m)
-        self.turn_sums = np.zeros(2)  # turning: sums of encoders' x mouse's turn and of encoders' squared (rad^2)
+        self.turn_sums = np.zeros(3)  # turning: sums of encoders' x mouse's turn, encoders' squared (rad^2), |encoders'| (rad)
         super().start()
 
     def act(self, t: float, readings: Readings) -> Command:
@@ -165,8 +168,8 @@ class SolveMaze(Plan):
                     self.odometry.turn_by(-self.disagreement)
                     self.disagreement = 0.0
             else:  # turning on the spot, or standing still
-                self.turn_sums += (turned * mouse, turned * turned)
-                track = self.turn_sums[0] / self.turn_sums[1]
+                self.turn_sums += (turned * mouse, turned * turned, abs(turned))
+                track = self.turn_sums[0] / self.turn_sums[1] if self.turn_sums[2] > TURN_LEARN_RAD else 1.0
                 if abs(track - 1.0) > TURN_TOLERANCE:
                     self.odometry.turn_by((track - 1.0) * turned)
         self.heading = float(self.odometry.pose[2])
