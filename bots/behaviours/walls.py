@@ -94,9 +94,11 @@ class SolveMaze(Plan):
     Every look that sees one wall face at a trustworthy distance squares the robot's belief up on it:
     the two sensors' difference gives the angle to the face, their mean the distance, and faces lie
     on the tile grid, so heading and position along that axis are corrected (what keeps wheel slip
-    and a wrong track width from leading it into a wall). Ways seen are remembered, so rooms visited
-    again cost no looks. Succeeds on the goal floor (the line sensors read GROUND_GOAL), after
-    driving a quarter room onto it."""
+    and a wrong track width from leading it into a wall). Looks average noisy readings for longer, a
+    way whose two sensors disagree within reach of the curve's fold-back counts as closed (it may be
+    a wall touching them), and where the encoders' turn drifts the mouse's is taken
+    (`_correct_odometry`). Ways seen are remembered, so rooms visited again cost no looks. Succeeds
+    on the goal floor (the line sensors read GROUND_GOAL), after driving a quarter room onto it."""
 
     def __init__(self, hand: str = "right", cell_m: float = 0.24, speed_m_s: float = SPEED_NORMAL, max_rooms: int = 1000):
         if hand not in ("left", "right"):
@@ -245,7 +247,7 @@ class SolveMaze(Plan):
             self._learn(room, quarter, True)  # there, or passed the centre (slip on the last millimetres)
             return True
         if not drive.abyss:
-            return False  # stopped short by its own odometry: try the next way from here
+            return False  # passed a target less than half a room out by its own odometry: try the next way from here
         self._learn(room, quarter, False)
         yield DriveDistance(-out, self.speed)
         return False
