@@ -94,6 +94,11 @@ class TickOdometry:
         left, right = arcs
         self.pose = advance(self.pose, 0.5 * (left + right), (right - left) / self.robot.track_width)
 
+    def turn_by(self, angle: float) -> None:
+        """Correct the believed heading by `angle` (rad), the position kept: for a behaviour that
+        knows from another sensor that a tick was spurious."""
+        self.pose = self.pose + np.array([0.0, 0.0, angle])
+
 
 class Behaviour:
     """A controller that may end: `reset`, then `step` until `status` is no longer RUNNING.
@@ -198,30 +203,44 @@ class Sequence(Plan):
 
 class Look(Behaviour):
     """Stands still for `steps` steps and succeeds: a plan's way to sense. Keeps the last step's
-    readings and the IR distances averaged over the steps (noise shrinks by the root of `steps`;
-    nan for a sensor that saw nothing in any of them)."""
+    readings and the IR distances averaged over the steps (noise shrinks by the root of the steps;
+    nan for a sensor that saw nothing in any of them). With `max_steps` it keeps looking while the
+    readings scatter so much that a mean's standard error exceeds `error_m`: readings that do not
+    change (no noise) end it after `steps` as before, noisy ones are averaged for longer."""
 
     readings: Readings
     ir_distance: np.ndarray
 
-    def __init__(self, steps: int = 1):
+    def __init__(self, steps: int = 1, max_steps: int | None = None, error_m: float = 0.0):
         if steps < 1:
             raise ValueError(f"need at least one step, got {steps}")
         self.steps = steps
+        self.max_steps = steps if max_steps is None else max(steps, max_steps)
+        self.error = error_m
 
     def start(self) -> None:
         self._sum = np.zeros(len(self.robot.ir))
+        self._squares = np.zeros(len(self.robot.ir))
         self._seen = np.zeros(len(self.robot.ir))
         self._count = 0
 
     def act(self, t: float, readings: Readings) -> Command:
         self.readings = readings
         seen = ~np.isnan(readings.ir_distance)
-        self._sum += np.where(seen, readings.ir_distance, 0.0)
+        value = np.where(seen, readings.ir_distance, 0.0)
+        self._sum += value
+        self._squares += value * value
         self._seen += seen
         self._count += 1
-        if self._count < self.steps:
+        if self._count < self.steps or (self._count < self.max_steps and self._scatter() > self.error):
             return STOP
         with np.errstate(invalid="ignore", divide="ignore"):
             self.ir_distance = np.where(self._seen > 0, self._sum / self._seen, np.nan)
         return self.finish()
+
+    def _scatter(self) -> float:
+        """The largest standard error (m) of a sensor's mean so far (0 for one sample or none)."""
+        n = np.maximum(self._seen, 1)
+        mean = self._sum / n
+        variance = np.maximum(self._squares / n - mean * mean, 0.0) / np.maximum(n - 1, 1)
+        return float(np.sqrt(variance.max(initial=0.0)))

@@ -29,16 +29,33 @@ from sim.world.readings import Readings
 GOAL_TOLERANCE = 0x10
 """How far (raw units) a line sensor may read from GROUND_GOAL on the goal floor."""
 LOOK_STEPS = 8
-"""Steps a look averages the IR distances over: 5 mm of noise becomes 1.8 mm."""
+"""Steps a look averages the IR distances over at least (all it needs when the readings are steady)."""
+LOOK_MAX_STEPS = 64
+"""Steps a look averages noisy IR distances over at most: 5 mm of noise becomes 0.6 mm, which
+squares up within 1 degree from the two sensors 72 mm apart."""
+LOOK_ERROR = 0.0006
+"""A look goes on while a sensor's mean has a larger standard error than this (m)."""
 SQUARE_BAND = (0.27, 0.7)
 """IR distances (m) trusted for squaring up on a wall: above the 0.1-0.26 m that a wall closer than
 0.1 m folds back to, below the curve's flat end."""
+MOUSE_LEARN_M = 0.1
+"""Straight distance (m) after which the mouse's scale is taken from its counts against the encoders'."""
+TURN_LEARN_RAD = 4 * math.pi
+"""Turning (rad) after which the encoders' turns are scaled to the mouse's: two whole turns, over
+which the mouse's 0.24 degree counts average to 0.1 %."""
+TURN_TOLERANCE = 0.004
+"""Relative difference between the encoders' and the mouse's turns below which the encoders' is kept:
+0.4 % is 0.4 degrees a quarter turn, and noise-free the two agree within 0.01 % over a run."""
 MAX_SKEW = math.radians(15)
 """Largest angle to a wall face (rad) a look squares up on; more means the two rays hit two faces."""
 OPEN_FRACTION = 0.9
 """A way is open when both IR sensors see nothing nearer than this many cells: a room's neighbour
 wall reads at most 0.2 m (0.065 m away, folded back), the wall beyond an open neighbour at least
 0.3 m (cell 0.24 m)."""
+
+FOLD_REACH = 0.42
+"""IR distance (m) below which a reading may be a wall touching the sensor: the GP2D12 curves fold
+back below 0.1 m, and at 0-1 cm read 0.41 m (left) and 0.33 m (right)."""
 
 STEPS = ((1, 0), (0, 1), (-1, 0), (0, -1))
 """Grid step of each quarter turn, counter-clockwise from the start heading."""
@@ -77,9 +94,11 @@ class SolveMaze(Plan):
     Every look that sees one wall face at a trustworthy distance squares the robot's belief up on it:
     the two sensors' difference gives the angle to the face, their mean the distance, and faces lie
     on the tile grid, so heading and position along that axis are corrected (what keeps wheel slip
-    and a wrong track width from leading it into a wall). Ways seen are remembered, so rooms visited
-    again cost no looks. Succeeds on the goal floor (the line sensors read GROUND_GOAL), after
-    driving a quarter room onto it."""
+    and a wrong track width from leading it into a wall). Looks average noisy readings for longer, a
+    way whose two sensors disagree within reach of the curve's fold-back counts as closed (it may be
+    a wall touching them), and where the encoders' turn drifts the mouse's is taken
+    (`_correct_odometry`). Ways seen are remembered, so rooms visited again cost no looks. Succeeds
+    on the goal floor (the line sensors read GROUND_GOAL), after driving a quarter room onto it."""
 
     def __init__(self, hand: str = "right", cell_m: float = 0.24, speed_m_s: float = SPEED_NORMAL, max_rooms: int = 1000):
         if hand not in ("left", "right"):
@@ -100,15 +119,63 @@ class SolveMaze(Plan):
         left, right = self.robot.ir[0].position, self.robot.ir[1].position
         self.ir_ahead = 0.5 * (left[0] + right[0])  # sensors ahead of the axle (m)
         self.ir_baseline = left[1] - right[1]  # left sensor to right sensor (m)
+        mouse = self.robot.mouse
+        self.mouse_turn = None if mouse is None else 0.0254 / mouse.dpi / mouse.mount[0]  # rad per lateral count
+        self.mouse_metre = None if mouse is None else 0.0254 / mouse.dpi  # m per count at the nominal dpi
+        self.tick_turn = self.odometry.metres_per_tick / self.robot.track_width  # rad per tick of one wheel
+        self.heading: float | None = None  # the odometry's heading after the last step
+        self.position = np.zeros(2)  # and its position
+        self.disagreement = 0.0  # encoders' turn less the mouse's driving straight, since the last correction
+        self.mouse_sums = np.zeros(2)  # driving straight: the mouse's distance at its nominal dpi, the encoders' (m)
+        self.turn_sums = np.zeros(3)  # turning: sums of encoders' x mouse's turn, encoders' squared (rad^2), |encoders'| (rad)
         super().start()
 
     def act(self, t: float, readings: Readings) -> Command:
+        self._correct_odometry(readings)
         if self.entering is None and any(abs(v - GROUND_GOAL) <= GOAL_TOLERANCE for v in readings.line.tolist()):
             self.entering = self.run(DriveToRoom(self.cell / 4, 0.0, self.speed))
         if self.entering is None:
             return super().act(t, readings)
         command = self.entering.step(t, readings)
         return command if self.entering.status is Status.RUNNING else self.finish(self.entering.status)
+
+    def _correct_odometry(self, readings: Readings) -> None:
+        """Correct this step's turn of the shared odometry, which the children steer by.
+
+        The encoders' turn drifts: a spurious tick turns the belief by 1.75 degrees at once, slip
+        and a wheel diameter off by 0.3 % by a few degrees a room, a track width off by 1 % by 1
+        degree a quarter turn; each would lead the robot off its line for good. The mouse, 15 mm
+        behind the axle, sees the body's turn as lateral counts (0.24 degrees each) but reads
+        3.75 % off on the real c't-Bot; its scale is learnt from its distance against the
+        encoders' while driving straight, which a 0.3 % diameter error hardly spoils. So:
+        - in a step where the two turns differ by more than half a tick's, the mouse's is taken;
+        - driving straight, the mouse's turn is taken once the two have disagreed by half a tick's
+          since the last correction (noise-free they agree within a count a step);
+        - turning, the encoders' turn is scaled by the ratio of the mouse's turn to theirs over all
+          turns so far, once that is more than TURN_TOLERANCE off 1.
+        Without a mouse only the square-ups correct the heading."""
+        heading = float(self.odometry.pose[2])
+        if self.heading is not None and self.mouse_turn is not None:
+            turned = heading - self.heading
+            step = self.odometry.pose[:2] - self.position
+            driven = float(step[0] * math.cos(heading) + step[1] * math.sin(heading))
+            scale = self.mouse_sums[0] / self.mouse_sums[1] if self.mouse_sums[1] > MOUSE_LEARN_M else 1.0
+            mouse = float(readings.mouse_counts[1]) * self.mouse_turn / scale
+            if abs(turned - mouse) > self.tick_turn / 2:
+                self.odometry.turn_by(mouse - turned)
+            elif driven and max(abs(turned), abs(mouse)) < self.tick_turn / 4:  # straight: scale errors are nil
+                self.mouse_sums += (float(readings.mouse_counts[0]) * self.mouse_metre * math.copysign(1.0, driven), abs(driven))
+                self.disagreement += turned - mouse
+                if abs(self.disagreement) > self.tick_turn / 2:
+                    self.odometry.turn_by(-self.disagreement)
+                    self.disagreement = 0.0
+            else:  # turning on the spot, or standing still
+                self.turn_sums += (turned * mouse, turned * turned, abs(turned))
+                track = self.turn_sums[0] / self.turn_sums[1] if self.turn_sums[2] > TURN_LEARN_RAD else 1.0
+                if abs(track - 1.0) > TURN_TOLERANCE:
+                    self.odometry.turn_by((track - 1.0) * turned)
+        self.heading = float(self.odometry.pose[2])
+        self.position = self.odometry.pose[:2].copy()
 
     @property
     def grid_pose(self) -> np.ndarray:
@@ -129,11 +196,23 @@ class SolveMaze(Plan):
         key = (*room, quarter % 4)
         if key not in self.known:
             yield self._face(quarter)
-            look = Look(LOOK_STEPS)
+            look = Look(LOOK_STEPS, LOOK_MAX_STEPS, LOOK_ERROR)
             yield look
             self._square_up(look.ir_distance, room, quarter)
-            self._learn(room, quarter, clear_ahead(look.ir_distance, OPEN_FRACTION * self.cell))
+            self._learn(room, quarter, self._open(look.ir_distance))
         return self.known[key]
+
+    def _open(self, distance: np.ndarray) -> bool:
+        """Whether a look sees a way open: both sensors see nothing nearer than OPEN_FRACTION
+        cells, and where one sees something within FOLD_REACH, both see the same face (their
+        difference within MAX_SKEW): a wall touching the sensors reads as far as 0.41 m on one and
+        0.33 m on the other, a wall one room further on reads the same on both."""
+        if not clear_ahead(distance, OPEN_FRACTION * self.cell):
+            return False
+        left, right = np.nan_to_num(distance[:2], nan=math.inf)
+        if min(left, right) >= FOLD_REACH:
+            return True
+        return abs(left - right) <= self.ir_baseline * math.tan(MAX_SKEW)
 
     def _square_up(self, distance: np.ndarray, room: tuple[int, int], quarter: int) -> None:
         """Correct the grid pose from one wall face seen by both IR sensors facing `quarter`."""
@@ -162,13 +241,14 @@ class SolveMaze(Plan):
         target = np.array([(room[0] + step[0]) * self.cell, (room[1] + step[1]) * self.cell, 0.0])
         local = relative_increment(self.pose, apply_increment(self.frame, target))
         drive = DriveToRoom(local[0], local[1], self.speed)
-        if (yield drive) is Status.SUCCESS:
-            self._learn(room, quarter, True)
+        status = yield drive
+        out = float(np.dot(self.grid_pose[:2] - np.asarray(room) * self.cell, step))
+        if status is Status.SUCCESS or (not drive.abyss and out > self.cell / 2):
+            self._learn(room, quarter, True)  # there, or passed the centre (slip on the last millimetres)
             return True
         if not drive.abyss:
-            return False  # overshot by its own odometry: try the next way from here
+            return False  # passed a target less than half a room out by its own odometry: try the next way from here
         self._learn(room, quarter, False)
-        out = float(np.dot(self.grid_pose[:2] - np.asarray(room) * self.cell, step))
         yield DriveDistance(-out, self.speed)
         return False
 
