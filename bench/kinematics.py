@@ -70,7 +70,7 @@ def _interleaved(ours: Callable[[], float], theirs: Callable[[], float], pairs: 
     a = b = 0.0
     for _ in range(pairs):
         a, b = max(a, ours()), max(b, theirs())
-    return a / b
+    return a / b if b > 0 else float("nan")  # nan: the peer did not run (not installed)
 
 
 def parallel_ratio(robots: int = 10_000, steps: int = 500, pairs: int = 5, poses: bool = False) -> float:
