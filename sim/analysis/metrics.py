@@ -85,8 +85,8 @@ class Metrics:
     ate_rmse: absolute trajectory error, RMS of the position distances over all samples.
     path_length: metres the robot really drove; duration: seconds covered.
     final_error_per_metre: final_position_error / path_length (nan for no motion).
-    rpe_per_metre: RMS relative position error over 1 m stretches of true path, per metre
-        (nan when the path is shorter than 1 m).
+    rpe_per_metre: RMS relative position error over 1 m stretches of true path, one starting
+        every RPE_SPACING of path, per metre (nan when the path is shorter than 1 m).
     heading_drift_per_metre, heading_drift_per_minute: |final heading error| over the path length
         (rad/m) and over the duration (rad/min).
     """
