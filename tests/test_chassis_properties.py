@@ -24,7 +24,11 @@ from sim.kinematics.chassis import (
 )
 from sim.kinematics.diffdrive import twist_from_wheel_speeds, wheel_speeds_from_twist
 
-coord = st.floats(-0.5, 0.5, allow_nan=False)
+coord = st.integers(-500, 500).map(lambda mm: mm / 1000)
+"""Wheel positions on a millimetre grid (m). A twist recovered from wheel speeds carries rounding
+that grows as 1/distance of the wheels its rotation rests on: a wheel drawn 1.2e-7 m from the
+reference point made ω wrong by 1.6e-8 (seen once in 20 suite runs); no chassis is built to 0.1 µm,
+and from 1 mm on the rounding stays below 1e-12."""
 angle = st.floats(-np.pi, np.pi, allow_nan=False)
 
 
