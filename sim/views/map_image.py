@@ -77,21 +77,45 @@ def map_surface(world: WorldSpec, per_metre: float):
     def px(points: np.ndarray) -> list[tuple[float, float]]:
         return [((x - xmin) * per_metre, (ymax - y) * per_metre) for x, y in points]
 
+    def polygon(colour: palette.RGB, corners: list[tuple[float, float]], edge: int = 0) -> None:
+        corners = _clipped(corners, width, height)
+        if len(corners) >= 3:
+            pygame.draw.polygon(surface, colour, corners, edge)
+
     for shape in map_shapes(world):
         if shape.kind == "polygon":
-            pygame.draw.polygon(surface, shape.fill, px(shape.points))
+            polygon(shape.fill, px(shape.points))
             if shape.edge is not None:
-                pygame.draw.polygon(surface, shape.edge, px(shape.points), 1)
+                polygon(shape.edge, px(shape.points), 1)
         elif shape.kind == "circle":
-            centre, radius = px(shape.points)[0], max(1.0, shape.radius * per_metre)
-            pygame.draw.circle(surface, shape.fill, centre, radius)
-            if shape.edge is not None:
-                pygame.draw.circle(surface, shape.edge, centre, radius, 1)
+            (x, y), radius = px(shape.points)[0], max(1.0, shape.radius * per_metre)
+            if -radius < x < width + radius and -radius < y < height + radius:
+                pygame.draw.circle(surface, shape.fill, (x, y), min(radius, width + height))
+                if shape.edge is not None:
+                    pygame.draw.circle(surface, shape.edge, (x, y), min(radius, width + height), 1)
         else:
             star = _star(*px(shape.points)[0], STAR_RADIUS_PX)
-            pygame.draw.polygon(surface, shape.fill, star)
-            pygame.draw.polygon(surface, shape.edge, star, 1)
+            polygon(shape.fill, star)
+            polygon(shape.edge, star, 1)
     return surface
+
+
+def _clipped(corners: list[tuple[float, float]], width: int, height: int) -> list[tuple[float, float]]:
+    """A polygon (pixels) cut to the image and a pixel around it (Sutherland-Hodgman): pygame walks
+    a polygon's whole extent, which for a wall a million kilometres off (a typo in a world file)
+    takes hours; the cut edges lie outside the image."""
+    for axis, limit, below in ((0, -1.0, False), (0, width + 1.0, True), (1, -1.0, False), (1, height + 1.0, True)):
+        inside = [(p[axis] <= limit) == below for p in corners]
+        kept = []
+        for k, point in enumerate(corners):
+            previous = corners[k - 1]
+            if inside[k] != inside[k - 1]:  # the edge from the previous corner crosses the limit
+                t = (limit - previous[axis]) / (point[axis] - previous[axis])
+                kept.append((previous[0] + t * (point[0] - previous[0]), previous[1] + t * (point[1] - previous[1])))
+            if inside[k]:
+                kept.append(point)
+        corners = kept
+    return corners
 
 
 def _star(x: float, y: float, radius: float) -> list[tuple[float, float]]:
