@@ -251,3 +251,31 @@ def test_viewer_that_goes_away_costs_the_live_view_only(tmp_path, capsys):
     assert err.count("\n") == 1 and err.startswith("ctsim: live view off: the rerun viewer stopped taking data")
     assert recorder.live_lost and recorder.streams == []
     assert len(_columns(path)["/world/ctbot/body"]["sim_time"]) == len(result.time)
+
+
+def test_a_recording_leaves_pandas_unloaded_and_usable(tmp_path):
+    """pyarrow would import pandas (40 MB) on rerun's first string conversion; a recording keeps it
+    out, and pandas loaded afterwards still converts through pyarrow (a Categorical column comes
+    back from Parquet as a Categorical). Its own process: this one has pandas loaded already."""
+    import subprocess
+    import sys
+
+    script = f"""
+import sys
+from bots.commands import WheelSpeeds
+from bots.controller import FunctionController
+from bots.ctbot import CTBOT
+from sim.run import RobotSetup, run
+from sim.views.recording import Recorder
+from sim.world.files import load_world
+run(load_world("maze"), [RobotSetup(CTBOT, FunctionController(lambda t, r: WheelSpeeds(0.1, 0.1)))], 0.5,
+    observers=[Recorder({str(tmp_path / "run.rrd")!r})])
+assert "pandas" not in sys.modules, "pandas loaded by the recording"
+import pandas as pd
+frame = pd.DataFrame({{"kind": pd.Categorical(["a", "b"]), "x": [1.0, 2.0]}})
+frame.to_parquet({str(tmp_path / "t.parquet")!r})
+back = pd.read_parquet({str(tmp_path / "t.parquet")!r})
+assert isinstance(back["kind"].dtype, pd.CategoricalDtype) and back["x"].tolist() == [1.0, 2.0], back.dtypes
+"""
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr

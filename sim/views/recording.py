@@ -87,7 +87,34 @@ def _rerun():
     os.environ.setdefault("RUST_LOG", "warn,re_grpc_client=off,re_sdk=off")
     import rerun
 
+    _arrow_without_pandas()
     return rerun
+
+
+class _NoPandas:
+    """Import finder under which pandas cannot be found."""
+
+    def find_spec(self, name: str, path: Any = None, target: Any = None) -> None:
+        if name == "pandas":
+            raise ModuleNotFoundError("not while pyarrow looks", name=name)
+
+
+def _arrow_without_pandas() -> None:
+    """pyarrow imports pandas (about 40 MB resident) on its first conversion of a Python list,
+    only to ask whether the list is a pandas object, and rerun converts its strings so. A
+    recording holds no pandas objects: where pandas is not loaded yet, pyarrow's first look is
+    made while pandas cannot be found, and pyarrow remembers it as absent. Whatever needs pandas
+    itself later (`to_pandas`, `to_parquet`) still imports it, and pyarrow then uses it again."""
+    if "pandas" in sys.modules:
+        return
+    import pyarrow
+
+    finder = _NoPandas()
+    sys.meta_path.insert(0, finder)
+    try:
+        pyarrow.array(["ctsim"])
+    finally:
+        sys.meta_path.remove(finder)
 
 
 def _rgb(rgb: palette.RGB) -> tuple[int, int, int]:
