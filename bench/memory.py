@@ -4,8 +4,9 @@ Each run is its own process (`/usr/bin/time`-style: `resource.getrusage(RUSAGE_C
 default c't-Bot solving the maze and carrying on to the time limit, recording on, no figures. The
 short run is the reference measured beside the long one: the difference is what the run's length
 costs (the run's logs live in a temporary file and leave memory as they are written, so what is left
-is the recording's own bookkeeping, about 400 bytes per chunk sent), the ratio of wall times shows
-linear growth.
+is the recording's own bookkeeping, about 400 bytes per chunk sent). A third run of half the long
+one's length shows whether wall time grows linearly: the second half's cost per simulated second
+against the first half's.
 """
 
 from __future__ import annotations
@@ -40,7 +41,16 @@ def figures(scale: float):
         return results[key]
 
     long = 7200.0 if scale >= 1 else 720.0
+    half = long / 2
+
+    def linearity() -> float:
+        """Wall seconds per simulated second in the second half of the long run over those from the
+        short run to the half-length one: 1 is linear (the start-up cost drops out of both)."""
+        (_, short), (_, middle), (_, whole) = measure("short", 60.0), measure("half", half), measure("long", long)
+        return ((whole - middle) / (long - half)) / ((middle - short) / (half - 60.0))
+
     yield "short_run_60s_peak_rss_mb", "MB", lambda: measure("short", 60.0)[0]
     yield "long_run_peak_rss_mb", "MB", lambda: measure("long", long)[0]
     yield "long_run_rss_growth_mb_per_hour", "MB/h", lambda: (measure("long", long)[0] - measure("short", 60.0)[0]) / ((long - 60.0) / 3600)
     yield "long_run_wall_time_ratio", f"x (simulated ratio {long / 60:g})", lambda: measure("long", long)[1] / measure("short", 60.0)[1]
+    yield "long_run_wall_time_linearity", "(wall time per simulated second, second half of the long run / first half; 1 = linear)", linearity
