@@ -14,6 +14,7 @@ from strategies import (
     TRACK,
     alpha,
     analytic_pose,
+    angle,
     arc_length,
     finite,
     pose,
@@ -23,6 +24,8 @@ from strategies import (
 )
 
 from sim.kinematics import (
+    advance,
+    advance_floats,
     apply_increment,
     arc_increment,
     compose,
@@ -36,6 +39,7 @@ from sim.kinematics import (
     twist_from_wheel_speeds,
     wheel_arcs_to_arc,
     wheel_increment,
+    wrap_angle,
 )
 
 START = np.array([0.3, -0.2, 0.7])
@@ -323,3 +327,12 @@ def test_relative_pose_is_relative_increment_of_one_pair(start, end) -> None:
     """The scalar form gives the numpy form's numbers (the same operations; the tolerance allows
     a libm whose sine rounds differently from numpy's in the last bit, times coordinates of metres)."""
     np.testing.assert_allclose(relative_pose(start, end), relative_increment(np.array(start), np.array(end)), rtol=0, atol=1e-12)
+
+
+@given(pose, arc_length, alpha, st.booleans(), st.one_of(angle, finite))
+def test_float_forms_give_the_numpy_forms_numbers_to_the_bit(start, s, a, end_heading, turn) -> None:
+    """Behaviours keep poses as tuples of floats: `advance_floats` gives `advance`'s numbers and
+    `wrap_angle` of a float the array form's, exactly (the same operations on the same doubles),
+    so a behaviour drives as it did with arrays."""
+    assert advance_floats(tuple(start.tolist()), s, a, end_heading) == tuple(advance(start, s, a, end_heading).tolist())
+    assert wrap_angle(turn) == float(wrap_angle(np.array(turn)))

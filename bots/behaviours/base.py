@@ -2,7 +2,9 @@
 
 A behaviour knows where it is only from its readings: the root of a behaviour tree keeps a
 `TickOdometry` fed with every step's encoder ticks; the behaviours it runs share that estimator and
-see poses in their own frame, the pose at the moment they were started being (0, 0, 0).
+see poses in their own frame, the pose at the moment they were started being (0, 0, 0). Poses are
+tuples of plain floats: a behaviour does a few sums on one pose a step, where numpy's per-call cost
+would be most of the work.
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ import numpy as np
 from bots.commands import STOP, Command, wheel_speeds_for
 from bots.controller import Status
 from bots.spec import RobotSpec
-from sim.kinematics import advance, arcs_from_ticks, relative_pose
+from sim.kinematics import Pose, advance_floats, arcs_from_ticks, relative_pose
 from sim.world.readings import Readings
 
 # The firmware's speeds (BOT_SPEED_* in mm/s) as rim speeds in m/s.
@@ -63,7 +65,7 @@ class TickOdometry:
         self.metres_per_tick = float(arcs_from_ticks(1, robot.wheel_radius, robot.encoders.ticks_per_rev))
         self._counted = [0.0, 0.0]
         self._turned = [0.0, 0.0]
-        self.pose = np.zeros(3)
+        self.pose: Pose = (0.0, 0.0, 0.0)
         self.time: float | None = None
         self.dt = DEFAULT_DT
 
@@ -92,12 +94,13 @@ class TickOdometry:
             arcs.append((turned - self._turned[w]) * self.metres_per_tick)
             self._turned[w] = turned
         left, right = arcs
-        self.pose = advance(self.pose, 0.5 * (left + right), (right - left) / self.robot.track_width)
+        self.pose = advance_floats(self.pose, 0.5 * (left + right), (right - left) / self.robot.track_width)
 
     def turn_by(self, angle: float) -> None:
         """Correct the believed heading by `angle` (rad), the position kept: for a behaviour that
         knows from another sensor that a tick was spurious."""
-        self.pose = self.pose + np.array([0.0, 0.0, angle])
+        x, y, heading = self.pose
+        self.pose = (x, y, heading + angle)
 
 
 class Behaviour:
@@ -114,7 +117,7 @@ class Behaviour:
         self.robot = robot
         self._owns_odometry = odometry is None
         self.odometry = TickOdometry(robot) if odometry is None else odometry
-        self.origin = self.odometry.pose.copy()
+        self.origin = self.odometry.pose
         self.status = Status.RUNNING
         self._command: Command = STOP
         self.start()
@@ -140,7 +143,7 @@ class Behaviour:
         return self._command
 
     @property
-    def pose(self) -> np.ndarray:
+    def pose(self) -> Pose:
         """Believed pose (x m, y m, heading rad) in this behaviour's frame."""
         return relative_pose(self.origin, self.odometry.pose)
 

@@ -88,7 +88,7 @@ class FollowLine(Behaviour):
 
     def _count_laps(self) -> None:
         pose = self.pose
-        self.travel += math.hypot(*(pose[:2] - self.last_pose[:2]))
+        self.travel += math.hypot(pose[0] - self.last_pose[0], pose[1] - self.last_pose[1])
         self.last_pose = pose
         near = math.hypot(pose[0], pose[1]) < LAP_RADIUS_M
         if self.travel > LAP_MIN_M * (self.laps_done + 1) and near and self.away:

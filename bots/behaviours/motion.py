@@ -59,8 +59,8 @@ class DriveDistance(Behaviour):
         remaining = (self.distance - x) * direction
         if remaining <= DISTANCE_TOLERANCE:
             return self.finish()
-        wanted = -direction * float(np.clip(LATERAL_GAIN * y, -MAX_CORRECTION, MAX_CORRECTION))
-        return Twist(direction * ramp(remaining, self.speed, self.dt), HEADING_GAIN * float(wrap_angle(wanted - heading)))
+        wanted = -direction * min(max(LATERAL_GAIN * y, -MAX_CORRECTION), MAX_CORRECTION)
+        return Twist(direction * ramp(remaining, self.speed, self.dt), HEADING_GAIN * wrap_angle(wanted - heading))
 
 
 @register("turn")
@@ -88,7 +88,7 @@ class DriveTo(Behaviour):
     current heading, re-planned every step, braking on the arc length left."""
 
     def __init__(self, x_m: float, y_m: float, speed_m_s: float = SPEED_NORMAL):
-        self.target = np.array([x_m, y_m, 0.0])
+        self.target = (float(x_m), float(y_m), 0.0)
         self.speed = speed_m_s
 
     def act(self, t: float, readings: Readings) -> Command:

@@ -19,6 +19,7 @@ from bots.behaviours.motion import DriveDistance, DriveTo, Turn
 from bots.commands import Command, Twist
 from bots.controller import Status, register
 from sim.kinematics import (
+    Pose,
     apply_increment,
     relative_increment,
     relative_pose,
@@ -65,7 +66,7 @@ def clear_ahead(distance: np.ndarray, beyond_m: float) -> bool:
     """Whether every IR distance is beyond `beyond_m` (nan: nothing within range).
     A wall closer than the sensors' 0.1 m reads as a false 0.1-0.26 m on the curve's fold-back, so
     anything below about 0.27 m may be a wall right in front."""
-    return bool(np.all(np.isnan(distance) | (distance > beyond_m)))
+    return all(d > beyond_m or math.isnan(d) for d in distance.tolist())
 
 
 class DriveToRoom(DriveTo):
@@ -115,7 +116,7 @@ class SolveMaze(Plan):
         self.need("line", 1)
         self.entering: Behaviour | None = None
         self.known: dict[tuple[int, int, int], bool] = {}  # (room x, room y, quarter) -> open
-        self.frame = self.pose.copy()  # the grid's origin in this behaviour's odometry frame
+        self.frame = self.pose  # the grid's origin in this behaviour's odometry frame
         left, right = self.robot.ir[0].position, self.robot.ir[1].position
         self.ir_ahead = 0.5 * (left[0] + right[0])  # sensors ahead of the axle (m)
         self.ir_baseline = left[1] - right[1]  # left sensor to right sensor (m)
@@ -123,11 +124,13 @@ class SolveMaze(Plan):
         self.mouse_turn = None if mouse is None else 0.0254 / mouse.dpi / mouse.mount[0]  # rad per lateral count
         self.mouse_metre = None if mouse is None else 0.0254 / mouse.dpi  # m per count at the nominal dpi
         self.tick_turn = self.odometry.metres_per_tick / self.robot.track_width  # rad per tick of one wheel
-        self.heading: float | None = None  # the odometry's heading after the last step
-        self.position = np.zeros(2)  # and its position
+        self.last_pose: Pose | None = None  # the odometry's pose after the last step
         self.disagreement = 0.0  # encoders' turn less the mouse's driving straight, since the last correction
-        self.mouse_sums = np.zeros(2)  # driving straight: the mouse's distance at its nominal dpi, the encoders' (m)
-        self.turn_sums = np.zeros(3)  # turning: sums of encoders' x mouse's turn, encoders' squared (rad^2), |encoders'| (rad)
+        self.mouse_straight = 0.0  # driving straight: the mouse's distance at its nominal dpi (m)
+        self.encoders_straight = 0.0  # and the encoders' (m)
+        self.turn_products = 0.0  # turning: sum of encoders' x mouse's turn (rad^2)
+        self.turn_squares = 0.0  # sum of encoders' turn squared (rad^2)
+        self.turned_total = 0.0  # sum of |encoders' turn| (rad)
         super().start()
 
     def act(self, t: float, readings: Readings) -> Command:
@@ -154,31 +157,34 @@ class SolveMaze(Plan):
         - turning, the encoders' turn is scaled by the ratio of the mouse's turn to theirs over all
           turns so far, once that is more than TURN_TOLERANCE off 1.
         Without a mouse only the square-ups correct the heading."""
-        heading = float(self.odometry.pose[2])
-        if self.heading is not None and self.mouse_turn is not None:
-            turned = heading - self.heading
-            step = self.odometry.pose[:2] - self.position
-            driven = float(step[0] * math.cos(heading) + step[1] * math.sin(heading))
-            scale = self.mouse_sums[0] / self.mouse_sums[1] if self.mouse_sums[1] > MOUSE_LEARN_M else 1.0
-            mouse = float(readings.mouse_counts[1]) * self.mouse_turn / scale
+        x, y, heading = self.odometry.pose
+        if self.last_pose is not None and self.mouse_turn is not None:
+            last_x, last_y, last_heading = self.last_pose
+            turned = heading - last_heading
+            driven = (x - last_x) * math.cos(heading) + (y - last_y) * math.sin(heading)
+            scale = self.mouse_straight / self.encoders_straight if self.encoders_straight > MOUSE_LEARN_M else 1.0
+            forward, lateral = readings.mouse_counts.tolist()
+            mouse = lateral * self.mouse_turn / scale
             if abs(turned - mouse) > self.tick_turn / 2:
                 self.odometry.turn_by(mouse - turned)
             elif driven and max(abs(turned), abs(mouse)) < self.tick_turn / 4:  # straight: scale errors are nil
-                self.mouse_sums += (float(readings.mouse_counts[0]) * self.mouse_metre * math.copysign(1.0, driven), abs(driven))
+                self.mouse_straight += forward * self.mouse_metre * math.copysign(1.0, driven)
+                self.encoders_straight += abs(driven)
                 self.disagreement += turned - mouse
                 if abs(self.disagreement) > self.tick_turn / 2:
                     self.odometry.turn_by(-self.disagreement)
                     self.disagreement = 0.0
             else:  # turning on the spot, or standing still
-                self.turn_sums += (turned * mouse, turned * turned, abs(turned))
-                track = self.turn_sums[0] / self.turn_sums[1] if self.turn_sums[2] > TURN_LEARN_RAD else 1.0
+                self.turn_products += turned * mouse
+                self.turn_squares += turned * turned
+                self.turned_total += abs(turned)
+                track = self.turn_products / self.turn_squares if self.turned_total > TURN_LEARN_RAD else 1.0
                 if abs(track - 1.0) > TURN_TOLERANCE:
                     self.odometry.turn_by((track - 1.0) * turned)
-        self.heading = float(self.odometry.pose[2])
-        self.position = self.odometry.pose[:2].copy()
+        self.last_pose = self.odometry.pose
 
     @property
-    def grid_pose(self) -> np.ndarray:
+    def grid_pose(self) -> Pose:
         """Believed pose on the grid: room (i, j) has its centre at (i, j) * cell."""
         return relative_pose(self.frame, self.pose)
 
@@ -228,7 +234,7 @@ class SolveMaze(Plan):
         along = float(np.dot(pose[:2] - np.asarray(room) * self.cell, axis))  # from the room centre
         wall = (0.5 * (left + right) + self.ir_ahead) * math.cos(skew)  # robot centre to the face
         face = (round((along + wall) / self.cell - 0.5) + 0.5) * self.cell  # the nearest tile edge
-        corrected = pose.copy()
+        corrected = np.array(pose)
         corrected[:2] += (face - wall - along) * axis
         corrected[2] += float(wrap_angle(quarter * math.pi / 2 + skew - pose[2]))
         self.frame = apply_increment(self.pose, relative_increment(corrected, np.zeros(3)))

@@ -6,7 +6,9 @@ It imports numpy (and numba for the compiled batch kernels) and nothing else of 
 """
 
 from sim.kinematics.arc import (
+    Pose,
     advance,
+    advance_floats,
     apply_increment,
     arc_increment,
     arc_to_wheel_arcs,
@@ -47,7 +49,9 @@ from sim.kinematics.mouse import (
 from sim.kinematics.quantize import quantize, quantize_series
 
 __all__ = [
+    "Pose",
     "advance",
+    "advance_floats",
     "MouseEstimator",
     "UnobservableRotation",
     "apply_increment",

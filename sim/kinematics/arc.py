@@ -8,14 +8,19 @@ frame with theta kept continuous. Every function broadcasts over leading batch a
 axis of a pose or increment has length 3.
 
 The half-angle terms use a series below |alpha/2| = 0.25 rad (exact to rounding, continuous at 0,
-and three times cheaper than sin/cos) and numpy's sin/cos above it.
+and three times cheaper than sin/cos) and numpy's sin/cos above it. `advance`, `advance_floats`
+and `relative_pose` are scalar forms for code that steps one robot at a time, in plain floats.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
+
+Pose = tuple[float, float, float]
+"""One robot's pose (x m, y m, theta rad) as plain floats."""
 
 _SERIES_LIMIT = 0.25
 # Taylor coefficients in h^2 of sin(h)/h (to h^10) and cos(h) (to h^12): both truncation errors are
@@ -24,9 +29,12 @@ _SINC = (1.0, -1 / 6, 1 / 120, -1 / 5040, 1 / 362880, -1 / 39916800)
 _COS = (1.0, -1 / 2, 1 / 24, -1 / 720, 1 / 40320, -1 / 3628800, 1 / 479001600)
 
 
-def wrap_angle(angle: np.ndarray | float) -> np.ndarray:
+def wrap_angle(angle: np.ndarray | float) -> np.ndarray | float:
     """Angle(s) folded into (−π, π], for comparing headings (state keeps them continuous; thesis
-    erratum 17: atan2 − α leaves that interval)."""
+    erratum 17: atan2 − α leaves that interval). A Python float gives a float: the same sums (float
+    % is numpy's mod), without numpy's per-call cost in code that steps one robot at a time."""
+    if type(angle) is float:
+        return math.pi - (math.pi - angle) % math.tau
     angle = np.asarray(angle, dtype=np.float64)
     return np.pi - np.mod(np.pi - angle, 2 * np.pi)
 
@@ -175,24 +183,32 @@ def advance(pose: np.ndarray, s: float, alpha: float, end_heading: bool = False)
     `apply_increment(pose, arc_increment(s, alpha))` (resp. `firmware_increment`) for code that
     steps one robot at a time (odometry on the robot), where numpy's per-call overhead (40 us)
     would dominate; the tests hold the two forms together."""
-    x, y, theta = _floats(pose)
+    return np.array(advance_floats(_floats(pose), s, alpha, end_heading))
+
+
+def advance_floats(pose: Sequence[float], s: float, alpha: float, end_heading: bool = False) -> Pose:
+    """`advance` in plain floats, pose in and pose out, for code that keeps its pose as a tuple."""
+    x, y, theta = pose
     h = 0.5 * alpha
     sinc = math.sin(h) / h if abs(h) > 1e-4 else 1.0 - h * h / 6.0  # series error < h^4/120 < 1e-18
     direction = theta + (alpha if end_heading else h)
     chord = s * sinc
-    return np.array((x + chord * math.cos(direction), y + chord * math.sin(direction), theta + alpha))
+    return (x + chord * math.cos(direction), y + chord * math.sin(direction), theta + alpha)
 
 
-def relative_pose(start: np.ndarray, end: np.ndarray) -> np.ndarray:
+def relative_pose(start: np.ndarray | Pose, end: np.ndarray | Pose) -> Pose:
     """The scalar form of `relative_increment` for one pair of poses (x, y, theta), for code that
-    steps one robot at a time (behaviours), as `advance` is of `apply_increment`."""
+    steps one robot at a time (behaviours), as `advance` is of `apply_increment`: plain floats out."""
     x0, y0, theta0 = _floats(start)
     x1, y1, theta1 = _floats(end)
     c, s = math.cos(theta0), math.sin(theta0)
     dx, dy = x1 - x0, y1 - y0
-    return np.array((c * dx + s * dy, -s * dx + c * dy, theta1 - theta0))
+    return (c * dx + s * dy, -s * dx + c * dy, theta1 - theta0)
 
 
-def _floats(pose) -> list[float]:
-    """A pose as plain floats (arithmetic on numpy scalars costs several times more)."""
+def _floats(pose) -> Sequence[float]:
+    """A pose as plain floats (arithmetic on numpy scalars costs several times more); a tuple is
+    taken as it is."""
+    if type(pose) is tuple:
+        return pose
     return pose.tolist() if isinstance(pose, np.ndarray) else [float(v) for v in pose]
