@@ -10,8 +10,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numpy as np
-
 from bots.spec import RobotSpec
 from sim.kinematics import wheel_speeds_from_twist
 from sim.kinematics.chassis_presets import differential_drive
@@ -88,7 +86,8 @@ def wheel_speeds_for(command: Command, robot: RobotSpec) -> tuple[float, float]:
     return left / scale, right / scale
 
 
-def motor_commands(left: float, right: float, robot: RobotSpec) -> np.ndarray:
-    """Signed motor commands (the motors' units, e.g. +-255) for rim speeds (m/s)."""
+def motor_commands(left: float, right: float, robot: RobotSpec) -> tuple[float, float]:
+    """Signed motor commands (the motors' units, e.g. +-255) for rim speeds (m/s): plain floats,
+    which the run loop writes into its command array without a new array a step."""
     per_speed = robot.motor.command_max / robot.max_wheel_surface_speed
-    return np.array([left * per_speed, right * per_speed])
+    return left * per_speed, right * per_speed

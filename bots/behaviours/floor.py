@@ -123,8 +123,8 @@ class AvoidHoles(Behaviour):
         self.escape: Behaviour | None = None
 
     def act(self, t: float, readings: Readings) -> Command:
-        danger = readings.border > self.threshold
-        if self.escape is None and danger.any():
+        danger = [value > self.threshold for value in readings.border.tolist()]
+        if self.escape is None and any(danger):
             away = -1.0 if danger[0] and not danger[-1] else 1.0  # left sensor: turn right
             self.escape = self.run(Sequence(DriveDistance(-self.back, self.speed), Turn(away * self.turn, self.speed)))
         if self.escape is not None:

@@ -136,7 +136,7 @@ class CtsimEnv(gymnasium.Env):
         if episode is None:
             raise RuntimeError("call reset() before step()")
         left, right = self._wheel_speeds(np.asarray(action, dtype=np.float64))
-        commands = motor_commands(left, right, self.robot_spec)[None, :]
+        commands = np.array([motor_commands(left, right, self.robot_spec)])
         world, robot = episode.world, episode.world.robots[0]
         before = robot.pose
         episode.ticks = np.zeros(2)
