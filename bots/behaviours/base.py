@@ -86,15 +86,19 @@ class TickOdometry:
         if stepped:
             self.dt = readings.time - self.time
         self.time = readings.time
-        arcs = []
-        for w, ticks in enumerate(readings.encoder_ticks.tolist()):
-            guess = self._turned[w] + float(speeds[w]) * self.dt / self.metres_per_tick if stepped else self._turned[w]
-            counted = self._counted[w] = self._counted[w] + ticks
-            turned = min(max(guess, counted), counted + 1.0)
-            arcs.append((turned - self._turned[w]) * self.metres_per_tick)
-            self._turned[w] = turned
-        left, right = arcs
+        left_ticks, right_ticks = readings.encoder_ticks.tolist()
+        left = self._wheel_arc(0, left_ticks, speeds[0], stepped)
+        right = self._wheel_arc(1, right_ticks, speeds[1], stepped)
         self.pose = advance_floats(self.pose, 0.5 * (left + right), (right - left) / self.robot.track_width)
+
+    def _wheel_arc(self, wheel: int, ticks: int, speed: float, stepped: bool) -> float:
+        """Arc (m) wheel `wheel` is believed to have rolled this step: its turn by the commanded
+        `speed`, clamped into the tick interval its count now allows."""
+        before = self._turned[wheel]
+        guess = before + float(speed) * self.dt / self.metres_per_tick if stepped else before
+        counted = self._counted[wheel] = self._counted[wheel] + ticks
+        turned = self._turned[wheel] = min(max(guess, counted), counted + 1.0)
+        return (turned - before) * self.metres_per_tick
 
     def turn_by(self, angle: float) -> None:
         """Correct the believed heading by `angle` (rad), the position kept: for a behaviour that
