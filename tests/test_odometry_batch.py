@@ -13,11 +13,12 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from strategies import pose
-from test_odometry import Wanderer
+from test_odometry import OPEN_FLOOR, Wanderer, curves
 
+from bots.controller import FunctionController
 from bots.ctbot import CTBOT
 from bots.noise import with_noise
-from bots.odometry import default_estimators
+from bots.odometry import EncoderOdometry, default_estimators
 from bots.odometry_batch import DefaultOdometry, batched
 from bots.wheeled import MECANUM4
 from sim.kinematics import advance
@@ -129,3 +130,23 @@ def test_noisy_run_logs_the_python_estimators_estimates():
     # the walls were met and the slide rule took over: the fused heading left the mouse's
     fused, mouse = batched_log.estimate_arrays()["fused"], batched_log.estimate_arrays()["mouse"]
     assert batched_log.collisions > 0 and not np.array_equal(fused[:, 2], mouse[:, 2])
+
+
+def test_robots_with_own_and_default_estimators_side_by_side():
+    """Three robots in one run, the first with its own estimator list: the other two's batched
+    defaults (one with a mouse, one without) land in their own logs, as their Python defaults do."""
+    robots = [CTBOT, CTBOT, CTBOT.with_changes(mouse=None)]
+    starts = [(0.0, 0.0, 0.3), (0.0, 5.0, 0.0), (0.0, -5.0, 1.0)]
+
+    def logs(defaults):
+        setups = [
+            RobotSetup(robot, FunctionController(curves), start=start, estimators=[EncoderOdometry()] if k == 0 else defaults(robot))
+            for k, (robot, start) in enumerate(zip(robots, starts))
+        ]
+        return run(OPEN_FLOOR, setups, 5.0).robots
+
+    batched_logs, python_logs = logs(lambda robot: None), logs(default_estimators)
+    assert [list(log.estimate_arrays()) for log in batched_logs] == [["encoders"], ["encoders", "firmware", "mouse", "fused"], ["encoders", "firmware"]]
+    for batched_log, python_log in zip(batched_logs, python_logs):
+        for name, poses in batched_log.estimate_arrays().items():
+            np.testing.assert_array_equal(poses, python_log.estimate_arrays()[name], err_msg=name)
