@@ -240,17 +240,17 @@ def run(
     placed = [world.add_robot(setup.spec, setup.start) for setup in robots]
     # the default estimators of all robots that use them are stepped together, in one compiled pass
     members = [i for i, setup in enumerate(robots) if setup.estimators is None and batched(setup.spec)]
-    odometry = DefaultOdometry([robots[i].spec for i in members], np.array([placed[i].pose for i in members]).reshape(-1, 3), members)
+    odometry = DefaultOdometry([robots[i].spec for i in members], np.array([placed[i].pose for i in members]).reshape(-1, 3), members) if members else None
     slot = {i: k for k, i in enumerate(members)}
     logs, controllers, estimators = [], [], []
     for i, (setup, robot) in enumerate(zip(robots, placed)):
-        if i in slot:
-            names, chosen, rows = odometry.names[slot[i]], [], odometry.rows_of(slot[i])
+        if i in slot:  # no Python estimators: its rows of the batch are logged
+            chosen, rows, names = [], odometry.rows_of(slot[i]), odometry.names[slot[i]]
         else:
-            chosen, rows = setup.estimators if setup.estimators is not None else default_estimators(setup.spec), None
+            chosen = setup.estimators if setup.estimators is not None else default_estimators(setup.spec)
             for estimator in chosen:
                 estimator.reset(setup.spec, robot.pose)
-            names = [estimator.name for estimator in chosen]
+            rows, names = None, [estimator.name for estimator in chosen]
         reset(setup.controller, setup.spec)
         logs.append(RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params), names, steps + 1))
         controllers.append(setup.controller)
@@ -264,7 +264,7 @@ def run(
     try:
         _notify(observers, "on_start", world, logs)  # inside: Ctrl-C while a recorder opens still ends the run
         for step in range(steps + 1):
-            _sample(world, logs, estimators, odometry if members else None, result)
+            _sample(world, logs, estimators, odometry, result)
             _notify(observers, "on_sample", world, logs)
             if until_goal and any(log.goal_time is not None for log in logs):
                 result.reason = "goal"
