@@ -65,7 +65,7 @@ def robots_and_steps(draw):
     names = draw(st.lists(st.sampled_from(sorted(ROBOTS)), min_size=1, max_size=4))
     robots = [ROBOTS[name] for name in names]
     starts = [draw(pose) for _ in robots]
-    count = draw(st.integers(1, 60))
+    count = draw(st.integers(1, 40))
     # steps of 10 ms mostly; a repeated or earlier time (the rule forgets nothing then) now and then
     gaps = draw(st.lists(st.sampled_from((0.01, 0.01, 0.01, 0.0, -0.01, 0.5)), min_size=count, max_size=count))
     times = np.cumsum([0.0, *gaps[1:]]).tolist()
