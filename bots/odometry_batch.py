@@ -110,6 +110,8 @@ def _step(
     `_ArcOdometry.update` lays them (`advance_one`). Each line keeps the Python expression's order."""
     for i in range(rows.shape[0]):
         r, p, st, pose = rows[i], params[i], state[i], poses[i]
+        if r >= tallies.shape[0] or tallies.shape[1] != 4:  # a kernel reads past an array's end without a word
+            raise ValueError("DefaultOdometry.update: tallies must be (robots, 4) with a row for every robot of the batch")
         s_left, s_right = tallies[r, 0] * p[TICK_LEFT], tallies[r, 1] * p[TICK_RIGHT]
         s_enc, alpha_enc = 0.5 * (s_left + s_right), (s_right - s_left) / p[TRACK]
         _lay(pose[ENCODERS], s_enc, alpha_enc, False)

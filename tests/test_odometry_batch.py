@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from strategies import pose
@@ -110,6 +111,13 @@ def test_batch_steps_as_the_python_estimators(case, order):
 
 def test_general_chassis_stays_with_the_python_estimators():
     assert batched(CTBOT) and not batched(MECANUM4)
+
+
+def test_tallies_of_the_wrong_shape_are_refused():
+    batch = DefaultOdometry([CTBOT, CTBOT], np.zeros((2, 3)), [0, 2])
+    for wrong in (np.zeros((2, 4), dtype=np.int64), np.zeros((3, 2), dtype=np.int64)):
+        with pytest.raises(ValueError, match="tallies must be"):
+            batch.update(wrong, 0.0)
 
 
 def test_noisy_run_logs_the_python_estimators_estimates():
