@@ -14,7 +14,7 @@ import mmap
 import re
 import tempfile
 import traceback
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Protocol
 
@@ -24,6 +24,7 @@ from bots.chassis_commands import chassis_setpoints
 from bots.commands import BadCommand, motor_commands, wheel_speeds_for
 from bots.controller import Controller, ControllerStopped, reset
 from bots.odometry import Estimator, default_estimators
+from bots.odometry_batch import DefaultOdometry, batched
 from bots.spec import RobotSpec
 from sim.world import World
 from sim.world.chassis_drive import FaultError
@@ -113,13 +114,14 @@ class RobotLog:
         self._columns = _Columns({label: (3,) for label in ("truth", *estimators)}, capacity)
         self._truth, *estimates = self._columns.arrays.values()
         self._estimates = dict(zip(estimators, estimates))
+        self._estimate_columns = tuple(estimates)
         self._count = 0
 
-    def append(self, readings: Readings, truth: np.ndarray, estimates: list[np.ndarray]) -> None:
+    def append(self, readings: Readings, truth: np.ndarray, estimates: Sequence[np.ndarray]) -> None:
         """Log one sample."""
         n = self._count
         self._truth[n] = truth
-        for column, pose in zip(self._estimates.values(), estimates):
+        for column, pose in zip(self._estimate_columns, estimates):
             column[n] = pose
         self.latest = readings
         self._count = n + 1
@@ -235,18 +237,24 @@ def run(
         raise RunError(f"duration must be a non-negative number of seconds, got {duration!r}")
     world = World(world_spec, dt=dt, seed=seed)
     steps = int(round(duration / dt))
+    placed = [world.add_robot(setup.spec, setup.start) for setup in robots]
+    # the default estimators of all robots that use them are stepped together, in one compiled pass
+    members = [i for i, setup in enumerate(robots) if setup.estimators is None and batched(setup.spec)]
+    odometry = DefaultOdometry([robots[i].spec for i in members], np.array([placed[i].pose for i in members]).reshape(-1, 3), members) if members else None
+    slot = {i: k for k, i in enumerate(members)}
     logs, controllers, estimators = [], [], []
-    for setup in robots:
-        robot = world.add_robot(setup.spec, setup.start)
-        pose = robot.pose
-        chosen = setup.estimators if setup.estimators is not None else default_estimators(setup.spec)
-        for estimator in chosen:
-            estimator.reset(setup.spec, pose)
+    for i, (setup, robot) in enumerate(zip(robots, placed)):
+        if i in slot:  # no Python estimators: its rows of the batch are logged
+            chosen, rows, names = [], odometry.rows_of(slot[i]), odometry.names[slot[i]]
+        else:
+            chosen = setup.estimators if setup.estimators is not None else default_estimators(setup.spec)
+            for estimator in chosen:
+                estimator.reset(setup.spec, robot.pose)
+            rows, names = None, [estimator.name for estimator in chosen]
         reset(setup.controller, setup.spec)
-        names = [estimator.name for estimator in chosen]
         logs.append(RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params), names, steps + 1))
         controllers.append(setup.controller)
-        estimators.append(chosen)
+        estimators.append((chosen, rows))
     try:
         world.chassis.schedule_faults([*world_spec.faults, *(replace(f, robot=i) for i, setup in enumerate(robots) for f in setup.faults)])
     except FaultError as err:
@@ -256,7 +264,7 @@ def run(
     try:
         _notify(observers, "on_start", world, logs)  # inside: Ctrl-C while a recorder opens still ends the run
         for step in range(steps + 1):
-            _sample(world, logs, estimators, result)
+            _sample(world, logs, estimators, odometry, result)
             _notify(observers, "on_sample", world, logs)
             if until_goal and any(log.goal_time is not None for log in logs):
                 result.reason = "goal"
@@ -320,13 +328,25 @@ def _complete_samples(result: RunResult) -> None:
         part.truncate(n)
 
 
-def _sample(world: World, logs: list[RobotLog], estimators: list[list[Estimator]], result: RunResult) -> None:
-    """Read every robot's sensors at the current state and log truth and estimates."""
-    result.append(world.time)
+def _sample(
+    world: World, logs: list[RobotLog], estimators: list[tuple[list[Estimator], tuple[np.ndarray, ...] | None]],
+    odometry: DefaultOdometry | None, result: RunResult,
+) -> None:
+    """Read every robot's sensors at the current state and log truth and estimates: per robot,
+    its Python estimators (updated here) or its rows of the default odometry (updated for every
+    robot at once)."""
+    time = world.time
+    result.append(time)
     poses = world.poses()
-    for pose, xy, log, chosen, readings in zip(poses, poses[:, :2].tolist(), logs, estimators, world.read_all()):
+    all_readings = world.read_all()
+    if odometry is not None:
+        odometry.update(world.tallies(), time)
+    for pose, log, (chosen, rows), readings in zip(poses, logs, estimators, all_readings):
         for estimator in chosen:
             estimator.update(readings)
-        log.append(readings, pose, [estimator.pose for estimator in chosen])
-        if log.goal_time is None and world.spec.in_goal(*xy):
-            log.goal_time = world.time
+        log.append(readings, pose, rows if rows is not None else [estimator.pose for estimator in chosen])
+    goals = world.spec.goals
+    if goals:
+        for (x, y), log in zip(poses[:, :2].tolist(), logs):
+            if log.goal_time is None and world.spec.in_goal(x, y):
+                log.goal_time = time

@@ -27,6 +27,8 @@ _SERIES_LIMIT = 0.25
 # below 1e-17 for |h| <= 0.25.
 _SINC = (1.0, -1 / 6, 1 / 120, -1 / 5040, 1 / 362880, -1 / 39916800)
 _COS = (1.0, -1 / 2, 1 / 24, -1 / 720, 1 / 40320, -1 / 3628800, 1 / 479001600)
+_ADVANCE_SERIES_LIMIT = 1e-4
+"""`advance` takes sin(h)/h as 1 - h^2/6 at or below this |h| (series error < h^4/120 < 1e-18)."""
 
 
 def wrap_angle(angle: np.ndarray | float) -> np.ndarray | float:
@@ -190,7 +192,7 @@ def advance_floats(pose: Sequence[float], s: float, alpha: float, end_heading: b
     """`advance` in plain floats, pose in and pose out, for code that keeps its pose as a tuple."""
     x, y, theta = pose
     h = 0.5 * alpha
-    sinc = math.sin(h) / h if abs(h) > 1e-4 else 1.0 - h * h / 6.0  # series error < h^4/120 < 1e-18
+    sinc = math.sin(h) / h if abs(h) > _ADVANCE_SERIES_LIMIT else 1.0 - h * h / 6.0
     direction = theta + (alpha if end_heading else h)
     chord = s * sinc
     return (x + chord * math.cos(direction), y + chord * math.sin(direction), theta + alpha)

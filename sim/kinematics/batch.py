@@ -35,7 +35,7 @@ from llvmlite import ir  # noqa: E402
 from numba import types  # noqa: E402
 from numba.extending import intrinsic  # noqa: E402
 
-from sim.kinematics.arc import _COS, _SERIES_LIMIT, _SINC  # noqa: E402
+from sim.kinematics.arc import _ADVANCE_SERIES_LIMIT, _COS, _SERIES_LIMIT, _SINC  # noqa: E402
 
 # Robots per inner loop: small enough that a chunk's rows stay in the L1 cache between the arc and
 # the counting pass and that 10,000 robots share out evenly over a few threads (20 chunks), large
@@ -90,6 +90,17 @@ def exact_arc(s_left: float, s_right: float, track: float) -> tuple[float, float
     h = 0.5 * alpha
     cos_h, sinc_h = half_angle(h)
     return 0.5 * (s_left + s_right) * sinc_h, alpha, cos_h, sinc_h * h
+
+
+@numba.njit(cache=True, inline="always")
+def advance_one(x: float, y: float, theta: float, s: float, alpha: float, end_heading: bool) -> tuple[float, float, float]:
+    """`arc.advance` for compiled code that steps odometry on the robot: the same operations in
+    the same order and nothing fused, so its poses equal `advance`'s bit for bit."""
+    h = 0.5 * alpha
+    sinc = math.sin(h) / h if abs(h) > _ADVANCE_SERIES_LIMIT else 1.0 - h * h / 6.0
+    direction = theta + (alpha if end_heading else h)
+    chord = s * sinc
+    return x + chord * math.cos(direction), y + chord * math.sin(direction), theta + alpha
 
 
 @numba.njit(cache=True, inline="always")
