@@ -176,8 +176,11 @@ def test_seed_002_mouse_relations_on_the_centre_line(s_left: float, s_right: flo
         assert y_seed / (x_seed / lever) == pytest.approx(radius, rel=1e-14)
     # c't-Sim puts the chord in Y: short by s * (1 - sinc(a/2)) ~ s a^2 / 24, which we avoid
     chord = s * sinc(a / 2)
-    assert forward - chord == pytest.approx(s * (1 - sinc(a / 2)), abs=1e-17)
-    assert abs(forward - chord) <= abs(s) * a * a / 24 + 1e-18
+    # `chord` is rounded twice (sinc to half an ulp of 1, the product to half an ulp of s), the
+    # difference with s once more: each side is the exact value to within 2 ulp of s
+    rounding = 2 * np.spacing(abs(s))
+    assert forward - chord == pytest.approx(s * (1 - sinc(a / 2)), abs=2 * rounding)
+    assert abs(forward - chord) <= abs(s) * a * a / 24 + rounding
 
 
 def test_mouse_full_turn_is_1484_counts() -> None:
