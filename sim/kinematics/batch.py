@@ -21,21 +21,14 @@ in the reference's order, so ticks and counts equal the reference's exactly.
 from __future__ import annotations
 
 import math
-import os
 
-# The parallel kernels are called once per step between serial work; OpenMP's default of spinning
-# idle threads for a while after each call takes the cores from that work (and from anyone else on
-# a shared machine). Threads that sleep cost a wake-up per call instead. A user's own setting wins;
-# it must be in place before numba loads its OpenMP pool (the first parallel call).
-os.environ.setdefault("OMP_WAIT_POLICY", "passive")
+import numba
+import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.extending import intrinsic
 
-import numba  # noqa: E402
-import numpy as np  # noqa: E402
-from llvmlite import ir  # noqa: E402
-from numba import types  # noqa: E402
-from numba.extending import intrinsic  # noqa: E402
-
-from sim.kinematics.arc import _ADVANCE_SERIES_LIMIT, _COS, _SERIES_LIMIT, _SINC  # noqa: E402
+from sim.kinematics.arc import _ADVANCE_SERIES_LIMIT, _COS, _SERIES_LIMIT, _SINC
 
 # Robots per inner loop: small enough that a chunk's rows stay in the L1 cache between the arc and
 # the counting pass and that 10,000 robots share out evenly over a few threads (20 chunks), large
@@ -284,9 +277,11 @@ def step_batch_parallel(
     counts: np.ndarray,
 ) -> None:
     """`step_batch` (same arguments) with the chunks shared out over the cores (numba threads):
-    bit-identical to it, since each chunk runs the same code on its own columns. Each call wakes the
-    sleeping threads (about 5 µs on a 2-core VM, against 37 µs for 10,000 robots on one core), so it
-    pays from some thousands of robots, and only on cores that other work leaves free."""
+    bit-identical to it, since each chunk runs the same code on its own columns. Between calls
+    OpenMP's threads spin a while before they sleep (its default): called step after step, they are
+    awake for the next call. Threads that sleep at once (OMP_WAIT_POLICY=passive) cost a wake-up of
+    some 70 µs per call on a 2-core VM, twice a 10,000-robot step. It pays from some thousands of
+    robots, and only on cores that other work leaves free."""
     robots = _check_poses(pose, heading_dir, wheel_arcs)
     _check_counts(robots, tick_carry, ticks, mount, mouse_carry, counts)
     for k in numba.prange((robots + CHUNK - 1) // CHUNK):
