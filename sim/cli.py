@@ -310,7 +310,7 @@ def _setups(args: argparse.Namespace, spec) -> list:
 
 def cmd_run(args: argparse.Namespace) -> int:
     from sim.experiments import simulate, world
-    from sim.views.recording import Recorder
+    from sim.views.recording import Recorder, keep_pandas_out_of_arrow
     from sim.world.files import world_warnings
 
     place = world(args.world)
@@ -321,6 +321,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     out = _out_dir(args.out, args.world, setups[0].controller_name)
     facts = {"controller parameters": ", ".join(f"{k}={v}" for k, v in args.param) or "defaults", "noise": args.noise,
              "duration": f"{args.duration:g} s" + (" or until a goal" if until_goal else "")}
+    keep_pandas_out_of_arrow()
     recorder = Recorder(out / "run.rrd", live=args.live, connect=args.connect, facts=facts)
     with StopOnSignal() as stop:
         result = simulate(place, *setups, duration=args.duration, dt=args.dt, seed=args.seed, until_goal=until_goal,
@@ -501,7 +502,7 @@ def _add_bridge_parser(commands) -> None:
 def cmd_bridge(args: argparse.Namespace) -> int:
     from sim.bridge import Bridge
     from sim.run import run
-    from sim.views.recording import Recorder
+    from sim.views.recording import Recorder, keep_pandas_out_of_arrow
     from sim.world.files import load_world
 
     world = load_world(args.world)
@@ -514,6 +515,7 @@ def cmd_bridge(args: argparse.Namespace) -> int:
     with Bridge(args.host, args.port, args.connect_timeout, args.step_timeout, dt=args.dt) as bridge:
         setups = [bridge.setup(spec, rc5=args.rc5, calls=calls) for _ in range(args.robots)] + python
         print(f"ctsim bridge: listening on {bridge.address} for {args.robots} firmware bot(s); start the firmware now", file=sys.stderr, flush=True)
+        keep_pandas_out_of_arrow()
         recorder = Recorder(out / "run.rrd", live=args.live)
         with StopOnSignal() as stop:
             observers = (recorder, bridge.observer(recorder, realtime=args.realtime), Progress(args.duration, args.dt), stop)

@@ -253,8 +253,8 @@ def test_viewer_that_goes_away_costs_the_live_view_only(tmp_path, capsys):
     assert len(_columns(path)["/world/ctbot/body"]["sim_time"]) == len(result.time)
 
 
-def test_a_recording_leaves_pandas_unloaded_and_usable(tmp_path):
-    """pyarrow would import pandas (40 MB) on rerun's first string conversion; a recording keeps it
+def test_ctsim_run_leaves_pandas_unloaded_and_usable(tmp_path):
+    """pyarrow would import pandas (40 MB) on rerun's first string conversion; `ctsim run` keeps it
     out, and pandas loaded afterwards still converts through pyarrow (a Categorical column comes
     back from Parquet as a Categorical). Its own process: this one has pandas loaded already."""
     import subprocess
@@ -262,20 +262,40 @@ def test_a_recording_leaves_pandas_unloaded_and_usable(tmp_path):
 
     script = f"""
 import sys
-from bots.commands import WheelSpeeds
-from bots.controller import FunctionController
-from bots.ctbot import CTBOT
-from sim.run import RobotSetup, run
-from sim.views.recording import Recorder
-from sim.world.files import load_world
-run(load_world("maze"), [RobotSetup(CTBOT, FunctionController(lambda t, r: WheelSpeeds(0.1, 0.1)))], 0.5,
-    observers=[Recorder({str(tmp_path / "run.rrd")!r})])
+from sim.cli import main
+code = main(["run", "maze", "--duration", "0.5", "--no-report", "--out", {str(tmp_path / "out")!r}])
+assert code == 0, code
 assert "pandas" not in sys.modules, "pandas loaded by the recording"
 import pandas as pd
 frame = pd.DataFrame({{"kind": pd.Categorical(["a", "b"]), "x": [1.0, 2.0]}})
 frame.to_parquet({str(tmp_path / "t.parquet")!r})
 back = pd.read_parquet({str(tmp_path / "t.parquet")!r})
 assert isinstance(back["kind"].dtype, pd.CategoricalDtype) and back["x"].tolist() == [1.0, 2.0], back.dtypes
+"""
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+
+
+def test_a_library_recording_reads_back_with_timestamps_in_the_same_process(tmp_path):
+    """A recording made through the Python API leaves pyarrow as it was: reading the file back in
+    the same process turns its nanosecond log times into Python objects (pyarrow needs pandas for
+    that; `keep_pandas_out_of_arrow` is for the CLI only). Its own process, which starts without
+    pandas, as a user's script does."""
+    import subprocess
+    import sys
+
+    script = f"""
+import rerun
+from bots.commands import WheelSpeeds
+from bots.controller import FunctionController
+from bots.ctbot import CTBOT
+from sim.run import RobotSetup, run
+from sim.views.recording import Recorder
+from sim.world.files import load_world
+path = {str(tmp_path / "run.rrd")!r}
+run(load_world("maze"), [RobotSetup(CTBOT, FunctionController(lambda t, r: WheelSpeeds(0.1, 0.1)))], 0.5, observers=[Recorder(path)])
+rows = [row for chunk in rerun.chunk.RrdReader(path).stream().to_chunks() for row in chunk.to_record_batch().to_pylist()]
+assert any("log_time" in row for row in rows), rows[:1]
 """
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True)
     assert done.returncode == 0, done.stderr

@@ -87,7 +87,6 @@ def _rerun():
     os.environ.setdefault("RUST_LOG", "warn,re_grpc_client=off,re_sdk=off")
     import rerun
 
-    _arrow_without_pandas()
     return rerun
 
 
@@ -99,12 +98,15 @@ class _NoPandas:
             raise ModuleNotFoundError("not while pyarrow looks", name=name)
 
 
-def _arrow_without_pandas() -> None:
+def keep_pandas_out_of_arrow() -> None:
     """pyarrow imports pandas (about 40 MB resident) on its first conversion of a Python list,
     only to ask whether the list is a pandas object, and rerun converts its strings so. A
     recording holds no pandas objects: where pandas is not loaded yet, pyarrow's first look is
-    made while pandas cannot be found, and pyarrow remembers it as absent. Whatever needs pandas
-    itself later (`to_pandas`, `to_parquet`) still imports it, and pyarrow then uses it again."""
+    made while pandas cannot be found, and pyarrow remembers it as absent for the process.
+    Whatever needs pandas itself later (`to_pandas`, `to_parquet`) still imports it, and pyarrow
+    then uses it again; but pyarrow's quiet checks stay negative until then (nanosecond
+    timestamps read back as Python objects refuse without pandas). So only the `ctsim run` and
+    `ctsim bridge` commands call this: their process records and runs no code of a user's after."""
     if "pandas" in sys.modules:
         return
     import pyarrow

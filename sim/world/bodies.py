@@ -11,9 +11,33 @@ from __future__ import annotations
 import numpy as np
 import pymunk
 import pymunk.batch as batch
+from pymunk._chipmunk import ffi, lib  # the C layer under pymunk.batch (see _Walk)
 
 _POSE = batch.BodyFields.POSITION | batch.BodyFields.ANGLE
 _MOTION = batch.BodyFields.VELOCITY | batch.BodyFields.ANGULAR_VELOCITY | batch.BodyFields.FORCE | batch.BodyFields.TORQUE
+
+
+class _Walk:
+    """One of pymunk.batch's walks over a space's bodies (reading or writing `fields` through
+    `buffer`), its C call data built once: `batch.get_space_bodies` and `set_space_bodies` build
+    it anew on every call, which cost about 1 us each, twice a world step."""
+
+    def __init__(self, space: pymunk.Space, fields: batch.BodyFields, buffer: batch.Buffer, write: bool):
+        self._space = space._space
+        self._floats = buffer._float_arr
+        self._data = ffi.new("pmBatchedData *")
+        self._data.fields = fields.value
+        self._data.floatArray = buffer._float_arr
+        self._data.intArray = buffer._int_arr
+        self._visit = ffi.addressof(lib, "pmSpaceBodySetIteratorFuncBatched" if write else "pmSpaceBodyGetIteratorFuncBatched")
+
+    def __call__(self) -> None:
+        self._floats.num = 0  # reading: append from the start; writing: read from the start
+        lib.cpSpaceEachBody(self._space, self._visit, self._data)
+
+    def floats(self) -> np.ndarray:
+        """The values the last read walk gave (a view into pymunk's buffer: valid until the next)."""
+        return np.frombuffer(ffi.buffer(self._floats.arr, 8 * self._floats.num))
 
 
 class BodyArrays:
@@ -35,30 +59,31 @@ class BodyArrays:
         """Each robot's row in pymunk's walk over the bodies (consecutive rows: a slice, cheaper)."""
         self.row_index = rows
         """The same rows as an array (for compiled kernels)."""
-        self._read = batch.Buffer()
-        batch.get_space_bodies(space, _MOTION, self._read)
-        self.motion = np.frombuffer(self._read.float_buf()).reshape(-1, 6).copy()
+        self._buffers = batch.Buffer(), batch.Buffer()  # pymunk frees its C arrays with these
+        self._read_pose = _Walk(space, _POSE, self._buffers[0], write=False)
+        self._read_motion = _Walk(space, _MOTION, self._buffers[1], write=False)
+        self._read_motion()
+        self.motion = self._read_motion.floats().reshape(-1, 6).copy()
         """vx, vy, w, fx, fy, torque per body, as `send` writes them: the robots' rows at rest."""
         self.motion[self.rows, :3] = 0.0
-        self._write = batch.Buffer()
-        self._write.set_float_buf(self.motion)  # pymunk reads this array in place
+        self._write_buffer = batch.Buffer()
+        self._write_buffer.set_float_buf(self.motion)  # pymunk reads this array in place
+        self._write_motion = _Walk(space, _MOTION, self._write_buffer, write=True)
 
     def poses(self) -> np.ndarray:
         """(n, 3) robot poses (x, y m; heading rad), a new array."""
-        self._read.clear()
-        batch.get_space_bodies(self.space, _POSE, self._read)
-        return np.frombuffer(self._read.float_buf()).reshape(-1, 3)[self.rows].copy()
+        self._read_pose()
+        return self._read_pose.floats().reshape(-1, 3)[self.rows].copy()
 
     def refresh(self) -> None:
         """Take the other bodies' current velocities and forces into `motion` (call before writing
         the robots' forces into it); nothing to do without other bodies."""
         if self._others:
-            self._read.clear()
-            batch.get_space_bodies(self.space, _MOTION, self._read)
-            self.motion[:] = np.frombuffer(self._read.float_buf()).reshape(-1, 6)
+            self._read_motion()
+            self.motion[:] = self._read_motion.floats().reshape(-1, 6)
             self.motion[self.rows, :3] = 0.0  # (without them, the robots' velocities stay the zeros set above)
 
     def send(self) -> None:
         """Give every body its row of `motion`: the robots at rest with the forces and torques
         written into their rows, the other bodies as `refresh` found them."""
-        batch.set_space_bodies(self.space, _MOTION, self._write)
+        self._write_motion()

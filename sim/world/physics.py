@@ -161,6 +161,8 @@ class World:
         self._movable_shapes: list[pymunk.Circle] = []
         self._round_bodies = True
         """Whether every robot is a circle: then the IR kernel sees walls, robots and cans itself."""
+        self._round_ir = False
+        """Whether the IR kernel reads the IR sensors (there are some, and every robot is round)."""
         for item in spec.movables:
             body = pymunk.Body(item.mass, pymunk.moment_for_circle(item.mass, 0, item.radius))
             body.position = item.position
@@ -180,6 +182,7 @@ class World:
         self._state = _BatchState([], dt, [])
         self._bodies = BodyArrays(self.space, [])
         self._poses = np.zeros((0, 3))
+        self._kernel_arguments()
         self._stale = False
         self.chassis = ChassisDrive(dt)
         """The drive of robots on a general chassis (commands, faults; see `sim.world.chassis_drive`)."""
@@ -232,8 +235,25 @@ class World:
             self._state = _BatchState(self.robots, self.dt, self._movable_shapes)
             self._bodies = BodyArrays(self.space, [r.body for r in self.robots])
             self._poses = self._bodies.poses()
+            self._kernel_arguments()
             self._stale = False
         return self._state
+
+    def _kernel_arguments(self) -> None:
+        """The arrays the per-step kernels take besides the poses and the step's outputs, gathered
+        once (numba checks each argument's type on every call; a tuple saves looking them up)."""
+        st, walls, ir = self._state, self._walls, self._state.ir
+        self._round_ir = self._round_bodies and len(ir.curve) > 0
+        read = len(st.sensors) if self._round_ir else st.n_floor + st.n_light  # pymunk reads IR otherwise
+        self._read_arguments = (
+            st.sensors[:read], st.index[:read], st.n_floor, self.floor.absorption, self._scalars, self._lights, walls.vertices,
+            walls.ranges, walls.boxes, st.circles, ir.noise.std, ir.noise.normals.values, ir.noise.normals.used, ir.tables,
+            ir.curve_ends, ir.beyond, ir.inverse,
+        )  # fmt: skip
+        self._settle_arguments = (
+            st.params, st.state, self._scalars, walls.vertices, walls.ranges, walls.boxes, st.contacts, st.anchored, self.floor.hole,
+            st.fallen, self._bodies.row_index, self._bodies.motion,
+        )  # fmt: skip
 
     def poses(self) -> np.ndarray:
         """(n, 3) ground-truth poses of all robots (a copy)."""
@@ -254,32 +274,25 @@ class World:
         st = self._batch()
         pose = self._poses
         values = np.empty(len(st.sensors), dtype=np.int64)
-        ir = st.ir
-        round_ir = self._round_bodies and len(ir.curve)
-        believed = np.empty(len(ir.curve))
-        if round_ir:
-            if len(ir.noise.rows):
-                ir.noise.normals.reserve(1)
+        believed = np.empty(len(st.ir.curve))
+        if self._round_ir:
+            if len(st.ir.noise.rows):
+                st.ir.noise.normals.reserve(1)
             for k, body in enumerate(self.movables, start=len(pose)):
                 st.circles[k, 0], st.circles[k, 1] = body.position
-        walls, normals = self._walls, ir.noise.normals
-        lights = st.n_floor + st.n_light
-        sensors, index, out = (st.sensors, st.index, values) if round_ir else (st.sensors[:lights], st.index[:lights], values[:lights])
-        kernels.read_sensors(
-            pose, sensors, index, st.n_floor, self.floor.absorption, self._scalars, self._lights, walls.vertices, walls.ranges,
-            walls.boxes, st.circles, ir.noise.std, normals.values, normals.used, ir.tables, ir.curve_ends, ir.beyond, ir.inverse,
-            out, believed if round_ir else believed[:0],
-        )  # fmt: skip  (without the IR rows when pymunk reads them below)
-        floor, light, ir_raw = values[: st.n_floor], values[st.n_floor : lights], values[lights:]
+            kernels.read_sensors(pose, *self._read_arguments, values, believed)
+        else:
+            kernels.read_sensors(pose, *self._read_arguments, values[: st.n_floor + st.n_light], believed[:0])
+        floor, light, ir_raw = values[: st.n_floor], values[st.n_floor : st.n_floor + st.n_light], values[st.n_floor + st.n_light :]
         st.floor_noise.add_rounded(floor, CNY70_MAX)
         st.light_noise.add_rounded(light, LDR_MAX)
-        if not round_ir:
+        if not self._round_ir:
             self._read_ir_with_pymunk(pose, ir_raw, believed)
         # every robot's readings are views into this step's arrays (fresh ones: a caller may keep them)
-        tallies, now = st.tallies.copy(), self.time
+        now = self.time
         readings = [
             Readings(now, tally[:2], tally[2:], raw, distance, line, border, lamp, _NO_STEERING, _NO_MOUSE2)
-            for tally, (raw, distance, line, border, lamp) in zip(tallies, st.layout.views(ir_raw, believed, floor, light))
+            for tally, (raw, distance, line, border, lamp) in zip(st.tallies.copy(), st.layout.views(ir_raw, believed, floor, light))
         ]
         if self.chassis.drives:
             self.chassis.fill(readings)
@@ -355,11 +368,7 @@ class World:
         # a wall or another robot, so that no speed the motors allow tunnels through anything
         # then hold robots at holes, and give pymunk the motion as forces (see `_apply_motion`)
         self._bodies.refresh()
-        walls = self._walls
-        if kernels.settle(
-            before, st.params, st.state, self._scalars, walls.vertices, walls.ranges, walls.boxes, st.contacts, st.anchored,
-            self.floor.hole, st.fallen, self._bodies.row_index, self._bodies.motion,
-        ):  # fmt: skip
+        if kernels.settle(before, *self._settle_arguments):
             for robot in self.robots:
                 robot.fallen = bool(st.fallen[robot.index])
         self._apply_motion()
