@@ -64,14 +64,16 @@ def maze_ctbot(steps: int) -> float:
 def maze_run(steps: int, record: bool) -> float:
     """Steps per second of a whole run (`sim.run.run`: sensors, odometry, controller, physics) of
     a c't-Bot solving the maze for `steps` steps, with or without the rerun recorder writing
-    every step to a temporary .rrd (closing the file included)."""
+    every step to a temporary .rrd (opening and closing the file included)."""
     import tempfile
     from pathlib import Path
 
     from bots.behaviours import make
     from sim.run import RobotSetup, run
-    from sim.views.recording import Recorder
+    from sim.views.recording import Recorder, keep_pandas_out_of_arrow
 
+    if record:
+        keep_pandas_out_of_arrow()  # as `ctsim run` does
     with tempfile.TemporaryDirectory() as folder:
         observers = [Recorder(Path(folder) / "bench.rrd")] if record else []
         start = time.perf_counter()
