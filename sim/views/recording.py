@@ -30,8 +30,8 @@ the live view only, with one line on stderr.
 from __future__ import annotations
 
 import logging
-import operator
 import math
+import operator
 import os
 import socket
 import sys
