@@ -23,6 +23,7 @@ class _Walk:
     it anew on every call, which cost about 1 us each, twice a world step."""
 
     def __init__(self, space: pymunk.Space, fields: batch.BodyFields, buffer: batch.Buffer, write: bool):
+        self._owners = space, buffer  # (the C space and arrays live as long as these)
         self._space = space._space
         self._floats = buffer._float_arr
         self._data = ffi.new("pmBatchedData *")
@@ -59,16 +60,15 @@ class BodyArrays:
         """Each robot's row in pymunk's walk over the bodies (consecutive rows: a slice, cheaper)."""
         self.row_index = rows
         """The same rows as an array (for compiled kernels)."""
-        self._buffers = batch.Buffer(), batch.Buffer()  # pymunk frees its C arrays with these
-        self._read_pose = _Walk(space, _POSE, self._buffers[0], write=False)
-        self._read_motion = _Walk(space, _MOTION, self._buffers[1], write=False)
+        self._read_pose = _Walk(space, _POSE, batch.Buffer(), write=False)
+        self._read_motion = _Walk(space, _MOTION, batch.Buffer(), write=False)
         self._read_motion()
         self.motion = self._read_motion.floats().reshape(-1, 6).copy()
         """vx, vy, w, fx, fy, torque per body, as `send` writes them: the robots' rows at rest."""
         self.motion[self.rows, :3] = 0.0
-        self._write_buffer = batch.Buffer()
-        self._write_buffer.set_float_buf(self.motion)  # pymunk reads this array in place
-        self._write_motion = _Walk(space, _MOTION, self._write_buffer, write=True)
+        written = batch.Buffer()
+        written.set_float_buf(self.motion)  # pymunk reads this array in place
+        self._write_motion = _Walk(space, _MOTION, written, write=True)
 
     def poses(self) -> np.ndarray:
         """(n, 3) robot poses (x, y m; heading rad), a new array."""
