@@ -501,7 +501,7 @@ class Recorder:
 
 
 class _ArrowOwned:
-    """A time or component column whose Arrow data rerun gets as a copy in Arrow's own memory.
+    """A time or component column whose Arrow data rerun gets as a copy that Arrow owns.
     rerun frees each chunk in its file-writing thread after writing it, and memory that numpy
     owns can only be freed holding the GIL: that thread would then wake at every GIL release of
     the run loop (a context switch every few steps, 55,000 in a 30-minute run against 7,000 with
