@@ -275,15 +275,16 @@ class World:
         pose = self._poses
         values = np.empty(len(st.sensors), dtype=np.int64)
         believed = np.empty(len(st.ir.curve))
+        lights = st.n_floor + st.n_light  # the end of the light rows, where the IR rows start
         if self._round_ir:
             if len(st.ir.noise.rows):
                 st.ir.noise.normals.reserve(1)
             for k, body in enumerate(self.movables, start=len(pose)):
                 st.circles[k, 0], st.circles[k, 1] = body.position
             kernels.read_sensors(pose, *self._read_arguments, values, believed)
-        else:
-            kernels.read_sensors(pose, *self._read_arguments, values[: st.n_floor + st.n_light], believed[:0])
-        floor, light, ir_raw = values[: st.n_floor], values[st.n_floor : st.n_floor + st.n_light], values[st.n_floor + st.n_light :]
+        else:  # without the IR rows: pymunk reads them below
+            kernels.read_sensors(pose, *self._read_arguments, values[:lights], believed[:0])
+        floor, light, ir_raw = values[: st.n_floor], values[st.n_floor : lights], values[lights:]
         st.floor_noise.add_rounded(floor, CNY70_MAX)
         st.light_noise.add_rounded(light, LDR_MAX)
         if not self._round_ir:
