@@ -74,10 +74,10 @@ class DefaultOdometry:
                 p[MEMORY], p[SCALE_ERROR] = TURN_MEMORY, TURN_SCALE_ERROR
                 p[HAS_MOUSE] = 1.0
 
-    def rows_of(self, k: int) -> tuple[np.ndarray, ...]:
-        """The `k`-th robot's estimates as (3,) views into `poses`, in the order of `names[k]`
-        (valid for the batch's life: `update` writes in place)."""
-        return tuple(self.poses[k, : len(self.names[k])])
+    def rows_of(self, k: int) -> np.ndarray:
+        """The `k`-th robot's estimates, (estimates, 3), a view into `poses` in the order of
+        `names[k]` (valid for the batch's life: `update` writes in place)."""
+        return self.poses[k, : len(self.names[k])]
 
     def update(self, tallies: np.ndarray, time: float) -> None:
         """Step every robot's estimates by one step's readings: `tallies` (rows, 4) int64 encoder

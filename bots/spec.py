@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 import tomllib
 from dataclasses import MISSING, dataclass, field, fields, is_dataclass, replace
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -138,14 +139,15 @@ class RobotSpec:
     light: tuple[LightSensorSpec, ...] = ()
     chassis: ChassisSpec | None = None
 
-    @property
+    @cached_property
     def wheel_radius(self) -> float:
         """Nominal wheel radius (m)."""
         return self.wheel_diameter / 2
 
-    @property
+    @cached_property
     def max_wheel_surface_speed(self) -> float:
-        """Fastest rim speed the motors allow (m/s)."""
+        """Fastest rim speed the motors allow (m/s). (Cached, as `wheel_radius`: the run loop asks
+        several times a step.)"""
         return self.motor.max_wheel_speed * self.wheel_radius
 
     def __post_init__(self) -> None:

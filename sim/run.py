@@ -111,18 +111,19 @@ class RobotLog:
         self.goal_time: float | None = None
         self.notes: dict[str, list] = {}
         """What the run did other than asked (projected infeasible twists): kind -> [first message, count]."""
-        self._columns = _Columns({label: (3,) for label in ("truth", *estimators)}, capacity)
-        self._truth, *estimates = self._columns.arrays.values()
-        self._estimates = dict(zip(estimators, estimates))
-        self._estimate_columns = tuple(estimates)
+        self._columns = _Columns({"poses": (1 + len(estimators), 3)}, capacity)
+        self._poses = self._columns.arrays["poses"]
+        """Per sample: the true pose, then each estimate (one row to write a sample, not one per pose)."""
+        self._truth = self._poses[:, 0]
+        self._estimates = {label: self._poses[:, 1 + k] for k, label in enumerate(estimators)}
         self._count = 0
 
-    def append(self, readings: Readings, truth: np.ndarray, estimates: Sequence[np.ndarray]) -> None:
-        """Log one sample."""
+    def append(self, readings: Readings, truth: np.ndarray, estimates: np.ndarray | Sequence[np.ndarray]) -> None:
+        """Log one sample: the true pose (3,) and the estimates, (k, 3) or k poses."""
         n = self._count
         self._truth[n] = truth
-        for column, pose in zip(self._estimate_columns, estimates):
-            column[n] = pose
+        if len(estimates):
+            self._poses[n, 1:] = estimates
         self.latest = readings
         self._count = n + 1
         self._columns.release_written(n + 1)
@@ -329,7 +330,7 @@ def _complete_samples(result: RunResult) -> None:
 
 
 def _sample(
-    world: World, logs: list[RobotLog], estimators: list[tuple[list[Estimator], tuple[np.ndarray, ...] | None]],
+    world: World, logs: list[RobotLog], estimators: list[tuple[list[Estimator], np.ndarray | None]],
     odometry: DefaultOdometry | None, result: RunResult,
 ) -> None:
     """Read every robot's sensors at the current state and log truth and estimates: per robot,
@@ -338,10 +339,10 @@ def _sample(
     time = world.time
     result.append(time)
     poses = world.poses()
-    all_readings = world.read_all()
+    frame = world.read_all()
     if odometry is not None:
-        odometry.update(world.tallies(), time)
-    for pose, log, (chosen, rows), readings in zip(poses, logs, estimators, all_readings):
+        odometry.update(frame.tallies, time)
+    for pose, log, (chosen, rows), readings in zip(poses, logs, estimators, frame):
         for estimator in chosen:
             estimator.update(readings)
         log.append(readings, pose, rows if rows is not None else [estimator.pose for estimator in chosen])

@@ -60,6 +60,7 @@ class BodyArrays:
         """Each robot's row in pymunk's walk over the bodies (consecutive rows: a slice, cheaper)."""
         self.row_index = rows
         """The same rows as an array (for compiled kernels)."""
+        self._robot_bodies = bodies, [body._body for body in bodies]  # (the C bodies live as long as the Python ones)
         self._read_pose = _Walk(space, _POSE, batch.Buffer(), write=False)
         self._read_motion = _Walk(space, _MOTION, batch.Buffer(), write=False)
         self._read_motion()
@@ -82,6 +83,13 @@ class BodyArrays:
             self._read_motion()
             self.motion[:] = self._read_motion.floats().reshape(-1, 6)
             self.motion[self.rows, :3] = 0.0  # (without them, the robots' velocities stay the zeros set above)
+
+    def move(self, dt: float) -> None:
+        """pymunk's position update (`Body.update_position`) of every robot body, by its C function
+        (the Python wrapper cost as much again, per robot and step)."""
+        update = lib.cpBodyUpdatePosition
+        for body in self._robot_bodies[1]:
+            update(body, dt)
 
     def send(self) -> None:
         """Give every body its row of `motion`: the robots at rest with the forces and torques

@@ -48,6 +48,8 @@ from sim.kinematics.chassis import (
 from sim.world.spec import FAULT_KINDS, WheelFault
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
     from sim.world.floor import FloorMap
     from sim.world.readings import Readings
 
@@ -270,7 +272,7 @@ class ChassisDrive:
             scale = counts_per_metre(mouse.dpi) * (1 + mouse.scale_error)
             drive.mouse2_counts, drive.mouse2_carry = quantize(metres * scale + noise, drive.mouse2_carry)
 
-    def fill(self, readings: list[Readings]) -> None:
+    def fill(self, readings: Sequence[Readings]) -> None:
         """Put each chassis robot's per-wheel ticks, steering angles, second mouse and faults into its readings."""
         for i, drive in self.drives.items():
             r = readings[i]

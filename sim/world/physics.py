@@ -27,7 +27,7 @@ from sim.world.bodies import BodyArrays
 from sim.world.chassis_drive import ChassisDrive
 from sim.world.floor import FloorMap, rasterize
 from sim.world.noise import NormalBlocks
-from sim.world.readings import Readings
+from sim.world.readings import SensorFrame, SensorLayout
 from sim.world.sensors import CNY70_MAX, LDR_MAX, IRCurve, gp2d12, load_ir_curve
 from sim.world.spec import Start, WorldSpec
 
@@ -43,16 +43,6 @@ MOVABLE_DAMPING = 0.05
 """Velocity fraction movable obstacles keep after a second: they slide a little and stop."""
 ROBOT = 1
 """pymunk collision type of robot bodies (to count their contacts)."""
-
-
-def _frozen(values: np.ndarray) -> np.ndarray:
-    values.flags.writeable = False
-    return values
-
-
-_NO_STEERING = _frozen(np.zeros(0))
-_NO_MOUSE2 = _frozen(np.zeros(2, dtype=np.int64))
-"""What a c't-Bot's readings hold for a chassis's steering angles and second mouse (shared, read-only)."""
 
 
 @dataclass(frozen=True)
@@ -269,8 +259,9 @@ class World:
 
     # --- sensors ----------------------------------------------------------------------------
 
-    def read_all(self) -> list[Readings]:
-        """Every robot's sensor readings from the current state (the start of the next step)."""
+    def read_all(self) -> SensorFrame:
+        """Every robot's sensor readings from the current state (the start of the next step):
+        `frame[i]` is robot i's `Readings`."""
         st = self._batch()
         pose = self._poses
         values = np.empty(len(st.sensors), dtype=np.int64)
@@ -289,15 +280,10 @@ class World:
         st.light_noise.add_rounded(light, LDR_MAX)
         if not self._round_ir:
             self._read_ir_with_pymunk(pose, ir_raw, believed)
-        # every robot's readings are views into this step's arrays (fresh ones: a caller may keep them)
-        now = self.time
-        readings = [
-            Readings(now, tally[:2], tally[2:], raw, distance, line, border, lamp, _NO_STEERING, _NO_MOUSE2)
-            for tally, (raw, distance, line, border, lamp) in zip(st.tallies.copy(), st.layout.views(ir_raw, believed, floor, light))
-        ]
+        frame = SensorFrame(self.time, st.tallies.copy(), ir_raw, believed, floor, light, st.layout)
         if self.chassis.drives:
-            self.chassis.fill(readings)
-        return readings
+            self.chassis.fill(frame)
+        return frame
 
     def ray_distance(self, robot: Robot, origin, direction: float, length: float = IR_RAY_LENGTH, cone: float = 0.0) -> float:
         """Distance (m) from `origin` to the nearest point of any body other than the robot's own
@@ -390,13 +376,11 @@ class World:
         set before `space.step` would push the body into a wall unchecked. So the body enters the
         step at rest (it does not move then), a force gives it the planned velocity in the
         velocity phase (v = f dt / m), the contact solver corrects it, and the position is
-        integrated after the step (`update_position`): the same order as setting the velocity
+        integrated after the step (`BodyArrays.move`): the same order as setting the velocity
         inside `velocity_func`, without a Python callback per body."""
         self._bodies.send()
         self.space.step(self.dt)
-        update, dt = pymunk.Body.update_position, self.dt
-        for robot in self.robots:
-            update(robot.body, dt)
+        self._bodies.move(self.dt)
 
     def _count_contact(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:  # noqa: ANN001
         """A robot started touching something: one more collision for it (for both, robot on robot)."""
@@ -523,7 +507,7 @@ class _BatchState:
         ).reshape(-1, 4)
         """Robots then movable obstacles as circles (x, y, radius, robot index or -1) for the IR
         kernel; positions are filled in at each read."""
-        self.layout = _Layout.of(specs)
+        self.layout = SensorLayout.of([(len(s.ir), len(s.line), len(s.border), len(s.light)) for s in specs])
 
     def draw_encoder_noise(self) -> None:
         """Random slip and spurious ticks for the robots whose encoders have them."""
@@ -590,39 +574,3 @@ class _IRArrays:
             beyond=np.array([table.beyond for table, _, _ in chosen], dtype=np.float32),
             inverse=inverses,
         )
-
-
-ROWS_FROM = 16
-"""Robots from which, all alike, readings are cut from a step's arrays by rows (one numpy call per
-kind) rather than by a slice per robot and kind (cheaper for a few robots)."""
-
-
-@dataclass(frozen=True)
-class _Layout:
-    """Where each robot's sensors lie in a step's arrays: robot after robot, the IR array holds its
-    IR sensors, the floor array its line then its border sensors, the light array its light sensors."""
-
-    slices: list[tuple[slice, slice, slice, slice]]
-    """Per robot: its IR, line, border and light sensors."""
-    counts: tuple[int, int, int, int] | None
-    """IR, line, border and light sensors of every robot, when ROWS_FROM or more are all alike."""
-
-    @classmethod
-    def of(cls, specs: list[RobotSpec]) -> _Layout:
-        counts = [(len(s.ir), len(s.line), len(s.border), len(s.light)) for s in specs]
-        slices, ir, floor, light = [], 0, 0, 0
-        for n_ir, n_line, n_border, n_light in counts:
-            slices.append((slice(ir, ir + n_ir), slice(floor, floor + n_line), slice(floor + n_line, floor + n_line + n_border),
-                           slice(light, light + n_light)))  # fmt: skip
-            ir, floor, light = ir + n_ir, floor + n_line + n_border, light + n_light
-        alike = len(specs) >= ROWS_FROM and all(c == counts[0] for c in counts)
-        return cls(slices, counts[0] if alike else None)
-
-    def views(self, ir_raw: np.ndarray, ir_distance: np.ndarray, floor: np.ndarray, light: np.ndarray):
-        """Per robot (IR raw, IR distance, line, border, light): views into the step's arrays."""
-        if self.counts is None:
-            return ((ir_raw[r], ir_distance[r], floor[f], floor[b], light[li]) for r, f, b, li in self.slices)
-        n = len(self.slices)
-        n_ir, n_line, n_border, n_light = self.counts
-        floors = floor.reshape(n, n_line + n_border)
-        return zip(ir_raw.reshape(n, n_ir), ir_distance.reshape(n, n_ir), floors[:, :n_line], floors[:, n_line:], light.reshape(n, n_light))
