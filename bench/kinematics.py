@@ -87,8 +87,9 @@ def irsim_ratio(robots: int = 10_000, steps: int = 1_000, pairs: int = 3, poses:
     where irsim-x is not installed. irsim-x's step for differential drive clips (v, ω) to the
     limits, moves x, y by v·dt along the heading at the start of the step (Euler, float32), adds
     ω·dt to θ and takes cos and sin of the new θ: a pose-only step, the work of `step_poses`
-    (exact arc, float64); `step_batch` adds encoder ticks and mouse counts on top."""
-    return _interleaved(lambda: kinematics_batch(robots, steps, repeats=1, poses=poses), lambda: irsim_batch(robots, steps), pairs)
+    (exact arc, float64); `step_batch` adds encoder ticks and mouse counts on top. Each side is
+    the best of the same number of timed runs (irsim-x's child process times 3 per pair)."""
+    return _interleaved(lambda: kinematics_batch(robots, steps, repeats=3, poses=poses), lambda: irsim_batch(robots, steps), pairs)
 
 
 _IRSIM = """

@@ -223,6 +223,47 @@ def test_no_viewer_costs_the_live_view_only(tmp_path, capsys):
     assert (out / "summary.json").is_file() and (out / "truth.tum").is_file()
 
 
+class _Viewer:
+    """Stands in for a live viewer's stream: notes the entities sent to it, and when."""
+
+    def __init__(self):
+        self.sent: list[tuple[str, int]] = []  # (entity, samples sent before it)
+
+    def send_columns(self, path, times, columns):
+        self.sent.append((path, len(times[0].times)))
+
+    def log(self, *args, **kwargs): ...
+    def set_time(self, *args, **kwargs): ...
+    def flush(self, *args, **kwargs): ...
+    def disconnect(self): ...
+
+
+def test_a_live_view_gets_samples_before_a_chunk_fills_and_the_file_keeps_every_one(tmp_path, monkeypatch):
+    """A run paced at real time fills a chunk every 80 s: a live view gets what is buffered once
+    LIVE_EVERY_S has passed (here 0 s: every sample), and the file, sent the same pieces, still
+    holds every pose and an unbroken trail."""
+    from sim.views import recording
+
+    viewer = _Viewer()
+
+    def open_live(self, rr, blueprint):
+        self._live = viewer
+        self.streams.append(viewer)
+
+    monkeypatch.setattr(recording, "LIVE_EVERY_S", 0.0)
+    monkeypatch.setattr(Recorder, "_open_live", open_live)
+    path = tmp_path / "run.rrd"
+    result = run(load_world("maze"), [RobotSetup(CTBOT, FunctionController(_drive))], duration=0.5, observers=[Recorder(path, live=True)])
+    bodies = [count for entity, count in viewer.sent if entity == "world/ctbot/body"]
+    assert len(bodies) == len(result.time) == 51 and set(bodies) == {1}  # one sample a send, none held back
+    columns = _columns(path)
+    truth = result.robots[0].truth_array()
+    np.testing.assert_allclose(np.array(columns["/world/ctbot/body"]["Transform3D:translation"])[:, 0, :2], truth[:, :2], atol=1e-6)  # float32
+    pieces = columns["/world/ctbot/trail/truth"]["LineStrips2D:strips"]
+    joined = np.concatenate([np.array(row[0])[1:] for row in pieces])  # each piece starts at the last one's end
+    np.testing.assert_allclose(joined, truth[1:, :2], atol=1e-6)
+
+
 def test_viewer_that_goes_away_costs_the_live_view_only(tmp_path, capsys):
     """Something accepts the connection, then hangs up on every gRPC call (as a viewer that was
     closed mid-run): the run and its file carry on."""
