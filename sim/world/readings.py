@@ -121,7 +121,7 @@ class SensorFrame(Sequence[Readings]):
     def __len__(self) -> int:
         return len(self.tallies)
 
-    def __getitem__(self, index):  # noqa: ANN001, ANN204 (an index or a slice, as a list's)
+    def __getitem__(self, index: int | slice) -> Readings | list[Readings]:
         return self.robots()[index]
 
     def __iter__(self) -> Iterator[Readings]:
