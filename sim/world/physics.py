@@ -147,6 +147,7 @@ class World:
             shape.friction = 0.0
             self.space.add(shape)
         self._walls = _WallArrays.build(spec)
+        """The walls for the kernels; the grid's origin and cell are among `_scalars`."""
         self.movables: list[pymunk.Body] = []
         self._movable_shapes: list[pymunk.Circle] = []
         self._round_bodies = True
@@ -164,7 +165,8 @@ class World:
             self._movable_shapes.append(shape)
         self._lights = np.array([(*light.position, light.height, light.radius) for light in spec.lights], dtype=np.float64).reshape(-1, 4)
         self._scalars = np.array(
-            (*self.floor.origin, self.floor.cell, self.floor.outside_is_hole, self.floor.outside_absorption, IR_RAY_LENGTH, SLIDE_MARGIN, dt),
+            (*self.floor.origin, self.floor.cell, self.floor.outside_is_hole, self.floor.outside_absorption, IR_RAY_LENGTH, SLIDE_MARGIN, dt,
+             *self._walls.frame),
             dtype=np.float64,
         )
         """The world's scalars for the kernels (`kernels.SCALARS`; writeable: numba types read-only
@@ -237,11 +239,11 @@ class World:
         read = len(st.sensors) if self._round_ir else st.n_floor + st.n_light  # pymunk reads IR otherwise
         self._read_arguments = (
             st.sensors[:read], st.index[:read], st.n_floor, self.floor.absorption, self._scalars, self._lights, walls.vertices,
-            walls.ranges, walls.boxes, walls.grid, st.circles, ir.noise.std, ir.noise.normals.values, ir.noise.normals.used, ir.tables,
+            walls.ranges, walls.boxes, walls.cells, st.circles, ir.noise.std, ir.noise.normals.values, ir.noise.normals.used, ir.tables,
             ir.curve_ends, ir.beyond, ir.inverse,
         )  # fmt: skip
         self._settle_arguments = (
-            st.params, st.state, self._scalars, walls.vertices, walls.ranges, walls.boxes, walls.grid, st.contacts, st.anchored, self.floor.hole,
+            st.params, st.state, self._scalars, walls.vertices, walls.ranges, walls.boxes, walls.cells, st.contacts, st.anchored, self.floor.hole,
             st.fallen, self._bodies.row_index, self._bodies.motion,
         )  # fmt: skip
 
@@ -419,12 +421,13 @@ def wall_cell(boxes: np.ndarray) -> float:
 class _WallArrays:
     """The walls as flat arrays for the kernels: all vertices, each wall's slice of them, its
     bounding box (xmin, ymin, xmax, ymax) and a uniform grid over the boxes (`kernels.build_wall_grid`;
-    walls are static, so it is built once)."""
+    walls are static, so it is built once): its origin and cell size (`frame`) and its cells."""
 
     vertices: np.ndarray
     ranges: np.ndarray
     boxes: np.ndarray
-    grid: tuple[np.ndarray, np.ndarray, np.ndarray]
+    frame: np.ndarray
+    cells: np.ndarray
 
     @classmethod
     def build(cls, spec: WorldSpec) -> _WallArrays:
@@ -432,11 +435,13 @@ class _WallArrays:
         ends = np.cumsum([len(p) for p in polygons], dtype=np.int64)
         starts = ends - np.array([len(p) for p in polygons], dtype=np.int64)
         boxes = np.array([(*p.min(axis=0), *p.max(axis=0)) for p in polygons]).reshape(-1, 4)
+        frame, cells = kernels.build_wall_grid(boxes, wall_cell(boxes))
         return cls(
             vertices=np.concatenate(polygons).reshape(-1, 2) if polygons else np.zeros((0, 2)),
             ranges=np.stack((starts, ends), axis=1).reshape(-1, 2),
             boxes=boxes,
-            grid=kernels.build_wall_grid(boxes, wall_cell(boxes)),
+            frame=frame,
+            cells=cells,
         )
 
 
