@@ -154,7 +154,7 @@ def figures(scale: float):
         return big[0]
 
     yield "world_big_maze_ctbot_all_sensors", "steps/s (934 walls)", big_maze_step
-    yield "world_big_maze_over_maze", "(cost of a step with 934 walls / with the shipped maze's 22, same run; walls in a grid: ~1)", lambda: world_step() / big_maze_step()
+    yield "world_big_maze_over_maze", "(cost of a step among 934 walls / among the shipped maze's 22, same run)", lambda: world_step() / big_maze_step()
     steps = int(180_000 * scale)  # 30 simulated minutes (full), 6 (quick)
     measured: dict[bool, float] = {}
 
