@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from sim.world import kernels
-from sim.world.physics import WALL_GRID_ABOVE, wall_cell
+from sim.world.physics import wall_cell
 
 
 def random_walls(seed: int, count: int, spread: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -38,8 +38,7 @@ def random_walls(seed: int, count: int, spread: float) -> tuple[np.ndarray, np.n
 
 def cell_sizes(boxes: np.ndarray, pick: int) -> float:
     """The world's own cell size, or much smaller cells (walls over many cells) or a few large ones."""
-    own = wall_cell(boxes) if len(boxes) > WALL_GRID_ABOVE else 0.1
-    return own * (1.0, 0.05, 0.3, 4.0)[pick]
+    return wall_cell(boxes) * (1.0, 0.05, 0.3, 4.0)[pick]
 
 
 walls_and_cells = st.tuples(st.integers(0, 2**32 - 1), st.integers(1, 400), st.sampled_from([0.5, 3.0, 20.0]), st.integers(0, 3))
@@ -50,20 +49,18 @@ walls_and_cells = st.tuples(st.integers(0, 2**32 - 1), st.integers(1, 400), st.s
 def test_each_cell_lists_the_walls_over_it_in_ascending_order(case):
     seed, count, spread, pick = case
     _, _, boxes = random_walls(seed, count, spread)
-    cell = cell_sizes(boxes, pick)
-    frame, cells = kernels.build_wall_grid(boxes, cell)
+    frame, cells = kernels.build_wall_grid(boxes, cell_sizes(boxes, pick))
     x0, y0, size = frame
     cols, rows = cells[kernels.COLUMNS], cells[kernels.ROWS]
     starts = cells[kernels.STARTS : kernels.STARTS + rows * cols + 1]
     members = cells[kernels.STARTS + len(starts) :][: starts[-1]]
-    for r in range(rows):
-        for c in range(cols):
-            listed = members[starts[r * cols + c] : starts[r * cols + c + 1]]
-            assert np.all(np.diff(listed) > 0)
-            # a wall whose box reaches into the cell (with the builder's rounding at the edges)
-            lo_x, lo_y = x0 + c * size, y0 + r * size
-            over = (boxes[:, 0] <= lo_x + size) & (boxes[:, 2] >= lo_x) & (boxes[:, 1] <= lo_y + size) & (boxes[:, 3] >= lo_y)
-            assert set(listed) <= set(np.nonzero(over)[0])
+    cell = np.repeat(np.arange(rows * cols), np.diff(starts))  # each entry's cell
+    same = cell[1:] == cell[:-1]
+    assert np.all(members[1:][same] > members[:-1][same])  # each cell's list ascends
+    # each listed wall's box reaches into the cell (closed; a rounding's width at the edges)
+    lo_x, lo_y, slack = x0 + (cell % cols) * size, y0 + (cell // cols) * size, 1e-9 * (1.0 + abs(x0) + abs(y0) + size * (cols + rows))
+    box = boxes[members]
+    assert np.all((box[:, 0] <= lo_x + size + slack) & (box[:, 2] >= lo_x - slack) & (box[:, 1] <= lo_y + size + slack) & (box[:, 3] >= lo_y - slack))
     every = set(members)
     assert every == set(range(count))
     _, one = kernels.build_wall_grid(boxes, math.inf)

@@ -376,9 +376,10 @@ def build_wall_grid(boxes: np.ndarray, cell: float) -> tuple[np.ndarray, np.ndar
 
 @numba.njit(cache=True, inline="always")
 def _cell_index(x: float, origin: float, cell: float, last: int) -> int:
-    """The grid column (or row) of coordinate `x`, clamped to 0..last (clamped as a float first:
-    a coordinate far beyond the grid must not overflow the integer)."""
-    return int(min(max(math.floor((x - origin) / cell), 0.0), float(last)))
+    """The grid column (or row) of coordinate `x`, clamped to 0..last; clamped as a float, since
+    numba's floor and int of a float far beyond the grid (or nan) overflow: 0 for nan."""
+    v = (x - origin) / cell
+    return int(v) if 0.0 <= v < last else (last if v >= last else 0)
 
 
 @numba.njit(cache=True, inline="always")

@@ -411,11 +411,10 @@ def wall_cell(boxes: np.ndarray) -> float:
     """The side (m) of the wall grid's square cells for walls of bounding boxes `boxes` (n, 4):
     cells of WALLS_PER_CELL walls' share of the walls' extent, so that the grid has about
     n / WALLS_PER_CELL cells whatever the world's size and a query meets the walls near it; at
-    least 1/n of the extent's longer side (a thin extent has n cells at most along it). Infinite
-    (one cell) for up to WALL_GRID_ABOVE walls."""
+    least 1/n of the extent's longer side (a thin extent has n cells at most along it)."""
     n = len(boxes)
-    if n <= WALL_GRID_ABOVE:
-        return math.inf
+    if n == 0:
+        return 1.0
     width, height = boxes[:, 2].max() - boxes[:, 0].min(), boxes[:, 3].max() - boxes[:, 1].min()
     return max(math.sqrt(WALLS_PER_CELL * width * height / n), max(width, height) / n, 1e-9)
 
@@ -438,7 +437,7 @@ class _WallArrays:
         ends = np.cumsum([len(p) for p in polygons], dtype=np.int64)
         starts = ends - np.array([len(p) for p in polygons], dtype=np.int64)
         boxes = np.array([(*p.min(axis=0), *p.max(axis=0)) for p in polygons]).reshape(-1, 4)
-        frame, cells = kernels.build_wall_grid(boxes, wall_cell(boxes))
+        frame, cells = kernels.build_wall_grid(boxes, wall_cell(boxes) if len(boxes) > WALL_GRID_ABOVE else math.inf)  # one cell: the plain loop
         return cls(
             vertices=np.concatenate(polygons).reshape(-1, 2) if polygons else np.zeros((0, 2)),
             ranges=np.stack((starts, ends), axis=1).reshape(-1, 2),
