@@ -61,6 +61,37 @@ def maze_ctbot(steps: int) -> float:
     return _steps_per_second(world, steps, np.array([[200.0, 180.0]]))
 
 
+def generated_maze(rooms: int, seed: int = 0) -> WorldSpec:
+    """A perfect maze of rooms x rooms one-cell rooms in the shipped maze's tiles (0.24 m cells,
+    walls a cell thick), carved by a seeded depth-first walk: 934 wall boxes at 40 rooms a side."""
+    from sim.world.files.grid import build_grid
+
+    rng = np.random.default_rng(seed)
+    size = 2 * rooms + 1
+    tiles = [["*" if r % 2 == 0 and c % 2 == 0 else "=" if r % 2 == 0 else "#" if c % 2 == 0 else " " for c in range(size)] for r in range(size)]
+    seen, path = {(0, 0)}, [(0, 0)]
+    while path:
+        r, c = path[-1]
+        free = [(r + dr, c + dc) for dr, dc in ((1, 0), (-1, 0), (0, 1), (0, -1)) if 0 <= r + dr < rooms and 0 <= c + dc < rooms and (r + dr, c + dc) not in seen]
+        if not free:
+            path.pop()
+            continue
+        nr, nc = free[rng.integers(len(free))]
+        tiles[r + nr + 1][c + nc + 1] = " "  # the wall tile between the two rooms
+        seen.add((nr, nc))
+        path.append((nr, nc))
+    pieces = build_grid(["".join(row) for row in tiles])
+    return WorldSpec(f"maze{rooms}", pieces.bounds, walls=pieces.walls)
+
+
+def big_maze_ctbot(steps: int, rooms: int = 40) -> float:
+    """`maze_ctbot` in a `generated_maze` (~1,000 walls, 19 m a side; a 1 cm floor raster, as a
+    2 mm one would take hundreds of MB), starting in a corner room facing along its corridor."""
+    world = World(generated_maze(rooms), floor_cell=0.01)
+    world.add_robot(CTBOT, (0.36, 0.36, np.pi / 2))
+    return _steps_per_second(world, steps, np.array([[200.0, 180.0]]))
+
+
 def maze_run(steps: int, record: bool) -> float:
     """Steps per second of a whole run (`sim.run.run`: sensors, odometry, controller, physics) of
     a c't-Bot solving the maze for `steps` steps, with or without the rerun recorder writing
@@ -115,6 +146,15 @@ def figures(scale: float):
         return bare[0]
 
     yield "world_maze_ctbot_all_sensors", "steps/s", world_step
+    big: list[float] = []
+
+    def big_maze_step() -> float:
+        if not big:
+            big.append(big_maze_ctbot(int(10000 * scale)))
+        return big[0]
+
+    yield "world_big_maze_ctbot_all_sensors", "steps/s (934 walls)", big_maze_step
+    yield "world_big_maze_over_maze", "(cost of a step among 934 walls / among the shipped maze's 22, same run)", lambda: world_step() / big_maze_step()
     steps = int(180_000 * scale)  # 30 simulated minutes (full), 6 (quick)
     measured: dict[bool, float] = {}
 

@@ -30,9 +30,13 @@ STATE = 15
 # per-robot counts (n, TALLIES) int64: encoder ticks (left, right), mouse counts (x, y)
 TICKS, COUNTS, TALLIES = 0, 2, 4
 # the world's scalars (SCALARS,) float64: floor raster origin (x, y m), cell (m), whether outside
-# it is a hole (0/1), the absorption outside it, IR ray length (m), slide margin (m), dt (s)
-ORIGIN, CELL, OUTSIDE_IS_HOLE, OUTSIDE_ABSORPTION, IR_LENGTH, SLIDE_MARGIN, DT = 0, 2, 3, 4, 5, 6, 7
-SCALARS = 8
+# it is a hole (0/1), the absorption outside it, IR ray length (m), slide margin (m), dt (s), the
+# wall grid's origin (x, y m) and cell (m) (`build_wall_grid`)
+ORIGIN, CELL, OUTSIDE_IS_HOLE, OUTSIDE_ABSORPTION, IR_LENGTH, SLIDE_MARGIN, DT, WALL_FRAME = 0, 2, 3, 4, 5, 6, 7, 8
+SCALARS = 11
+# the wall grid's cells (int64, one array): columns, rows, then the cells' starts (rows x columns
+# + 1, row-major; cell k lists members[starts[k]:starts[k + 1]]), the members, a buffer
+COLUMNS, ROWS, STARTS = 0, 1, 2
 # sensors of all robots (m, SENSOR) float64, floor then light then IR sensors: mount x, y (m),
 # height (m; floor, light), view direction (rad; light, IR), half opening or cone (rad; light,
 # IR), reach (m; light); and (m, INDEX) int64: owning robot, noise row and curve (IR)
@@ -165,6 +169,7 @@ def settle(
     vertices: np.ndarray,
     ranges: np.ndarray,
     boxes: np.ndarray,
+    wall_cells: np.ndarray,
     contacts: np.ndarray,
     anchored: np.ndarray,
     hole: np.ndarray,
@@ -178,7 +183,7 @@ def settle(
     its row of pymunk's body data (motion[rows[i], 3:6]): the world step's arithmetic between the
     drive and pymunk in one call. Returns whether any robot's `in_hole` changed."""
     move, alpha = state[:, MOVE : MOVE + 2], state[:, ALPHA]
-    sweep_walls(pose, move, params[:, SWEEP_RADIUS], scalars[SLIDE_MARGIN], vertices, ranges, boxes)
+    sweep_walls(pose, move, params[:, SWEEP_RADIUS], scalars[SLIDE_MARGIN], vertices, ranges, boxes, (scalars[WALL_FRAME : WALL_FRAME + 3], wall_cells))
     if pose.shape[0] > 1:
         keep_apart(pose, move, params[:, APART_RADIUS])
     changed = hold_at_holes(
@@ -337,6 +342,76 @@ def _ray_circle(ox: float, oy: float, ux: float, uy: float, cx: float, cy: float
 
 
 @numba.njit(cache=True)
+def build_wall_grid(boxes: np.ndarray, cell: float) -> tuple[np.ndarray, np.ndarray]:
+    """A uniform grid of square `cell`s over the walls' bounding boxes (xmin, ymin, xmax, ymax), for
+    `walls_near`: (frame: origin x, y and cell size; cells: one int64 array, layout above, the
+    buffer one wall long per wall). A wall is listed, in ascending order, in every cell its box
+    overlaps. The grid spans the walls' boxes only (a query beyond it meets its edge cells, whose
+    walls' boxes it misses). An infinite `cell` gives one cell of every wall: the plain loop."""
+    n = boxes.shape[0]
+    x0 = boxes[:, 0].min() if n else 0.0
+    y0 = boxes[:, 1].min() if n else 0.0
+    cols = 1 + max(_cell_index(boxes[:, 2].max(), x0, cell, 1 << 30), 0) if n else 1
+    rows = 1 + max(_cell_index(boxes[:, 3].max(), y0, cell, 1 << 30), 0) if n else 1
+    span = np.empty((n, 4), dtype=np.int64)  # per wall: its first and last column, first and last row
+    count = np.zeros(rows * cols + 1, dtype=np.int64)  # count[k + 1]: walls in cell k
+    for w in range(n):
+        span[w, 0], span[w, 1] = _cell_index(boxes[w, 0], x0, cell, cols - 1), _cell_index(boxes[w, 2], x0, cell, cols - 1)
+        span[w, 2], span[w, 3] = _cell_index(boxes[w, 1], y0, cell, rows - 1), _cell_index(boxes[w, 3], y0, cell, rows - 1)
+        for r in range(span[w, 2], span[w, 3] + 1):
+            count[r * cols + span[w, 0] + 1 : r * cols + span[w, 1] + 2] += 1
+    starts = np.cumsum(count)
+    first = STARTS + starts.shape[0]  # where the members begin
+    cells = np.empty(first + starts[-1] + max(n, 1), dtype=np.int64)
+    cells[COLUMNS], cells[ROWS] = cols, rows
+    cells[STARTS:first] = starts
+    fill = first + starts[:-1]
+    for w in range(n):  # walls in ascending order: each cell's list ascends
+        for r in range(span[w, 2], span[w, 3] + 1):
+            for k in range(r * cols + span[w, 0], r * cols + span[w, 1] + 1):
+                cells[fill[k]] = w
+                fill[k] += 1
+    return np.array((x0, y0, cell)), cells
+
+
+@numba.njit(cache=True, inline="always")
+def _cell_index(x: float, origin: float, cell: float, last: int) -> int:
+    """The grid column (or row) of coordinate `x`, clamped to 0..last; clamped as a float, since
+    numba's floor and int of a float far beyond the grid (or nan) overflow: 0 for nan."""
+    v = (x - origin) / cell
+    return int(v) if 0.0 <= v < last else (last if v >= last else 0)
+
+
+@numba.njit(cache=True, inline="always")
+def walls_near(lo_x: float, lo_y: float, hi_x: float, hi_y: float, frame: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """The walls listed in the grid cells (`build_wall_grid`) that the query box (lo_x, lo_y, hi_x,
+    hi_y) overlaps, each once and in ascending order: the order of a loop over every wall, so that
+    ties and early exits fall on the same wall. The caller still tests each one's box. One cell's
+    list is returned as it is; the lists of several are merged into the buffer (insertion into a
+    sorted run: a query meets a handful of walls)."""
+    cols, rows = cells[COLUMNS], cells[ROWS]
+    first = STARTS + rows * cols + 1
+    c0, c1 = _cell_index(lo_x, frame[0], frame[2], cols - 1), _cell_index(hi_x, frame[0], frame[2], cols - 1)
+    r0, r1 = _cell_index(lo_y, frame[1], frame[2], rows - 1), _cell_index(hi_y, frame[1], frame[2], rows - 1)
+    if r0 == r1 and c0 == c1:
+        return cells[first + cells[STARTS + r0 * cols + c0] : first + cells[STARTS + r0 * cols + c0 + 1]]
+    buffer = cells[first + cells[first - 1] :]
+    count = 0
+    for r in range(r0, r1 + 1):
+        for p in range(first + cells[STARTS + r * cols + c0], first + cells[STARTS + r * cols + c1 + 1]):
+            w, q = cells[p], count
+            while q > 0 and buffer[q - 1] > w:
+                q -= 1
+            if q > 0 and buffer[q - 1] == w:
+                continue  # listed in an earlier cell
+            for m in range(count, q, -1):
+                buffer[m] = buffer[m - 1]
+            buffer[q] = w
+            count += 1
+    return buffer[:count]
+
+
+@numba.njit(cache=True)
 def ir_rays(pose: np.ndarray, offsets: np.ndarray, owner: np.ndarray, direction: np.ndarray, origins: np.ndarray, look: np.ndarray) -> None:
     """World origins (m, 2) and view directions (m,) of IR sensors mounted at body-frame `offsets`
     looking along body-frame `direction` on robots `owner` (as `to_world` and heading + direction)."""
@@ -371,6 +446,7 @@ def sense_ir(
     circles: np.ndarray,
     out: np.ndarray,
     grid_above: int = 32,
+    wall_grid: tuple | None = None,
 ) -> None:
     """Distance (m) from each IR sensor at `origins` to the nearest point of a wall (convex
     polygons vertices[ranges[w, 0]:ranges[w, 1]], bounding boxes `boxes`) or a circle (x, y,
@@ -380,7 +456,10 @@ def sense_ir(
 
     With more than `grid_above` circles, each sensor checks only the circles in the grid cells
     its cone's bounding box overlaps (a crowd would otherwise cost sensors x robots); the nearest
-    distance is a minimum, so the grid gives the all-circles result bit for bit."""
+    distance is a minimum, so the grid gives the all-circles result bit for bit. Walls are taken
+    from `wall_grid` (`build_wall_grid`; None: one cell of every wall) in the cells the sensor's
+    reach box overlaps, in ascending order as a loop over every wall would meet them."""
+    frame, cells = build_wall_grid(boxes, math.inf) if wall_grid is None else wall_grid
     use_grid = circles.shape[0] > grid_above
     cell, x0, y0, cols, rows, order, sorted_key, widest = 1.0, 0.0, 0.0, 1, 1, np.empty(0, np.int64), np.empty(0, np.int64), 0.0
     if use_grid:
@@ -392,7 +471,7 @@ def sense_ir(
         l1x, l1y = math.cos(look[k] - cone[k]), math.sin(look[k] - cone[k])
         l2x, l2y = math.cos(look[k] + cone[k]), math.sin(look[k] + cone[k])
         best = math.inf
-        for w in range(ranges.shape[0]):
+        for w in walls_near(ox - length, oy - length, ox + length, oy + length, frame, cells):
             if boxes[w, 0] > ox + length or boxes[w, 2] < ox - length or boxes[w, 1] > oy + length or boxes[w, 3] < oy - length:
                 continue
             start, end = ranges[w, 0], ranges[w, 1]
@@ -526,6 +605,7 @@ def read_ir(
     vertices: np.ndarray,
     ranges: np.ndarray,
     boxes: np.ndarray,
+    wall_grid: tuple,
     circles: np.ndarray,
     noise_row: np.ndarray,
     noise_std: np.ndarray,
@@ -548,7 +628,7 @@ def read_ir(
     ir_rays(pose, offsets, owner, direction, origins, look)
     for i in range(pose.shape[0]):
         circles[i, 0], circles[i, 1] = pose[i, 0], pose[i, 1]
-    sense_ir(origins, look, cone, owner, length, vertices, ranges, boxes, circles, distance)
+    sense_ir(origins, look, cone, owner, length, vertices, ranges, boxes, circles, distance, 32, wall_grid)
     ir_values(distance, noise_row, noise_std, normals, used, curve, tables, last, beyond, inverse, lowest, raw, believed)
 
 
@@ -595,6 +675,7 @@ def read_sensors(
     vertices: np.ndarray,
     ranges: np.ndarray,
     boxes: np.ndarray,
+    wall_cells: np.ndarray,
     circles: np.ndarray,
     noise_std: np.ndarray,
     normals: np.ndarray,
@@ -624,7 +705,7 @@ def read_sensors(
     if believed.shape[0]:
         read_ir(
             pose, sensors[hi:, AT : AT + 2], index[hi:, OWNER], sensors[hi:, DIRECTION], sensors[hi:, OPENING], scalars[IR_LENGTH],
-            vertices, ranges, boxes, circles, index[hi:, NOISE_ROW], noise_std, normals, used, index[hi:, CURVE], tables,
+            vertices, ranges, boxes, (scalars[WALL_FRAME : WALL_FRAME + 3], wall_cells), circles, index[hi:, NOISE_ROW], noise_std, normals, used, index[hi:, CURVE], tables,
             curve_ends[:, 0], beyond, inverse, curve_ends[:, 1], values[hi:], believed,
         )  # fmt: skip
 
@@ -653,19 +734,22 @@ def _polygon_distance(px: float, py: float, vertices: np.ndarray, start: int, en
 
 @numba.njit(cache=True)
 def _sweep(
-    px: float, py: float, mx: float, my: float, radius: float, vertices: np.ndarray, ranges: np.ndarray, boxes: np.ndarray
+    px: float, py: float, mx: float, my: float, radius: float, vertices: np.ndarray, ranges: np.ndarray, boxes: np.ndarray,
+    wall_grid: tuple,
 ) -> tuple[float, float, float]:
     """First contact of a circle of `radius` moved from (px, py) by (mx, my) with any wall:
     (fraction of the move, contact normal x, y); fraction 1 when free. Conservative advancement
     (advance by the distance to the wall, which can never overshoot a convex shape). A wall the
-    circle already touches only stops motion into it."""
+    circle already touches only stops motion into it. Walls come from `walls_near` for the box of
+    the swept circle, in ascending order: of walls met at the same fraction, the first one's normal
+    is taken, as a loop over every wall takes it."""
     length = math.hypot(mx, my)
     first, nx, ny = 1.0, 0.0, 0.0
     if length == 0.0:
         return first, nx, ny
     lo_x, hi_x = min(px, px + mx) - radius, max(px, px + mx) + radius
     lo_y, hi_y = min(py, py + my) - radius, max(py, py + my) + radius
-    for w in range(ranges.shape[0]):
+    for w in walls_near(lo_x, lo_y, hi_x, hi_y, wall_grid[0], wall_grid[1]):
         if boxes[w, 0] > hi_x or boxes[w, 2] < lo_x or boxes[w, 1] > hi_y or boxes[w, 3] < lo_y:
             continue
         t = 0.0
@@ -700,15 +784,17 @@ def sweep_walls(
     vertices: np.ndarray,
     ranges: np.ndarray,
     boxes: np.ndarray,
+    wall_grid: tuple,
 ) -> None:
     """Cut every robot's planned move (n, 2), in place, where its body would first sink deeper
     than allowed into a wall, and let the rest slide: the remainder without its part into the
     surface is swept again with a slightly thinner circle (so the surface just touched does not
     stop it, another one does). `radius` is each robot's sweep radius (body radius minus the
-    allowed depth); walls are convex polygons vertices[ranges[w, 0]:ranges[w, 1]] with boxes."""
+    allowed depth); walls are convex polygons vertices[ranges[w, 0]:ranges[w, 1]] with boxes, found
+    through `wall_grid` (`build_wall_grid`)."""
     for i in range(pose.shape[0]):
         px, py, mx, my = pose[i, 0], pose[i, 1], move[i, 0], move[i, 1]
-        t, nx, ny = _sweep(px, py, mx, my, radius[i], vertices, ranges, boxes)
+        t, nx, ny = _sweep(px, py, mx, my, radius[i], vertices, ranges, boxes, wall_grid)
         if t >= 1.0:
             continue
         ax, ay = mx * t, my * t
@@ -716,7 +802,7 @@ def sweep_walls(
         into = rx * nx + ry * ny
         if into < 0.0:
             rx, ry = rx - into * nx, ry - into * ny
-        t2, _, _ = _sweep(px + ax, py + ay, rx, ry, radius[i] - slide_margin, vertices, ranges, boxes)
+        t2, _, _ = _sweep(px + ax, py + ay, rx, ry, radius[i] - slide_margin, vertices, ranges, boxes, wall_grid)
         move[i, 0], move[i, 1] = ax + rx * t2, ay + ry * t2
 
 
