@@ -53,12 +53,12 @@ def mecanum_4wheel(steps: int) -> float:
     return _steps_per_second(world, steps, np.zeros((1, 2)), read=False)
 
 
-def maze_ctbot(steps: int) -> float:
+def maze_ctbot(steps: int, repeats: int = 3) -> float:
     """One c't-Bot reading every sensor each step in the shipped maze, turning gently so that it
     meets walls (contacts, sliding and ray hits included)."""
     world = World(load_world("maze"))
     world.add_robot(CTBOT)
-    return _steps_per_second(world, steps, np.array([[200.0, 180.0]]))
+    return _steps_per_second(world, steps, np.array([[200.0, 180.0]]), repeats=repeats)
 
 
 def generated_maze(rooms: int, seed: int = 0) -> WorldSpec:
@@ -156,23 +156,28 @@ def figures(scale: float):
     yield "world_big_maze_ctbot_all_sensors", "steps/s (934 walls)", big_maze_step
     yield "world_big_maze_over_maze", "(cost of a step among 934 walls / among the shipped maze's 22, same run)", lambda: world_step() / big_maze_step()
     steps = int(180_000 * scale)  # 30 simulated minutes (full), 6 (quick)
-    measured: dict[bool, float] = {}
+    measured: dict[str, float] = {}
 
-    def once(record: bool) -> float:
-        """The best of three runs each way, interleaved (a run takes seconds: a busy spell of the
-        machine would otherwise decide the recording ratio). rerun is imported before them, so
-        that all recorded runs are alike: its import, once per process, is `rerun_import_s`."""
+    def once(kind: str) -> float:
+        """The best of three of each kind ('world', 'run', 'recording'), interleaved and each as
+        many steps as a run: a run takes seconds, and the machine's speed drifts over seconds
+        (a burst of the bare world step, as `world_maze_ctbot_all_sensors`, catches its fastest
+        spell; a run its average). rerun is imported before them, so that all recorded runs are
+        alike: its import, once per process, is `rerun_import_s`."""
         if not measured:
             import rerun  # noqa: F401
 
-            for record_it in (False, True) * 3:
-                measured[record_it] = max(measured.get(record_it, 0.0), maze_run(steps, record_it))
-        return measured[record]
+            for _ in range(3):
+                for key, measure in (("world", lambda: maze_ctbot(steps, repeats=1)), ("run", lambda: maze_run(steps, False)),
+                                     ("recording", lambda: maze_run(steps, True))):  # fmt: skip
+                    measured[key] = max(measured.get(key, 0.0), measure())
+        return measured[kind]
 
-    yield "run_maze_solve", "steps/s", lambda: once(False)
-    yield "run_maze_solve_over_world_step", "(whole run / bare world step, same run; bar >= 0.5)", lambda: once(False) / world_step()
-    yield "run_maze_solve_recording", "steps/s", lambda: once(True)
-    yield "run_maze_solve_recording_ratio", "(recording / run, same run; bar >= 0.75)", lambda: once(True) / once(False)
+    yield "run_maze_solve", "steps/s", lambda: once("run")
+    yield "world_maze_ctbot_beside_runs", "steps/s (the bare world step as long as a run, interleaved with the runs)", lambda: once("world")
+    yield "run_maze_solve_over_world_step", "(whole run / bare world step beside it; bar >= 0.5)", lambda: once("run") / once("world")
+    yield "run_maze_solve_recording", "steps/s", lambda: once("recording")
+    yield "run_maze_solve_recording_ratio", "(recording / run, same run; bar >= 0.75)", lambda: once("recording") / once("run")
     yield "rerun_import_s", "s (once per process, before the first recording; own process)", rerun_import
     crowds: dict[int, float] = {}
 

@@ -62,8 +62,24 @@ class BadCommand(ValueError):
     """A command that is not one of the command types or holds a non-finite number."""
 
 
+_last_conversion: tuple = (None, None, (0.0, 0.0))
+"""The last command converted, its robot and its rim speeds. Commands and robots are immutable, and
+a behaviour's odometry converts the command the run loop converted the step before: one
+conversion a step instead of two."""
+
+
 def wheel_speeds_for(command: Command, robot: RobotSpec) -> tuple[float, float]:
     """Rim speeds (m/s) for a command on `robot`, within its motor limit, curvature kept."""
+    global _last_conversion
+    last_command, last_robot, speeds = _last_conversion
+    if command is last_command and robot is last_robot:
+        return speeds
+    speeds = _wheel_speeds(command, robot)
+    _last_conversion = (command, robot, speeds)
+    return speeds
+
+
+def _wheel_speeds(command: Command, robot: RobotSpec) -> tuple[float, float]:
     if isinstance(command, WheelSpeeds):
         left, right = command.left, command.right
     elif isinstance(command, Twist):

@@ -264,21 +264,25 @@ def run(
     commands = np.zeros((len(robots), 2))
     try:
         _notify(observers, "on_start", world, logs)  # inside: Ctrl-C while a recorder opens still ends the run
+        samplers = [observer.on_sample for observer in observers if hasattr(observer, "on_sample")]
+        drivers = [(i, robot.spec, log, controller) for i, (robot, log, controller) in enumerate(zip(world.robots, logs, controllers))]
         for step in range(steps + 1):
             _sample(world, logs, estimators, odometry, result)
-            _notify(observers, "on_sample", world, logs)
+            for on_sample in samplers:
+                on_sample(world, logs)
             if until_goal and any(log.goal_time is not None for log in logs):
                 result.reason = "goal"
                 break
             if step == steps:
                 break
-            for i, (robot, log, controller) in enumerate(zip(world.robots, logs, controllers)):
+            now = world.time
+            for i, spec, log, controller in drivers:
                 try:
-                    command = controller.step(world.time, log.latest)
-                    if robot.spec.chassis is not None:
+                    command = controller.step(now, log.latest)
+                    if spec.chassis is not None:
                         _drive_chassis(world, i, log, command, log.latest, step)
                         continue
-                    left, right = wheel_speeds_for(command, robot.spec)
+                    left, right = wheel_speeds_for(command, spec)
                 except BadCommand as err:
                     raise _Stop(f"controller {log.controller_name!r} of {log.name} returned a bad command at step {step} (t = {world.time:.2f} s): {err}") from None
                 except ControllerStopped as err:
@@ -289,7 +293,7 @@ def run(
                         f"controller {log.controller_name!r} of {log.name} raised {type(err).__name__}: {err} "
                         f"at step {step} (t = {world.time:.2f} s){where}"
                     ) from None
-                commands[i] = motor_commands(left, right, robot.spec)
+                commands[i] = motor_commands(left, right, spec)
             world.step(commands)
     except _Stop as stop:
         result.reason, result.error = "error", str(stop)
