@@ -73,11 +73,11 @@ def _interleaved(ours: Callable[[], float], theirs: Callable[[], float], pairs: 
     return a / b if b > 0 else float("nan")  # nan: the peer did not run (not installed)
 
 
-def parallel_ratio(robots: int = 10_000, steps: int = 500, pairs: int = 15, poses: bool = False) -> float:
+def parallel_ratio(robots: int = 10_000, steps: int = 500, pairs: int = 30, poses: bool = False) -> float:
     """Parallel over serial kernel throughput, from interleaved pairs of short runs. A parallel run
     lasts about 10 ms and waits for its slowest thread: when the host takes the second core of a
     shared VM for a few milliseconds, that run halves (5 pairs gave 1.4 to 2.2 in a row on the
-    same machine), so the best of more pairs is taken."""
+    same machine, 15 pairs 1.5 to 2.1 in slow spells), so the best of 30 pairs is taken."""
     return _interleaved(lambda: kinematics_batch(robots, steps, parallel=True, repeats=1, poses=poses),
                         lambda: kinematics_batch(robots, steps, repeats=1, poses=poses), pairs)
 
