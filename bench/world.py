@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 
 import numpy as np
 
@@ -134,25 +135,25 @@ def many_ctbots(steps: int, count: int = 100) -> float:
     return _steps_per_second(world, steps, commands)
 
 
+def _once(measure: Callable[[], float]) -> Callable[[], float]:
+    """`measure`, run on the first call only: several lines print or divide by one figure."""
+    value: list[float] = []
+
+    def measured() -> float:
+        if not value:
+            value.append(measure())
+        return value[0]
+
+    return measured
+
+
 def figures(scale: float):
     """(name, unit, thunk) for the world benchmarks."""
     yield "world_empty_1bot", "steps/s", lambda: empty_1bot(int(20000 * scale))
     yield "world_mecanum_4wheel", "steps/s", lambda: mecanum_4wheel(int(20000 * scale))
-    bare: list[float] = []
-
-    def world_step() -> float:
-        if not bare:
-            bare.append(maze_ctbot(int(10000 * scale)))
-        return bare[0]
-
+    world_step = _once(lambda: maze_ctbot(int(10000 * scale)))
     yield "world_maze_ctbot_all_sensors", "steps/s", world_step
-    big: list[float] = []
-
-    def big_maze_step() -> float:
-        if not big:
-            big.append(big_maze_ctbot(int(10000 * scale)))
-        return big[0]
-
+    big_maze_step = _once(lambda: big_maze_ctbot(int(10000 * scale)))
     yield "world_big_maze_ctbot_all_sensors", "steps/s (934 walls)", big_maze_step
     yield "world_big_maze_over_maze", "(cost of a step among 934 walls / among the shipped maze's 22, same run)", lambda: world_step() / big_maze_step()
     steps = int(180_000 * scale)  # 30 simulated minutes (full), 6 (quick)
