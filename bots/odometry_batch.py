@@ -81,7 +81,7 @@ class DefaultOdometry:
 
     def update(self, tallies: np.ndarray, time: float) -> None:
         """Step every robot's estimates by one step's readings: `tallies` (rows, 4) int64 encoder
-        ticks (left, right) then mouse counts (forward, left) per robot (`World.tallies`), read
+        ticks (left, right) then mouse counts (forward, left) per robot (`SensorFrame.tallies`), read
         at `time` (s)."""
         _step(tallies, self.rows, time, self.params, self.state, self.contact_steps, self.poses)
 

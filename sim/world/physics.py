@@ -252,13 +252,6 @@ class World:
         self._batch()
         return self._poses.copy()
 
-    def tallies(self) -> np.ndarray:
-        """(n, 4) int64 per robot: encoder ticks (left, right) then mouse counts (forward, left) of
-        the last step, the values `read_all` gives each robot's readings. The world's own array,
-        updated in place by every step (read it, do not write it): odometry of all robots at once
-        takes it without a Readings object per robot."""
-        return self._batch().tallies
-
     # --- sensors ----------------------------------------------------------------------------
 
     def read_all(self) -> SensorFrame:
