@@ -60,7 +60,8 @@ class BodyArrays:
         """Each robot's row in pymunk's walk over the bodies (consecutive rows: a slice, cheaper)."""
         self.row_index = rows
         """The same rows as an array (for compiled kernels)."""
-        self._robot_bodies = bodies, [body._body for body in bodies]  # (the C bodies live as long as the Python ones)
+        self._robot_bodies = bodies  # (the C bodies below live as long as these)
+        self._c_bodies = [body._body for body in bodies]
         self._read_pose = _Walk(space, _POSE, batch.Buffer(), write=False)
         self._read_motion = _Walk(space, _MOTION, batch.Buffer(), write=False)
         self._read_motion()
@@ -88,7 +89,7 @@ class BodyArrays:
         """pymunk's position update (`Body.update_position`) of every robot body, by its C function
         (the Python wrapper cost as much again, per robot and step)."""
         update = lib.cpBodyUpdatePosition
-        for body in self._robot_bodies[1]:
+        for body in self._c_bodies:
             update(body, dt)
 
     def send(self) -> None:
