@@ -22,8 +22,11 @@ class _Walk:
     `buffer`), its C call data built once: `batch.get_space_bodies` and `set_space_bodies` build
     it anew on every call, which cost about 1 us each, twice a world step."""
 
-    def __init__(self, space: pymunk.Space, fields: batch.BodyFields, buffer: batch.Buffer, write: bool):
+    def __init__(self, space: pymunk.Space, fields: batch.BodyFields, buffer: batch.Buffer, write: bool, width: int = 1):
         self._owners = space, buffer  # (the C space and arrays live as long as these)
+        self._width = width
+        self._seen: tuple = (None, -1)  # the C array and count `_view` was made for
+        self._view = np.empty((0, width))
         self._space = space._space
         self._floats = buffer._float_arr
         self._data = ffi.new("pmBatchedData *")
@@ -37,8 +40,14 @@ class _Walk:
         lib.cpSpaceEachBody(self._space, self._visit, self._data)
 
     def floats(self) -> np.ndarray:
-        """The values the last read walk gave (a view into pymunk's buffer: valid until the next)."""
-        return np.frombuffer(ffi.buffer(self._floats.arr, 8 * self._floats.num))
+        """The values the last read walk gave, one row of `width` per body (a view into pymunk's
+        buffer: valid until the next walk). The view is made again only when the buffer moved or
+        changed size, which costs more than the walk itself."""
+        seen = self._floats.arr, self._floats.num
+        if seen != self._seen:
+            self._seen = seen
+            self._view = np.frombuffer(ffi.buffer(seen[0], 8 * seen[1])).reshape(-1, self._width)
+        return self._view
 
 
 class BodyArrays:
@@ -62,10 +71,10 @@ class BodyArrays:
         """The same rows as an array (for compiled kernels)."""
         self._robot_bodies = bodies  # (the C bodies below live as long as these)
         self._c_bodies = [body._body for body in bodies]
-        self._read_pose = _Walk(space, _POSE, batch.Buffer(), write=False)
-        self._read_motion = _Walk(space, _MOTION, batch.Buffer(), write=False)
+        self._read_pose = _Walk(space, _POSE, batch.Buffer(), write=False, width=3)
+        self._read_motion = _Walk(space, _MOTION, batch.Buffer(), write=False, width=6)
         self._read_motion()
-        self.motion = self._read_motion.floats().reshape(-1, 6).copy()
+        self.motion = self._read_motion.floats().copy()
         """vx, vy, w, fx, fy, torque per body, as `send` writes them: the robots' rows at rest."""
         self.motion[self.rows, :3] = 0.0
         written = batch.Buffer()
@@ -75,14 +84,15 @@ class BodyArrays:
     def poses(self) -> np.ndarray:
         """(n, 3) robot poses (x, y m; heading rad), a new array."""
         self._read_pose()
-        return self._read_pose.floats().reshape(-1, 3)[self.rows].copy()
+        poses = self._read_pose.floats()[self.rows]
+        return poses.copy() if isinstance(self.rows, slice) else poses  # (rows by an index array: a copy already)
 
     def refresh(self) -> None:
         """Take the other bodies' current velocities and forces into `motion` (call before writing
         the robots' forces into it); nothing to do without other bodies."""
         if self._others:
             self._read_motion()
-            self.motion[:] = self._read_motion.floats().reshape(-1, 6)
+            self.motion[:] = self._read_motion.floats()
             self.motion[self.rows, :3] = 0.0  # (without them, the robots' velocities stay the zeros set above)
 
     def move(self, dt: float) -> None:

@@ -457,8 +457,10 @@ def sense_ir(
     With more than `grid_above` circles, each sensor checks only the circles in the grid cells
     its cone's bounding box overlaps (a crowd would otherwise cost sensors x robots); the nearest
     distance is a minimum, so the grid gives the all-circles result bit for bit. Walls are taken
-    from `wall_grid` (`build_wall_grid`; None: one cell of every wall) in the cells the sensor's
-    reach box overlaps, in ascending order as a loop over every wall would meet them."""
+    from `wall_grid` (`build_wall_grid`; None: one cell of every wall) in the cells the cone's
+    bounding box overlaps, in ascending order as a loop over every wall would meet them; only a
+    wall whose box meets the cone's can give a distance within `length` (every nearest point and
+    edge-ray hit that counts lies in the cone), so the others are skipped without changing a bit."""
     frame, cells = build_wall_grid(boxes, math.inf) if wall_grid is None else wall_grid
     use_grid = circles.shape[0] > grid_above
     cell, x0, y0, cols, rows, order, sorted_key, widest = 1.0, 0.0, 0.0, 1, 1, np.empty(0, np.int64), np.empty(0, np.int64), 0.0
@@ -471,8 +473,10 @@ def sense_ir(
         l1x, l1y = math.cos(look[k] - cone[k]), math.sin(look[k] - cone[k])
         l2x, l2y = math.cos(look[k] + cone[k]), math.sin(look[k] + cone[k])
         best = math.inf
-        for w in walls_near(ox - length, oy - length, ox + length, oy + length, frame, cells):
-            if boxes[w, 0] > ox + length or boxes[w, 2] < ox - length or boxes[w, 1] > oy + length or boxes[w, 3] < oy - length:
+        # a wall counts only where it meets the cone within `length` (inside the wall: at the apex)
+        lo_x, lo_y, hi_x, hi_y = _cone_box(ox, oy, cx, cy, l1x, l1y, l2x, l2y, cone[k], length, 0.0)
+        for w in walls_near(lo_x, lo_y, hi_x, hi_y, frame, cells):
+            if boxes[w, 0] > hi_x or boxes[w, 2] < lo_x or boxes[w, 1] > hi_y or boxes[w, 3] < lo_y:
                 continue
             start, end = ranges[w, 0], ranges[w, 1]
             distance, qx, qy = _polygon_distance(ox, oy, vertices, start, end)
