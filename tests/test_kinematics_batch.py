@@ -39,7 +39,7 @@ from sim.kinematics import (
     wheel_arcs_to_arc,
     wheel_increment,
 )
-from sim.kinematics.batch import CHUNK, step_batch, step_batch_parallel, step_poses, step_poses_parallel
+from sim.kinematics.batch import step_batch, step_batch_parallel, step_poses, step_poses_parallel
 
 carry = floats(0.0, 1.0, exclude_max=True)
 
@@ -261,8 +261,8 @@ def test_kernels_refuse_rows_of_the_wrong_shape() -> None:
                    np.zeros((2, 3), np.int64), np.zeros(2), 1.0, np.zeros((2, 4)), np.zeros((2, 4), np.int64))
 
 
-# robot counts around the chunk size, where the chunks and their SIMD remainders fall differently
-robot_counts = st.one_of(st.sampled_from((0, 1, 2, CHUNK - 1, CHUNK, CHUNK + 1, 4 * CHUNK + 3)), st.integers(0, 3 * CHUNK))
+# robot counts where the threads' parts and their SIMD remainders (4 or 8 lanes) fall differently
+robot_counts = st.one_of(st.sampled_from((0, 1, 2, 3, 5, 7, 9, 17, 511, 513, 2051)), st.integers(0, 1600))
 
 
 @given(robot_counts, st.integers(0, 2**32 - 1))

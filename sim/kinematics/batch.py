@@ -6,8 +6,9 @@ the same arithmetic in one pass per step (tests check them against the reference
 
 Layout: every per-robot quantity is a row of N values (structure of arrays: pose (3, N) holds the
 rows x, y, θ), so the loop over robots loads and stores each quantity contiguously and the compiler
-runs it four or eight robots at a time in SIMD lanes. Robots are taken in chunks of `CHUNK`; the
-serial and the parallel kernels walk the same chunks with the same code, so they agree bit for bit.
+runs it four or eight robots at a time in SIMD lanes. The serial kernels take all robots in one
+loop, the parallel ones one part per thread with the same code; every robot's arithmetic is the
+same in a SIMD lane or alone (no fastmath, explicit fused multiply-adds), so they agree bit for bit.
 
 No fastmath flag is set. The arc pass rounds each multiply-add once, by an explicit fused
 multiply-add (`_fma`, LLVM's llvm.fma): a third more robot-steps per second, and a pose closer to
@@ -29,12 +30,6 @@ from numba import types
 from numba.extending import intrinsic
 
 from sim.kinematics.arc import _ADVANCE_SERIES_LIMIT, _COS, _SERIES_LIMIT, _SINC
-
-# Robots per inner loop: small enough that a chunk's rows stay in the L1 cache between the arc and
-# the counting pass and that 10,000 robots share out evenly over a few threads (20 chunks), large
-# enough that the per-chunk call is lost in the loop (512 robot-steps take some microseconds).
-CHUNK = 512
-
 
 @intrinsic
 def _fma(typingctx, a, b, c):
@@ -122,51 +117,82 @@ def _advance(
     return _fma(chord, mid_c, x), _fma(chord, mid_s, y), theta + alpha, c * norm, s * norm
 
 
-@numba.njit(cache=True)
-def _arc_rows(
-    x: np.ndarray, y: np.ndarray, theta: np.ndarray, c: np.ndarray, s: np.ndarray,
-    s_left: np.ndarray, s_right: np.ndarray, track: float,
-) -> None:
-    """One chunk of robots along their exact arcs (`exact_arc`, `_advance`), in place.
+@numba.njit(cache=True, inline="always")
+def _arc_one(x: float, y: float, theta: float, c: float, s: float, s_left: float, s_right: float, alpha: float) -> tuple:
+    """(x, y, θ, cos θ, sin θ, beyond) of a robot after its exact arc (`exact_arc`, `_advance`) by
+    `half_angle`'s series with the multiply-adds fused, with no call and no branch, so that the
+    loop around it runs in SIMD lanes: the half angle is clipped to the series' range, and a robot
+    turning beyond it (beyond: a turn of more than 0.5 rad in one step) keeps its pose here, for
+    `_arcs_beyond`. (Scalars in and out: array arguments of an inlined function would cost two
+    reference counts each per robot.)"""
+    h = 0.5 * alpha
+    beyond = abs(h) > _SERIES_LIMIT
+    h = min(max(h, -_SERIES_LIMIT), _SERIES_LIMIT)
+    cos_h, sinc_h = _series(h, _fma)
+    moved = _advance(x, y, theta, c, s, 0.5 * (s_left + s_right) * sinc_h, alpha, cos_h, sinc_h * h)
+    if beyond:
+        return x, y, theta, c, s, beyond
+    return moved[0], moved[1], moved[2], moved[3], moved[4], beyond
 
-    The first loop has no call and no branch, so it runs in SIMD lanes: it takes `half_angle`'s
-    series (multiply-adds fused) for every robot, the half angle clipped to the series' range, and
-    leaves a robot turning beyond that range where it is. Those few (a turn of more than 0.5 rad in
-    one step) then move by `exact_arc`'s trig, one at a time."""
+
+@numba.njit(cache=True)
+def _arcs_beyond(x: np.ndarray, y: np.ndarray, theta: np.ndarray, c: np.ndarray, s: np.ndarray, s_left: np.ndarray,
+                 s_right: np.ndarray, track: float) -> None:
+    """The robots `_arc_one` left (turning beyond the series' range) moved by `exact_arc`'s trig."""
+    for i in range(x.shape[0]):
+        chord, alpha, cos_h, sin_h = exact_arc(s_left[i], s_right[i], track)
+        if abs(0.5 * alpha) > _SERIES_LIMIT:
+            x[i], y[i], theta[i], c[i], s[i] = _advance(x[i], y[i], theta[i], c[i], s[i], chord, alpha, cos_h, sin_h)
+
+
+@numba.njit(cache=True, inline="always")
+def _count_one(
+    s_left: float, s_right: float, alpha: float, ticks_per_metre: float, carry_left: float, carry_right: float,
+    mount_x: float, mount_y: float, counts_per_metre: float, carry_forward: float, carry_lateral: float,
+) -> tuple:
+    """A robot's encoder ticks and carries (left, right), then mouse counts and carries (forward,
+    left): `quantize_one` of each running total. The mouse at (mount_x, mount_y) in the body frame
+    moves by (s − α·mount_y, α·mount_x)."""
+    ticks_left, carry_left = quantize_one(s_left * ticks_per_metre + carry_left)
+    ticks_right, carry_right = quantize_one(s_right * ticks_per_metre + carry_right)
+    forward, carry_forward = quantize_one((0.5 * (s_left + s_right) - alpha * mount_y) * counts_per_metre + carry_forward)
+    lateral, carry_lateral = quantize_one(alpha * mount_x * counts_per_metre + carry_lateral)
+    return ticks_left, carry_left, ticks_right, carry_right, forward, carry_forward, lateral, carry_lateral
+
+
+@numba.njit(cache=True)
+def _pose_rows(x: np.ndarray, y: np.ndarray, theta: np.ndarray, c: np.ndarray, s: np.ndarray, s_left: np.ndarray,
+               s_right: np.ndarray, track: float) -> None:
+    """Robots along their exact arcs, in place (the rows of one part)."""
     beyond = 0
     for i in range(x.shape[0]):
         alpha = (s_right[i] - s_left[i]) / track
-        h = 0.5 * alpha
-        far = abs(h) > _SERIES_LIMIT
+        x[i], y[i], theta[i], c[i], s[i], far = _arc_one(x[i], y[i], theta[i], c[i], s[i], s_left[i], s_right[i], alpha)
         beyond += far
-        h = min(max(h, -_SERIES_LIMIT), _SERIES_LIMIT)
-        cos_h, sinc_h = _series(h, _fma)
-        moved = _advance(x[i], y[i], theta[i], c[i], s[i], 0.5 * (s_left[i] + s_right[i]) * sinc_h, alpha, cos_h, sinc_h * h)
-        if not far:
-            x[i], y[i], theta[i], c[i], s[i] = moved
     if beyond:
-        for i in range(x.shape[0]):
-            chord, alpha, cos_h, sin_h = exact_arc(s_left[i], s_right[i], track)
-            if abs(0.5 * alpha) > _SERIES_LIMIT:
-                x[i], y[i], theta[i], c[i], s[i] = _advance(x[i], y[i], theta[i], c[i], s[i], chord, alpha, cos_h, sin_h)
+        _arcs_beyond(x, y, theta, c, s, s_left, s_right, track)
 
 
 @numba.njit(cache=True)
-def _count_rows(
+def _batch_rows(
+    x: np.ndarray, y: np.ndarray, theta: np.ndarray, c: np.ndarray, s: np.ndarray,
     s_left: np.ndarray, s_right: np.ndarray, track: float, ticks_per_metre: float,
     carry_left: np.ndarray, carry_right: np.ndarray, ticks_left: np.ndarray, ticks_right: np.ndarray,
     mount_x: float, mount_y: float, counts_per_metre: float,
     carry_forward: np.ndarray, carry_lateral: np.ndarray, counts_forward: np.ndarray, counts_lateral: np.ndarray,
 ) -> None:
-    """One chunk's encoder ticks and mouse counts (`quantize_one` of each running total), in place.
-    The mouse at (mount_x, mount_y) in the body frame moves by (s − α·mount_y, α·mount_x)."""
-    for i in range(s_left.shape[0]):
-        ticks_left[i], carry_left[i] = quantize_one(s_left[i] * ticks_per_metre + carry_left[i])
-        ticks_right[i], carry_right[i] = quantize_one(s_right[i] * ticks_per_metre + carry_right[i])
+    """Robots along their exact arcs and their ticks and counts, in place, in one loop (the rows of
+    one part): each wheel arc is loaded, and each turn divided out, once."""
+    beyond = 0
+    for i in range(x.shape[0]):
         alpha = (s_right[i] - s_left[i]) / track
-        forward = 0.5 * (s_left[i] + s_right[i]) - alpha * mount_y
-        counts_forward[i], carry_forward[i] = quantize_one(forward * counts_per_metre + carry_forward[i])
-        counts_lateral[i], carry_lateral[i] = quantize_one(alpha * mount_x * counts_per_metre + carry_lateral[i])
+        x[i], y[i], theta[i], c[i], s[i], far = _arc_one(x[i], y[i], theta[i], c[i], s[i], s_left[i], s_right[i], alpha)
+        beyond += far
+        (ticks_left[i], carry_left[i], ticks_right[i], carry_right[i], counts_forward[i], carry_forward[i], counts_lateral[i],
+         carry_lateral[i]) = _count_one(s_left[i], s_right[i], alpha, ticks_per_metre, carry_left[i], carry_right[i], mount_x,
+                                        mount_y, counts_per_metre, carry_forward[i], carry_lateral[i])  # fmt: skip
+    if beyond:
+        _arcs_beyond(x, y, theta, c, s, s_left, s_right, track)
 
 
 @numba.njit(cache=True)
@@ -196,23 +222,27 @@ def _check_counts(robots: int, tick_carry: np.ndarray, ticks: np.ndarray, mount:
 
 
 @numba.njit(cache=True)
-def _poses_chunk(k: int, pose: np.ndarray, heading_dir: np.ndarray, wheel_arcs: np.ndarray, track: float) -> None:
-    lo, hi = k * CHUNK, min((k + 1) * CHUNK, pose.shape[1])
-    _arc_rows(pose[0, lo:hi], pose[1, lo:hi], pose[2, lo:hi], heading_dir[0, lo:hi], heading_dir[1, lo:hi],
-              wheel_arcs[0, lo:hi], wheel_arcs[1, lo:hi], track)
+def _part(k: int, parts: int, robots: int) -> tuple[int, int]:
+    """Robots lo:hi of part k of `parts` (as even as can be)."""
+    return robots * k // parts, robots * (k + 1) // parts
 
 
 @numba.njit(cache=True)
-def _batch_chunk(
-    k: int, pose: np.ndarray, heading_dir: np.ndarray, wheel_arcs: np.ndarray, track: float, ticks_per_metre: float,
+def _poses_part(lo: int, hi: int, pose: np.ndarray, heading_dir: np.ndarray, wheel_arcs: np.ndarray, track: float) -> None:
+    _pose_rows(pose[0, lo:hi], pose[1, lo:hi], pose[2, lo:hi], heading_dir[0, lo:hi], heading_dir[1, lo:hi],
+               wheel_arcs[0, lo:hi], wheel_arcs[1, lo:hi], track)  # fmt: skip
+
+
+@numba.njit(cache=True)
+def _batch_part(
+    lo: int, hi: int, pose: np.ndarray, heading_dir: np.ndarray, wheel_arcs: np.ndarray, track: float, ticks_per_metre: float,
     tick_carry: np.ndarray, ticks: np.ndarray, mount: np.ndarray, counts_per_metre: float, mouse_carry: np.ndarray,
     counts: np.ndarray,
 ) -> None:
-    _poses_chunk(k, pose, heading_dir, wheel_arcs, track)
-    lo, hi = k * CHUNK, min((k + 1) * CHUNK, pose.shape[1])
-    _count_rows(wheel_arcs[0, lo:hi], wheel_arcs[1, lo:hi], track, ticks_per_metre,
+    _batch_rows(pose[0, lo:hi], pose[1, lo:hi], pose[2, lo:hi], heading_dir[0, lo:hi], heading_dir[1, lo:hi],
+                wheel_arcs[0, lo:hi], wheel_arcs[1, lo:hi], track, ticks_per_metre,
                 tick_carry[0, lo:hi], tick_carry[1, lo:hi], ticks[0, lo:hi], ticks[1, lo:hi], mount[0], mount[1],
-                counts_per_metre, mouse_carry[0, lo:hi], mouse_carry[1, lo:hi], counts[0, lo:hi], counts[1, lo:hi])
+                counts_per_metre, mouse_carry[0, lo:hi], mouse_carry[1, lo:hi], counts[0, lo:hi], counts[1, lo:hi])  # fmt: skip
 
 
 @numba.njit(cache=True)
@@ -223,17 +253,23 @@ def step_poses(pose: np.ndarray, heading_dir: np.ndarray, wheel_arcs: np.ndarray
     pose (3, N): rows x, y (m) and θ (rad, continuous); heading_dir (2, N) = (cos θ, sin θ), carried
     so that no trig of the heading is needed (renormalised every step); wheel_arcs (2, N) = rows
     s_l, s_r (m) of this step; track (m)."""
-    robots = _check_poses(pose, heading_dir, wheel_arcs)
-    for k in range((robots + CHUNK - 1) // CHUNK):
-        _poses_chunk(k, pose, heading_dir, wheel_arcs, track)
+    _poses_part(0, _check_poses(pose, heading_dir, wheel_arcs), pose, heading_dir, wheel_arcs, track)
+
+
+def step_poses_parallel(pose: np.ndarray, heading_dir: np.ndarray, wheel_arcs: np.ndarray, track: float) -> None:
+    """`step_poses` (same arguments) with the robots shared out over the cores (numba threads), one
+    part each: bit-identical to it, since each part runs the same code on its own columns."""
+    _poses_parallel(numba.get_num_threads(), pose, heading_dir, wheel_arcs, track)
 
 
 @numba.njit(cache=True, parallel=True)
-def step_poses_parallel(pose: np.ndarray, heading_dir: np.ndarray, wheel_arcs: np.ndarray, track: float) -> None:
-    """`step_poses` (same arguments) with the chunks shared out over the cores (numba threads)."""
+def _poses_parallel(parts: int, pose: np.ndarray, heading_dir: np.ndarray, wheel_arcs: np.ndarray, track: float) -> None:
+    """`step_poses` in `parts` parts over the threads (the thread count is an argument: a compiled
+    function that asks for it cannot be cached)."""
     robots = _check_poses(pose, heading_dir, wheel_arcs)
-    for k in numba.prange((robots + CHUNK - 1) // CHUNK):
-        _poses_chunk(k, pose, heading_dir, wheel_arcs, track)
+    for k in numba.prange(parts):
+        lo, hi = _part(k, parts, robots)
+        _poses_part(lo, hi, pose, heading_dir, wheel_arcs, track)
 
 
 @numba.njit(cache=True)
@@ -258,11 +294,9 @@ def step_batch(
     and counts (2, N, int64) its counts (rows forward, left)."""
     robots = _check_poses(pose, heading_dir, wheel_arcs)
     _check_counts(robots, tick_carry, ticks, mount, mouse_carry, counts)
-    for k in range((robots + CHUNK - 1) // CHUNK):
-        _batch_chunk(k, pose, heading_dir, wheel_arcs, track, ticks_per_metre, tick_carry, ticks, mount, counts_per_metre, mouse_carry, counts)
+    _batch_part(0, robots, pose, heading_dir, wheel_arcs, track, ticks_per_metre, tick_carry, ticks, mount, counts_per_metre, mouse_carry, counts)
 
 
-@numba.njit(cache=True, parallel=True)
 def step_batch_parallel(
     pose: np.ndarray,
     heading_dir: np.ndarray,
@@ -276,13 +310,25 @@ def step_batch_parallel(
     mouse_carry: np.ndarray,
     counts: np.ndarray,
 ) -> None:
-    """`step_batch` (same arguments) with the chunks shared out over the cores (numba threads):
-    bit-identical to it, since each chunk runs the same code on its own columns. Between calls
+    """`step_batch` (same arguments) with the robots shared out over the cores (numba threads), one
+    part each: bit-identical to it, since each part runs the same code on its own columns. Between calls
     OpenMP's threads spin a while before they sleep (its default): called step after step, they are
     awake for the next call. Threads that sleep at once (OMP_WAIT_POLICY=passive) cost a wake-up of
-    some 70 µs per call on a 2-core VM, twice a 10,000-robot step. It pays from some thousands of
+    some 70 µs per call on a 2-core VM, more than a whole 10,000-robot step. It pays from thousands of
     robots, and only on cores that other work leaves free."""
+    _batch_parallel(numba.get_num_threads(), pose, heading_dir, wheel_arcs, track, ticks_per_metre, tick_carry, ticks, mount,
+                    counts_per_metre, mouse_carry, counts)  # fmt: skip
+
+
+@numba.njit(cache=True, parallel=True)
+def _batch_parallel(
+    parts: int, pose: np.ndarray, heading_dir: np.ndarray, wheel_arcs: np.ndarray, track: float, ticks_per_metre: float,
+    tick_carry: np.ndarray, ticks: np.ndarray, mount: np.ndarray, counts_per_metre: float, mouse_carry: np.ndarray,
+    counts: np.ndarray,
+) -> None:
+    """`step_batch` in `parts` parts over the threads (see `_poses_parallel`)."""
     robots = _check_poses(pose, heading_dir, wheel_arcs)
     _check_counts(robots, tick_carry, ticks, mount, mouse_carry, counts)
-    for k in numba.prange((robots + CHUNK - 1) // CHUNK):
-        _batch_chunk(k, pose, heading_dir, wheel_arcs, track, ticks_per_metre, tick_carry, ticks, mount, counts_per_metre, mouse_carry, counts)
+    for k in numba.prange(parts):
+        lo, hi = _part(k, parts, robots)
+        _batch_part(lo, hi, pose, heading_dir, wheel_arcs, track, ticks_per_metre, tick_carry, ticks, mount, counts_per_metre, mouse_carry, counts)
