@@ -8,6 +8,7 @@ plotting library (matplotlib alone is 35 MB of a run's memory).
 
 from __future__ import annotations
 
+import functools
 import io
 import math
 import os
@@ -127,9 +128,12 @@ def _star(x: float, y: float, radius: float) -> list[tuple[float, float]]:
     return corners
 
 
+@functools.lru_cache(maxsize=8)
 def map_png(world: WorldSpec, max_pixels: int = 2000) -> tuple[bytes, float]:
     """The map as PNG bytes covering `world.bounds` edge to edge, at most `max_pixels` (and 500
-    per metre) along its longer side, and its resolution (pixels per metre)."""
+    per metre) along its longer side, and its resolution (pixels per metre). Kept for the last
+    few worlds: encoding takes 50-120 ms, which every recording of a sweep or a lab's runs of one
+    world would otherwise pay again."""
     xmin, ymin, xmax, ymax = world.bounds
     per_metre = min(500.0, max_pixels / max(xmax - xmin, ymax - ymin))
     surface = map_surface(world, per_metre)

@@ -431,7 +431,7 @@ class Recorder:
                     continue
                 if f == "steering":  # from straight, as `chassis_view.steering_deflection`
                     values = wrap_angle(values - track.log.spec.chassis.chassis.beta[track.picks[FIELDS.index(f)]])
-                self._columns(f"sensors/{group}/{name}/{f}", times, rr.Scalars.columns(scalars=(values * SCALE.get(f, 1.0)).ravel()).partition([values.shape[1]] * n))
+                self._columns(f"sensors/{group}/{name}/{f}", times, rr.Scalars.columns(scalars=(values * SCALE.get(f, 1.0)).ravel()).partition(np.full(n, values.shape[1])))
         track.start += n
         track.count = 0
 
@@ -454,7 +454,7 @@ class Recorder:
         rows = np.arange(offsets[-1]) + np.repeat(first - offsets[:-1], lengths)
         for k, label in enumerate(["truth", *estimates]):
             along = np.concatenate((track.tail[k : k + 1], points[:, k])) if joined else points[:, k]
-            self._columns(f"world/{track.log.name}/trail/{label}", times, rr.LineStrips2D.columns(strips=_strips(along[rows], offsets)).partition([1] * len(ends)))
+            self._columns(f"world/{track.log.name}/trail/{label}", times, rr.LineStrips2D.columns(strips=_strips(along[rows], offsets)))  # a piece a row
         track.tail = points[ends[-1]].copy()
 
     def _send_rays(self, track: _Track, times: list, truth: np.ndarray) -> None:
@@ -469,7 +469,7 @@ class Recorder:
         angle = truth[:, 2:3] + direction
         end = origin + reach * np.stack((np.cos(angle), np.sin(angle)), axis=-1)
         rays = np.stack((origin, end), axis=2).reshape(2 * n * k, 2)  # each ray from its sensor to its end
-        self._columns(f"world/{track.log.name}/rays", times, rr.LineStrips2D.columns(strips=_strips(rays, np.arange(0, 2 * n * k + 1, 2))).partition([k] * n))
+        self._columns(f"world/{track.log.name}/rays", times, rr.LineStrips2D.columns(strips=_strips(rays, np.arange(0, 2 * n * k + 1, 2))).partition(np.full(n, k)))
         self._columns(f"world/{track.log.name}/hits", times, rr.Points2D.columns(positions=end[hit]).partition(hit.sum(axis=1)))
 
     @staticmethod
