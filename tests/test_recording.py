@@ -108,13 +108,14 @@ def test_every_estimate_and_its_errors_in_mm_and_degrees(recorded):
     log = result.robots[0]
     truth = log.truth_array()
     assert log.estimate_arrays(), "the run loop should have estimators"
-    for name, poses in log.estimate_arrays().items():
+    errors = np.array(columns[f"/errors/{log.name}/position"]["Scalars:scalars"])  # (samples, estimates): a series each
+    headings = np.array(columns[f"/errors/{log.name}/heading"]["Scalars:scalars"])
+    assert errors.shape == headings.shape == (len(truth), len(log.estimate_arrays()))
+    for k, (name, poses) in enumerate(log.estimate_arrays().items()):
         where = np.array(columns[f"/world/{log.name}/estimate/{name}"]["Transform3D:translation"])[:, 0, :2]
         np.testing.assert_allclose(where, poses[:, :2], atol=1e-6)
-        error = np.array(columns[f"/errors/{log.name}/position/{name}"]["Scalars:scalars"]).ravel()
-        np.testing.assert_allclose(error, 1000 * np.hypot(*(poses[:, :2] - truth[:, :2]).T), atol=1e-9)
-        heading = np.array(columns[f"/errors/{log.name}/heading/{name}"]["Scalars:scalars"]).ravel()
-        assert len(heading) == len(truth) and np.all(np.abs(heading) <= 180.0)
+        np.testing.assert_allclose(errors[:, k], 1000 * np.hypot(*(poses[:, :2] - truth[:, :2]).T), atol=1e-9)
+        assert np.all(np.abs(headings[:, k]) <= 180.0)
 
 
 def test_sensor_series_grouped_by_sensor(recorded):

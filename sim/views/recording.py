@@ -13,8 +13,8 @@ Layout (all on the timeline "sim_time", seconds of simulated time):
     world/<robot>/rays, hits           IR rays to the distance each sensor reports, and that point
     world/<robot>/trail/<label>        LineStrips2D, one piece per TRAIL_EVERY samples (truth and
                                        each estimate); the blueprint shows all history
-    errors/<robot>/position/<est>      Scalars, |estimate - truth| (mm)
-    errors/<robot>/heading/<est>       Scalars, wrapped heading error (deg)
+    errors/<robot>/position            Scalars, |estimate - truth| (mm), one series per estimate
+    errors/<robot>/heading             Scalars, wrapped heading error (deg), one series per estimate
     sensors/<group>/<robot>/<field>    Scalars, readings in their units (SENSOR_GROUPS)
     events                             TextLog: start, collisions, wheel faults, falls, goal,
                                        notes (the first of each kind), messages, end, errors
@@ -385,13 +385,14 @@ class Recorder:
             self._log(f"{base}/rays", rr.LineStrips2D.from_fields(colors=_rgb(palette.RAY), radii=-0.75, draw_order=55), static=True)
             self._log(f"{base}/hits", rr.Points2D.from_fields(colors=_rgb(palette.HIT), radii=-2.5, draw_order=56), static=True)
             self._log(f"{base}/trail/truth", rr.LineStrips2D.from_fields(colors=_rgb(palette.TRUTH), radii=-2.5, draw_order=48), static=True)
-            for label in track.estimates:
-                colour = _rgb(palette.estimate_colour(label, track.estimates))
+            colours = [_rgb(palette.estimate_colour(label, track.estimates)) for label in track.estimates]
+            for label, colour in zip(track.estimates, colours):
                 self._log(f"{base}/trail/{label}", rr.LineStrips2D.from_fields(colors=colour, radii=-1.0, draw_order=50), static=True)
                 self._log(f"{base}/estimate/{label}/outline", rr.LineStrips2D([0.6 * outline, 0.75 * np.array(heading)], colors=colour, radii=-1.2, draw_order=58), static=True)
-                who = f"{name} {label}" if several else label
-                self._log(f"errors/{name}/position/{label}", rr.SeriesLines(colors=colour, names=who, widths=1.2), static=True)
-                self._log(f"errors/{name}/heading/{label}", rr.SeriesLines(colors=colour, names=who, widths=1.2), static=True)
+            if track.estimates:  # one entity per kind of error, a series per estimate (one column each to send)
+                who = [f"{name} {label}" if several else label for label in track.estimates]
+                self._log(f"errors/{name}/position", rr.SeriesLines(colors=colours, names=who, widths=1.2), static=True)
+                self._log(f"errors/{name}/heading", rr.SeriesLines(colors=colours, names=who, widths=1.2), static=True)
             for group, (_, fields) in SENSOR_GROUPS.items():
                 for f in fields:
                     sides = track.channels[FIELDS.index(f)]
@@ -416,9 +417,11 @@ class Recorder:
         self._columns(f"{base}/body", times, rr.Transform3D.columns(translation=_xyz(truth), quaternion=_turn(truth[:, 2])))
         for label, poses in estimates.items():
             self._columns(f"{base}/estimate/{label}", times, rr.Transform3D.columns(translation=_xyz(poses), quaternion=_turn(poses[:, 2])))
-            error = poses - truth
-            self._columns(f"errors/{name}/position/{label}", times, rr.Scalars.columns(scalars=1000 * np.hypot(error[:, 0], error[:, 1])))
-            self._columns(f"errors/{name}/heading/{label}", times, rr.Scalars.columns(scalars=np.degrees(wrap_angle(error[:, 2]))))
+        if estimates:
+            error = np.stack(list(estimates.values()), axis=1) - truth[:, None]  # (n, estimates, 3)
+            per_sample = np.full(n, error.shape[1])
+            self._columns(f"errors/{name}/position", times, rr.Scalars.columns(scalars=(1000 * np.hypot(error[..., 0], error[..., 1])).ravel()).partition(per_sample))
+            self._columns(f"errors/{name}/heading", times, rr.Scalars.columns(scalars=np.degrees(wrap_angle(error[..., 2])).ravel()).partition(per_sample))
         self._send_trails(track, truth, estimates)
         if self._chassis is not None:
             self._chassis.flush(name)
