@@ -160,15 +160,17 @@ def figures(scale: float):
     measured: dict[str, float] = {}
 
     def once(kind: str) -> float:
-        """The best of three of each kind ('world', 'run', 'recording'), interleaved and each as
+        """The best of five of each kind ('world', 'run', 'recording'), interleaved and each as
         many steps as a run: a run takes seconds, and the machine's speed drifts over seconds
         (a burst of the bare world step, as `world_maze_ctbot_all_sensors`, catches its fastest
-        spell; a run its average). rerun is imported before them, so that all recorded runs are
-        alike: its import, once per process, is `rerun_import_s`."""
+        spell; a run its average). On a 2-core VM whose speed drifted by a third over tens of
+        seconds, three of each once left every plain run in a slow spell (recording ratio 0.99,
+        against 0.71-0.79 in the runs around it). rerun is imported before them, so that all
+        recorded runs are alike: its import, once per process, is `rerun_import_s`."""
         if not measured:
             import rerun  # noqa: F401
 
-            for _ in range(3):
+            for _ in range(5):
                 for key, measure in (("world", lambda: maze_ctbot(steps, repeats=1)), ("run", lambda: maze_run(steps, False)),
                                      ("recording", lambda: maze_run(steps, True))):  # fmt: skip
                     measured[key] = max(measured.get(key, 0.0), measure())
