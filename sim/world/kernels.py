@@ -474,7 +474,7 @@ def sense_ir(
         l2x, l2y = math.cos(look[k] + cone[k]), math.sin(look[k] + cone[k])
         best = math.inf
         # a wall counts only where it meets the cone within `length` (inside the wall: at the apex)
-        lo_x, lo_y, hi_x, hi_y = _cone_box(ox, oy, cx, cy, l1x, l1y, l2x, l2y, cone[k], length, 0.0)
+        lo_x, lo_y, hi_x, hi_y = _cone_box(ox, oy, cx, cy, l1x, l1y, l2x, l2y, cone[k], length)
         for w in walls_near(lo_x, lo_y, hi_x, hi_y, frame, cells):
             if boxes[w, 0] > hi_x or boxes[w, 2] < lo_x or boxes[w, 1] > hi_y or boxes[w, 3] < lo_y:
                 continue
@@ -487,11 +487,11 @@ def sense_ir(
                 best = min(best, distance)
             best = min(best, _ray_polygon(ox, oy, l1x, l1y, vertices, start, end), _ray_polygon(ox, oy, l2x, l2y, vertices, start, end))
         if use_grid:
-            lo_x, lo_y, hi_x, hi_y = _cone_box(ox, oy, cx, cy, l1x, l1y, l2x, l2y, cone[k], length, widest)
-            gx0 = max(int(math.floor((lo_x - x0) / cell)), 0)
-            gx1 = min(int(math.floor((hi_x - x0) / cell)), cols - 1)
-            gy0 = max(int(math.floor((lo_y - y0) / cell)), 0)
-            gy1 = min(int(math.floor((hi_y - y0) / cell)), rows - 1)
+            # a circle can matter if its centre lies within its radius of the cone's box
+            gx0 = max(int(math.floor((lo_x - widest - x0) / cell)), 0)
+            gx1 = min(int(math.floor((hi_x + widest - x0) / cell)), cols - 1)
+            gy0 = max(int(math.floor((lo_y - widest - y0) / cell)), 0)
+            gy1 = min(int(math.floor((hi_y + widest - y0) / cell)), rows - 1)
             inside = False
             for gy in range(gy0, gy1 + 1):
                 if gx0 > gx1 or inside:
@@ -540,17 +540,16 @@ def _circle_grid(circles: np.ndarray, length: float):
 
 
 @numba.njit(cache=True)
-def _cone_box(ox: float, oy: float, cx: float, cy: float, l1x: float, l1y: float, l2x: float, l2y: float, cone: float, length: float,
-              grow: float):
-    """(xmin, ymin, xmax, ymax) holding the centre of every circle of radius up to `grow` that can
-    matter to a cone of `length`: the box of its apex and its arc's ends and middle, grown by the
-    arc's sagitta (a cone wider than 45 degrees: the box of the whole disc) and by `grow`."""
+def _cone_box(ox: float, oy: float, cx: float, cy: float, l1x: float, l1y: float, l2x: float, l2y: float, cone: float, length: float):
+    """(xmin, ymin, xmax, ymax) holding the cone of `length` (apex (ox, oy), axis (cx, cy), edges l1,
+    l2): the box of its apex and its arc's ends and middle, grown by the arc's sagitta (a cone wider
+    than 45 degrees: the box of the whole disc)."""
     if cone > 0.25 * math.pi:
-        margin = length + grow + 1e-9
+        margin = length + 1e-9
         return ox - margin, oy - margin, ox + margin, oy + margin
     ax, bx, mx = ox + length * l1x, ox + length * l2x, ox + length * cx
     ay, by, my = oy + length * l1y, oy + length * l2y, oy + length * cy
-    margin = length * (1.0 - math.cos(cone)) + grow + 1e-9
+    margin = length * (1.0 - math.cos(cone)) + 1e-9
     return min(ox, ax, bx, mx) - margin, min(oy, ay, by, my) - margin, max(ox, ax, bx, mx) + margin, max(oy, ay, by, my) + margin
 
 
