@@ -246,6 +246,13 @@ class World:
             st.params, st.state, self._scalars, walls.vertices, walls.ranges, walls.boxes, walls.cells, st.contacts, st.anchored, self.floor.hole,
             st.fallen, self._bodies.row_index, self._bodies.motion,
         )  # fmt: skip
+        # the kernels each step calls, for the types they get then: C-ordered (n, 2) commands and
+        # (n, 3) poses, int64 values and float believed distances (`kernels.compiled_for`)
+        pose, commands = self._poses, np.zeros((len(self.robots), 2))
+        self._plan = kernels.compiled_for(kernels.plan, commands, st.params, st.state, st.tallies, pose, self.dt)
+        self._settle = kernels.compiled_for(kernels.settle, pose, *self._settle_arguments)
+        self._measure = kernels.compiled_for(kernels.measure_all, pose, pose, st.params, st.state, st.tallies, self.floor.hole, self._scalars)
+        self._read_sensors = kernels.compiled_for(kernels.read_sensors, pose, *self._read_arguments, np.empty(0, np.int64), np.empty(0))
 
     def poses(self) -> np.ndarray:
         """(n, 3) ground-truth poses of all robots (a copy)."""
@@ -267,9 +274,9 @@ class World:
                 st.ir.noise.normals.reserve(1)
             for k, body in enumerate(self.movables, start=len(pose)):
                 st.circles[k, 0], st.circles[k, 1] = body.position
-            kernels.read_sensors(pose, *self._read_arguments, values, believed)
+            self._read_sensors(pose, *self._read_arguments, values, believed)
         else:  # without the IR rows: pymunk reads them below
-            kernels.read_sensors(pose, *self._read_arguments, values[:lights], believed[:0])
+            self._read_sensors(pose, *self._read_arguments, values[:lights], believed[:0])
         floor, light, ir_raw = values[: st.n_floor], values[st.n_floor : lights], values[lights:]
         st.floor_noise.add_rounded(floor, CNY70_MAX)
         st.light_noise.add_rounded(light, LDR_MAX)
@@ -331,7 +338,7 @@ class World:
     def step(self, commands: np.ndarray) -> None:
         """Advance the world by dt with signed motor commands (n_robots, 2) = (left, right); robots on
         a general chassis ignore theirs and drive what `self.chassis.command` set."""
-        commands = np.asarray(commands, dtype=np.float64)
+        commands = np.ascontiguousarray(commands, dtype=np.float64)  # (the layout `_plan` was compiled for)
         if commands.shape != (len(self.robots), 2):
             raise CommandError(f"expected motor commands of shape ({len(self.robots)}, 2), got {commands.shape}")
         st = self._batch()
@@ -340,7 +347,7 @@ class World:
         if bad < 0:
             if st.noisy_encoders:
                 st.draw_encoder_noise()
-            bad = kernels.plan(commands, st.params, st.state, st.tallies, before, self.dt)
+            bad = self._plan(commands, st.params, st.state, st.tallies, before, self.dt)
         if bad >= 0:
             names = [self.robots[i].name for i in np.unique(np.nonzero(~np.isfinite(commands))[0])]
             raise CommandError(f"non-finite motor command for {', '.join(names)} at step {self.steps}")
@@ -350,14 +357,14 @@ class World:
         # a wall or another robot, so that no speed the motors allow tunnels through anything
         # then hold robots at holes, and give pymunk the motion as forces (see `_apply_motion`)
         self._bodies.refresh()
-        if kernels.settle(before, *self._settle_arguments):
+        if self._settle(before, *self._settle_arguments):
             for robot in self.robots:
                 robot.fallen = bool(st.fallen[robot.index])
         self._apply_motion()
         after = self._poses = self._bodies.poses()
         if len(st.noisy_mice.rows):
             st.draw_mouse_noise()
-        kernels.measure_all(before, after, st.params, st.state, st.tallies, self.floor.hole, self._scalars)
+        self._measure(before, after, st.params, st.state, st.tallies, self.floor.hole, self._scalars)
         if self.chassis.drives:
             self.chassis.after_step(before, after, self.floor)
         self.steps += 1
