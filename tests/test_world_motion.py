@@ -228,3 +228,56 @@ def test_drive_kernel_agrees_with_the_reference_arc():
     assert np.abs(alpha - a).max() < 1e-15
     ref_ticks, _ = quantize(speed * dt * 60 / (2 * math.pi), carry)
     assert np.array_equal(ticks, ref_ticks)
+
+
+def _quiet_trace(quiet: bool, steps: int = 3000) -> tuple[np.ndarray, np.ndarray, np.ndarray, int, int]:
+    """A c't-Bot in the maze driving straight into walls and backing off in turns (contacts and
+    free stretches): poses, tallies and IR values of every step, collisions and quiet steps;
+    `quiet=False` makes pymunk take every step."""
+    world = World(load_world("maze"))
+    world.add_robot(CTBOT)
+    world.poses()  # (builds the step's arrays)
+    if not quiet:
+        world._quiet[kernels.QUIET_AFTER] = -1
+    poses, tallies, ir, quiet_steps = [], [], [], 0
+    for k in range(steps):
+        frame = world.read_all()
+        tallies.append(frame.tallies.copy())
+        ir.append(frame.ir_raw.copy())
+        world.step(np.array([[200.0, 200.0]]) if (k // 300) % 2 == 0 else np.array([[-150.0, 120.0]]))
+        quiet_steps += world._quiet[kernels.STREAK] > world._quiet[kernels.QUIET_AFTER] >= 0
+        poses.append(world.poses())
+    return np.array(poses), np.array(tallies), np.array(ir), world.robots[0].collisions, quiet_steps
+
+
+def test_quiet_steps_move_the_robot_as_pymunk_does():
+    """Steps that begin with the robot clear of every wall (and pymunk's contact memory empty) skip
+    pymunk: poses bit for bit, ticks, mouse counts, IR values and collisions equal those of a world
+    where pymunk takes every step, over a drive with both kinds of step."""
+    poses, tallies, ir, collisions, quiet_steps = _quiet_trace(True)
+    pymunk_poses, pymunk_tallies, pymunk_ir, pymunk_collisions, none = _quiet_trace(False)
+    assert none == 0 and 500 < quiet_steps < 2500 and collisions > 5  # both kinds of step happened
+    np.testing.assert_array_equal(poses, pymunk_poses)
+    np.testing.assert_array_equal(tallies, pymunk_tallies)
+    np.testing.assert_array_equal(ir, pymunk_ir)
+    assert collisions == pymunk_collisions
+
+
+def test_quiet_steps_only_for_one_round_robot_and_nothing_else_that_moves():
+    """With a second robot or a movable can, pymunk takes every step (its broad phase orders the
+    contacts of several bodies by their history); a robot touching a wall is never quiet."""
+    from sim.world.spec import Movable, Wall
+
+    crowded = World(OPEN)
+    crowded.add_robot(CTBOT, (0.0, 0.0, 0.0))
+    crowded.add_robot(CTBOT, (1.0, 0.0, 0.0))
+    with_can = World(WorldSpec("can", (-5, -5, 5, 5), movables=(Movable((1.0, 1.0), 0.015, 0.05),)))
+    with_can.add_robot(CTBOT, (0.0, 0.0, 0.0))
+    for world in (crowded, with_can):
+        world.step(np.zeros((len(world.robots), 2)))
+        assert world._quiet[kernels.QUIET_AFTER] == -1
+    walled = World(WorldSpec("walled", (-1, -1, 1, 1), walls=(Wall(box(0.1, -0.5, 0.2, 0.5)),)))
+    walled.add_robot(CTBOT, (0.1 - CTBOT.body_radius - 0.5 * kernels.CLEAR, 0.0, 0.0))
+    for _ in range(10):
+        walled.step(np.zeros((1, 2)))
+    assert walled._quiet[kernels.QUIET_AFTER] == walled.space.collision_persistence and walled._quiet[kernels.STREAK] == 0

@@ -102,6 +102,14 @@ class BodyArrays:
         for body in self._c_bodies:
             update(body, dt)
 
+    def place(self, poses: np.ndarray) -> None:
+        """Put the robot bodies at `poses` (n, 3) as pymunk's position update would: its functions
+        set the position, the angle and the body's transform from them, in the same order."""
+        set_position, set_angle = lib.cpBodySetPosition, lib.cpBodySetAngle
+        for body, (x, y, angle) in zip(self._c_bodies, poses.tolist()):
+            set_position(body, (x, y))
+            set_angle(body, angle)
+
     def send(self) -> None:
         """Give every body its row of `motion`: the robots at rest with the forces and torques
         written into their rows, the other bodies as `refresh` found them."""

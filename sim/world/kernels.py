@@ -23,8 +23,8 @@ COMMAND_MAX, MAX_SPEED, LAG, MAX_CHANGE, TICKS_PER_RAD = 0, 1, 2, 3, 4
 REAL_RADIUS = 5  # left, right wheel (m)
 TRACK = 7
 MOUNT = 8  # the mouse's x, y in the body frame (m)
-COUNTS_PER_METRE, MAX_STEP, SWEEP_RADIUS, APART_RADIUS, MASS, MOMENT = 10, 11, 12, 13, 14, 15
-PARAMS = 16
+COUNTS_PER_METRE, MAX_STEP, SWEEP_RADIUS, APART_RADIUS, MASS, MOMENT, RADIUS = 10, 11, 12, 13, 14, 15, 16
+PARAMS = 17
 # per-robot state (n, STATE) float64, two columns (left, right or x, y) each but ALPHA
 WHEEL_SPEED, TICK_CARRY, TICK_OFFSET, SLIP, MOUSE_NOISE, MOUSE_CARRY, MOVE, ALPHA = 0, 2, 4, 6, 8, 10, 12, 14
 STATE = 15
@@ -43,6 +43,12 @@ COLUMNS, ROWS, STARTS = 0, 1, 2
 # IR), reach (m; light); and (m, INDEX) int64: owning robot, noise row and curve (IR)
 AT, HEIGHT, DIRECTION, OPENING, REACH, SENSOR = 0, 2, 3, 4, 5, 6
 OWNER, NOISE_ROW, CURVE, INDEX = 0, 1, 2, 3
+# the world's count of quiet steps (int64, QUIET): steps in a row that began with no robot
+# touching a wall, and how many such steps pymunk still takes (-1: every step is pymunk's)
+STREAK, QUIET_AFTER, QUIET = 0, 1, 2
+CLEAR = 1e-3
+"""A robot nearer than this (m) to a wall counts as touching it (`settle`): far beyond rounding, so
+that pymunk, which finds a contact at distance <= 0, finds none where this finds none."""
 
 
 def compiled_for(kernel, *arguments) -> Callable:  # noqa: ANN001 (a numba dispatcher)
@@ -186,12 +192,18 @@ def settle(
     in_hole: np.ndarray,
     rows: np.ndarray,
     motion: np.ndarray,
-) -> bool:
+    quiet: np.ndarray,
+) -> tuple[bool, bool]:
     """The planned moves and turns (state's MOVE, ALPHA) cut where walls (`sweep_walls`), other
     robots (`keep_apart`) or holes (`hold_at_holes`) stop them, and the force and torque that give
     each robot that motion in pymunk's velocity phase (m move / dt^2, I alpha / dt^2) written into
     its row of pymunk's body data (motion[rows[i], 3:6]): the world step's arithmetic between the
-    drive and pymunk in one call. Returns whether any robot's `in_hole` changed."""
+    drive and pymunk in one call.
+
+    Returns whether any robot's `in_hole` changed, and whether the step is quiet: it began with no
+    robot touching a wall (`CLEAR`), as did the quiet[QUIET_AFTER] steps before it (`quiet` counts
+    them; a negative QUIET_AFTER: never quiet). Then pymunk has no contact to solve and none in its
+    memory, so that `glide` moves the robots as pymunk's step would."""
     move, alpha = state[:, MOVE : MOVE + 2], state[:, ALPHA]
     sweep_walls(pose, move, params[:, SWEEP_RADIUS], scalars[SLIDE_MARGIN], vertices, ranges, boxes, (scalars[WALL_FRAME : WALL_FRAME + 3], wall_cells))
     if pose.shape[0] > 1:
@@ -207,7 +219,44 @@ def settle(
         motion[rows[i], 3] = move[i, 0] * scale
         motion[rows[i], 4] = move[i, 1] * scale
         motion[rows[i], 5] = alpha[i] * params[i, MOMENT] / dt2
-    return changed
+    if quiet[QUIET_AFTER] < 0:
+        return changed, False
+    clear = True
+    for i in range(pose.shape[0]):
+        clear = clear and _clear_of_walls(pose[i, 0], pose[i, 1], params[i, RADIUS] + CLEAR, vertices, ranges, boxes, (scalars[WALL_FRAME : WALL_FRAME + 3], wall_cells))
+    quiet[STREAK] = quiet[STREAK] + 1 if clear else 0
+    return changed, quiet[STREAK] > quiet[QUIET_AFTER]
+
+
+@numba.njit(cache=True)
+def _clear_of_walls(x: float, y: float, radius: float, vertices: np.ndarray, ranges: np.ndarray, boxes: np.ndarray, wall_grid: tuple) -> bool:
+    """Whether a circle of `radius` at (x, y) is clear of every wall (farther than `radius`)."""
+    lo_x, lo_y, hi_x, hi_y = x - radius, y - radius, x + radius, y + radius
+    for w in walls_near(lo_x, lo_y, hi_x, hi_y, wall_grid[0], wall_grid[1]):
+        if boxes[w, 0] > hi_x or boxes[w, 2] < lo_x or boxes[w, 1] > hi_y or boxes[w, 3] < lo_y:
+            continue
+        if _polygon_distance(x, y, vertices, ranges[w, 0], ranges[w, 1])[0] <= radius:
+            return False
+    return True
+
+
+@numba.njit(cache=True)
+def glide(pose: np.ndarray, params: np.ndarray, motion: np.ndarray, rows: np.ndarray, dt: float) -> np.ndarray:
+    """The poses (n, 3) after a quiet step (`settle`): what pymunk's step and its position update
+    give a body that enters the step at rest and meets nothing, the same operations in the same
+    order (`cpBodyUpdateVelocity` with no gravity and no damping, then `cpBodyUpdatePosition`), so
+    that they agree bit for bit."""
+    after = np.empty_like(pose)
+    for i in range(pose.shape[0]):
+        r = rows[i]
+        m_inv, i_inv = 1.0 / params[i, MASS], 1.0 / params[i, MOMENT]
+        vx = 0.0 * 1.0 + (0.0 + motion[r, 3] * m_inv) * dt
+        vy = 0.0 * 1.0 + (0.0 + motion[r, 4] * m_inv) * dt
+        w = 0.0 * 1.0 + motion[r, 5] * i_inv * dt
+        after[i, 0] = pose[i, 0] + (vx + 0.0) * dt
+        after[i, 1] = pose[i, 1] + (vy + 0.0) * dt
+        after[i, 2] = pose[i, 2] + (w + 0.0) * dt
+    return after
 
 
 @numba.njit(cache=True)

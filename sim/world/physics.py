@@ -3,8 +3,9 @@
 The physical contract (DESIGN.md §4) in one place. Each step: sensors are read from the state at
 the start (`read_all`), the caller computes motor commands, then `step` runs the motor model,
 counts encoder ticks, turns wheel arcs into an exact-arc motion, cuts it where a wall or another
-body is in the way, lets pymunk resolve contacts, and measures the true motion (for the mouse)
-and ground contact (for holes). The per-robot arithmetic runs in compiled kernels over all robots
+body is in the way, lets pymunk resolve contacts (a lone robot clear of every wall moves as pymunk
+would move it, without pymunk: `kernels.glide`), and measures the true motion (for the mouse) and
+ground contact (for holes). The per-robot arithmetic runs in compiled kernels over all robots
 at once (`sim.world.kernels`); pymunk does the geometry. Everything random draws from
 per-sensor generators spawned from the world's seed.
 """
@@ -237,6 +238,11 @@ class World:
         st, walls, ir = self._state, self._walls, self._state.ir
         self._round_ir = self._round_bodies and len(ir.curve) > 0
         read = len(st.sensors) if self._round_ir else st.n_floor + st.n_light  # pymunk reads IR otherwise
+        # quiet steps (`kernels.settle`, `kernels.glide`) for one round robot and nothing else that
+        # moves: with more bodies, pymunk's broad phase, which a skipped step leaves behind, would
+        # order later contacts differently (the same physics, other roundings)
+        alone = len(self.robots) == 1 and self._round_bodies and not self.movables
+        self._quiet = np.array((0, self.space.collision_persistence if alone else -1), dtype=np.int64)
         self._read_arguments = (
             st.sensors[:read], st.index[:read], st.n_floor, self.floor.absorption, self._scalars, self._lights, walls.vertices,
             walls.ranges, walls.boxes, walls.cells, st.circles, ir.noise.std, ir.noise.normals.values, ir.noise.normals.used, ir.tables,
@@ -244,13 +250,14 @@ class World:
         )  # fmt: skip
         self._settle_arguments = (
             st.params, st.state, self._scalars, walls.vertices, walls.ranges, walls.boxes, walls.cells, st.contacts, st.anchored, self.floor.hole,
-            st.fallen, self._bodies.row_index, self._bodies.motion,
+            st.fallen, self._bodies.row_index, self._bodies.motion, self._quiet,
         )  # fmt: skip
         # the kernels each step calls, for the types they get then: C-ordered (n, 2) commands and
         # (n, 3) poses, int64 values and float believed distances (`kernels.compiled_for`)
         pose, commands = self._poses, np.zeros((len(self.robots), 2))
         self._plan = kernels.compiled_for(kernels.plan, commands, st.params, st.state, st.tallies, pose, self.dt)
         self._settle = kernels.compiled_for(kernels.settle, pose, *self._settle_arguments)
+        self._glide = kernels.compiled_for(kernels.glide, pose, st.params, self._bodies.motion, self._bodies.row_index, self.dt)
         self._measure = kernels.compiled_for(kernels.measure_all, pose, pose, st.params, st.state, st.tallies, self.floor.hole, self._scalars)
         self._read_sensors = kernels.compiled_for(kernels.read_sensors, pose, *self._read_arguments, np.empty(0, np.int64), np.empty(0))
 
@@ -357,11 +364,16 @@ class World:
         # a wall or another robot, so that no speed the motors allow tunnels through anything
         # then hold robots at holes, and give pymunk the motion as forces (see `_apply_motion`)
         self._bodies.refresh()
-        if self._settle(before, *self._settle_arguments):
+        changed, quiet = self._settle(before, *self._settle_arguments)
+        if changed:
             for robot in self.robots:
                 robot.fallen = bool(st.fallen[robot.index])
-        self._apply_motion()
-        after = self._poses = self._bodies.poses()
+        if quiet:  # nothing to collide: pymunk's motion without pymunk (a third of a bare robot's step)
+            after = self._poses = self._glide(before, st.params, self._bodies.motion, self._bodies.row_index, self.dt)
+            self._bodies.place(after)
+        else:
+            self._apply_motion()
+            after = self._poses = self._bodies.poses()
         if len(st.noisy_mice.rows):
             st.draw_mouse_noise()
         self._measure(before, after, st.params, st.state, st.tallies, self.floor.hole, self._scalars)
@@ -494,6 +506,7 @@ class _BatchState:
         p[:, kernels.APART_RADIUS] = [s.body_radius - SWEEP_CLEARANCE / 2 for s in specs]
         p[:, kernels.MASS] = [r.body.mass for r in robots]
         p[:, kernels.MOMENT] = [r.body.moment for r in robots]
+        p[:, kernels.RADIUS] = [s.body_radius for s in specs]
         self.contacts = _padded([_contacts(s)[0] for s in specs], np.float64, (2,))
         self.anchored = _padded([_contacts(s)[1] for s in specs], np.bool_)
         self.state = np.zeros((n, kernels.STATE))
