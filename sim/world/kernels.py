@@ -43,9 +43,9 @@ COLUMNS, ROWS, STARTS = 0, 1, 2
 # IR), reach (m; light); and (m, INDEX) int64: owning robot, noise row and curve (IR)
 AT, HEIGHT, DIRECTION, OPENING, REACH, SENSOR = 0, 2, 3, 4, 5, 6
 OWNER, NOISE_ROW, CURVE, INDEX = 0, 1, 2, 3
-# the world's count of quiet steps (int64, QUIET): steps in a row that began with no robot
-# touching a wall, and how many such steps pymunk still takes (-1: every step is pymunk's)
-STREAK, QUIET_AFTER, QUIET = 0, 1, 2
+# the world's count of quiet steps (2,) int64: steps in a row that began with no robot touching a
+# wall, and how many such steps pymunk still takes (-1: every step is pymunk's)
+STREAK, QUIET_AFTER = 0, 1
 CLEAR = 1e-3
 """A robot nearer than this (m) to a wall counts as touching it (`settle`): far beyond rounding, so
 that pymunk, which finds a contact at distance <= 0, finds none where this finds none."""
@@ -250,6 +250,8 @@ def glide(pose: np.ndarray, params: np.ndarray, motion: np.ndarray, rows: np.nda
     for i in range(pose.shape[0]):
         r = rows[i]
         m_inv, i_inv = 1.0 / params[i, MASS], 1.0 / params[i, MOMENT]
+        # velocity 0 times damping 1 plus (gravity 0 + force / mass) dt, and the position plus
+        # (velocity + bias 0) dt: the zeros written out, as adding one can change the sign of a zero
         vx = 0.0 * 1.0 + (0.0 + motion[r, 3] * m_inv) * dt
         vy = 0.0 * 1.0 + (0.0 + motion[r, 4] * m_inv) * dt
         w = 0.0 * 1.0 + motion[r, 5] * i_inv * dt
