@@ -279,14 +279,16 @@ class World:
         if self._round_ir:
             if len(st.ir.noise.rows):
                 st.ir.noise.normals.reserve(1)
-            for k, body in enumerate(self.movables, start=len(pose)):
-                st.circles[k, 0], st.circles[k, 1] = body.position
+            if self.movables:  # (checked first: starting an empty loop costs more than the check)
+                for k, body in enumerate(self.movables, start=len(pose)):
+                    st.circles[k, 0], st.circles[k, 1] = body.position
             self._read_sensors(pose, *self._read_arguments, values, believed)
         else:  # without the IR rows: pymunk reads them below
             self._read_sensors(pose, *self._read_arguments, values[:lights], believed[:0])
         floor, light, ir_raw = values[: st.n_floor], values[st.n_floor : lights], values[lights:]
-        st.floor_noise.add_rounded(floor, CNY70_MAX)
-        st.light_noise.add_rounded(light, LDR_MAX)
+        if st.noisy_floor_or_light:
+            st.floor_noise.add_rounded(floor, CNY70_MAX)
+            st.light_noise.add_rounded(light, LDR_MAX)
         if not self._round_ir:
             self._read_ir_with_pymunk(pose, ir_raw, believed)
         frame = SensorFrame(self.time, st.tallies.copy(), ir_raw, believed, floor, light, st.layout)
@@ -539,6 +541,7 @@ class _BatchState:
 
         self.floor_noise = noisy(floor)
         self.light_noise = noisy(light)
+        self.noisy_floor_or_light = len(self.floor_noise.rows) + len(self.light_noise.rows) > 0
         self.ir = _IRArrays.build(ir, noisy(ir))
         self.index = np.zeros((len(every), kernels.INDEX), dtype=np.int64)
         self.index[:, kernels.OWNER] = [r.index for r, _ in every]
