@@ -18,7 +18,7 @@ from sim.kinematics import (
 )
 from sim.world import CommandError, World, kernels
 from sim.world.files import load_world
-from sim.world.spec import Hole, WorldSpec, box
+from sim.world.spec import Hole, Movable, Wall, WorldSpec, box
 
 OPEN = WorldSpec("open", (-5, -5, 5, 5))
 START = np.array((0.3, -0.2, 0.4))
@@ -266,8 +266,6 @@ def test_quiet_steps_move_the_robot_as_pymunk_does():
 def test_quiet_steps_only_for_one_round_robot_and_nothing_else_that_moves():
     """With a second robot or a movable can, pymunk takes every step (its broad phase orders the
     contacts of several bodies by their history); a robot touching a wall is never quiet."""
-    from sim.world.spec import Movable, Wall
-
     crowded = World(OPEN)
     crowded.add_robot(CTBOT, (0.0, 0.0, 0.0))
     crowded.add_robot(CTBOT, (1.0, 0.0, 0.0))

@@ -239,8 +239,9 @@ class World:
         self._round_ir = self._round_bodies and len(ir.curve) > 0
         read = len(st.sensors) if self._round_ir else st.n_floor + st.n_light  # pymunk reads IR otherwise
         # quiet steps (`kernels.settle`, `kernels.glide`) for one round robot and nothing else that
-        # moves: with more bodies, pymunk's broad phase, which a skipped step leaves behind, would
-        # order later contacts differently (the same physics, other roundings)
+        # moves, whose contacts can only be with walls, met in their fixed order; the contacts of
+        # several bodies come in the order of pymunk's tree of moving shapes, which a skipped step
+        # would leave unchanged (the same physics, but other roundings later)
         alone = len(self.robots) == 1 and self._round_bodies and not self.movables
         self._quiet = np.array((0, self.space.collision_persistence if alone else -1), dtype=np.int64)
         self._read_arguments = (
