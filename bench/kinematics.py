@@ -79,8 +79,8 @@ def parallel_ratio(robots: int = 10_000, steps: int = 500, pairs: int = 30, pose
     shared VM for a few milliseconds, that run halves (5 pairs gave 1.4 to 2.2 in a row on the
     same machine, 15 pairs 1.5 to 2.1 in slow spells), so the best of 30 pairs is taken. Each
     parallel call also pays the threads' start-up, some 2-6 µs on a 2-core VM whatever the work,
-    and waits 3-5 µs longer for the second thread's part than the same part takes on the calling
-    thread: a sixth of a serial 10,000-robot step of the fused kernel."""
+    and often waits 3-5 µs longer for the second thread's part than the same part takes on the
+    calling thread: up to a third of a serial 10,000-robot step of the fused kernel."""
     return _interleaved(lambda: kinematics_batch(robots, steps, parallel=True, repeats=1, poses=poses),
                         lambda: kinematics_batch(robots, steps, repeats=1, poses=poses), pairs)
 

@@ -315,9 +315,9 @@ def step_batch_parallel(
     OpenMP's threads spin a while before they sleep (its default): called step after step, they are
     awake for the next call. Threads that sleep at once (OMP_WAIT_POLICY=passive) cost a wake-up of
     some 70 µs per call on a 2-core VM, more than a whole 10,000-robot step. Even awake, starting
-    them costs 2-6 µs a call there, and the second thread's part ends 3-5 µs after the same part
-    on the calling thread: a sixth of a serial 10,000-robot step. It pays from thousands of robots,
-    fully from tens of thousands, and only on cores that other work leaves free."""
+    them costs 2-6 µs a call there, and the second thread's part often ends 3-5 µs after the same
+    part on the calling thread: up to a third of a serial 10,000-robot step. It pays from thousands
+    of robots, fully from tens of thousands, and only on cores that other work leaves free."""
     _batch_parallel(numba.get_num_threads(), pose, heading_dir, wheel_arcs, track, ticks_per_metre, tick_carry, ticks, mount,
                     counts_per_metre, mouse_carry, counts)  # fmt: skip
 
