@@ -205,7 +205,8 @@ def settle(
     them; a negative QUIET_AFTER: never quiet). Then pymunk has no contact to solve and none in its
     memory, so that `glide` moves the robots as pymunk's step would."""
     move, alpha = state[:, MOVE : MOVE + 2], state[:, ALPHA]
-    sweep_walls(pose, move, params[:, SWEEP_RADIUS], scalars[SLIDE_MARGIN], vertices, ranges, boxes, (scalars[WALL_FRAME : WALL_FRAME + 3], wall_cells))
+    wall_grid = (scalars[WALL_FRAME : WALL_FRAME + 3], wall_cells)
+    sweep_walls(pose, move, params[:, SWEEP_RADIUS], scalars[SLIDE_MARGIN], vertices, ranges, boxes, wall_grid)
     if pose.shape[0] > 1:
         keep_apart(pose, move, params[:, APART_RADIUS])
     changed = hold_at_holes(
@@ -223,7 +224,7 @@ def settle(
         return changed, False
     clear = True
     for i in range(pose.shape[0]):
-        clear = clear and _clear_of_walls(pose[i, 0], pose[i, 1], params[i, RADIUS] + CLEAR, vertices, ranges, boxes, (scalars[WALL_FRAME : WALL_FRAME + 3], wall_cells))
+        clear = clear and _clear_of_walls(pose[i, 0], pose[i, 1], params[i, RADIUS] + CLEAR, vertices, ranges, boxes, wall_grid)
     quiet[STREAK] = quiet[STREAK] + 1 if clear else 0
     return changed, quiet[STREAK] > quiet[QUIET_AFTER]
 

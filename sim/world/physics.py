@@ -234,7 +234,7 @@ class World:
 
     def _kernel_arguments(self) -> None:
         """The arrays the per-step kernels take besides the poses and the step's outputs, gathered
-        once (numba checks each argument's type on every call; a tuple saves looking them up)."""
+        once into tuples, and the kernels' compiled entry points for their types."""
         st, walls, ir = self._state, self._walls, self._state.ir
         self._round_ir = self._round_bodies and len(ir.curve) > 0
         read = len(st.sensors) if self._round_ir else st.n_floor + st.n_light  # pymunk reads IR otherwise
