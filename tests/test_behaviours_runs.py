@@ -53,7 +53,7 @@ def test_turn_turns_on_the_spot_within_a_tenth_of_a_degree(angle):
     assert math.hypot(end[0], end[1]) < 1e-6
 
 
-@settings(max_examples=12, deadline=None)
+@settings(max_examples=12)
 @given(
     distance=st.floats(0.3, 1.5),
     bearing=st.floats(-math.pi, math.pi),

@@ -39,7 +39,7 @@ def crowd(seed: int, count: int, spread: float, step: float) -> tuple[np.ndarray
 
 
 @given(st.integers(0, 2**32 - 1), st.integers(2, 80), st.sampled_from([0.2, 0.5, 2.0, 500.0]), st.sampled_from([0.001, 0.01, 0.1]))
-@settings(max_examples=120, deadline=None)
+@settings(max_examples=120)
 def test_grid_cuts_the_moves_all_pairs_cut(seed: int, count: int, spread: float, step: float) -> None:
     """Dense crowds (overlapping, many cuts), sparse ones, and moves up to 10 cm a step: bit-equal moves."""
     pose, move, reach = crowd(seed, count, spread, step)

@@ -49,7 +49,7 @@ chassis_strategy = st.lists(wheels(), min_size=2, max_size=5).map(Chassis.from_w
 twist_strategy = st.tuples(*(st.floats(-2, 2, allow_nan=False),) * 3).map(np.array)
 
 
-@settings(max_examples=150, deadline=None)
+@settings(max_examples=150)
 @given(chassis_strategy, twist_strategy)
 def test_inverse_then_forward_returns_the_feasible_twist(chassis, raw):
     twist = nearest_feasible(chassis, raw)
@@ -62,7 +62,7 @@ def test_inverse_then_forward_returns_the_feasible_twist(chassis, raw):
         assert_allclose(fk.twist, twist, atol=1e-8)
 
 
-@settings(max_examples=150, deadline=None)
+@settings(max_examples=150)
 @given(chassis_strategy, twist_strategy)
 def test_every_wheel_rolls_perpendicular_to_its_ray_from_the_icr(chassis, raw):
     twist = nearest_feasible(chassis, raw)
@@ -80,7 +80,7 @@ def test_every_wheel_rolls_perpendicular_to_its_ray_from_the_icr(chassis, raw):
     assert_allclose(cmd.rim_speed, rolling / np.cos(chassis.gamma), atol=1e-9)
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=60)
 @given(chassis_strategy, twist_strategy, st.data())
 def test_degraded_chassis_refuses_rather_than_approximates(chassis, twist, data):
     wheel = data.draw(st.integers(0, chassis.n - 1))
@@ -98,7 +98,7 @@ def test_degraded_chassis_refuses_rather_than_approximates(chassis, twist, data)
             raise AssertionError("an infeasible twist was accepted")
 
 
-@settings(max_examples=100, deadline=None)
+@settings(max_examples=100)
 @given(st.floats(-1, 1), st.floats(-10, 10), st.floats(0.05, 0.5))
 def test_differential_drive_preset_agrees_with_the_core(v, omega, track):
     chassis = presets.differential_drive(track=track, wheel_radius=0.03)
@@ -109,7 +109,7 @@ def test_differential_drive_preset_agrees_with_the_core(v, omega, track):
     assert_allclose(fk.twist, [v_back, 0.0, omega_back], rtol=1e-12, atol=1e-14)
 
 
-@settings(max_examples=100, deadline=None)
+@settings(max_examples=100)
 @given(st.floats(-0.05, 0.05), st.floats(-0.05, 0.05), st.floats(0.001, 0.1))
 def test_differential_drive_motion_is_the_exact_arc(s_left, s_right, dt):
     """Wheel arcs → preset forward kinematics → constant-twist motion equals the core's exact arc."""

@@ -192,7 +192,7 @@ LIMITED = {  # chassis with steering limits, narrow and wide (the mirror matters
 component = st.floats(-0.6, 0.6, allow_nan=False)
 
 
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=60)
 @given(st.sampled_from(sorted(LIMITED)), component, component, component)
 def test_every_accepted_twist_lands_on_the_exact_integral_and_never_meets_a_stop(name, vx, vy, omega):
     """A random twist, projected onto B; if the steering check accepts it, the robot drives it, else
@@ -224,7 +224,7 @@ def test_every_accepted_twist_lands_on_the_exact_integral_and_never_meets_a_stop
     assert abs(wrap_angle(world.poses()[0][2] - pose[2])) < 1e-9
 
 
-@settings(max_examples=100, deadline=None)
+@settings(max_examples=100)
 @given(component.filter(lambda v: v == 0 or abs(v) > 1e-6), component)  # clear of the core's 1e-9 m/s "no speed"
 def test_the_cars_projection_keeps_its_speed_and_turns_no_tighter_than_r_min(v, omega):
     c = CAR.chassis.chassis

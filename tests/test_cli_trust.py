@@ -173,7 +173,7 @@ def command_lines(draw) -> tuple[list[str], str | None]:
     return argv, text
 
 
-@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=40, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(command_lines())
 def test_fuzzed_command_lines_end_in_a_documented_status_and_one_line(capsys, case):
     argv, world_text = case

@@ -110,7 +110,7 @@ def _wander(seed: int, n: int) -> tuple[np.ndarray, np.ndarray]:
     return truth, truth + np.cumsum(rng.normal(0, 1e-4, (n, 3)), axis=0)
 
 
-@settings(max_examples=40, deadline=None)
+@settings(max_examples=40)
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(2, 600), cuts=st.lists(st.integers(1, 599), max_size=6))
 def test_a_comparison_read_in_blocks_equals_one_read_at_once(seed, n, cuts):
     """Block boundaries change nothing but the order of the ATE sum: the stretches of the RPE and

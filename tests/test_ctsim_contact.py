@@ -9,7 +9,6 @@ files come from ../shared/ctsim and their tests skip where it is absent.
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -20,8 +19,8 @@ from sim.world import World
 from sim.world.files import load_world, room_warning
 from sim.world.spec import Hole, WorldSpec, box
 
-PARCOURS = Path(__file__).resolve().parents[2] / "shared" / "ctsim" / "parcours"
-needs_shared = pytest.mark.skipif(not PARCOURS.is_dir(), reason=f"c't-Sim world files not found at {PARCOURS} (../shared absent)")
+from shared_data import PARCOURS
+from shared_data import needs_parcours as needs_shared
 
 FLOOR = np.float32(1.0) - np.float32(0x60 / 255)  # what the normal floor #606060 swallows, float32 as in c't-Sim
 BORDER_X = CTBOT.border[0].position[0]  # 38.4 mm ahead of the axle

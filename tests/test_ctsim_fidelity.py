@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 
 import pytest
 
@@ -12,8 +11,9 @@ from sim.world.files import load_world
 from sim.world.sensors import cny70_value
 from sim.world.spec import WorldFileError
 
-PARCOURS = Path(__file__).resolve().parents[2] / "shared" / "ctsim" / "parcours"
-pytestmark = pytest.mark.skipif(not PARCOURS.is_dir(), reason="c't-Sim's world files are not in ../shared/ctsim/parcours")
+from shared_data import PARCOURS, needs_parcours
+
+pytestmark = needs_parcours
 
 DIFFUSE_CCFFFF = ["testline", "testline2", "follow_line_enh", "line_shortest_test", "crossings_shortest_way", "testline_crossings", "testparcours3"]
 LINE_SENSE = 0x350  # the firmware's line threshold in the sim (bot-local.h)

@@ -30,7 +30,7 @@ def trajectories(draw) -> tuple[np.ndarray, np.ndarray]:
     return times, np.column_stack((xy, np.cumsum(turns)))
 
 
-@settings(max_examples=40, deadline=None)
+@settings(max_examples=40)
 @given(trajectories())
 def test_tum_round_trip(tmp_path_factory, trajectory):
     times, poses = trajectory
@@ -44,7 +44,7 @@ def test_tum_round_trip(tmp_path_factory, trajectory):
     assert np.allclose(np.cos(read_poses[:, 2] - poses[:, 2]), 1.0)
 
 
-@settings(max_examples=40, deadline=None)
+@settings(max_examples=40)
 @given(trajectories())
 def test_csv_round_trip_is_exact(tmp_path_factory, trajectory):
     times, poses = trajectory

@@ -329,10 +329,21 @@ def test_relative_pose_is_relative_increment_of_one_pair(start, end) -> None:
     np.testing.assert_allclose(relative_pose(start, end), relative_increment(np.array(start), np.array(end)), rtol=0, atol=1e-12)
 
 
-@given(pose, arc_length, alpha, st.booleans(), st.one_of(angle, finite))
-def test_float_forms_give_the_numpy_forms_numbers_to_the_bit(start, s, a, end_heading, turn) -> None:
-    """Behaviours keep poses as tuples of floats: `advance_floats` gives `advance`'s numbers and
-    `wrap_angle` of a float the array form's, exactly (the same operations on the same doubles),
-    so a behaviour drives as it did with arrays."""
-    assert advance_floats(tuple(start.tolist()), s, a, end_heading) == tuple(advance(start, s, a, end_heading).tolist())
+@given(pose, arc_length, alpha, st.booleans())
+def test_scalar_advance_is_the_array_forms_arc(start, s, a, end_heading) -> None:
+    """`advance` (plain floats, for behaviours that step one robot at a time) lands where the array
+    form does: the start pose moved by `arc_increment` (mid-angle) or `firmware_increment` (end
+    heading). The two compute different sums (one rotates the increment by the heading, the other
+    takes cos and sin of the sum of angles), so they agree to rounding: a few ulps of the
+    coordinates and of the step (1e-12 m with coordinates up to 100 m and steps up to 1 m)."""
+    increment = (firmware_increment if end_heading else arc_increment)(s, a)
+    expected = apply_increment(start, increment)
+    np.testing.assert_allclose(advance(start, s, a, end_heading), expected, rtol=0, atol=1e-12)
+    np.testing.assert_array_equal(advance_floats(tuple(start.tolist()), s, a, end_heading), advance(start, s, a, end_heading))
+
+
+@given(st.one_of(angle, finite))
+def test_wrap_angle_of_a_float_is_the_array_forms(turn) -> None:
+    """`wrap_angle` of a Python float takes its own path (no numpy call) to the array form's number,
+    exactly: the same operations on the same doubles."""
     assert wrap_angle(turn) == float(wrap_angle(np.array(turn)))

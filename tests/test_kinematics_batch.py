@@ -45,7 +45,7 @@ carry = floats(0.0, 1.0, exclude_max=True)
 
 
 @given(st.lists(st.tuples(arc_length, alpha), min_size=1, max_size=30))
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=60)
 def test_arc_increment_batch_equals_single_calls(arcs: list[tuple[float, float]]) -> None:
     s, a = np.array(arcs).T
     batch = arc_increment(s, a)
@@ -55,7 +55,7 @@ def test_arc_increment_batch_equals_single_calls(arcs: list[tuple[float, float]]
 
 
 @given(st.lists(st.tuples(wheel_arc, wheel_arc, track_width), min_size=1, max_size=30))
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=60)
 def test_wheel_increment_with_per_robot_track_widths(wheels: list[tuple[float, float, float]]) -> None:
     s_l, s_r, track = np.array(wheels).T
     batch = wheel_increment(s_l, s_r, track)
@@ -64,7 +64,7 @@ def test_wheel_increment_with_per_robot_track_widths(wheels: list[tuple[float, f
 
 
 @given(st.lists(st.tuples(pose, arc_length, arc_length, alpha), min_size=1, max_size=30))
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=60)
 def test_apply_increment_batch_equals_single_calls(rows: list) -> None:
     poses = np.array([r[0] for r in rows])
     increments = np.array([r[1:] for r in rows])
@@ -77,7 +77,7 @@ def test_apply_increment_batch_equals_single_calls(rows: list) -> None:
 
 
 @given(st.lists(st.tuples(floats(-1e4, 1e4), carry), min_size=1, max_size=30))
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=60)
 def test_quantize_batch_equals_single_calls(rows: list[tuple[float, float]]) -> None:
     values, carries = np.array(rows).T
     counts, rest = quantize(values, carries)
@@ -87,7 +87,7 @@ def test_quantize_batch_equals_single_calls(rows: list[tuple[float, float]]) -> 
 
 
 @given(st.lists(st.tuples(arc_length, alpha, mount_point(), st.tuples(carry, carry)), min_size=1, max_size=20))
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=60)
 def test_mouse_functions_batch_equal_single_calls(rows: list) -> None:
     s = np.array([r[0] for r in rows])
     a = np.array([r[1] for r in rows])
@@ -109,7 +109,7 @@ def test_mouse_functions_batch_equal_single_calls(rows: list) -> None:
 
 
 @given(st.lists(st.tuples(wheel_arc, wheel_arc), min_size=1, max_size=40), st.integers(1, 8))
-@settings(max_examples=30, deadline=None)
+@settings(max_examples=30)
 def test_integrate_arcs_over_a_batch_of_robots(wheels: list[tuple[float, float]], robots: int) -> None:
     rng = np.random.default_rng(len(wheels) * 10 + robots)
     wheel_arcs = np.array(wheels)[:, None, :] * rng.uniform(-1, 1, size=(1, robots, 2))
@@ -266,7 +266,7 @@ robot_counts = st.one_of(st.sampled_from((0, 1, 2, 3, 5, 7, 9, 17, 511, 513, 205
 
 
 @given(robot_counts, st.integers(0, 2**32 - 1))
-@settings(max_examples=40, deadline=None)
+@settings(max_examples=40)
 def test_parallel_kernels_are_bit_identical_to_the_serial_ones(robots: int, seed: int) -> None:
     """Split over threads, the parallel kernels give the same bits for every pose, heading, carry,
     tick and count over 12 steps of mixed arcs, sharp turns (the trig path) included."""

@@ -337,7 +337,7 @@ def _near(a, b):
     return abs(wrap_angle(a - b)) < 1e-9
 
 
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=300)
 @given(kappa_n.filter(lambda k: 1e-6 < abs(k) < 2 - 1e-6), beta, speed, limit)
 def test_round_trip_ocp_twist_ocp(kn, b, v_s, kappa_g):
     """Away from the singular points (κ_n = 0: no mirror; |κ_n| = 2: β free), OCP → twist → OCP holds;
@@ -353,7 +353,7 @@ def test_round_trip_ocp_twist_ocp(kn, b, v_s, kappa_g):
     assert_allclose(ocp_to_twist(kf, bf, vf, kappa_g), twist, atol=1e-9)
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=200)
 @given(kappa_n, beta, speed, limit)
 def test_mirror_identity_and_icr_round_trip(kn, b, v_s, kappa_g):
     twist = ocp_to_twist(kn, b, v_s, kappa_g)
@@ -365,7 +365,7 @@ def test_mirror_identity_and_icr_round_trip(kn, b, v_s, kappa_g):
     assert_allclose(np.cross(unit, h), 0, atol=1e-9)  # same projective point for any v_s
 
 
-@settings(max_examples=100, deadline=None)
+@settings(max_examples=100)
 @given(kappa_n, beta)
 def test_setpoints_scale_with_speed_and_keep_the_path(kn, b):
     one = wheel_setpoints(STEERED4, kn, b, 1.0, KAPPA_G4)

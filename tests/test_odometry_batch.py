@@ -36,7 +36,6 @@ ROBOTS = {
 }
 
 
-@settings(deadline=None)  # the first example compiles the kernel
 @given(pose, st.floats(-0.5, 0.5, allow_nan=False), st.one_of(st.floats(-3, 3, allow_nan=False), st.floats(-2e-4, 2e-4)), st.booleans())
 def test_compiled_advance_is_advance_bit_for_bit(start, s, alpha, end_heading):
     assert advance_one(*start, s, alpha, end_heading) == tuple(advance(start, s, alpha, end_heading).tolist())
@@ -74,7 +73,7 @@ def robots_and_steps(draw):
     return robots, starts, times, steps
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=200)
 @given(robots_and_steps(), st.permutations(range(5)))
 def test_batch_steps_as_the_python_estimators(case, order):
     """Random robots and readings: every estimate, the fused estimator's state and its contact

@@ -45,7 +45,7 @@ def test_ir_values_are_the_curves_lookup_and_inverse(side, low, high):
 
 
 @given(st.lists(st.floats(0.0, 2.0), min_size=1, max_size=50), st.sampled_from(["left", "right"]))
-@settings(max_examples=100, deadline=None)
+@settings(max_examples=100)
 def test_ir_values_at_random_distances(distances, side):
     curve = gp2d12(side)
     distance = np.array(distances)
@@ -82,7 +82,7 @@ def crowd(seed: int, count: int, spread: float, sensors: int) -> tuple:
 
 
 @given(st.integers(0, 2**32 - 1), st.integers(1, 300), st.sampled_from([0.3, 1.0, 5.0, 200.0]))
-@settings(max_examples=80, deadline=None)
+@settings(max_examples=80)
 def test_ir_grid_gives_the_distances_of_every_circle(seed, count, spread):
     """Crowds from overlapping to sparse, cones from a ray to wider than 45 degrees, sensors
     inside circles: the grid broad phase returns the bits of checking every circle."""

@@ -5,7 +5,6 @@ c't-Sim reads its measured files."""
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,9 +15,9 @@ from sim.world import World
 from sim.world.sensors import gp2d12, load_ir_curve
 from sim.world.spec import Wall, WorldSpec
 
-SHARED = Path(__file__).resolve().parents[2] / "shared"
-CURVES = SHARED / "ctsim" / "characteristics"
-needs_shared = pytest.mark.skipif(not CURVES.is_dir(), reason=f"c't-Sim characteristic files not found at {CURVES} (../shared absent)")
+from shared_data import CURVES
+from shared_data import needs_curves as needs_shared
+
 SENSOR_X, SENSOR_Y = CTBOT.ir[0].position  # 0.0554 forward, 0.036 to the left
 
 

@@ -14,8 +14,8 @@ from bots.noise import with_noise
 from sim.run import RobotSetup, run
 from sim.world.files import load_world
 
-PARCOURS = Path(__file__).resolve().parents[2] / "shared" / "ctsim" / "parcours"
-needs_shared = pytest.mark.skipif(not PARCOURS.is_dir(), reason=f"c't-Sim's parcours not found at {PARCOURS}")
+from shared_data import PARCOURS
+from shared_data import needs_parcours as needs_shared
 
 LIMIT_S = 300.0
 """Simulated time allowed: the slowest case below (realistic noise, seed 1) needs 244 s at 0.25 m/s."""

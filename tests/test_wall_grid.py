@@ -45,7 +45,7 @@ walls_and_cells = st.tuples(st.integers(0, 2**32 - 1), st.integers(1, 400), st.s
 
 
 @given(walls_and_cells)
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=60)
 def test_each_cell_lists_the_walls_over_it_in_ascending_order(case):
     seed, count, spread, pick = case
     _, _, boxes = random_walls(seed, count, spread)
@@ -69,7 +69,7 @@ def test_each_cell_lists_the_walls_over_it_in_ascending_order(case):
 
 
 @given(walls_and_cells, st.integers(0, 2**32 - 1))
-@settings(max_examples=80, deadline=None)
+@settings(max_examples=80)
 def test_ir_through_the_grid_reads_what_every_wall_gives(case, query_seed):
     """Sensors anywhere (inside walls, far beyond the grid), cones from a ray (along the axes too)
     to wider than 45 degrees, with and without circles: the same bits as the plain loop."""
@@ -92,7 +92,7 @@ def test_ir_through_the_grid_reads_what_every_wall_gives(case, query_seed):
 
 
 @given(walls_and_cells, st.integers(0, 2**32 - 1))
-@settings(max_examples=80, deadline=None)
+@settings(max_examples=80)
 def test_moves_swept_through_the_grid_are_those_of_every_wall(case, query_seed):
     """Robots anywhere (touching or inside walls, beyond the grid), moves from none to long ones
     over several cells: the cut and slid moves of the plain loop, bit for bit."""
@@ -135,7 +135,7 @@ def test_the_random_worlds_stop_moves_and_meet_rays():
 
 
 @given(walls_and_cells, st.integers(0, 2**32 - 1))
-@settings(max_examples=60, deadline=None)
+@settings(max_examples=60)
 def test_a_query_gets_every_wall_over_its_box_once_in_ascending_order(case, query_seed):
     """The order a loop over every wall meets them in, which decides ties and early exits."""
     seed, count, spread, pick = case

@@ -47,7 +47,7 @@ def penetration(pose: np.ndarray, walls: tuple) -> float:
     return max(R - signed_distance(pose, w.vertices) for w in walls)
 
 
-@settings(max_examples=40, deadline=None)
+@settings(max_examples=40)
 @given(
     wall_angle=st.floats(-math.pi, math.pi),
     approach=st.floats(-1.3, 1.3),

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import os
 from pathlib import Path
 
 import pytest
@@ -15,19 +14,15 @@ from sim.world.files.geometry import bbox, inside
 from sim.world.spec import WorldFileError, WorldSpec
 
 
-def _shared() -> Path:
-    env = os.environ.get("CTSIM_SHARED")
-    return Path(env) if env else Path(__file__).resolve().parents[2] / "shared"
+from shared_data import PARCOURS
+from shared_data import needs_parcours as needs_shared
 
-
-PARCOURS = _shared() / "ctsim" / "parcours"
-needs_shared = pytest.mark.skipif(not PARCOURS.is_dir(), reason=f"c't-Sim data not found at {PARCOURS} (set CTSIM_SHARED)")
 CELL = 0.24
 
 
 def _world_files() -> list:
     if not PARCOURS.is_dir():
-        return [pytest.param(None, marks=pytest.mark.skip(reason=f"c't-Sim data not found at {PARCOURS}"))]
+        return [pytest.param(None, marks=needs_shared)]
     return [p for p in sorted(PARCOURS.glob("*.xml")) if "<parcours" in p.read_text(encoding="utf-8", errors="replace")]
 
 

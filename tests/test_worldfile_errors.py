@@ -150,7 +150,7 @@ def test_check_world_warns_about_starts_in_walls_and_holes(tmp_path: Path) -> No
 SEED_WORLDS = [Path(__file__).resolve().parents[1] / "worlds" / f"{n}.toml" for n in ("square", "maze", "holes_lights")]
 
 
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=150, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(
     world=st.sampled_from(SEED_WORLDS),
     cut=st.floats(0, 1),

@@ -13,6 +13,7 @@ per-sensor generators spawned from the world's seed.
 from __future__ import annotations
 
 import math
+import os
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
@@ -76,9 +77,16 @@ class CommandError(ValueError):
     """A motor command that must not reach the physics (NaN, infinite, wrong shape)."""
 
 
+def shared_folder() -> Path:
+    """Where c't-Sim's own data files are looked for: the folder `CTSIM_SHARED` names, else
+    `../shared` beside the repository (its `ctsim/characteristics` and `ctsim/parcours`)."""
+    named = os.environ.get("CTSIM_SHARED")
+    return Path(named) if named else Path(sim.__file__).resolve().parents[2] / "shared"
+
+
 def find_shared_curves() -> Path | None:
-    """c't-Sim's characteristics folder beside the repository (`../shared/ctsim/characteristics`)."""
-    here = Path(sim.__file__).resolve().parents[2] / "shared" / "ctsim" / "characteristics"
+    """c't-Sim's characteristics folder (`shared_folder()/ctsim/characteristics`), if it is there."""
+    here = shared_folder() / "ctsim" / "characteristics"
     return here if here.is_dir() else None
 
 
