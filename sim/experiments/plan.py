@@ -43,6 +43,8 @@ DISTRIBUTIONS = ("uniform", "log_uniform", "integers")
 """Random-mode draws: `{uniform = [lo, hi]}`, `{log_uniform = [lo, hi]}`, `{integers = [lo, hi]}`
 (both ends included); a list draws one of its values."""
 ARTEFACTS = ("tum", "recording")
+MAX_RUNS = 100_000
+"""Most runs one sweep plans: its plan is expanded in memory before the first run (about 1 KB a run)."""
 
 
 class SpecError(ValueError):
@@ -123,6 +125,9 @@ def spec_from_dict(data: dict[str, Any], source: str = "<sweep>") -> SweepSpec:
     for key, values in axes.items():
         _check_key(key, f"{source}: [axes]")
         _check_axis(key, values, mode, f"{source}: [axes]")
+    count = samples if mode == "random" else math.prod(len(values) for values in axes.values())
+    if count > MAX_RUNS:
+        raise SpecError(f"{source}: the plan has {count:,} runs, more than the {MAX_RUNS:,} one sweep holds; split it into several sweeps")
     both = sorted(set(base) & set(axes))
     if both:
         raise SpecError(f"{source}: {', '.join(both)} in both [base] and [axes]; keep one")

@@ -24,7 +24,10 @@ from sim.experiments import store
 from sim.experiments.api import Bot, Result, simulate
 from sim.experiments.engines import Dask, Lost, Processes, Serial
 from sim.experiments.plan import Job, SweepSpec, jobs, load_sweep, spec_from_dict
+from sim.run import Terminated
 
+STOPPED = ("interrupted", "terminated")
+"""How a run ends when Ctrl-C or SIGTERM cut it short (`sim.run.RunResult.reason`)."""
 OUTCOME = ("reason", "error", "sim_time", "reached_goal", "goal_time", "fell", "collisions", "distance")
 """Outcome columns of every row, beside the settings and the metrics."""
 
@@ -55,7 +58,8 @@ def outcome(result: Result) -> dict[str, Any]:
 
 
 def execute(job: Job) -> dict[str, Any]:
-    """Run one job and return its row; a run that raises becomes a row with reason 'error'."""
+    """Run one job and return its row; a run that raises becomes a row with reason 'error', a run
+    that Ctrl-C or SIGTERM stopped re-raises them."""
     started = time.perf_counter()
     row: dict[str, Any] = {"run": job.index, "run_id": job.run_id, **job.settings}
     s = job.settings
@@ -65,6 +69,8 @@ def execute(job: Job) -> dict[str, Any]:
             folder.mkdir(parents=True, exist_ok=True)
         record = folder / "run.rrd" if folder is not None and "recording" in job.keep else None
         result = simulate(s["world"], bot(s), duration=s["duration"], dt=s["dt"], seed=s["seed"], until_goal=s["until_goal"], record=record)
+        if result.reason in STOPPED:  # a run cut short is no result: not kept, so a resumed sweep runs it again
+            raise Terminated if result.reason == "terminated" else KeyboardInterrupt
         row.update(outcome(result))
         if folder is not None and "tum" in job.keep:
             _write_tum(result, folder)
