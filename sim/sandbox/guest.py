@@ -1,0 +1,139 @@
+"""The program inside the sandbox: it confines itself, loads the untrusted file and answers requests.
+
+Started as `python -I -S -B guest.py CONFIG` (CONFIG: JSON with `path`, the folders to import
+from; `code`, the file; `limits`; `requests` and `replies`, the file descriptors of its two pipes),
+both pipes in the `wire` format. It
+first sets its limits and the no-new-processes filter (`confine`), then loads the file as the
+module `ctsim_student` and says {"ok": null} or {"error": ...}; then, per request:
+
+    {"op": "call", "name": f, "args": [...]}                          -> f(*args)
+    {"op": "new", "handle": h, "name": C, "kwargs": {...}}             -> objects[h] = C(**kwargs)
+    {"op": "method", "handle": h, "name": m, "args": [...], "attribute": a or null}
+                                                                       -> objects[h].m(*args), or
+                                                                          objects[h].a after it
+    {"op": "step", "handle": h, "t": t, "readings": R}                 -> objects[h].step(t, R) as a
+                                                                          command list (below)
+
+A reply is {"ok": value} with the value as plain data (lists, dicts with string keys, numbers,
+strings, numeric numpy arrays; an object of another kind becomes {"__type__": its type name}; a command [type name, numbers...] or ["bad", type name]), or
+{"error": {"type", "message", "line", "missing"}}. It never sees what the host compares with.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import sys
+import traceback
+from pathlib import Path
+from typing import Any
+
+STUDENT_MODULE = "ctsim_student"
+REQUEST_LIMIT = 1 << 24
+"""Bytes of one request (the host's; a run's readings are a few hundred)."""
+COMMANDS = {"WheelSpeeds": ("left", "right"), "Twist": ("v", "omega", "vy"), "CurveCommand": ("kappa_n", "beta", "v_n")}
+"""The command types of `bots.commands` and their fields, in the order a command list holds them."""
+
+
+def describe(err: BaseException, path: str) -> dict[str, Any]:
+    """What went wrong, as plain data: exception type, first line of its message, the line of the
+    untrusted file it came from, and the module it could not find (an import of the project)."""
+    line = None
+    for frame in traceback.extract_tb(err.__traceback__):
+        if Path(frame.filename) == Path(path):
+            line = frame.lineno
+    if isinstance(err, SyntaxError) and err.lineno and Path(err.filename or "") == Path(path):
+        line = err.lineno
+    message = str(err).splitlines()[0][:300] if str(err).strip() else ""
+    missing = getattr(err, "name", None) if isinstance(err, ModuleNotFoundError) else None
+    return {"type": type(err).__name__, "message": message, "line": line, "missing": missing}
+
+
+def plain(value: Any) -> Any:
+    """`value` as plain data; anything else becomes {'__type__': its type name}."""
+    if value is None or isinstance(value, (bool, str, int, float)):
+        return value
+    if type(value).__module__ == "numpy" and getattr(value, "dtype", None) is not None and value.dtype.kind in "biuf":
+        return value
+    if isinstance(value, (tuple, list)):
+        return [plain(v) for v in value]
+    if isinstance(value, dict) and all(isinstance(k, str) and not k.startswith("__") for k in value):
+        return {k: plain(v) for k, v in value.items()}
+    return {"__type__": type(value).__name__}
+
+
+def command(value: Any) -> list:
+    """A controller's command as [type name, numbers...], or ["bad", type name]."""
+    fields = COMMANDS.get(type(value).__name__) if type(value).__module__ == "bots.commands" else None
+    if fields is None:
+        return ["bad", type(value).__name__]
+    return [type(value).__name__, *(float(getattr(value, name)) for name in fields)]
+
+
+def _entry(module: Any, name: str) -> Any:
+    if not hasattr(module, name):
+        raise AttributeError(f"your file defines no {name!r} (keep the name the template gives)")
+    return getattr(module, name)
+
+
+def answer(module: Any, objects: dict[int, Any], request: dict[str, Any]) -> Any:
+    """The value a request asks for (raises whatever the untrusted code raises)."""
+    op = request.get("op")
+    if op == "call":
+        return plain(_entry(module, request["name"])(*request["args"]))
+    if op == "new":
+        objects[request["handle"]] = _entry(module, request["name"])(**request["kwargs"])
+        return None
+    if op == "method":
+        target = objects[request["handle"]]
+        result = getattr(target, request["name"])(*request["args"])
+        return plain(getattr(target, request["attribute"]) if request["attribute"] else result)
+    if op == "step":
+        return command(objects[request["handle"]].step(request["t"], request["readings"]))
+    raise ValueError(f"unknown request {op!r}")
+
+
+def load(path: str) -> Any:
+    """The untrusted file as the module `ctsim_student`."""
+    spec = importlib.util.spec_from_file_location(STUDENT_MODULE, path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[STUDENT_MODULE] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def serve(config: dict[str, Any]) -> None:
+    """Confine this process, load the file, answer requests until the host closes the pipe."""
+    import confine  # the guest's siblings, on its path beside it (no package, nothing of the project)
+    import wire
+
+    limits = config["limits"]
+    confine.set_limits(limits["cpu"], limits["memory"], limits["files"], limits["processes"])
+    confined = confine.forbid_new_processes()
+    path = config["code"]
+    sys.path[:0] = [str(Path(path).parent)]
+    try:
+        module = load(path)
+    except BaseException as err:  # noqa: BLE001 (the untrusted code: anything may come)
+        wire.send(config["replies"], {"error": describe(err, path), "confined": confined})
+        return
+    wire.send(config["replies"], {"ok": None, "confined": confined})
+    objects: dict[int, Any] = {}
+    while True:
+        try:
+            request = wire.receive(config["requests"], REQUEST_LIMIT)
+        except EOFError:
+            return
+        try:
+            reply = wire.dumps({"ok": answer(module, objects, request)})
+        except BaseException as err:  # noqa: BLE001
+            reply = wire.dumps({"error": describe(err, path)})
+        for stream in (sys.stdout, sys.stderr):
+            stream.flush()
+        wire.write_all(config["replies"], reply)
+
+
+if __name__ == "__main__":
+    settings = json.loads(sys.argv[1])
+    sys.path[:0] = settings["path"]
+    serve(settings)

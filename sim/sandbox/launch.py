@@ -1,0 +1,144 @@
+"""The command that starts the guest: inside bubblewrap, or (asked for by name) degraded without it.
+
+Inside bubblewrap the guest gets new user, mount, pid, network, IPC, UTS and cgroup namespaces, no
+capabilities, its own session, and dies with its parent. Its file system is built from nothing:
+the interpreter's installation and /usr read-only (their site-packages hidden), numpy, the guest's
+three files under /guest, the project modules asked for (with what they import at module level)
+under /guest/lib, and the untrusted file (or its folder) read-only under /submission. Nothing else: no
+/etc, /home, /tmp, the project's other code, the other submissions or the grader's outputs;
+/proc is the sandbox's own, so no process outside it can be seen; the only network is an
+unconfigured loopback.
+
+Degraded, the guest is a plain child process with the same limits and filter but the file system
+and network of the user running it: for a machine without bubblewrap, and only when asked for.
+"""
+
+from __future__ import annotations
+
+import ast
+import functools
+import importlib.util
+import os
+import shutil
+import subprocess
+import sys
+import sysconfig
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+"""The project's folder (holding sim/ and bots/)."""
+PROJECT = ("sim", "bots")
+GUEST_FILES = ("sim/sandbox/guest.py", "sim/sandbox/wire.py", "sim/sandbox/confine.py")
+GUEST, LIB, SUBMISSION = "/guest", "/guest/lib", "/submission"
+ENVIRONMENT = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "LANG": "C.UTF-8", "HOME": SUBMISSION}
+"""The guest's whole environment: one BLAS thread (each would reserve memory), nothing of the host's."""
+
+
+def _module_file(name: str) -> Path | None:
+    base = ROOT.joinpath(*name.split("."))
+    return next((p for p in (base / "__init__.py", base.with_suffix(".py")) if p.is_file()), None)
+
+
+def closure(modules: tuple[str, ...]) -> list[Path]:
+    """The project files `modules` need when imported: each one's file and, followed, the project
+    modules it imports at module level (imports inside functions are not followed: they fail
+    inside the sandbox only if called). Packages along the way stay namespaces unless imported by
+    name, so that no package's `__init__` brings the rest of the project."""
+    found: dict[str, Path] = {}
+    todo = list(modules)
+    while todo:
+        name = todo.pop()
+        path = _module_file(name)
+        if name in found or path is None:
+            continue
+        found[name] = path
+        for node in ast.parse(path.read_text(encoding="utf-8")).body:
+            if isinstance(node, ast.Import):
+                todo += [alias.name for alias in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                todo += [node.module] + [f"{node.module}.{alias.name}" for alias in node.names]
+        todo = [n for n in todo if n.split(".")[0] in PROJECT]
+    return sorted(found.values())
+
+
+def bubblewrap() -> str | None:
+    """The bwrap executable, or None."""
+    return shutil.which("bwrap")
+
+
+@functools.cache
+def unavailable() -> str | None:
+    """Why bubblewrap cannot isolate here (not installed, or namespaces refused), or None when it
+    can; tried once per process by starting the interpreter in an empty sandbox."""
+    executable = bubblewrap()
+    if executable is None:
+        return "bubblewrap (bwrap) is not installed"
+    command = [executable, *_namespaces(), *_system(), "--", _interpreter(), "-I", "-S", "-c", "pass"]
+    try:
+        result = subprocess.run(command, capture_output=True, timeout=60, stdin=subprocess.DEVNULL)
+    except (OSError, subprocess.TimeoutExpired) as err:
+        return f"bubblewrap does not start ({err})"
+    if result.returncode != 0:
+        reason = result.stderr.decode(errors="replace").strip().splitlines()
+        return f"bubblewrap cannot make a sandbox here: {reason[-1] if reason else f'exit {result.returncode}'}"
+    return None
+
+
+def _interpreter() -> str:
+    return os.path.realpath(sys.executable)
+
+
+def _namespaces() -> list[str]:
+    return ["--unshare-all", "--unshare-user", "--uid", "65534", "--gid", "65534", "--cap-drop", "ALL",
+            "--die-with-parent", "--new-session", "--clearenv", "--proc", "/proc", "--dev", "/dev"]  # fmt: skip
+
+
+def _system() -> list[str]:
+    """/usr and the interpreter's installation, read-only, with their site-packages hidden."""
+    args = ["--ro-bind", "/usr", "/usr"]
+    for top in ("/bin", "/lib", "/lib64", "/sbin"):
+        if os.path.islink(top):
+            args += ["--symlink", os.readlink(top), top]
+        elif os.path.isdir(top):
+            args += ["--ro-bind", top, top]
+    prefix = os.path.realpath(sys.base_prefix)
+    if not prefix.startswith("/usr/"):
+        args += ["--ro-bind", prefix, prefix]
+    paths = sysconfig.get_paths(vars={"base": prefix, "platbase": prefix})
+    for hidden in sorted({paths["purelib"], paths["platlib"]}):
+        if os.path.isdir(hidden):
+            args += ["--tmpfs", hidden, "--remount-ro", hidden]
+    return args
+
+
+def _numpy() -> list[tuple[str, str]]:
+    """numpy's package folder and its bundled libraries, as (host path, path inside)."""
+    package = Path(importlib.util.find_spec("numpy").origin).parent
+    return [(str(p), f"{LIB}/{p.name}") for p in (package, package.with_name("numpy.libs")) if p.is_dir()]
+
+
+def command(code: Path, folder: bool, modules: tuple[str, ...], config: dict, degraded: bool) -> list[str]:
+    """The command line that starts the guest on `code` (bound with its whole folder if `folder`),
+    with `modules` of the project importable; `config` completed with the paths inside."""
+    if degraded:
+        site = str(Path(importlib.util.find_spec("numpy").origin).parents[1])
+        config |= {"path": [str(ROOT / "sim" / "sandbox"), site, str(ROOT)], "code": str(code)}
+        return [_interpreter(), "-I", "-S", "-B", str(ROOT / GUEST_FILES[0]), _json(config)]
+    inside = f"{SUBMISSION}/{code.name}"
+    binds = [(str(code.parent), SUBMISSION) if folder else (str(code), inside)] + _numpy()
+    binds += [(str(ROOT / name), f"{GUEST}/{Path(name).name}") for name in GUEST_FILES]
+    binds += [(str(path), f"{LIB}/{path.relative_to(ROOT).as_posix()}") for path in closure(modules)]
+    config |= {"path": [GUEST, LIB], "code": inside}
+    args = [bubblewrap(), *_namespaces(), *_system()]
+    for source, target in binds:
+        args += ["--ro-bind", source, target]
+    for key, value in ENVIRONMENT.items():
+        args += ["--setenv", key, value]
+    args += ["--remount-ro", "/dev", "--remount-ro", "/", "--chdir", SUBMISSION]
+    return [*args, "--", _interpreter(), "-I", "-S", "-B", f"{GUEST}/guest.py", _json(config)]
+
+
+def _json(config: dict) -> str:
+    import json
+
+    return json.dumps(config, separators=(",", ":"))

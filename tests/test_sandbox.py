@@ -1,0 +1,122 @@
+"""sim.sandbox: untrusted code answers in plain data, sees nothing of the host, and whatever it does
+ends as a StudentError of its own kind, with every process of it gone afterwards."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bots.ctbot import CTBOT
+from sim.sandbox import Limits, Sandbox, StudentError, unavailable, wire
+from sim.world.readings import Readings
+
+pytestmark = pytest.mark.skipif(unavailable() is not None, reason=f"no OS sandbox here: {unavailable()}")
+
+GENEROUS = 60.0  # s for a request that must succeed: the machine may be busy; never what a test decides on
+
+
+def box(tmp_path: Path, text: str, **kwargs) -> Sandbox:
+    path = tmp_path / "code.py"
+    path.write_text(text, encoding="utf-8")
+    return Sandbox(path, **kwargs)
+
+
+def test_the_wire_round_trips_plain_data_and_refuses_anything_else() -> None:
+    value = {"a": [1, 2.5, float("inf"), None, True, "x"], "t": (1, 2), "arr": np.arange(6).reshape(2, 3)}
+    back = wire.loads(wire.dumps(value)[wire.HEADER.size:])
+    assert back["a"] == value["a"] and back["t"] == (1, 2)
+    assert back["arr"].dtype == np.int64 and (back["arr"] == value["arr"]).all()
+    with pytest.raises(wire.WireError):
+        wire.dumps(object())
+    for forged in (b'{"__array__": ["object", [1], [1]]}', b'{"__array__": ["float64", [3], [1]]}', b"\x80", b"[" * 100000):
+        with pytest.raises(wire.WireError):
+            wire.loads(forged)
+
+
+def test_records_reach_the_guest_with_their_fields_and_properties(tmp_path: Path) -> None:
+    code = ("class Echo:\n"
+            "    def reset(self, robot):\n"
+            "        return [robot.wheel_diameter, robot.wheel_radius, robot.encoders.ticks_per_rev, list(robot.mouse.mount)]\n"
+            "    def step(self, t, readings):\n"
+            "        from bots.commands import Twist\n"
+            "        return Twist(t, float(readings.encoder_ticks.sum()))\n")  # fmt: skip
+    with box(tmp_path, code, modules=("bots.commands",)) as sandbox:
+        handle = sandbox.new("Echo", timeout=GENEROUS)
+        assert sandbox.method(handle, "reset", CTBOT, timeout=GENEROUS) == [CTBOT.wheel_diameter, CTBOT.wheel_radius, 60, list(CTBOT.mouse.mount)]
+        readings = Readings(encoder_ticks=np.array([3, 4]))
+        assert sandbox.step(handle, 0.5, readings, timeout=GENEROUS) == ["Twist", 0.5, 7.0, 0.0]
+        assert sandbox.confined and not sandbox.degraded
+
+
+SNOOP = """
+import os, socket
+def look():
+    found = {}
+    for name, action in [("passwd", lambda: open("/etc/passwd").read()),
+                         ("project", lambda: os.listdir(%(root)r)),
+                         ("write", lambda: open("/submission/x.txt", "w").write("x")),
+                         ("tmp", lambda: open("/tmp/x.txt", "w").write("x")),
+                         ("fork", lambda: os.fork()),
+                         ("net", lambda: socket.create_connection(("1.1.1.1", 53), timeout=5)),
+                         ("kinematics", lambda: __import__("sim.kinematics"))]:
+        try:
+            action()
+            found[name] = "done"
+        except BaseException as err:
+            found[name] = type(err).__name__
+    found["processes"] = sorted(int(p) for p in os.listdir("/proc") if p.isdigit())
+    return found
+"""
+
+
+def test_the_guest_sees_nothing_of_the_host_and_cannot_start_processes(tmp_path: Path) -> None:
+    root = str(Path(__file__).resolve().parents[1])
+    with box(tmp_path, SNOOP % {"root": root}) as sandbox:
+        found = sandbox.call("look", timeout=GENEROUS)
+    assert found.pop("processes") == [1, 2]  # bubblewrap's init and the guest: nobody else's
+    assert "done" not in found.values(), found
+    assert not (tmp_path / "x.txt").exists()
+
+
+REPLIES = "import json, os, sys\nREPLIES = json.loads(sys.argv[1])['replies']\n"
+"""The guest's reply pipe, as untrusted code finds it."""
+
+
+@pytest.mark.parametrize(("code", "kind"), [
+    ("def f():\n    while True:\n        pass\n", "timeout"),
+    ("import os\ndef f():\n    while True:\n        os.write(1, b'x' * 65536)\n", "output"),
+    ("def f():\n    return bytearray(4 << 30)\n", "memory"),
+    ("import os\ndef f():\n    os._exit(3)\n", "crash"),
+    (REPLIES + "def f():\n    os.close(REPLIES)\n    return 1\n", "crash"),
+    (REPLIES + "def f():\n    os.write(REPLIES, b'\\x00\\x00\\x00\\x05{\"ok\"')\n    return 1\n", "protocol"),
+])  # fmt: skip
+def test_whatever_the_code_does_it_ends_as_an_error_of_its_kind_and_a_fresh_guest_follows(tmp_path: Path, code: str, kind: str) -> None:
+    code += "def g():\n    return 42\n"
+    with box(tmp_path, code, limits=Limits(memory=1 << 30, output=1 << 20)) as sandbox:
+        with pytest.raises(StudentError) as caught:
+            sandbox.call("f", timeout=2.0 if kind == "timeout" else GENEROUS)  # the loop is endless: any limit ends it
+        assert caught.value.kind == kind, caught.value.detail
+        if sandbox.process is None:
+            sandbox.start()
+        assert sandbox.call("g", timeout=GENEROUS) == 42
+
+
+def test_close_returns_when_every_process_of_the_sandbox_is_gone(tmp_path: Path) -> None:
+    sandbox = box(tmp_path, "import threading, time\ndef f():\n    threading.Thread(target=time.sleep, args=(600,)).start()\n    return 1\n")
+    assert sandbox.call("f", timeout=GENEROUS) == 1
+    first, outer = sandbox._pid1, sandbox.process.pid
+    sandbox.close()
+    for pid in (first, outer):
+        with pytest.raises(ProcessLookupError):
+            os.kill(pid, 0)
+
+
+def test_signals_to_the_sandbox_s_first_process_or_to_everyone_are_lost(tmp_path: Path) -> None:
+    code = ("import os, signal\ndef f():\n    for pid in (os.getppid(), 1, -1):\n        try:\n            os.kill(pid, signal.SIGKILL)\n"
+            "        except OSError:\n            pass\n    return 7\n")
+    with box(tmp_path, code) as sandbox:
+        assert sandbox.call("f", timeout=GENEROUS) == 7
+        assert sandbox.call("f", timeout=GENEROUS) == 7
