@@ -97,3 +97,26 @@ def test_floor_noise_on_one_sensor_leaves_the_other_alone():
     assert not np.array_equal(a["line"][:, 0], b["line"][:, 0])
     assert np.array_equal(a["line"][:, 1], b["line"][:, 1])
     assert np.array_equal(a["pose"], b["pose"])
+
+
+def test_each_sensor_draws_from_its_own_stream():
+    """Every sensor has its own generator (DESIGN.md §4): noise on the right line sensor and on the
+    IR sensors leaves the left line sensor's readings bit-identical, and two sensors with the same
+    noise level get different, uncorrelated noise, not one stream dealt out in turn or the same
+    stream twice."""
+    left, right = CTBOT.line
+    only_left = CTBOT.with_changes(line=(left.__class__(left.name, left.position, noise_std=5.0), right))
+    both = CTBOT.with_changes(  # noise on sensors that do not move the robot, so the paths are the same
+        mouse={"noise_std": 0.7},
+        ir=NOISY.ir,
+        line=tuple(s.__class__(s.name, s.position, noise_std=5.0) for s in CTBOT.line),
+    )
+    _, alone = run(only_left, 1, steps=300)
+    _, crowded = run(both, 1, steps=300)
+    _, exact = run(CTBOT, 1, steps=300)
+    assert np.array_equal(alone["line"][:, 0], crowded["line"][:, 0])
+    assert np.array_equal(alone["pose"], exact["pose"]) and np.array_equal(crowded["pose"], exact["pose"])
+    noise = crowded["line"].astype(float) - exact["line"]
+    assert noise.std(axis=0).min() > 2.0  # both sensors are noisy (std 5 counts, before rounding)
+    # 300 independent draws give |r| < 0.3 with a margin of five standard errors (1/sqrt(300) = 0.058)
+    assert abs(np.corrcoef(noise[:, 0], noise[:, 1])[0, 1]) < 0.3

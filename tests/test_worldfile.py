@@ -254,3 +254,20 @@ def test_readme_examples_load(tmp_path: Path, block: int) -> None:
     path.write_text(examples[block], encoding="utf-8")
     world = load_world(path)
     assert world.starts
+
+
+@pytest.mark.parametrize(
+    ("colours", "expected"),
+    [
+        ("<color type='ambient'>#606060</color><color type='diffuse'>#CCFFFF</color>", (0xCC / 255, 1.0, 1.0)),
+        ("<color type='diffuse'>#CCFFFF</color><color type='ambient'>#606060</color>", (0xCC / 255, 1.0, 1.0)),
+        ("<color>#606060</color>", (1.0, 1.0, 1.0)),  # an untyped colour is ambient: Java3D's default diffuse, white
+    ],
+)
+def test_floor_takes_the_diffuse_colour_as_c_t_sims_sensors_read_it(tmp_path: Path, colours: str, expected: tuple) -> None:
+    """c't-Sim's floor sensors read a material's diffuse colour, never its ambient one
+    (`World.sensGroundReflectionCross`); held here on a file of our own, without ../shared
+    (test_ctsim_fidelity holds it on c't-Sim's own worlds)."""
+    path = tmp_path / "floor.xml"
+    path.write_text(f"<world><parcours><line>#1 #</line></parcours><optics><appearance type=' '>{colours}</appearance></optics></world>")
+    assert load_world(path).floor_colour == pytest.approx(expected, abs=0)
