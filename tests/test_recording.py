@@ -224,6 +224,34 @@ def test_no_viewer_costs_the_live_view_only(tmp_path, capsys):
     assert (out / "summary.json").is_file() and (out / "truth.tum").is_file()
 
 
+def test_live_spawns_a_viewer_for_its_stream_and_streams_to_it(tmp_path, monkeypatch, capsys):
+    """`--live` without `--connect` starts a viewer on LIVE_PORT and streams the run to it. The
+    viewer stands in for itself: rerun's own gRPC server in this process, started where rerun
+    would start the viewer's process (never a real viewer in tests), so that the spawn is not
+    ignored for want of an active recording and the stream has someone to deliver to."""
+    import rerun
+    import rerun.sinks
+
+    from sim.views import recording
+
+    port = _closed_port()
+    spawned: list[int] = []
+    standin = rerun.RecordingStream("viewer-standin")
+
+    def spawn_viewer(*, port, **_):
+        spawned.append(port)
+        standin.serve_grpc(grpc_port=port)
+
+    monkeypatch.setattr(recording, "LIVE_PORT", port)
+    monkeypatch.setattr(rerun.sinks, "_spawn_viewer", spawn_viewer)
+    recorder = Recorder(tmp_path / "run.rrd", live=True)
+    result = run(load_world("empty"), [RobotSetup(CTBOT, FunctionController(_drive))], duration=0.5, observers=[recorder])
+    assert spawned == [port]
+    assert result.reason == "duration" and recorder.live_lost is None
+    assert capsys.readouterr().err == ""  # no "live view off"
+    standin.disconnect()
+
+
 class _Viewer:
     """Stands in for a live viewer's stream: notes the entities sent to it, and when."""
 

@@ -311,19 +311,20 @@ class Recorder:
         """A second stream to the viewer at `connect` (or one spawned here), sharing the file's
         recording id; if no viewer answers, say so and record to the file alone."""
         url = self.connect or f"rerun+http://127.0.0.1:{LIVE_PORT}/proxy"
+        same = {"recording_id": self.streams[0].get_recording_id()} if self.streams else {}
+        live = rr.RecordingStream(self.application_id, send_properties=False, **same)
         wait = 0.0
         if self.connect is None:
-            try:
-                rr.spawn(port=LIVE_PORT, connect=False, hide_welcome_screen=True)
+            try:  # spawned for this stream: rerun ignores a spawn without an active recording
+                live.spawn(port=LIVE_PORT, connect=False, hide_welcome_screen=True)
             except Exception as err:  # no viewer executable, no display: the file still counts
                 return self._lose_live(f"could not start a rerun viewer ({err})")
             wait = LIVE_WAIT_S
         if not _listening(url, wait):
             return self._lose_live(f"no rerun viewer answers at {url}")
-        same = {"recording_id": self.streams[0].get_recording_id()} if self.streams else {}
-        self._live = rr.RecordingStream(self.application_id, send_properties=False, **same)
-        self._live.set_sinks(rr.GrpcSink(url), default_blueprint=blueprint)
-        self.streams.append(self._live)
+        live.set_sinks(rr.GrpcSink(url), default_blueprint=blueprint)
+        self._live = live
+        self.streams.append(live)
 
     def _check_live(self) -> None:
         """Wait for the live stream to deliver what it has; a viewer that went away or stalls
