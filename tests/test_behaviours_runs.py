@@ -40,6 +40,8 @@ def test_drive_distance_stops_within_a_millimetre(distance):
     controller = DriveDistance(distance)
     end = moved(drive("empty", controller, 10.0))
     assert controller.status is Status.SUCCESS
+    # the drive believes itself within 0.2 mm (DISTANCE_TOLERANCE) when it stops; the motors' lag
+    # over the last steps adds the rest of the millimetre the test's name promises
     assert end[0] == pytest.approx(distance, abs=1e-3)
     assert abs(end[1]) < 1e-3 and abs(end[2]) < math.radians(0.5)
 
@@ -49,6 +51,7 @@ def test_turn_turns_on_the_spot_within_a_tenth_of_a_degree(angle):
     controller = Turn(angle)
     end = moved(drive("empty", controller, 5.0))
     assert controller.status is Status.SUCCESS
+    # the turn believes itself within 0.05° (ANGLE_TOLERANCE); the motors' lag adds the rest
     assert math.degrees(end[2]) == pytest.approx(angle, abs=0.1)
     assert math.hypot(end[0], end[1]) < 1e-6
 
@@ -83,6 +86,7 @@ def test_square_returns_to_its_start(clockwise):
     assert math.hypot(end[0], end[1]) < 0.005
     assert abs(math.remainder(end[2], 2 * math.pi)) < math.radians(1)
     side = np.ptp(truth[:, :2], axis=0)
+    # extreme points of the path: each corner's turn on the spot and each leg's stop move them by millimetres
     assert side == pytest.approx([0.8, 0.8], abs=0.01)
     lateral = relative_increment(truth[0], truth)[:, 1]
     assert (lateral.min() < -0.79) if clockwise else (lateral.max() > 0.79)

@@ -12,15 +12,15 @@ import math
 
 import numpy as np
 import pytest
+from printed import places
+from shared_data import PARCOURS
+from shared_data import needs_parcours as needs_shared
 
 from bots.ctbot import CTBOT
 from sim.cli import main
 from sim.world import World
 from sim.world.files import load_world, room_warning
 from sim.world.spec import Hole, WorldSpec, box
-
-from shared_data import PARCOURS
-from shared_data import needs_parcours as needs_shared
 
 FLOOR = np.float32(1.0) - np.float32(0x60 / 255)  # what the normal floor #606060 swallows, float32 as in c't-Sim
 BORDER_X = CTBOT.border[0].position[0]  # 38.4 mm ahead of the axle
@@ -65,7 +65,7 @@ def test_the_cross_reaches_12_mm_sideways_and_follows_the_heading():
     40 degrees to the left (11.7 mm) sees it (the floor raster places an edge to within a 2 mm
     cell, so the edge keeps more than a millimetre from every ray); turned by 90 degrees the same
     fan reaches it along the other axis. The reach is c't-Sim's 14 mm height times tan 40°."""
-    assert FAN_REACH[0] == pytest.approx(0.0117, abs=1e-4)
+    assert FAN_REACH[0] == pytest.approx(0.0117, abs=places(4))
     _, y = CTBOT.border[0].position
     hole = Hole(box(-0.5, y + 0.010, 0.5, 0.5))
     world = World(WorldSpec("side", (-1, -1, 1, 1), holes=(hole,)))

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
+from printed import places
 from strategies import (
     EPS,
     TRACK,
@@ -188,7 +189,7 @@ def test_mouse_full_turn_is_1484_counts() -> None:
     also when counted step by step with the carry (10 ms steps at full speed)."""
     mount = np.array(CTBOT.mouse.mount)
     per_turn = 2 * math.pi * abs(mount[0]) * float(counts_per_metre(CTBOT.mouse.dpi))
-    assert per_turn == pytest.approx(1484.217, abs=1e-3)
+    assert per_turn == pytest.approx(1484.217, abs=places(3))
     counts, _ = mouse_counts(mouse_displacement(0.0, -2 * math.pi, mount), np.zeros(2), CTBOT.mouse.dpi)
     np.testing.assert_array_equal(counts, [0, 1484])  # clockwise, sensor behind: alpha*m_x > 0
     steps = 700  # 0.8966 m/s of wheel difference at full speed: about 700 steps of 10 ms per turn

@@ -5,6 +5,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
+from printed import places
 
 from sim.kinematics import chassis_presets as presets
 from sim.kinematics import wrap_angle
@@ -46,7 +47,7 @@ def test_switch_at_one_is_continuous_but_kinked():
     assert 1 / (2 * rho_from_kappa_n(0.999999)) == pytest.approx(0.500001)
     eps = 1e-7
     below, at, above = ocp_to_twist([1 - eps, 1.0, 1 + eps], 0.0, 1.0, 2.0)
-    assert_allclose(below, at, atol=1e-6) and assert_allclose(above, at, atol=1e-6)
+    assert_allclose(below, at, atol=1e-6) and assert_allclose(above, at, atol=1e-6)  # 1e-7 either side moves ω by 2e-7 (slope v_s κ_g = 2)
     assert_allclose((at - below) / eps, [0, 0, 2], atol=1e-6)  # dω/dκ_n = v_s κ_g below
     assert_allclose((above - at) / eps, [-1, 0, 0], atol=1e-6)  # dv/dκ_n = −v_s above
 
@@ -114,9 +115,9 @@ def test_differential_drive_sharp_branch_typo_and_odometry():
     kappa_g = kappa_g_for(chassis)
     # the paper's literal form would give (−0.75, 1.25) at v_s = 0.5
     assert_allclose(wheel_setpoints(chassis, 1.5, 0.0, 0.5, kappa_g).rim_speed, [-0.25, 0.75], atol=1e-12)
-    assert kappa_g == pytest.approx(8.695652, abs=1e-6)
+    assert kappa_g == pytest.approx(8.695652, abs=places(6))
     twist = ocp_to_twist(0.5, 0.0, 1.0, kappa_g)
-    assert twist[2] == pytest.approx(4.347826, abs=1e-6)
+    assert twist[2] == pytest.approx(4.347826, abs=places(6))
     assert np.diff(wheel_setpoints(chassis, 0.5, 0.0, 1.0, kappa_g).rim_speed)[0] == pytest.approx(1.0)
 
 
@@ -156,8 +157,8 @@ def test_table_d_ackermann_single_track(wheelbase, kn, u1, u2, alpha1):
     assert kappa_g == pytest.approx(1 / wheelbase)
     for sign in (1, -1):  # odd symmetry: α changes sign, u does not
         cmd = wheel_setpoints(chassis, sign * kn, 0.0, 1.0, kappa_g)
-        assert_allclose(cmd.rim_speed, [u1, u2, u2], atol=1e-6)
-        assert np.degrees(cmd.heading[0]) == pytest.approx(sign * alpha1, abs=1e-4)
+        assert_allclose(cmd.rim_speed, [u1, u2, u2], atol=places(6))
+        assert np.degrees(cmd.heading[0]) == pytest.approx(sign * alpha1, abs=places(4))
         assert_allclose(cmd.heading[1:], 0, atol=1e-12)
 
 
@@ -166,9 +167,9 @@ def test_ackermann_linear_approximation_error_and_steering_limit():
     kn = np.linspace(0, 2, 200001)
     alpha1 = wheel_setpoints(chassis, kn, 0.0, 1.0, 1.0).heading[:, 0]
     error = np.degrees(alpha1 - np.pi / 4 * kn)
-    assert error.max() == pytest.approx(4.074569, abs=1e-5)
-    assert kn[np.argmax(error)] == pytest.approx(0.522723, abs=1e-5)
-    assert kn[np.argmin(error)] == pytest.approx(2 - 0.522723, abs=1e-5)
+    assert error.max() == pytest.approx(4.074569, abs=1e-5)  # the grid's step: the maximum is found to 1e-5 in κ_n, far less in error
+    assert kn[np.argmax(error)] == pytest.approx(0.522723, abs=1e-5)  # the grid's step (200,001 points over 0..2)
+    assert kn[np.argmin(error)] == pytest.approx(2 - 0.522723, abs=1e-5)  # the grid's step
     for limit, kn_max in [(20, 0.363970), (30, 0.577350), (45, 1), (60, 1.422650), (75, 1.732051), (90, 2)]:
         kn_limit = kappa_n_from_rho(np.tan(np.radians(limit)))  # tan α₁ = a κ = ρ
         assert kn_limit == pytest.approx(kn_max, abs=1e-6)
@@ -185,8 +186,8 @@ def test_table_e_tricycle(kn, front, left, right):
     chassis = presets.tricycle(wheelbase=1.0, track=0.5)
     assert kappa_g_for(chassis) == 1.0
     cmd = wheel_setpoints(chassis, kn, 0.0, 1.0, 1.0)
-    assert_allclose(cmd.rim_speed, [front[0], left[0], right[0]], atol=1e-6)
-    assert_allclose(np.degrees(cmd.heading), [front[1], left[1], right[1]], atol=1e-3)
+    assert_allclose(cmd.rim_speed, [front[0], left[0], right[0]], atol=places(6))
+    assert_allclose(np.degrees(cmd.heading), [front[1], left[1], right[1]], atol=places(3))
 
 
 # --- F. four steered wheels, the paper's example vehicle ---------------------------------------------------------
@@ -212,12 +213,12 @@ KAPPA_G4 = 4.101324
     (-1.5, -60, (1.499825, 1.333350, 0.849811, 0.500526), (-61.239, -99.569, 31.876, 116.285), False, 0.666745),
 ])
 def test_table_f_four_steered_wheels(kn, beta, u, alpha, blocked, v_max):
-    assert kappa_g_for(STEERED4) == pytest.approx(KAPPA_G4, abs=1e-6)
+    assert kappa_g_for(STEERED4) == pytest.approx(KAPPA_G4, abs=places(6))
     space = configuration_space(STEERED4, kn, beta * DEG)
-    assert_allclose(space.rim_speed, u, atol=1e-4)
-    assert_allclose(np.degrees(space.heading), alpha, atol=1e-3)
+    assert_allclose(space.rim_speed, u, atol=places(4))
+    assert_allclose(np.degrees(space.heading), alpha, atol=places(3))
     assert bool(space.blocked) == blocked
-    assert float(space.v_max) == pytest.approx(v_max, abs=1e-6)
+    assert float(space.v_max) == pytest.approx(v_max, abs=places(6))
 
 
 def test_four_steered_blocked_region_facts():
@@ -225,7 +226,7 @@ def test_four_steered_blocked_region_facts():
     assert edge.blocked.tolist() == [False, True, True, False]
     kn, beta = ocp_grid(161, 361)
     space = configuration_space(STEERED4, kn, beta)
-    assert space.blocked.mean() == pytest.approx(0.2394, abs=5e-5)
+    assert space.blocked.mean() == pytest.approx(0.2394, abs=places(4) / 2)  # the share of a 161 x 361 grid, printed with four decimals
     assert not space.blocked[np.abs(beta) < np.radians(61.858)].any()  # free band around β = 0
     assert not space.blocked[np.abs(kn) >= 1.45].any()
     assert_allclose(space.v_max[(kn == 0) & ~space.blocked], 1.0)  # every wheel equally fast
@@ -233,7 +234,7 @@ def test_four_steered_blocked_region_facts():
     assert_allclose(space.rim_speed[kn == 0][..., 3], 1.0)
     assert (space.blocked == space.blocked[::-1]).all() and (space.blocked == space.blocked[:, ::-1]).all()
     ones = space.v_max[(np.abs(kn) == 1) & ~space.blocked]
-    assert ones.min() > 0.5 - 1e-9 and ones.max() == pytest.approx(0.582884, abs=1e-6)
+    assert ones.min() > 0.5 - 1e-9 and ones.max() == pytest.approx(0.582884, abs=places(6))
 
 
 @pytest.mark.parametrize("kn, feasible", [(0.25, 140.54), (0.5, 125.04), (0.9, 91.01), (1.25, 78.10), (1.4, 113.67)])
@@ -244,7 +245,7 @@ def test_four_steered_feasible_beta_intervals(kn, feasible):
 
 def test_singular_points_and_the_steering_jump_at_them():
     singular = np.radians(90) - np.arctan(0.23 / 0.43)
-    assert np.degrees(singular) == pytest.approx(61.858, abs=1e-3)
+    assert np.degrees(singular) == pytest.approx(61.858, abs=places(3))
     points = {0: (1, -singular), 1: (-1, singular), 2: (1, singular), 3: (-1, -singular)}
     for wheel, (kn, beta) in points.items():
         space = configuration_space(STEERED4, kn, beta)
@@ -256,7 +257,7 @@ def test_singular_points_and_the_steering_jump_at_them():
     approaches = [((1e-4, 0), 61.858), ((-1e-4, 0), -118.142), ((0, 1e-3), 151.887), ((0, -1e-3), -28.170)]
     for (dk, db), expected in approaches:
         heading = configuration_space(STEERED4, -1 + dk, singular + db).heading[1]
-        assert np.degrees(heading) == pytest.approx(expected, abs=0.05)
+        assert np.degrees(heading) == pytest.approx(expected, abs=0.05)  # 1e-4 (resp. 1e-3) from the singular point the heading is within 0.05° of its one-sided limit
     # a margin around the singular points only ever grows the blocked set
     kn, beta = ocp_grid(41, 73)
     plain = configuration_space(STEERED4, kn, beta).blocked
@@ -276,12 +277,12 @@ def test_singular_points_and_the_steering_jump_at_them():
 ])
 def test_table_g_mecanum(kn, beta, rim, v_max):
     chassis = presets.mecanum4(max_speed=1.0)
-    assert kappa_g_for(chassis) == pytest.approx(KAPPA_G4, abs=1e-6)
+    assert kappa_g_for(chassis) == pytest.approx(KAPPA_G4, abs=places(6))
     space = configuration_space(chassis, kn, beta * DEG)
-    assert_allclose(space.rim_speed, rim, atol=1e-6)
-    assert float(space.v_max) == pytest.approx(v_max, abs=1e-6)
+    assert_allclose(space.rim_speed, rim, atol=places(6))
+    assert float(space.v_max) == pytest.approx(v_max, abs=places(6))
     cmd = wheel_setpoints(chassis, kn, beta * DEG, 0.5, KAPPA_G4)
-    assert_allclose(cmd.phi_dot, 0.5 * np.array(rim) / 0.05, atol=1e-5)
+    assert_allclose(cmd.phi_dot, 0.5 * np.array(rim) / 0.05, atol=places(6) * 0.5 / 0.05)  # rim speeds printed to six places, times v_s / r
 
 
 def test_mecanum_matrix_rows():
@@ -306,7 +307,7 @@ def test_mecanum_matrix_rows():
 def test_table_h_exact_pose_integration(start, ocp, end):
     kn, beta, v_s, kappa_g, dt = ocp
     twist = ocp_to_twist(kn, beta, v_s, kappa_g)
-    assert_allclose(apply_increment(np.array(start, float), se2_exp(twist * dt)), end, atol=1e-6)
+    assert_allclose(apply_increment(np.array(start, float), se2_exp(twist * dt)), end, atol=places(6))
 
 
 # --- κ_g, set-points at standstill ------------------------------------------------------------------------------
@@ -316,12 +317,12 @@ def test_kappa_g_rules():
     assert kappa_g_for(presets.omni4()) == pytest.approx(5.0)
     # unequal limits: the wheel with the largest |w|/u_lim decides
     slow = presets.steered4(max_speed=1.0)
-    assert kappa_g_for(slow) == pytest.approx(KAPPA_G4, abs=1e-6)
+    assert kappa_g_for(slow) == pytest.approx(KAPPA_G4, abs=places(6))
 
 
 def test_pre_steering_at_standstill():
     cmd = wheel_setpoints(STEERED4, 1.5, 0.0, 0.0, KAPPA_G4)
-    assert_allclose(np.degrees(cmd.heading), [88.159, 42.224, -88.159, -42.224], atol=1e-3)
+    assert_allclose(np.degrees(cmd.heading), [88.159, 42.224, -88.159, -42.224], atol=places(3))
     assert not cmd.phi_dot.any()
 
 

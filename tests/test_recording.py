@@ -113,7 +113,7 @@ def test_every_estimate_and_its_errors_in_mm_and_degrees(recorded):
     assert errors.shape == headings.shape == (len(truth), len(log.estimate_arrays()))
     for k, (name, poses) in enumerate(log.estimate_arrays().items()):
         where = np.array(columns[f"/world/{log.name}/estimate/{name}"]["Transform3D:translation"])[:, 0, :2]
-        np.testing.assert_allclose(where, poses[:, :2], atol=1e-6)
+        np.testing.assert_allclose(where, poses[:, :2], atol=1e-6)  # rerun keeps translations in float32: 2e-7 m at 3 m
         np.testing.assert_allclose(errors[:, k], 1000 * np.hypot(*(poses[:, :2] - truth[:, :2]).T), atol=1e-9)
         assert np.all(np.abs(headings[:, k]) <= 180.0)
 

@@ -59,6 +59,7 @@ def test_umbmark_recovers_diameter_and_track_errors_and_the_correction_shrinks_t
     first, second = calibrate(robot, rounds=2, runs=3)
     assert first.e_d > 1 and first.e_b > 1  # the signs are right from the start
     left, right = second.corrected.wheel_diameters
+    # within 10 % of both errors after the second round (the docstring's bar; seen 0.9 % and 1.5 % off)
     assert right / left - 1 == pytest.approx(TRUE_RATIO - 1, rel=0.1)
     assert second.corrected.track_width / robot.track_width - 1 == pytest.approx(TRACK_ERROR, rel=0.1)
     after = umbmark(robot, runs=3, geometry=second.corrected, seed=100)

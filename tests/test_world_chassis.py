@@ -421,7 +421,7 @@ def test_a_recording_of_a_chassis_robot_holds_wheels_outline_and_icr(tmp_path):
     # wheels in the body frame, drawn again as the steering turns: the last ones at the final angles
     origins, vectors = (np.array(last["/world/car/body/wheels"][f"Arrows2D:{f}"]) for f in ("origins", "vectors"))
     c = CAR.chassis.chassis
-    assert_allclose(origins + 0.5 * vectors, c.positions, atol=1e-6)
+    assert_allclose(origins + 0.5 * vectors, c.positions, atol=1e-6)  # float32 in the recording
     heading = c.alpha + result.robots[0].latest.steering - np.pi / 2  # steering settled long before the end
     assert_allclose(vectors, 2 * c.radius[:, None] * np.stack([np.cos(heading), np.sin(heading)], axis=1), atol=1e-6)
     # the last ICR: v/ω = 1.5 m to the left of the rear axle's middle, where the last pose puts it
