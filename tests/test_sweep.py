@@ -93,10 +93,9 @@ def test_killed_half_way_resumes_with_every_row_once(spec_file, reference, tmp_p
         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True,
     )
     try:
-        deadline = time.monotonic() + 300
+        # decided by the rows on disk, not the clock (pytest-timeout stops a sweep that never gets there)
         while len(list((tmp_path / PARTS).glob("*.parquet"))) < RUNS // 2:
             assert process.poll() is None, "the sweep ended before it was killed"
-            assert time.monotonic() < deadline, "the sweep made no progress"
             time.sleep(0.05)
     finally:
         os.killpg(process.pid, signal.SIGKILL)  # the parent and its workers, mid-run
