@@ -1,4 +1,4 @@
-"""The `ctsim` command line: run, play, report, sweep, worlds, check, controllers.
+"""The `ctsim` command line: run, view, play, report, sweep, worlds, check, controllers, lab.
 
 User mistakes (bad world files, robot files, controller names or parameters, unwritable folders)
 end in one line `ctsim: error: ...` and exit status 2, never a traceback; a run that fails mid-way
@@ -100,6 +100,15 @@ def _add_robot_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-report", action="store_true", help="skip the PNG figures")
 
 
+def _add_web_options(parser: argparse.ArgumentParser, flag: str | None = None, flag_help: str = "") -> None:
+    from sim.web.serve import DEFAULT_HOST, DEFAULT_PORT
+
+    if flag:
+        parser.add_argument(flag, action="store_true", help=flag_help)
+    parser.add_argument("--host", default=None, help=f"address to serve the page on (default: {DEFAULT_HOST}, this machine only; 0.0.0.0 for every network)")
+    parser.add_argument("--port", type=int, default=None, help=f"the page's port; the recording is served on the next one (default: {DEFAULT_PORT}; 0: two free ones)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = Parser(prog="ctsim", description="A 2D simulator of c't-Bot style differential-drive robots.")
     parser.add_argument("--version", action="version", version=f"ctsim {sim.__version__}")
@@ -118,7 +127,18 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--robots", type=int, metavar="N", help="number of robots (default: one per --controller); a single controller is used by all")
     run.add_argument("--duration", type=_positive(float), default=DEFAULT_DURATION, metavar="SECONDS", help=f"simulated time to run at most (default: {DEFAULT_DURATION:g})")
     run.add_argument("--until-goal", action=argparse.BooleanOptionalAction, default=None, help="stop as soon as a robot reaches a goal area (default: on in worlds that have a goal)")
+    _add_web_options(run, "--web", "also serve rerun's web viewer and stream the run into the page as it runs; after the run, serve until Ctrl-C")
     run.set_defaults(handler=cmd_run)
+
+    view = commands.add_parser(
+        "view",
+        help="serve a run's recording and rerun's web viewer to a browser",
+        description="Serve a run's recording (RUN_DIR/run.rrd or a .rrd file) with rerun's web viewer, laid out as in the "
+        "native viewer, and print the page's address; serves until Ctrl-C. Nothing to install but ctsim and a browser.",
+    )
+    view.add_argument("recording", type=Path, metavar="RUN_DIR|RUN.rrd")
+    _add_web_options(view)
+    view.set_defaults(handler=cmd_view)
 
     play = commands.add_parser(
         "play",
@@ -322,12 +342,56 @@ def cmd_run(args: argparse.Namespace) -> int:
     facts = {"controller parameters": ", ".join(f"{k}={v}" for k, v in args.param) or "defaults", "noise": args.noise,
              "duration": f"{args.duration:g} s" + (" or until a goal" if until_goal else "")}
     keep_pandas_out_of_arrow()
-    recorder = Recorder(out / "run.rrd", live=args.live, connect=args.connect, facts=facts)
-    with StopOnSignal() as stop:
-        result = simulate(place, *setups, duration=args.duration, dt=args.dt, seed=args.seed, until_goal=until_goal,
-                          observers=(recorder, Progress(args.duration, args.dt), stop))
-    return finish(result.raw, out, {"duration": args.duration, "until_goal": until_goal, **_robot_options(args)}, report=not args.no_report,
-                  metrics={robot.name: robot.metrics for robot in result.robots})
+    with _web_viewer(args) as web:
+        if web:
+            print(f"ctsim: the run streams into {web.url}", file=sys.stderr, flush=True)
+        recorder = Recorder(out / "run.rrd", live=args.live, connect=web.grpc_url if web else args.connect, facts=facts)
+        with StopOnSignal() as stop:
+            result = simulate(place, *setups, duration=args.duration, dt=args.dt, seed=args.seed, until_goal=until_goal,
+                              observers=(recorder, Progress(args.duration, args.dt), stop))
+        status = finish(result.raw, out, {"duration": args.duration, "until_goal": until_goal, **_robot_options(args)}, report=not args.no_report,
+                        metrics={robot.name: robot.metrics for robot in result.robots})
+        if web and result.reason not in ("interrupted", "terminated"):
+            _serve_until_interrupted(web)
+    return status
+
+
+def _web_viewer(args: argparse.Namespace):
+    """With --web, rerun's web viewer for the run to stream into (served on entering); else
+    nothing to enter."""
+    from contextlib import nullcontext
+
+    if not args.web:
+        if args.host is not None or args.port is not None:
+            raise UsageError("--host and --port go with --web")
+        return nullcontext()
+    if args.live or args.connect:
+        raise UsageError("--web serves its own viewer: give it, --live or --connect, not two of them")
+    from sim.web.serve import DEFAULT_HOST, DEFAULT_PORT, WebViewer
+
+    return WebViewer(None, args.host or DEFAULT_HOST, DEFAULT_PORT if args.port is None else args.port)
+
+
+def _serve_until_interrupted(web, what: str = "") -> None:
+    """Serve until Ctrl-C, which is then the normal end (SIGTERM ends as everywhere else)."""
+    from sim.run import Terminated
+
+    print(f"ctsim: serving {what}{web.url} until Ctrl-C", flush=True)
+    try:
+        web.wait()
+    except KeyboardInterrupt as stop:
+        if isinstance(stop, Terminated):
+            raise
+    print("ctsim: stopped serving", file=sys.stderr)
+
+
+def cmd_view(args: argparse.Namespace) -> int:
+    from sim.web.serve import DEFAULT_HOST, DEFAULT_PORT, WebViewer, recording_of
+
+    recording = recording_of(args.recording)
+    with WebViewer(recording, args.host or DEFAULT_HOST, DEFAULT_PORT if args.port is None else args.port) as web:
+        _serve_until_interrupted(web, f"{recording} at ")
+    return 0
 
 
 def _robot_options(args: argparse.Namespace) -> dict[str, Any]:

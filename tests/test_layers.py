@@ -30,6 +30,7 @@ RULES = (
     ("sim.bridge", CAPABILITIES),
     ("sim.lab", CAPABILITIES),
     ("sim.experiments", CAPABILITIES),
+    ("sim.web", CAPABILITIES + ("sim.web",)),
     ("sim.cli", ("sim", "bots")),
 )
 EVERYONE = ("sim",)  # the bare package: its version and location, nothing of any layer

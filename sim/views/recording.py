@@ -320,7 +320,7 @@ class Recorder:
             except Exception as err:  # no viewer executable, no display: the file still counts
                 return self._lose_live(f"could not start a rerun viewer ({err})")
             wait = LIVE_WAIT_S
-        if not _listening(url, wait):
+        if not listening(url, wait):
             return self._lose_live(f"no rerun viewer answers at {url}")
         live.set_sinks(rr.GrpcSink(url), default_blueprint=blueprint)
         self._live = live
@@ -570,7 +570,7 @@ def _channels(spec: Any, name: str) -> tuple[tuple[str, ...], np.ndarray | None]
     return tuple(s.name for s in sensors), None
 
 
-def _listening(url: str, wait_s: float) -> bool:
+def listening(url: str, wait_s: float) -> bool:
     """Whether something accepts TCP connections at the URL's host and port, trying for up to
     `wait_s` seconds (a spawned viewer takes a moment to listen)."""
     parts = urlsplit(url)
