@@ -47,6 +47,21 @@ def test_scale_error():
     assert m.final_heading_error == 0.0
 
 
+def test_ate_rmse_is_the_root_mean_square_of_the_position_distances():
+    """ATE RMSE = sqrt(mean |p_est - p_true|^2) over every sample, in the plane, heading errors not
+    counted: random offsets in x and y, and one 3 m error among 81 samples (3/sqrt(81) = 1/3)."""
+    rng = np.random.default_rng(5)
+    offsets = rng.normal(scale=0.01, size=(len(TIMES), 2))
+    estimate = STRAIGHT + np.column_stack((offsets, rng.normal(size=len(TIMES))))
+    m = compare(TIMES, STRAIGHT, estimate)
+    # the same sum in another order: a few ulps apart
+    assert m.ate_rmse == pytest.approx(math.sqrt(np.mean(np.sum(offsets**2, axis=1))), rel=1e-12)
+    one_off = STRAIGHT.copy()
+    one_off[-1, 1] += 3.0
+    assert compare(TIMES, STRAIGHT, one_off).ate_rmse == pytest.approx(1 / 3, rel=1e-15)
+    assert compare(TIMES, STRAIGHT, one_off).max_position_error == 3.0
+
+
 def test_heading_drift_and_a_path_turned_about_the_start():
     """Estimate turned by phi about the start: final error 2 L sin(phi/2), heading error phi; a
     heading drifting at c rad/s drifts c*60 per minute and c*T/L per metre."""
