@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import signal
 import sys
 import time
@@ -20,13 +21,15 @@ from typing import Any
 import sim
 from bots.controller import ControllerError
 from bots.noise import NOISE_PRESETS, parse_value
-from sim.run import RunError, Terminated
+from sim.run import DT_RANGE, RunError, Terminated, in_controller, step_count
 from sim.world.spec import WorldFileError
 
 DEFAULT_WORLD = "maze"
 DEFAULT_CONTROLLER = "solve_maze"
 DEFAULT_DURATION = 300.0
 """The default run: a c't-Bot solving the shipped maze, until it reaches the goal (at most 300 s)."""
+STEP_TIMEOUT = 5.0
+"""Seconds (wall clock) a controller step may take in `ctsim run` (`--step-timeout`)."""
 EXIT_FAILED, EXIT_USER, EXIT_INTERRUPTED, EXIT_TERMINATED = 1, 2, 130, 143
 EXIT_STATUSES = f"""exit status:
   0    success
@@ -87,14 +90,27 @@ def _positive(kind: Callable[[str], Any]) -> Callable[[str], Any]:
     return parse
 
 
+def _step(text: str) -> float:
+    value = _positive(float)(text)
+    if not DT_RANGE[0] <= value <= DT_RANGE[1]:
+        raise argparse.ArgumentTypeError(f"expected a step between {DT_RANGE[0]:g} and {DT_RANGE[1]:g} s, got {text!r}")
+    return value
+
+
+def _folder(text: str) -> Path:
+    if not text.strip():
+        raise argparse.ArgumentTypeError("expected a folder, got an empty name")
+    return Path(text)
+
+
 def _add_robot_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("world", nargs="?", default=DEFAULT_WORLD, help=f"a shipped world's name (see `ctsim worlds`) or a .toml/.xml world file (default: {DEFAULT_WORLD})")
     parser.add_argument("--robot", default="ctbot", metavar="NAME|FILE.toml", help="robot description: a built-in name (ctbot, omni3, mecanum4, car, ocp_vehicle) or a TOML robot file (default: ctbot)")
     parser.add_argument("--seed", type=_seed, default=0, help="seed of every random number in the run (the noise of --noise realistic or harsh); same seed, same run (default: 0)")
     parser.add_argument("--noise", choices=NOISE_PRESETS, default="none", help="sensor and odometry noise of the robot: none (exact sensors), realistic (the c't-Bot's figures, see bots/noise.py) or harsh (default: none)")
     parser.add_argument("--robot-set", action="append", type=_param, default=[], metavar="SECTION.FIELD=VALUE", help="override one field of the robot description after --noise, repeatable: encoders.slip_std=0.02, mouse.dpi=415, ir.noise_std=0")
-    parser.add_argument("--dt", type=_positive(float), default=0.01, metavar="SECONDS", help="simulation step (default: 0.01)")
-    parser.add_argument("--out", type=Path, metavar="DIR", help="folder for run.rrd, summary.json, TUM/CSV trajectories and figures (default: runs/<world>-<controller>-<time>)")
+    parser.add_argument("--dt", type=_step, default=0.01, metavar="SECONDS", help="simulation step (default: 0.01)")
+    parser.add_argument("--out", type=_folder, metavar="DIR", help="folder for run.rrd, summary.json, TUM/CSV trajectories and figures (default: runs/<world>-<controller>-<time>)")
     parser.add_argument("--live", action="store_true", help="also stream the recording to a rerun viewer it starts; without one the run goes on, recorded to the file")
     parser.add_argument("--connect", metavar="URL", help="also stream the recording to the rerun viewer at URL (e.g. rerun+http://127.0.0.1:9876/proxy)")
     parser.add_argument("--no-report", action="store_true", help="skip the PNG figures")
@@ -126,6 +142,7 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--param", action="append", type=_param, default=[], metavar="KEY=VALUE", help="controller parameter, repeatable; applies to every robot's controller")
     run.add_argument("--robots", type=int, metavar="N", help="number of robots (default: one per --controller); a single controller is used by all")
     run.add_argument("--duration", type=_positive(float), default=DEFAULT_DURATION, metavar="SECONDS", help=f"simulated time to run at most (default: {DEFAULT_DURATION:g})")
+    run.add_argument("--step-timeout", type=_positive(float), default=STEP_TIMEOUT, metavar="SECONDS", help=f"a controller step that takes longer (wall clock) ends the run as the controller's error (default: {STEP_TIMEOUT:g})")
     run.add_argument("--until-goal", action=argparse.BooleanOptionalAction, default=None, help="stop as soon as a robot reaches a goal area (default: on in worlds that have a goal)")
     _add_web_options(run, "--web", "also serve rerun's web viewer and stream the run into the page as it runs; after the run, serve until Ctrl-C")
     run.set_defaults(handler=cmd_run)
@@ -232,6 +249,7 @@ def _out_dir(out: Path | None, world: str, controller: str) -> Path:
         stamp = time.strftime("%Y%m%d-%H%M%S")
         out = Path("runs") / f"{Path(world).stem}-{Path(controller.split(':')[0]).stem}-{stamp}"
     out.mkdir(parents=True, exist_ok=True)
+    _lock(out)
     if (out / "summary.json").is_file():
         for pattern in RUN_FILES:
             for stale in out.glob(pattern):
@@ -239,19 +257,54 @@ def _out_dir(out: Path | None, world: str, controller: str) -> Path:
     return out
 
 
+LOCK = ".ctsim.lock"
+"""A run holds this file in its folder locked (flock) while it runs: a second run into the same
+folder is refused instead of interleaving its files with the first's."""
+_held: list[Any] = []  # the open lock files of this command, closed (released) when it ends
+
+
+def _lock(out: Path) -> None:
+    try:
+        import fcntl
+    except ImportError:  # not POSIX: folders are not locked
+        return
+    handle = open(out / LOCK, "a+", encoding="utf-8")
+    try:
+        fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        handle.seek(0)
+        owner = handle.read().strip() or "unknown"
+        handle.close()
+        raise UsageError(f"{out} is in use by another ctsim run (process {owner}); wait for it to end or give another --out") from None
+    handle.truncate(0)
+    handle.write(f"{os.getpid()}\n")
+    handle.flush()
+    _held.append(handle)
+
+
 def _terminate(signum: int, frame: Any) -> None:
     raise Terminated
 
 
 class StopOnSignal:
-    """Run observer and context: while a run goes, Ctrl-C and SIGTERM only ask it to stop, and it
-    stops at the next step boundary. A signal raised wherever the process happens to be (inside
-    rerun's stream, a compiled kernel, a socket call) can leave a lock held, and the run would hang
-    instead of writing what it has. A second signal stops at once."""
+    """Run observer and context for Ctrl-C and SIGTERM, by phase (`phase`):
+
+    - "setup" (loading, building the world): a signal stops at once; nothing is written yet.
+    - "run" (from the run's start): a signal asks the run to stop at the next step boundary. A
+      signal raised wherever the process happens to be (inside rerun's stream, a compiled kernel, a
+      socket call) can leave a lock held, and the run would hang instead of writing what it has.
+      Inside a controller step (`sim.run.in_controller`) it stops at once: a controller that blocks
+      must not make the run deaf. A second signal stops at once.
+    - "write" (summary and trajectories): signals are only noted, so those files are whole.
+    - "draw" (figures): a signal stops at once; the figures can be drawn later (`ctsim report`).
+    """
 
     def __init__(self) -> None:
         self.received: int | None = None
+        self.phase = "setup"
         self._previous: dict[int, Any] = {}
+        self.starting = _Starting(self)
+        """An observer to put first: the run has started (its on_start) when it is called."""
 
     def __enter__(self) -> StopOnSignal:
         self._previous = {s: signal.signal(s, self._handle) for s in (signal.SIGINT, signal.SIGTERM)}
@@ -262,17 +315,35 @@ class StopOnSignal:
             signal.signal(number, handler)
 
     def _handle(self, signum: int, frame: Any) -> None:
-        if self.received is not None:
+        first = self.received is None
+        self.received = self.received or signum
+        if self.phase in ("setup", "draw") or (self.phase == "run" and (not first or in_controller())):
             self._raise(signum)
-        self.received = signum
 
     @staticmethod
     def _raise(signum: int) -> None:
         raise Terminated if signum == signal.SIGTERM else KeyboardInterrupt
 
+    def status(self) -> int | None:
+        """The exit status a signal received so far asks for (None: none received)."""
+        return None if self.received is None else EXIT_TERMINATED if self.received == signal.SIGTERM else EXIT_INTERRUPTED
+
     def on_sample(self, world: Any, logs: Any) -> None:
         if self.received is not None:
             self._raise(self.received)
+
+    def on_end(self, result: Any) -> None:
+        self.phase = "write"
+
+
+class _Starting:
+    """The observer that moves a StopOnSignal from "setup" to "run"."""
+
+    def __init__(self, stop: StopOnSignal):
+        self.stop = stop
+
+    def on_start(self, world: Any, logs: Any) -> None:
+        self.stop.phase = "run"
 
 
 def _json_safe(value: Any) -> Any:
@@ -306,14 +377,16 @@ class Progress:
             self.bar.update(world.time - self.bar.n)
 
     def on_end(self, result) -> None:
-        self.bar.close()
+        if self.bar is not None:  # (None when the run stopped before it started)
+            self.bar.close()
 
 
 # --- run and play ------------------------------------------------------------------------------
 
 
-def _setups(args: argparse.Namespace, spec) -> list:
-    """One RobotSetup per robot from --controller/--robots/--param."""
+def _setups(args: argparse.Namespace, spec, room: int) -> list:
+    """One RobotSetup per robot from --controller/--robots/--param; the world has start slots for
+    `room` robots (one slot each)."""
     from bots.behaviours import make
     from sim.run import RobotSetup
 
@@ -321,6 +394,8 @@ def _setups(args: argparse.Namespace, spec) -> list:
     count = args.robots if args.robots is not None else len(names)
     if count < 1:
         raise UsageError(f"--robots must be at least 1, got {count}")
+    if count > room:
+        raise UsageError(f"{count} robots, but the world has room for {room} (one start slot each); add starts (slot 1, 2, ...) to the world")
     if len(names) not in (1, count):
         raise UsageError(f"{len(names)} controllers for {count} robots; give one, or one per robot")
     names = names * count if len(names) == 1 else names
@@ -333,28 +408,36 @@ def cmd_run(args: argparse.Namespace) -> int:
     from sim.views.recording import Recorder, keep_pandas_out_of_arrow
     from sim.world.files import world_warnings
 
+    step_count(args.duration, args.dt)
     place = world(args.world)
-    setups = _setups(args, load_robot_spec(args))
+    setups = _setups(args, load_robot_spec(args), len(place.start_order()))
     for warning in world_warnings(place):
         print(f"ctsim: warning: {args.world}: {warning}", file=sys.stderr)
     until_goal = bool(place.goals) if args.until_goal is None else args.until_goal
     out = _out_dir(args.out, args.world, setups[0].controller_name)
     facts = {"controller parameters": ", ".join(f"{k}={v}" for k, v in args.param) or "defaults", "noise": args.noise,
              "duration": f"{args.duration:g} s" + (" or until a goal" if until_goal else "")}
+    options = {"duration": args.duration, "until_goal": until_goal, **_robot_options(args)}
     keep_pandas_out_of_arrow()
+    _write_json(out / "summary.json", _unstarted(place, args, options, "running", "the run has not ended"), reserve=SUMMARY_ROOM + 2048 * len(setups))
     with _web_viewer(args) as web:
         if web:
             print(f"ctsim: the run streams into {web.url}", file=sys.stderr, flush=True)
         recorder = Recorder(out / "run.rrd", live=args.live, connect=web.grpc_url if web else args.connect, facts=facts)
         with StopOnSignal() as stop:
-            result = simulate(place, *setups, duration=args.duration, dt=args.dt, seed=args.seed, until_goal=until_goal,
-                              observers=(recorder, Progress(args.duration, args.dt), stop))
-        status = finish(result.raw, out, {"duration": args.duration, "until_goal": until_goal, **_robot_options(args)}, report=not args.no_report,
-                        metrics={robot.name: robot.metrics for robot in result.robots})
+            try:
+                result = simulate(place, *setups, duration=args.duration, dt=args.dt, seed=args.seed, until_goal=until_goal,
+                                  observers=(stop.starting, recorder, Progress(args.duration, args.dt), stop), step_timeout=args.step_timeout)
+            except KeyboardInterrupt as signalled:  # before the run started: nothing simulated, said so in the summary
+                return _stopped_before_start(out, place, args, options, signalled)
+            except RunError:  # refused before it started (no room for its trajectories): no run, no summary
+                (out / "summary.json").unlink(missing_ok=True)
+                raise
+            status = finish(result.raw, out, options, report=not args.no_report, metrics={robot.name: robot.metrics for robot in result.robots},
+                            stop=stop, recording_error=recorder.write_error)
         if web and result.reason not in ("interrupted", "terminated"):
             _serve_until_interrupted(web)
     return status
-
 
 def _web_viewer(args: argparse.Namespace):
     """With --web, rerun's web viewer for the run to stream into (served on entering); else
@@ -394,6 +477,41 @@ def cmd_view(args: argparse.Namespace) -> int:
     return 0
 
 
+SUMMARY_ROOM = 16384
+"""Bytes held for summary.json from a run's start (and 2 KB more per robot), so that a disk that
+fills up during the run (the recording grows) still takes the summary at the end."""
+
+
+def _unstarted(place, args: argparse.Namespace, options: dict[str, Any], reason: str, error: str) -> dict[str, Any]:
+    """The summary of a run that has simulated nothing (yet)."""
+    return {"ctsim_version": sim.__version__, "world": {"name": place.name, "source": str(place.source or place.name)},
+            "seed": args.seed, "dt": args.dt, **options, "time": 0.0, "reason": reason, "error": error, "robots": []}
+
+
+def _stopped_before_start(out: Path, place, args: argparse.Namespace, options: dict[str, Any], signalled: KeyboardInterrupt) -> int:
+    """The summary of a run that a signal stopped before its first step."""
+    reason = "terminated" if isinstance(signalled, Terminated) else "interrupted"
+    _write_json(out / "summary.json", _unstarted(place, args, options, reason, f"{reason} before the first step"))
+    print(f"ctsim: {reason} before the first step; wrote {out / 'summary.json'}", file=sys.stderr)
+    return EXIT_TERMINATED if reason == "terminated" else EXIT_INTERRUPTED
+
+
+def _write_json(path: Path, data: dict[str, Any], reserve: int = 0) -> None:
+    """Strict JSON (no NaN). Into the space of an existing file as large as it (so that it fits on
+    a disk that has filled up since: `reserve` bytes, padded with whitespace, hold that space),
+    else under a temporary name and renamed: whole or absent."""
+    text = (json.dumps(_json_safe(data), indent=2, allow_nan=False) + "\n").encode()
+    text += b" " * (reserve - len(text))
+    if path.is_file() and path.stat().st_size >= len(text):
+        with open(path, "r+b") as file:
+            file.write(text)
+            file.truncate()
+        return
+    temporary = path.with_name(f".{path.name}.tmp")
+    temporary.write_bytes(text)
+    os.replace(temporary, path)
+
+
 def _robot_options(args: argparse.Namespace) -> dict[str, Any]:
     """The robot options of a run for its summary."""
     return {"robot": args.robot, "noise": args.noise, "robot_set": {key: parse_value(value) for key, value in args.robot_set}}
@@ -422,19 +540,37 @@ def cmd_play(args: argparse.Namespace) -> int:
     return finish(result, out, {"duration": result.duration, "until_goal": False, **_robot_options(args)}, report=not args.no_report)
 
 
-def finish(result, out: Path, options: dict[str, Any], report: bool = True, metrics: dict[str, dict[str, dict]] | None = None) -> int:
-    """Write summary.json, TUM/CSV trajectories and figures of a run; print the table and the
-    files; the exit status (EXIT_STATUSES). `metrics`: robot -> estimator -> metrics as a dict,
-    where the caller has them already (else they are computed here)."""
+def finish(result, out: Path, options: dict[str, Any], report: bool = True, metrics: dict[str, dict[str, dict]] | None = None,
+           stop: StopOnSignal | None = None, recording_error: str | None = None) -> int:
+    """Write summary.json (first: it holds the figures and is small), TUM/CSV trajectories and
+    figures of a run; print the table and the files; the exit status (EXIT_STATUSES). A full
+    disk or an I/O error ends it with one line and exit 1, having written what fit. `metrics`:
+    robot -> estimator -> metrics as a dict, where the caller has them already (else they are
+    computed here). With `stop`, a signal received so far skips the figures, one received while
+    they are drawn stops them, and either sets the status. `recording_error`: why the recording
+    is incomplete (an I/O error too)."""
     written = [out / "run.rrd"]
     summary = summarize(result, options, metrics)
-    written += write_trajectories(result, out, summary)
-    (out / "summary.json").write_text(json.dumps(_json_safe(summary), indent=2, allow_nan=False) + "\n", encoding="utf-8")
-    written.append(out / "summary.json")
-    if report and len(result):
-        from sim.views.figures import report_run_dir
+    try:
+        _write_json(out / "summary.json", summary)
+        written.append(out / "summary.json")
+        written += write_trajectories(result, out, summary)
+        _write_json(out / "summary.json", summary)  # again, now naming the TUM files
+        if report and len(result) and stop is not None and stop.received is not None:
+            print(f"ctsim: figures skipped after the signal; `ctsim report {out}` draws them", file=sys.stderr)
+        elif report and len(result):
+            from sim.views.figures import report_run_dir
 
-        written += report_run_dir(out)
+            if stop is not None:
+                stop.phase = "draw"
+            try:
+                written += report_run_dir(out)
+            except KeyboardInterrupt:
+                print(f"ctsim: figures stopped by the signal; `ctsim report {out}` draws them", file=sys.stderr)
+    except OSError as err:
+        kept = ", ".join(p.name for p in written[1:]) or "nothing"
+        print(f"ctsim: error: writing the run's results into {out}: {err.strerror or err} (written: {kept})", file=sys.stderr)
+        return EXIT_FAILED
     print(table(summary))
     for log in result.robots:  # what a general chassis did other than asked (projected twists)
         for message, count in log.notes.values():
@@ -442,13 +578,16 @@ def finish(result, out: Path, options: dict[str, Any], report: bool = True, metr
     print("wrote:")
     for path in written:
         print(f"  {path}")
+    if recording_error is not None:
+        print(f"ctsim: error: the recording is incomplete: {recording_error}", file=sys.stderr)
+        return EXIT_FAILED
     if result.reason == "error":
         print(f"ctsim: run stopped: {result.error}", file=sys.stderr)
         return EXIT_FAILED
     if result.reason in ("interrupted", "terminated"):
         print(f"ctsim: {result.error}; partial results written to {out}", file=sys.stderr)
         return EXIT_INTERRUPTED if result.reason == "interrupted" else EXIT_TERMINATED
-    return 0
+    return (stop.status() if stop is not None else None) or 0
 
 
 def summarize(result, options: dict[str, Any], metrics: dict[str, dict[str, dict]] | None = None) -> dict[str, Any]:
@@ -569,11 +708,16 @@ def cmd_bridge(args: argparse.Namespace) -> int:
     from sim.views.recording import Recorder, keep_pandas_out_of_arrow
     from sim.world.files import load_world
 
+    step_count(args.duration, args.dt)
     world = load_world(args.world)
     spec = load_robot_spec(args)
     if args.robots < 1:
         raise UsageError(f"--robots must be at least 1, got {args.robots}")
-    python = _setups(args, spec) if args.controller else []
+    room = len(world.start_order())
+    python = _setups(args, spec, room) if args.controller else []
+    if args.robots + len(python) > room:
+        raise UsageError(f"{args.robots} firmware bot(s) and {len(python)} Python robot(s), but the world has room for {room} "
+                         "(one start slot each); add starts (slot 1, 2, ...) to the world")
     out = _out_dir(args.out, args.world, "bridge")
     calls = [(at, f"{name}({', '.join(map(str, params))})") for at, (name, params) in args.call]
     with Bridge(args.host, args.port, args.connect_timeout, args.step_timeout, dt=args.dt) as bridge:
@@ -582,7 +726,7 @@ def cmd_bridge(args: argparse.Namespace) -> int:
         keep_pandas_out_of_arrow()
         recorder = Recorder(out / "run.rrd", live=args.live)
         with StopOnSignal() as stop:
-            observers = (recorder, bridge.observer(recorder, realtime=args.realtime), Progress(args.duration, args.dt), stop)
+            observers = (stop.starting, recorder, bridge.observer(recorder, realtime=args.realtime), Progress(args.duration, args.dt), stop)
             result = run(world, setups, args.duration, dt=args.dt, seed=args.seed, observers=observers)
     for bot in bridge.summary():
         for call in bot["calls"]:
@@ -719,6 +863,8 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_TERMINATED if terminated else EXIT_INTERRUPTED
     finally:
         signal.signal(signal.SIGTERM, previous)
+        while _held:
+            _held.pop().close()
 
 
 if __name__ == "__main__":

@@ -11,8 +11,11 @@ from __future__ import annotations
 
 import math
 import mmap
+import os
 import re
+import signal
 import tempfile
+import threading
 import traceback
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field, replace
@@ -65,7 +68,7 @@ class _Columns:
         widths = {name: 8 * math.prod(shape) for name, shape in shapes.items()}  # bytes per row
         sizes = {name: -(-max(capacity, 1) * width // page) * page for name, width in widths.items()}
         with tempfile.TemporaryFile() as handle:
-            handle.truncate(sum(sizes.values()))
+            _reserve(handle.fileno(), sum(sizes.values()))
             self._map = mmap.mmap(handle.fileno(), sum(sizes.values()))
         self.arrays: dict[str, np.ndarray] = {}
         self._regions: list[tuple[int, int]] = []  # (byte offset, bytes per row) of each column
@@ -92,6 +95,23 @@ class _Columns:
         if count - self._released >= 2 * RESIDENT:
             self.release(self._released, count - RESIDENT)
             self._released = count - RESIDENT
+
+
+def _reserve(descriptor: int, size: int) -> None:
+    """Give the columns' file its disk space now: a page first written into a sparse file on a
+    full disk kills the process (SIGBUS), a reservation that does not fit is a RunError before
+    the run starts, naming the folder (TMPDIR) and what is missing."""
+    try:
+        if hasattr(os, "posix_fallocate"):
+            os.posix_fallocate(descriptor, 0, size)
+        else:
+            os.truncate(descriptor, size)
+    except OSError as err:
+        folder = tempfile.gettempdir()
+        raise RunError(
+            f"the run's trajectories need {size / 1e6:.1f} MB in the temporary folder {folder} and it has no room "
+            f"({err.strerror}); free space there or point TMPDIR at a folder with room"
+        ) from None
 
 
 class RobotLog:
@@ -217,6 +237,60 @@ class Terminated(KeyboardInterrupt):
     """Raised by a SIGTERM handler (a job scheduler, `timeout`): the run ends as on Ctrl-C."""
 
 
+DT_RANGE = (1e-4, 1.0)
+"""Steps (s) a run takes: below 0.1 ms a run is millions of steps per simulated minute for nothing
+the motors or sensors resolve; above 1 s a robot crosses a maze cell between two sensor reads."""
+
+
+class StepTimeout(BaseException):
+    """A controller step ran past its time limit (a BaseException, so that a controller's own
+    `except Exception` does not swallow it)."""
+
+
+class StepClock:
+    """A time limit on each controller step, kept by SIGALRM: a timer ticks every quarter of the
+    limit and raises StepTimeout inside a controller that the last four ticks found in the same
+    step (so a step ends between 1 and 1.25 limits). Only in the main thread of a POSIX process
+    (signals go there); elsewhere steps are not timed. `busy` is the number of the controller call
+    in progress (0: none)."""
+
+    active: StepClock | None = None
+    """The clock of the run going on in this process, if any."""
+
+    def __init__(self, limit: float | None):
+        self.limit = limit
+        self.busy = 0
+        self._seen, self._ticks, self._previous = 0, 0, None
+        self.armed = bool(limit) and hasattr(signal, "setitimer") and threading.current_thread() is threading.main_thread()
+
+    def __enter__(self) -> StepClock:
+        if self.armed:
+            self._previous = signal.signal(signal.SIGALRM, self._tick)
+            signal.setitimer(signal.ITIMER_REAL, self.limit / 4, self.limit / 4)
+            StepClock.active = self
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self.armed:
+            signal.setitimer(signal.ITIMER_REAL, 0)
+            signal.signal(signal.SIGALRM, self._previous)
+            StepClock.active = None
+
+    def _tick(self, signum: int, frame: object) -> None:
+        if self.busy and self.busy == self._seen:
+            self._ticks += 1
+            if self._ticks >= 4:
+                raise StepTimeout
+        else:
+            self._seen, self._ticks = self.busy, 0
+
+
+def in_controller() -> bool:
+    """Whether a run in this process is inside a controller step right now (a signal handler
+    can then raise at once: no ctsim lock is held there)."""
+    return StepClock.active is not None and StepClock.active.busy != 0
+
+
 def _notify(observers, method: str, *args) -> None:
     for observer in observers:
         handler = getattr(observer, method, None)
@@ -232,13 +306,15 @@ def run(
     seed: int = 0,
     until_goal: bool = False,
     observers: tuple = (),
+    step_timeout: float | None = None,
 ) -> RunResult:
-    """Simulate `robots` in `world_spec` for `duration` seconds (or until one reaches a goal)."""
-    if not (math.isfinite(duration) and duration >= 0):
-        raise RunError(f"duration must be a non-negative number of seconds, got {duration!r}")
+    """Simulate `robots` in `world_spec` for `duration` seconds (or until one reaches a goal).
+    A controller step that takes longer than `step_timeout` seconds (wall clock; None: no limit)
+    ends the run as a controller error (`StepClock`)."""
+    steps = step_count(duration, dt)
     world = World(world_spec, dt=dt, seed=seed)
-    steps = int(round(duration / dt))
     placed = [world.add_robot(setup.spec, setup.start) for setup in robots]
+    _refuse_overlaps(placed)
     # the default estimators of all robots that use them are stepped together, in one compiled pass
     members = [i for i, setup in enumerate(robots) if setup.estimators is None and batched(setup.spec)]
     odometry = DefaultOdometry([robots[i].spec for i in members], np.array([placed[i].pose for i in members]).reshape(-1, 3), members) if members else None
@@ -262,7 +338,10 @@ def run(
         raise RunError(str(err)) from None
     result = RunResult(world_spec, seed, dt, logs, steps + 1)
     commands = np.zeros((len(robots), 2))
+    clock = StepClock(step_timeout)
+    call = 0
     try:
+        clock.__enter__()
         _notify(observers, "on_start", world, logs)  # inside: Ctrl-C while a recorder opens still ends the run
         samplers = [observer.on_sample for observer in observers if hasattr(observer, "on_sample")]
         drivers = [(i, robot.spec, log, controller) for i, (robot, log, controller) in enumerate(zip(world.robots, logs, controllers))]
@@ -278,29 +357,27 @@ def run(
             now = world.time
             for i, spec, log, controller in drivers:
                 try:
+                    call += 1
+                    clock.busy = call
                     command = controller.step(now, log.latest)
+                    clock.busy = 0
                     if spec.chassis is not None:
                         _drive_chassis(world, i, log, command, log.latest, step)
                         continue
                     left, right = wheel_speeds_for(command, spec)
-                except BadCommand as err:
-                    raise _Stop(f"controller {log.controller_name!r} of {log.name} returned a bad command at step {step} (t = {world.time:.2f} s): {err}") from None
-                except ControllerStopped as err:
-                    raise _Stop(f"{log.name} ({log.controller_name}) stopped at step {step} (t = {world.time:.2f} s): {err}") from None
-                except Exception as err:  # the controller's own bug: stop, keep what we have
-                    where = _last_frame(err)
-                    raise _Stop(
-                        f"controller {log.controller_name!r} of {log.name} raised {type(err).__name__}: {err} "
-                        f"at step {step} (t = {world.time:.2f} s){where}"
-                    ) from None
+                except (Exception, SystemExit, StepTimeout) as err:  # sys.exit in a controller is its error too
+                    clock.busy = 0
+                    raise _Stop(_failure(err, log, step, world.time, step_timeout)) from None
                 commands[i] = motor_commands(left, right, spec)
             world.step(commands)
     except _Stop as stop:
         result.reason, result.error = "error", str(stop)
     except KeyboardInterrupt as stop:
+        clock.busy = 0
         result.reason = "terminated" if isinstance(stop, Terminated) else "interrupted"
         result.error = f"{result.reason} at t = {world.time:.2f} s"
     finally:
+        clock.__exit__()
         _complete_samples(result)
         for robot, log in zip(world.robots, logs):
             log.collisions, log.fell = robot.collisions, robot.fallen
@@ -310,6 +387,55 @@ def run(
 
 class _Stop(Exception):
     pass
+
+
+def _failure(err: BaseException, log: RobotLog, step: int, time: float, step_timeout: float | None) -> str:
+    """The one line that says how a robot's controller ended the run."""
+    when = f"at step {step} (t = {time:.2f} s)"
+    if isinstance(err, BadCommand):
+        return f"controller {log.controller_name!r} of {log.name} returned a bad command {when}: {err}"
+    if isinstance(err, ControllerStopped):
+        return f"{log.name} ({log.controller_name}) stopped {when}: {err}"
+    if isinstance(err, StepTimeout):
+        return f"controller {log.controller_name!r} of {log.name} took longer than the step time limit of {step_timeout:g} s {when}"
+    return f"controller {log.controller_name!r} of {log.name} raised {type(err).__name__}: {err} {when}{_last_frame(err)}"
+
+
+def step_count(duration: float, dt: float) -> int:
+    """The number of steps of a run, or RunError for a request the physics cannot hold."""
+    lo, hi = DT_RANGE
+    if isinstance(dt, bool) or not isinstance(dt, (int, float)) or not lo <= dt <= hi:
+        raise RunError(f"the step dt must be between {lo:g} and {hi:g} s, got {dt!r}")
+    if isinstance(duration, bool) or not isinstance(duration, (int, float)) or not (math.isfinite(duration) and duration >= 0):
+        raise RunError(f"duration must be a non-negative number of seconds, got {duration!r}")
+    steps = int(round(duration / dt))
+    if steps == 0 and duration > 0:
+        raise RunError(f"a duration of {duration:g} s is less than half a step (dt = {dt:g} s): nothing would be simulated")
+    return steps
+
+
+def _refuse_overlaps(robots: list) -> None:
+    """RunError when two robots start with their bodies overlapping: the contact solver would push
+    them apart at once, possibly through a wall. Robots are binned into cells as wide as the
+    largest body, so each is compared with its neighbours only."""
+    if len(robots) < 2:
+        return
+    radii = [robot.spec.body_radius for robot in robots]
+    cell = 2 * max(radii)
+    bins: dict[tuple[int, int], list[int]] = {}
+    for j, robot in enumerate(robots):
+        x, y = robot.pose[0], robot.pose[1]
+        key = (math.floor(x / cell), math.floor(y / cell))
+        for dx in (-1, 0, 1):
+            for dy in (-1, 0, 1):
+                for i in bins.get((key[0] + dx, key[1] + dy), ()):
+                    gap = math.hypot(x - robots[i].pose[0], y - robots[i].pose[1])
+                    if gap < (radii[i] + radii[j]) * (1 - 1e-9):  # touching is allowed (rounding of a shared edge)
+                        raise RunError(
+                            f"{robots[i].name} and {robot.name} start {gap:.3f} m apart, closer than their bodies allow "
+                            f"({radii[i] + radii[j]:.3f} m): give them starts farther apart"
+                        )
+        bins.setdefault(key, []).append(j)
 
 
 def _drive_chassis(world: World, index: int, log: RobotLog, command, readings: Readings, step: int) -> None:

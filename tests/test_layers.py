@@ -32,6 +32,7 @@ RULES = (
     ("sim.experiments", CAPABILITIES),
     ("sim.web", CAPABILITIES + ("sim.web",)),
     ("sim.cli", ("sim", "bots")),
+    ("sim.console", ("sim.cli",)),
 )
 EVERYONE = ("sim",)  # the bare package: its version and location, nothing of any layer
 

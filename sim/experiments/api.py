@@ -175,9 +175,11 @@ def simulate(
     record: str | Path | None = None,
     live: bool = False,
     observers: Iterable = (),
+    step_timeout: float | None = None,
 ) -> Result:
     """Run `bots` (default: one c't-Bot solving the maze) in a world for `duration` seconds of
-    simulated time, or until one reaches a goal; `record` writes a rerun recording there."""
+    simulated time, or until one reaches a goal; `record` writes a rerun recording there;
+    a controller step longer than `step_timeout` seconds (wall clock) ends the run as its error."""
     if not (math.isfinite(dt) and dt > 0):
         raise ValueError(f"dt must be a positive number of seconds, got {dt!r}")
     spec = world(world_source)
@@ -187,5 +189,5 @@ def simulate(
         from sim.views.recording import Recorder
 
         watchers.insert(0, Recorder(record, live=live))
-    raw = run(spec, setups, duration, dt=dt, seed=seed, until_goal=until_goal, observers=tuple(watchers))
+    raw = run(spec, setups, duration, dt=dt, seed=seed, until_goal=until_goal, observers=tuple(watchers), step_timeout=step_timeout)
     return result_of(raw)

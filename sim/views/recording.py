@@ -186,6 +186,8 @@ class Recorder:
         self.facts = dict(facts or {})
         self.streams: list[Any] = []
         self.live_lost: str | None = None
+        self.write_error: str | None = None
+        """Why the recording file is incomplete (its writer failed: disk full, I/O error), if it is."""
         self._live: Any = None
         self._live_due = 0.0  # time.monotonic() of the next live send
         self._tracks: list[_Track] = []
@@ -286,8 +288,11 @@ class Recorder:
                 self._check_live()
         finally:
             for rec in self.streams:
-                rec.flush()
-                rec.disconnect()
+                try:
+                    rec.flush()
+                    rec.disconnect()
+                except RuntimeError as err:  # rerun's file writer died (disk full, I/O error): what it wrote stays
+                    self.write_error = f"{self.path}: {err}"
             self.streams, self._live = [], None
 
     # --- streams ----------------------------------------------------------------------------
