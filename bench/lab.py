@@ -26,7 +26,7 @@ def grade_30(count: int = 30) -> tuple[float, float]:
         check_file(exercise(2), folder / "student00.py", seed=1)
         single = time.perf_counter() - start
         start = time.perf_counter()
-        grade(2, folder, Path(tmp) / "out", seed=1)
+        grade(exercise(2), folder, Path(tmp) / "out", seed=1)
         return time.perf_counter() - start, single
 
 

@@ -203,12 +203,14 @@ def _add_lab(commands) -> None:
     check.add_argument("number", type=int)
     check.add_argument("file", type=Path)
     check.add_argument("--out", type=Path, default=Path("lab-check"), metavar="DIR", help="folder for figures and recordings (default: lab-check)")
+    check.add_argument("--degraded", action="store_true", help="where bubblewrap is missing, run the file without isolation (said in the result)")
     grade = actions.add_parser("grade", help="grade a folder of submissions: CSV, Gradescope results.json, JUnit XML")
     grade.add_argument("number", type=int)
     grade.add_argument("submissions", type=Path, metavar="SUBMISSIONS_DIR")
     grade.add_argument("--out", type=Path, default=None, metavar="DIR", help="folder for the grades (default: SUBMISSIONS_DIR/grades)")
     grade.add_argument("--seed", type=int, help="seed of the hidden scenarios (default: a fresh one, written to grades.csv)")
     grade.add_argument("--jobs", type=_positive(int), help="parallel checks (default: number of CPUs)")
+    grade.add_argument("--degraded", action="store_true", help="where bubblewrap is missing, grade without isolation (said in every result)")
     lab.set_defaults(handler=cmd_lab)
 
 

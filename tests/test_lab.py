@@ -36,7 +36,7 @@ def quick(number: int, hidden: int | None = None):
     return dataclasses.replace(exercise(number), hidden=(1 if number == 6 else 2) if hidden is None else hidden)
 
 
-PASSING = [(number, "reference") for number in WRONG] + [(7, "own")]  # 7's reference is the shipped follow_line
+PASSING = [(number, "reference") for number in WRONG if number != 7] + [(7, "own")]
 
 
 @pytest.mark.parametrize(("number", "solution"), PASSING)
@@ -68,8 +68,8 @@ BAD = {
     "shape": ("def turn(*a):\n    return 1.0, 2.0\n", "shape", "returned shape (2,); expected (4,)"),
     "nan": ("def turn(*a):\n    return [float('nan')] * 4\n", "nan", "returned NaN"),
     "type": ("def turn(*a):\n    return object()\n", "type", "returned a object"),
-    "truth": ("import sim.run\ndef turn(*a):\n    return 0, 0, 0, 0\n", "forbidden", "import of sim.run is not allowed"),
-    "truth_late": ("def turn(*a):\n    from sim.world import physics\n    return 0, 0, 0, 0\n", "forbidden", "import of sim.world.physics is not allowed"),
+    "truth": ("import sim.run\ndef turn(*a):\n    return 0, 0, 0, 0\n", "forbidden", "import of sim.run at line 1 is not available here"),
+    "truth_late": ("def turn(*a):\n    from sim.world import physics\n    return 0, 0, 0, 0\n", "forbidden", "import of sim.world at line 2 is not available here"),
     "exits": ("import os\ndef turn(*a):\n    os._exit(3)\n", "crash", "ended the checking process"),
     "syntax": ("def turn(*a)\n    return 1\n", "load", "loading your file raised SyntaxError at line 1"),
 }
@@ -82,7 +82,8 @@ def test_bad_student_code_fails_with_a_clear_message_and_leaks_nothing_hidden(tm
     report = check_file(ex, write(tmp_path, "icc.py", text), seed=SEED)
     assert not report.passed and report.score == 0
     assert message in report.rows[0].got
-    assert report.rows[0].hint == ex.hint(kind, "en", shared_hints(), limit=0.5)
+    assert report.rows[0].problem == kind and "{" not in report.rows[0].hint
+    assert report.rows[0].hint.startswith(ex.hint(kind, "en", shared_hints(), limit=0.5).split("{")[0])
     hidden = [r for r in report.rows if r.hidden]
     assert all("secret" not in r.got and r.expected == "(hidden)" for r in hidden)
 
@@ -108,9 +109,9 @@ def test_grade_writes_csv_gradescope_and_junit(tmp_path: Path) -> None:
     folder.mkdir()
     for name in ("reference", "swapped", "straight"):
         (folder / f"{name}.py").write_text((SOLUTIONS / "ex1" / f"{name}.py").read_text())
-    reports, _ = grade(1, folder, tmp_path / "out", seed=SEED, jobs=2)
+    reports, _ = grade(exercise(1), folder, tmp_path / "out", seed=SEED, jobs=2)
     rows = list(csv.DictReader((tmp_path / "out" / "grades.csv").open()))
-    assert {r["student"]: r["score"] == "10.00" for r in rows} == {"reference": True, "straight": False, "swapped": False}
+    assert {r["student"]: r["score"] == "10" for r in rows} == {"reference": True, "straight": False, "swapped": False}
     results = json.loads((tmp_path / "out" / "gradescope" / "swapped" / "results.json").read_text())
     assert results["score"] < 10 and any(t["status"] == "failed" for t in results["tests"])
     suites = ET.parse(tmp_path / "out" / "junit.xml").getroot()

@@ -16,10 +16,12 @@ import numpy as np
 
 from sim.lab.artifacts import Tracks, write
 from sim.lab.exercise import Exercise, Scenario, shared_hints
-from sim.lab.sandbox import Student, StudentError
+from sim.lab.student import Student, StudentError
 from sim.world.spec import WorldSpec
 
 HIDDEN = "(hidden)"
+STARTUP_CPU = 10.0
+"""CPU seconds a student's process may use besides the scenarios' time limits (Python, numpy)."""
 
 
 @dataclass
@@ -53,7 +55,8 @@ class Row:
 
 @dataclass
 class CheckReport:
-    """All rows of one file, the seed of its hidden scenarios, the score and what was written."""
+    """All rows of one file, the seed of its hidden scenarios, the score and what was written;
+    `output`: the start of what the student's code printed; `degraded`: checked without isolation."""
 
     exercise: int
     file: str
@@ -61,6 +64,8 @@ class CheckReport:
     rows: list[Row]
     points: float
     artifacts: list[Path] = field(default_factory=list)
+    output: str = ""
+    degraded: bool = False
 
     @property
     def passed(self) -> bool:
@@ -71,31 +76,41 @@ class CheckReport:
         """Points for the share of scenarios passed."""
         return self.points * sum(row.passed for row in self.rows) / len(self.rows) if self.rows else 0.0
 
+    @property
+    def score_text(self) -> str:
+        """The score as people read it: "1.8/10"."""
+        return f"{round(self.score, 1):g}/{self.points:g}"
+
 
 def fresh_seed() -> int:
     """A seed nobody chose: the student cannot tune their code to the hidden scenarios."""
     return secrets.randbits(32)
 
 
-def check_file(exercise: Exercise, path: str | Path, lang: str = "en", seed: int | None = None, out: Path | None = None) -> CheckReport:
-    """Run `exercise`'s checker on the student's file over its public and hidden scenarios."""
+def check_file(exercise: Exercise, path: str | Path, lang: str = "en", seed: int | None = None, out: Path | None = None,
+               folder: bool = False, degraded: bool = False) -> CheckReport:  # fmt: skip
+    """Run `exercise`'s checker on the student's file over its public and hidden scenarios, the
+    file in a sandbox of its own (with its whole folder if `folder`; without isolation only if
+    `degraded` and bubblewrap is missing)."""
     seed = fresh_seed() if seed is None else seed
     shared = shared_hints()
     report = CheckReport(exercise.number, str(path), seed, [], exercise.points)
-    with Student(path, exercise.forbidden) as student:
-        for scenario in exercise.scenarios(seed, out):
+    scenarios = exercise.scenarios(seed, out)
+    cpu = exercise.time_limit * len(scenarios) + STARTUP_CPU
+    with Student(path, exercise.modules, cpu, folder, degraded) as student:
+        for scenario in scenarios:
             row, outcome = _one(exercise, scenario, student, lang, shared)
             report.rows.append(row)
             if outcome is not None and outcome.tracks and scenario.out is not None:
                 report.artifacts += write(scenario.out, outcome.tracks, outcome.world)
-            if row.hint and student.process is None and _fatal(row):
+            if row.problem in FATAL:
                 break
+        report.output, report.degraded = student.output, student.degraded
     return report
 
 
-def _fatal(row: Row) -> bool:
-    """A file that does not load or refuses to import fails every scenario the same way."""
-    return row.got.startswith("loading your file")
+FATAL = ("load", "forbidden")
+"""Problems that fail every scenario the same way: the file does not load, or imports what is not there."""
 
 
 def _one(exercise: Exercise, scenario: Scenario, student: Student, lang: str, shared: dict) -> tuple[Row, Outcome | None]:
@@ -103,7 +118,7 @@ def _one(exercise: Exercise, scenario: Scenario, student: Student, lang: str, sh
     try:
         outcome = exercise.checker.check(scenario, student)
     except StudentError as err:
-        hint = exercise.hint(err.kind, lang, shared, limit=exercise.time_limit)
+        hint = exercise.hint(err.kind, lang, shared, limit=exercise.time_limit, where=f" {_at_line(lang)} {err.line}" if err.line else "")
         got = err.public if scenario.hidden else err.detail
         return Row(scenario.name, HIDDEN if scenario.hidden else "", got, "", False, hint, scenario.hidden, err.kind), None
     problem = "" if outcome.passed else outcome.hint or "wrong"
@@ -111,6 +126,10 @@ def _one(exercise: Exercise, scenario: Scenario, student: Student, lang: str, sh
     if scenario.hidden:
         return Row(scenario.name, HIDDEN, HIDDEN, outcome.tolerance, outcome.passed, hint, True, problem), outcome
     return Row(scenario.name, outcome.expected, outcome.got, outcome.tolerance, outcome.passed, hint, problem=problem), outcome
+
+
+def _at_line(lang: str) -> str:
+    return {"en": "at line", "de": "in Zeile"}[lang]
 
 
 def table(report: CheckReport, lang: str = "en") -> str:
@@ -126,7 +145,7 @@ def table(report: CheckReport, lang: str = "en") -> str:
         if row.hint:
             lines.append(f"    {words[7]}: {row.hint}")
     passed = sum(r.passed for r in report.rows)
-    lines.append(f"{words[8]}: {report.score:g}/{report.points:g} ({passed}/{len(report.rows)})")
+    lines.append(f"{words[8]}: {report.score_text} ({passed}/{len(report.rows)})")
     return "\n".join(lines)
 
 
@@ -135,6 +154,17 @@ def fmt(values: Any, digits: int = 4) -> str:
     array = np.atleast_1d(np.asarray(values, dtype=np.float64))
     text = ", ".join(f"{v:.{digits}g}" for v in array)
     return text if array.size == 1 else f"({text})"
+
+
+def differing(expected: Any, got: Any, digits: int = 4) -> tuple[str, str]:
+    """A failing row's `expected` and `got` as text, with enough significant digits (from
+    `digits` up to 17) that two different values never read the same."""
+    same = np.array_equal(np.asarray(expected, dtype=np.float64), np.asarray(got, dtype=np.float64))
+    for shown in range(digits, 18):
+        pair = fmt(expected, shown), fmt(got, shown)
+        if same or pair[0] != pair[1]:
+            break
+    return pair
 
 
 def close(got: Any, expected: Any, tolerance: float) -> bool:

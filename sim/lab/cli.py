@@ -6,12 +6,14 @@ import argparse
 from pathlib import Path
 
 from sim.lab.checking import check_file, table
-from sim.lab.exercise import ExerciseError, exercise, exercises
-from sim.lab.grading import grade
+from sim.lab.exercise import Exercise, ExerciseError, exercise, exercises
+from sim.lab.grading import DEGRADED, grade
+from sim.sandbox import SandboxUnavailable
 
 
 def lab_command(args: argparse.Namespace) -> int:
-    """Run one lab action; 0 done (or the file passed), 1 the file fails, user errors raise."""
+    """Run one lab action; 0 done (or the file passed), 1 the file fails (or the grader failed on
+    a submission), user errors (and a machine without bubblewrap, unless --degraded) raise."""
     extra = args.exercises
     if args.lab_command == "list":
         for number, ex in exercises(extra).items():
@@ -20,25 +22,41 @@ def lab_command(args: argparse.Namespace) -> int:
     ex = exercise(args.number, extra)
     if args.lab_command == "start":
         return _start(ex, args.dir, args.lang)
-    if args.lab_command == "check":
-        if not args.file.is_file():
-            raise ExerciseError(f"{args.file}: no such file")
-        report = check_file(ex, args.file, args.lang, out=args.out)
-        print(f"exercise {ex.number}: {ex.title[args.lang]}  ({args.file}, scenario seed {report.seed})")
-        print(table(report, args.lang))
-        for path in report.artifacts:
-            print(f"  wrote {path}")
-        return 0 if report.passed else 1
+    try:
+        return _check(ex, args) if args.lab_command == "check" else _grade(ex, args)
+    except SandboxUnavailable as err:
+        raise ExerciseError(str(err)) from None
+
+
+def _check(ex: Exercise, args: argparse.Namespace) -> int:
+    if not args.file.is_file():
+        raise ExerciseError(f"{args.file}: no such file")
+    report = check_file(ex, args.file, args.lang, out=args.out, degraded=args.degraded)
+    print(f"exercise {ex.number}: {ex.title[args.lang]}  ({args.file}, scenario seed {report.seed})")
+    if report.degraded:
+        print(DEGRADED)
+    print(table(report, args.lang))
+    if report.output:
+        print(f"your code printed:\n{report.output}")
+    for path in report.artifacts:
+        print(f"  wrote {path}")
+    return 0 if report.passed else 1
+
+
+def _grade(ex: Exercise, args: argparse.Namespace) -> int:
+    """0 when every submission was graded; 1 when the grader failed on one (printed, a ctsim bug)."""
     if not args.submissions.is_dir():
         raise ExerciseError(f"{args.submissions}: no such folder")
     out = args.out or args.submissions / "grades"
-    reports, written = grade(ex.number, args.submissions, out, args.lang, args.seed, args.jobs, extra)
+    reports, written = grade(ex, args.submissions, out, args.lang, args.seed, args.jobs, args.degraded)
+    if any(r.degraded for r in reports):
+        print(DEGRADED)
     for report in reports:
-        print(f"{report.score:6.2f}/{report.points:g}  {report.file}")
+        print(f"{report.score_text:>7}  {report.file}")
     print(f"{sum(r.passed for r in reports)}/{len(reports)} passed; scenario seed {reports[0].seed}")
     for path in written:
         print(f"  wrote {path}")
-    return 0
+    return 1 if any(row.problem == "grader" for r in reports for row in r.rows) else 0
 
 
 def _start(ex, folder: Path, lang: str) -> int:

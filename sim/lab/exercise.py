@@ -2,7 +2,8 @@
 
     NN_name/
       exercise.toml     number, titles, the student's file name, time limit, tolerances,
-                        public examples, ranges for hidden scenarios, hints (English and German)
+                        public examples, ranges for hidden scenarios, hints (English and German),
+                        the project modules the template imports (all the student's code sees)
       sheet.en.md       the exercise sheet, English
       sheet.de.md       the exercise sheet, German
       template.py       what the student starts from
@@ -53,7 +54,8 @@ class Scenario:
 
 @dataclass
 class Exercise:
-    """An exercise folder, read."""
+    """An exercise folder, read. `modules`: the project modules the template imports (say
+    `bots.commands`): with what they import, all of the project the student's code can see."""
 
     folder: Path
     number: int
@@ -67,7 +69,7 @@ class Exercise:
     examples: list[dict[str, Any]]
     ranges: dict[str, Any]
     hints: dict[str, dict[str, str]]
-    forbidden: tuple[str, ...] = ()
+    modules: tuple[str, ...] = ()
     _checker: ModuleType | None = field(default=None, repr=False)
 
     @property
@@ -173,7 +175,7 @@ def load_exercise(folder: str | Path) -> Exercise:
         examples=list(data.get("example", [])),
         ranges=dict(data.get("draw", {})),
         hints=hints,
-        forbidden=tuple(data.get("forbidden", ())),
+        modules=tuple(data.get("modules", ())),
     )
 
 

@@ -1,8 +1,12 @@
 """Grading a folder of submissions in parallel: one check per file, then CSV, Gradescope's
 results.json and JUnit XML.
 
-Each submission is checked in a process of the pool (which starts the student's own process in
-turn); every submission meets the same hidden scenarios, drawn from the grading's seed.
+Each submission runs in a sandbox of its own (`sim.sandbox`): it sees its own file (or folder)
+only, never the other submissions, the seed or the grades. The checks run in threads of this
+process (the students' code runs in the sandboxes' processes); the grades are written by this
+process alone, after every sandbox has ended with all its processes, into `out`, which no sandbox
+can see. A submission that breaks the grader's check is graded as failed with the reason, and the
+others are graded all the same.
 """
 
 from __future__ import annotations
@@ -10,88 +14,139 @@ from __future__ import annotations
 import csv
 import json
 import os
-from concurrent.futures import ProcessPoolExecutor
-from multiprocessing import get_context
+import sys
+import traceback
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
-from sim.lab.checking import CheckReport, check_file, fresh_seed
-from sim.lab.exercise import exercise
+from sim.lab.checking import CheckReport, Row, check_file, fresh_seed
+from sim.lab.exercise import Exercise, ExerciseError
+from sim.sandbox import SandboxUnavailable, unavailable
 
-
-def _check(args: tuple) -> CheckReport:
-    number, path, lang, seed, extra = args
-    return check_file(exercise(number, extra), path, lang, seed)
+DEGRADED = "DEGRADED: graded without isolation (bubblewrap missing); a submission could read or change files"
 
 
 def submissions(folder: Path, name: str) -> list[Path]:
     """The student files in `folder`: every *.py directly in it, or `name` in each sub-folder."""
-    found = sorted(p for p in folder.glob("*.py") if p.is_file())
-    return found or sorted(p for p in folder.glob(f"*/{name}") if p.is_file())
+    found = sorted(p for p in folder.glob("*.py") if p.is_file() or p.is_symlink())
+    return found or sorted(p for p in folder.glob(f"*/{name}") if p.is_file() or p.is_symlink())
 
 
 def student_id(path: Path, folder: Path) -> str:
-    """The file's stem, or its sub-folder's name for `folder/<student>/<file>`."""
-    return path.parent.name if path.parent != folder else path.stem
+    """The file's stem, or its sub-folder's name for `folder/<student>/<file>` (never a path)."""
+    name = path.parent.name if path.parent != folder else path.stem
+    return name if name not in ("", ".", "..") else f"_{name}"
 
 
-def grade(number: int, folder: str | Path, out: str | Path, lang: str = "en", seed: int | None = None,
-          jobs: int | None = None, extra: list | None = None) -> tuple[list[CheckReport], list[Path]]:
-    """Check every submission in `folder` against exercise `number` with `jobs` processes;
-    write grades.csv, gradescope/<student>/results.json and junit.xml into `out`."""
-    folder, out = Path(folder), Path(out)
-    ex = exercise(number, extra)
+def grade(ex: Exercise, folder: str | Path, out: str | Path, lang: str = "en", seed: int | None = None,
+          jobs: int | None = None, degraded: bool = False) -> tuple[list[CheckReport], list[Path]]:  # fmt: skip
+    """Check every submission in `folder` against exercise `ex` with `jobs` checks at a time;
+    write grades.csv, gradescope/<student>/results.json and junit.xml into `out`. Without
+    bubblewrap this refuses (SandboxUnavailable) unless `degraded`, and then says so in every result."""
+    folder, out = Path(folder).resolve(), Path(out).resolve()
     files = submissions(folder, ex.file)
     if not files:
-        raise ValueError(f"{folder}: no submissions (*.py files, or */{ex.file})")
+        raise ExerciseError(f"{folder}: no submissions (*.py files, or */{ex.file})")
+    own_folders = files[0].parent != folder
+    if own_folders and any(out.is_relative_to(f.parent) for f in files):
+        raise ExerciseError(f"{out}: the grades folder must not be inside a student's folder (the student's code would see it)")
+    reason = unavailable()
+    if reason is not None and not degraded:
+        raise SandboxUnavailable(f"{reason}: refusing to grade untrusted code without isolation (install bubblewrap, or pass --degraded)")
     seed = fresh_seed() if seed is None else seed
+    ex.checker  # noqa: B018 (loaded once, before the threads)
     jobs = jobs or max(1, min(len(files), os.cpu_count() or 1))
-    with ProcessPoolExecutor(jobs, mp_context=get_context("spawn")) as pool:
-        reports = list(pool.map(_check, [(number, f, lang, seed, extra) for f in files]))
+    with ThreadPoolExecutor(jobs) as pool:
+        reports = list(pool.map(lambda f: _check(ex, f, folder, lang, seed, own_folders, degraded), files))
     out.mkdir(parents=True, exist_ok=True)
     ids = [student_id(f, folder) for f in files]
     return reports, [write_csv(out / "grades.csv", ids, reports), write_gradescope(out / "gradescope", ids, reports),
                      write_junit(out / "junit.xml", ids, reports, ex.title["en"])]  # fmt: skip
 
 
+def _check(ex: Exercise, path: Path, folder: Path, lang: str, seed: int, own_folder: bool, degraded: bool) -> CheckReport:
+    """One submission's report; a link instead of a file, or a failure of the check itself, is a
+    failed report with the reason (the grader's own failure is printed, not blamed on the student)."""
+    if path.is_symlink() or (own_folder and path.parent.is_symlink()) or not path.resolve().is_relative_to(folder):
+        return _failed(ex, path, seed, "link", "the submission is a link, not a file of its own: not graded")
+    try:
+        return check_file(ex, path, lang, seed, folder=own_folder, degraded=degraded)
+    except Exception:  # noqa: BLE001 (a bug of ctsim on one file must not cost the others their grades)
+        print(f"ctsim lab grade: checking {path} failed inside ctsim (a bug, not the student's):\n{traceback.format_exc()}", file=sys.stderr)
+        return _failed(ex, path, seed, "grader", "the grader failed on this file (a ctsim bug, not your code): ask your teacher")
+
+
+def _failed(ex: Exercise, path: Path, seed: int, problem: str, message: str) -> CheckReport:
+    return CheckReport(ex.number, str(path), seed, [Row("submission", "", message, "", False, message, problem=problem)], ex.points)
+
+
+def _isolation(report: CheckReport) -> str:
+    return "degraded (no isolation)" if report.degraded else "bubblewrap"
+
+
 def write_csv(path: Path, ids: list[str], reports: list[CheckReport]) -> Path:
-    """One row per student: score, maximum, scenarios passed, and the first hint."""
+    """One row per student: score, maximum, scenarios passed, isolation and the first problem."""
     with path.open("w", newline="", encoding="utf-8") as f:
         writer = csv.writer(f)
-        writer.writerow(["student", "file", "score", "max_score", "passed", "scenarios", "seed", "first_problem"])
+        writer.writerow(["student", "file", "score", "max_score", "passed", "scenarios", "seed", "isolation", "first_problem"])
         for sid, report in zip(ids, reports):
             first = next((f"{r.scenario}: {r.got if not r.hidden else ''} {r.hint}".strip() for r in report.rows if not r.passed), "")
-            writer.writerow([sid, report.file, f"{report.score:.2f}", f"{report.points:g}", sum(r.passed for r in report.rows), len(report.rows), report.seed, first])
+            writer.writerow([sid, report.file, f"{round(report.score, 1):g}", f"{report.points:g}", sum(r.passed for r in report.rows),
+                             len(report.rows), report.seed, _isolation(report), first])  # fmt: skip
     return path
+
+
+def feedback(row: Row) -> str:
+    """What a student reads about one scenario: expected, got (or the error with its line), the
+    tolerance and the hint; hidden values stay hidden."""
+    lines = [f"expected: {row.expected}"] if row.expected else []
+    lines += [f"got: {row.got}"] if row.got else []
+    lines += [f"tolerance: {row.tolerance}"] if row.tolerance else []
+    lines += [row.hint] if row.hint else []
+    return "\n".join(lines)
 
 
 def write_gradescope(folder: Path, ids: list[str], reports: list[CheckReport]) -> Path:
     """Gradescope's results.json, one per student in `folder/<student>/results.json` (Gradescope
-    grades one submission per container): a test per scenario; hidden ones show after publishing."""
+    grades one submission per container): a test per scenario with its values, error and hint;
+    hidden ones show after publishing; the student's printed output (an excerpt) beside them."""
     for sid, report in zip(ids, reports):
         share = report.points / len(report.rows) if report.rows else 0.0
         tests = [
             {"name": row.scenario, "score": share if row.passed else 0.0, "max_score": share,
-             "status": "passed" if row.passed else "failed", "output": row.hint,
+             "status": "passed" if row.passed else "failed", "output": feedback(row),
              "visibility": "after_published" if row.hidden else "visible"}
             for row in report.rows
         ]  # fmt: skip
+        notes = ([DEGRADED] if report.degraded else []) + ([f"Your code printed:\n{report.output}"] if report.output else [])
+        results = {"score": round(report.score, 4), "output": "\n\n".join(notes), "tests": tests}
         target = folder / sid / "results.json"
         target.parent.mkdir(parents=True, exist_ok=True)
-        target.write_text(json.dumps({"score": round(report.score, 4), "tests": tests}, indent=2, ensure_ascii=False) + "\n", encoding="utf-8")
+        target.write_text(json.dumps(results, indent=2, ensure_ascii=False) + "\n", encoding="utf-8")
     return folder
 
 
+def xml_text(text: str) -> str:
+    """`text` without the characters XML 1.0 cannot hold (a student's output may have any)."""
+    return "".join(c for c in text if c in "\t\n\r" or ("\x20" <= c <= "\ud7ff") or ("\ue000" <= c <= "\ufffd") or c >= "\U00010000")
+
+
 def write_junit(path: Path, ids: list[str], reports: list[CheckReport], title: str) -> Path:
-    """JUnit XML: a test suite per student, a test case per scenario, failures with their hints."""
-    suites = ET.Element("testsuites", name=title)
+    """JUnit XML: a test suite per student, a test case per scenario, failures with their hints
+    and values, the student's printed output as the suite's system-out."""
+    suites = ET.Element("testsuites", name=xml_text(title))
     for sid, report in zip(ids, reports):
         failures = sum(not r.passed for r in report.rows)
-        suite = ET.SubElement(suites, "testsuite", name=sid, tests=str(len(report.rows)), failures=str(failures))
+        suite = ET.SubElement(suites, "testsuite", name=xml_text(sid), tests=str(len(report.rows)), failures=str(failures))
+        properties = ET.SubElement(suite, "properties")
+        ET.SubElement(properties, "property", name="isolation", value=_isolation(report))
         for row in report.rows:
-            case = ET.SubElement(suite, "testcase", classname=f"exercise{report.exercise}.{sid}", name=row.scenario)
+            case = ET.SubElement(suite, "testcase", classname=xml_text(f"exercise{report.exercise}.{sid}"), name=xml_text(row.scenario))
             if not row.passed:
-                ET.SubElement(case, "failure", message=row.hint or "failed").text = row.got
+                ET.SubElement(case, "failure", message=xml_text(row.hint or "failed")).text = xml_text(feedback(row))
+        if report.output:
+            ET.SubElement(suite, "system-out").text = xml_text(report.output)
     ET.indent(suites)
     ET.ElementTree(suites).write(path, encoding="utf-8", xml_declaration=True)
     return path

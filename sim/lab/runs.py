@@ -1,9 +1,10 @@
 """Student code inside a run: an estimator or a controller in the student's process, plugged
 into the run loop like the shipped ones, and what the checkers of run-based exercises share.
 
-The run loop calls the proxies once per step; each call is one request to the student's process,
-charged to the scenario's time budget. A failure inside the run is kept and raised again after
-it (the run loop would otherwise report it as a controller error of its own).
+An estimator only watches a run: the run goes first, then the student's estimator is fed its
+readings in one request. A controller drives the run: the run loop calls it once per step, one
+request each, charged to the scenario's time budget; a failure inside the run is kept and raised
+again after it (the run loop would otherwise report it as a controller error of its own).
 """
 
 from __future__ import annotations
@@ -13,29 +14,24 @@ import numpy as np
 from bots.commands import Command, WheelSpeeds
 from bots.ctbot import CTBOT
 from bots.spec import RobotSpec
+from sim.kinematics import wrap_angle
 from sim.lab.artifacts import observers
-from sim.lab.checking import Outcome, fmt
-from sim.lab.sandbox import Student, StudentError, command, numbers
+from sim.lab.checking import Outcome, differing, fmt
+from sim.lab.student import Student, StudentError, numbers
 from sim.run import RobotSetup, run
 from sim.world.readings import Readings
 from sim.world.spec import Start, WorldSpec
 
 
-class RemoteEstimator:
-    """The student's estimator class `name` (reset(robot, pose), update(readings), pose)."""
-
-    def __init__(self, student: Student, name: str, label: str = "yours"):
-        self.student, self.class_name, self.name = student, name, label
-        self.pose = np.zeros(3)
-
-    def reset(self, robot: RobotSpec, pose: np.ndarray) -> None:
-        self.handle = self.student.new(self.class_name)
-        self.student.request("method", (self.handle, "reset", (robot, np.asarray(pose, float).copy()), None), f"{self.class_name}.reset()")
-        self.pose = np.asarray(pose, dtype=np.float64).copy()
-
-    def update(self, readings: Readings) -> None:
-        what = f"{self.class_name}.update() at t = {readings.time:.2f} s"
-        self.pose = numbers(self.student.request("method", (self.handle, "update", (readings,), "pose"), what), (3,), f"{self.class_name}.pose after update()")
+def estimates(student: Student, name: str, robot: RobotSpec, start: np.ndarray, samples: list[Readings]) -> np.ndarray:
+    """The student's estimator class `name` (reset(robot, pose), update(readings), pose) fed a
+    run's readings as the run loop feeds an estimator, in one request: its pose after each
+    update, (T, 3)."""
+    handle = student.new(name)
+    student.method(handle, "reset", robot, np.asarray(start, dtype=np.float64), what=f"{name}.reset()")
+    at = lambda i: f"{name}.update() at t = {samples[i].time:.2f} s"  # noqa: E731
+    poses = student.feed(handle, "update", [(readings,) for readings in samples], "pose", at)
+    return numbers(poses, (len(samples), 3), f"{name}.pose after each update()")
 
 
 class RemoteController:
@@ -47,12 +43,11 @@ class RemoteController:
 
     def reset(self, robot: RobotSpec) -> None:
         self.handle = self.student.new(self.class_name, **self.params)
-        self.student.request("method", (self.handle, "reset", (robot,), None), f"{self.class_name}.reset()")
+        self.student.method(self.handle, "reset", robot, what=f"{self.class_name}.reset()")
 
     def step(self, t: float, readings: Readings) -> Command:
         try:
-            what = f"{self.class_name}.step() at t = {t:.2f} s"
-            return command(self.student.request("step", (self.handle, t, readings), what), what)
+            return self.student.step(self.handle, t, readings, f"{self.class_name}.step() at t = {t:.2f} s")
         except StudentError as err:
             self.error = err
             raise
@@ -124,24 +119,31 @@ def moved(truth: np.ndarray, dt: float, seconds: float = 1.0) -> float:
 
 
 def check_estimator(scenario, spec: RobotSpec, student: Student, reference, mistakes: dict) -> Outcome:  # noqa: ANN001
-    """An estimator exercise: the student's `Odometry` beside `reference` (an estimator) in a run
-    on the scenario's wheel-speed `segments` on an open floor (sampled every `dt` s, default
-    0.01), compared over the whole run (the
-    scenario's tolerances `position` m and `heading` rad); a failure is matched against
-    `mistakes` (hint key -> estimator), each replayed on the same readings."""
+    """An estimator exercise: a run on the scenario's wheel-speed `segments` on an open floor
+    (sampled every `dt` s, default 0.01) with `reference` (an estimator), then the student's
+    `Odometry` fed the same readings, compared over the whole run (the scenario's tolerances
+    `position` m and `heading` rad, headings wrapped: a wrapped estimate is as right as a
+    continuous one); a failure is matched against `mistakes` (hint key -> estimator), each
+    replayed on the same readings, the closest within the tolerance naming the hint."""
     schedule, collect = Schedule(scenario["segments"]), Collect()
-    setup = RobotSetup(spec, schedule, "schedule", estimators=[reference, RemoteEstimator(student, "Odometry")])
+    setup = RobotSetup(spec, schedule, "schedule", estimators=[reference])
     result = run(open_floor(), [setup], schedule.duration + 0.5, float(scenario.params.get("dt", 0.01)), scenario.seed, observers=(collect, *observers(scenario)))
     log = result.robots[0]
-    expected, yours = log.estimate_arrays()[reference.name], log.estimate_arrays()["yours"]
+    start = log.truth_array()[0]
+    expected = log.estimate_arrays()[reference.name]
+    yours = estimates(student, "Odometry", spec, start, collect.samples)
     tol_p, tol_h = scenario.tolerance["position"], scenario.tolerance["heading"]
     worst = float(np.hypot(*(yours[:, :2] - expected[:, :2]).T).max())
-    heading = abs(yours[-1, 2] - expected[-1, 2])
+    heading = float(np.abs(wrap_angle(yours[:, 2] - expected[:, 2])).max())
     tracks = {"truth": (result.time, log.truth_array()), "reference": (result.time, expected), "yours": (result.time, yours)}
     tolerance = f"{tol_p:g} m, {tol_h:g} rad"
     if worst <= tol_p and heading <= tol_h:
         return Outcome(fmt(expected[-1]), fmt(yours[-1]), True, tolerance, tracks=tracks)
-    start = log.truth_array()[0]
-    hint = next((key for key, wrong in mistakes.items()
-                 if np.allclose(replay(wrong, spec, start, collect.samples), yours[-1], atol=tol_p, rtol=0)), None)  # fmt: skip
-    return Outcome(fmt(expected[-1]), fmt(yours[-1]), False, tolerance, hint, {"error": worst}, tracks=tracks)
+    off = {key: pose_distance(replay(wrong, spec, start, collect.samples), yours[-1]) for key, wrong in mistakes.items()}
+    hint = min((key for key in off if off[key] <= tol_p), key=off.get, default=None)
+    return Outcome(*differing(expected[-1], yours[-1]), False, tolerance, hint, {"error": worst}, tracks=tracks)
+
+
+def pose_distance(a: np.ndarray, b: np.ndarray) -> float:
+    """The larger of the position distance (m) and the wrapped heading difference (rad) of two poses."""
+    return float(max(np.hypot(*(a[:2] - b[:2])), abs(wrap_angle(a[2] - b[2]))))

@@ -16,7 +16,7 @@ import threading
 import time
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 from sim.sandbox import launch, wire
 
@@ -52,13 +52,15 @@ class StudentError(Exception):
     """The untrusted code failed. `kind`: load, forbidden (an import of the project that is not
     there), raised, timeout, crash, output (printed too much), protocol (a malformed answer), and
     the checks' own (type, shape, nan). `detail` may name values of the request; `public` never
-    does (for hidden scenarios). `exception`: the exception's type name, `line` its line in the file."""
+    does (for hidden scenarios). `exception`: the exception's type name, `line` its line in the file,
+    `value_error`: it is a ValueError (the code refused its input on purpose)."""
 
     kind: str
     detail: str
     public: str
     exception: str = ""
     line: int | None = None
+    value_error: bool = False
 
     def __str__(self) -> str:
         return self.detail
@@ -82,7 +84,8 @@ def _raised(info: Any, what: str, loading: bool) -> StudentError:
         text = f"{what}: import of {missing}{where} is not available here (the robot's code sees only its readings and what the template imports)"
         return StudentError("forbidden", text, text, kind_name, line)
     detail = f"{what} raised {kind_name}{where}" + (f": {message}" if message else "")
-    return StudentError("load" if loading else "raised", detail, f"{what} raised {kind_name}{where}", kind_name, line)
+    kind = "load" if loading else "raised"
+    return StudentError(kind, detail, f"{what} raised {kind_name}{where}", kind_name, line, info.get("value_error") is True)
 
 
 def _first_pid(info: int, deadline: float) -> int | None:
@@ -159,9 +162,10 @@ class Sandbox:
             raise error
         self.confined = hello.get("confined") is True
 
-    def request(self, message: dict[str, Any], timeout: float, what: str) -> Any:
+    def request(self, message: dict[str, Any], timeout: float, what: str, name_call: Callable[[int], str] | None = None) -> Any:
         """Send `message` (see `sim.sandbox.guest`) and return the answer's value within `timeout`
-        seconds; `what` names the request in messages. A timeout or a broken guest closes it."""
+        seconds; `what` names the request in messages (`name_call(i)` the call i of a feed that
+        raised). A timeout or a broken guest closes it."""
         if self.process is None:
             self.start()
         deadline = time.monotonic() + max(timeout, 0.0)
@@ -174,6 +178,9 @@ class Sandbox:
             raise self._ended(what) from None
         reply = self._receive(deadline, what)
         if "error" in reply:
+            index = reply["error"].get("index") if isinstance(reply["error"], dict) else None
+            if name_call is not None and isinstance(index, int) and index >= 0:
+                what = name_call(index)
             raise _raised(reply["error"], what, loading=False)
         return reply["ok"]
 
@@ -195,6 +202,13 @@ class Sandbox:
     def step(self, handle: int, t: float, readings: Any, timeout: float, what: str = "step()") -> list:
         """A controller's `step(t, readings)`: the command as [type name, numbers...] or ["bad", type name]."""
         return self.request({"op": "step", "handle": handle, "t": t, "readings": readings}, timeout, what)
+
+    def feed(self, handle: int, name: str, series: list[tuple], attribute: str, timeout: float,
+             name_call: Callable[[int], str] | None = None) -> list:
+        """`object.name(*args)` for each args of `series` in turn, in one request; the object's
+        `attribute` after each call, a list (an estimator fed a whole run's readings at once)."""
+        message = {"op": "feed", "handle": handle, "name": name, "series": [list(args) for args in series], "attribute": attribute}
+        return self.request(message, timeout, f"{name}()", name_call)
 
     def _send(self, data: bytes, deadline: float) -> None:
         view = memoryview(data)

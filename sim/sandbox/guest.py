@@ -13,14 +13,21 @@ module `ctsim_student` and says {"ok": null} or {"error": ...}; then, per reques
                                                                           objects[h].a after it
     {"op": "step", "handle": h, "t": t, "readings": R}                 -> objects[h].step(t, R) as a
                                                                           command list (below)
+    {"op": "feed", "handle": h, "name": m, "series": [[args], ...], "attribute": a}
+                                                                       -> objects[h].a after each
+                                                                          objects[h].m(*args), a list
+                                                                          (a whole run in one request)
 
 A reply is {"ok": value} with the value as plain data (lists, dicts with string keys, numbers,
 strings, numeric numpy arrays; an object of another kind becomes {"__type__": its type name}; a command [type name, numbers...] or ["bad", type name]), or
-{"error": {"type", "message", "line", "missing"}}. It never sees what the host compares with.
+{"error": {"type", "message", "line", "missing", "index", "value_error"}} (`index`: the call of a
+feed that raised, else null; `value_error`: the exception is a ValueError, input refused). It
+never sees what the host compares with.
 """
 
 from __future__ import annotations
 
+import builtins
 import importlib.util
 import json
 import sys
@@ -35,9 +42,20 @@ COMMANDS = {"WheelSpeeds": ("left", "right"), "Twist": ("v", "omega", "vy"), "Cu
 """The command types of `bots.commands` and their fields, in the order a command list holds them."""
 
 
+class FeedError(Exception):
+    """The call `index` of a feed raised (the untrusted code's exception is its cause)."""
+
+    def __init__(self, index: int):
+        super().__init__(index)
+        self.index = index
+
+
 def describe(err: BaseException, path: str) -> dict[str, Any]:
     """What went wrong, as plain data: exception type, first line of its message, the line of the
-    untrusted file it came from, and the module it could not find (an import of the project)."""
+    untrusted file it came from, the module it could not find (an import of the project), and
+    which call of a feed it was."""
+    index = err.index if isinstance(err, FeedError) else None
+    err = err.__cause__ if isinstance(err, FeedError) else err
     line = None
     for frame in traceback.extract_tb(err.__traceback__):
         if Path(frame.filename) == Path(path):
@@ -45,8 +63,9 @@ def describe(err: BaseException, path: str) -> dict[str, Any]:
     if isinstance(err, SyntaxError) and err.lineno and Path(err.filename or "") == Path(path):
         line = err.lineno
     message = str(err).splitlines()[0][:300] if str(err).strip() else ""
-    missing = getattr(err, "name", None) if isinstance(err, ModuleNotFoundError) else None
-    return {"type": type(err).__name__, "message": message, "line": line, "missing": missing}
+    missing = (getattr(err, "requested", None) or err.name) if isinstance(err, ModuleNotFoundError) else None
+    return {"type": type(err).__name__, "message": message, "line": line, "missing": missing, "index": index,
+            "value_error": isinstance(err, ValueError)}
 
 
 def plain(value: Any) -> Any:
@@ -90,7 +109,32 @@ def answer(module: Any, objects: dict[int, Any], request: dict[str, Any]) -> Any
         return plain(getattr(target, request["attribute"]) if request["attribute"] else result)
     if op == "step":
         return command(objects[request["handle"]].step(request["t"], request["readings"]))
+    if op == "feed":
+        target, values = objects[request["handle"]], []
+        for index, args in enumerate(request["series"]):
+            try:
+                getattr(target, request["name"])(*args)
+                values.append(plain(getattr(target, request["attribute"])))
+            except BaseException as err:  # noqa: BLE001
+                raise FeedError(index) from err
+        return values
     raise ValueError(f"unknown request {op!r}")
+
+
+def name_missing_modules() -> None:
+    """Let a failed `import a.b.c` say a.b.c, not only the first missing part `a` (for the message;
+    what is missing is missing from the file system, not refused here)."""
+    original = builtins.__import__
+
+    def naming(name, globals=None, locals=None, fromlist=(), level=0):  # noqa: A002 (builtins' signature)
+        try:
+            return original(name, globals, locals, fromlist, level)
+        except ModuleNotFoundError as err:
+            if level == 0 and not hasattr(err, "requested"):
+                err.requested = name
+            raise
+
+    builtins.__import__ = naming
 
 
 def load(path: str) -> Any:
@@ -112,6 +156,7 @@ def serve(config: dict[str, Any]) -> None:
     confined = confine.forbid_new_processes()
     path = config["code"]
     sys.path[:0] = [str(Path(path).parent)]
+    name_missing_modules()
     try:
         module = load(path)
     except BaseException as err:  # noqa: BLE001 (the untrusted code: anything may come)

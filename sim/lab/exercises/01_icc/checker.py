@@ -5,7 +5,7 @@ import math
 import numpy as np
 
 from sim.lab.checking import Outcome, close, diagnose, fmt
-from sim.lab.sandbox import StudentError, numbers
+from sim.lab.student import StudentError, numbers
 
 
 def draw(rng, index, ranges):

@@ -11,7 +11,7 @@ from sim.kinematics import (
     wheel_arcs_to_arc,
 )
 from sim.lab.checking import Outcome, close, diagnose, fmt
-from sim.lab.sandbox import StudentError, numbers
+from sim.lab.student import StudentError, numbers
 
 
 def draw(rng, index, ranges):

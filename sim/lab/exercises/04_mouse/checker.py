@@ -7,8 +7,8 @@ import numpy as np
 
 from bots.odometry import MouseOdometry
 from sim.lab.checking import Outcome
-from sim.lab.runs import RemoteEstimator, check_estimator, robot
-from sim.lab.sandbox import StudentError
+from sim.lab.runs import check_estimator, robot
+from sim.lab.student import StudentError
 
 SEGMENTS = 4
 
@@ -63,7 +63,7 @@ def check(scenario, student):
 def refused(student, spec):
     """reset() on an axle-line mount must raise a ValueError (or a subclass)."""
     try:
-        RemoteEstimator(student, "Odometry").reset(spec, np.zeros(3))
+        student.method(student.new("Odometry"), "reset", spec, np.zeros(3), what="Odometry.reset()")
     except StudentError as err:
         if err.value_error:
             return Outcome("ValueError", err.exception, True)

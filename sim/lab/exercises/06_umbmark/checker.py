@@ -11,7 +11,7 @@ from bots.odometry import Geometry
 from sim.analysis.umbmark import corrected_geometry, systematic_errors, umbmark
 from sim.lab.checking import Outcome, close, diagnose, fmt
 from sim.lab.runs import robot
-from sim.lab.sandbox import numbers
+from sim.lab.student import numbers
 
 PLAUSIBLE = 0.2
 """Relative change of a size beyond which the corrected robot is not driven (its square may never close)."""
