@@ -17,6 +17,9 @@ from typing import Any
 from bots.chassis_spec import ChassisSpec, chassis_from_dict, inscribed_radius
 
 Point = tuple[float, float]
+CONTACT_RULES = ("slide", "stop")
+IR_VIEWS = ("cone", "axis")
+"""`RobotSpec.contact`: pymunk's contacts, or c't-Sim's rule (the bridge's firmware bots)."""
 
 
 @dataclass(frozen=True)
@@ -86,6 +89,14 @@ class IRSensorSpec:
     noise_std: float = 0.0
     cone: float = math.radians(3.0)
     """Half-angle (rad) of the cone the sensor sees the nearest body in (c't-Sim: 3°); 0 casts one ray."""
+    view: str = "cone"
+    """What the cone sees of a wall: 'cone' its nearest point in the cone, or 'axis' what
+    c't-Sim's Java3D pick finds (measured against the real c't-Sim): the wall where the cone's axis
+    meets it, and its corners inside the cone. Other robots and cans are seen in the whole cone."""
+
+    def __post_init__(self) -> None:
+        if self.view not in IR_VIEWS:
+            raise ValueError(f"IR sensor {self.name!r}: view must be one of {', '.join(IR_VIEWS)}, got {self.view!r}")
 
 
 @dataclass(frozen=True)
@@ -138,6 +149,10 @@ class RobotSpec:
     border: tuple[FloorSensorSpec, ...] = ()
     light: tuple[LightSensorSpec, ...] = ()
     chassis: ChassisSpec | None = None
+    contact: str = "slide"
+    """How the body meets walls and other robots: 'slide' (pymunk's contacts: it stops at the
+    surface or slides along it) or 'stop' (c't-Sim's rule: a step that would bring it within its
+    radius of anything is not made, the robot keeps its last free position and can still turn)."""
 
     @cached_property
     def wheel_radius(self) -> float:
@@ -160,6 +175,8 @@ class RobotSpec:
             )
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0)
         ]
+        if self.contact not in CONTACT_RULES:
+            problems.append(f"contact must be one of {', '.join(CONTACT_RULES)}, got {self.contact!r}")
         if self.chassis is not None and (self.encoders.diameter_error != (0.0, 0.0) or self.encoders.track_error):
             problems.append("encoders.diameter_error and track_error describe a differential drive; "
                             "give a general chassis's wheels their real radius instead")

@@ -701,6 +701,9 @@ def _add_bridge_parser(commands) -> None:
     bridge.add_argument("--realtime", action="store_true", help="run at c't-Sim's real time (100 steps/s) instead of as fast as the firmware answers")
     bridge.add_argument("--rc5", action="append", type=timed(rc5_code), default=[], metavar="T:KEY", help="press an RC5 key at T s: 0-9, PWR, UP, DOWN, LEFT, RIGHT, PLAY, CH+, CH-, VOL+, VOL-, I/II or a code (repeatable)")
     bridge.add_argument("--call", action="append", type=timed(parse_call), default=[], metavar="T:'CALL'", help="remote call at T s, e.g. 2:'bot_turn(90)' (repeatable)")
+    bridge.add_argument("--list-calls", action="store_true", help="ask each firmware for the remote calls it offers and print them (c't-Sim's RemoteCallViewer)")
+    bridge.add_argument("--own-physics", action="store_true",
+                        help="firmware bots meet walls (slide) and see them (nearest point in the IR cone) with ctsim's own models instead of c't-Sim's")
     bridge.set_defaults(handler=cmd_bridge)
 
 
@@ -722,19 +725,22 @@ def cmd_bridge(args: argparse.Namespace) -> int:
                          "(one start slot each); add starts (slot 1, 2, ...) to the world")
     out = _out_dir(args.out, args.world, "bridge")
     calls = [(at, f"{name}({', '.join(map(str, params))})") for at, (name, params) in args.call]
-    with Bridge(args.host, args.port, args.connect_timeout, args.step_timeout, dt=args.dt) as bridge:
-        setups = [bridge.setup(spec, rc5=args.rc5, calls=calls) for _ in range(args.robots)] + python
+    with Bridge(args.host, args.port, args.connect_timeout, args.step_timeout, dt=args.dt, list_calls=args.list_calls) as bridge:
+        setups = [bridge.setup(spec, rc5=args.rc5, calls=calls, like_ctsim=not args.own_physics) for _ in range(args.robots)] + python
         print(f"ctsim bridge: listening on {bridge.address} for {args.robots} firmware bot(s); start the firmware now", file=sys.stderr, flush=True)
         keep_pandas_out_of_arrow()
         recorder = Recorder(out / "run.rrd", live=args.live)
         with StopOnSignal() as stop:
-            observers = (stop.starting, recorder, bridge.observer(recorder, realtime=args.realtime), Progress(args.duration, args.dt), stop)
+            observers = (stop.starting, bridge.observer(recorder, realtime=args.realtime), recorder, Progress(args.duration, args.dt), stop)
             result = run(world, setups, args.duration, dt=args.dt, seed=args.seed, observers=observers)
-    for bot in bridge.summary():
-        for call in bot["calls"]:
-            outcome = f"result {call['result']} at step {call['done_step']}" if call["result"] is not None else "no result (r/D) yet"
-            print(f"{bot['label']}: {call['call']} sent at step {call['sent_step']}: {outcome}")
-    return finish(result, out, {"duration": args.duration, "until_goal": False, **_robot_options(args), "bridge": bridge.summary()}, report=not args.no_report)
+        for bot in bridge.summary():
+            if args.list_calls:
+                print(f"{bot['label']} offers {len(bot['functions'])} remote calls:" + "".join(f"\n  {f}" for f in bot["functions"]))
+            for call in bot["calls"]:
+                outcome = f"result {call['result']} at step {call['done_step']}" if call["result"] is not None else "no result (r/D) yet"
+                print(f"{bot['label']}: {call['call']} sent at step {call['sent_step']}: {outcome}")
+        # the firmwares are shut down when the files are written (leaving the `with`)
+        return finish(result, out, {"duration": args.duration, "until_goal": False, **_robot_options(args), "bridge": bridge.summary()}, report=not args.no_report)
 # --- sweep ------------------------------------------------------------------------------------
 
 

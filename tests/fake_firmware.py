@@ -2,11 +2,12 @@
 
 It speaks the wire format with its own encoder (not the bridge's), so a test checks both sides
 against the spec: unsolicited W/S on connect (unless `handshake=False`), W/S + A/R + DONE as its
-first reply when the sim sent a WELCOME, A/S once offered an address, then `l M [c/D] [Q/D..F] X`
-per block. It integrates the encoder deltas like the firmware (2.9688 mm per tick, 97.2 mm track)
-and acts on RC5 keys 1/3/PWR (motors from the next reply) and the remote call bot_turn(deg)
-(motors in the same reply, r/D 1 when its encoder heading reaches the angle). `misbehave` makes it
-stall, vanish, babble garbage or flood at a given step.
+first reply when the sim sent a WELCOME, A/S once offered an address, then `l M [c/D] [Q/D..G] X`
+per block (a map block around its pose every `map_every` blocks). It integrates the encoder
+deltas like the firmware (2.9688 mm per tick, 97.2 mm track) and acts on RC5 keys 1/3/PWR (motors
+from the next reply), the remote call bot_turn(deg) (motors in the same reply, r/D 1 when its
+encoder heading reaches the angle) and the list request r/L. `misbehave` makes it stall, vanish,
+babble garbage or flood at a given step.
 
     python tests/fake_firmware.py --port 10001     # a peer for `ctsim bridge` by hand or in bench
 """
@@ -36,8 +37,10 @@ class FakeFirmware:
     misbehave: (step, what) with what in 'stall' (never answer again), 'vanish' (close),
     'garbage' (junk bytes in the reply), 'flood' (bytes without end), or None."""
 
-    def __init__(self, port: int, handshake: bool = True, address: int | None = None, misbehave: tuple[int, str] | None = None, map_every: int = 10):
+    def __init__(self, port: int, handshake: bool = True, address: int | None = None, misbehave: tuple[int, str] | None = None, map_every: int = 10,
+                 on_shutdown=None):  # fmt: skip
         self.port, self.handshake, self.fixed_address, self.misbehave, self.map_every = port, handshake, address, misbehave, map_every
+        self.on_shutdown = on_shutdown  # called when SHUTDOWN arrives (a test looks at what exists then)
         self.address = address if address is not None else 0xFF
         self.seq = 0
         self.blocks: list[list[tuple]] = []  # every received packet, grouped by block
@@ -115,6 +118,8 @@ class FakeFirmware:
                         continue
                     if chr(cmd) == "q":
                         self.shutdown = True
+                        if self.on_shutdown is not None:
+                            self.on_shutdown()
                         return
                     block.append(item)
                     if chr(cmd) == "X":
@@ -175,9 +180,9 @@ class FakeFirmware:
                     (degrees,) = struct.unpack("<i", args[:4])
                     self.turn = (self.pose[2] + math.radians(degrees), "bot_turn")
                     self.motors = (-25, 25) if degrees > 0 else (25, -25)
-            if cmd == "r" and sub == "L":
+            if cmd == "r" and sub == "L":  # one entry, then the empty one that ends the list
                 entry = bytes([1, 2, 0, 0]) + b"bot_turn".ljust(21, b"\0") + b"int16 degrees".ljust(41, b"\0") + b"\0" * 22
-                parts.append(("r", "E", 0, 0, entry))
+                parts += [("r", "E", 0, 0, entry), ("r", "E", 0, 0, b"\0" * 88)]
         if self.turn is not None:
             target, name = self.turn
             direction = 1 if self.motors[1] > self.motors[0] else -1
@@ -189,14 +194,24 @@ class FakeFirmware:
         if n % 11 == 0:
             parts.append(("c", "D", 0, 0, f"step {n}".encode()))
         if self.map_every and n % self.map_every == 0:
-            parts += [
-                ("Q", "D", 0, round((self.pose[0] + 6144) / 8), b"\0" * 128),
-                ("Q", "E", 0, round((self.pose[1] + 6144) / 8), b"\0" * 128),
-                ("Q", "F", 0, round(math.degrees(self.pose[2])), b"\0" * 128),
-            ]
+            parts += self._map_block()
         parts.append(("X", "N", time_ms, 0, b""))
         self._send(sock, parts)
         return True
+
+
+    def _map_block(self) -> list[tuple]:
+        """The map block under the bot as the firmware sends it (ctbot-protocol.md §5), the
+        bot's own cell marked driven (+100), the others unknown: block address from the map
+        cell as the firmware's `get_block` (map.c) computes it, cell (x, y) at byte
+        (x % 32) * 16 + y % 16 of the block (two 16 x 16 sections along x, each x-major)."""
+        x, y = (round((v + 6144) / 8) for v in self.pose[:2])
+        local = (x % 512) // 32 + ((y % 512) // 16) * 16
+        block = local + (x // 512 + (y // 512) * 3) * 512
+        data = bytearray(512)
+        data[(x % 32) * 16 + y % 16] = 100
+        sub_pose = [("D", x), ("E", y), ("F", round(math.degrees(self.pose[2]))), ("G", 0)]
+        return [("Q", sub, block, value, bytes(data[k * 128 : (k + 1) * 128])) for k, (sub, value) in enumerate(sub_pose)]
 
 
 def main() -> None:

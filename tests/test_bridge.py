@@ -31,11 +31,11 @@ from sim.bridge import (  # noqa: E402
     rc5_code,
     server,  # noqa: E402
 )
-from sim.bridge.firmware import MM_S_PER_UNIT  # noqa: E402
+from sim.bridge.firmware import MM_S_PER_UNIT, wheel_speed  # noqa: E402
 from sim.bridge.protocol import remote_call_payload  # noqa: E402
 from sim.run import RobotSetup, run  # noqa: E402
 from sim.views.recording import Recorder  # noqa: E402
-from sim.world.spec import Start, WorldSpec  # noqa: E402
+from sim.world.spec import Start, Wall, WorldSpec, box  # noqa: E402
 
 EMPTY = WorldSpec("empty", (-5.0, -5.0, 5.0, 5.0), starts=(Start(0.0, 0.0, 0.0, 1), Start(0.0, 1.0, 0.0, 2), Start(0.0, -1.0, 0.0, 0)))
 
@@ -117,15 +117,16 @@ def test_calls_and_keys_parse_or_say_why():
 # --- runs -------------------------------------------------------------------------------------
 
 
-def bridged(duration: float, fakes: dict | None = None, python: int = 0, step_timeout: float = 2.0, connect_timeout: float = 5.0, rc5=(), calls=(), recorder=None, bots: int = 1, welcome: bool = True):
+def bridged(duration: float, fakes: dict | None = None, python: int = 0, step_timeout: float = 2.0, connect_timeout: float = 5.0, rc5=(), calls=(), recorder=None,
+            bots: int = 1, welcome: bool = True, world: WorldSpec = EMPTY, like_ctsim: bool = True, list_calls: bool = False):  # fmt: skip
     """Run `bots` firmware bots (fakes with keyword options `fakes`) and `python` solve_maze
-    robots in the empty world; returns (result, bridge, fakes)."""
-    with Bridge(port=0, connect_timeout=connect_timeout, step_timeout=step_timeout, welcome=welcome) as bridge:
-        setups = [bridge.setup(CTBOT, rc5=rc5, calls=calls) for _ in range(bots)]
+    robots in `world` (empty by default); returns (result, bridge, fakes)."""
+    with Bridge(port=0, connect_timeout=connect_timeout, step_timeout=step_timeout, welcome=welcome, list_calls=list_calls) as bridge:
+        setups = [bridge.setup(CTBOT, rc5=rc5, calls=calls, like_ctsim=like_ctsim) for _ in range(bots)]
         setups += [RobotSetup(CTBOT, make("solve_maze"), "solve_maze") for _ in range(python)]
         started = [FakeFirmware(bridge.listener.port, **(fakes or {})).start() for _ in range(bots)]
-        observers = ([recorder] if recorder else []) + [bridge.observer(recorder)]
-        result = run(EMPTY, setups, duration, observers=observers)
+        observers = [bridge.observer(recorder)] + ([recorder] if recorder else [])
+        result = run(world, setups, duration, observers=observers)
     for fake in started:
         fake.join()
         assert fake.error is None, fake.error
@@ -137,7 +138,7 @@ def test_handshake_gives_the_pool_address_and_every_later_packet_goes_to_it():
     assert result.reason == "duration" and bridge.bots[0].state.address == fake.address == 128
     targets = [[to for *_, to, _ in block] for block in fake.blocks]
     assert set(targets[0]) == {0xFF} and all(set(t) == {0x80} for t in targets[2:])
-    assert fake.done_times[:3] == [10, 20, 30]  # ms, advancing by c't-Sim's 10 ms step
+    assert fake.done_times[:3] == [-1, 20, 30]  # ms: c't-Sim's first block, then its 10 ms steps
     assert fake.shutdown  # SHUTDOWN at the end: the firmware exits 0
 
 
@@ -149,11 +150,12 @@ def test_without_a_handshake_the_bot_stays_at_the_broadcast_address():
 
 def test_rc5_key_3_drives_at_c_t_sims_speed_two_steps_later():
     """Key in block N -> M 75/75 in reply N+1 -> applied in motion N+2 (c't-Sim moves with the
-    previous reply). 75 units are 131.8 mm/s: straight, the distance is exact."""
+    previous reply). 75 units are 131.8 mm/s, in c't-Sim's float32 arithmetic (`wheel_speed`):
+    straight, the distance is exact."""
     result, _, _ = bridged(2.0, rc5=[(0.5, rc5_code("3"))])
     x = result.robots[0].truth_array()[:, 0]
     moving_from = 50 + 2  # steps
-    expected = 75 * MM_S_PER_UNIT / 1000 * 0.01 * (200 - moving_from)
+    expected = wheel_speed(75) * 0.01 * (200 - moving_from)
     assert x[moving_from] == 0.0 and x[-1] == pytest.approx(expected, abs=1e-9)  # float rounding only
 
 
@@ -180,7 +182,7 @@ def test_two_firmware_bots_beside_a_python_controller():
     assert result.reason == "duration"
     assert sorted(f.address for f in fakes) == [128, 129]
     for log in result.robots[:2]:
-        assert log.truth_array()[-1, 0] == pytest.approx(25 * MM_S_PER_UNIT / 1000 * 0.01 * 88, abs=1e-9)
+        assert log.truth_array()[-1, 0] == pytest.approx(wheel_speed(25) * 0.01 * 88, abs=1e-9)
     assert result.robots[2].controller_name == "solve_maze"
 
 
@@ -271,6 +273,8 @@ def test_cli_bad_timed_options_are_user_errors(option, capsys):
 def test_motor_units_are_c_t_sims_pwm_mapping():
     assert 75 * MM_S_PER_UNIT == pytest.approx(131.84, abs=0.01)  # ctbot-protocol.md §8: 75 -> 131.8 mm/s
     assert np.isclose(MM_S_PER_UNIT, 1.75788, atol=2e-4)  # the spec rounds 151/60 * 178.1283 / 255 = 1.75800
+    for units in (25, 75, -200):  # c't-Sim's float32 speed: within float32's 6e-8 (a few roundings) of the exact one
+        assert wheel_speed(units) * 1000 == pytest.approx(units * MM_S_PER_UNIT, rel=2e-7)
 
 
 def test_mouse_sideways_sign_is_converted_at_the_protocol_edge():
@@ -279,6 +283,110 @@ def test_mouse_sideways_sign_is_converted_at_the_protocol_edge():
     from sim.world.readings import Readings
 
     bot = FirmwareController(listener=None)
-    block = Decoder().feed(bot._block(0.0, Readings(mouse_counts=np.array([10, 3]))))
+    block = Decoder().feed(bot._block(1, 0.01, Readings(), Readings(mouse_counts=np.array([10, 3]))))  # the dots of the motion after
     mouse = next(packet for packet in block if packet.command == "m")
     assert (mouse.data_l, mouse.data_r) == (-3, 10)
+
+
+# --- c't-Sim to the step: numbers measured with the real c't-Sim 2.29.2 and the same firmware -----
+# (../shared/tools/ctsim-reference: `bot_turn(90)` after RC5 3 at 0.5 s and PWR at 5.5 s in
+# freie-flaeche.xml, and RC5 3 into the wall of winzig.xml; proxy logs and c't-Sim's pose trace)
+
+
+def sent(fake: FakeFirmware, command: str) -> list[tuple[int, int]]:
+    """(data_l, data_r) of the first `command` packet in each block the fake received."""
+    return [next((dl, dr) for cmd, _, dl, dr, _, _ in block if cmd == command) for block in fake.blocks]
+
+
+def test_the_first_block_is_c_t_sims_from_before_its_first_step():
+    """c't-Sim sends a block before its first step: every sensor 0 but the error sensor 1, DONE -1
+    (the firmware's clock starts at -11 ms for it: timer-low_pc.c); its second block has DONE 20."""
+    _, _, (fake,) = bridged(0.1)
+    first = {cmd: (dl, dr) for cmd, _, dl, dr, _, _ in fake.blocks[0]}
+    assert first == {**{cmd: (0, 0) for cmd in "mDBHIRTLESb"}, "e": (1, 0), "X": (-1, 0)}
+    assert sent(fake, "e")[1] == (1, 0) and sent(fake, "I")[1] == (100, 80)  # c't-Sim: error sensor data_r 0
+
+
+def test_encoder_ticks_and_the_rc5_toggle_arrive_in_c_t_sims_blocks():
+    """Key 3 in block 50, M 75/75 in reply 51, the first motion in step 52: c't-Sim sends that
+    motion's ticks in block 52 itself, so the first tick (0.444 a step) is in block 54, and the
+    151st at the exact 340-step boundary in block 391 (its float32 speed is a hair fast). The
+    RC5 toggle bit flips with each key and stays in every block: 1 from block 50, 0 from the
+    PWR key in block 550."""
+    _, _, (fake,) = bridged(6.0, rc5=[(0.5, rc5_code("3")), (5.5, rc5_code("PWR"))])
+    ticks = sent(fake, "E")
+    assert ticks[:54] == [(0, 0)] * 54 and ticks[54] == (1, 1)
+    assert ticks[390:393] == [(0, 0), (1, 1), (0, 0)] and sum(t[0] for t in ticks[:392]) == 151
+    rc5 = sent(fake, "R")
+    assert rc5[:50] == [(0, 0)] * 50 and rc5[50] == (0x1183, 1) and set(rc5[51:550]) == {(0, 1)}
+    assert rc5[550] == (0x118C, 0) and set(rc5[551:]) == {(0, 0)}
+
+
+def test_remote_bot_turn_ends_in_c_t_sims_step():
+    """The fake turns at -25/25 from its reply to the order (block 20, motion from step 21) until
+    its encoder heading reaches 90 deg: 26 ticks a wheel (2.9688 mm each, 97.2 mm track) at 151/1020
+    ticks a step (25 units), so the 26th tick comes with the 176th step of motion, step 196, and
+    so does the r/D, as in c't-Sim (a tick a block late ends the turn a step late: 197)."""
+    ticks_needed = math.ceil((math.pi / 2) / (2 * 178.1283 / 60 / 97.2))
+    steps = math.ceil(ticks_needed * 1020 / 151)
+    _, bridge, _ = bridged(4.0, calls=[(0.2, "bot_turn(90)")])
+    assert ticks_needed == 26 and bridge.summary()[0]["calls"][0]["done_step"] == 20 + steps == 196
+
+
+WINZIG_WALL = 1.44  # winzig.xml: the face of the top wall row, 6 cells of 0.24 m up
+
+
+def test_a_firmware_bot_stops_where_c_t_sims_does():
+    """RC5 3 at 0.5 s towards a wall 1.08 m ahead (winzig.xml): c't-Sim stops the bot at its last
+    position clear of the wall, y = 1.379200 m (its trace, 6 decimals), 60.8 mm before the face,
+    and the wheels go on turning; ctsim's own contacts take it 1.3 mm (a step) further."""
+    world = WorldSpec("winzig-like", (0.0, 0.0, 1.2, 1.68), walls=(Wall(box(0.0, WINZIG_WALL, 1.2, 1.68)),), starts=(Start(0.36, 0.36, math.pi / 2, 1),))
+    result, _, (fake,) = bridged(12.0, rc5=[(0.5, rc5_code("3"))], world=world)
+    x, y, heading = result.robots[0].truth_array()[-1]
+    assert y == pytest.approx(1.379200, abs=5e-7) and x == 0.36 and heading == math.pi / 2  # the trace's rounding
+    assert result.robots[0].collisions == 1 and sum(left for left, _ in sent(fake, "E")[-9:]) >= 3  # 0.444 ticks a step go on
+    own, _, _ = bridged(12.0, rc5=[(0.5, rc5_code("3"))], world=world, like_ctsim=False)
+    assert own.robots[0].truth_array()[-1, 1] > 1.379200 + 0.001
+
+
+def test_list_calls_asks_once_and_records_the_offer():
+    _, bridge, _ = bridged(0.3, list_calls=True)
+    bot = bridge.bots[0]
+    assert bot.state.functions == ["bot_turn(int16 degrees)"] and bot.state.functions_complete
+    assert [e.text for e in bot.events if e.kind == "call"] == ["offers bot_turn(int16 degrees)"]
+
+
+def test_the_firmware_map_is_drawn_where_the_firmware_believes_it_drove(tmp_path):
+    """The fake marks the map cell under its encoder pose; the bridge puts the block together,
+    places it by the start pose and records it under world/map/firmware/<robot>."""
+    recorder = Recorder(tmp_path / "run.rrd")
+    start = Start(1.0, -2.0, math.radians(30), 1)
+    world = WorldSpec("open", (-5.0, -5.0, 5.0, 5.0), starts=(start,))
+    result, bridge, (fake,) = bridged(2.0, rc5=[(0.1, rc5_code("3"))], recorder=recorder, world=world)
+    fw_map = bridge.bots[0].state.map
+    assert fw_map.blocks > 0 and fw_map.dropped == 0
+    (x, y), = np.argwhere(fw_map.cells == 100)[-1:]  # the last cell the fake marked
+    corner, matrix = fw_map.placement((start.x, start.y, start.heading))
+    u, v = x - fw_map.box[0] + 0.5, y - fw_map.box[1] + 0.5  # the cell's centre in the image
+    world_xy = np.array(corner[:2]) + np.array(matrix)[:2, :2] @ (u, v)
+    truth = result.robots[0].truth_array()
+    assert np.min(np.hypot(*(truth[:, :2] - world_xy).T)) < 0.006  # within a cell (8 mm square)
+    recorded = read_recording(tmp_path / "run.rrd")
+    assert "/world/map/firmware/ctbot" in recorded
+
+
+def test_shutdown_comes_after_the_files_are_written_and_list_calls_prints_the_offer(tmp_path, capsys):
+    from sim.cli import main
+
+    probe = socket.socket()
+    probe.bind(("127.0.0.1", 0))
+    port = probe.getsockname()[1]
+    probe.close()
+    written = []
+    fake = FakeFirmware(port, on_shutdown=lambda: written.append(sorted(p.name for p in tmp_path.iterdir()))).start()
+    code = main(["bridge", str(Path(__file__).parents[1] / "worlds" / "square.toml"), "--port", str(port), "--duration", "0.5",
+                 "--out", str(tmp_path), "--step-timeout", "2", "--list-calls"])  # fmt: skip
+    fake.join()
+    assert code == 0 and fake.shutdown
+    assert {"summary.json", "run.rrd"} <= set(written[0]) and any(name.endswith(".png") for name in written[0])
+    assert "firmware bot 1 offers 1 remote calls:\n  bot_turn(int16 degrees)" in capsys.readouterr().out

@@ -5,6 +5,7 @@ c't-Sim reads its measured files."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -233,3 +234,39 @@ def test_compiled_cone_agrees_with_pymunk_queries():
     assert finite.sum() > 200 and (expected == 0).any()  # mostly walls in view; some points inside a wall
     assert np.array_equal(np.isfinite(out), finite)
     assert np.allclose(out[finite], expected[finite], atol=1e-9, rtol=0)
+
+
+@pytest.mark.parametrize("slant", [0.0, 2.0, 30.0, 60.0])
+def test_the_axis_view_reads_a_slanted_wall_where_the_axis_meets_it(slant):
+    """c't-Sim's Java3D pick (view 'axis', measured against the real c't-Sim): the wall of
+    `test_a_slanted_wall_reads_at_the_cone_edge` reads 0.6 m, where the axis meets it, at every
+    slant; its corners lie 2 m off, outside the cone."""
+    sx, sy = CTBOT.ir[0].position
+    phi = math.radians(slant)
+    normal, along = np.array((math.cos(phi), math.sin(phi))), np.array((-math.sin(phi), math.cos(phi)))
+    hit = np.array((sx + 0.6, sy))
+    face = [hit - 2 * along, hit + 2 * along, hit + 2 * along + 0.05 * normal, hit - 2 * along + 0.05 * normal]
+    world = World(WorldSpec("w", (-3, -3, 3, 3), walls=(Wall(tuple(map(tuple, face))),)))
+    me = world.add_robot(CTBOT, (0.0, 0.0, 0.0))
+    assert abs(world.ray_distance(me, (sx, sy), 0.0, cone=CTBOT.ir[0].cone, axis=True) - 0.6) < 1e-9
+
+
+def test_the_axis_view_sees_a_corner_in_the_cone_and_reads_as_the_kernel():
+    """A box whose nearest corner lies 0.4 m ahead, 2 degrees off the axis, the box reaching away
+    from the axis (up and back): the axis view reads that corner, the cone view the box's near
+    face where the cone's edge meets it, 0.4 sin 2 / sin 3 = 0.267 m; 4 degrees off, neither sees
+    the box. The compiled reading of an axis-view robot reads the curve at the same distance."""
+    axis_bot = CTBOT.with_changes(ir=tuple(replace(sensor, view="axis") for sensor in CTBOT.ir))
+    sx, sy = CTBOT.ir[0].position
+    for off, expected, in_cone in ((2.0, 0.4, 0.4 * math.sin(math.radians(2)) / math.sin(math.radians(3))), (4.0, math.inf, math.inf)):
+        a = math.radians(off)
+        x, y = sx + 0.4 * math.cos(a), sy + 0.4 * math.sin(a)
+        wall = Wall(((x, y), (x, y + 0.3), (x - 0.3, y + 0.3), (x - 0.3, y)))
+        world = World(WorldSpec("w", (-3, -3, 3, 3), walls=(wall,)))
+        me = world.add_robot(axis_bot, (0.0, 0.0, 0.0))
+        seen = world.ray_distance(me, (sx, sy), 0.0, cone=CTBOT.ir[0].cone, axis=True)
+        assert seen == pytest.approx(expected, abs=1e-12)  # exact geometry, rounding only
+        assert world.ray_distance(me, (sx, sy), 0.0, cone=CTBOT.ir[0].cone) == pytest.approx(in_cone, abs=1e-12)
+        assert world.read_all()[0].ir_raw[0] == me.ir_curves[0].lookup(seen)  # the kernel's reading of the left sensor
+    with pytest.raises(ValueError, match="view"):
+        IRSensorSpec("x", (0.0, 0.0), view="ray")

@@ -189,3 +189,36 @@ def test_a_robot_is_an_obstacle_to_another_at_any_angle():
             worst = max(worst, 2 * R - math.dist(p[0, :2], p[1, :2]))
         assert -1e-3 < worst <= MAX_OVERLAP, f"angle {angle:.2f}: {worst * 1000:.3f} mm"
         assert mover.collisions >= 1
+
+
+def test_the_stop_rule_refuses_a_move_into_a_wall_but_not_the_turn():
+    """contact 'stop' (c't-Sim's rule): 60.5 mm from a wall, a full-speed step (4.5 mm) at 45
+    degrees to it would bring the body within its radius, so the robot does not move at all (no
+    slide along the wall); it counts one collision, and it still turns on the spot. A 'slide'
+    robot in the same place slides along the wall."""
+    wall = Wall(((0.0605, -1.0), (0.2, -1.0), (0.2, 1.0), (0.0605, 1.0)))
+    results = {}
+    for rule in ("stop", "slide"):
+        world = World(WorldSpec("w", (-2, -2, 2, 2), walls=(wall,)))
+        robot = world.add_robot(CTBOT.with_changes(contact=rule), (0.0, 0.0, math.pi / 4))
+        for _ in range(5):
+            world.step(np.array([[FULL, FULL]]))
+        results[rule] = robot.pose.copy(), robot.collisions
+    (stopped, collisions), (slid, _) = results["stop"], results["slide"]
+    assert stopped[0] == 0.0 and stopped[1] == 0.0 and collisions == 1
+    assert slid[1] > 0.01  # along the wall
+    world = World(WorldSpec("w", (-2, -2, 2, 2), walls=(wall,)))
+    robot = world.add_robot(CTBOT.with_changes(contact="stop"), (0.0, 0.0, math.pi / 4))
+    world.step(np.array([[-FULL, FULL]]))
+    assert robot.pose[2] > math.pi / 4 and robot.pose[0] == 0.0  # a turn in place is never refused
+
+
+def test_the_stop_rule_keeps_a_robot_clear_of_another():
+    """Two 'stop' robots driving at each other stop more than two radii apart."""
+    world = World(WorldSpec("w", (-2, -2, 2, 2)))
+    spec = CTBOT.with_changes(contact="stop")
+    a, b = world.add_robot(spec, (-0.2, 0.0, 0.0)), world.add_robot(spec, (0.2, 0.0, math.pi))
+    for _ in range(100):
+        world.step(np.array([[FULL, FULL], [FULL, FULL]]))
+    gap = math.hypot(*(a.pose[:2] - b.pose[:2]))
+    assert 2 * R < gap < 2 * R + 2 * 0.0045  # within a step each of touching

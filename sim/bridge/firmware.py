@@ -1,12 +1,16 @@
 """A c't-Bot firmware on the other end of a TCP link, as one more controller of the run loop.
 
-Each step the controller reads the firmware's reply to the previous step's block (up to its DONE),
-then sends this step's sensor block and returns the motors of that reply: the motors the firmware
-chose for the block of step k drive the robot in step k+1, as in c't-Sim (which moves first and
-transmits after). Sensors go out in firmware units (they already are: `Readings` holds the
-devices' raw values) with two conversions at this edge: c't-Sim's mouse has its sideways axis the
-other way round, and its DONE carries the time in ms modulo 10000. Motor values are mm/s ÷ 2,
-which c't-Sim drives at 1.75788 mm/s per unit (ctbot-protocol.md §8).
+The exchange follows c't-Sim step for step. c't-Sim computes a step's sensors, moves the robot
+with the motors of the last reply, counts that motion's encoder ticks and mouse dots, and only
+then sends the block; so a block carries the sensors from before a motion and the ticks of that
+motion. The controller therefore sends the block of step k in step k+1, once the world has moved
+(the readings of step k+1 hold the ticks of motion k), and returns the motors of its reply for
+motion k+1: the motors the firmware chose for block k drive the robot in step k+1, as in c't-Sim.
+The first block is c't-Sim's block from before its first step: every sensor 0 and DONE -1, which
+the firmware expects (its clock starts at -11 ms). Sensors go out in firmware units (`Readings`
+holds the devices' raw values) with two conversions at this edge: c't-Sim's mouse has its
+sideways axis the other way round, and its DONE carries the time in ms modulo 10000. Motor values
+are mm/s / 2, which c't-Sim drives at 1.75788 mm/s per unit (ctbot-protocol.md §8).
 """
 
 from __future__ import annotations
@@ -20,12 +24,52 @@ from bots.commands import WheelSpeeds
 from bots.controller import ControllerStopped, Status
 from bots.spec import RobotSpec
 from sim.bridge import protocol as p
+from sim.bridge.firmware_map import FirmwareMap
 from sim.bridge.protocol import Packet
 from sim.bridge.server import Link, LinkError, Listener
 from sim.world.readings import Readings
 
 MM_S_PER_UNIT = 151 / 60 * 178.1283 / 255
 """c't-Sim's wheel speed per ACT_MOT unit (mm/s): PWM/255 of 151 rpm on a 178.1283 mm wheel."""
+WHEEL_CIRCUMFERENCE_M = 0.1781283
+
+
+ENCODER_MARKS = 60
+
+
+def revs_per_second(units: int) -> float:
+    """The wheel's revolutions per second c't-Sim drives for an ACT_MOT value: PWM / 255 of 151/60,
+    computed in float32 (`WheelSimulator.revsThisSimStep`), up to 1e-7 off the exact value. That
+    decides the step of a tick wherever the exact count would be a whole number (75 units: 151
+    ticks in exactly 340 steps), so it is kept."""
+    return float(np.float32(np.float32(units) / np.float32(255)) * np.float32(np.float32(151) / np.float32(60)))
+
+
+def wheel_speed(units: int) -> float:
+    """The wheel's rim speed (m/s) c't-Sim drives for an ACT_MOT value."""
+    return revs_per_second(units) * WHEEL_CIRCUMFERENCE_M
+
+
+class CtsimEncoders:
+    """c't-Sim's encoder ticks of a step, bit for bit: floor(revolutions x 60 + rest) per wheel,
+    the rest carried, the revolutions of the step in its own double arithmetic. ctsim's world
+    counts the same ticks through other roundings, and once in a few thousand steps a sum that
+    lands on a whole number then gives a tick one step apart (seen at 94.3 s in maze.xml); for
+    ideal encoders the bridge therefore sends these."""
+
+    def __init__(self, dt: float):
+        self.step_s = round(dt * 1000) / 1000.0  # c't-Sim: the step in ms / 1000.0
+        self.rest = [0.0, 0.0]
+
+    def count(self, motors: tuple[int, int]) -> tuple[int, int]:
+        """The ticks of one step driven with `motors`."""
+        ticks = []
+        for w, units in enumerate(motors):
+            total = revs_per_second(units) * self.step_s * ENCODER_MARKS + self.rest[w]
+            whole = math.floor(total)
+            self.rest[w] = total - whole
+            ticks.append(whole)
+        return ticks[0], ticks[1]
 IR_NOTHING = (100, 80)
 """GP2D12 raw values with nothing in view (left, right), c't-Sim's curves beyond 85 cm."""
 MAP_MM_PER_CELL, MAP_ORIGIN_MM = 8, 6144
@@ -68,7 +112,8 @@ class Call:
 
 @dataclass
 class FirmwareState:
-    """What the firmware has shown so far: LEDs, the 20x4 LCD, motors, its map pose, address."""
+    """What the firmware has shown so far: LEDs, the 20x4 LCD, motors, its map and map pose,
+    address, the remote calls it offers (once asked) and the RC5 toggle bit."""
 
     address: int = p.BROADCAST
     features: int | None = None
@@ -77,8 +122,11 @@ class FirmwareState:
     lcd: list[list[str]] = field(default_factory=lambda: [[" "] * 20 for _ in range(4)])
     cursor: tuple[int, int] = (0, 0)
     map_pose: tuple[float, float, float] | None = None
+    map: FirmwareMap = field(default_factory=FirmwareMap)
     door_open: bool = False
     functions: list[str] = field(default_factory=list)
+    functions_complete: bool = False
+    rc5_toggle: int = 0
     removed: bool = False
 
     @property
@@ -89,9 +137,11 @@ class FirmwareState:
 class FirmwareController:
     """The controller of one robot driven by a c't-Bot firmware over TCP (see the module doc).
 
-    `rc5`: (time s, RC5 code) key presses; `calls`: (time s, 'bot_turn(90)') remote calls. The
-    link is accepted from `listener` in the first step (after `connect_timeout` s: an error);
-    each reply must end within `step_timeout` s."""
+    `rc5`: (time s, RC5 code) key presses; `calls`: (time s, 'bot_turn(90)') remote calls;
+    `list_calls`: ask for the remote calls the firmware offers (c't-Sim's RemoteCallViewer) with
+    the first block after the handshake. The link is accepted from `listener` in the first step
+    (after `connect_timeout` s: an error); each reply must end within `step_timeout` s. After the
+    run, `finish` sends the last block; `close` shuts the firmware down."""
 
     def __init__(
         self,
@@ -104,6 +154,8 @@ class FirmwareController:
         address: int = p.ADDRESS_POOL[0],
         rc5: tuple[tuple[float, int], ...] = (),
         calls: tuple[tuple[float, str], ...] = (),
+        list_calls: bool = False,
+        ctsim_ticks: bool = False,
     ):
         self.listener = listener
         self.label = label
@@ -114,13 +166,19 @@ class FirmwareController:
         self.offer = address
         self.rc5 = sorted(rc5)
         self.calls = sorted((Call(at, *p.parse_call(text)) for at, text in calls), key=lambda c: c.at)
+        self.list_calls = list_calls
+        self.encoders = CtsimEncoders(dt) if ctsim_ticks else None
         self.link: Link | None = None
         self.state = FirmwareState()
         self.events: list[Event] = []
-        self.steps = 0
+        self.blocks = 0
+        """Blocks sent so far: the next block is that of step `blocks`."""
         self.seq = 0
         self.status = Status.RUNNING
         self._extra: list[Packet] = []
+        self._held: tuple[float, Readings, tuple[int, int] | None] | None = None
+        """The step whose block waits for the next step's ticks: its time, readings and (with
+        `ctsim_ticks`) the ticks of its motion."""
 
     def reset(self, robot: RobotSpec) -> None:
         self.robot = robot
@@ -128,61 +186,93 @@ class FirmwareController:
     # --- one step ---------------------------------------------------------------------------
 
     def step(self, t: float, readings: Readings) -> WheelSpeeds:
-        """Read the reply to the last block, send this step's block, return the reply's motors."""
+        """Send the last step's block with the ticks the world just counted, read the reply,
+        return its motors (for this step's motion)."""
         try:
             if self.link is None:
                 self.link = self.listener.accept(self.connect_timeout)
                 if self.welcome:
                     self.link.send(self._packet(p.WELCOME, to=0).encode(), self.step_timeout)
-            elif not self.state.removed:
-                for packet in self.link.receive(self.step_timeout):
-                    self._handle(packet, t)
-            if not self.state.removed:
-                self.link.send(self._block(t, readings), self.step_timeout)
+            else:
+                self._exchange(readings)
         except LinkError as err:
-            raise BridgeError(f"{self.label}: {err} (reply to the block of step {self.steps - 1})" if self.steps else f"{self.label}: {err}") from None
-        self.steps += 1
-        left, right = self.state.motors
-        return WheelSpeeds(left * MM_S_PER_UNIT / 1000, right * MM_S_PER_UNIT / 1000)
+            raise BridgeError(f"{self.label}: {err} (reply to the block of step {self.blocks - 1})" if self.blocks else f"{self.label}: {err}") from None
+        motors = self.state.motors
+        self._held = (t, readings, self.encoders.count(motors) if self.encoders is not None else None)
+        return WheelSpeeds(wheel_speed(motors[0]), wheel_speed(motors[1]))
+
+    def finish(self, readings: Readings) -> None:
+        """Send the block of the run's last step (with the ticks of its motion, `readings` the
+        final sample's) and read the reply, as c't-Sim does before it removes a bot; the link
+        stays open for `close`. A firmware that fails now only ends in an event."""
+        if self.link is None or self.link.closed or self._held is None:
+            return
+        try:
+            self._exchange(readings)
+        except LinkError as err:
+            self.events.append(Event(self.blocks - 1, self._held[0], "log", f"no reply to the last block: {err}"))
+        self._held = None
+
+    def _exchange(self, after: Readings) -> None:
+        """Block of the held step (its sensors, the ticks of the motion since, in `after`), then
+        the firmware's reply to it."""
+        if self.state.removed or self._held is None:
+            return
+        t, before, ticks = self._held
+        step = self.blocks
+        self.link.send(self._block(step, t, before, after, ticks), self.step_timeout)
+        self.blocks += 1
+        for packet in self.link.receive(self.step_timeout):
+            self._handle(packet, step, t)
 
     def _packet(self, command: str, dl: int = 0, dr: int = 0, sub: str = p.NORM, payload: bytes = b"", to: int | None = None) -> Packet:
         packet = Packet(command, sub, dl, dr, self.seq, p.SIM, self.state.address if to is None else to, payload)
         self.seq = (self.seq + 1) & 0xFF
         return packet
 
-    def _block(self, t: float, readings: Readings) -> bytes:
-        """One step's packets (`m D B H I R T L E S b e X`, orders and offers first), one write."""
-
-        forward, left = (int(x) for x in readings.mouse_counts)
-        key = self.rc5.pop(0)[1] if self.rc5 and self.rc5[0][0] <= t + 1e-9 else 0  # one key per block
+    def _block(self, step: int, t: float, readings: Readings, after: Readings, ticks: tuple[int, int] | None = None) -> bytes:
+        """One step's packets (`m D B H I R T L E S b e X`, orders and offers first), one write:
+        the sensors of `readings`, the encoder ticks (or `ticks`) and mouse dots of `after` (the
+        motion that followed). The first block is c't-Sim's from before its first step: sensors
+        0, DONE -1."""
         packets = self._extra
         self._extra = []
+        if step == 0:
+            packets += [self._packet(command) for command in "mDBHIRTLESb"]
+            packets += [self._packet(p.SENS_ERROR, dl=1), self._packet(p.DONE, dl=-1)]
+            return b"".join(packet.encode() for packet in packets)
+        forward, left = (int(x) for x in after.mouse_counts)
+        key = self.rc5.pop(0)[1] if self.rc5 and self.rc5[0][0] <= t + 1e-9 else 0  # one key per block
+        if key:
+            self.state.rc5_toggle ^= 1  # c't-Sim flips it per key and sends it in every block
+        if self.list_calls and step == 1:
+            packets.append(self._packet(p.REMOTE_CALL, sub=p.RC_LIST))
         for call in self.calls:
             if call.sent_step is None and call.at <= t + 1e-9:
-                call.sent_step = self.steps
+                call.sent_step = step
                 packets.append(self._packet(p.REMOTE_CALL, sub=p.RC_ORDER, payload=p.remote_call_payload(call.name, call.args)))
-                self.events.append(Event(self.steps, t, "call", f"sent {call.text}"))
+                self.events.append(Event(step, t, "call", f"sent {call.text}"))
         packets += [
             self._packet(p.SENS_MOUSE, dl=-left, dr=forward),  # c't-Sim: dX sideways to the right, dY forward
             self._packet(p.SENS_DOOR, dl=int(self.state.door_open)),
             self._packet(p.SENS_BORDER, *_pair(readings.border, (0, 0))),
             self._packet(p.SENS_LDR, *_pair(readings.light, (1023, 1023))),
             self._packet(p.SENS_IR, *_pair(readings.ir_raw, IR_NOTHING)),
-            self._packet(p.SENS_RC5, dl=key),
+            self._packet(p.SENS_RC5, dl=key, dr=self.state.rc5_toggle),
             self._packet(p.SENS_TRANS),
             self._packet(p.SENS_LINE, *_pair(readings.line, (0, 0))),
-            self._packet(p.SENS_ENC, *_pair(readings.encoder_ticks, (0, 0))),
+            self._packet(p.SENS_ENC, *(ticks if ticks is not None else _pair(after.encoder_ticks, (0, 0)))),
             self._packet(p.SENS_CAM, dl=CAM_POSITION),
             self._packet(p.SENS_BPS, dl=BPS_NONE - 0x10000),
-            self._packet(p.SENS_ERROR, dl=1, dr=1),
+            self._packet(p.SENS_ERROR, dl=1),  # c't-Sim: 1 = OK, data_r 0
             self._packet(p.DONE, dl=round((t + self.dt) * 1000) % 10000),
         ]
         return b"".join(packet.encode() for packet in packets)
 
     # --- the firmware's reply ---------------------------------------------------------------
 
-    def _handle(self, packet: Packet, t: float) -> None:
-        state, step = self.state, self.steps - 1
+    def _handle(self, packet: Packet, step: int, t: float) -> None:
+        state = self.state
         key = packet.key
         if packet.command == p.ACT_MOT:
             state.motors = (packet.data_l, packet.data_r)
@@ -194,8 +284,10 @@ class FirmwareController:
             self.events.append(Event(step, t, "log", _text(packet.payload)))
         elif packet.command == p.ACT_SERVO:
             state.door_open = packet.data_l >= DOOR_OPEN_FROM
-        elif packet.command == p.MAP and packet.sub in (p.MAP_POS_X, p.MAP_POS_Y, p.MAP_HEADING):
-            self._map_pose(packet)
+        elif packet.command == p.MAP:
+            state.map.add(packet)
+            if packet.sub in (p.MAP_POS_X, p.MAP_POS_Y, p.MAP_HEADING):
+                self._map_pose(packet)
         elif key == f"{p.ID}/{p.ID_REQUEST}":
             self._extra.append(self._packet(p.ID, self.offer, sub=p.ID_OFFER, to=p.BROADCAST))
         elif key == f"{p.ID}/{p.ID_SET}":
@@ -205,9 +297,12 @@ class FirmwareController:
         elif key == f"{p.REMOTE_CALL}/{p.RC_DONE}":
             self._call_done(packet, step, t)
         elif key == f"{p.REMOTE_CALL}/{p.RC_ENTRY}":
-            name = p.remote_call_entry_name(packet.payload)
-            if name:
-                state.functions.append(name)
+            entry = p.remote_call_entry(packet.payload)
+            if entry:
+                state.functions.append(entry)
+            else:
+                state.functions_complete = True
+                self.events.append(Event(step, t, "call", "offers " + ", ".join(state.functions)))
         elif packet.command == p.SHUTDOWN:
             state.removed, state.motors = True, (0, 0)
             self.events.append(Event(step, t, "log", "the firmware asked to be removed (RC5 I/II); it stands still from here"))
@@ -262,14 +357,16 @@ class FirmwareController:
             self.link.close()
 
     def summary(self) -> dict:
-        """Plain data for summary.json: address, functions, remote calls and their results."""
+        """Plain data for summary.json: address, the remote calls it offers (if asked) and those
+        sent with their results."""
         return {
             "label": self.label,
             "address": self.state.address,
-            "steps": self.steps,
+            "steps": self.blocks,
             "functions": self.state.functions,
             "calls": [{"call": c.text, "at": c.at, "sent_step": c.sent_step, "done_step": c.done_step, "result": c.result} for c in self.calls],
             "lcd": self.state.lcd_text,
+            "map_blocks": self.state.map.blocks,
         }
 
 

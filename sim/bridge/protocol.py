@@ -33,7 +33,8 @@ WELCOME_SIM = "S"
 ID_REQUEST, ID_OFFER, ID_SET = "R", "O", "S"
 RC_LIST, RC_ENTRY, RC_ORDER, RC_DONE, RC_ABORT = "L", "E", "O", "D", "A"
 LCD_CLEAR, LCD_CURSOR, LCD_DATA = "c", "C", "D"
-MAP_POS_X, MAP_POS_Y, MAP_HEADING = "D", "E", "F"
+MAP_POS_X, MAP_POS_Y, MAP_HEADING, MAP_LAST_PART = "D", "E", "F", "G"
+"""The four parts of a map block; the first three also carry the firmware's pose."""
 
 REMOTE_CALL_BUFFER = 33
 """The firmware's stack buffer for a remote-call payload (bytes); longer ones overflow it."""
@@ -179,6 +180,9 @@ def rc5_code(key: str) -> int:
         raise ValueError(f"unknown RC5 key {key!r} (keys: {', '.join(RC5_KEYS)} or a code like 0x1183)") from None
 
 
-def remote_call_entry_name(payload: bytes) -> str:
-    """The function name of an r/E entry (the raw C struct: name[21] at byte 4)."""
-    return payload[4:25].split(b"\0", 1)[0].decode("ascii", "replace")
+def remote_call_entry(payload: bytes) -> str:
+    """An r/E entry as 'name(parameters)', '' for the list's empty end: the raw C struct,
+    parameter count and lengths in bytes 0-3, name[21] at byte 4, parameter text[41] at 25."""
+    name = payload[4:25].split(b"\0", 1)[0].decode("ascii", "replace")
+    params = payload[25:66].split(b"\0", 1)[0].decode("ascii", "replace")
+    return f"{name}({params})" if name else ""

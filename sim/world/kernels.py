@@ -24,10 +24,12 @@ REAL_RADIUS = 5  # left, right wheel (m)
 TRACK = 7
 MOUNT = 8  # the mouse's x, y in the body frame (m)
 COUNTS_PER_METRE, MAX_STEP, SWEEP_RADIUS, APART_RADIUS, MASS, MOMENT, RADIUS = 10, 11, 12, 13, 14, 15, 16
-PARAMS = 17
-# per-robot state (n, STATE) float64, two columns (left, right or x, y) each but ALPHA
+STOPS = 17  # 1: c't-Sim's contact rule (`stop_at_contact`), 0: pymunk's
+PARAMS = 18
+# per-robot state (n, STATE) float64, two columns (left, right or x, y) each but ALPHA and BLOCKED
 WHEEL_SPEED, TICK_CARRY, TICK_OFFSET, SLIP, MOUSE_NOISE, MOUSE_CARRY, MOVE, ALPHA = 0, 2, 4, 6, 8, 10, 12, 14
-STATE = 15
+BLOCKED = 15  # 1 when c't-Sim's contact rule refused the step's move
+STATE = 16
 # per-robot counts (n, TALLIES) int64: encoder ticks (left, right), mouse counts (x, y)
 TICKS, COUNTS, TALLIES = 0, 2, 4
 # the world's scalars (SCALARS,) float64: floor raster origin (x, y m), cell (m), whether outside
@@ -41,7 +43,7 @@ COLUMNS, ROWS, STARTS = 0, 1, 2
 # sensors of all robots (m, SENSOR) float64, floor then light then IR sensors: mount x, y (m),
 # height (m; floor, light), view direction (rad; light, IR), half opening or cone (rad; light,
 # IR), reach (m; light); and (m, INDEX) int64: owning robot, noise row and curve (IR)
-AT, HEIGHT, DIRECTION, OPENING, REACH, SENSOR = 0, 2, 3, 4, 5, 6
+AT, HEIGHT, DIRECTION, OPENING, REACH, AXIS, SENSOR = 0, 2, 3, 4, 5, 6, 7  # AXIS: 1 for an IR sensor's 'axis' view
 OWNER, NOISE_ROW, CURVE, INDEX = 0, 1, 2, 3
 # the world's count of quiet steps (2,) int64: steps in a row that began with no robot touching a
 # wall, and how many such steps pymunk still takes (-1: every step is pymunk's)
@@ -194,8 +196,9 @@ def settle(
     motion: np.ndarray,
     quiet: np.ndarray,
 ) -> tuple[bool, bool]:
-    """The planned moves and turns (state's MOVE, ALPHA) cut where walls (`sweep_walls`), other
-    robots (`keep_apart`) or holes (`hold_at_holes`) stop them, and the force and torque that give
+    """The planned moves and turns (state's MOVE, ALPHA) refused by c't-Sim's contact rule
+    (`stop_at_contact`) or cut where walls (`sweep_walls`), other robots (`keep_apart`) or holes
+    (`hold_at_holes`) stop them, and the force and torque that give
     each robot that motion in pymunk's velocity phase (m move / dt^2, I alpha / dt^2) written into
     its row of pymunk's body data (motion[rows[i], 3:6]): the world step's arithmetic between the
     drive and pymunk in one call.
@@ -206,6 +209,7 @@ def settle(
     memory, so that `glide` moves the robots as pymunk's step would."""
     move, alpha = state[:, MOVE : MOVE + 2], state[:, ALPHA]
     wall_grid = (scalars[WALL_FRAME : WALL_FRAME + 3], wall_cells)
+    stop_at_contact(pose, move, params, state, vertices, ranges, boxes, wall_grid)
     sweep_walls(pose, move, params[:, SWEEP_RADIUS], scalars[SLIDE_MARGIN], vertices, ranges, boxes, wall_grid)
     if pose.shape[0] > 1:
         keep_apart(pose, move, params[:, APART_RADIUS])
@@ -227,6 +231,30 @@ def settle(
         clear = clear and _clear_of_walls(pose[i, 0], pose[i, 1], params[i, RADIUS] + CLEAR, vertices, ranges, boxes, wall_grid)
     quiet[STREAK] = quiet[STREAK] + 1 if clear else 0
     return changed, quiet[STREAK] > quiet[QUIET_AFTER]
+
+
+@numba.njit(cache=True)
+def stop_at_contact(pose: np.ndarray, move: np.ndarray, params: np.ndarray, state: np.ndarray, vertices: np.ndarray, ranges: np.ndarray,
+                    boxes: np.ndarray, wall_grid: tuple) -> None:  # fmt: skip
+    """c't-Sim's contact rule for the robots that have it (params' STOPS): a move that would put
+    the body within its radius of a wall, or of another robot's body where that stands at the
+    start of the step, is not made at all (MOVE set to 0, BLOCKED 1); the turn still is. So the
+    robot stays at its last position clear of everything and can turn away, as c't-Sim commits
+    the position only when its bounding sphere at the new one meets nothing (MasterSimulator)."""
+    n = pose.shape[0]
+    for i in range(n):
+        if params[i, STOPS] == 0.0:
+            continue
+        state[i, BLOCKED] = 0.0
+        if move[i, 0] == 0.0 and move[i, 1] == 0.0:
+            continue
+        x, y, radius = pose[i, 0] + move[i, 0], pose[i, 1] + move[i, 1], params[i, RADIUS]
+        blocked = not _clear_of_walls(x, y, radius, vertices, ranges, boxes, wall_grid)
+        for j in range(n):
+            if not blocked and j != i:
+                blocked = math.hypot(pose[j, 0] - x, pose[j, 1] - y) <= radius + params[j, RADIUS]
+        if blocked:
+            move[i, 0], move[i, 1], state[i, BLOCKED] = 0.0, 0.0, 1.0
 
 
 @numba.njit(cache=True)
@@ -395,6 +423,19 @@ def _ray_polygon(ox: float, oy: float, ux: float, uy: float, vertices: np.ndarra
 
 
 @numba.njit(cache=True)
+def _corner_in_cone(ox: float, oy: float, cx: float, cy: float, cos_cone: float, vertices: np.ndarray, start: int, end: int) -> float:
+    """Distance to the nearest corner of the polygon vertices[start:end] inside the cone from (ox,
+    oy) around the unit axis (cx, cy); inf if none."""
+    best = math.inf
+    for k in range(start, end):
+        dx, dy = vertices[k, 0] - ox, vertices[k, 1] - oy
+        d = math.hypot(dx, dy)
+        if dx * cx + dy * cy >= cos_cone * d:
+            best = min(best, d)
+    return best
+
+
+@numba.njit(cache=True)
 def _ray_circle(ox: float, oy: float, ux: float, uy: float, cx: float, cy: float, r: float) -> float:
     along = (cx - ox) * ux + (cy - oy) * uy
     across2 = (cx - ox) ** 2 + (cy - oy) ** 2 - along * along
@@ -509,12 +550,14 @@ def sense_ir(
     out: np.ndarray,
     grid_above: int = 32,
     wall_grid: tuple | None = None,
+    axis: np.ndarray | None = None,
 ) -> None:
     """Distance (m) from each IR sensor at `origins` to the nearest point of a wall (convex
     polygons vertices[ranges[w, 0]:ranges[w, 1]], bounding boxes `boxes`) or a circle (x, y,
     radius, owning robot; a sensor skips its own robot's) within `cone` (half-angle, rad) of
     `look` and within `length`; inf if none. As `World.ray_distance`: per convex body the nearest
-    point if it lies in the cone, else the first hit of an edge ray.
+    point if it lies in the cone, else the first hit of an edge ray. A sensor with `axis[k]` 1
+    sees a wall where its axis meets it or at a corner inside the cone (c't-Sim's pick).
 
     With more than `grid_above` circles, each sensor checks only the circles in the grid cells
     its cone's bounding box overlaps (a crowd would otherwise cost sensors x robots); the nearest
@@ -545,6 +588,9 @@ def sense_ir(
             if distance <= 0.0:
                 best = 0.0
                 break
+            if axis is not None and axis[k] != 0.0:
+                best = min(best, _ray_polygon(ox, oy, cx, cy, vertices, start, end), _corner_in_cone(ox, oy, cx, cy, cos_cone, vertices, start, end))
+                continue
             if (qx - ox) * cx + (qy - oy) * cy >= cos_cone * distance:
                 best = min(best, distance)
             best = min(best, _ray_polygon(ox, oy, l1x, l1y, vertices, start, end), _ray_polygon(ox, oy, l2x, l2y, vertices, start, end))
@@ -666,6 +712,7 @@ def read_ir(
     owner: np.ndarray,
     direction: np.ndarray,
     cone: np.ndarray,
+    axis: np.ndarray,
     length: float,
     vertices: np.ndarray,
     ranges: np.ndarray,
@@ -693,7 +740,7 @@ def read_ir(
     ir_rays(pose, offsets, owner, direction, origins, look)
     for i in range(pose.shape[0]):
         circles[i, 0], circles[i, 1] = pose[i, 0], pose[i, 1]
-    sense_ir(origins, look, cone, owner, length, vertices, ranges, boxes, circles, distance, 32, wall_grid)
+    sense_ir(origins, look, cone, owner, length, vertices, ranges, boxes, circles, distance, 32, wall_grid, axis)
     ir_values(distance, noise_row, noise_std, normals, used, curve, tables, last, beyond, inverse, lowest, raw, believed)
 
 
@@ -769,7 +816,7 @@ def read_sensors(
     )  # fmt: skip
     if believed.shape[0]:
         read_ir(
-            pose, sensors[hi:, AT : AT + 2], index[hi:, OWNER], sensors[hi:, DIRECTION], sensors[hi:, OPENING], scalars[IR_LENGTH],
+            pose, sensors[hi:, AT : AT + 2], index[hi:, OWNER], sensors[hi:, DIRECTION], sensors[hi:, OPENING], sensors[hi:, AXIS], scalars[IR_LENGTH],
             vertices, ranges, boxes, (scalars[WALL_FRAME : WALL_FRAME + 3], wall_cells), circles, index[hi:, NOISE_ROW], noise_std, normals, used, index[hi:, CURVE], tables,
             curve_ends[:, 0], beyond, inverse, curve_ends[:, 1], values[hi:], believed,
         )  # fmt: skip

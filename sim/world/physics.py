@@ -305,26 +305,40 @@ class World:
             self.chassis.fill(frame)
         return frame
 
-    def ray_distance(self, robot: Robot, origin, direction: float, length: float = IR_RAY_LENGTH, cone: float = 0.0) -> float:
+    def ray_distance(self, robot: Robot, origin, direction: float, length: float = IR_RAY_LENGTH, cone: float = 0.0, axis: bool = False) -> float:
         """Distance (m) from `origin` to the nearest point of any body other than the robot's own
         within `cone` (rad, half-angle) of world `direction` and within `length`; inf if none.
+        With `axis`, walls are seen only where the axis meets them and at their corners inside
+        the cone (`IRSensorSpec.view`); other bodies in the whole cone.
 
-        c't-Sim's IR sensors look with such a cone (Java3D `PickConeSegment`, 3°): across a wall
-        at a slant they read the cone's near edge, not the axis. Every body is convex, so its
-        nearest point in the cone is its nearest point overall when that lies inside the cone,
-        else where an edge ray first meets it: two rays and one nearest-point query are exact."""
+        A cone across a wall at a slant reads the cone's near edge, not the axis. Every body is
+        convex, so its nearest point in the cone is its nearest point overall when that lies
+        inside the cone, else where an edge ray first meets it: two rays and one nearest-point
+        query are exact."""
         if cone <= 0.0:
             return self._cast(robot, origin, direction, length)
-        best = min(self._cast(robot, origin, direction - cone, length), self._cast(robot, origin, direction + cone, length))
         c, s = math.cos(direction), math.sin(direction)
         cos_cone = math.cos(cone)
+        if axis:
+            best = min(self._cast(robot, origin, direction, length), self._wall_corner_in_cone(origin, c, s, cos_cone))
+        else:
+            best = min(self._cast(robot, origin, direction - cone, length), self._cast(robot, origin, direction + cone, length))
         for info in self.space.point_query((origin[0], origin[1]), min(best, length), robot.query_filter):
             dx, dy = info.point.x - origin[0], info.point.y - origin[1]
             if info.distance <= 0.0:
                 return 0.0  # the sensor is inside another body
+            if axis and info.shape.body.body_type == pymunk.Body.STATIC:
+                continue  # a wall: seen on the axis and at its corners only
             if dx * c + dy * s >= cos_cone * info.distance:
                 best = min(best, info.distance)
-        return best
+        return best if best <= length else math.inf
+
+    def _wall_corner_in_cone(self, origin, c: float, s: float, cos_cone: float) -> float:
+        """Distance to the nearest wall corner within the cone from `origin` about (c, s)."""
+        corners = self._walls.vertices - np.asarray(origin, dtype=np.float64)
+        distance = np.hypot(corners[:, 0], corners[:, 1])
+        inside = corners[:, 0] * c + corners[:, 1] * s >= cos_cone * distance
+        return float(distance[inside].min()) if inside.any() else math.inf
 
     def _cast(self, robot: Robot, origin, direction: float, length: float) -> float:
         """Distance (m) along one ray to the first body other than the robot's own; inf if none."""
@@ -348,7 +362,7 @@ class World:
         origins, look, distance = np.empty((n, 2)), np.empty(n), np.empty(n)
         kernels.ir_rays(pose, mounts[:, kernels.AT : kernels.AT + 2], owner, mounts[:, kernels.DIRECTION], origins, look)
         for k, (robot, sensor) in enumerate(st.ir_sensors):
-            distance[k] = self.ray_distance(robot, origins[k], look[k], cone=sensor.cone)
+            distance[k] = self.ray_distance(robot, origins[k], look[k], cone=sensor.cone, axis=sensor.view == "axis")
         kernels.ir_values(distance, ir.noise_row, ir.noise.std, ir.noise.normals.values, ir.noise.normals.used, *ir.curves, raw, believed)
 
     # --- motion -----------------------------------------------------------------------------
@@ -375,7 +389,11 @@ class World:
         # a wall or another robot, so that no speed the motors allow tunnels through anything
         # then hold robots at holes, and give pymunk the motion as forces (see `_apply_motion`)
         self._bodies.refresh()
+        was_blocked = st.state[st.stoppers, kernels.BLOCKED] if len(st.stoppers) else None
         changed, quiet = self._settle(before, *self._settle_arguments)
+        if was_blocked is not None:  # a robot newly stopped by c't-Sim's rule has met something
+            for i in st.stoppers[(st.state[st.stoppers, kernels.BLOCKED] > 0) & (was_blocked == 0)]:
+                self.robots[i].collisions += 1
         if changed:
             for robot in self.robots:
                 robot.fallen = bool(st.fallen[robot.index])
@@ -518,6 +536,9 @@ class _BatchState:
         p[:, kernels.MASS] = [r.body.mass for r in robots]
         p[:, kernels.MOMENT] = [r.body.moment for r in robots]
         p[:, kernels.RADIUS] = [s.body_radius for s in specs]
+        p[:, kernels.STOPS] = [s.contact == "stop" for s in specs]
+        self.stoppers = np.flatnonzero(p[:, kernels.STOPS])
+        """The robots with c't-Sim's contact rule (a refused move counts as a collision)."""
         self.contacts = _padded([_contacts(s)[0] for s in specs], np.float64, (2,))
         self.anchored = _padded([_contacts(s)[1] for s in specs], np.bool_)
         self.state = np.zeros((n, kernels.STATE))
@@ -544,6 +565,7 @@ class _BatchState:
         self.sensors[len(floor) :, kernels.DIRECTION] = [s.direction for _, s in light + ir]
         self.sensors[len(floor) :, kernels.OPENING] = [s.opening / 2 for _, s in light] + [s.cone for _, s in ir]
         self.sensors[len(floor) : len(floor) + len(light), kernels.REACH] = [s.reach for _, s in light]
+        self.sensors[len(floor) + len(light) :, kernels.AXIS] = [s.view == "axis" for _, s in ir]
 
         def noisy(items):
             return _Noisy.of([(k, robot.rngs[s.name], s.noise_std) for k, (robot, s) in enumerate(items) if s.noise_std])
