@@ -1,6 +1,7 @@
 """Issue 16: the rewritten hot paths (broad phase, run loop, estimators, readings) compute what the
 code before them did: noise-free runs reproduce trajectories and readings stored before the change
-(`tests/reference_runs.py` wrote them)."""
+(`tests/reference_runs.py` wrote them). A refactoring guard: it holds the code to what it did,
+not to what is right; the closed-form, spec and c't-Sim tests hold that."""
 
 from __future__ import annotations
 
