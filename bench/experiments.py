@@ -1,31 +1,40 @@
-"""Many-runs benchmarks: a sweep on local processes against a plain loop of the same runs, and the
-vectorised Gymnasium environment against N separate environments."""
+"""Many-runs benchmarks: a sweep on local processes and on Dask against a plain loop of the same
+runs, and the vectorised Gymnasium environment against N separate environments."""
 
 from __future__ import annotations
 
 import tempfile
 import time
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
-from sim.experiments import Processes, Serial, sweep
+from sim.experiments import Dask, Processes, Serial, sweep
 
 
-def _sweep_seconds(runner, runs: int, duration: float) -> float:
+def _sweep_seconds(make_runner: Callable[[], Any], runs: int, duration: float) -> float:
+    """Wall time of a sweep of `runs` seeds of the default maze run, the engine's start (worker
+    processes, a Dask cluster) and end included."""
     spec = {"base": {"duration": duration}, "axes": {"seed": list(range(runs))}}
     with tempfile.TemporaryDirectory() as folder:
         start = time.perf_counter()
-        sweep(spec, folder, runner, progress=False)
+        runner = make_runner()
+        try:
+            sweep(spec, folder, runner, progress=False)
+        finally:
+            runner.close()
         return time.perf_counter() - start
 
 
-def sweep_speedup(runs: int, duration: float = 2.0) -> tuple[float, float, float]:
-    """(runs/s on local processes, runs/s in a plain loop, their ratio) for the same runs, worker
-    start-up included (a warm-up run loads the compiled kernels first)."""
-    _sweep_seconds(Serial(), 1, 0.1)
-    loop = runs / _sweep_seconds(Serial(), runs, duration)
-    processes = runs / _sweep_seconds(Processes(), runs, duration)
-    return processes, loop, processes / loop
+def sweep_engines(runs: int, duration: float = 20.0) -> tuple[float, float, float]:
+    """(runs/s in a plain loop, on local processes, on a Dask LocalCluster) for the same runs, one
+    after another in this process (a warm-up run loads the compiled kernels here first)."""
+    _sweep_seconds(Serial, 1, 0.1)
+    loop = runs / _sweep_seconds(Serial, runs, duration)
+    processes = runs / _sweep_seconds(Processes, runs, duration)
+    dask = runs / _sweep_seconds(Dask, runs, duration)
+    return loop, processes, dask
 
 
 def vector_env(num_envs: int, steps: int) -> tuple[float, float]:
@@ -56,13 +65,15 @@ def figures(scale: float):
     cache: dict[str, tuple] = {}
 
     def once(key, thunk):
-        return lambda: cache.setdefault(key, thunk())
+        return lambda: cache[key] if key in cache else cache.setdefault(key, thunk())
 
-    sweep_runs = max(4, int(40 * scale))
-    measure_sweep = once("sweep", lambda: sweep_speedup(sweep_runs))
-    yield "sweep_processes", "runs/s", lambda: measure_sweep()[0]
-    yield "sweep_loop", "runs/s", lambda: measure_sweep()[1]
-    yield "sweep_speedup", "x", lambda: measure_sweep()[2]
+    sweep_runs = max(10, int(200 * scale))
+    measure_sweep = once("sweep", lambda: sweep_engines(sweep_runs))
+    yield "sweep_loop", f"runs/s ({sweep_runs} maze runs of 20 s simulated, one after another)", lambda: measure_sweep()[0]
+    yield "sweep_processes", "runs/s (the same runs on one warm worker process per core, start-up included)", lambda: measure_sweep()[1]
+    yield "sweep_speedup", "x (processes / loop, same run; bar >= 1.7 on two cores)", lambda: measure_sweep()[1] / measure_sweep()[0]
+    yield "sweep_dask", "runs/s (the same runs on a Dask LocalCluster, one worker per core, its start included)", lambda: measure_sweep()[2]
+    yield "sweep_dask_over_processes", "(Dask / local processes, same run; bar >= 0.8)", lambda: measure_sweep()[2] / measure_sweep()[1]
     measure_vec = once("vec", lambda: vector_env(8, max(20, int(200 * scale))))
     yield "gym_vector_8_envs", "env-steps/s", lambda: measure_vec()[0]
     yield "gym_8_separate_envs", "env-steps/s", lambda: measure_vec()[1]

@@ -1,5 +1,7 @@
 """Gymnasium environments: the checker passes, a random policy runs 10,000 steps inside the
-spaces, seeded resets repeat, the vectorised env equals N separate envs, frames are pictures."""
+spaces, a seed draws the start, the goal and the noise and nothing else, the batched vector env
+equals N separate envs step for step (autoresets included), and so does the one-process-per-env
+vector env; frames are pictures."""
 
 from __future__ import annotations
 
@@ -8,7 +10,7 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
-from sim.experiments.gym import ENVIRONMENTS, CtsimEnv, CtsimVectorEnv
+from sim.experiments.gym import ENVIRONMENTS, GOAL_BONUS, CtsimEnv, CtsimVectorEnv
 
 
 @pytest.mark.parametrize("env_id", list(ENVIRONMENTS))
@@ -37,35 +39,124 @@ def test_random_policy_runs_10000_steps():
     assert steps == 10_000
 
 
-def _rollout(env, seed: int, actions: np.ndarray) -> np.ndarray:
-    obs = [env.reset(seed=seed)[0]]
+def _rollout(env, seed: int | None, actions: np.ndarray, options: dict | None = None) -> np.ndarray:
+    obs = [env.reset(seed=seed, options=options)[0]]
     obs += [env.step(a)[0] for a in actions]
     return np.array(obs)
 
 
-def test_seeded_reset_repeats():
-    env = CtsimEnv("line")
-    actions = np.random.default_rng(0).uniform(-1, 1, (50, 2)).astype(np.float32)
-    assert np.array_equal(_rollout(env, 3, actions), _rollout(env, 3, actions))
+IDS = {"line": "ctsim/LineFollow-v0", "maze": "ctsim/MazeNav-v0"}
+ACTIONS = np.random.default_rng(0).uniform(-1, 1, (30, 2)).astype(np.float32)
+
+
+@pytest.mark.parametrize("task", ["line", "maze"])
+def test_a_seed_repeats_its_episode_bit_for_bit(task):
+    env = CtsimEnv(task)
+    assert np.array_equal(_rollout(env, 3, ACTIONS), _rollout(CtsimEnv(task), 3, ACTIONS))
+
+
+def test_seeds_draw_start_and_goal_and_the_noise_cannot_move_them():
+    """Different seeds: different start poses and goals. The same seed: the same start and goal
+    whatever the noise (the start and the goal are drawn before the noise seed)."""
+    starts, goals = [], []
+    for seed in range(5):
+        _, quiet = CtsimEnv("maze", noise="none").reset(seed=seed)
+        _, noisy = CtsimEnv("maze", noise="harsh").reset(seed=seed)
+        assert np.array_equal(quiet["pose"], noisy["pose"]) and np.array_equal(quiet["goal"], noisy["goal"])
+        starts.append(tuple(quiet["pose"]))
+        goals.append(tuple(quiet["goal"]))
+    assert len(set(starts)) == 5 and len(set(goals)) == 5
+
+
+@pytest.mark.parametrize("task", ["line", "maze"])
+def test_a_seed_changes_only_start_goal_and_noise(task):
+    """Without noise and with the start given, two seeds give the same episode (the line task has
+    no goal; the maze task's goal is drawn, so it is given too); with noise they do not."""
+    start = {"line": (1.5, 0.6, 0.0), "maze": (0.36, 0.36, np.pi / 2)}[task]
+    quiet = CtsimEnv(task, noise="none", goal="world")
+    a, b = _rollout(quiet, 1, ACTIONS, {"start": start}), _rollout(quiet, 2, ACTIONS, {"start": start})
+    if task == "maze":  # the goal differs: only the observation's last three (goal distance, bearing) may
+        a, b = a[:, :-3], b[:, :-3]
+    assert np.array_equal(a, b)
+    noisy = CtsimEnv(task)
+    assert not np.array_equal(_rollout(noisy, 1, ACTIONS, {"start": start}), _rollout(noisy, 2, ACTIONS, {"start": start}))
 
 
 def test_goal_terminates_with_the_bonus():
     env = CtsimEnv("maze")
-    goal = np.mean(env.world_spec.goals[0].vertices, axis=0)
-    env.reset(seed=0, options={"start": (goal[0], goal[1] - 0.01, np.pi / 2)})
+    _, info = env.reset(seed=0)
+    goal = info["goal"]
+    env.reset(seed=0, options={"start": (goal[0], goal[1] - 0.05, np.pi / 2)})
     _, reward, terminated, truncated, _ = env.step(np.zeros(2, dtype=np.float32))
-    assert terminated and not truncated and reward > 9  # +10 at the goal, less the time cost
+    assert terminated and not truncated and reward > GOAL_BONUS - 1  # less the time cost of one step
 
 
-def test_vector_env_equals_separate_envs():
-    n, steps = 3, 40
-    vec = gym.make_vec("ctsim/LineFollow-v0", num_envs=n)
+def _separate(n: int, seed: int, actions: np.ndarray, **kwargs) -> tuple[np.ndarray, ...]:
+    """N CtsimEnvs driven as Gymnasium's next-step autoreset drives the copies of a vector env."""
+    envs = [CtsimEnv(**kwargs) for _ in range(n)]
+    obs = [[env.reset(seed=seed + i)[0] for i, env in enumerate(envs)]]
+    rewards, ends = [], []
+    ended = [False] * n
+    for step in actions:
+        row, reward, end = [], [], []
+        for i, env in enumerate(envs):
+            if ended[i]:
+                o, r, te, tr = env.reset()[0], 0.0, False, False
+            else:
+                o, r, te, tr, _ = env.step(step[i])
+            ended[i] = te or tr
+            row.append(o), reward.append(r), end.append((te, tr))
+        obs.append(row), rewards.append(reward), ends.append(end)
+    return np.array(obs), np.array(rewards), np.array(ends)
+
+
+def _batched(vec, seed: int, actions: np.ndarray) -> tuple[np.ndarray, ...]:
+    obs = [vec.reset(seed=seed)[0]]
+    rewards, ends = [], []
+    for step in actions:
+        o, r, te, tr, _ = vec.step(step)
+        obs.append(o), rewards.append(r), ends.append(np.stack((te, tr), axis=1))
+    return np.array(obs), np.array(rewards), np.array(ends)
+
+
+@pytest.mark.parametrize("task", ["line", "maze"])
+def test_batched_vector_env_equals_separate_envs_step_for_step(task):
+    """Copies in one world of robots that do not meet: the same observations, rewards and ends
+    as separate envs, bit for bit, across episodes (0.5 s episodes: ten steps, then an autoreset)."""
+    n, steps = 4, 45
+    kwargs = {"task": task, "episode_seconds": 0.5}
+    vec = gym.make_vec(IDS[task], num_envs=n, episode_seconds=0.5)
     assert isinstance(vec.unwrapped, CtsimVectorEnv)
     actions = np.random.default_rng(2).uniform(-1, 1, (steps, n, 2)).astype(np.float32)
-    obs, _ = vec.reset(seed=10)
-    batched = [obs] + [vec.step(a)[0] for a in actions]
-    separate = [_rollout(CtsimEnv("line"), 10 + i, actions[:, i]) for i in range(n)]
-    assert np.array_equal(np.stack(batched, axis=1), np.stack(separate))
+    batched, separate = _batched(vec, 10, actions), _separate(n, 10, actions, **kwargs)
+    assert separate[2].any()  # episodes did end inside the comparison
+    for got, expected in zip(batched, separate):
+        assert np.array_equal(got, expected)
+
+
+def test_process_per_env_vector_env_equals_the_batched_one():
+    n, steps = 2, 12
+    actions = np.random.default_rng(3).uniform(-1, 1, (steps, n, 2)).astype(np.float32)
+    processes = gym.make_vec("ctsim/LineFollow-v0", num_envs=n, vectorization_mode="async", episode_seconds=0.3)
+    try:
+        assert isinstance(processes, gym.vector.AsyncVectorEnv)
+        got = _batched(processes, 5, actions)
+    finally:
+        processes.close()
+    expected = _batched(CtsimVectorEnv(n, task="line", episode_seconds=0.3), 5, actions)
+    for a, b in zip(got, expected):
+        assert np.array_equal(a, b)
+
+
+def test_vector_env_refuses_bad_seeds_and_masks():
+    vec = CtsimVectorEnv(3, task="line")
+    with pytest.raises(ValueError, match="one per copy"):
+        vec.reset(seed=[1, 2])
+    with pytest.raises(RuntimeError, match="reset"):
+        vec.step(np.zeros((3, 2), dtype=np.float32))
+    vec.reset(seed=0)
+    obs, _ = vec.reset(options={"reset_mask": np.array([False, True, False])})
+    assert obs.shape == (3, vec.single_observation_space.shape[0])
 
 
 def test_render_draws_the_world():

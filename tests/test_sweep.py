@@ -31,6 +31,7 @@ RUNS = 200  # 5 worlds x 2 controllers x 4 noise levels x 5 seeds
 
 CRASH = """
 import os
+import signal
 from pathlib import Path
 from bots.commands import Twist
 
@@ -50,6 +51,17 @@ class Crash:
 class Raise:
     def step(self, t, readings):
         raise ValueError("no good")
+
+class Interrupt:
+    '''Ctrl-C to its own process at step `at` (0: never).'''
+    def __init__(self, at: int = 0):
+        self.at, self.steps = at, 0
+
+    def step(self, t, readings):
+        self.steps += 1
+        if self.steps == self.at:
+            os.kill(os.getpid(), signal.SIGINT)
+        return Twist(0.1, 0.0)
 """
 
 
@@ -107,6 +119,62 @@ def test_killed_half_way_resumes_with_every_row_once(spec_file, reference, tmp_p
     assert len(ran) == RUNS - len(kept)  # only the missing runs executed
     pd.testing.assert_frame_equal(measured(table), measured(reference))
     assert not list((tmp_path / PARTS).glob("*.parquet"))  # folded into results.parquet
+
+
+def _wait_for_parts(process: subprocess.Popen, folder: Path, count: int) -> None:
+    deadline = time.monotonic() + 300
+    while len(list((folder / PARTS).glob("*.parquet"))) < count:
+        assert process.poll() is None, "the sweep ended before it was stopped"
+        assert time.monotonic() < deadline, "the sweep made no progress"
+        time.sleep(0.05)
+
+
+def _group_gone(pgid: int) -> bool:
+    try:
+        os.killpg(pgid, 0)
+    except ProcessLookupError:
+        return True
+    return False
+
+
+@pytest.mark.parametrize("signum, status", [(signal.SIGINT, 130), (signal.SIGTERM, 143)], ids=["sigint", "sigterm"])
+def test_a_signal_to_the_whole_group_stops_the_sweep_and_resume_finishes_it(spec_file, reference, tmp_path, signum, status):
+    """As a terminal's Ctrl-C (SIGINT to every process of the foreground group) or a job
+    scheduler's SIGTERM: every process ends, finished rows stay, the rest run on resume."""
+    process = subprocess.Popen(
+        [sys.executable, "-m", "sim.cli", "sweep", str(spec_file), "--out", str(tmp_path), "--jobs", "2"],
+        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, start_new_session=True,
+    )
+    try:
+        _wait_for_parts(process, tmp_path, 20)
+        os.killpg(process.pid, signum)
+        _, err = process.communicate(timeout=120)  # generous: the stop is timed in bench/run.py, not here
+    finally:
+        if process.poll() is None:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
+    assert process.returncode == status and err.strip().endswith(("interrupted", "terminated"))
+    deadline = time.monotonic() + 60
+    while not _group_gone(process.pid):  # workers and their fork server end with the sweep
+        assert time.monotonic() < deadline, "a process of the sweep outlived it"
+        time.sleep(0.05)
+    kept = load_results(tmp_path)
+    assert 20 <= len(kept) < RUNS and kept["run_id"].is_unique
+    assert (kept["reason"] == "duration").all()  # no run cut short by the signal became a row
+    ran = []
+    table = sweep(spec_file, tmp_path, Processes(2), on_row=ran.append, progress=False)
+    assert len(ran) == RUNS - len(kept)
+    pd.testing.assert_frame_equal(measured(table), measured(reference))
+
+
+def test_ctrl_c_in_a_serial_sweep_records_no_cut_run(crash, tmp_path):
+    """In-process runs see Ctrl-C themselves (the run loop ends the run early): that run is no
+    row, and the sweep stops with the runs before it kept."""
+    spec = {"base": {"duration": 0.3, "world": "empty", "controller": f"{crash}:Interrupt"}, "axes": {"params.at": [0, 5], "seed": [0, 1, 2]}}
+    with pytest.raises(KeyboardInterrupt):
+        sweep(spec, tmp_path / "out", Serial(), progress=False)
+    kept = load_results(tmp_path / "out")
+    assert list(kept["params.at"]) == [0, 0, 0] and (kept["reason"] == "duration").all()
 
 
 @pytest.fixture()

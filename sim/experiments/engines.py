@@ -8,13 +8,15 @@ The function itself must not raise (a sweep turns a failing run into a row with 
 
 from __future__ import annotations
 
+import importlib
 import logging
 import multiprocessing
 import os
 import signal
+import threading
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from multiprocessing.connection import wait
 from typing import Any
 
@@ -23,7 +25,8 @@ RETRIES = 3
 
 
 PRELOAD = ["sim.experiments.sweep", "sim.experiments.warm"]
-"""Modules the local workers' fork server imports (and runs, `warm`) once, so that a new worker starts warm."""
+"""Modules a worker imports (and runs, `warm`) before its first run: once in a fork server or a
+Dask worker, or in each worker forked from a process that has not yet."""
 
 
 @dataclass(frozen=True)
@@ -46,83 +49,139 @@ class Serial:
         pass
 
 
-def _serve(conn, fn: Callable[[Any], Any]) -> None:  # noqa: ANN001 (a multiprocessing Connection)
-    """A worker process: run jobs from the pipe until it closes. Ctrl-C is the parent's to handle."""
+def _serve(conn, inherited: list) -> None:  # noqa: ANN001 (multiprocessing Connections)
+    """A worker process: run batches of jobs from the pipe, sending back each outcome as its run
+    finishes, until it gets None or the pipe closes. Ctrl-C is the parent's to handle: it stops
+    the workers. `inherited`: the parent's ends of pipes a fork copied here, closed at once so
+    that the parent alone holds them (a worker sees the pipe close when the parent is gone)."""
+    for other in inherited:
+        other.close()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    while True:
-        try:
-            job = conn.recv()
-        except EOFError:
-            return
-        conn.send(fn(job))
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # (not a handler forked from the parent's command line)
+    for module in PRELOAD:
+        importlib.import_module(module)
+    try:
+        while True:
+            message = conn.recv()
+            if message is None:
+                return
+            fn, batch = message
+            for job in batch:
+                conn.send(fn(job))
+    except (EOFError, OSError):  # the parent is done with us (or gone)
+        return
+
+
+@dataclass
+class _Worker:
+    """A worker process, its pipe and the jobs sent to it whose outcomes have not come back, in order."""
+
+    process: Any
+    conn: Any
+    queued: deque = field(default_factory=deque)
 
 
 class Processes:
-    """Local worker processes (default: one per core), one run at a time each, forked from a
-    server process (not from this one, whose threads a fork would copy mid-state). A worker that
-    dies is replaced and its run started again, up to `retries` times."""
+    """Local worker processes (default: one per core) that start warm and stay up for every sweep
+    this engine runs, until `close`. They are forked from this process when that is safe (it runs
+    one thread, so a fork copies no lock held mid-way): they then start with all it imported and
+    loaded and warm up (`PRELOAD`) side by side. Otherwise they are forked from a server process
+    that imported ctsim and loaded its compiled kernels once. Jobs go out in batches, a batch ahead of the
+    one running, so that no worker waits for the parent between runs. A worker that dies is
+    replaced and the run it was running started again, up to `retries` times. On Ctrl-C, SIGTERM or
+    any other exception in the parent the workers are killed at once: their unfinished runs are
+    simply not in the table, and run again when the sweep resumes."""
 
-    def __init__(self, workers: int | None = None, retries: int = RETRIES):
+    def __init__(self, workers: int | None = None, retries: int = RETRIES, batch: int | None = None):
         self.workers = workers or os.cpu_count() or 1
         self.retries = retries
-        self._context = multiprocessing.get_context("forkserver")
-        self._context.set_forkserver_preload(PRELOAD)  # workers fork from a process that imported these once
-        self._live: list[tuple[Any, Any]] = []
+        self.batch = batch
+        """Jobs per message (default: `_batch_size`)."""
+        self._pool: list[_Worker] = []
 
-    def _start(self, fn: Callable[[Any], Any]) -> tuple[Any, Any]:
-        parent, child = self._context.Pipe()
-        process = self._context.Process(target=_serve, args=(child, fn), daemon=True)
+    def _start(self) -> _Worker:
+        forked = threading.active_count() == 1
+        context = multiprocessing.get_context("fork" if forked else "forkserver")
+        context.set_forkserver_preload(PRELOAD)
+        parent, child = context.Pipe()
+        inherited = [parent, *(w.conn for w in self._pool)] if forked else []  # (a fork server's children inherit none)
+        process = context.Process(target=_serve, args=(child, inherited), daemon=True)
         process.start()
         child.close()
-        self._live.append((process, parent))
-        return process, parent
+        worker = _Worker(process, parent)
+        self._pool.append(worker)
+        return worker
 
-    def _stop(self, worker: tuple[Any, Any]) -> None:
-        process, conn = worker
-        conn.close()
-        process.join(timeout=5)
-        if process.is_alive():
-            process.kill()
-            process.join()
-        self._live.remove(worker)
+    def _retire(self, worker: _Worker, kill: bool = False) -> None:
+        if kill:
+            worker.process.kill()
+        else:
+            try:
+                worker.conn.send(None)
+            except OSError:  # it is gone already
+                pass
+        worker.conn.close()
+        worker.process.join(timeout=5)
+        if worker.process.is_alive():
+            worker.process.kill()
+            worker.process.join()
+        self._pool.remove(worker)
 
     def imap(self, fn: Callable[[Any], Any], jobs: Iterable[Any]) -> Iterator[tuple[Any, Any]]:
         pending = deque(jobs)
+        size = self.batch or _batch_size(len(pending), self.workers)
+        while len(self._pool) < min(self.workers, len(pending)):
+            self._start()
         deaths: dict[int, int] = {}
-        idle = [self._start(fn) for _ in range(min(self.workers, len(pending)))]
-        busy: dict[Any, tuple[tuple[Any, Any], Any]] = {}  # connection -> (worker, job)
+        finished = False
         try:
-            while pending or busy:
-                while idle and pending:
-                    worker, job = idle.pop(), pending.popleft()
-                    worker[1].send(job)
-                    busy[worker[1]] = (worker, job)
-                sentinels = {worker[0].sentinel: conn for conn, (worker, _) in busy.items()}
-                for ready in wait([*busy, *sentinels]):
-                    conn = sentinels.get(ready, ready)
-                    if conn not in busy:  # both its pipe and its death were ready
-                        continue
-                    worker, job = busy.pop(conn)
+            while pending or any(w.queued for w in self._pool):
+                for worker in self._pool:
+                    while pending and len(worker.queued) < 2 * size:  # the running batch and the next
+                        batch = [pending.popleft() for _ in range(min(size, len(pending)))]
+                        worker.conn.send((fn, batch))
+                        worker.queued.extend(batch)
+                busy = [w for w in self._pool if w.queued]
+                ready = set(wait([w.conn for w in busy] + [w.process.sentinel for w in busy]))
+                for worker in [w for w in busy if w.conn in ready or w.process.sentinel in ready]:
                     try:
-                        outcome = conn.recv()
-                    except (EOFError, OSError):  # the worker died running this job
-                        self._stop(worker)
+                        while worker.queued and worker.conn.poll():
+                            outcome = worker.conn.recv()
+                            yield worker.queued.popleft(), outcome
+                        if worker.queued and not worker.process.is_alive():
+                            raise EOFError
+                    except (EOFError, OSError):  # the worker died running its first queued job
+                        job = worker.queued.popleft()
+                        pending.extendleft(reversed(worker.queued))  # the rest of its batches, in order
+                        worker.queued.clear()
+                        self._retire(worker)
                         deaths[id(job)] = deaths.get(id(job), 0) + 1
                         if deaths[id(job)] <= self.retries:
                             pending.appendleft(job)
                         else:
-                            yield job, Lost(f"its worker process died {deaths[id(job)]} times (exit code {worker[0].exitcode})")
-                        if pending:
-                            idle.append(self._start(fn))
-                        continue
-                    idle.append(worker)
-                    yield job, outcome
+                            yield job, Lost(f"its worker process died {deaths[id(job)]} times (exit code {worker.process.exitcode})")
+                        if pending and len(self._pool) < self.workers:
+                            self._start()
+            finished = True
         finally:
-            self.close()
+            if not finished:  # stopped half-way: the workers' queued runs must not outlive this call
+                self.close(kill=True)
 
-    def close(self) -> None:
-        for worker in list(self._live):
-            self._stop(worker)
+    def close(self, kill: bool = False) -> None:
+        """Stop the workers (`kill`: at once, not after the run each is in)."""
+        for worker in list(self._pool):
+            self._retire(worker, kill)
+
+
+def _batch_size(jobs: int, workers: int) -> int:
+    """Jobs per message: about a sixteenth of a worker's share, 1 to 8 (enough to hide the round
+    trip between runs, few enough that the last batches still spread over every worker)."""
+    return max(1, min(8, jobs // (16 * workers)))
+
+
+def _run_batch(fn: Callable[[Any], Any], batch: list[Any]) -> list[Any]:
+    """A Dask task: the outcomes of a batch of jobs."""
+    return [fn(job) for job in batch]
 
 
 class Dask:
@@ -132,29 +191,43 @@ class Dask:
     lost. Workers need ctsim installed and must see the world, robot and controller files by the
     same paths."""
 
-    def __init__(self, address: str | None = None, workers: int | None = None, timeout: float = 30.0):
+    def __init__(self, address: str | None = None, workers: int | None = None, timeout: float = 30.0, batch: int | None = None):
         from distributed import Client, LocalCluster
 
         self.cluster = None
+        self.batch = batch
+        """Jobs per task (default as `Processes`); a batch whose worker died is split into single runs."""
         if address is None:
             n = workers or os.cpu_count() or 1
-            self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR)
+            self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address="127.0.0.1:0",
+                                        silence_logs=logging.ERROR, preload=PRELOAD)  # fmt: skip
             self.client = Client(self.cluster, timeout=timeout)
         else:
             self.client = Client(address, timeout=timeout)
+            self.client.run(importlib.import_module, PRELOAD[-1])  # warm the workers there are now
         self.workers = max(1, len(self.client.scheduler_info(n_workers=-1)["workers"]))
 
     def imap(self, fn: Callable[[Any], Any], jobs: Iterable[Any]) -> Iterator[tuple[Any, Any]]:
         from distributed import KilledWorker, as_completed
 
-        futures = {self.client.submit(fn, job, pure=False): job for job in jobs}
+        jobs = list(jobs)
+        size = self.batch or _batch_size(len(jobs), self.workers)
+        futures = {self.client.submit(_run_batch, fn, jobs[k : k + size], pure=False): jobs[k : k + size] for k in range(0, len(jobs), size)}
+        running = as_completed(futures)
         try:
-            for future in as_completed(futures):
-                job = futures.pop(future)
+            for future in running:
+                batch = futures.pop(future)
                 try:
-                    yield job, future.result()
+                    outcomes = future.result()
                 except KilledWorker as err:
-                    yield job, Lost(f"its Dask worker died on every attempt ({err})")
+                    if len(batch) > 1:  # which run killed it is unknown: each again, alone
+                        for job in batch:
+                            single = self.client.submit(_run_batch, fn, [job], pure=False)
+                            futures[single] = [job]
+                            running.add(single)
+                        continue
+                    outcomes = [Lost(f"its Dask worker died on every attempt ({err})")]
+                yield from zip(batch, outcomes)
         finally:
             self.client.cancel(list(futures))
 

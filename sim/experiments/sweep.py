@@ -15,6 +15,7 @@ import math
 import sys
 import time
 from collections.abc import Callable
+from contextlib import closing
 from pathlib import Path
 from typing import Any
 
@@ -120,7 +121,10 @@ def check(planned: list[Job]) -> None:
 def _progress(total: int, done: int) -> Any:
     from tqdm import tqdm
 
-    return tqdm(total=total, initial=done, unit="run", file=sys.stderr, disable=not sys.stderr.isatty(), smoothing=0.1, dynamic_ncols=True)
+    class Bar(tqdm):
+        monitor_interval = 0  # no monitor thread: local workers are forked from this process when it runs one thread
+
+    return Bar(total=total, initial=done, unit="run", file=sys.stderr, disable=not sys.stderr.isatty(), smoothing=0.1, dynamic_ncols=True)
 
 
 def sweep(
@@ -131,7 +135,9 @@ def sweep(
     progress: bool = True,
 ) -> pd.DataFrame:
     """Run every planned run not yet in `out` on `runner` (default: local processes, all cores),
-    keeping each row as it finishes; the whole table (also on Ctrl-C, which re-raises)."""
+    keeping each row as it finishes; the whole table. Ctrl-C (KeyboardInterrupt) and SIGTERM
+    (`sim.run.Terminated`, where a handler raises it, as `ctsim sweep` does) stop the runs in
+    flight at once and re-raise, with every finished row kept: the same call resumes."""
     if isinstance(spec, dict):
         spec = spec_from_dict(spec)
     elif not isinstance(spec, SweepSpec):
@@ -146,13 +152,14 @@ def sweep(
     runner = runner or Processes()
     bar = _progress(len(planned), len(planned) - len(todo)) if progress else None
     try:
-        for job, result in runner.imap(execute, todo):
-            row = lost_row(job, result) if isinstance(result, Lost) else result
-            store.append(out, row)
-            if on_row is not None:
-                on_row(row)
-            if bar is not None:
-                bar.update(1)
+        with closing(runner.imap(execute, todo)) as outcomes:  # closed at once on Ctrl-C: the engine stops its workers
+            for job, result in outcomes:
+                row = lost_row(job, result) if isinstance(result, Lost) else result
+                store.append(out, row)
+                if on_row is not None:
+                    on_row(row)
+                if bar is not None:
+                    bar.update(1)
     finally:
         if bar is not None:
             bar.close()

@@ -6,6 +6,8 @@ large worlds) so that line, border and hole tests cost an array lookup per senso
 
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -34,6 +36,14 @@ class FloorMap:
     def outside_absorption(self) -> float:
         """What the floor swallows off the map: everything where that is a hole, else as the base floor."""
         return 1.0 if self.outside_is_hole else self.base_absorption
+
+    def hole_at(self, x: float, y: float) -> bool:
+        """Whether the point (x, y) (m) is over a hole (off the map: where that is a hole), as
+        the world's kernels test it."""
+        ix, iy = math.floor((x - self.origin[0]) / self.cell), math.floor((y - self.origin[1]) / self.cell)
+        if ix < 0 or iy < 0 or iy >= self.hole.shape[0] or ix >= self.hole.shape[1]:
+            return self.outside_is_hole
+        return bool(self.hole[iy, ix])
 
     @cached_property
     def value(self) -> np.ndarray:

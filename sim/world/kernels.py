@@ -34,9 +34,9 @@ STATE = 16
 TICKS, COUNTS, TALLIES = 0, 2, 4
 # the world's scalars (SCALARS,) float64: floor raster origin (x, y m), cell (m), whether outside
 # it is a hole (0/1), the absorption outside it, IR ray length (m), slide margin (m), dt (s), the
-# wall grid's origin (x, y m) and cell (m) (`build_wall_grid`)
-ORIGIN, CELL, OUTSIDE_IS_HOLE, OUTSIDE_ABSORPTION, IR_LENGTH, SLIDE_MARGIN, DT, WALL_FRAME = 0, 2, 3, 4, 5, 6, 7, 8
-SCALARS = 11
+# wall grid's origin (x, y m) and cell (m) (`build_wall_grid`), whether robots meet each other (0/1)
+ORIGIN, CELL, OUTSIDE_IS_HOLE, OUTSIDE_ABSORPTION, IR_LENGTH, SLIDE_MARGIN, DT, WALL_FRAME, ROBOTS_MEET = 0, 2, 3, 4, 5, 6, 7, 8, 11
+SCALARS = 12
 # the wall grid's cells (int64, one array): columns, rows, then the cells' starts (rows x columns
 # + 1, row-major; cell k lists members[starts[k]:starts[k + 1]]), the members, a buffer
 COLUMNS, ROWS, STARTS = 0, 1, 2
@@ -45,6 +45,8 @@ COLUMNS, ROWS, STARTS = 0, 1, 2
 # IR), reach (m; light); and (m, INDEX) int64: owning robot, noise row and curve (IR)
 AT, HEIGHT, DIRECTION, OPENING, REACH, AXIS, SENSOR = 0, 2, 3, 4, 5, 6, 7  # AXIS: 1 for an IR sensor's 'axis' view
 OWNER, NOISE_ROW, CURVE, INDEX = 0, 1, 2, 3
+GHOST = -2
+"""The owner of a robot's circle that no sensor sees (a world of robots that do not meet, `sense_ir`)."""
 # the world's count of quiet steps (2,) int64: steps in a row that began with no robot touching a
 # wall, and how many such steps pymunk still takes (-1: every step is pymunk's)
 STREAK, QUIET_AFTER = 0, 1
@@ -211,7 +213,7 @@ def settle(
     wall_grid = (scalars[WALL_FRAME : WALL_FRAME + 3], wall_cells)
     stop_at_contact(pose, move, params, state, vertices, ranges, boxes, wall_grid)
     sweep_walls(pose, move, params[:, SWEEP_RADIUS], scalars[SLIDE_MARGIN], vertices, ranges, boxes, wall_grid)
-    if pose.shape[0] > 1:
+    if pose.shape[0] > 1 and scalars[ROBOTS_MEET] != 0.0:
         keep_apart(pose, move, params[:, APART_RADIUS])
     changed = hold_at_holes(
         pose, move, alpha, contacts, anchored, hole, scalars[ORIGIN : ORIGIN + 2], scalars[CELL], scalars[OUTSIDE_IS_HOLE] != 0.0,
@@ -554,7 +556,7 @@ def sense_ir(
 ) -> None:
     """Distance (m) from each IR sensor at `origins` to the nearest point of a wall (convex
     polygons vertices[ranges[w, 0]:ranges[w, 1]], bounding boxes `boxes`) or a circle (x, y,
-    radius, owning robot; a sensor skips its own robot's) within `cone` (half-angle, rad) of
+    radius, owning robot or -1; a sensor skips its own robot's, and every sensor a GHOST's) within `cone` (half-angle, rad) of
     `look` and within `length`; inf if none. As `World.ray_distance`: per convex body the nearest
     point if it lies in the cone, else the first hit of an edge ray. A sensor with `axis[k]` 1
     sees a wall where its axis meets it or at a corner inside the cone (c't-Sim's pick).
@@ -609,7 +611,7 @@ def sense_ir(
                     if sorted_key[p] > last:
                         break
                     j = order[p]
-                    if int(circles[j, 3]) == owner[k]:
+                    if int(circles[j, 3]) == owner[k] or int(circles[j, 3]) == GHOST:
                         continue
                     best = _circle_in_view(ox, oy, cx, cy, cos_cone, l1x, l1y, l2x, l2y, circles[j, 0], circles[j, 1], circles[j, 2], best)
                     if best < 0.0:
@@ -617,7 +619,7 @@ def sense_ir(
                         break
         else:
             for j in range(circles.shape[0]):
-                if int(circles[j, 3]) == owner[k]:
+                if int(circles[j, 3]) == owner[k] or int(circles[j, 3]) == GHOST:
                     continue
                 best = _circle_in_view(ox, oy, cx, cy, cos_cone, l1x, l1y, l2x, l2y, circles[j, 0], circles[j, 1], circles[j, 2], best)
                 if best < 0.0:

@@ -46,6 +46,13 @@ class NormalBlocks:
             self._left = block - int(self.used.max()) if len(self.rngs) else block
         self._left -= count
 
+    def restart(self, row: int, rng: np.random.Generator) -> None:
+        """Row `row` draws from `rng` from now on: the values it still holds are replaced by
+        `rng`'s first ones, so that every row stays where `take` expects it."""
+        self.rngs[row] = rng
+        start = int(self.used[row])
+        self.values[row, start:] = rng.standard_normal(self.values.shape[1] - start)
+
     def take(self, count: int) -> np.ndarray:
         """The next `count` normals of every row (rows, count), for consumers that take the same
         number from every row each step (so all rows are used alike)."""

@@ -55,15 +55,24 @@ class _Noisy:
     rows: np.ndarray
     std: np.ndarray
     normals: NormalBlocks
+    sensors: tuple[tuple[int, str], ...]
+    """(robot index, sensor name) of each row of `normals`, to seed a robot's rows anew."""
 
     @classmethod
-    def of(cls, items: list[tuple[int, np.random.Generator, float]]) -> _Noisy:
-        """From (row, generator, std) per noisy sensor."""
+    def of(cls, items: list[tuple[int, Robot, str, float]]) -> _Noisy:
+        """From (row, robot, sensor name, std) per noisy sensor."""
         return cls(
-            rows=np.array([k for k, _, _ in items], dtype=np.int64),
-            std=np.array([std for _, _, std in items], dtype=np.float64),
-            normals=NormalBlocks([rng for _, rng, _ in items]),
+            rows=np.array([k for k, _, _, _ in items], dtype=np.int64),
+            std=np.array([std for _, _, _, std in items], dtype=np.float64),
+            normals=NormalBlocks([robot.rngs[name] for _, robot, name, _ in items]),
+            sensors=tuple((robot.index, name) for _, robot, name, _ in items),
         )
+
+    def reseed(self, robot: Robot) -> None:
+        """Draw `robot`'s rows from its (new) generators from now on."""
+        for k, (index, name) in enumerate(self.sensors):
+            if index == robot.index:
+                self.normals.restart(k, robot.rngs[name])
 
     def add_rounded(self, values: np.ndarray, top: int) -> None:
         """Gaussian noise on the noisy sensors' integer `values`, rounded (half to even, as
@@ -136,12 +145,15 @@ class Robot:
 class World:
     """A pymunk world built from a `WorldSpec`, with robots added by `add_robot`."""
 
-    def __init__(self, spec: WorldSpec, dt: float = 0.01, seed: int = 0, floor_cell: float = 0.002):
+    def __init__(self, spec: WorldSpec, dt: float = 0.01, seed: int = 0, floor_cell: float = 0.002, robots_meet: bool = True):
+        """`robots_meet=False`: the robots pass through each other and no sensor sees another
+        robot, as copies of one world that happen to share it (a batched Gymnasium env)."""
         if not (math.isfinite(dt) and dt > 0):
             raise ValueError(f"the step dt must be a positive number of seconds, got {dt!r}")
         self.spec = spec
         self.dt = dt
         self.seed = seed
+        self.robots_meet = robots_meet
         self.time = 0.0
         self.steps = 0
         self.robots: list[Robot] = []
@@ -175,12 +187,12 @@ class World:
         self._lights = np.array([(*light.position, light.height, light.radius) for light in spec.lights], dtype=np.float64).reshape(-1, 4)
         self._scalars = np.array(
             (*self.floor.origin, self.floor.cell, self.floor.outside_is_hole, self.floor.outside_absorption, IR_RAY_LENGTH, SLIDE_MARGIN, dt,
-             *self._walls.frame),
+             *self._walls.frame, float(robots_meet)),
             dtype=np.float64,
         )
         """The world's scalars for the kernels (`kernels.SCALARS`; writeable: numba types read-only
         arrays on a slow path)."""
-        self._state = _BatchState([], dt, [])
+        self._state = _BatchState([], dt, [], robots_meet)
         self._bodies = BodyArrays(self.space, [])
         self._poses = np.zeros((0, 3))
         self._kernel_arguments()
@@ -190,12 +202,13 @@ class World:
 
     # --- robots -----------------------------------------------------------------------------
 
-    def add_robot(self, spec: RobotSpec, start: Start | tuple[float, float, float] | None = None, name: str | None = None) -> Robot:
-        """Place a robot at `start` (default: the world's start slot for the next robot)."""
+    def add_robot(self, spec: RobotSpec, start: Start | tuple[float, float, float] | None = None, name: str | None = None,
+                  seed: int | None = None) -> Robot:  # fmt: skip
+        """Place a robot at `start` (default: the world's start slot for the next robot). Its
+        sensors' noise comes from the world's seed, or from `seed` as for the first robot of a
+        world of that seed."""
         index = len(self.robots)
-        if start is None:
-            start = self.spec.start_for(index)
-        x, y, heading = (start.x, start.y, start.heading) if isinstance(start, Start) else start
+        x, y, heading = self._start_pose(index, start)
         outline = spec.chassis.outline if spec.chassis is not None else ()
         if outline:
             body = pymunk.Body(spec.mass, pymunk.moment_for_poly(spec.mass, outline))
@@ -206,8 +219,7 @@ class World:
         body.position = (x, y)
         body.angle = heading
         shape.friction = 0.0
-        shape.filter = pymunk.ShapeFilter(group=index + 1)
-        sensors = ["encoders", "mouse", "mouse2"] + [s.name for s in (*spec.ir, *spec.line, *spec.border, *spec.light)]
+        shape.filter = pymunk.ShapeFilter(group=index + 1 if self.robots_meet else 1)  # a robot's group passes through itself
         robot = Robot(
             index=index,
             name=name or (spec.name if index == 0 else f"{spec.name}{index}"),
@@ -216,7 +228,7 @@ class World:
             shape=shape,
             query_filter=shape.filter,
             ir_curves=tuple(ir_curve_for(s.curve, s.side) for s in spec.ir),
-            rngs={n: sensor_rng(self.seed, index, n) for n in sensors},
+            rngs=self._sensor_rngs(spec, index, seed),
         )
 
         shape.collision_type = ROBOT
@@ -229,11 +241,51 @@ class World:
         self._stale = True
         return robot
 
+    def _start_pose(self, index: int, start: Start | tuple[float, float, float] | None) -> tuple[float, float, float]:
+        if start is None:
+            start = self.spec.start_for(index)
+        return (start.x, start.y, start.heading) if isinstance(start, Start) else tuple(start)
+
+    def _sensor_rngs(self, spec: RobotSpec, index: int, seed: int | None) -> dict[str, np.random.Generator]:
+        sensors = ["encoders", "mouse", "mouse2"] + [s.name for s in (*spec.ir, *spec.line, *spec.border, *spec.light)]
+        if seed is None:
+            return {n: sensor_rng(self.seed, index, n) for n in sensors}
+        return {n: sensor_rng(seed, 0, n) for n in sensors}
+
+    def reset_robot(self, index: int, start: Start | tuple[float, float, float] | None = None, seed: int | None = None) -> Robot:
+        """Put robot `index` back as `add_robot` would put it into a new world: at `start`, at
+        rest, its counters, carries and hole flag cleared, its contacts forgotten and its
+        sensors' noise drawn afresh (from `seed` as in `add_robot`). The other robots go on as
+        they were: with `robots_meet=False`, this is a new episode of one copy of the world."""
+        robot = self.robots[index]
+        if robot.spec.chassis is not None:
+            raise ValueError(f"{robot.name}: a robot on a general chassis cannot be reset in place")
+        st = self._batch()
+        x, y, heading = self._start_pose(index, start)
+        self.space.remove(robot.shape)  # pymunk forgets the shape's contacts (its arbiters) with it
+        body = robot.body
+        body.position, body.angle = (x, y), heading
+        body.velocity, body.angular_velocity, body.force, body.torque = (0.0, 0.0), 0.0, (0.0, 0.0), 0.0
+        self.space.add(robot.shape)
+        self._poses[index] = (x, y, heading)
+        robot.fallen, robot.collisions = False, 0
+        st.state[index], st.tallies[index], st.fallen[index] = 0.0, 0, False
+        robot.rngs = self._sensor_rngs(robot.spec, index, seed)
+        st.reseed(robot)
+        self._quiet[kernels.STREAK] = 0
+        return robot
+
+    @property
+    def tallies(self) -> np.ndarray:
+        """(n, 4) per robot: encoder ticks (left, right) and mouse counts (forward, left) of the
+        last step, as `read_all` gives them (a view, overwritten by the next step)."""
+        return self._batch().tallies
+
     def _batch(self) -> _BatchState:
         """The kernels' arrays, rebuilt once after robots joined (not once per robot added: a
         thousand robots would cost a million rows)."""
         if self._stale:
-            self._state = _BatchState(self.robots, self.dt, self._movable_shapes)
+            self._state = _BatchState(self.robots, self.dt, self._movable_shapes, self.robots_meet)
             self._bodies = BodyArrays(self.space, [r.body for r in self.robots])
             self._poses = self._bodies.poses()
             self._kernel_arguments()
@@ -515,7 +567,7 @@ class _BatchState:
     packed into a few 2-D arrays in the column layout of `sim.world.kernels` (one argument each
     per kernel call), with named views of the columns the Python side uses."""
 
-    def __init__(self, robots: list[Robot], dt: float, movable_shapes: list[pymunk.Circle]):
+    def __init__(self, robots: list[Robot], dt: float, movable_shapes: list[pymunk.Circle], robots_meet: bool = True):
         n = len(robots)
         specs = [r.spec for r in robots]
         motor = [s.motor for s in specs]
@@ -551,7 +603,7 @@ class _BatchState:
         """Encoder ticks then mouse counts of the last step."""
         self.fallen = np.array([r.fallen for r in robots], dtype=np.bool_)
         self.noisy_encoders = [(r.index, r.rngs["encoders"], r.spec.encoders) for r in robots if r.spec.encoders.slip_std or r.spec.encoders.tick_noise]
-        self.noisy_mice = _Noisy.of([(r.index, r.rngs["mouse"], r.spec.mouse.noise_std) for r in robots if r.spec.mouse is not None and r.spec.mouse.noise_std])
+        self.noisy_mice = _Noisy.of([(r.index, r, "mouse", r.spec.mouse.noise_std) for r in robots if r.spec.mouse is not None and r.spec.mouse.noise_std])
 
         floor = [(r, s) for r in robots for s in (*r.spec.line, *r.spec.border)]
         light = [(r, s) for r in robots for s in r.spec.light]
@@ -568,7 +620,7 @@ class _BatchState:
         self.sensors[len(floor) + len(light) :, kernels.AXIS] = [s.view == "axis" for _, s in ir]
 
         def noisy(items):
-            return _Noisy.of([(k, robot.rngs[s.name], s.noise_std) for k, (robot, s) in enumerate(items) if s.noise_std])
+            return _Noisy.of([(k, robot, s.name, s.noise_std) for k, (robot, s) in enumerate(items) if s.noise_std])
 
         self.floor_noise = noisy(floor)
         self.light_noise = noisy(light)
@@ -579,13 +631,19 @@ class _BatchState:
         self.index[len(floor) + len(light) :, kernels.NOISE_ROW] = self.ir.noise_row
         self.index[len(floor) + len(light) :, kernels.CURVE] = self.ir.curve
         self.circles = np.array(
-            [(0.0, 0.0, r.shape.radius, r.index) for r in robots if isinstance(r.shape, pymunk.Circle)]
+            [(0.0, 0.0, r.shape.radius, r.index if robots_meet else kernels.GHOST) for r in robots if isinstance(r.shape, pymunk.Circle)]
             + [(0.0, 0.0, shape.radius, -1) for shape in movable_shapes],
             dtype=np.float64,
         ).reshape(-1, 4)
-        """Robots then movable obstacles as circles (x, y, radius, robot index or -1) for the IR
-        kernel; positions are filled in at each read."""
+        """Robots then movable obstacles as circles (x, y, radius, robot index, GHOST for a robot
+        no other sees, or -1) for the IR kernel; positions are filled in at each read."""
         self.layout = SensorLayout.of([(len(s.ir), len(s.line), len(s.border), len(s.light)) for s in specs])
+
+    def reseed(self, robot: Robot) -> None:
+        """Draw `robot`'s noise from its (new) generators from now on."""
+        self.noisy_encoders = [(i, robot.rngs["encoders"] if i == robot.index else rng, enc) for i, rng, enc in self.noisy_encoders]
+        for noisy in (self.noisy_mice, self.floor_noise, self.light_noise, self.ir.noise):
+            noisy.reseed(robot)
 
     def draw_encoder_noise(self) -> None:
         """Random slip and spurious ticks for the robots whose encoders have them."""
