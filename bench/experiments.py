@@ -3,14 +3,20 @@ runs, and the vectorised Gymnasium environment against N separate environments."
 
 from __future__ import annotations
 
+import os
+import signal
+import subprocess
+import sys
 import tempfile
 import time
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from sim.experiments import Dask, Processes, Serial, sweep
+from sim.experiments import Dask, Processes, Serial, load_results, sweep
+from sim.experiments.store import PARTS
 
 
 def _sweep_seconds(make_runner: Callable[[], Any], runs: int, duration: float) -> float:
@@ -35,6 +41,31 @@ def sweep_engines(runs: int, duration: float = 20.0) -> tuple[float, float, floa
     processes = runs / _sweep_seconds(Processes, runs, duration)
     dask = runs / _sweep_seconds(Dask, runs, duration)
     return loop, processes, dask
+
+
+def sweep_stop(duration: float = 20.0) -> tuple[float, float]:
+    """(seconds from a Ctrl-C to the whole process group of a running `ctsim sweep` until every
+    process of it is gone, mean wall seconds of one of its runs): a terminal's Ctrl-C, as the
+    tests send it, timed here."""
+    with tempfile.TemporaryDirectory() as folder:
+        spec = Path(folder) / "stop.toml"
+        spec.write_text(f"[base]\nduration = {duration}\n[axes]\nseed = {list(range(1000))}\n")
+        out = Path(folder) / "out"
+        process = subprocess.Popen([sys.executable, "-m", "sim.cli", "sweep", str(spec), "--out", str(out)],
+                                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)  # fmt: skip
+        while len(list((out / PARTS).glob("*.parquet"))) < 4:
+            time.sleep(0.01)
+        start = time.perf_counter()
+        os.killpg(process.pid, signal.SIGINT)
+        process.wait()
+        while True:
+            try:
+                os.killpg(process.pid, 0)
+            except ProcessLookupError:
+                break
+            time.sleep(0.001)
+        stopped = time.perf_counter() - start
+        return stopped, float(load_results(out)["wall_time_s"].mean())
 
 
 def vector_env(num_envs: int, steps: int) -> tuple[float, float]:
@@ -74,6 +105,9 @@ def figures(scale: float):
     yield "sweep_speedup", "x (processes / loop, same run; bar >= 1.7 on two cores)", lambda: measure_sweep()[1] / measure_sweep()[0]
     yield "sweep_dask", "runs/s (the same runs on a Dask LocalCluster, one worker per core, its start included)", lambda: measure_sweep()[2]
     yield "sweep_dask_over_processes", "(Dask / local processes, same run; bar >= 0.8)", lambda: measure_sweep()[2] / measure_sweep()[1]
+    measure_stop = once("stop", sweep_stop)
+    yield "sweep_stop_after_sigint", "s (Ctrl-C to a running `ctsim sweep`'s process group until all of it is gone; bar <= 2)", lambda: measure_stop()[0]
+    yield "sweep_one_run", "s (wall time of one of its runs, for reference)", lambda: measure_stop()[1]
     measure_vec = once("vec", lambda: vector_env(8, max(20, int(200 * scale))))
     yield "gym_vector_8_envs", "env-steps/s", lambda: measure_vec()[0]
     yield "gym_8_separate_envs", "env-steps/s", lambda: measure_vec()[1]

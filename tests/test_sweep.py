@@ -105,10 +105,7 @@ def test_killed_half_way_resumes_with_every_row_once(spec_file, reference, tmp_p
         stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True,
     )
     try:
-        # decided by the rows on disk, not the clock (pytest-timeout stops a sweep that never gets there)
-        while len(list((tmp_path / PARTS).glob("*.parquet"))) < RUNS // 2:
-            assert process.poll() is None, "the sweep ended before it was killed"
-            time.sleep(0.05)
+        _wait_for_parts(process, tmp_path, RUNS // 2)
     finally:
         os.killpg(process.pid, signal.SIGKILL)  # the parent and its workers, mid-run
         process.wait()
@@ -122,10 +119,10 @@ def test_killed_half_way_resumes_with_every_row_once(spec_file, reference, tmp_p
 
 
 def _wait_for_parts(process: subprocess.Popen, folder: Path, count: int) -> None:
-    deadline = time.monotonic() + 300
+    """Until `count` rows are on disk: decided by the rows, not the clock (pytest-timeout stops a
+    sweep that never gets there)."""
     while len(list((folder / PARTS).glob("*.parquet"))) < count:
         assert process.poll() is None, "the sweep ended before it was stopped"
-        assert time.monotonic() < deadline, "the sweep made no progress"
         time.sleep(0.05)
 
 
@@ -148,15 +145,13 @@ def test_a_signal_to_the_whole_group_stops_the_sweep_and_resume_finishes_it(spec
     try:
         _wait_for_parts(process, tmp_path, 20)
         os.killpg(process.pid, signum)
-        _, err = process.communicate(timeout=120)  # generous: the stop is timed in bench/run.py, not here
+        _, err = process.communicate()  # how soon is timed in bench/run.py (sweep_stop_after_sigint), not here
     finally:
         if process.poll() is None:
             os.killpg(process.pid, signal.SIGKILL)
             process.wait()
     assert process.returncode == status and err.strip().endswith(("interrupted", "terminated"))
-    deadline = time.monotonic() + 60
-    while not _group_gone(process.pid):  # workers and their fork server end with the sweep
-        assert time.monotonic() < deadline, "a process of the sweep outlived it"
+    while not _group_gone(process.pid):  # the workers end with the sweep (else pytest-timeout says so)
         time.sleep(0.05)
     kept = load_results(tmp_path)
     assert 20 <= len(kept) < RUNS and kept["run_id"].is_unique
