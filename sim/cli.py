@@ -170,7 +170,7 @@ def build_parser() -> argparse.ArgumentParser:
     play.add_argument("--scale", type=_positive(float), default=None, metavar="PX_PER_M", help="pixels per metre (default: fit the world in 900x700)")
     play.set_defaults(handler=cmd_play)
 
-    report = commands.add_parser("report", help="draw the PNG figures of a run folder", description="Draw trajectories.png and errors.png in a folder written by `ctsim run`.")
+    report = commands.add_parser("report", help="draw the PNG figures and report.html of a run folder", description="Draw trajectories.png, errors.png and report.html (one self-contained page: table, figures, facts) in a folder written by `ctsim run`.")
     report.add_argument("run_dir", type=Path, metavar="RUN_DIR")
     report.set_defaults(handler=cmd_report)
 
@@ -199,9 +199,10 @@ def _add_lab(commands) -> None:
     start = actions.add_parser("start", help="write the exercise sheet (Markdown) and the template to fill in")
     start.add_argument("number", type=int)
     start.add_argument("dir", nargs="?", type=Path, default=Path("."), help="folder to write into (default: here)")
+    start.add_argument("--notebook", action="store_true", help="write the exercise as a Jupyter notebook instead (sheet, your solution's cell, a cell that checks it)")
     check = actions.add_parser("check", help="check your file on the examples and on hidden scenarios")
     check.add_argument("number", type=int)
-    check.add_argument("file", type=Path)
+    check.add_argument("file", type=Path, help="your file, or the notebook of `lab start --notebook`")
     check.add_argument("--out", type=Path, default=Path("lab-check"), metavar="DIR", help="folder for figures and recordings (default: lab-check)")
     check.add_argument("--degraded", action="store_true", help="where bubblewrap is missing, run the file without isolation (said in the result)")
     grade = actions.add_parser("grade", help="grade a folder of submissions: CSV, Gradescope results.json, JUnit XML")
@@ -241,7 +242,7 @@ def load_robot_spec(args: argparse.Namespace):
     return with_settings(robot, {key: parse_value(value) for key, value in args.robot_set})
 
 
-RUN_FILES = ("run.rrd", "summary.json", "*.tum", "*.csv", "*.png")
+RUN_FILES = ("run.rrd", "summary.json", "*.tum", "*.csv", "*.png", "report.html")
 """What a run writes into its folder: removed first when a folder is reused, so that nothing
 stale (a robot or figure of an earlier run) is left beside the new results."""
 
@@ -569,6 +570,9 @@ def finish(result, out: Path, options: dict[str, Any], report: bool = True, metr
                 written += report_run_dir(out)
             except KeyboardInterrupt:
                 print(f"ctsim: figures stopped by the signal; `ctsim report {out}` draws them", file=sys.stderr)
+        from sim.web.report import write_run_report
+
+        written.append(write_run_report(out))
     except OSError as err:
         kept = ", ".join(p.name for p in written[1:]) or "nothing"
         print(f"ctsim: error: writing the run's results into {out}: {err.strerror or err} (written: {kept})", file=sys.stderr)
@@ -763,12 +767,14 @@ def _add_sweep_parser(commands) -> None:  # noqa: ANN001 (argparse's subparsers 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     from sim.experiments import engine, load_sweep, sweep
-    from sim.experiments.report import summary, write_report
+    from sim.experiments.report import summary
 
     if args.spec == "report":
+        from sim.web.report import write_sweep_report
+
         if args.folder is None or not args.folder.is_dir():
             raise UsageError(f"sweep report needs a sweep folder, got {args.folder}")
-        for path in write_report(args.folder):
+        for path in write_sweep_report(args.folder):
             print(path)
         return 0
     if args.folder is not None:
@@ -796,7 +802,9 @@ def cmd_report(args: argparse.Namespace) -> int:
 
     if not (args.run_dir / "summary.json").is_file():
         raise UsageError(f"{args.run_dir}: not a run folder (no summary.json)")
-    for path in report_run_dir(args.run_dir):
+    from sim.web.report import write_run_report
+
+    for path in [*report_run_dir(args.run_dir), write_run_report(args.run_dir)]:
         print(path)
     return 0
 

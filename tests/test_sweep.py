@@ -225,7 +225,9 @@ def test_cli_sweep_and_report(tmp_path, capsys):
     assert "8 runs, 0 failed" in capsys.readouterr().out
     assert main(["sweep", "report", str(tmp_path / "out")]) == 0
     names = {Path(line).name for line in capsys.readouterr().out.split()}
-    assert names == {"ate_rmse_per_estimator.png", "ate_rmse_vs_robot.mouse.noise_std.png", "success_per_controller.png"}
+    assert names == {"ate_rmse_per_estimator.png", "ate_rmse_vs_robot.mouse.noise_std.png", "success_per_controller.png", "report.html"}
+    page = (tmp_path / "out" / "report.html").read_text()
+    assert page.count("src='data:image/png;base64,") == 3 and "<td>runs</td><td class='text'>8</td>" in page  # the figures inside; 8 runs
 
 
 @pytest.mark.parametrize(

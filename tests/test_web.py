@@ -1,9 +1,11 @@
 """`ctsim view` and `ctsim run --web`: rerun's web viewer served on this machine, its page and
 assets fetched over HTTP, the recording read back through its gRPC proxy, and (where Chromium
-is installed) the page drawn by a headless browser; the one-line refusals of bad input."""
+is installed) the page drawn by a headless browser; the one-line refusals of bad input; a run's
+self-contained report.html."""
 
 from __future__ import annotations
 
+import json
 import os
 import re
 import signal
@@ -165,3 +167,14 @@ def test_the_page_draws_the_run_in_headless_chromium(run_dir):
         _stop(process)
     assert share_of(image, palette.BACKGROUND) > 0.05, "no map view drawn"  # the map view: about a third of the page
     assert share_of(image, estimate) > 1e-4, "no estimate drawn"  # a trail and a plot line: some thousand pixels
+
+
+def test_a_run_folder_has_a_self_contained_report(run_dir):
+    page = (run_dir / "report.html").read_text()
+    summary = json.loads((run_dir / "summary.json").read_text())
+    for estimate, errors in summary["robots"][0]["estimates"].items():  # the table `ctsim run` prints
+        assert f"{estimate}</td>" in page and f"<td>{errors['ate_rmse']:.4f}</td>" in page
+    assert page.count("src='data:image/png;base64,") == 2  # trajectories.png and errors.png, inside the page
+    assert set(re.findall(r"src='([a-z]+):", page)) == {"data"}  # nothing it needs beside it
+    assert f"ctsim view {run_dir}" in page and "http://127.0.0.1:9090/?url=rerun%2Bhttp%3A%2F%2F127.0.0.1%3A9091%2Fproxy" in page
+    assert "<td>seed</td><td class='text'>0</td>" in page and "<td>world</td><td class='text'>Maze" in page

@@ -137,6 +137,27 @@ class Result:
     error: str | None
     seed: int
     raw: RunResult
+    recording: Path | None = None
+    """The rerun recording written (`simulate(record=...)`), or None."""
+
+    def summary(self) -> dict[str, Any]:
+        """The run as summary.json describes one (world, seed, dt, time, reason, per robot its
+        distance, collisions and each estimate's metrics)."""
+        import sim
+
+        robots = [{"name": r.name, "robot": log.spec.name, "controller": r.controller, "params": dict(log.params), "distance": r.distance,
+                   "collisions": r.collisions, "fell": r.fell, "goal_time": r.goal_time, "estimates": r.metrics}
+                  for r, log in zip(self.robots, self.raw.robots)]
+        world = self.raw.world
+        return {"ctsim_version": sim.__version__, "world": {"name": world.name, "source": str(world.source or world.name)}, "seed": self.seed,
+                "dt": self.raw.dt, "time": self.raw.duration, "reason": self.reason, "error": self.error, "robots": robots}
+
+    def _repr_html_(self) -> str:
+        """Jupyter shows a result as its summary table, its figures and the run's facts."""
+        from sim.views.html import run_fragment
+
+        tracks = {r.name: {"truth": (self.time, r.truth), **{label: (self.time, poses) for label, poses in r.estimates.items()}} for r in self.robots}
+        return run_fragment(self.raw.world, self.summary(), tracks)
 
     def metrics_frame(self) -> Any:
         """pandas DataFrame, one row per robot and estimator, one column per metric."""
@@ -190,4 +211,4 @@ def simulate(
 
         watchers.insert(0, Recorder(record, live=live))
     raw = run(spec, setups, duration, dt=dt, seed=seed, until_goal=until_goal, observers=tuple(watchers), step_timeout=step_timeout)
-    return result_of(raw)
+    return replace(result_of(raw), recording=Path(record) if record is not None else None)

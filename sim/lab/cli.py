@@ -9,6 +9,7 @@ from sim.lab.checking import check_file, table
 from sim.lab.exercise import Exercise, ExerciseError, exercise, exercises
 from sim.lab.grading import DEGRADED, grade
 from sim.sandbox import SandboxUnavailable
+from sim.lab.notebook import submission, write_notebook
 
 
 def lab_command(args: argparse.Namespace) -> int:
@@ -21,6 +22,8 @@ def lab_command(args: argparse.Namespace) -> int:
         return 0
     ex = exercise(args.number, extra)
     if args.lab_command == "start":
+        if args.notebook:
+            return _start_notebook(ex, args.dir, args.lang, extra)
         return _start(ex, args.dir, args.lang)
     try:
         return _check(ex, args) if args.lab_command == "check" else _grade(ex, args)
@@ -31,7 +34,8 @@ def lab_command(args: argparse.Namespace) -> int:
 def _check(ex: Exercise, args: argparse.Namespace) -> int:
     if not args.file.is_file():
         raise ExerciseError(f"{args.file}: no such file")
-    report = check_file(ex, args.file, args.lang, out=args.out, degraded=args.degraded)
+    with submission(args.file, ex) as file:  # a notebook: its solution cell, as the file
+        report = check_file(ex, file, args.lang, out=args.out, degraded=args.degraded)
     print(f"exercise {ex.number}: {ex.title[args.lang]}  ({args.file}, scenario seed {report.seed})")
     if report.degraded:
         print(DEGRADED)
@@ -69,4 +73,13 @@ def _start(ex, folder: Path, lang: str) -> int:
         template.write_text(ex.template(), encoding="utf-8")
         print(f"wrote {template}")
     print(f"wrote {sheet}\nthen: ctsim lab check {ex.number} {template}")
+    return 0
+
+
+def _start_notebook(ex, folder: Path, lang: str, extra: list[str]) -> int:
+    folder.mkdir(parents=True, exist_ok=True)
+    existed = (folder / f"exercise{ex.number}.ipynb").exists()
+    path = write_notebook(ex, folder, lang, extra)
+    print(f"kept {path} (it exists; delete it for a fresh notebook)" if existed else f"wrote {path}")
+    print(f"then: open it in Jupyter, or ctsim lab check {ex.number} {path}")
     return 0

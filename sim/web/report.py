@@ -1,0 +1,95 @@
+"""Self-contained HTML pages: `report.html` of a run folder and of a sweep folder, each one file
+with its figures inside (PNG data URIs), to mail, attach to a submission or open from a share.
+
+A run's page links to its recording twice: the file itself (for the native viewer) and the
+address `ctsim view RUN_DIR` serves it at (a page cannot start a command: it says which one).
+"""
+
+from __future__ import annotations
+
+import json
+from html import escape
+from pathlib import Path
+
+from sim.views.html import facts_table, image, page, run_facts, summary_table
+from sim.web.serve import DEFAULT_HOST, DEFAULT_PORT
+
+REPORT = "report.html"
+RUN_FIGURES = ("trajectories.png", "errors.png")
+"""The figures of `ctsim run`, first and in this order; any other PNG of the folder follows."""
+
+
+def viewer_address(host: str = DEFAULT_HOST, port: int = DEFAULT_PORT) -> str:
+    """Where `ctsim view` serves a recording with its default options."""
+    from urllib.parse import quote
+
+    return f"http://{host}:{port}/?url={quote(f'rerun+http://{host}:{port + 1}/proxy', safe='')}"
+
+
+def write_run_report(run_dir: str | Path) -> Path:
+    """report.html in a run folder written by `ctsim run` (its summary.json, PNGs and run.rrd)."""
+    run_dir = Path(run_dir)
+    summary_path = run_dir / "summary.json"
+    try:
+        summary = json.loads(summary_path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as err:
+        raise ValueError(f"{summary_path}:{err.lineno}: {err.msg}") from None
+    pictures = [run_dir / name for name in RUN_FIGURES if (run_dir / name).is_file()]
+    pictures += sorted(p for p in run_dir.glob("*.png") if p not in pictures)
+    body = [
+        "<h2>Summary</h2>",
+        summary_table(summary["robots"]),
+        "<h2>Recording</h2>",
+        _recording_links(run_dir),
+        "<h2>Figures</h2>" if pictures else "<p>No figures (the run was written with <code>--no-report</code>: <code>ctsim report</code> draws them).</p>",
+        *(image(p, p.stem) for p in pictures),
+        "<h2>Run facts</h2>",
+        facts_table(run_facts(summary)),
+    ]
+    title = f"ctsim run: {summary['world']['name']}, {', '.join(sorted({r['controller'] for r in summary['robots']}))}, seed {summary['seed']}"
+    path = run_dir / REPORT
+    path.write_text(page(title, "\n".join(body)), encoding="utf-8")
+    return path
+
+
+def _recording_links(run_dir: Path) -> str:
+    if not (run_dir / "run.rrd").is_file():
+        return "<p>No recording in this folder.</p>"
+    command = f"ctsim view {run_dir}"
+    return (
+        f"<p>In a browser: run <code>{escape(command)}</code>, then "
+        f"<a href='{escape(viewer_address(), quote=True)}'>open the recording in rerun's web viewer</a> "
+        f"(the address <code>ctsim view</code> prints). With rerun installed: <code>rerun {escape(str(run_dir / 'run.rrd'))}</code> "
+        f"(<a href='run.rrd'>run.rrd</a>).</p>"
+    )
+
+
+def write_sweep_report(sweep_dir: str | Path) -> list[Path]:
+    """The figures of a sweep folder (`sim.experiments.report`) and its report.html: the table
+    of errors per estimator, the figures, how many runs finished; a link to a contest bracket
+    where the folder has one. The files written, the page last."""
+    from sim.experiments import store
+    from sim.experiments.report import METRIC, success, summary, write_report
+
+    sweep_dir = Path(sweep_dir)
+    figures = write_report(sweep_dir)
+    table = store.load(sweep_dir)
+    facts = {
+        "runs": len(table),
+        "failed": int((table["reason"] == "error").sum()),
+        "succeeded": f"{100 * success(table).mean():.0f} % (no error, no fall, the goal where asked)",
+        "table": "results.parquet",
+    }
+    body = [
+        f"<h2>{escape(METRIC)} per estimator (m)</h2>",
+        summary(table).to_html(classes="ctsim", float_format=lambda v: f"{v:.4f}", border=0),
+        *(image(p, p.stem) for p in figures),
+        "<h2>Sweep</h2>",
+        facts_table(facts),
+    ]
+    brackets = sorted(sweep_dir.glob("**/bracket*.html"))
+    if brackets:
+        body.append("<p>" + ", ".join(f"<a href='{escape(p.relative_to(sweep_dir).as_posix(), quote=True)}'>contest bracket</a>" for p in brackets) + "</p>")
+    path = sweep_dir / REPORT
+    path.write_text(page(f"ctsim sweep: {sweep_dir.resolve().name}", "\n".join(body)), encoding="utf-8")
+    return [*figures, path]
