@@ -153,6 +153,7 @@ class Sandbox:
         self._pid1 = None if self.degraded else _first_pid(info, time.monotonic() + self.limits.startup)
         if self.degraded:
             os.close(info)
+        self.flooded = False
         self._reader = threading.Thread(target=self._drain, daemon=True)
         self._reader.start()
         hello = self._receive(time.monotonic() + self.limits.startup, "loading your file")
@@ -253,14 +254,16 @@ class Sandbox:
         return _said("crash", f"your code ended the checking process while {what} (exit code {code}: sys.exit, os._exit or a crash)")
 
     def _drain(self) -> None:
-        """Keep the start of the output; end the guest when it prints more than the limit."""
-        stream = self.process.stdout
+        """Keep the start of the output (over every guest of this sandbox); end this guest when it
+        prints more than the limit."""
+        stream, printed = self.process.stdout, 0
         while chunk := stream.read1(1 << 16):
+            printed += len(chunk)
             self.printed += len(chunk)
             room = self.limits.excerpt * 4 - len(self._excerpt)
             if room > 0:
                 self._excerpt += chunk[:room]
-            if self.printed > self.limits.output and not self.flooded:
+            if printed > self.limits.output and not self.flooded:
                 self.flooded = True
                 self._kill()
 

@@ -122,9 +122,10 @@ def answer(module: Any, objects: dict[int, Any], request: dict[str, Any]) -> Any
 
 
 def name_missing_modules() -> None:
-    """Let a failed `import a.b.c` say a.b.c, not only the first missing part `a` (for the message;
-    what is missing is missing from the file system, not refused here)."""
-    original = builtins.__import__
+    """Let a failed `import a.b.c` (or `importlib.import_module("a.b.c")`) say a.b.c, not only the
+    first missing part `a` (for the message; what is missing is missing from the file system,
+    nothing is refused here)."""
+    original, original_module = builtins.__import__, importlib.import_module
 
     def naming(name, globals=None, locals=None, fromlist=(), level=0):  # noqa: A002 (builtins' signature)
         try:
@@ -134,7 +135,15 @@ def name_missing_modules() -> None:
                 err.requested = name
             raise
 
-    builtins.__import__ = naming
+    def naming_module(name, package=None):
+        try:
+            return original_module(name, package)
+        except ModuleNotFoundError as err:
+            if not name.startswith(".") and not hasattr(err, "requested"):
+                err.requested = name
+            raise
+
+    builtins.__import__, importlib.import_module = naming, naming_module
 
 
 def load(path: str) -> Any:
