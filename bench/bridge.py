@@ -1,11 +1,17 @@
-"""Bridge benchmark: lock-step steps per second of one firmware bot in the maze, the peer being
+"""Bridge benchmarks: lock-step steps per second of one firmware bot in the maze, the peer being
 the fake firmware of the tests (tests/fake_firmware.py, Python, in its own process), so the figure
-is a floor for the real firmware's C. c't-Sim's real time is 100 steps/s (10 ms per step)."""
+is a floor for the real firmware's C (c't-Sim's real time is 100 steps/s, 10 ms per step); and
+the end work of a bridged run, what the firmware's launcher waits for after the last step: from
+the last block to SHUTDOWN, which comes once summary, TUM files and figures are written."""
 
 from __future__ import annotations
 
+import contextlib
+import io
+import socket
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -44,5 +50,53 @@ class _Clock:
             self.first = self.last
 
 
+def bridge_end_work(seconds: float) -> float:
+    """Wall seconds from the fake firmware's last block to its SHUTDOWN in `ctsim bridge maze`
+    for a run of `seconds` simulated seconds (solve_maze started by RC5 5, figures written)."""
+    sys.path.insert(0, str(ROOT / "tests"))
+    from fake_firmware import FakeFirmware
+
+    from sim.cli import main
+
+    class Timed(FakeFirmware):
+        last = 0.0
+
+        def _reply(self, sock, time_ms):
+            Timed.last = time.perf_counter()
+            return super()._reply(sock, time_ms)
+
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    shutdown: list[float] = []
+    fake = Timed(port, map_every=0, on_shutdown=lambda: shutdown.append(time.perf_counter())).start()
+    with tempfile.TemporaryDirectory() as out, contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+        code = main(["bridge", "maze", "--port", str(port), "--duration", f"{seconds:g}", "--rc5", "0.5:5", "--out", out])
+    fake.join(60)
+    if code != 0 or not shutdown:
+        raise RuntimeError(f"bridge end-work benchmark failed (exit {code}, fake error {fake.error})")
+    return shutdown[0] - Timed.last
+
+
+def run_end_work(seconds: float) -> float:
+    """The same end work of a plain run (solve_maze, no bridge, same world and length): the files
+    and figures `ctsim run` writes after the loop, with its recording closed, for comparison."""
+    from bots.behaviours import make
+    from sim.cli import finish
+    from sim.run import RobotSetup
+    from sim.views.recording import Recorder
+
+    with tempfile.TemporaryDirectory() as out:
+        recorder = Recorder(Path(out) / "run.rrd")
+        result = run(load_world("maze"), [RobotSetup(CTBOT, make("solve_maze"), "solve_maze")], seconds, observers=[recorder])
+        start = time.perf_counter()
+        with contextlib.redirect_stdout(io.StringIO()):
+            finish(result, Path(out), {"duration": seconds})
+        return time.perf_counter() - start
+
+
 def figures(scale: float):
     yield "bridge_steps_per_s", "steps/s (fake firmware in Python, own process; c't-Sim real time: 100 steps/s)", lambda: bridge_steps_per_s(int(5000 * scale))
+    length = 300 * scale
+    yield f"bridge_end_work_{length:g}s_run", "s (last block to SHUTDOWN: summary, TUM, figures written; bar < 1 s for 300 s)", lambda: bridge_end_work(length)
+    yield f"run_end_work_{length:g}s_run", "s (the same files of a plain solve_maze run, beside it)", lambda: run_end_work(length)

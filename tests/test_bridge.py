@@ -32,6 +32,7 @@ from sim.bridge import (  # noqa: E402
     server,  # noqa: E402
 )
 from sim.bridge.firmware import MM_S_PER_UNIT, wheel_speed  # noqa: E402
+from sim.bridge.firmware_map import window  # noqa: E402
 from sim.bridge.protocol import remote_call_payload  # noqa: E402
 from sim.run import RobotSetup, run  # noqa: E402
 from sim.views.recording import Recorder  # noqa: E402
@@ -366,8 +367,9 @@ def test_the_firmware_map_is_drawn_where_the_firmware_believes_it_drove(tmp_path
     fw_map = bridge.bots[0].state.map
     assert fw_map.blocks > 0 and fw_map.dropped == 0
     (x, y), = np.argwhere(fw_map.cells == 100)[-1:]  # the last cell the fake marked
-    corner, matrix = fw_map.placement((start.x, start.y, start.heading))
-    u, v = x - fw_map.box[0] + 0.5, y - fw_map.box[1] + 0.5  # the cell's centre in the image
+    cells = window(world.bounds, (start.x, start.y, start.heading))
+    corner, matrix = fw_map.placement((start.x, start.y, start.heading), cells)
+    u, v = x - cells[0] + 0.5, y - cells[1] + 0.5  # the cell's centre in the image
     world_xy = np.array(corner[:2]) + np.array(matrix)[:2, :2] @ (u, v)
     truth = result.robots[0].truth_array()
     assert np.min(np.hypot(*(truth[:, :2] - world_xy).T)) < 0.006  # within a cell (8 mm square)

@@ -13,7 +13,7 @@ import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from sim.bridge.firmware_map import CELL_M, CELLS, FirmwareMap, block_origin, png
+from sim.bridge.firmware_map import CELL_M, CELLS, FirmwareMap, block_origin, png, window
 from sim.bridge.protocol import Packet
 
 
@@ -55,20 +55,21 @@ def test_parts_out_of_order_or_of_another_block_are_dropped():
     assert (fw_map.cells[block_origin(6)[0], block_origin(6)[1]]) == 2 and not fw_map.cells[block_origin(5)].any()
 
 
-def test_the_image_is_grey_by_value_clear_where_unknown_and_a_valid_png():
+def test_the_image_colours_obstacles_and_floor_clear_where_unknown_and_is_a_valid_png():
     fw_map = FirmwareMap()
     values = np.zeros((32, 16), dtype=np.int8)
-    values[3, 4], values[5, 6] = 100, -100
+    values[3, 4], values[5, 6], values[7, 8] = 100, -100, -10
     for packet in parts(0, values.tobytes()):
         fw_map.add(packet)
     image = fw_map.image()
-    assert image.shape == (16, 32, 2)  # rows along y, columns along x
-    assert tuple(image[4, 3]) == (228, 200) and tuple(image[6, 5]) == (28, 200) and image[0, 0, 1] == 0
+    assert image.shape == (16, 32, 4)  # rows along y, columns along x
+    assert tuple(image[4, 3]) == (40, 150, 255, 210) and tuple(image[6, 5]) == (220, 40, 40, 210) and image[0, 0, 3] == 0
+    assert image[8, 7, 3] == 75  # less sure, more clear: 60 + 1.5 |value|
     data = png(image)
     width, height, depth, colour = struct.unpack(">IIBB", data[16:26])
     (length,) = struct.unpack(">I", data[33:37])
-    rows = np.frombuffer(zlib.decompress(data[41 : 41 + length]), dtype=np.uint8).reshape(height, 1 + 2 * width)
-    assert (width, height, depth, colour) == (32, 16, 8, 4) and np.array_equal(rows[:, 1:].reshape(16, 32, 2), image)
+    rows = np.frombuffer(zlib.decompress(data[41 : 41 + length]), dtype=np.uint8).reshape(height, 1 + 4 * width)
+    assert (width, height, depth, colour) == (32, 16, 8, 6) and np.array_equal(rows[:, 1:].reshape(16, 32, 4), image)
 
 
 def test_the_image_lies_in_the_firmware_frame_of_the_start_pose():
@@ -81,3 +82,11 @@ def test_the_image_lies_in_the_firmware_frame_of_the_start_pose():
     fx, fy = fw_map.box[0] * CELL_M - 6.144, fw_map.box[1] * CELL_M - 6.144  # 0.256 m ahead, 0 left
     assert np.allclose(corner[:2], (1.0 - fy, 2.0 + fx), atol=1e-12)
     assert np.allclose(np.array(matrix)[:2, :2] @ (1.0, 0.0), (0.0, CELL_M), atol=1e-15)  # a column step: along the heading
+
+
+def test_the_window_over_a_world_covers_it_in_the_firmware_frame():
+    """A 2 x 1 m world, the robot started at its centre facing +y: the firmware's x runs along
+    world y, so the window is 1 m (125 cells) along x and 2 m (250 cells) along y, centred."""
+    x0, y0, x1, y1 = window((0.0, 0.0, 2.0, 1.0), (1.0, 0.5, math.pi / 2))
+    assert (x1 - x0, y1 - y0) in ((125, 250), (126, 251), (125, 251), (126, 250))  # whole cells around rounding
+    assert abs((x0 + x1) / 2 - CELLS / 2) <= 1 and abs((y0 + y1) / 2 - CELLS / 2) <= 1

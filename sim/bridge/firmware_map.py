@@ -23,14 +23,17 @@ from sim.bridge import protocol as p
 CELLS = 1536
 """Cells along each side of the firmware's map (12.288 m at 125 per metre)."""
 CELL_M = 0.008
+HALF_M = CELLS * CELL_M / 2
+"""The map's centre, the firmware's start pose, from its corner (m)."""
 SECTION, MACROBLOCK, MACROBLOCKS_PER_ROW = 16, 512, 3
 BLOCK_BYTES, PART_BYTES = 512, 128
 BLOCKS = CELLS * CELLS // BLOCK_BYTES
 PARTS = (p.MAP_POS_X, p.MAP_POS_Y, p.MAP_HEADING, p.MAP_LAST_PART)
 """The four parts of a block, in the order the firmware sends them (the first three also carry
 its pose: x and y cells, heading in degrees)."""
-ALPHA = 200
-"""Opacity of the known cells in the image (of 255): the world's map shows through a little."""
+OBSTACLE, FREE = (220, 40, 40), (40, 150, 255)
+MIN_ALPHA, MAX_ALPHA = 60, 230
+"""Opacity (of 255) of the cells the firmware knows least and best: the world shows through."""
 
 
 def block_origin(block: int) -> tuple[int, int]:
@@ -80,36 +83,49 @@ class FirmwareMap:
         self.box = box if self.box is None else (min(self.box[0], x), min(self.box[1], y), max(self.box[2], box[2]), max(self.box[3], box[3]))
         self.blocks += 1
 
-    def image(self) -> np.ndarray:
-        """The covered cells as grey and alpha (rows along the firmware's y, columns along x):
-        grey = value + 128 (obstacles dark, driven floor light), unknown cells transparent."""
-        x0, y0, x1, y1 = self.box or (0, 0, 0, 0)
+    def image(self, window: tuple[int, int, int, int] | None = None) -> np.ndarray:
+        """The cells of `window` (x0, y0, x1, y1; default the box received so far) as RGBA, rows
+        along the firmware's y, columns along x: obstacles red, driven floor blue, the more
+        opaque the surer the firmware is (|value| up to 128), unknown cells clear. (c't-Sim's
+        map window shows the same values in grey, which vanishes on ctsim's grey floor.)"""
+        x0, y0, x1, y1 = window or self.box or (0, 0, 0, 0)
         values = self.cells[x0:x1, y0:y1].T.astype(np.int16)
-        out = np.empty(values.shape + (2,), dtype=np.uint8)
-        out[..., 0] = values + 128
-        out[..., 1] = np.where(values == 0, 0, ALPHA)
+        out = np.empty(values.shape + (4,), dtype=np.uint8)
+        out[..., :3] = np.where((values < 0)[..., None], OBSTACLE, FREE)
+        out[..., 3] = np.where(values == 0, 0, np.minimum(MIN_ALPHA + np.abs(values) * 3 // 2, MAX_ALPHA))
         return out
 
-    def placement(self, start: tuple[float, float, float]) -> tuple[tuple[float, float, float], list[list[float]]]:
-        """Where the image lies in the world for a robot that started at `start` (x, y m,
-        heading rad): the world position of its corner and the 3 x 3 matrix from pixels to metres
-        (the firmware's frame is the start pose; cell c spans c * 8 mm - 6.144 m onwards)."""
-        x0, y0, _, _ = self.box or (0, 0, 0, 0)
-        fx, fy = x0 * CELL_M - CELLS * CELL_M / 2, y0 * CELL_M - CELLS * CELL_M / 2
+    def placement(self, start: tuple[float, float, float], window: tuple[int, int, int, int] | None = None) -> tuple[tuple[float, float, float], list[list[float]]]:
+        """Where the image of `window` lies in the world for a robot that started at `start` (x, y
+        m, heading rad): the world position of its corner and the 3 x 3 matrix from pixels to
+        metres (the firmware's frame is the start pose; cell c spans c * 8 mm - 6.144 m onwards)."""
+        x0, y0, _, _ = window or self.box or (0, 0, 0, 0)
+        fx, fy = x0 * CELL_M - HALF_M, y0 * CELL_M - HALF_M
         c, s = math.cos(start[2]), math.sin(start[2])
         corner = (start[0] + c * fx - s * fy, start[1] + s * fx + c * fy, 0.0)
         return corner, [[c * CELL_M, -s * CELL_M, 0.0], [s * CELL_M, c * CELL_M, 0.0], [0.0, 0.0, 1.0]]
 
 
-def png(grey_alpha: np.ndarray) -> bytes:
-    """A grey-and-alpha image (rows, columns, 2) uint8 as PNG bytes (zlib, no filter: the map is
-    mostly runs of one value, which deflate packs by itself)."""
-    height, width = grey_alpha.shape[:2]
-    rows = np.zeros((height, 1 + 2 * width), dtype=np.uint8)
-    rows[:, 1:] = grey_alpha.reshape(height, 2 * width)
+def window(bounds: tuple[float, float, float, float], start: tuple[float, float, float]) -> tuple[int, int, int, int]:
+    """The map cells (x0, y0, x1, y1) that cover a world's `bounds` for a robot that started at
+    `start`: one fixed image size for a whole run (rerun refuses a PNG stream that changes size)."""
+    c, s = math.cos(start[2]), math.sin(start[2])
+    corners = [(x - start[0], y - start[1]) for x in bounds[0::2] for y in bounds[1::2]]
+    local = np.array([(c * dx + s * dy, -s * dx + c * dy) for dx, dy in corners])
+    low = np.clip(np.floor((local.min(axis=0) + HALF_M) / CELL_M).astype(int), 0, CELLS)
+    high = np.clip(np.ceil((local.max(axis=0) + HALF_M) / CELL_M).astype(int), 0, CELLS)
+    return int(low[0]), int(low[1]), int(max(high[0], low[0] + 1)), int(max(high[1], low[1] + 1))
+
+
+def png(rgba: np.ndarray) -> bytes:
+    """An RGBA image (rows, columns, 4) uint8 as PNG bytes (zlib, no filter: the map is mostly
+    runs of one value, which deflate packs by itself)."""
+    height, width = rgba.shape[:2]
+    rows = np.zeros((height, 1 + 4 * width), dtype=np.uint8)
+    rows[:, 1:] = rgba.reshape(height, 4 * width)
 
     def chunk(kind: bytes, data: bytes) -> bytes:
         return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
 
-    header = struct.pack(">IIBBBBB", width, height, 8, 4, 0, 0, 0)
+    header = struct.pack(">IIBBBBB", width, height, 8, 6, 0, 0, 0)
     return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(rows.tobytes(), 6)) + chunk(b"IEND", b"")

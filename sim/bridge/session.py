@@ -17,7 +17,7 @@ from bots.odometry import default_estimators
 from bots.spec import EncoderSpec, RobotSpec
 from sim.bridge import protocol as p
 from sim.bridge.firmware import FirmwareController, FirmwareEstimator
-from sim.bridge.firmware_map import png
+from sim.bridge.firmware_map import png, window
 from sim.bridge.server import Listener
 from sim.run import RobotLog, RobotSetup, RunResult
 from sim.views.recording import TIMELINE, Recorder
@@ -112,8 +112,8 @@ def as_in_ctsim(spec: RobotSpec) -> RobotSpec:
 class BridgeObserver:
     """Writes each firmware bot's LCD text, log lines and remote-call events (rerun TextLog), its
     LEDs and motor values (Scalars, on change) under `firmware/<robot>/`, and its own map as an
-    image under `world/map/firmware/<robot>` (translucent, above the world's floor: unknown cells
-    are clear); paces the run at c't-Sim's real time with `realtime`; at the end sends every
+    image under `world/map/firmware/<robot>` (the part over the world, translucent, above the
+    world's floor: unknown cells are clear); paces the run at c't-Sim's real time with `realtime`; at the end sends every
     firmware the block of the last step."""
 
     def __init__(self, bridge: Bridge, recorder: Recorder | None, realtime: bool):
@@ -122,6 +122,7 @@ class BridgeObserver:
         self.starts: dict[int, tuple[float, float, float]] = {}
         self.seen: dict[int, tuple[int, int, tuple]] = {}
         self.drawn: dict[int, tuple[int, float]] = {}
+        self.windows: dict[int, tuple[int, int, int, int]] = {}
         self.logs: dict[int, RobotLog] = {}
         self.wall_start = 0.0
 
@@ -133,6 +134,7 @@ class BridgeObserver:
             if log is not None:
                 self.logs[id(bot)] = log
                 self.starts[id(bot)] = tuple(float(v) for v in world.robots[logs.index(log)].pose)
+                self.windows[id(bot)] = window(world.spec.bounds, self.starts[id(bot)])
         self.wall_start = time.monotonic()
 
     def on_sample(self, world: World, logs: list[RobotLog]) -> None:
@@ -178,10 +180,13 @@ class BridgeObserver:
         blocks, when = self.drawn.get(id(bot), (0, -MAP_IMAGE_EVERY))
         if start is None or fw_map.blocks == blocks or (t < when + MAP_IMAGE_EVERY and not final):
             return
-        corner, matrix = fw_map.placement(start)
+        cells = self.windows[id(bot)]
         path = f"world/map/firmware/{self.names[id(bot)]}"
-        image = rr.EncodedImage(contents=png(fw_map.image()), media_type="image/png", draw_order=-90.0)
-        _log_all(streams, t, [(path, rr.Transform3D(translation=corner, mat3x3=matrix)), (path, image)])
+        entries = [(path, rr.EncodedImage(contents=png(fw_map.image(cells)), media_type="image/png", draw_order=-90.0))]
+        if not blocks:
+            corner, matrix = fw_map.placement(start, cells)
+            entries.insert(0, (path, rr.Transform3D(translation=corner, mat3x3=matrix)))
+        _log_all(streams, t, entries)
         self.drawn[id(bot)] = (fw_map.blocks, t)
 
     def on_end(self, result: RunResult) -> None:
