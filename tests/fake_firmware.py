@@ -79,7 +79,8 @@ class FakeFirmware:
         deadline = time.monotonic() + 10
         while True:
             try:
-                sock = socket.create_connection(("127.0.0.1", self.port), timeout=60)  # the sim may compile its kernels first
+                sock = socket.create_connection(("127.0.0.1", self.port), timeout=60)
+                sock.settimeout(600)  # before its first block the sim may compile its kernels: minutes on a loaded machine
                 break
             except ConnectionRefusedError:
                 if time.monotonic() > deadline:
