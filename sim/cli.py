@@ -417,13 +417,13 @@ def cmd_run(args: argparse.Namespace) -> int:
     for warning in world_warnings(place):
         print(f"ctsim: warning: {args.world}: {warning}", file=sys.stderr)
     until_goal = bool(place.goals) if args.until_goal is None else args.until_goal
-    out = _out_dir(args.out, args.world, setups[0].controller_name)
-    facts = {"controller parameters": ", ".join(f"{k}={v}" for k, v in args.param) or "defaults", "noise": args.noise,
-             "duration": f"{args.duration:g} s" + (" or until a goal" if until_goal else "")}
-    options = {"duration": args.duration, "until_goal": until_goal, **_robot_options(args)}
-    keep_pandas_out_of_arrow()
-    _write_json(out / "summary.json", _unstarted(place, args, options, "running", "the run has not ended"), reserve=SUMMARY_ROOM + 2048 * len(setups))
-    with _web_viewer(args) as web:
+    with _web_viewer(args) as web:  # first: a port in use is refused before the folder is touched
+        out = _out_dir(args.out, args.world, setups[0].controller_name)
+        facts = {"controller parameters": ", ".join(f"{k}={v}" for k, v in args.param) or "defaults", "noise": args.noise,
+                 "duration": f"{args.duration:g} s" + (" or until a goal" if until_goal else "")}
+        options = {"duration": args.duration, "until_goal": until_goal, **_robot_options(args)}
+        keep_pandas_out_of_arrow()
+        _write_json(out / "summary.json", _unstarted(place, args, options, "running", "the run has not ended"), reserve=SUMMARY_ROOM + 2048 * len(setups))
         if web:
             print(f"ctsim: the run streams into {web.url}", file=sys.stderr, flush=True)
         recorder = Recorder(out / "run.rrd", live=args.live, connect=web.grpc_url if web else args.connect, facts=facts)
@@ -441,6 +441,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         if web and result.reason not in ("interrupted", "terminated"):
             _serve_until_interrupted(web)
     return status
+
 
 def _web_viewer(args: argparse.Namespace):
     """With --web, rerun's web viewer for the run to stream into (served on entering); else

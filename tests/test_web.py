@@ -124,14 +124,18 @@ def test_view_refuses_with_one_line(run_dir, tmp_path, capsys):
         assert reason in err and str(target) in err and err.count("\n") == 1, err
 
 
-def test_view_refuses_a_port_in_use(run_dir, capsys):
+def test_view_and_run_web_refuse_a_port_in_use(run_dir, tmp_path, capsys):
     with socket.socket() as taken:
         taken.bind(("127.0.0.1", 0))
         taken.listen()
         port = taken.getsockname()[1]
         assert main(["view", str(run_dir), "--port", str(port)]) == 2
-    err = capsys.readouterr().err
-    assert f"port {port} on 127.0.0.1 is in use" in err and err.count("\n") == 1, err
+        first = capsys.readouterr().err
+        assert main(["run", "maze", "--duration", "1", "--out", str(tmp_path / "never"), "--web", "--port", str(port)]) == 2
+        second = capsys.readouterr().err
+    for err in (first, second):
+        assert f"port {port} on 127.0.0.1 is in use" in err and err.count("\n") == 1, err
+    assert not (tmp_path / "never").exists()  # refused before the run's folder is made
 
 
 def test_run_web_streams_the_run_into_the_page(tmp_path):

@@ -15,6 +15,8 @@ from html import escape
 from pathlib import Path
 from typing import Any
 
+from sim.views import palette
+
 STYLE = """
 table.ctsim { border-collapse: collapse; margin: 0.6em 0 1.2em; font-size: 0.92em; }
 table.ctsim th, table.ctsim td { padding: 0.25em 0.8em; border-bottom: 1px solid #ddd; text-align: right; }
@@ -31,8 +33,6 @@ PAGE_STYLE = "body { font-family: system-ui, sans-serif; margin: 1.5em auto; max
 def summary_table(robots: list[dict[str, Any]]) -> str:
     """Per robot its distance, collisions and how it ended; per estimate its errors: the table
     `ctsim run` prints, as HTML."""
-    from sim.views import palette
-
     head = ("robot / estimate", "distance m", "collisions", "final err m", "ATE RMS m", "final hdg °", "")
     rows = ["<tr>" + "".join(f"<th>{escape(h)}</th>" for h in head) + "</tr>"]
     for robot in robots:

@@ -66,8 +66,8 @@ def _recording_links(run_dir: Path) -> str:
 
 def write_sweep_report(sweep_dir: str | Path) -> list[Path]:
     """The figures of a sweep folder (`sim.experiments.report`) and its report.html: the table
-    of errors per estimator, the figures, how many runs finished; a link to a contest bracket
-    where the folder has one. The files written, the page last."""
+    of errors per estimator, the figures, how many runs finished. The files written, the page
+    last."""
     from sim.experiments import store
     from sim.experiments.report import METRIC, success, summary, write_report
 
@@ -87,9 +87,6 @@ def write_sweep_report(sweep_dir: str | Path) -> list[Path]:
         "<h2>Sweep</h2>",
         facts_table(facts),
     ]
-    brackets = sorted(sweep_dir.glob("**/bracket*.html"))
-    if brackets:
-        body.append("<p>" + ", ".join(f"<a href='{escape(p.relative_to(sweep_dir).as_posix(), quote=True)}'>contest bracket</a>" for p in brackets) + "</p>")
     path = sweep_dir / REPORT
     path.write_text(page(f"ctsim sweep: {sweep_dir.resolve().name}", "\n".join(body)), encoding="utf-8")
     return [*figures, path]
