@@ -198,7 +198,7 @@ class FirmwareController:
         except LinkError as err:
             raise BridgeError(f"{self.label}: {err} (reply to the block of step {self.blocks - 1})" if self.blocks else f"{self.label}: {err}") from None
         motors = self.state.motors
-        self._held = (t, readings, self.encoders.count(motors) if self.encoders is not None else None)
+        self._held = (t, _block_sensors(readings), self.encoders.count(motors) if self.encoders is not None else None)
         return WheelSpeeds(wheel_speed(motors[0]), wheel_speed(motors[1]))
 
     def finish(self, readings: Readings) -> None:
@@ -368,6 +368,12 @@ class FirmwareController:
             "lcd": self.state.lcd_text,
             "map_blocks": self.state.map.blocks,
         }
+
+
+def _block_sensors(readings: Readings) -> Readings:
+    """The readings a block sends besides ticks and dots, copied: they go out a step later, and a
+    run may reuse the arrays behind a sample's readings."""
+    return Readings(readings.time, ir_raw=readings.ir_raw.copy(), line=readings.line.copy(), border=readings.border.copy(), light=readings.light.copy())
 
 
 def _pair(values: np.ndarray, default: tuple[int, int]) -> tuple[int, int]:
