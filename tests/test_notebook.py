@@ -114,7 +114,16 @@ def test_a_lab_notebook_is_graded_from_its_solution_cell(tmp_path, capsys):
     assert _public_rows(from_notebook) == _public_rows(from_file)
 
 
-@pytest.mark.parametrize(("content", "reason"), [("{not json", "not a notebook"), ('{"cells": []}', "0 code cells tagged 'solution'")])
+@pytest.mark.parametrize(
+    ("content", "reason"),
+    [
+        ("{not json", "not a notebook"),
+        ("[1, 2]", "not a notebook (no cells)"),
+        ('{"cells": []}', "0 code cells tagged 'solution'"),
+        ('{"cells": [{"cell_type": "code", "metadata": ["solution"], "source": "x = 1"}, 7]}', "0 code cells tagged 'solution'"),
+        ('{"cells": [' + ", ".join(['{"cell_type": "code", "metadata": {"tags": ["solution"]}, "source": "x = 1"}'] * 2) + "]}", "2 code cells tagged"),
+    ],
+)
 def test_a_notebook_without_a_solution_cell_is_refused_in_one_line(tmp_path, capsys, content, reason):
     notebook = tmp_path / "exercise2.ipynb"
     notebook.write_text(content)

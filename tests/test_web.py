@@ -182,3 +182,18 @@ def test_a_run_folder_has_a_self_contained_report(run_dir):
     assert set(re.findall(r"src='([a-z]+):", page)) == {"data"}  # nothing it needs beside it
     assert f"ctsim view {run_dir}" in page and "http://127.0.0.1:9090/?url=rerun%2Bhttp%3A%2F%2F127.0.0.1%3A9091%2Fproxy" in page
     assert "<td>seed</td><td class='text'>0</td>" in page and "<td>world</td><td class='text'>Maze" in page
+
+
+@pytest.mark.parametrize(
+    ("host", "page", "recording"),
+    [
+        ("127.0.0.1", "http://127.0.0.1:8000/", "rerun+http://127.0.0.1:8001/proxy"),
+        ("::1", "http://[::1]:8000/", "rerun+http://[::1]:8001/proxy"),  # IPv6 in brackets
+        ("0.0.0.0", f"http://{socket.gethostname()}:8000/", f"rerun+http://{socket.gethostname()}:8001/proxy"),  # a name others can reach
+    ],
+)
+def test_the_printed_address_names_the_page_and_the_recording(host, page, recording):
+    from sim.web.serve import WebViewer
+
+    web = WebViewer(None, host, 8000)
+    assert web.url.startswith(page) and parse_qs(urlsplit(web.url).query)["url"] == [recording] and web.grpc_url == recording

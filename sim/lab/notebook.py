@@ -83,12 +83,19 @@ def solution_source(path: Path) -> str:
     cells = document.get("cells") if isinstance(document, dict) else None
     if not isinstance(cells, list):
         raise ExerciseError(f"{path}: not a notebook (no cells)")
-    tagged = [c for c in cells if isinstance(c, dict) and c.get("cell_type") == "code" and SOLUTION_TAG in (c.get("metadata") or {}).get("tags", [])]
+    tagged = [c for c in cells if isinstance(c, dict) and c.get("cell_type") == "code" and SOLUTION_TAG in _tags(c)]
     if len(tagged) != 1:
         raise ExerciseError(f"{path}: {len(tagged)} code cells tagged '{SOLUTION_TAG}'; the solution must be in exactly one (the cell `ctsim lab start --notebook` wrote)")
     source = tagged[0].get("source", "")
     text = "".join(source) if isinstance(source, list) else str(source)
     return "".join(line for line in text.splitlines(keepends=True) if not line.lstrip().startswith("%"))
+
+
+def _tags(cell: dict[str, Any]) -> list[Any]:
+    """A cell's tags; none where its metadata is not what nbformat says it is."""
+    metadata = cell.get("metadata")
+    tags = metadata.get("tags") if isinstance(metadata, dict) else None
+    return tags if isinstance(tags, list) else []
 
 
 @contextmanager

@@ -108,6 +108,11 @@ def _free_port(host: str) -> int:
         return probe.getsockname()[1]
 
 
+def _in_url(host: str) -> str:
+    """A host as a URL spells it (an IPv6 address in brackets)."""
+    return f"[{host}]" if ":" in host else host
+
+
 def _rerun_command() -> Path:
     """rerun's executable as the rerun-sdk wheel ships it (the Python package `rerun_cli`)."""
     import rerun_cli
@@ -145,14 +150,12 @@ class WebViewer:
     @property
     def grpc_url(self) -> str:
         """Where a recording stream connects (`Recorder(connect=...)`)."""
-        host = f"[{self._reach}]" if ":" in self._reach else self._reach
-        return f"rerun+http://{host}:{self.grpc_port}/proxy"
+        return f"rerun+http://{_in_url(self._reach)}:{self.grpc_port}/proxy"
 
     @property
     def url(self) -> str:
         """The page to open: the viewer, told where the recording is."""
-        host = f"[{self._reach}]" if ":" in self._reach else self._reach
-        return f"http://{host}:{self.port}/?url={quote(self.grpc_url, safe='')}"
+        return f"http://{_in_url(self._reach)}:{self.port}/?url={quote(self.grpc_url, safe='')}"
 
     def __enter__(self) -> WebViewer:
         self.start()
@@ -177,7 +180,7 @@ class WebViewer:
                                         preexec_fn=_die_with_parent if sys.platform.startswith("linux") else None)
         deadline = time.monotonic() + START_WAIT_S
         for port in (self.grpc_port, self.port):
-            while not listening(f"http://{self.host}:{port}", 0.2):
+            while not listening(f"http://{_in_url(self.host)}:{port}", 0.2):
                 if self.process.poll() is not None or time.monotonic() > deadline:
                     self.close()
                     raise ViewError(f"rerun's web viewer did not start on {self.host}:{self.port}: {self._last_words()}")
