@@ -649,7 +649,10 @@ def write_trajectories(result, out: Path, summary: dict[str, Any]) -> list[Path]
 def table(summary: dict[str, Any]) -> str:
     """The short end-of-run table: per robot distance and collisions, per estimate its errors."""
     reached = [robot["name"] for robot in summary["robots"] if robot["goal_time"] is not None]
-    outcome = {"goal": f"goal reached by {', '.join(reached)}", "duration": "time limit reached"}.get(summary["reason"], summary["reason"])
+    outcome = {
+        "goal": f"goal reached by {', '.join(reached)}", "duration": "time limit reached",
+        "done": "done (every controller said it is done)", "quit": "quit (window closed)",
+    }.get(summary["reason"], summary["reason"])  # fmt: skip
     if summary["reason"] == "duration" and reached:
         outcome = f"goal reached by {', '.join(reached)}, ran on to the time limit"
     lines = [

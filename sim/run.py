@@ -25,7 +25,7 @@ import numpy as np
 
 from bots.chassis_commands import chassis_setpoints
 from bots.commands import BadCommand, motor_commands, wheel_speeds_for
-from bots.controller import Controller, ControllerStopped, reset
+from bots.controller import Controller, ControllerStopped, Status, reset
 from bots.odometry import Estimator, default_estimators
 from bots.odometry_batch import DefaultOdometry, batched
 from bots.spec import RobotSpec
@@ -174,8 +174,10 @@ class RobotLog:
 
 
 class RunResult:
-    """A finished (or stopped) run. `reason` is 'duration', 'goal', 'error', 'interrupted' (Ctrl-C)
-    or 'terminated' (SIGTERM); `error` holds the one-line message of a failure."""
+    """A finished (or stopped) run. `reason` is 'duration', 'goal', 'done' (every robot's controller
+    said it is done: its `status` is no longer RUNNING), 'quit' (the user closed the window),
+    'error', 'interrupted' (Ctrl-C) or 'terminated' (SIGTERM); `error` holds the one-line message
+    of a failure."""
 
     def __init__(self, world: WorldSpec, seed: int, dt: float, robots: list[RobotLog], capacity: int):
         self.world, self.seed, self.dt, self.robots = world, seed, dt, robots
@@ -291,6 +293,11 @@ def in_controller() -> bool:
     return StepClock.active is not None and StepClock.active.busy != 0
 
 
+class Quit(KeyboardInterrupt):
+    """Raised by an observer whose user ended the session (a window closed, Esc pressed): the run
+    ends where it is, with reason 'quit'."""
+
+
 def _notify(observers, method: str, *args) -> None:
     for observer in observers:
         handler = getattr(observer, method, None)
@@ -345,12 +352,16 @@ def run(
         _notify(observers, "on_start", world, logs)  # inside: Ctrl-C while a recorder opens still ends the run
         samplers = [observer.on_sample for observer in observers if hasattr(observer, "on_sample")]
         drivers = [(i, robot.spec, log, controller) for i, (robot, log, controller) in enumerate(zip(world.robots, logs, controllers))]
+        can_finish = all(hasattr(controller, "status") for controller in controllers)  # a behaviour says when it is done
         for step in range(steps + 1):
             _sample(world, logs, estimators, odometry, result)
             for on_sample in samplers:
                 on_sample(world, logs)
             if until_goal and any(log.goal_time is not None for log in logs):
                 result.reason = "goal"
+                break
+            if can_finish and not any(controller.status is Status.RUNNING for controller in controllers):
+                result.reason = "done"
                 break
             if step == steps:
                 break
@@ -374,8 +385,8 @@ def run(
         result.reason, result.error = "error", str(stop)
     except KeyboardInterrupt as stop:
         clock.busy = 0
-        result.reason = "terminated" if isinstance(stop, Terminated) else "interrupted"
-        result.error = f"{result.reason} at t = {world.time:.2f} s"
+        result.reason = "quit" if isinstance(stop, Quit) else "terminated" if isinstance(stop, Terminated) else "interrupted"
+        result.error = None if result.reason == "quit" else f"{result.reason} at t = {world.time:.2f} s"
     finally:
         clock.__exit__()
         _complete_samples(result)

@@ -92,6 +92,15 @@ def test_square_returns_to_its_start(clockwise):
     assert (lateral.min() < -0.79) if clockwise else (lateral.max() > 0.79)
 
 
+def test_a_run_ends_as_done_when_its_controller_says_it_is_done():
+    """A square of 0.5 m sides takes about 20 s: the run ends there, not at its 300 s limit."""
+    controller = Square(side_m=0.5)
+    result = run(WORLDS["empty"], [RobotSetup(CTBOT, controller, start=(1.0, 1.0, 0.0))], 300.0)
+    assert controller.status is Status.SUCCESS
+    assert result.reason == "done" and result.error is None
+    assert result.time[-1] < 60.0
+
+
 def test_follow_line_drives_a_lap_of_the_line_course():
     """The course is ~9 m long; one lap at 0.15 m/s takes about a minute."""
     controller = make("follow_line", {"laps": "1"})

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 
 os.environ["SDL_VIDEODRIVER"] = "dummy"
@@ -32,7 +33,7 @@ def test_up_arrow_drives_forward(tmp_path):
     assert (tmp_path / "play.rrd").stat().st_size > 0
 
 
-def test_escape_quits_and_cli_writes_outputs(tmp_path, monkeypatch):
+def test_escape_quits_and_cli_writes_outputs(tmp_path, monkeypatch, capsys):
     import sim.views.window
 
     quit_at_frame_5 = {5: [_key(pygame.KEYDOWN, pygame.K_ESCAPE)]}
@@ -41,6 +42,8 @@ def test_escape_quits_and_cli_writes_outputs(tmp_path, monkeypatch):
     out = tmp_path / "o"
     assert main(["play", "maze", "--frames", "400", "--out", str(out), "--no-report"]) == 0
     assert (out / "run.rrd").is_file() and (out / "truth.tum").is_file()
+    assert json.loads((out / "summary.json").read_text())["reason"] == "quit"
+    assert "quit (window closed)" in capsys.readouterr().out
 
 
 def _pixels(path, colour) -> int:

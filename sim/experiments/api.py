@@ -128,8 +128,9 @@ class RobotResult:
 
 @dataclass
 class Result:
-    """A finished run. `reason`: 'duration', 'goal', 'error' or 'interrupted'; `error`: the
-    one-line message of a failure; `raw`: the run loop's own result (for `ctsim run`'s files)."""
+    """A finished run. `reason`: as `sim.run.RunResult.reason` ('duration', 'goal', 'done', 'error',
+    ...); `error`: the one-line message of a failure; `raw`: the run loop's own result (for
+    `ctsim run`'s files)."""
 
     time: np.ndarray
     robots: list[RobotResult]

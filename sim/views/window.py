@@ -18,7 +18,7 @@ import numpy as np
 
 from bots.behaviours.motion import Teleop
 from bots.spec import RobotSpec
-from sim.run import RobotLog, RobotSetup, RunResult, run
+from sim.run import Quit, RobotLog, RobotSetup, RunResult, run
 from sim.views import palette
 from sim.views.chassis_view import (
     WHEEL_RADIUS_M,
@@ -43,10 +43,6 @@ WINDOW = (1000, 720)
 PANEL = 320
 TRAIL_POINTS = 2000
 """Most points drawn per trail each frame (a long session is thinned, not slowed)."""
-
-
-class _Quit(KeyboardInterrupt):
-    """The window was closed or Esc pressed: the run loop ends the run as interrupted."""
 
 
 class Window:
@@ -87,7 +83,7 @@ class Window:
         self.clock.tick(self.fps)
         self.frame += 1
         if self.quit:
-            raise _Quit
+            raise Quit
 
     def on_end(self, result: RunResult) -> None:
         import pygame
@@ -279,6 +275,4 @@ def play(
     window.snapshot = Path(snapshot) if snapshot is not None else None
     setup = RobotSetup(spec, drive, controller_name="teleop")
     result = run(world, [setup], duration, dt=dt, seed=seed, observers=(Recorder(recording, live=live, connect=connect), window))
-    if window.quit:
-        result.reason, result.error = "duration", None
     return result
