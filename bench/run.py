@@ -34,9 +34,9 @@ def figures(quick: bool):
         from bench import world
     except ImportError:
         return
-    from bench import bridge, experiments, lab, memory
+    from bench import bridge, experiments, first_run, lab, memory
 
-    for module in (world, bridge, lab, experiments, memory):
+    for module in (world, bridge, lab, experiments, memory, first_run):
         yield from module.figures(scale)
 
 

@@ -22,6 +22,7 @@ import sim
 from bots.controller import ControllerError
 from bots.noise import NOISE_PRESETS, parse_value
 from sim.run import DT_RANGE, RunError, Terminated, in_controller, step_count
+from sim.world import compiling
 from sim.world.spec import WorldFileError
 
 DEFAULT_WORLD = "maze"
@@ -865,6 +866,8 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return EXIT_USER
     previous = signal.signal(signal.SIGTERM, _terminate)
+    if sys.stderr.isatty():  # someone waits at a terminal: say why the first run takes a while
+        compiling.PROGRESS = lambda line: print(f"ctsim: {line}", file=sys.stderr, flush=True)
     try:
         return args.handler(args)
     except BrokenPipeError:  # `ctsim controllers | head`: the reader has all it wanted

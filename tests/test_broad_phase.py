@@ -7,7 +7,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sim.world.kernels import _contact_time, _near_pairs, keep_apart
+from sim.world.kernels import _contact_time, _near_pairs, _stable_order, keep_apart
 
 
 def keep_apart_all_pairs(pose: np.ndarray, move: np.ndarray, reach: np.ndarray) -> None:
@@ -61,3 +61,14 @@ def test_far_robots_are_never_paired() -> None:
     """1,000 robots 10 m apart on a line: no pair to check."""
     pose = np.column_stack((np.arange(1000) * 10.0, np.zeros(1000), np.zeros(1000)))
     assert len(_near_pairs(pose, np.full((1000, 2), 0.01), np.full(1000, 0.06))) == 0
+
+
+@settings(deadline=None, max_examples=60)
+@given(st.lists(st.integers(-5, 40), max_size=300))
+def test_stable_order_is_numpys_stable_argsort(keys: list[int]) -> None:
+    """The grids' hand-written merge sort orders ties as numpy's stable sort does (the grids depend
+    on the order of checking pairs and circles)."""
+    key = np.array(keys, dtype=np.int64)
+    order, sorted_key = _stable_order(key)
+    np.testing.assert_array_equal(order, np.argsort(key, kind="stable"))
+    np.testing.assert_array_equal(sorted_key, np.sort(key, kind="stable"))

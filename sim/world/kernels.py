@@ -9,7 +9,6 @@ per step for any number of robots (tests compare them with the reference functio
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 
 import numba
 import numpy as np
@@ -53,15 +52,6 @@ STREAK, QUIET_AFTER = 0, 1
 CLEAR = 1e-3
 """A robot nearer than this (m) to a wall counts as touching it (`settle`): far beyond rounding, so
 that pymunk, which finds a contact at distance <= 0, finds none where this finds none."""
-
-
-def compiled_for(kernel, *arguments) -> Callable:  # noqa: ANN001 (a numba dispatcher)
-    """`kernel` compiled (or loaded from numba's cache) for the types of `arguments`, to be called
-    without numba's dispatch, which finds the type of every argument on every call: 0.05-0.1 µs
-    an array, some 3 µs of a world step's 48 arrays on a 2-core VM. For a caller whose arguments
-    keep these types (dtype, dimensions, layout) on every call only: other types are misread, not
-    refused."""
-    return kernel.compile(tuple(kernel.typeof_pyval(argument) for argument in arguments))
 
 
 @numba.njit(cache=True)
@@ -464,12 +454,14 @@ def build_wall_grid(boxes: np.ndarray, cell: float) -> tuple[np.ndarray, np.ndar
         span[w, 0], span[w, 1] = _cell_index(boxes[w, 0], x0, cell, cols - 1), _cell_index(boxes[w, 2], x0, cell, cols - 1)
         span[w, 2], span[w, 3] = _cell_index(boxes[w, 1], y0, cell, rows - 1), _cell_index(boxes[w, 3], y0, cell, rows - 1)
         for r in range(span[w, 2], span[w, 3] + 1):
-            count[r * cols + span[w, 0] + 1 : r * cols + span[w, 1] + 2] += 1
+            for k in range(r * cols + span[w, 0] + 1, r * cols + span[w, 1] + 2):  # (a loop: as below)
+                count[k] += 1
     starts = np.cumsum(count)
     first = STARTS + starts.shape[0]  # where the members begin
     cells = np.empty(first + starts[-1] + max(n, 1), dtype=np.int64)
     cells[COLUMNS], cells[ROWS] = cols, rows
-    cells[STARTS:first] = starts
+    for k in range(starts.shape[0]):  # (loops: numba's slice assignment compiles the formatting of its error message, seconds)
+        cells[STARTS + k] = starts[k]
     fill = first + starts[:-1]
     for w in range(n):  # walls in ascending order: each cell's list ascends
         for r in range(span[w, 2], span[w, 3] + 1):
@@ -644,9 +636,8 @@ def _circle_grid(circles: np.ndarray, length: float):
         cx[j] = int(math.floor((circles[j, 0] - x0) / cell))
         cy[j] = int(math.floor((circles[j, 1] - y0) / cell))
     cols, rows = cx.max() + 1, cy.max() + 1
-    key = cy * cols + cx
-    order = np.argsort(key, kind="mergesort")
-    return cell, x0, y0, cols, rows, order, key[order], widest
+    order, sorted_key = _stable_order(cy * cols + cx)
+    return cell, x0, y0, cols, rows, order, sorted_key, widest
 
 
 @numba.njit(cache=True)
@@ -941,6 +932,34 @@ def _contact_time(pose: np.ndarray, move: np.ndarray, reach: np.ndarray, i: int,
 
 
 @numba.njit(cache=True)
+def _stable_order(key: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(order, key[order]): the stable ascending order of the int64 `key`s, as
+    `np.argsort(key, kind="stable")`. A bottom-up merge sort written out: numba compiles its own
+    argsort in seconds, this in a fraction of one."""
+    n = key.shape[0]
+    order, spare = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
+    for k in range(n):
+        order[k] = k
+    width = 1
+    while width < n:
+        for low in range(0, n, 2 * width):
+            middle, high = min(low + width, n), min(low + 2 * width, n)
+            i, j = low, middle
+            for k in range(low, high):  # ties from the left run first: stable
+                if i < middle and (j >= high or key[order[i]] <= key[order[j]]):
+                    spare[k] = order[i]
+                    i += 1
+                else:
+                    spare[k] = order[j]
+                    j += 1
+        order, spare = spare, order
+        width *= 2
+    for k in range(n):
+        spare[k] = key[order[k]]
+    return order, spare
+
+
+@numba.njit(cache=True)
 def _first_at_least(values: np.ndarray, key: int) -> int:
     """Index of the first of the ascending `values` that is >= key (len(values) if none): a
     binary search without numpy's per-call setup (a crowd asks nine times per robot)."""
@@ -976,8 +995,7 @@ def _near_pairs(pose: np.ndarray, move: np.ndarray, reach: np.ndarray) -> np.nda
         cy[i] = int((pose[i, 1] - y0) / cell)
     rows = cy.max() + 3  # keys of the cells one beyond either side stay distinct
     key = (cx + 1) * rows + (cy + 1)
-    order = np.argsort(key, kind="mergesort")
-    sorted_key = key[order]
+    order, sorted_key = _stable_order(key)
     pairs = np.empty((4 * n + 16, 2), dtype=np.int64)
     count = 0
     found = np.empty(n, dtype=np.int64)
@@ -999,7 +1017,8 @@ def _near_pairs(pose: np.ndarray, move: np.ndarray, reach: np.ndarray) -> np.nda
             found[p] = j
         if count + m > pairs.shape[0]:
             grown = np.empty((2 * (count + m), 2), dtype=np.int64)
-            grown[:count] = pairs[:count]
+            for q in range(count):  # (a loop: numba's slice assignment compiles the formatting of its error message, seconds)
+                grown[q, 0], grown[q, 1] = pairs[q, 0], pairs[q, 1]
             pairs = grown
         for q in range(m):
             pairs[count, 0], pairs[count, 1] = i, found[q]

@@ -27,6 +27,7 @@ from sim.kinematics import counts_per_metre
 from sim.world import kernels
 from sim.world.bodies import BodyArrays
 from sim.world.chassis_drive import ChassisDrive
+from sim.world.compiling import compile_all
 from sim.world.floor import FloorMap, rasterize
 from sim.world.noise import NormalBlocks
 from sim.world.readings import SensorFrame, SensorLayout
@@ -314,13 +315,15 @@ class World:
             st.fallen, self._bodies.row_index, self._bodies.motion, self._quiet,
         )  # fmt: skip
         # the kernels each step calls, for the types they get then: C-ordered (n, 2) commands and
-        # (n, 3) poses, int64 values and float believed distances (`kernels.compiled_for`)
+        # (n, 3) poses, int64 values and float believed distances (`compiling.compiled_for`; the largest last, see `compile_all`)
         pose, commands = self._poses, np.zeros((len(self.robots), 2))
-        self._plan = kernels.compiled_for(kernels.plan, commands, st.params, st.state, st.tallies, pose, self.dt)
-        self._settle = kernels.compiled_for(kernels.settle, pose, *self._settle_arguments)
-        self._glide = kernels.compiled_for(kernels.glide, pose, st.params, self._bodies.motion, self._bodies.row_index, self.dt)
-        self._measure = kernels.compiled_for(kernels.measure_all, pose, pose, st.params, st.state, st.tallies, self.floor.hole, self._scalars)
-        self._read_sensors = kernels.compiled_for(kernels.read_sensors, pose, *self._read_arguments, np.empty(0, np.int64), np.empty(0))
+        self._plan, self._glide, self._measure, self._settle, self._read_sensors = compile_all([
+            (kernels.plan, (commands, st.params, st.state, st.tallies, pose, self.dt)),
+            (kernels.glide, (pose, st.params, self._bodies.motion, self._bodies.row_index, self.dt)),
+            (kernels.measure_all, (pose, pose, st.params, st.state, st.tallies, self.floor.hole, self._scalars)),
+            (kernels.settle, (pose, *self._settle_arguments)),
+            (kernels.read_sensors, (pose, *self._read_arguments, np.empty(0, np.int64), np.empty(0))),
+        ])  # fmt: skip
 
     def poses(self) -> np.ndarray:
         """(n, 3) ground-truth poses of all robots (a copy)."""
