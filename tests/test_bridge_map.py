@@ -55,6 +55,15 @@ def test_parts_out_of_order_or_of_another_block_are_dropped():
     assert (fw_map.cells[block_origin(6)[0], block_origin(6)[1]]) == 2 and not fw_map.cells[block_origin(5)].any()
 
 
+def test_a_block_beyond_the_map_or_a_short_part_is_dropped():
+    """Block addresses stop at 1536 x 1536 / 512 = 4608; a part is 128 bytes."""
+    fw_map = FirmwareMap()
+    for packet in parts(4608, bytes(512)):
+        fw_map.add(packet)
+    fw_map.add(Packet("Q", "D", 1, 0, payload=b"\x01" * 100))
+    assert fw_map.blocks == 0 and fw_map.dropped == 2 and fw_map.box is None and not fw_map.cells.any()
+
+
 def test_the_image_colours_obstacles_and_floor_clear_where_unknown_and_is_a_valid_png():
     fw_map = FirmwareMap()
     values = np.zeros((32, 16), dtype=np.int8)

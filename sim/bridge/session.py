@@ -113,8 +113,8 @@ class BridgeObserver:
     """Writes each firmware bot's LCD text, log lines and remote-call events (rerun TextLog), its
     LEDs and motor values (Scalars, on change) under `firmware/<robot>/`, and its own map as an
     image under `world/map/firmware/<robot>` (the part over the world, translucent, above the
-    world's floor: unknown cells are clear); paces the run at c't-Sim's real time with `realtime`; at the end sends every
-    firmware the block of the last step."""
+    world's floor: unknown cells are clear); paces the run at c't-Sim's real time with
+    `realtime`; at the end sends every firmware the block of the last step."""
 
     def __init__(self, bridge: Bridge, recorder: Recorder | None, realtime: bool):
         self.bridge, self.recorder, self.realtime = bridge, recorder, realtime

@@ -28,5 +28,6 @@ open (on end-of-input its console thread spins at 100 % CPU; it reuses ctbot.map
 
 Give the firmware at most one option (-t HOST or -a ADDRESS): with two it prints its usage and
 exits without connecting. For --robots N start N firmwares, each in its own folder; connections
-become robots in the order they arrive. At the end ctsim sends SHUTDOWN and the firmware exits 0.
+become robots in the order they arrive. Once the run's files are written ctsim sends SHUTDOWN and
+the firmware exits 0.
 """
