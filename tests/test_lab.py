@@ -20,9 +20,10 @@ SOLUTIONS = Path(__file__).parent / "lab"
 SEED = 7  # any seed: the reference must pass every draw; a fixed one keeps the test repeatable
 
 WRONG = {
-    1: ["swapped", "degrees", "straight", "radius_factor"],
-    2: ["euler", "old_heading", "degrees", "swapped", "straight"],
-    3: ["euler", "swapped", "hardcoded", "end_heading"],
+    1: ["swapped", "degrees", "straight", "radius_factor", "half_track"],
+    2: ["euler", "old_heading", "degrees", "swapped", "straight", "euler_new", "no_chord", "sin_cos", "half_track", "wrapped"],
+    3: ["euler", "swapped", "hardcoded", "end_heading", "no_chord", "sin_cos", "half_track", "millimetres", "ticks", "diameter_2pi",
+        "cumulative"],
     4: ["axle", "chord", "flipped", "no_my"],
     5: ["heading", "slow", "collision"],
     6: ["swapped", "inverted", "track_only", "degrees"],
@@ -36,7 +37,7 @@ def quick(number: int, hidden: int | None = None):
     return dataclasses.replace(exercise(number), hidden=(1 if number == 6 else 2) if hidden is None else hidden)
 
 
-PASSING = [(number, "reference") for number in WRONG if number != 7] + [(7, "own")]
+PASSING = [(number, "reference") for number in WRONG if number != 7] + [(7, "own"), (3, "wrapped")]  # 3: θ wrapped or not
 
 
 @pytest.mark.parametrize(("number", "solution"), PASSING)
@@ -144,3 +145,29 @@ def test_a_teacher_adds_an_exercise_in_a_folder_of_their_own(tmp_path: Path, cap
     assert "Double" in capsys.readouterr().out
     solution = write(tmp_path, "double.py", "def double(x):\n    return 2 * x\n")
     assert main(["lab", "--exercises", str(tmp_path / "mine"), "check", "42", str(solution), "--out", str(tmp_path / "o")]) == 0
+
+
+def test_a_failing_row_shows_expected_and_got_to_enough_digits_to_differ() -> None:
+    row = check_file(quick(3, hidden=0), SOLUTIONS / "ex3" / "no_chord.py", seed=SEED).rows[0]
+    assert not row.passed and row.problem == "no_chord"
+    assert row.expected != row.got  # the chord's few micrometres show, however many digits that takes
+
+
+def test_half_the_track_on_the_spot_is_named_as_such_not_as_the_spot_case() -> None:
+    report = check_file(quick(1, hidden=0), SOLUTIONS / "ex1" / "half_track.py", seed=SEED)
+    assert next(r for r in report.rows if r.scenario == "on the spot").problem == "half_track"
+
+
+def test_gradescope_output_carries_values_error_line_and_hint_and_scores_read_short(tmp_path: Path) -> None:
+    folder = tmp_path / "subs"
+    folder.mkdir()
+    (folder / "euler.py").write_text((SOLUTIONS / "ex2" / "euler.py").read_text())
+    (folder / "syntax.py").write_text("def step(*a)\n    return 1\n")
+    reports, _ = grade(exercise(2), folder, tmp_path / "out", seed=SEED)
+    failed = [t for t in json.loads((tmp_path / "out" / "gradescope" / "euler" / "results.json").read_text())["tests"] if t["status"] == "failed"]
+    visible = next(t for t in failed if t["visibility"] == "visible")["output"]
+    assert "expected: (" in visible and "got: (" in visible and "Euler" in visible
+    syntax = json.loads((tmp_path / "out" / "gradescope" / "syntax" / "results.json").read_text())["tests"][0]["output"]
+    assert "SyntaxError at line 1" in syntax and "fix the error at line 1" in syntax
+    euler = next(r for r in reports if r.file.endswith("euler.py"))
+    assert euler.score_text == f"{round(euler.score, 1):g}/10" and len(euler.score_text) <= 6

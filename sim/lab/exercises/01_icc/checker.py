@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 
-from sim.lab.checking import Outcome, close, diagnose, fmt
+from sim.lab.checking import Outcome, close, diagnose, differing, fmt
 from sim.lab.student import StudentError, numbers
 
 
@@ -18,11 +18,11 @@ def draw(rng, index, ranges):
     return {"v_left": p["v_left"], "v_right": p["v_right"], "track": p["track"], "pose": [p["x"], p["y"], p["theta"]]}
 
 
-def answer(v_left, v_right, track, pose, *, radius_factor=2.0, omega_sign=1.0, icc_sign=1.0, heading=None):
+def answer(v_left, v_right, track, pose, *, radius_factor=2.0, omega_sign=1.0, icc_sign=1.0, heading=None, omega_track=1.0):
     """(R, ω, icc_x, icc_y) by eqs 2-3; the keywords reproduce typical mistakes."""
     x, y, theta = pose
     theta = theta if heading is None else heading
-    omega = omega_sign * (v_right - v_left) / track
+    omega = omega_sign * (v_right - v_left) / (omega_track * track)
     if v_right == v_left:
         return np.array([math.inf, omega, math.inf, math.inf])
     radius = track * (v_left + v_right) / (radius_factor * (v_right - v_left))
@@ -48,10 +48,12 @@ def check(scenario, student):
         "radius_factor": answer(v_left, v_right, track, pose, radius_factor=1.0),
         "icc_side": answer(v_left, v_right, track, pose, icc_sign=-1.0),
         "degrees": answer(v_left, v_right, track, pose, heading=math.radians(pose[2])),
+        "half_track": answer(v_left, v_right, track, pose, omega_track=0.5),
     }
     hint = diagnose(got, mistakes, tolerance)
+    radius_and_icc = close(got[[0, 2, 3]], expected[[0, 2, 3]], tolerance)
     if hint is None and straight:
         hint = "straight"
-    elif hint is None and v_left == -v_right:
+    elif hint is None and v_left == -v_right and not radius_and_icc:
         hint = "spot"
-    return Outcome(fmt(expected), fmt(got), False, f"±{tolerance:g}", hint)
+    return Outcome(*differing(expected, got), False, f"±{tolerance:g}", hint)
