@@ -171,3 +171,23 @@ def test_gradescope_output_carries_values_error_line_and_hint_and_scores_read_sh
     assert "SyntaxError at line 1" in syntax and "fix the error at line 1" in syntax
     euler = next(r for r in reports if r.file.endswith("euler.py"))
     assert euler.score_text == f"{round(euler.score, 1):g}/10" and len(euler.score_text) <= 6
+
+
+def test_without_bubblewrap_grading_refuses_unless_degraded_and_then_says_so_everywhere(tmp_path: Path, monkeypatch) -> None:
+    from sim.lab import grading
+    from sim.sandbox import SandboxUnavailable, launch
+
+    missing = lambda: "bubblewrap (bwrap) is not installed"  # noqa: E731  (as on a machine without it)
+    monkeypatch.setattr(launch, "unavailable", missing)
+    monkeypatch.setattr(grading, "unavailable", missing)
+    folder = tmp_path / "subs"
+    folder.mkdir()
+    (folder / "alice.py").write_text((SOLUTIONS / "ex1" / "reference.py").read_text())
+    with pytest.raises(SandboxUnavailable, match="--degraded"):
+        grade(exercise(1), folder, tmp_path / "out", seed=SEED)
+    assert not (tmp_path / "out").exists()
+    reports, _ = grade(exercise(1), folder, tmp_path / "out", seed=SEED, degraded=True)
+    assert reports[0].passed and reports[0].degraded
+    assert next(csv.DictReader((tmp_path / "out" / "grades.csv").open()))["isolation"] == "degraded (no isolation)"
+    assert "DEGRADED" in json.loads((tmp_path / "out" / "gradescope" / "alice" / "results.json").read_text())["output"]
+    assert main(["lab", "check", "1", str(folder / "alice.py")]) == 2  # refused, with the reason on stderr

@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from bots.spec import read_toml
+from sim.sandbox.launch import module_file
 
 SHIPPED = Path(__file__).resolve().parent / "exercises"
 LANGUAGES = ("en", "de")
@@ -162,6 +163,12 @@ def load_exercise(folder: str | Path) -> Exercise:
     hints = data.get("hints", {})
     for key in hints:
         _texts(hints, key, path)
+    modules = data.get("modules", [])
+    if not (isinstance(modules, list) and all(isinstance(m, str) for m in modules)):
+        raise ExerciseError(f"{path}: 'modules' must be a list of module names, such as [\"bots.commands\"]")
+    for name in modules:
+        if module_file(name) is None:
+            raise ExerciseError(f"{path}: modules: {name!r} is no module of ctsim (sim.* or bots.*)")
     return Exercise(
         folder=folder,
         number=int(data["number"]),
@@ -175,7 +182,7 @@ def load_exercise(folder: str | Path) -> Exercise:
         examples=list(data.get("example", [])),
         ranges=dict(data.get("draw", {})),
         hints=hints,
-        modules=tuple(data.get("modules", ())),
+        modules=tuple(modules),
     )
 
 

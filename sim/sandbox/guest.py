@@ -1,8 +1,9 @@
 """The program inside the sandbox: it confines itself, loads the untrusted file and answers requests.
 
-Started as `python -I -S -B guest.py CONFIG` (CONFIG: JSON with `path`, the folders to import
-from; `code`, the file; `limits`; `requests` and `replies`, the file descriptors of its two pipes),
-both pipes in the `wire` format. It
+Started as `python -I -S -B -c "import sys; sys.path[:0] = PATH; import guest; guest.main()"
+CONFIG` (imported, not run as a script, so that its compiled form is used; CONFIG: JSON with
+`path`, the folders to import from; `code`, the file; `limits`; `requests` and `replies`, the
+file descriptors of its two pipes, both in the `wire` format). It
 first sets its limits and the no-new-processes filter (`confine`), then loads the file as the
 module `ctsim_student` and says {"ok": null} or {"error": ...}; then, per request:
 
@@ -187,7 +188,6 @@ def serve(config: dict[str, Any]) -> None:
         wire.write_all(config["replies"], reply)
 
 
-if __name__ == "__main__":
-    settings = json.loads(sys.argv[1])
-    sys.path[:0] = settings["path"]
-    serve(settings)
+def main() -> None:
+    """Serve with the configuration in the first argument (its `path` is on sys.path already)."""
+    serve(json.loads(sys.argv[1]))

@@ -19,6 +19,7 @@ import ast
 import functools
 import importlib.util
 import os
+import py_compile
 import shutil
 import subprocess
 import sys
@@ -34,7 +35,8 @@ ENVIRONMENT = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1", "MKL_NUM_THR
 """The guest's whole environment: one BLAS thread (each would reserve memory), nothing of the host's."""
 
 
-def _module_file(name: str) -> Path | None:
+def module_file(name: str) -> Path | None:
+    """The file of the project module `name` (a package's __init__.py), or None."""
     base = ROOT.joinpath(*name.split("."))
     return next((p for p in (base / "__init__.py", base.with_suffix(".py")) if p.is_file()), None)
 
@@ -48,7 +50,7 @@ def closure(modules: tuple[str, ...]) -> list[Path]:
     todo = list(modules)
     while todo:
         name = todo.pop()
-        path = _module_file(name)
+        path = module_file(name)
         if name in found or path is None:
             continue
         found[name] = path
@@ -117,17 +119,35 @@ def _numpy() -> list[tuple[str, str]]:
     return [(str(p), f"{LIB}/{p.name}") for p in (package, package.with_name("numpy.libs")) if p.is_dir()]
 
 
+def _with_compiled(source: Path, target: str) -> list[tuple[str, str]]:
+    """`source` bound at `target`, and its compiled form beside it where Python looks for it (the
+    guest writes nothing, so without it every start would compile the file again); compiled
+    here first when missing or stale."""
+    cache = Path(importlib.util.cache_from_source(str(source)))
+    if not cache.is_file() or cache.stat().st_mtime < source.stat().st_mtime:
+        py_compile.compile(str(source), str(cache), doraise=False)
+    inside = importlib.util.cache_from_source(target)
+    return [(str(source), target)] + ([(str(cache), inside)] if cache.is_file() else [])
+
+
+def _start(path: list[str]) -> list[str]:
+    """The interpreter's arguments that import the guest from `path` and serve."""
+    return [_interpreter(), "-I", "-S", "-B", "-c", f"import sys; sys.path[:0] = {path!r}; import guest; guest.main()"]
+
+
 def command(code: Path, folder: bool, modules: tuple[str, ...], config: dict, degraded: bool) -> list[str]:
     """The command line that starts the guest on `code` (bound with its whole folder if `folder`),
     with `modules` of the project importable; `config` completed with the paths inside."""
     if degraded:
         site = str(Path(importlib.util.find_spec("numpy").origin).parents[1])
         config |= {"path": [str(ROOT / "sim" / "sandbox"), site, str(ROOT)], "code": str(code)}
-        return [_interpreter(), "-I", "-S", "-B", str(ROOT / GUEST_FILES[0]), _json(config)]
+        return [*_start(config["path"]), _json(config)]
     inside = f"{SUBMISSION}/{code.name}"
     binds = [(str(code.parent), SUBMISSION) if folder else (str(code), inside)] + _numpy()
-    binds += [(str(ROOT / name), f"{GUEST}/{Path(name).name}") for name in GUEST_FILES]
-    binds += [(str(path), f"{LIB}/{path.relative_to(ROOT).as_posix()}") for path in closure(modules)]
+    for name in GUEST_FILES:
+        binds += _with_compiled(ROOT / name, f"{GUEST}/{Path(name).name}")
+    for path in closure(modules):
+        binds += _with_compiled(path, f"{LIB}/{path.relative_to(ROOT).as_posix()}")
     config |= {"path": [GUEST, LIB], "code": inside}
     args = [bubblewrap(), *_namespaces(), *_system()]
     for source, target in binds:
@@ -135,7 +155,7 @@ def command(code: Path, folder: bool, modules: tuple[str, ...], config: dict, de
     for key, value in ENVIRONMENT.items():
         args += ["--setenv", key, value]
     args += ["--remount-ro", "/dev", "--remount-ro", "/", "--chdir", SUBMISSION]
-    return [*args, "--", _interpreter(), "-I", "-S", "-B", f"{GUEST}/guest.py", _json(config)]
+    return [*args, "--", *_start(config["path"]), _json(config)]
 
 
 def _json(config: dict) -> str:
