@@ -1,4 +1,4 @@
-"""The `ctsim` command line: run, view, play, report, sweep, worlds, check, controllers, lab.
+"""The `ctsim` command line: run, view, play, report, sweep, contest, worlds, check, controllers, lab.
 
 User mistakes (bad world files, robot files, controller names or parameters, unwritable folders)
 end in one line `ctsim: error: ...` and exit status 2, never a traceback; a run that fails mid-way
@@ -188,6 +188,7 @@ def build_parser() -> argparse.ArgumentParser:
     controllers = commands.add_parser("controllers", help="list the registered controllers and their parameters", description="List the controllers `--controller` accepts by name, with their parameters.")
     controllers.set_defaults(handler=cmd_controllers)
     _add_lab(commands)
+    _add_contest(commands)
     return parser
 
 
@@ -214,6 +215,37 @@ def _add_lab(commands) -> None:
     grade.add_argument("--jobs", type=_positive(int), help="parallel checks (default: number of CPUs)")
     grade.add_argument("--degraded", action="store_true", help="where bubblewrap is missing, grade without isolation (said in every result)")
     lab.set_defaults(handler=cmd_lab)
+
+
+def _add_contest(commands) -> None:  # noqa: ANN001 (argparse's subparsers action)
+    contest = commands.add_parser(
+        "contest",
+        help="a class tournament as c't-Sim's: preliminary round, seeded knockout, bracket and ranking",
+        description="Run a contest as c't-Sim's ContestConductor: every entry alone against the clock, then a seeded knockout "
+        "of races between two bots, each from its own start to its own goal; places 1-4 played out. Kept in DIR/contest.sqlite: "
+        "run the same command again to resume. Writes each game's recording, bracket.png, bracket.html and ranking.csv.",
+    )
+    contest.add_argument("world", metavar="WORLD", help="the knockout world: two start slots with a goal each (shipped: contest; or a c't-Sim contest parcours)")
+    contest.add_argument("entries", nargs="+", metavar="ENTRY",
+                         help="[NAME=]SOURCE[,KEY=VALUE...]: a registered controller or FILE.py[:CLASS] with parameters, "
+                         "firmware:PATH (a c't-Bot firmware through the bridge; rc5=T:KEY, call=T:NAME(ARGS)), "
+                         "or a folder of student submissions (one entry each, sandboxed)")  # fmt: skip
+    contest.add_argument("--prelim", metavar="WORLD", help="world of the preliminary round (default: WORLD)")
+    contest.add_argument("--time-limit", type=_positive(float), default=120.0, metavar="SECONDS", help="simulated time of a game; a game without an arrival goes to the bot nearer its goal by path (default: 120)")
+    contest.add_argument("--seed", type=_seed, default=0, help="seed of every game (default: 0)")
+    contest.add_argument("--dt", type=_positive(float), default=0.01, metavar="SECONDS", help="simulation step (default: 0.01)")
+    contest.add_argument("--out", type=Path, metavar="DIR", help="contest folder (default: runs/contest-<world>)")
+    contest.add_argument("--jobs", type=int, metavar="N", help="games in parallel (default: one per core)")
+    contest.add_argument("--engine", choices=("processes", "dask", "serial"), default="processes", help="local processes (default), a Dask LocalCluster, or one game after another here")
+    contest.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="play on the Dask cluster whose scheduler is there (implies --engine dask)")
+    contest.add_argument("--no-record", action="store_true", help="write no recordings of the games")
+    contest.set_defaults(handler=cmd_contest)
+
+
+def cmd_contest(args: argparse.Namespace) -> int:
+    from sim.contest.cli import contest_command
+
+    return contest_command(args)
 
 
 def cmd_lab(args: argparse.Namespace) -> int:

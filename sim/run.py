@@ -17,7 +17,7 @@ import signal
 import tempfile
 import threading
 import traceback
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Protocol
 
@@ -47,6 +47,8 @@ class RobotSetup:
     estimators: list[Estimator] | None = None
     faults: tuple[WheelFault, ...] = ()
     """Wheel faults of this robot (a general chassis) scheduled by its environment; `robot` is ignored."""
+    name: str | None = None
+    """The robot's name in logs and recordings (default: its spec's name, numbered after the first)."""
 
 
 BLOCK = 65536
@@ -176,8 +178,8 @@ class RobotLog:
 class RunResult:
     """A finished (or stopped) run. `reason` is 'duration', 'goal', 'done' (every robot's controller
     said it is done: its `status` is no longer RUNNING), 'quit' (the user closed the window),
-    'error', 'interrupted' (Ctrl-C) or 'terminated' (SIGTERM); `error` holds the one-line message
-    of a failure."""
+    'error', 'interrupted' (Ctrl-C), 'terminated' (SIGTERM) or what `run`'s `stop_when` answered;
+    `error` holds the one-line message of a failure."""
 
     def __init__(self, world: WorldSpec, seed: int, dt: float, robots: list[RobotLog], capacity: int):
         self.world, self.seed, self.dt, self.robots = world, seed, dt, robots
@@ -314,13 +316,15 @@ def run(
     until_goal: bool = False,
     observers: tuple = (),
     step_timeout: float | None = None,
+    stop_when: Callable[[World, list[RobotLog]], str | None] | None = None,
 ) -> RunResult:
     """Simulate `robots` in `world_spec` for `duration` seconds (or until one reaches a goal).
     A controller step that takes longer than `step_timeout` seconds (wall clock; None: no limit)
-    ends the run as a controller error (`StepClock`)."""
+    ends the run as a controller error (`StepClock`). `stop_when(world, logs)`, asked after every
+    sample (a referee), ends the run when it answers a reason (the result's `reason`)."""
     steps = step_count(duration, dt)
     world = World(world_spec, dt=dt, seed=seed)
-    placed = [world.add_robot(setup.spec, setup.start) for setup in robots]
+    placed = [world.add_robot(setup.spec, setup.start, setup.name) for setup in robots]
     _refuse_overlaps(placed)
     # the default estimators of all robots that use them are stepped together, in one compiled pass
     members = [i for i, setup in enumerate(robots) if setup.estimators is None and batched(setup.spec)]
@@ -362,6 +366,9 @@ def run(
                 break
             if can_finish and not any(controller.status is Status.RUNNING for controller in controllers):
                 result.reason = "done"
+                break
+            if stop_when is not None and (reason := stop_when(world, logs)):
+                result.reason = reason
                 break
             if step == steps:
                 break
@@ -489,6 +496,6 @@ def _sample(
         log.append(readings, pose, rows if rows is not None else [estimator.pose for estimator in chosen])
     goals = world.spec.goals
     if goals:
-        for (x, y), log in zip(poses[:, :2].tolist(), logs):
-            if log.goal_time is None and world.spec.in_goal(x, y):
+        for (x, y), log, robot in zip(poses[:, :2].tolist(), logs, world.robots):
+            if log.goal_time is None and world.spec.in_goal(x, y, robot.slot):
                 log.goal_time = time

@@ -38,7 +38,8 @@ class FakeFirmware:
     'garbage' (junk bytes in the reply), 'flood' (bytes without end), or None."""
 
     def __init__(self, port: int, handshake: bool = True, address: int | None = None, misbehave: tuple[int, str] | None = None, map_every: int = 10,
-                 on_shutdown=None):  # fmt: skip
+                 on_shutdown=None, host: str = "127.0.0.1"):  # fmt: skip
+        self.host = host
         self.port, self.handshake, self.fixed_address, self.misbehave, self.map_every = port, handshake, address, misbehave, map_every
         self.on_shutdown = on_shutdown  # called when SHUTDOWN arrives (a test looks at what exists then)
         self.address = address if address is not None else 0xFF
@@ -79,7 +80,7 @@ class FakeFirmware:
         deadline = time.monotonic() + 10
         while True:
             try:
-                sock = socket.create_connection(("127.0.0.1", self.port), timeout=60)
+                sock = socket.create_connection((self.host, self.port), timeout=60)
                 sock.settimeout(600)  # before its first block the sim may compile its kernels: minutes on a loaded machine
                 break
             except ConnectionRefusedError:
@@ -218,8 +219,9 @@ class FakeFirmware:
 def main() -> None:
     parser = argparse.ArgumentParser(description="A fake c't-Bot firmware for `ctsim bridge` (tests, benchmarks).")
     parser.add_argument("--port", type=int, default=10001)
+    parser.add_argument("-t", dest="host", default="127.0.0.1", help="the sim's host, as the firmware's -t option")
     args = parser.parse_args()
-    fake = FakeFirmware(args.port, map_every=0)
+    fake = FakeFirmware(args.port, map_every=0, host=args.host)
     fake.run()
 
 

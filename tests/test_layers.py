@@ -17,7 +17,8 @@ WORLD = CORE + ("sim.world", "bots.spec", "bots.ctbot")
 RUN = WORLD + ("bots", "sim.run")
 ANALYSIS = RUN + ("sim.analysis",)
 VIEWS = ANALYSIS + ("sim.views",)
-CAPABILITIES = VIEWS + ("sim.bridge", "sim.lab", "sim.experiments")
+SANDBOX = VIEWS + ("sim.sandbox",)  # DESIGN.md §2: untrusted code isolated; the lab and contests use it
+CAPABILITIES = SANDBOX + ("sim.bridge", "sim.lab", "sim.experiments")
 
 # (prefix of a module's name, the prefixes it may import), most specific first.
 RULES = (
@@ -31,6 +32,8 @@ RULES = (
     ("sim.lab", CAPABILITIES),
     ("sim.experiments", CAPABILITIES),
     ("sim.web", CAPABILITIES + ("sim.web",)),
+    ("sim.sandbox", SANDBOX),
+    ("sim.contest", CAPABILITIES + ("sim.contest",)),
     ("sim.cli", ("sim", "bots")),
     ("sim.console", ("sim.cli",)),
 )

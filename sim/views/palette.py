@@ -44,6 +44,8 @@ FAULT: RGB = (225, 30, 30)
 """A wheel that failed (locked, rolling free, steering frozen)."""
 ICR: RGB = (230, 60, 200)
 """The instantaneous centre of rotation of a robot's motion."""
+CONTESTANTS: tuple[RGB, RGB] = ((214, 48, 49), (37, 99, 235))
+"""The two bots of a contest game: red from start slot 1, blue from slot 2 (c't-Sim's start tiles)."""
 SCALE_BAR: RGB = (20, 20, 20)
 CHANNELS: tuple[RGB, ...] = ((31, 119, 180), (214, 39, 40), (44, 160, 44), (148, 103, 189), (140, 86, 75), (23, 190, 207))
 """Colours of a sensor's channels (left, right, ...)."""

@@ -175,11 +175,15 @@ class _Track:
 class Recorder:
     """Run observer that writes a rerun recording to `path` (None: none) and, with `live`, also
     streams it to a viewer: the one at `connect` (a rerun+http:// URL) or else one it spawns.
-    `facts` are extra lines for the run's facts document (option -> value).
+    `facts` are extra lines for the run's facts document (option -> value). `colours` (robot name
+    -> RGB) draws those robots' outlines and true trails in their own colour, with their name on
+    the map (a contest's two bots), instead of truth's green.
     Use as `observers=[Recorder(path)]`."""
 
-    def __init__(self, path: str | Path | None, live: bool = False, connect: str | None = None, application_id: str = "ctsim", facts: dict[str, Any] | None = None):
+    def __init__(self, path: str | Path | None, live: bool = False, connect: str | None = None, application_id: str = "ctsim",
+                 facts: dict[str, Any] | None = None, colours: dict[str, palette.RGB] | None = None):  # fmt: skip
         self.path = Path(path) if path is not None else None
+        self.colours = dict(colours or {})
         self.live = live or connect is not None
         self.connect = connect
         self.application_id = application_id
@@ -387,10 +391,13 @@ class Recorder:
             base = f"world/{name}"
             outline = body_outline(spec)
             heading = [(0.0, 0.0), (outline[:, 0].max() + 0.35 * spec.body_radius, 0.0)]
-            self._log(f"{base}/body/outline", rr.LineStrips2D([outline, heading], colors=_rgb(palette.TRUTH), radii=-2.0, draw_order=60), static=True)
+            own = _rgb(self.colours.get(name, palette.TRUTH))
+            self._log(f"{base}/body/outline", rr.LineStrips2D([outline, heading], colors=own, radii=-2.0, draw_order=60), static=True)
+            if name in self.colours:
+                self._log(f"{base}/body/name", rr.Points2D([(0.0, 0.0)], colors=own, radii=-3.0, labels=[name], show_labels=True, draw_order=61), static=True)
             self._log(f"{base}/rays", rr.LineStrips2D.from_fields(colors=_rgb(palette.RAY), radii=-0.75, draw_order=55), static=True)
             self._log(f"{base}/hits", rr.Points2D.from_fields(colors=_rgb(palette.HIT), radii=-2.5, draw_order=56), static=True)
-            self._log(f"{base}/trail/truth", rr.LineStrips2D.from_fields(colors=_rgb(palette.TRUTH), radii=-2.5, draw_order=48), static=True)
+            self._log(f"{base}/trail/truth", rr.LineStrips2D.from_fields(colors=own, radii=-2.5, draw_order=48), static=True)
             colours = [_rgb(palette.estimate_colour(label, track.estimates)) for label in track.estimates]
             for label, colour in zip(track.estimates, colours):
                 self._log(f"{base}/trail/{label}", rr.LineStrips2D.from_fields(colors=colour, radii=-1.0, draw_order=50), static=True)

@@ -131,6 +131,8 @@ class Robot:
     query_filter: pymunk.ShapeFilter
     ir_curves: tuple[IRCurve, ...]
     rngs: dict[str, np.random.Generator]
+    slot: int | None = None
+    """The start slot it was placed at (None: an explicit pose); its goals are `spec.goals_of(slot)`."""
     fallen: bool = False
     """In a hole (c't-Sim's IN_HOLE): the last step's move was refused because a wheel or the skid
     would have been over a hole (`kernels.hold_at_holes`); clears when a move is allowed again."""
@@ -209,7 +211,7 @@ class World:
         sensors' noise comes from the world's seed, or from `seed` as for the first robot of a
         world of that seed."""
         index = len(self.robots)
-        x, y, heading = self._start_pose(index, start)
+        (x, y, heading), slot = self._start_pose(index, start)
         outline = spec.chassis.outline if spec.chassis is not None else ()
         if outline:
             body = pymunk.Body(spec.mass, pymunk.moment_for_poly(spec.mass, outline))
@@ -230,6 +232,7 @@ class World:
             query_filter=shape.filter,
             ir_curves=tuple(ir_curve_for(s.curve, s.side) for s in spec.ir),
             rngs=self._sensor_rngs(spec, index, seed),
+            slot=slot,
         )
 
         shape.collision_type = ROBOT
@@ -242,10 +245,11 @@ class World:
         self._stale = True
         return robot
 
-    def _start_pose(self, index: int, start: Start | tuple[float, float, float] | None) -> tuple[float, float, float]:
+    def _start_pose(self, index: int, start: Start | tuple[float, float, float] | None) -> tuple[tuple[float, float, float], int | None]:
+        """Robot `index`'s pose at `start` (default: its start slot) and the slot that is (None: a bare pose)."""
         if start is None:
             start = self.spec.start_for(index)
-        return (start.x, start.y, start.heading) if isinstance(start, Start) else tuple(start)
+        return ((start.x, start.y, start.heading), start.slot) if isinstance(start, Start) else (tuple(start), None)
 
     def _sensor_rngs(self, spec: RobotSpec, index: int, seed: int | None) -> dict[str, np.random.Generator]:
         sensors = ["encoders", "mouse", "mouse2"] + [s.name for s in (*spec.ir, *spec.line, *spec.border, *spec.light)]
@@ -262,7 +266,7 @@ class World:
         if robot.spec.chassis is not None:
             raise ValueError(f"{robot.name}: a robot on a general chassis cannot be reset in place")
         st = self._batch()
-        x, y, heading = self._start_pose(index, start)
+        (x, y, heading), robot.slot = self._start_pose(index, start)
         self.space.remove(robot.shape)  # pymunk forgets the shape's contacts (its arbiters) with it
         body = robot.body
         body.position, body.angle = (x, y), heading

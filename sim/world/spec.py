@@ -83,9 +83,12 @@ class Start:
 
 @dataclass(frozen=True)
 class Goal:
-    """A goal area: convex polygon; a robot whose centre is inside has reached it."""
+    """A goal area: convex polygon; a robot whose centre is inside has reached it. `slot` 0 is
+    every robot's goal; a goal of slot k only that of the robot that started from slot k (a
+    contest world gives each side its own)."""
 
     vertices: tuple[Point, ...]
+    slot: int = 0
     box: tuple[float, float, float, float] = field(init=False, repr=False, compare=False)
     """(xmin, ymin, xmax, ymax): most points the run loop asks about are outside it."""
 
@@ -161,12 +164,17 @@ class WorldSpec:
         by_slot = {s.slot: s for s in self.starts}
         return [by_slot[k] for k in sorted(by_slot) if k > 0] + ([by_slot[0]] if 0 in by_slot else [])
 
-    def in_goal(self, x: float, y: float) -> bool:
-        """Whether (x, y) is in any goal area."""
+    def in_goal(self, x: float, y: float, slot: int | None = None) -> bool:
+        """Whether (x, y) is in a goal area of the robot from start `slot` (goals of slot 0 and
+        of `slot`; None: any goal)."""
         for goal in self.goals:  # (a loop, not any(): the run loop asks every step)
-            if goal.contains(x, y):
+            if (slot is None or goal.slot in (0, slot)) and goal.contains(x, y):
                 return True
         return False
+
+    def goals_of(self, slot: int | None) -> tuple[Goal, ...]:
+        """The goal areas of the robot from start `slot` (as `in_goal` counts them)."""
+        return tuple(goal for goal in self.goals if slot is None or goal.slot in (0, slot))
 
     def start_for(self, index: int) -> Start:
         """The start pose of the `index`-th robot (0-based) from `start_order`. Where the world

@@ -96,6 +96,8 @@ def world_warnings(world: WorldSpec) -> list[str]:
         centre = tuple(sum(c) / len(goal.vertices) for c in zip(*goal.vertices))
         if any(inside(centre, wall) for wall in solids):
             warnings.append(f"goal #{i} is inside a wall")
+        if goal.slot and goal.slot not in slots:
+            warnings.append(f"goal #{i} is for the robot from start slot {goal.slot}, but no start has that slot")
     for i, can in enumerate(world.movables, 1):
         if any(inside(can.position, wall) for wall in solids):
             warnings.append(f"movable #{i} at ({can.position[0]:.3f}, {can.position[1]:.3f}) is inside a wall")

@@ -260,7 +260,7 @@ def load_toml(path: Path) -> WorldSpec:
     holes = [Hole(t.area()) for t in _keys(tables["hole"], "box", "polygon")]
     lights = [Light(t.point("position"), t.number("height", 0.5, positive=True)) for t in _keys(tables["light"], "position", "height")]  # fmt: skip
     starts = [_start(t) for t in _keys(tables["start"], "position", "heading_deg", "heading", "slot")]
-    goals = [Goal(t.area()) for t in _keys(tables["goal"], "box", "polygon")]
+    goals = [Goal(t.area(), _slot(t)) for t in _keys(tables["goal"], "box", "polygon", "slot")]
     movables = [Movable(t.point("position"), t.number("radius", 0.025, positive=True), t.number("mass", 0.05, positive=True)) for t in _keys(tables["movable"], "position", "radius", "mass")]  # fmt: skip
     faults = [_fault(t) for t in _keys(tables["fault"], "time", "robot", "wheel", "kind")]
     if grid is not None:
@@ -332,11 +332,16 @@ def _start(t: _Table) -> Start:
     if "heading" in t.data and "heading_deg" in t.data:
         t.fail("give `heading` (radians) or `heading_deg` (degrees), not both", "heading")
     heading = math.radians(t.number("heading_deg", 0.0)) if "heading" not in t.data else t.number("heading")
+    x, y = t.point("position")
+    return Start(x, y, heading, _slot(t))
+
+
+def _slot(t: _Table) -> int:
+    """A start's or goal's `slot`: 0 (default) or the robot's start slot 1, 2, ..."""
     slot = t.integer("slot", 0)
     if slot < 0:
         t.fail(f"`slot` must be 0 or more, not {slot}", "slot")
-    x, y = t.point("position")
-    return Start(x, y, heading, slot)
+    return slot
 
 
 def _grid(t: _Table, floor_colour: Colour) -> GridPieces:

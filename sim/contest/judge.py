@@ -1,0 +1,149 @@
+"""The judge of a race: c't-Sim's LabyrinthJudge with the contest's rules for games that end
+without an arrival.
+
+- A robot wins when its body's centre reaches one of its own goal areas (the goals of its start
+  slot, `WorldSpec.goals_of`) before the other's does.
+- A robot that falls into a hole, or whose controller fails (raises, returns a bad command, a
+  firmware that hangs or a sandboxed process that dies or overruns its time), loses at once.
+- At the time limit the robot nearer its own goal by path distance (`sim.contest.paths`: the way
+  left through the free floor, not the straight line) wins.
+- What is still even (both in their goal in the same step, both fallen in the same step, the same
+  way left to within `rules.TIE_M`) goes to the better entry of the preliminary round.
+
+`Referee` watches the run (it is the run loop's `stop_when`); `Guarded` wraps each controller so
+that a failure is pinned on its robot; `decide` turns the finished run into a `Verdict`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from bots.commands import Command, wheel_speeds_for
+from bots.controller import Controller, reset
+from bots.spec import RobotSpec
+from sim.contest.paths import PathField
+from sim.contest.rules import TIE_M
+from sim.run import RobotLog, RunResult
+from sim.world import World
+from sim.world.readings import Readings
+
+
+class Guarded:
+    """A controller whose failure is noted (time and message) before the run loop hears of it.
+    The command is checked here as the run loop would check it, so that a bad command, too, is
+    pinned on this robot; a failing `reset` (a sandboxed file that does not load) fails the first
+    step."""
+
+    def __init__(self, controller: Controller, spec: RobotSpec):
+        self.controller, self.spec = controller, spec
+        self.failed_at: float | None = None
+        self._broken: Exception | None = None
+
+    def reset(self, robot: RobotSpec) -> None:
+        try:
+            reset(self.controller, robot)
+        except Exception as err:  # the entry's own failure: it loses, the game goes on being judged
+            self._broken = err
+
+    def step(self, t: float, readings: Readings) -> Command:
+        try:
+            if self._broken is not None:
+                raise self._broken
+            command = self.controller.step(t, readings)
+            if self.spec.chassis is None:
+                wheel_speeds_for(command, self.spec)
+        except KeyboardInterrupt:  # Ctrl-C: the contest stops, no one fails
+            raise
+        except BaseException:  # anything else, sys.exit and the run's step timeout too, is the controller's failure
+            self.failed_at = t
+            raise
+        return command
+
+
+class Referee:
+    """The run loop's `stop_when`: ends the race when a robot is in its own goal ('goal') or in a
+    hole ('fall'), and remembers when each robot fell."""
+
+    def __init__(self, robots: int):
+        self.fell: list[float | None] = [None] * robots
+
+    def __call__(self, world: World, logs: list[RobotLog]) -> str | None:
+        for i, robot in enumerate(world.robots):
+            if robot.fallen and self.fell[i] is None:
+                self.fell[i] = world.time
+        if any(log.goal_time is not None for log in logs):
+            return "goal"
+        if any(t is not None for t in self.fell):
+            return "fall"
+        return None
+
+
+@dataclass(frozen=True)
+class Side:
+    """How one robot's race went: its arrival (s) at its goal, when it fell into a hole or its
+    controller failed (s), and the path distance (m) left to its goal where it stood at the end."""
+
+    arrival: float | None
+    fell: float | None
+    failed: float | None
+    distance_left: float
+    end_time: float
+
+    @property
+    def out(self) -> float | None:
+        """When it dropped out (fell or failed), or None."""
+        times = [t for t in (self.fell, self.failed) if t is not None]
+        return min(times) if times else None
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """The winner's side (0 or 1), how the game was decided ('goal', 'fall', 'failure', 'time
+    limit'), a sentence saying so, and when (s of simulated time)."""
+
+    winner: int
+    reason: str
+    text: str
+    time: float
+
+
+def sides(result: RunResult, guards: list[Guarded], referee: Referee, fields: list[PathField]) -> list[Side]:
+    """Each robot's `Side` of a finished run."""
+    out = []
+    for log, guard, fell, field in zip(result.robots, guards, referee.fell, fields):
+        x, y, _ = log.truth_array()[-1]
+        out.append(Side(log.goal_time, fell, guard.failed_at, field.distance(float(x), float(y)), result.duration))
+    return out
+
+
+def decide(names: tuple[str, str], race: list[Side], time_limit: float) -> Verdict:
+    """The verdict on a race of two robots (side 0 is the better entry of the preliminary round,
+    who takes what is even)."""
+    a, b = race
+    end = max(a.end_time, b.end_time)
+    if a.arrival is not None or b.arrival is not None:
+        if b.arrival is None or (a.arrival is not None and a.arrival <= b.arrival):
+            both = " (both in the same step: the better preliminary decides)" if a.arrival == b.arrival else ""
+            return Verdict(0, "goal", f"{names[0]} reached its goal at {a.arrival:.2f} s{both}", a.arrival)
+        return Verdict(1, "goal", f"{names[1]} reached its goal at {b.arrival:.2f} s", b.arrival)
+    if a.failed is not None or b.failed is not None:  # the run loop stops at the first failure: one side
+        loser = 0 if a.failed is not None else 1
+        return Verdict(1 - loser, "failure", f"{names[loser]}'s controller failed at {race[loser].failed:.2f} s", race[loser].failed)
+    if a.fell is not None or b.fell is not None:
+        if a.fell is not None and b.fell is not None and a.fell == b.fell:
+            winner = _nearer(a, b)
+            return Verdict(winner, "fall", f"both fell at {a.fell:.2f} s; {names[winner]} was nearer its goal by path ({_ways(names, race)})", a.fell)
+        loser = 0 if b.fell is None or (a.fell is not None and a.fell < b.fell) else 1
+        return Verdict(1 - loser, "fall", f"{names[loser]} fell into a hole at {race[loser].fell:.2f} s", race[loser].fell)
+    winner = _nearer(a, b)
+    even = abs(a.distance_left - b.distance_left) < TIE_M
+    how = "even by path; the better preliminary decides" if even else f"{names[winner]} nearer its goal by path"
+    return Verdict(winner, "time limit", f"time limit {time_limit:g} s: {how} ({_ways(names, race)})", end)
+
+
+def _nearer(a: Side, b: Side) -> int:
+    return 1 if b.distance_left < a.distance_left - TIE_M else 0
+
+
+def _ways(names: tuple[str, str], race: list[Side]) -> str:
+    return " against ".join(f"{name} {side.distance_left:.2f} m" for name, side in zip(names, race))

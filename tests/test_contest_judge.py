@@ -1,0 +1,183 @@
+"""The contest's judge on hand-made races in a two-lane world (sim.contest.judge, game, paths):
+arrival at a robot's own goal, the time limit decided by the way left along the floor, a fall into
+a hole and a controller that raises each lose or win as the rules say; and the world pieces the
+judge stands on (goals per start slot, a referee that stops the run, named robots)."""
+
+from __future__ import annotations
+
+import math
+import textwrap
+
+import numpy as np
+import pytest
+
+from bots.commands import Twist
+from bots.ctbot import CTBOT
+from sim.contest.entries import parse
+from sim.contest.game import GameJob, play
+from sim.contest.judge import Side, decide
+from sim.contest.paths import PathField
+from sim.run import RobotSetup, run
+from bots.controller import FunctionController
+from dataclasses import replace
+from sim.world.spec import Goal, Start
+from sim.world.files import load_world, world_warnings
+from sim.world.spec import WorldFileError
+
+DT = 0.01
+LANES = """
+name = "Lanes"
+bounds = [0, 0, 2.0, 0.8]
+[[wall]]
+box = [0, 0.39, 2.0, 0.41]          # between the lanes
+[[wall]]
+box = [0, -0.02, 2.0, 0.0]
+[[wall]]
+box = [0, 0.8, 2.0, 0.82]
+[[start]]
+position = [0.2, 0.2]
+slot = 1
+[[start]]
+position = [1.8, 0.6]
+heading_deg = 180
+slot = 2
+[[goal]]
+box = [1.5, 0.05, 1.8, 0.35]
+slot = 1
+[[goal]]
+box = [0.2, 0.45, 0.5, 0.75]
+slot = 2
+{extra}
+"""
+CONTROLLERS = '''
+from bots.commands import Twist
+
+class Straight:
+    def __init__(self, speed: float = 0.2):
+        self.speed = speed
+    def step(self, t, readings):
+        return Twist(self.speed, 0.0)
+
+class Raiser:
+    def step(self, t, readings):
+        if t >= 0.5:
+            raise RuntimeError("my bug")
+        return Twist(0.2, 0.0)
+'''
+
+
+@pytest.fixture
+def lanes(tmp_path):
+    """A world file of two lanes turned about their centre: slot 1 drives +x to goal 1 1.3 m ahead,
+    slot 2 drives -x to goal 2; `extra` TOML adds pieces (a hole)."""
+
+    def make(extra: str = "") -> str:
+        path = tmp_path / "lanes.toml"
+        path.write_text(LANES.format(extra=textwrap.dedent(extra)))
+        return str(path)
+
+    (tmp_path / "bots.py").write_text(CONTROLLERS)
+    return make
+
+
+def entries(tmp_path, *texts):
+    return tuple(parse([t.replace("bots.py", str(tmp_path / "bots.py")) for t in texts]))
+
+
+def race(tmp_path, world: str, *texts: str, limit: float = 10.0) -> dict:
+    return play(GameJob(2, 1, entries(tmp_path, *texts), world, limit, 0, DT, None))
+
+
+def test_the_first_body_at_its_own_goal_wins_at_the_step_it_gets_there(lanes, tmp_path):
+    """Straight at 0.25 m/s from x = 0.2 m: the centre crosses the goal's edge 1.3 m ahead after 1.3 / 0.25
+    = 5.2 s, at the first sample not before it (samples every 10 ms; no motor lag)."""
+    outcome = race(tmp_path, lanes(), "slow=bots.py:Straight,speed=0.2", "fast=bots.py:Straight,speed=0.25")
+    assert outcome["verdict"]["winner"] == 1 and outcome["verdict"]["reason"] == "goal"
+    assert outcome["sides"][1]["arrival"] == pytest.approx(5.2, abs=DT + 1e-9)  # one sample either way of the crossing
+    assert outcome["sides"][0]["arrival"] is None and outcome["reason"] == "goal"
+
+
+def test_without_an_arrival_the_nearer_by_path_wins_at_the_time_limit(lanes, tmp_path):
+    outcome = race(tmp_path, lanes(), "slow=bots.py:Straight,speed=0.05", "faster=bots.py:Straight,speed=0.1", limit=3.0)
+    verdict, (slow, faster) = outcome["verdict"], outcome["sides"]
+    assert verdict["reason"] == "time limit" and verdict["winner"] == 1 and verdict["time"] == pytest.approx(3.0)
+    assert "nearer its goal by path" in verdict["text"]
+    # straight lanes: the way left is the distance to the goal's edge, 1.3 m less what each drove
+    assert slow["distance_left"] == pytest.approx(1.3 - 0.05 * 3.0, abs=0.03)  # grid of 2 cm: a cell at either end
+    assert faster["distance_left"] == pytest.approx(1.3 - 0.1 * 3.0, abs=0.03)
+
+
+def test_a_bot_in_a_hole_loses_at_once_even_ahead(lanes, tmp_path):
+    world = lanes("""
+        [[hole]]
+        box = [0.6, 0.45, 0.9, 0.75]   # across lane 2, 0.9 m ahead of its start
+    """)
+    outcome = race(tmp_path, world, "careful=bots.py:Straight,speed=0.05", "reckless=bots.py:Straight,speed=0.3")
+    verdict = outcome["verdict"]
+    assert verdict["winner"] == 0 and verdict["reason"] == "fall" and "reckless fell into a hole" in verdict["text"]
+    assert outcome["sides"][1]["fell"] == pytest.approx(verdict["time"]) and outcome["sides"][1]["fell"] < 4.0
+
+
+def test_a_controller_that_raises_loses_and_its_message_is_kept(lanes, tmp_path):
+    outcome = race(tmp_path, lanes(), "buggy=bots.py:Raiser", "steady=bots.py:Straight,speed=0.05")
+    verdict = outcome["verdict"]
+    assert verdict == {"winner": 1, "reason": "failure", "text": "buggy's controller failed at 0.50 s", "time": 0.5}
+    assert "my bug" in outcome["error"] and "bots.py" in outcome["error"]
+
+
+def test_what_is_even_goes_to_the_better_preliminary():
+    same = Side(None, None, None, 0.8004, 60.0), Side(None, None, None, 0.8, 60.0)
+    assert decide(("a", "b"), list(same), 60.0).winner == 0  # within the judge's millimetre
+    assert "even by path" in decide(("a", "b"), list(same), 60.0).text
+    both = Side(12.5, None, None, 0.0, 12.5), Side(12.5, None, None, 0.0, 12.5)
+    assert decide(("a", "b"), list(both), 60.0).winner == 0
+    fell = Side(None, 3.0, None, 0.9, 3.0), Side(None, 3.0, None, 0.5, 3.0)
+    assert decide(("a", "b"), list(fell), 60.0).winner == 1  # both fell in the same step: the nearer
+
+
+def test_the_way_left_follows_the_floor_not_the_straight_line(lanes):
+    """From lane 1's start the way to goal 2 goes round the dividing wall: here that is impossible
+    (the lanes do not meet), so it is infinite; to its own goal it is the straight 1.3 m."""
+    world = load_world(lanes())
+    own = PathField(world, world.goals_of(1), 0.03)
+    other = PathField(world, world.goals_of(2), 0.03)
+    assert own.distance(0.2, 0.2) == pytest.approx(1.3, abs=0.03)
+    assert math.isinf(other.distance(0.2, 0.2))
+
+
+def test_a_goal_of_one_slot_is_not_the_others(lanes):
+    """A robot from start slot 2 driving through goal 1 does not arrive, one placed by a bare pose
+    (no slot) does; `stop_when` ends the run with its reason; robots carry the names given."""
+    world = load_world(lanes())
+    drive = FunctionController(lambda t, r: Twist(0.25, 0.0))
+    setups = [
+        RobotSetup(CTBOT, FunctionController(lambda t, r: Twist(0.0, 0.0)), name="red"),
+        RobotSetup(CTBOT, drive, start=Start(1.3, 0.2, 0.0, slot=2), name="blue"),
+        RobotSetup(CTBOT, drive, start=(1.3, 0.6, 0.0), name="green"),
+    ]
+    moved = load_world(lanes())
+    moved = replace(moved, goals=(*moved.goals, Goal(((1.5, 0.45), (1.8, 0.45), (1.8, 0.75), (1.5, 0.75)), slot=1)))
+    result = run(moved, setups, 5.0, stop_when=lambda w, logs: "judged" if w.time >= 1.6 else None)
+    assert result.reason == "judged" and result.duration == pytest.approx(1.6)
+    assert [log.name for log in result.robots] == ["red", "blue", "green"]
+    assert result.robots[0].goal_time is None and result.robots[1].goal_time is None  # blue crossed goal 1: not its own
+    assert result.robots[2].goal_time == pytest.approx(0.8, abs=DT + 1e-9)  # no slot: every goal counts (0.2 m at 0.25 m/s)
+    assert world.goals_of(2)[0].slot == 2 and len(world.goals_of(None)) == 2
+
+
+def test_goal_slots_are_checked_in_world_files(lanes, tmp_path):
+    world = load_world(lanes('[[goal]]\nbox = [0.9, 0.1, 1.0, 0.2]\nslot = 3\n'))
+    assert any("slot 3, but no start has that slot" in w for w in world_warnings(world))
+    with pytest.raises(WorldFileError, match=r"lanes.toml:\d+: .*slot"):
+        load_world(lanes('[[goal]]\nbox = [0.9, 0.1, 1.0, 0.2]\nslot = -1\n'))
+
+
+def test_the_shipped_contest_world_favours_neither_side():
+    """worlds/contest.toml is turned, not mirrored: the same right-hand wall follower from either
+    start reaches its own goal in the same step; its way left is the same from either start."""
+    world = load_world("contest")
+    (a, b) = world.start_order()
+    clearance = 0.5 * CTBOT.body_radius
+    ways = [PathField(world, world.goals_of(s.slot), clearance).distance(s.x, s.y) for s in (a, b)]
+    assert ways[0] == pytest.approx(ways[1], abs=1e-9) and 3.0 < ways[0] < 8.0
+    assert np.allclose([a.x + b.x, a.y + b.y], [world.bounds[2], world.bounds[3]])  # turned about the centre
