@@ -799,19 +799,27 @@ def _add_sweep_parser(commands) -> None:  # noqa: ANN001 (argparse's subparsers 
     sweep.add_argument("--engine", choices=("processes", "dask", "serial"), default="processes", help="local processes (default), a Dask LocalCluster, or one run after another here")
     sweep.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="run on the Dask cluster whose scheduler is there (implies --engine dask)")
     sweep.add_argument("--jobs", type=int, metavar="N", help="worker processes (default: one per core)")
+    sweep.add_argument("--by", action="append", metavar="SETTING", help="group the summary and figures by this setting, repeatable (default: every swept one but seed); the others are pooled, and each table and figure says so")
     sweep.set_defaults(handler=cmd_sweep)
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    from sim.experiments import engine, load_sweep, sweep
-    from sim.experiments.report import summary
+    from sim.experiments import engine, load_results, load_sweep, sweep
+    from sim.experiments.report import grouping, pooled_note, summary_table, terminal_table
+
+    def show(table) -> None:  # noqa: ANN001 (a DataFrame)
+        by, pooled = grouping(table, args.by)
+        print(f"per {', '.join(by) or 'sweep'}; {pooled_note(table, pooled)}:")
+        print(terminal_table(summary_table(table, by)))
 
     if args.spec == "report":
         from sim.web.report import write_sweep_report
 
         if args.folder is None or not args.folder.is_dir():
             raise UsageError(f"sweep report needs a sweep folder, got {args.folder}")
-        for path in write_sweep_report(args.folder):
+        paths = write_sweep_report(args.folder, by=args.by)
+        show(load_results(args.folder))
+        for path in paths:
             print(path)
         return 0
     if args.folder is not None:
@@ -826,7 +834,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     finally:
         runner.close()
     failed = int((table["reason"] == "error").sum())
-    print(summary(table).to_string(float_format=lambda v: f"{v:.4f}"))
+    show(table)
     print(f"{len(table)} runs, {failed} failed (see the error column); table: {out / 'results.parquet'}")
     return 0
 

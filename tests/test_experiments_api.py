@@ -39,6 +39,23 @@ def test_same_seed_same_trajectory_and_controller_objects():
     assert not np.array_equal(a.robots[0].truth, c.robots[0].truth)  # slip moves the body, drawn per seed
 
 
+def test_robots_as_a_list_and_noise_as_the_command_line_gives_them():
+    """`simulate(world, [bots])` or `robots=[...]` (`--robots`), `noise=` (`--noise`) for every Bot
+    that names none of its own."""
+    listed = simulate("maze", [Bot("idle"), Bot("wander")], duration=0.1)
+    keyword = simulate("maze", robots=[Bot("idle")] * 3, duration=0.1)
+    assert [r.controller for r in listed.robots] == ["idle", "wander"] and len(keyword.robots) == 3
+    quiet = simulate("empty", Bot("wander"), duration=0.5, seed=3)
+    noisy = simulate("empty", Bot("wander"), noise="realistic", duration=0.5, seed=3)
+    own = simulate("empty", Bot("wander", noise="none"), noise="realistic", duration=0.5, seed=3)
+    assert not np.array_equal(quiet.robots[0].truth, noisy.robots[0].truth)  # realistic slip moves the body
+    assert np.array_equal(quiet.robots[0].truth, own.robots[0].truth)
+    with pytest.raises(TypeError, match="a Bot or a RobotSetup, got str"):
+        simulate("empty", "wander")
+    with pytest.raises(ValueError, match="unknown noise preset"):
+        simulate("empty", Bot("wander"), noise="loud")
+
+
 def test_failing_controller_is_a_result_not_an_exception():
     def broken(t, readings):
         raise ZeroDivisionError("oops")

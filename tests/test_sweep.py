@@ -222,12 +222,31 @@ def test_cli_sweep_and_report(tmp_path, capsys):
     spec = tmp_path / "s.toml"
     spec.write_text('[base]\nduration = 0.3\nworld = "empty"\n[axes]\nseed = [0, 1]\n"robot.mouse.noise_std" = [0.0, 2.0]\ncontroller = ["wander", "idle"]\n')
     assert main(["sweep", str(spec), "--out", str(tmp_path / "out"), "--engine", "serial"]) == 0
-    assert "8 runs, 0 failed" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "8 runs, 0 failed" in out and "pooled over seed (2 values)" in out
     assert main(["sweep", "report", str(tmp_path / "out")]) == 0
-    names = {Path(line).name for line in capsys.readouterr().out.split()}
-    assert names == {"ate_rmse_per_estimator.png", "ate_rmse_vs_robot.mouse.noise_std.png", "success_per_controller.png", "report.html"}
+    names = {Path(line).name for line in capsys.readouterr().out.splitlines() if line.startswith(str(tmp_path))}
+    assert names == {"summary.csv", "ate_rmse_per_estimator.png", "ate_rmse_vs_robot.mouse.noise_std.png", "success_per_controller.png", "report.html"}
     page = (tmp_path / "out" / "report.html").read_text()
     assert page.count("src='data:image/png;base64,") == 3 and "<td>runs</td><td class='text'>8</td>" in page  # the figures inside; 8 runs
+
+
+def test_report_groups_by_the_named_settings_and_says_what_it_pools(tmp_path, capsys):
+    """Per controller: the noise levels and seeds pooled (2 x 2 runs a group); the table's means
+    are those of the runs it groups; a setting the sweep lacks is one line naming it."""
+    spec = {"base": {"duration": 0.3, "world": "empty"}, "axes": {"seed": [0, 1], "robot.mouse.noise_std": [0.0, 2.0], "controller": ["wander", "idle"]}}
+    table = sweep(spec, tmp_path / "out", Serial(), progress=False)
+    assert main(["sweep", "report", str(tmp_path / "out"), "--by", "controller"]) == 0
+    out = capsys.readouterr().out
+    assert "per controller; pooled over seed (2 values), robot.mouse.noise_std (2 values):" in out
+    summary = pd.read_csv(tmp_path / "out" / "summary.csv")
+    assert list(summary["controller"]) == ["idle", "wander"] and (summary["runs"] == 4).all()
+    wander = table[table.controller == "wander"]["mouse.ate_rmse"]
+    assert summary.loc[1, "mouse.ate_rmse.mean"] == pytest.approx(wander.mean(), rel=1e-12)  # (CSV round trip of a float)
+    assert summary.loc[1, "mouse.ate_rmse.std"] == pytest.approx(wander.std(), rel=1e-12)
+    assert main(["sweep", "report", str(tmp_path / "out"), "--by", "robot.wheels"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("ctsim: error: no setting 'robot.wheels' in this sweep") and err.count("\n") == 1
 
 
 @pytest.mark.parametrize(

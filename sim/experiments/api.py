@@ -35,22 +35,27 @@ def world(source: str | Path | WorldSpec) -> WorldSpec:
     return load_world(source)
 
 
-def robot(source: str | Path | RobotSpec = "ctbot", changes: dict[str, Any] | None = None) -> RobotSpec:
-    """A robot description: a built-in name (`"ctbot"`), a TOML robot file or a RobotSpec, with
-    `changes` by dotted field name applied (see `change_robot`)."""
+def robot(source: str | Path | RobotSpec = "ctbot", changes: dict[str, Any] | None = None, noise: str = "none") -> RobotSpec:
+    """A robot description: a built-in name (`"ctbot"`, a wheeled chassis), a TOML robot file or a
+    RobotSpec, with a `noise` preset ("none", "realistic", "harsh": `bots.noise`, as `--noise`) and
+    then `changes` by dotted field name applied (see `change_robot`; as `--robot-set`)."""
+    from bots.noise import with_noise
+
     if isinstance(source, RobotSpec):
         spec = source
     else:
         from bots.ctbot import ROBOTS
         from bots.spec import load_robot
+        from bots.wheeled import WHEELED_ROBOTS
 
+        ROBOTS = {**ROBOTS, **WHEELED_ROBOTS}
         if str(source) in ROBOTS:
             spec = ROBOTS[str(source)]
         elif str(source).endswith(".toml") or Path(source).exists():
             spec = load_robot(source)
         else:
             raise ValueError(f"unknown robot {str(source)!r} (built-in: {', '.join(ROBOTS)}; or a .toml file)")
-    return change_robot(spec, changes or {})
+    return change_robot(with_noise(spec, noise), changes or {})
 
 
 def change_robot(spec: RobotSpec, changes: dict[str, Any]) -> RobotSpec:
@@ -81,17 +86,20 @@ class Bot:
     """A robot to put in a world. `controller`: a registered name, `"file.py[:Name]"`, a controller
     object (anything with `step(t, readings)`) or a function `f(t, readings) -> Command`.
     `params`: the controller's parameters (for names and files). `robot`: as `robot()` takes it,
-    with `changes` by dotted field name. `start`: (x, y m, heading rad); None: the world's start."""
+    with its `noise` preset (None: the one `simulate` is given) and `changes` by dotted field
+    name. `start`: (x, y m, heading rad); None: the world's next start slot."""
 
     controller: str | Controller | Callable = "solve_maze"
     params: dict[str, Any] = field(default_factory=dict)
     robot: str | Path | RobotSpec = "ctbot"
     changes: dict[str, Any] = field(default_factory=dict)
     start: Start | tuple[float, float, float] | None = None
+    noise: str | None = None
 
-    def setup(self) -> RobotSetup:
-        """The run loop's description of this robot (controllers by name are built here)."""
-        spec = robot(self.robot, self.changes)
+    def setup(self, noise: str = "none") -> RobotSetup:
+        """The run loop's description of this robot (controllers by name are built here);
+        `noise`: the preset unless the Bot names its own."""
+        spec = robot(self.robot, self.changes, self.noise or noise)
         params = {k: _text(v) for k, v in self.params.items()}
         if isinstance(self.controller, str):
             from bots.behaviours import make
@@ -189,7 +197,9 @@ def result_of(raw: RunResult) -> Result:
 
 def simulate(
     world_source: str | Path | WorldSpec = "maze",
-    *bots: Bot | RobotSetup,
+    *bots: Bot | RobotSetup | Iterable[Bot | RobotSetup],
+    robots: Iterable[Bot | RobotSetup] = (),
+    noise: str = "none",
     duration: float = 60.0,
     dt: float = 0.01,
     seed: int = 0,
@@ -199,13 +209,19 @@ def simulate(
     observers: Iterable = (),
     step_timeout: float | None = None,
 ) -> Result:
-    """Run `bots` (default: one c't-Bot solving the maze) in a world for `duration` seconds of
-    simulated time, or until one reaches a goal; `record` writes a rerun recording there;
-    a controller step longer than `step_timeout` seconds (wall clock) ends the run as its error."""
+    """Run `bots` and `robots` (Bots or lists of them; default: one c't-Bot solving the maze) in a
+    world for `duration` seconds of simulated time, or until one reaches a goal, every Bot with
+    the `noise` preset unless it names its own; `record` writes a rerun recording there; a
+    controller step longer than `step_timeout` seconds (wall clock) ends the run as its error.
+    `ctsim run` is this call: `--robots 3` is `robots=[Bot()] * 3`."""
     if not (math.isfinite(dt) and dt > 0):
         raise ValueError(f"dt must be a positive number of seconds, got {dt!r}")
     spec = world(world_source)
-    setups = [b.setup() if isinstance(b, Bot) else b for b in (bots or (Bot(),))]
+    given = [b for item in (*bots, *robots) for b in (item if isinstance(item, list | tuple) else (item,))]
+    for b in given:
+        if not isinstance(b, Bot | RobotSetup):
+            raise TypeError(f"simulate: a robot is a Bot or a RobotSetup, got {type(b).__name__}: {b!r}")
+    setups = [b.setup(noise) if isinstance(b, Bot) else b for b in (given or [Bot()])]
     watchers = list(observers)
     if record is not None or live:
         from sim.views.recording import Recorder

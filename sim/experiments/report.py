@@ -1,7 +1,9 @@
-"""The figures of a sweep: error distributions per estimator, error against each swept parameter
-with 95 % confidence bands, and success rate per controller (PNG, matplotlib, headless).
+"""The report of a sweep, grouped by the settings the user names (default: every swept one but the
+seed): a summary table per group (CSV and terminal), error distributions per estimator, error
+against each numeric setting with 95 % confidence bands, and success rate per controller (PNG,
+matplotlib, headless); every figure and the table say what they pool over.
 
-    ctsim sweep report runs/noise      # or: write_report("runs/noise")
+    ctsim sweep report runs/noise --by robot.encoders.slip_std    # or: write_report("runs/noise", by=[...])
 """
 
 from __future__ import annotations
@@ -46,8 +48,53 @@ def success(table: pd.DataFrame) -> pd.Series:
     return ok & (table["reached_goal"].fillna(False).astype(bool) | ~table["until_goal"].astype(bool))
 
 
-def write_report(out: str | Path, metric: str = METRIC) -> list[Path]:
-    """Draw the figures of the sweep in `out` into `out/figures/`; the files written."""
+class ReportError(ValueError):
+    """A report asked of a folder or by axes that cannot give one; the message says which."""
+
+
+def grouping(table: pd.DataFrame, by: list[str] | None = None) -> tuple[list[str], list[str]]:
+    """(axes the report groups by, swept axes it pools over): `by` as named (default: every swept
+    setting but the seed), the other swept settings pooled."""
+    varied = swept(table)
+    if by is None:
+        by = [c for c in varied if c != "seed"]
+    unknown = [b for b in by if b not in table.columns or not (b in DEFAULTS or b.startswith(("robot.", "params.")))]
+    if unknown:
+        raise ReportError(f"no setting {', '.join(map(repr, unknown))} in this sweep (its settings: {', '.join(c for c in table.columns if c in DEFAULTS or c.startswith(('robot.', 'params.')))})")
+    return list(by), [c for c in varied if c not in by]
+
+
+def pooled_note(table: pd.DataFrame, pooled: list[str]) -> str:
+    """What a figure or table pools, in words: 'pooled over seed (5 values), world (2 values)'."""
+    if not pooled:
+        return "nothing pooled: one setting per group"
+    return "pooled over " + ", ".join(f"{c} ({table[c].astype(str).nunique()} values)" for c in pooled)
+
+
+def summary_table(table: pd.DataFrame, by: list[str] | None = None, metric: str = METRIC) -> pd.DataFrame:
+    """One row per combination of the `by` settings: runs, failed runs, success rate (%), and mean,
+    standard deviation and count of `metric` per estimator over the runs that did not fail."""
+    by, _ = grouping(table, by)
+    names = estimators(table, metric)
+    frame = table.assign(_ok=success(table), _failed=table["reason"] == "error", _all="all runs")
+    keys = by or ["_all"]
+    rows = []
+    for values, group in frame.groupby(keys, sort=True, dropna=False):
+        values = values if isinstance(values, tuple) else (values,)
+        row = dict(zip(by, values)) if by else {"runs of": "all"}
+        row.update({"runs": len(group), "failed": int(group["_failed"].sum()), "success_%": 100.0 * group["_ok"].mean()})
+        finished = group[~group["_failed"]]
+        for name in names:
+            column = finished[f"{name}.{metric}"].dropna()
+            row.update({f"{name}.{metric}.mean": column.mean(), f"{name}.{metric}.std": column.std(), f"{name}.{metric}.n": len(column)})
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def write_report(out: str | Path, metric: str = METRIC, by: list[str] | None = None) -> list[Path]:
+    """The sweep in `out` grouped by the `by` settings (default: every swept one but the seed):
+    `out/summary.csv` (`summary_table`) and figures in `out/figures/`, each titled with what it
+    pools over; the files written."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -56,23 +103,33 @@ def write_report(out: str | Path, metric: str = METRIC) -> list[Path]:
     out = Path(out)
     table = store.load(out)
     if table.empty:
-        raise ValueError(f"{out}: no finished runs to report on")
+        raise ReportError(f"{out}: no finished runs to report on")
+    by, pooled = grouping(table, by)
     folder = out / "figures"
     folder.mkdir(exist_ok=True)
-    written = []
+    summary_table(table, by, metric).to_csv(out / "summary.csv", index=False)
+    written = [out / "summary.csv"]
     names = estimators(table, metric)
     finished = table[table["reason"] != "error"]
+    groups = [c for c in by if not pd.api.types.is_numeric_dtype(finished[c])] if len(finished) else []
     if names and len(finished):
-        fig, ax = plt.subplots(figsize=(1.6 * len(names) + 2, 4))
-        data = [finished[f"{n}.{metric}"].dropna().to_numpy() for n in names]
-        ax.boxplot(data, tick_labels=names, showmeans=True)
+        labels, data = [], []
+        parts = finished.groupby(groups, sort=True) if groups else [((), finished)]
+        for key, part in parts:
+            key = key if isinstance(key, tuple) else (key,)
+            for n in names:
+                labels.append("\n".join([n, *map(str, key)]))
+                data.append(part[f"{n}.{metric}"].dropna().to_numpy())
+        fig, ax = plt.subplots(figsize=(max(6, 0.9 * len(labels) + 2), 4.5))
+        ax.boxplot(data, tick_labels=labels, showmeans=True)
         ax.set_ylabel(f"{metric} (m)")
-        ax.set_title(f"{metric} per estimator, {len(finished)} runs")
+        ax.set_title(f"{metric} per estimator" + (f" and {', '.join(groups)}" if groups else "") + f", {len(finished)} runs\n"
+                     + pooled_note(finished, [c for c in (*pooled, *by) if c not in groups and c in swept(finished)]), fontsize=9)
         written.append(_save(fig, folder / f"{metric}_per_estimator.png"))
-        for parameter in swept(finished):
-            if parameter == "seed" or not pd.api.types.is_numeric_dtype(finished[parameter]):
+        for parameter in by:
+            if not pd.api.types.is_numeric_dtype(finished[parameter]) or finished[parameter].nunique() < 2:
                 continue
-            fig, ax = plt.subplots(figsize=(6, 4))
+            fig, ax = plt.subplots(figsize=(6.5, 4.5))
             for name in names:
                 band = mean_band(finished, parameter, f"{name}.{metric}")
                 x = band.index.to_numpy(dtype=float)
@@ -80,14 +137,16 @@ def write_report(out: str | Path, metric: str = METRIC) -> list[Path]:
                 ax.fill_between(x, band["mean"] - band["half_width"], band["mean"] + band["half_width"], alpha=0.2)
             ax.set_xlabel(parameter)
             ax.set_ylabel(f"mean {metric} (m), 95 % band")
+            ax.set_title(f"{metric} against {parameter}\n" + pooled_note(finished, [c for c in swept(finished) if c != parameter]), fontsize=9)
             ax.legend()
             written.append(_save(fig, folder / f"{metric}_vs_{parameter}.png"))
     rates = success(table).groupby(table["controller"]).mean()
-    fig, ax = plt.subplots(figsize=(1.4 * len(rates) + 2, 4))
+    fig, ax = plt.subplots(figsize=(max(6, 1.4 * len(rates) + 2), 4.5))
     ax.bar(rates.index.astype(str), 100 * rates.to_numpy())
     ax.set_ylim(0, 100)
     ax.set_ylabel("success rate (%)")
-    ax.set_title("runs without error or fall" + (" that reached the goal" if table["until_goal"].astype(bool).any() else ""))
+    what = "runs without error or fall" + (" that reached the goal" if table["until_goal"].astype(bool).any() else "")
+    ax.set_title(f"{what}, per controller\n" + pooled_note(table, [c for c in swept(table) if c != "controller"]), fontsize=9)
     written.append(_save(fig, folder / "success_per_controller.png"))
     return written
 
@@ -101,8 +160,12 @@ def _save(fig, path: Path) -> Path:  # noqa: ANN001 (a matplotlib Figure)
     return path
 
 
-def summary(table: pd.DataFrame, metric: str = METRIC) -> pd.DataFrame:
-    """Mean, standard deviation and count of `metric` per estimator (the printed table)."""
-    finished = table[table["reason"] != "error"]
-    rows = {n: finished[f"{n}.{metric}"].agg(["mean", "std", "count"]) for n in estimators(table, metric)}
-    return pd.DataFrame(rows).T if rows else pd.DataFrame(columns=["mean", "std", "count"], dtype=np.float64)
+def terminal_table(summary: pd.DataFrame, metric: str = METRIC) -> str:
+    """`summary_table` for a terminal: each estimator's metric as one 'mean +- std' column."""
+    per_estimator = tuple(f".{metric}.{part}" for part in ("mean", "std", "n"))
+    shown = summary[[c for c in summary.columns if not c.endswith(per_estimator)]].copy()
+    shown["success_%"] = shown["success_%"].map(lambda v: f"{v:.0f}")
+    for column in [c for c in summary.columns if c.endswith(f".{metric}.mean")]:
+        name = column.removesuffix(".mean")
+        shown[f"{name} (m)"] = [f"{m:.4f} +- {s:.4f}" if np.isfinite(s) else f"{m:.4f}" for m, s in zip(summary[column], summary[f"{name}.std"])]
+    return shown.to_string(index=False)

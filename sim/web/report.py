@@ -64,16 +64,18 @@ def _recording_links(run_dir: Path) -> str:
     )
 
 
-def write_sweep_report(sweep_dir: str | Path) -> list[Path]:
-    """The figures of a sweep folder (`sim.experiments.report`) and its report.html: the table
-    of errors per estimator, the figures, how many runs finished. The files written, the page
-    last."""
+def write_sweep_report(sweep_dir: str | Path, by: list[str] | None = None) -> list[Path]:
+    """The summary and figures of a sweep folder grouped `by` settings (`sim.experiments.report`)
+    and its report.html: the summary table, the figures, how many runs finished. The files
+    written, the page last."""
     from sim.experiments import store
-    from sim.experiments.report import METRIC, success, summary, write_report
+    from sim.experiments.report import METRIC, grouping, pooled_note, success, summary_table, write_report
 
     sweep_dir = Path(sweep_dir)
-    figures = write_report(sweep_dir)
+    written = write_report(sweep_dir, by=by)
+    figures = [p for p in written if p.suffix == ".png"]
     table = store.load(sweep_dir)
+    by, pooled = grouping(table, by)
     facts = {
         "runs": len(table),
         "failed": int((table["reason"] == "error").sum()),
@@ -81,12 +83,13 @@ def write_sweep_report(sweep_dir: str | Path) -> list[Path]:
         "table": "results.parquet",
     }
     body = [
-        f"<h2>{escape(METRIC)} per estimator (m)</h2>",
-        summary(table).to_html(classes="ctsim", float_format=lambda v: f"{v:.4f}", border=0),
+        f"<h2>{escape(METRIC)} per estimator (m), per {escape(', '.join(by) or 'sweep')}</h2>",
+        f"<p>{escape(pooled_note(table, pooled))}</p>",
+        summary_table(table, by).to_html(classes="ctsim", float_format=lambda v: f"{v:.4f}", border=0, index=False),
         *(image(p, p.stem) for p in figures),
         "<h2>Sweep</h2>",
         facts_table(facts),
     ]
     path = sweep_dir / REPORT
     path.write_text(page(f"ctsim sweep: {sweep_dir.resolve().name}", "\n".join(body)), encoding="utf-8")
-    return [*figures, path]
+    return [*written, path]
