@@ -172,6 +172,9 @@ class Processes:
         for worker in list(self._pool):
             self._retire(worker, kill)
 
+    def __del__(self) -> None:  # an engine dropped without `close` (a caller that made its own) takes its workers along
+        self.close()
+
 
 def _batch_size(jobs: int, workers: int) -> int:
     """Jobs per message: about a sixteenth of a worker's share, 1 to 8 (enough to hide the round
