@@ -281,7 +281,9 @@ class SolveMaze(Plan):
 @register("wander")
 class Wander(Behaviour):
     """Explores: drives ahead and, when an IR sensor sees something within `clearance_m`, turns away
-    (towards the side that sees less), by 90 degrees or more until the way is clear."""
+    (towards the side that sees less), by 90 degrees or more until the way is clear. While the way
+    stays blocked it keeps turning the same way: choosing afresh at each quarter turn swings back
+    and forth between two blocked headings in a corner."""
 
     def __init__(self, speed_m_s: float = SPEED_NORMAL, clearance_m: float = 0.25):
         self.speed = speed_m_s
@@ -290,12 +292,16 @@ class Wander(Behaviour):
     def start(self) -> None:
         self.need("ir", 2)
         self.turning: Behaviour | None = None
+        self.angle = 90.0  # of the quarter turns while the way is blocked (deg, + left)
 
     def act(self, t: float, readings: Readings) -> Command:
         if self.turning is not None and self.turning.status is Status.RUNNING:
             return self.turning.step(t, readings)
         if clear_ahead(readings.ir_distance, self.clearance):
+            self.turning = None
             return Twist(self.speed, 0.0)
-        left, right = np.nan_to_num(readings.ir_distance[:2], nan=math.inf)
-        self.turning = self.run(Turn(90.0 if left >= right else -90.0, self.speed))
+        if self.turning is None:  # newly blocked: away from the nearer side (nan: nothing within range)
+            left, right = np.nan_to_num(readings.ir_distance[:2], nan=math.inf)
+            self.angle = 90.0 if left >= right else -90.0
+        self.turning = self.run(Turn(self.angle, self.speed))
         return self.turning.step(t, readings)
