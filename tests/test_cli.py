@@ -173,3 +173,26 @@ def test_a_projected_command_is_in_the_summary_and_on_stderr(tmp_path, capsys):
     (note,) = json.loads((out / "summary.json").read_text())["robots"][0]["notes"]
     assert "steering limits" in note["message"] and note["steps"] == 50
     assert "ctsim: note: car:" in capsys.readouterr().err
+
+
+def _readme_wanderer(tmp_path: Path) -> tuple[Path, list[str]]:
+    """The README's `wanderer.py` written where the README's command finds it, and that command."""
+    readme = (Path(__file__).resolve().parent.parent / "README.md").read_text()
+    code = readme.split("```python\n# wanderer.py\n", 1)[1].split("```", 1)[0]
+    (tmp_path / "wanderer.py").write_text(code)
+    command = next(line for line in readme.splitlines() if line.startswith("`ctsim run") and "wanderer.py:Wanderer" in line)
+    return tmp_path / "wanderer.py", command.split("`")[1].split()[1:]
+
+
+def test_the_readmes_wanderer_wanders_where_the_readme_runs_it(tmp_path, monkeypatch):
+    """Every robot of the README's example command drives metres of floor in a minute without
+    touching a wall (a naive one jitters against a wall: the IR reads a wall nearer than 8 cm as
+    farther, and nan < 0.2 is False)."""
+    path, args = _readme_wanderer(tmp_path)
+    monkeypatch.chdir(tmp_path)
+    out = tmp_path / "o"
+    assert main([*args, "--duration", "60", "--out", str(out), "--no-report"]) == 0
+    robots = json.loads((out / "summary.json").read_text())["robots"]
+    assert len(robots) == 3
+    for robot in robots:
+        assert robot["collisions"] == 0 and robot["distance"] > 5.0  # 60 s at 0.15 m/s is 9 m, less the turns

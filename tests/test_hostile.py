@@ -150,8 +150,8 @@ def test_ctrl_c_twice_keeps_the_summary_and_the_trajectories(controllers, tmp_pa
     "options, message",
     [
         (["--out", ""], "--out: expected a folder, got an empty name"),
-        (["--robots", "1000000000"], "1000000000 robots, but the world has room for 1"),
-        (["--robots", "99999999999999999999"], "room for 1"),
+        (["--robots", "1000000000"], "1000000000 robots, but the world has room for 3"),  # empty: three start slots
+        (["--robots", "99999999999999999999"], "room for 3"),
         (["--dt", "1e-300"], "expected a step between 0.0001 and 1 s"),
         (["--dt", "100"], "expected a step between 0.0001 and 1 s"),
         (["--dt", "0.5", "--duration", "0.1"], "less than half a step"),

@@ -197,7 +197,8 @@ def test_scalar_step_agrees_with_the_kinematics_core(x, y, theta, s, alpha, end_
 
 
 class Wanderer:
-    """The README's controller: ahead at 0.15 m/s, turning on the spot while an IR sees < 0.2 m."""
+    """A naive wanderer (the README's first one): ahead at 0.15 m/s, turning on the spot while an
+    IR sees < 0.2 m; a wall nearer than 8 cm reads farther (the curve folds back), so it scrapes."""
 
     def step(self, t, readings):  # noqa: ANN001
         if any(d < 0.2 for d in readings.ir_distance):
@@ -206,7 +207,7 @@ class Wanderer:
 
 
 def test_fused_heading_survives_sliding_along_walls():
-    """60 s of the README's Wanderer in the maze: it scrapes walls while turning on the spot, and
+    """60 s of the naive Wanderer in the maze: it scrapes walls while turning on the spot, and
     the single mouse reads each sideways slide as rotation. The fused estimate falls back to the
     encoders while the two disagree, so its heading error is made of quantisation only: within a
     slide it follows the encoders (whose lag differs by < q/b at each end of the slide), outside

@@ -120,7 +120,7 @@ def test_tallies_of_the_wrong_shape_are_refused():
 
 
 def test_noisy_run_logs_the_python_estimators_estimates():
-    """The README's Wanderer in the maze with realistic noise (slip, spurious ticks, mouse noise
+    """The naive Wanderer in the maze with realistic noise (slip, spurious ticks, mouse noise
     and scale error) scraping walls: the run's default estimates (batched) equal those of the same
     run with the Python estimators given as its own."""
     robot = with_noise(CTBOT, "realistic")
