@@ -56,6 +56,10 @@ def _colour(slot: int | None) -> str:
     return palette.hex_colour(palette.CONTESTANTS[slot - 1]) if slot else "#888888"
 
 
+SLOT_IN = 1.15
+"""Height (in) of a first-round game's place in the figure: a box and its title."""
+
+
 def write_png(store: Store, path: Path) -> Path:
     """The tree from the first round (left) to the final (right), the game for third place under
     the final; each game a box with both entries (seed, name; the winner bold, a red or blue mark
@@ -73,10 +77,10 @@ def write_png(store: Store, path: Path) -> Path:
     col = {level: i for i, level in enumerate(rounds)}
     width, height = 2.9, 0.78  # a box (in)
     rows = max(low, 2)
-    fig = plt.figure(figsize=(len(rounds) * (width + 0.6) + 0.4, rows * 0.95 + 1.3), dpi=120)
+    fig = plt.figure(figsize=(len(rounds) * (width + 0.6) + 0.4, rows * SLOT_IN + 1.3), dpi=120)
     ax = fig.add_axes((0, 0, 1, 1))
     ax.set_xlim(-0.3, len(rounds) * (width + 0.6) + 0.1)
-    ax.set_ylim(-(rows * 0.95) - 0.9, 0.9)
+    ax.set_ylim(-(rows * SLOT_IN) - 0.9, 0.9)
     ax.axis("off")
 
     def centre(level: int, number: int) -> tuple[float, float]:
@@ -84,7 +88,7 @@ def write_png(store: Store, path: Path) -> Path:
             x, y = centre(FINAL, 1)
             return x, y - 1.9 * height
         span = low // level  # first-round places under this game
-        return col[level] * (width + 0.6), -((number - 0.5) * span * 0.95 * rows / low)
+        return col[level] * (width + 0.6), -((number - 0.5) * span * SLOT_IN * rows / low)
 
     for card in drawn:
         x, y = centre(card.game.level, card.game.number)
@@ -115,8 +119,9 @@ body {{ font: 14px/1.4 system-ui, sans-serif; margin: 1.5em; color: #222; }}
 h1 {{ font-size: 1.4em; margin: 0 0 .2em; }} h2 {{ font-size: 1.1em; margin: 1.6em 0 .5em; }}
 .facts {{ color: #555; }}
 .bracket {{ display: flex; gap: 2.2em; align-items: stretch; }}
-.round {{ display: flex; flex-direction: column; justify-content: space-around; gap: .8em; min-width: 15em; }}
-.round h3 {{ font-size: .85em; color: #666; margin: 0; text-transform: capitalize; }}
+.column {{ display: flex; flex-direction: column; }}
+.column h3 {{ font-size: .85em; color: #666; margin: 0 0 .4em; }}
+.round {{ display: flex; flex-direction: column; justify-content: space-around; gap: .8em; min-width: 15em; flex: 1; }}
 .game {{ border: 1px solid #999; border-radius: 6px; padding: .35em .55em; background: #fff; }}
 .game .who {{ display: flex; gap: .45em; align-items: center; }}
 .game .who.won {{ font-weight: bold; }}
@@ -145,7 +150,7 @@ def write_html(store: Store, path: Path, ranking_rows: list[dict]) -> Path:
     columns = []
     for level in sorted({c.game.level for c in drawn if c.game.level != THIRD_PLACE}, reverse=True):
         games = [c for c in drawn if c.game.level == level or (level == FINAL and c.game.level == THIRD_PLACE)]
-        columns.append(f'<div class="round"><h3>{html.escape(level_name(level))}</h3>{"".join(_game_html(c) for c in games)}</div>')
+        columns.append(f'<div class="column"><h3>{html.escape(level_name(level))}</h3><div class="round">{"".join(_game_html(c) for c in games)}</div></div>')
     settings = store.settings()
     facts = f"world {settings['world']} (preliminary: {settings['prelim_world']}), time limit {float(settings['time_limit']):g} s, seed {settings['seed']}, step {float(settings['dt']) * 1000:g} ms, ctsim {settings['ctsim']}"
     page = PAGE.format(title=html.escape(f"Contest: {Path(settings['world']).stem}"), facts=html.escape(facts), rounds="".join(columns),

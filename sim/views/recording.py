@@ -508,7 +508,8 @@ class Recorder:
                 rrb.TimeSeriesView(origin=f"/errors/{name}/heading", name=f"{name}: heading error (deg)", plot_legend=legend),
                 name=f"errors: {name}",
             )
-            for name in robots
+            for name, estimates in robots.items()
+            if estimates  # a robot without estimates (a contest's) has no errors to plot
         ]
         sensors = [rrb.TimeSeriesView(origin=f"/sensors/{group}", name=title, plot_legend=legend) for group, (title, _) in SENSOR_GROUPS.items() if group in groups]
         return rrb.Blueprint(
@@ -518,7 +519,7 @@ class Recorder:
                     rrb.Tabs(rrb.TextLogView(origin="/events", name="events"), rrb.TextDocumentView(origin="/facts", name="run facts")),
                     row_shares=[4, 1],
                 ),
-                rrb.Vertical(rrb.Tabs(*errors), rrb.Tabs(*sensors), row_shares=[3, 2]),
+                rrb.Vertical(rrb.Tabs(*errors), rrb.Tabs(*sensors), row_shares=[3, 2]) if errors else rrb.Tabs(*sensors),
                 column_shares=[3, 2],
             ),
             rrb.TimePanel(timeline=TIMELINE),
