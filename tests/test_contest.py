@@ -109,12 +109,16 @@ def test_a_contest_from_the_command_line_writes_bracket_ranking_and_database(lan
     [
         (["maze", "solve_maze", "nonsense_controller"], "unknown controller 'nonsense_controller'"),
         (["maze", "a=solve_maze", "a=solve_maze,hand=left"], "two entries are called 'a'"),
-        (["empty", "solve_maze"], "needs 2 start slot(s)"),
+        (["empty", "solve_maze"], "no goal for the robot from start slot"),
+        (["ONE_START", "solve_maze"], "needs 2 start slot(s), this one has 1"),
         (["contest", "firmware:/no/such/ct-Bot"], "no such firmware file"),
         (["contest", "solve_maze,speed_m_s"], "expected KEY=VALUE"),
     ],
 )
-def test_mistakes_are_one_line_and_exit_2(arguments, message, capsys):
+def test_mistakes_are_one_line_and_exit_2(arguments, message, tmp_path, capsys):
+    if arguments[0] == "ONE_START":
+        (tmp_path / "one.toml").write_text("[[start]]\nposition = [0.5, 0.5]\n[[goal]]\nbox = [1, 1, 1.2, 1.2]\n")
+        arguments = [str(tmp_path / "one.toml"), *arguments[1:]]
     assert main(["contest", *arguments]) == 2
     err = capsys.readouterr().err
     assert message in err and err.count("\n") == 1 and "Traceback" not in err
