@@ -165,3 +165,16 @@ def test_render_draws_the_world():
     frame = env.render()
     assert frame.shape == (140, 200, 3) and frame.dtype == np.uint8  # the line world is 4 x 2.8 m
     assert len(np.unique(frame.reshape(-1, 3), axis=0)) > 3  # floor, line, walls, robot
+
+
+def test_the_ppo_example_trains_and_evaluates(monkeypatch, capsys):
+    """docs/train_ppo.py end to end on a tiny budget (one rollout), where the extra `rl` is installed."""
+    pytest.importorskip("stable_baselines3", reason="the optional extra rl (stable-baselines3) is not installed")
+    import runpy
+    from pathlib import Path
+
+    example = Path(__file__).resolve().parents[1] / "docs" / "train_ppo.py"
+    monkeypatch.setattr("sys.argv", [str(example), "--steps", "1", "--envs", "2", "--eval", "2"])
+    runpy.run_path(str(example), run_name="__main__")
+    out = capsys.readouterr().out
+    assert "ctsim/LineFollow-v0: PPO, 1 env steps" in out and "random policy" in out

@@ -1,5 +1,6 @@
-"""Imported by the local engine's fork server only: one tiny run loads the compiled kernels (numba's
-cache) and the built-in sensor curves there once, so that every worker forked from it starts warm."""
+"""Imported by a sweep's workers before their first run (`engines.PRELOAD`: a fork server, each
+forked worker, a Dask worker): one tiny run loads the compiled kernels (numba's cache) and the
+built-in sensor curves once, so that no run of the sweep pays for them."""
 
 from sim.experiments.api import Bot, simulate
 
