@@ -45,7 +45,7 @@ ATTACKS = {
         "import threading, time\n"
         "def rewrite():\n    while True:\n        try:\n            open({grades!r}, 'w').write('carol,10')\n        except OSError:\n            time.sleep(0.01)\n"
         "threading.Thread(target=rewrite, daemon=True).start()\n" + STEP + "    return [x, y, theta]\n",
-        "wrong", "("),
+        "load", "loading your file raised RuntimeError at line 8: can't start new thread"),
     "spawn_rewriter": ("import subprocess\n" + STEP + "    subprocess.Popen(['sh', '-c', 'sleep 2; echo dave,10 > {grades}'])\n",
                        "raised", "raised PermissionError at line 3"),
     "read_passwd": (STEP + "    return open('/etc/passwd').read()\n", "raised", "FileNotFoundError at line 2"),
@@ -80,6 +80,7 @@ ATTACKS = {
     "network": ("import socket\n" + STEP + "    socket.create_connection(('93.184.216.34', 80), timeout=5)\n", "raised", "at line 3"),
     "huge_answer": ("import numpy\n" + STEP + "    return numpy.zeros(400_000)\n", "protocol", "the limit is"),
     "xml_breaker": (STEP + "    raise ValueError('\\x00\\x1b[2J\\ufffe' * 1000)\n", "raised", "raised ValueError at line 2"),
+    "=2+5": (STEP + "    return [x, y, theta]\n", "wrong", "("),
     "raise_limits": ("import resource\n" + STEP + "    resource.setrlimit(resource.RLIMIT_AS, (-1, -1))\n", "raised", "raised ValueError at line 3"),
 }
 HONEST = {"alice": "reference", "bob": "euler", "erin": "swapped"}
@@ -124,7 +125,7 @@ def graded(tmp_path_factory) -> Graded:
     alone, _ = grade(generous, root / "alone", root / "teacher" / "alone", seed=SEED, jobs=4)
     reports, _ = grade(generous, root / "subs", root / "teacher" / "grades", seed=SEED, jobs=4)
     hangs, _ = grade(dataclasses.replace(exercise(2), hidden=0, time_limit=1.0), root / "hangs", root / "teacher" / "hangs", seed=SEED, jobs=4)
-    rows = {r["student"]: r for r in csv.DictReader((root / "teacher" / "grades" / "grades.csv").open(encoding="utf-8"))}
+    rows = {r["student"].removeprefix("'"): r for r in csv.DictReader((root / "teacher" / "grades" / "grades.csv").open(encoding="utf-8"))}
     rows |= {r["student"]: r for r in csv.DictReader((root / "teacher" / "hangs" / "grades.csv").open(encoding="utf-8")) if r["student"] in HANGS}
     by_name = lambda found: {Path(r.file).parent.name: r for r in found}  # noqa: E731
     return Graded(root, by_name(reports) | {k: v for k, v in by_name(hangs).items() if k in HANGS}, by_name(alone), rows, files)
@@ -169,6 +170,7 @@ def test_the_outputs_stay_readable_and_hold_each_student_once(graded: Graded) ->
         folder = "hangs" if name in HANGS else "grades"
         results = json.loads((graded.root / "teacher" / folder / "gradescope" / name / "results.json").read_text())
         assert results["score"] == round(graded.reports[name].score, 4)
+    assert "\n'=2+5," in (graded.root / "teacher" / "grades" / "grades.csv").read_text()  # no formula for a spreadsheet
     flood = json.loads((graded.root / "teacher" / "grades" / "gradescope" / "flood_stdout" / "results.json").read_text())
     assert "Your code printed:\nxxxx" in flood["output"] and len(flood["output"]) < 3000
 

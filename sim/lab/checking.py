@@ -132,18 +132,24 @@ def _at_line(lang: str) -> str:
     return {"en": "at line", "de": "in Zeile"}[lang]
 
 
+def printable(text: str) -> str:
+    """`text` safe for a terminal: control characters (a student's escape sequences among them)
+    shown as \\x.. escapes, line breaks and tabs kept."""
+    return "".join(c if c in "\n\t" or not (c < " " or "\x7f" <= c < "\xa0") else f"\\x{ord(c):02x}" for c in text)
+
+
 def table(report: CheckReport, lang: str = "en") -> str:
-    """The report as a text table with the hints under failing rows."""
+    """The report as a text table with the hints under failing rows (safe for a terminal)."""
     words = {"en": ("scenario", "expected", "got", "tolerance", "result", "pass", "FAIL", "hint", "score"),
              "de": ("Szenario", "erwartet", "erhalten", "Toleranz", "Ergebnis", "ok", "FEHLER", "Hinweis", "Punkte")}[lang]  # fmt: skip
-    columns = [[r.scenario, r.expected, r.got, r.tolerance, words[5] if r.passed else words[6]] for r in report.rows]
+    columns = [[printable(c) for c in (r.scenario, r.expected, r.got, r.tolerance)] + [words[5] if r.passed else words[6]] for r in report.rows]
     widths = [max([len(words[i])] + [min(len(c[i]), 48) for c in columns]) for i in range(5)]
     line = lambda cells: "  ".join(str(c)[:48].ljust(w) for c, w in zip(cells, widths)).rstrip()  # noqa: E731
     lines = [line(words[:5]), line(["-" * w for w in widths])]
     for row, cells in zip(report.rows, columns):
         lines.append(line(cells))
         if row.hint:
-            lines.append(f"    {words[7]}: {row.hint}")
+            lines.append(f"    {words[7]}: {printable(row.hint)}")
     passed = sum(r.passed for r in report.rows)
     lines.append(f"{words[8]}: {report.score_text} ({passed}/{len(report.rows)})")
     return "\n".join(lines)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from sim.lab.checking import check_file, table
+from sim.lab.checking import check_file, printable, table
 from sim.lab.exercise import Exercise, ExerciseError, exercise, exercises
 from sim.lab.grading import DEGRADED, grade
 from sim.sandbox import SandboxUnavailable
@@ -41,7 +41,7 @@ def _check(ex: Exercise, args: argparse.Namespace) -> int:
         print(DEGRADED)
     print(table(report, args.lang))
     if report.output:
-        print(f"your code printed:\n{report.output}")
+        print(f"your code printed:\n{printable(report.output)}")
     for path in report.artifacts:
         print(f"  wrote {path}")
     return 0 if report.passed else 1
@@ -56,7 +56,7 @@ def _grade(ex: Exercise, args: argparse.Namespace) -> int:
     if any(r.degraded for r in reports):
         print(DEGRADED)
     for report in reports:
-        print(f"{report.score_text:>7}  {report.file}")
+        print(f"{report.score_text:>7}  {printable(report.file)}")
     print(f"{sum(r.passed for r in reports)}/{len(reports)} passed; scenario seed {reports[0].seed}")
     for path in written:
         print(f"  wrote {path}")

@@ -85,15 +85,21 @@ def _isolation(report: CheckReport) -> str:
     return "degraded (no isolation)" if report.degraded else "bubblewrap"
 
 
+def cell(text: str) -> str:
+    """A text cell a spreadsheet will not run: one that starts like a formula gets a leading '."""
+    return f"'{text}" if text[:1] in ("=", "+", "-", "@", "\t", "\r") else text
+
+
 def write_csv(path: Path, ids: list[str], reports: list[CheckReport]) -> Path:
-    """One row per student: score, maximum, scenarios passed, isolation and the first problem."""
+    """One row per student: score, maximum, scenarios passed, isolation and the first problem
+    (texts a student chose, such as a folder name, never start a formula)."""
     with path.open("w", newline="", encoding="utf-8") as f:
         writer = csv.writer(f)
         writer.writerow(["student", "file", "score", "max_score", "passed", "scenarios", "seed", "isolation", "first_problem"])
         for sid, report in zip(ids, reports):
             first = next((f"{r.scenario}: {r.got if not r.hidden else ''} {r.hint}".strip() for r in report.rows if not r.passed), "")
-            writer.writerow([sid, report.file, f"{round(report.score, 1):g}", f"{report.points:g}", sum(r.passed for r in report.rows),
-                             len(report.rows), report.seed, _isolation(report), first])  # fmt: skip
+            writer.writerow([cell(sid), cell(report.file), f"{round(report.score, 1):g}", f"{report.points:g}", sum(r.passed for r in report.rows),
+                             len(report.rows), report.seed, _isolation(report), cell(first)])  # fmt: skip
     return path
 
 

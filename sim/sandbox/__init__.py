@@ -2,7 +2,7 @@
 
 One `Sandbox` holds one untrusted Python file, run by a small guest program in a process of its
 own, inside bubblewrap (user, mount, pid, network namespaces; see `launch`), with kernel limits on
-CPU time, memory, open files and output and no way to start processes (`confine`). Host and guest
+CPU time, memory, open files and output and no way to start processes or threads (`confine`). Host and guest
 exchange plain data only, length-prefixed JSON (`wire`): numbers, strings, lists, numpy arrays in
 a fixed layout, read-only records of a dataclass's fields; never pickle, never code.
 
@@ -13,6 +13,7 @@ a fixed layout, read-only records of a dataclass's fields; never pickle, never c
         h = box.new("Driver", timeout=2.0, waypoints=[[1, 0]], heading=0.0)
         box.method(h, "reset", robot_spec, timeout=2.0)            # dataclasses go as records
         command = box.step(h, 0.01, readings, timeout=0.5)         # ["Twist", v, omega, vy]
+        poses = box.feed(h2, "update", [(r,) for r in run_readings], "pose", timeout=20.0)  # one request
 
 - `modules`: the project modules the file may import (what its template imports); they and the
   project modules they import at module level are all of the project it can see. numpy and the
@@ -24,7 +25,7 @@ a fixed layout, read-only records of a dataclass's fields; never pickle, never c
   they are gone; write results only after it.
 - `output`: an excerpt of what the code printed; `degraded`: True when it ran without isolation
   (only with `degraded=True`, where bubblewrap is missing: `unavailable()` says why);
-  `confined`: True when the no-new-processes filter holds.
+  `confined`: True when the filter against new processes and threads holds.
 """
 
 from sim.sandbox.box import Limits, Sandbox, SandboxUnavailable, StudentError

@@ -25,7 +25,7 @@ from sim.sandbox import launch, wire
 class Limits:
     """What one guest may use. cpu: CPU seconds over its whole life (the kernel ends it after);
     memory: bytes of address space; files: open file descriptors; processes: of its user where the
-    kernel counts them (new processes are refused anyway); output: bytes of stdout and stderr
+    kernel counts them (new processes and threads are refused anyway); output: bytes of stdout and stderr
     before it is ended; excerpt: characters of that output kept; reply: bytes of one answer;
     startup: seconds to start and load the file (not the code's own time: the machine may be busy)."""
 

@@ -3,9 +3,8 @@
 Started as `python -I -S -B -c "import sys; sys.path[:0] = PATH; import guest; guest.main()"
 CONFIG` (imported, not run as a script, so that its compiled form is used; CONFIG: JSON with
 `path`, the folders to import from; `code`, the file; `limits`; `requests` and `replies`, the
-file descriptors of its two pipes, both in the `wire` format). It
-first sets its limits and the no-new-processes filter (`confine`), then loads the file as the
-module `ctsim_student` and says {"ok": null} or {"error": ...}; then, per request:
+file descriptors of its two pipes, both in the `wire` format). It first sets its limits and the
+filter against new processes and threads (`confine`), then loads the file as the module `ctsim_student` and says {"ok": null} or {"error": ...}; then, per request:
 
     {"op": "call", "name": f, "args": [...]}                          -> f(*args)
     {"op": "new", "handle": h, "name": C, "kwargs": {...}}             -> objects[h] = C(**kwargs)
@@ -163,7 +162,7 @@ def serve(config: dict[str, Any]) -> None:
 
     limits = config["limits"]
     confine.set_limits(limits["cpu"], limits["memory"], limits["files"], limits["processes"])
-    confined = confine.forbid_new_processes()
+    confined = confine.forbid_new_tasks()
     path = config["code"]
     sys.path[:0] = [str(Path(path).parent)]
     name_missing_modules()

@@ -1,7 +1,7 @@
 """The command that starts the guest: inside bubblewrap, or (asked for by name) degraded without it.
 
-Inside bubblewrap the guest gets new user, mount, pid, network, IPC, UTS and cgroup namespaces, no
-capabilities, its own session, and dies with its parent. Its file system is built from nothing:
+Inside bubblewrap the guest gets new user, mount, pid, network, IPC, UTS and cgroup namespaces (and
+may make no user namespace of its own), no capabilities, its own session, and dies with its parent. Its file system is built from nothing:
 the interpreter's installation and /usr read-only (their site-packages hidden), numpy, the guest's
 three files under /guest, the project modules asked for (with what they import at module level)
 under /guest/lib, and the untrusted file (or its folder) read-only under /submission. Nothing else: no
@@ -91,7 +91,7 @@ def _interpreter() -> str:
 
 
 def _namespaces() -> list[str]:
-    return ["--unshare-all", "--unshare-user", "--uid", "65534", "--gid", "65534", "--cap-drop", "ALL",
+    return ["--unshare-all", "--unshare-user", "--disable-userns", "--uid", "65534", "--gid", "65534", "--cap-drop", "ALL",
             "--die-with-parent", "--new-session", "--clearenv", "--proc", "/proc", "--dev", "/dev"]  # fmt: skip
 
 
