@@ -131,8 +131,9 @@ def _with_compiled(source: Path, target: str) -> list[tuple[str, str]]:
 
 
 def _start(path: list[str]) -> list[str]:
-    """The interpreter's arguments that import the guest from `path` and serve."""
-    return [_interpreter(), "-I", "-S", "-B", "-c", f"import sys; sys.path[:0] = {path!r}; import guest; guest.main()"]
+    """The interpreter's arguments that import the guest from `path` and serve (unbuffered: what
+    the code printed reaches the excerpt even when it ends the process)."""
+    return [_interpreter(), "-I", "-S", "-B", "-u", "-c", f"import sys; sys.path[:0] = {path!r}; import guest; guest.main()"]
 
 
 def command(code: Path, folder: bool, modules: tuple[str, ...], config: dict, degraded: bool) -> list[str]:
