@@ -128,6 +128,24 @@ def _one(exercise: Exercise, scenario: Scenario, student: Student, lang: str, sh
     return Row(scenario.name, outcome.expected, outcome.got, outcome.tolerance, outcome.passed, hint, problem=problem), outcome
 
 
+DEGRADED = "DEGRADED: run without isolation (bubblewrap missing); the code could read or change files"
+
+
+def check_and_print(exercise: Exercise, file: Path, shown: str | Path, lang: str, out: Path, degraded: bool = False) -> int:
+    """What `ctsim lab check` and a notebook's check cell do: check `file` (named `shown`), print
+    the table, what the code printed and what was written; 0 when every scenario passed, else 1."""
+    report = check_file(exercise, file, lang, out=out, degraded=degraded)
+    print(f"exercise {exercise.number}: {exercise.title[lang]}  ({shown}, scenario seed {report.seed})")
+    if report.degraded:
+        print(DEGRADED)
+    print(table(report, lang))
+    if report.output:
+        print(f"your code printed:\n{printable(report.output)}")
+    for path in report.artifacts:
+        print(f"  wrote {path}")
+    return 0 if report.passed else 1
+
+
 def _at_line(lang: str) -> str:
     return {"en": "at line", "de": "in Zeile"}[lang]
 

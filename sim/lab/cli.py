@@ -5,11 +5,11 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from sim.lab.checking import check_file, printable, table
+from sim.lab.checking import DEGRADED, check_and_print, printable
 from sim.lab.exercise import Exercise, ExerciseError, exercise, exercises
-from sim.lab.grading import DEGRADED, grade
-from sim.sandbox import SandboxUnavailable
+from sim.lab.grading import grade
 from sim.lab.notebook import submission, write_notebook
+from sim.sandbox import SandboxUnavailable
 
 
 def lab_command(args: argparse.Namespace) -> int:
@@ -35,16 +35,7 @@ def _check(ex: Exercise, args: argparse.Namespace) -> int:
     if not args.file.is_file():
         raise ExerciseError(f"{args.file}: no such file")
     with submission(args.file, ex) as file:  # a notebook: its solution cell, as the file
-        report = check_file(ex, file, args.lang, out=args.out, degraded=args.degraded)
-    print(f"exercise {ex.number}: {ex.title[args.lang]}  ({args.file}, scenario seed {report.seed})")
-    if report.degraded:
-        print(DEGRADED)
-    print(table(report, args.lang))
-    if report.output:
-        print(f"your code printed:\n{printable(report.output)}")
-    for path in report.artifacts:
-        print(f"  wrote {path}")
-    return 0 if report.passed else 1
+        return check_and_print(ex, file, args.file, args.lang, args.out, args.degraded)
 
 
 def _grade(ex: Exercise, args: argparse.Namespace) -> int:

@@ -20,11 +20,9 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
-from sim.lab.checking import CheckReport, Row, check_file, fresh_seed
+from sim.lab.checking import DEGRADED, CheckReport, Row, check_file, fresh_seed
 from sim.lab.exercise import Exercise, ExerciseError
 from sim.sandbox import SandboxUnavailable, unavailable
-
-DEGRADED = "DEGRADED: graded without isolation (bubblewrap missing); a submission could read or change files"
 
 
 def submissions(folder: Path, name: str) -> list[Path]:

@@ -114,9 +114,7 @@ def submission(path: Path, exercise: Exercise) -> Iterator[Path]:
 def check(number: int, lang: str = "en", exercises: list[str] | tuple[str, ...] = (), out: str | Path = "lab-check", degraded: bool = False) -> bool:
     """The notebook's check cell: grade the file the solution cell wrote as `ctsim lab check`
     does (the same sandbox, table and hints), show the figures; whether every scenario passed."""
-    from argparse import Namespace
-
-    from sim.lab.cli import _check
+    from sim.lab.checking import check_and_print
     from sim.lab.exercise import exercise
 
     ex = exercise(number, list(exercises))
@@ -124,7 +122,7 @@ def check(number: int, lang: str = "en", exercises: list[str] | tuple[str, ...] 
     if not file.is_file():
         print(f"{file} is not written yet: run the solution cell (its first line is %%writefile {file}) first")
         return False
-    passed = _check(ex, Namespace(file=file, lang=lang, out=Path(out), degraded=degraded)) == 0
+    passed = check_and_print(ex, file, file, lang, Path(out), degraded) == 0
     _show(sorted(Path(out).glob("*/*.png")))
     return passed
 
