@@ -54,7 +54,7 @@ ATTACKS = {
     "overwrite_classmate": (STEP + "    open({alice!r}, 'w').write('def step(*a):\\n    return [0, 0, 0]\\n')\n", "raised", "at line 2"),
     "read_classmate": ("import glob, os\n" + STEP + "    return open(glob.glob('/submission/../*/alice.py')[0] if glob.glob('/submission/../*/alice.py') else {alice!r}).read()\n",
                        "raised", "FileNotFoundError at line 3"),
-    "seed_from_parent": ("import os\n" + STEP + "    argv = open(f'/proc/{{os.getppid()}}/cmdline', 'rb').read().split(b'\\0')\n"
+    "seed_from_parent": ("import os\n" + STEP + "    argv = open(f'/proc/{{os.getppid() or 1}}/cmdline', 'rb').read().split(b'\\0')\n"
                          "    return int(argv[argv.index(b'--seed') + 1])\n", "raised", "raised ValueError at line 4"),
     "seed_anywhere": (
         "import os\n" + STEP + "    for pid in os.listdir('/proc'):\n        for part in ('cmdline', 'environ'):\n            try:\n"

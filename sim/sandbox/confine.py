@@ -4,7 +4,7 @@ processes or threads.
 The limits are the kernel's (`resource.setrlimit`): CPU seconds, address space, open files,
 processes, no core files and no file growth. A process cannot raise a hard limit again. Process
 and thread creation is refused by a seccomp filter (Linux x86-64 and arm64): `fork`, `vfork`,
-`clone` and `clone3` fail with EPERM. This holds where RLIMIT_NPROC does not (it counts per user
+`clone` and `clone3` fail with EPERM, and so do `ptrace` and `process_vm_readv/writev`. This holds where RLIMIT_NPROC does not (it counts per user
 and does not bind root), and it keeps a submission to one CPU: a hundred spinning threads would
 starve the classmates checked beside it. (numpy runs with one BLAS thread.) Standard library
 only: this file runs inside the sandbox.
@@ -21,11 +21,12 @@ import struct
 
 X32_SYSCALL_BIT = 0x40000000
 SYSCALLS = {
-    "x86_64": (0xC000003E, {"clone": 56, "fork": 57, "vfork": 58, "clone3": 435}),
-    "aarch64": (0xC00000B7, {"clone": 220, "clone3": 435}),
+    "x86_64": (0xC000003E, {"clone": 56, "fork": 57, "vfork": 58, "clone3": 435, "ptrace": 101, "process_vm_readv": 310, "process_vm_writev": 311}),
+    "aarch64": (0xC00000B7, {"clone": 220, "clone3": 435, "ptrace": 117, "process_vm_readv": 270, "process_vm_writev": 271}),
 }
-"""Per machine: the audit architecture seccomp reports, and the system calls that start a process
-or a thread."""
+"""Per machine: the audit architecture seccomp reports, and the system calls refused: those that
+start a process or a thread, and those that reach into another process (which could be made to
+start them)."""
 
 # classic BPF: load word at offset, jump if equal / greater or equal, return
 LD_ABS, JEQ, JGE, RET = 0x20, 0x15, 0x35, 0x06

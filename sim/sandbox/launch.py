@@ -1,7 +1,9 @@
 """The command that starts the guest: inside bubblewrap, or (asked for by name) degraded without it.
 
 Inside bubblewrap the guest gets new user, mount, pid, network, IPC, UTS and cgroup namespaces (and
-may make no user namespace of its own), no capabilities, its own session, and dies with its parent. Its file system is built from nothing:
+may make no user namespace of its own), no capabilities, its own session, and dies with its parent.
+It is the first process of its pid namespace itself (no bubblewrap process beside it that it could
+trace and make start processes for it). Its file system is built from nothing:
 the interpreter's installation and /usr read-only (their site-packages hidden), numpy, the guest's
 three files under /guest, the project modules asked for (with what they import at module level)
 under /guest/lib, and the untrusted file (or its folder) read-only under /submission. Nothing else: no
@@ -41,11 +43,12 @@ def module_file(name: str) -> Path | None:
     return next((p for p in (base / "__init__.py", base.with_suffix(".py")) if p.is_file()), None)
 
 
-def closure(modules: tuple[str, ...]) -> list[Path]:
+@functools.cache
+def closure(modules: tuple[str, ...]) -> tuple[Path, ...]:
     """The project files `modules` need when imported: each one's file and, followed, the project
     modules it imports at module level (imports inside functions are not followed: they fail
     inside the sandbox only if called). Packages along the way stay namespaces unless imported by
-    name, so that no package's `__init__` brings the rest of the project."""
+    name, so that no package's `__init__` brings the rest of the project. Read once a process."""
     found: dict[str, Path] = {}
     todo = list(modules)
     while todo:
@@ -60,7 +63,7 @@ def closure(modules: tuple[str, ...]) -> list[Path]:
             elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
                 todo += [node.module] + [f"{node.module}.{alias.name}" for alias in node.names]
         todo = [n for n in todo if n.split(".")[0] in PROJECT]
-    return sorted(found.values())
+    return tuple(sorted(found.values()))
 
 
 def bubblewrap() -> str | None:
@@ -92,7 +95,7 @@ def _interpreter() -> str:
 
 def _namespaces() -> list[str]:
     return ["--unshare-all", "--unshare-user", "--disable-userns", "--uid", "65534", "--gid", "65534", "--cap-drop", "ALL",
-            "--die-with-parent", "--new-session", "--clearenv", "--proc", "/proc", "--dev", "/dev"]  # fmt: skip
+            "--as-pid-1", "--die-with-parent", "--new-session", "--clearenv", "--proc", "/proc", "--dev", "/dev"]  # fmt: skip
 
 
 def _system() -> list[str]:
