@@ -178,3 +178,19 @@ def test_the_ppo_example_trains_and_evaluates(monkeypatch, capsys):
     runpy.run_path(str(example), run_name="__main__")
     out = capsys.readouterr().out
     assert "ctsim/LineFollow-v0: PPO, 1 env steps" in out and "random policy" in out
+
+
+@pytest.mark.parametrize("action", ["wheels", "twist"])
+def test_batched_motor_commands_equal_the_run_loops_conversion(action):
+    """The vector env's numpy conversion of actions is the twin of `bots.commands` per robot."""
+    from bots.commands import Twist, WheelSpeeds, motor_commands, wheel_speeds_for
+
+    vec = CtsimVectorEnv(50, task="line", action=action)
+    spec = vec._task.robot
+    top = spec.max_wheel_surface_speed
+    actions = np.random.default_rng(4).uniform(-1.5, 1.5, (50, 2))  # beyond the Box too: clipped
+    got = vec._copies._motor_commands(actions)
+    for (a0, a1), row in zip(np.clip(actions, -1, 1), got):
+        command = WheelSpeeds(a0 * top, a1 * top) if action == "wheels" else Twist(a0 * top, a1 * 2 * top / spec.track_width)
+        # the twist's wheel speeds round omega * track / 2 once more than the batched a1 * top: 1e-12 of 255
+        np.testing.assert_allclose(row, motor_commands(*wheel_speeds_for(command, spec), spec), rtol=0, atol=1e-9)

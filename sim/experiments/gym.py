@@ -215,7 +215,10 @@ class _Copies:
 
     def advance(self, actions: np.ndarray, moving: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """One control step of every copy (the copies not `moving` stand still): poses before and after."""
-        commands = self._motor_commands(np.asarray(actions, dtype=np.float64).reshape(self.n, 2))
+        actions = np.asarray(actions, dtype=np.float64)
+        if actions.size != 2 * self.n:
+            raise ValueError(f"expected actions of shape ({self.n}, 2), got {actions.shape}" if self.n > 1 else f"expected an action of shape (2,), got {actions.shape}")
+        commands = self._motor_commands(actions.reshape(self.n, 2))
         commands[~moving] = 0.0
         world = self.world
         before = world.poses()
