@@ -139,6 +139,12 @@ def test_blueprint_names_only_what_is_logged(tmp_path, robots):
     entities = _entities(path)
     views, overrides = _blueprint(path)
     assert len(views) >= 2 + 2 * robots + 6  # map, events, facts, two error plots per robot, six sensor groups
+    sensor_views = [origin for origin, _ in views if origin.startswith("/sensors/")]
+    if robots > 1:  # one plot per robot and sensor kind: no plot mixes robots
+        assert sorted(sensor_views) == sorted(f"/sensors/{group}/{name}" for group in ("ir_raw", "ir_distance", "floor", "light", "encoders", "mouse")
+                                              for name in ("ctbot", "ctbot1", "ctbot2"))  # fmt: skip
+        named = [e for e in entities if e.endswith("/body/name")]
+        assert sorted(named) == ["/world/ctbot/body/name", "/world/ctbot1/body/name", "/world/ctbot2/body/name"]
     for origin, queries in views:
         for query in queries:
             expression = query.removeprefix("+ ").replace("$origin", origin.rstrip("/"))

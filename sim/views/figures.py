@@ -22,6 +22,8 @@ Trajectory = tuple[np.ndarray, np.ndarray]
 
 MEAN_WINDOW_S = 1.0
 """Moving mean drawn over the raw error trace (s): encoder quantisation makes a sawtooth."""
+MAX_INSETS = 4
+"""Robots given a magnified view of their run's end each (the first ones of a larger crowd)."""
 DASHES = ("-", (0, (5, 2)), "-", (0, (2, 1.5)), (0, (6, 2, 1, 2)))
 """Estimates often coincide (encoders and firmware, mouse and fused): alternate solid and dashed
 lines so that one drawn over another still shows both."""
@@ -96,46 +98,69 @@ def write_figures(
     out, ate = Path(out), ate or {}
     xmin, ymin, xmax, ymax = world.bounds
     aspect = (ymax - ymin) / max(xmax - xmin, 1e-9)
-    fig, (ax, zoom) = plt.subplots(1, 2, figsize=(12.0, max(4.0, min(6.5 * aspect, 9.0)) + 0.8), dpi=120, width_ratios=(1.6, 1))
     several = len(robots) > 1
-    for axis in (ax, zoom):
+    colours = palette.robot_colours(list(robots))
+    insets = list(robots)[:MAX_INSETS] if several else [None]  # None: the one robot whose estimates part most
+    fig = plt.figure(figsize=(12.0, max(4.0, min(6.5 * aspect, 9.0), 2.6 * len(insets)) + 0.8), dpi=120)
+    grid = fig.add_gridspec(len(insets), 2, width_ratios=(1.6, 1))
+    ax = fig.add_subplot(grid[:, 0])
+    zooms = [fig.add_subplot(grid[k, 1]) for k in range(len(insets))]
+    for axis in (ax, *zooms):
         draw_world(axis, world, legend=axis is ax)
-        for name, tracks in robots.items():
-            _draw_tracks(axis, name if several else "", tracks, ate.get(name, {}), label=axis is ax)
+        for k, (name, tracks) in enumerate(robots.items()):
+            _draw_tracks(axis, name if several else "", tracks, {} if several else ate.get(name, {}), colours.get(name, palette.TRUTH), label=axis is ax and (k == 0 or not several))
     ax.autoscale()
     _include(ax, world.bounds)
-    factor = _magnify(zoom, ax, robots)
     ax.set_title(f"{world.name}: trajectories (o start, \u25a0 end)", fontsize=11)
-    zoom.set_title(f"end of the run, magnified \u00d7{factor:.0f}", fontsize=11)
-    for axis in (ax, zoom):
+    for zoom, name in zip(zooms, insets):
+        factor = _magnify(zoom, ax, robots if name is None else {name: robots[name]})
+        title = f"end of the run, magnified \u00d7{factor:.0f}" if name is None else f"{name}: its end, \u00d7{factor:.0f}"
+        zoom.set_title(title, fontsize=11 if name is None else 9, **({} if name is None else {"backgroundcolor": _c(colours[name])}))
+    for axis in (ax, *zooms):
         axis.set_xlabel("x (m)")
         axis.grid(True, linewidth=0.3, alpha=0.5)
     ax.set_ylabel("y (m)")
-    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
+    if several:  # a robot's truth in its colour; each estimate's colour once; the ATEs as a table
+        from matplotlib.patches import Patch
+
+        handles = [Patch(facecolor=_c(colours[name]), edgecolor="0.2", linewidth=0.5, label=f"{name}: truth") for name in robots]
+        handles += [h for h, text in zip(*ax.get_legend_handles_labels()) if not text.endswith("truth")]
+        ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
+        if ate:
+            ax.text(1.01, 0.55, _ate_table(ate), transform=ax.transAxes, fontsize=7, family="monospace", va="top")
+    else:
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, frameon=False)
     if subtitle:
         fig.suptitle(subtitle, fontsize=9, color="0.3", y=0.995)
     fig.tight_layout()
     written = [_save(fig, out / "trajectories.png")]
 
-    fig, (top, bottom) = plt.subplots(2, 1, figsize=(10.0, 6.5), dpi=120, sharex=True)
-    for name, tracks in robots.items():
-        prefix = f"{name}: " if several else ""
+    columns = len(robots)  # one column of plots per robot: no plot mixes robots
+    fig, axes = plt.subplots(2, columns, figsize=(10.0 if columns == 1 else 4.2 * columns + 2.0, 6.5), dpi=120, sharex=True, sharey="row", squeeze=False)
+    for column, (name, tracks) in enumerate(robots.items()):
+        top, bottom = axes[:, column]
         for k, (label, estimate) in enumerate(_estimates(tracks)):
             colour = _c(palette.estimate_colour(label, list(tracks)))
             t, position, heading = _errors(tracks["truth"], estimate)
             score = ate.get(name, {}).get(label)
-            text = prefix + label + (f" (ATE {1000 * score:.1f} mm)" if score is not None else "")
+            text = label + (f" (ATE {1000 * score:.1f} mm)" if score is not None else "")
             for axis, values in ((top, position * 1000), (bottom, np.degrees(heading))):
                 axis.plot(t, values, color=colour, linewidth=0.4, alpha=0.2)
                 axis.plot(t, moving_mean(t, values, MEAN_WINDOW_S), color=colour, linewidth=1.6, linestyle=DASHES[k % len(DASHES)], label=text)
-    top.set_ylabel("position error (mm)")
-    bottom.set_ylabel("heading error (deg, unwrapped)")
-    bottom.set_xlabel("simulated time (s)")
-    top.set_title(f"odometry error against ground truth (thin: every sample; thick: {MEAN_WINDOW_S:g} s moving mean)", fontsize=10)
-    for axis in (top, bottom):
-        axis.grid(True, linewidth=0.3, alpha=0.6)
-    if top.get_legend_handles_labels()[0]:
-        top.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
+        if several:
+            top.set_title(name, fontsize=10, backgroundcolor=_c(colours[name]))
+        bottom.set_xlabel("simulated time (s)")
+        for axis in (top, bottom):
+            axis.grid(True, linewidth=0.3, alpha=0.6)
+        if top.get_legend_handles_labels()[0]:
+            top.legend(fontsize=7 if several else 8, loc="upper left", **({} if several else {"bbox_to_anchor": (1.01, 1.0)}), frameon=False)
+    axes[0, 0].set_ylabel("position error (mm)")
+    axes[1, 0].set_ylabel("heading error (deg, unwrapped)")
+    title = f"odometry error against ground truth (thin: every sample; thick: {MEAN_WINDOW_S:g} s moving mean)"
+    if several:
+        fig.text(0.5, 0.955, title, ha="center", fontsize=10)
+    else:
+        axes[0, 0].set_title(title, fontsize=10)
     if subtitle:
         fig.suptitle(subtitle, fontsize=9, color="0.3", y=0.995)
     fig.tight_layout()
@@ -143,19 +168,32 @@ def write_figures(
     return written
 
 
-def _draw_tracks(ax, prefix: str, tracks: dict[str, Trajectory], ate: dict[str, float], label: bool) -> None:
-    """Truth and each estimate of one robot, thin and above the map; start and end marked."""
-    lead = f"{prefix}: " if prefix else ""
+def _draw_tracks(ax, robot: str, tracks: dict[str, Trajectory], ate: dict[str, float], own: palette.RGB, label: bool) -> None:
+    """Truth (in the robot's `own` colour) and each estimate of one robot, thin and above the map;
+    start and end marked, and the start named by `robot` (empty: a lone robot, not named)."""
     _, truth = tracks["truth"]
-    truth_colour = _c(palette.TRUTH)
-    ax.plot(truth[:, 0], truth[:, 1], color=truth_colour, linewidth=1.8, alpha=0.9, zorder=4, label=lead + "truth" if label else None)
+    truth_colour = _c(own)
+    ax.plot(truth[:, 0], truth[:, 1], color=truth_colour, linewidth=1.8, alpha=0.9, zorder=4, label="truth" if label else None)
     ax.plot(*truth[0, :2], marker="o", color=truth_colour, markersize=6, zorder=6)
     ax.plot(*truth[-1, :2], marker="s", color=truth_colour, markersize=6, zorder=6)
+    if robot:
+        ax.annotate(robot, truth[0, :2], xytext=(5, 5), textcoords="offset points", color="black", fontsize=8, weight="bold", zorder=7, annotation_clip=True,
+                    bbox={"facecolor": truth_colour, "edgecolor": "none", "alpha": 0.85, "pad": 1.5})  # fmt: skip
     for k, (name, (_, poses)) in enumerate(_estimates(tracks)):
         colour = _c(palette.estimate_colour(name, list(tracks)))
-        text = lead + name + (f" (ATE {1000 * ate[name]:.1f} mm)" if name in ate else "")
+        text = name + (f" (ATE {1000 * ate[name]:.1f} mm)" if name in ate else "")
         ax.plot(poses[:, 0], poses[:, 1], color=colour, linewidth=1.1, linestyle=DASHES[k % len(DASHES)], zorder=5, label=text if label else None)
         ax.plot(*poses[-1, :2], marker="s", color=colour, markersize=4, zorder=6)
+
+
+def _ate_table(ate: dict[str, dict[str, float]]) -> str:
+    """The estimates' ATE RMS (mm) as a small table: a row per estimate, a column per robot."""
+    names = list(ate)
+    labels = list(dict.fromkeys(label for scores in ate.values() for label in scores))
+    width = max(len(n) for n in names) + 1
+    rows = ["ATE (mm)  " + "".join(f"{n:>{width}}" for n in names)]
+    rows += [f"{label:<10}" + "".join(f"{1000 * ate[n][label]:>{width}.1f}" if label in ate[n] else f"{'':>{width}}" for n in names) for label in labels]
+    return "\n".join(rows)
 
 
 def _magnify(zoom, main, robots: dict[str, dict[str, Trajectory]]) -> float:

@@ -46,6 +46,10 @@ ICR: RGB = (230, 60, 200)
 """The instantaneous centre of rotation of a robot's motion."""
 CONTESTANTS: tuple[RGB, RGB] = ((214, 48, 49), (37, 99, 235))
 """The two bots of a contest game: red from start slot 1, blue from slot 2 (c't-Sim's start tiles)."""
+ROBOTS: tuple[RGB, ...] = ((214, 48, 49), (240, 200, 20), (250, 250, 250), (255, 140, 190), (140, 80, 30), (150, 230, 80))
+"""Each robot's own colour where several share a run (its outline, name, ground-truth trail), in
+the order they were added: red, yellow, white, pink, brown, light green; none is an estimate's,
+all stand out on a grey floor."""
 SCALE_BAR: RGB = (20, 20, 20)
 CHANNELS: tuple[RGB, ...] = ((31, 119, 180), (214, 39, 40), (44, 160, 44), (148, 103, 189), (140, 86, 75), (23, 190, 207))
 """Colours of a sensor's channels (left, right, ...)."""
@@ -57,6 +61,12 @@ def estimate_colour(name: str, others: list[str] | tuple[str, ...] = ()) -> RGB:
         return ESTIMATES[name]
     unknown = [n for n in others if n not in ESTIMATES]
     return SPARE[unknown.index(name) % len(SPARE)] if name in unknown else SPARE[0]
+
+
+def robot_colours(names: list[str] | tuple[str, ...]) -> dict[str, RGB]:
+    """Robot name -> its own colour (`ROBOTS`, in order) when there are several; none for a lone
+    robot, whose truth stays TRUTH green."""
+    return {name: ROBOTS[k % len(ROBOTS)] for k, name in enumerate(names)} if len(names) > 1 else {}
 
 
 def unit(rgb: RGB) -> tuple[float, float, float]:

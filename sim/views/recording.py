@@ -225,6 +225,7 @@ class Recorder:
         log_world(self._log, world.spec)
         self._log("facts", rr.TextDocument(self._facts_text(world, logs), media_type=rr.MediaType.MARKDOWN), static=True)
         self._tracks = [self._track(log) for log in logs]
+        self.colours = self.colours or palette.robot_colours([log.name for log in logs])
         self._chassis = ChassisLayer.for_world(self._log, self._columns, world, TIMELINE)
         self._style()
         if self._chassis is not None:
@@ -511,7 +512,14 @@ class Recorder:
             for name, estimates in robots.items()
             if estimates  # a robot without estimates (a contest's) has no errors to plot
         ]
-        sensors = [rrb.TimeSeriesView(origin=f"/sensors/{group}", name=title, plot_legend=legend) for group, (title, _) in SENSOR_GROUPS.items() if group in groups]
+        shown = [(group, title) for group, (title, _) in SENSOR_GROUPS.items() if group in groups]
+        if len(robots) > 1:  # per robot a tab with a plot of each sensor kind: no plot mixes robots
+            sensors = [
+                rrb.Grid(*(rrb.TimeSeriesView(origin=f"/sensors/{group}/{name}", name=f"{name}: {title}", plot_legend=legend) for group, title in shown), name=f"sensors: {name}")
+                for name in robots
+            ]
+        else:
+            sensors = [rrb.TimeSeriesView(origin=f"/sensors/{group}", name=title, plot_legend=legend) for group, title in shown]
         return rrb.Blueprint(
             rrb.Horizontal(
                 rrb.Vertical(
