@@ -250,3 +250,18 @@ class Driver:
         print("x" * 100_000)
         return Twist(0.35, 0.0)
 '''
+
+
+def test_a_contest_on_dask_ends_as_on_local_processes(lanes, tmp_path):
+    """The sweep's engine option: the same games on a Dask LocalCluster (a process of its own), the same database."""
+    from sim.experiments.engines import Dask
+
+    entries = parse(drivers(tmp_path, 0.3, 0.2))
+    settings = Settings(str(lanes), str(lanes), 6.0)
+    conduct(settings, entries, tmp_path / "local", Serial(), record=False, say=lambda line: None)
+    runner = Dask(workers=1)
+    try:
+        conduct(settings, entries, tmp_path / "dask", runner, record=False, say=lambda line: None)
+    finally:
+        runner.close()
+    assert games(tmp_path / "dask" / "contest.sqlite") == games(tmp_path / "local" / "contest.sqlite")
