@@ -181,3 +181,29 @@ def test_the_shipped_contest_world_favours_neither_side():
     ways = [PathField(world, world.goals_of(s.slot), clearance).distance(s.x, s.y) for s in (a, b)]
     assert ways[0] == pytest.approx(ways[1], abs=1e-9) and 3.0 < ways[0] < 8.0
     assert np.allclose([a.x + b.x, a.y + b.y], [world.bounds[2], world.bounds[3]])  # turned about the centre
+
+
+PARCOURS = """<?xml version="1.0" encoding="UTF-8"?>
+<world><description>as c't-Sim's contest parcours: two starts, one goal (ZZ) in the top wall</description>
+<parcours>
+<line>*==ZZ==*</line>
+<line>#      #</line>
+<line>#      #</line>
+<line>#.1  2.#</line>
+<line>*======*</line>
+</parcours></world>
+"""
+
+
+def test_a_c_t_sim_contest_parcours_gives_both_bots_the_one_goal(tmp_path):
+    """c't-Sim's contest-* parcours (read from where the user keeps them) are mirrored, with start
+    tiles 1 and 2 and one goal in the top wall: both Z tiles are both bots' goal, and two bots
+    standing still are even by path at the time limit (the better seed takes it)."""
+    path = tmp_path / "contest-mini.xml"
+    path.write_text(PARCOURS)
+    world = load_world(path)
+    assert [s.slot for s in world.start_order()] == [1, 2] and world.goals_of(1) == world.goals_of(2) == world.goals
+    outcome = play(GameJob(2, 1, tuple(parse(["a=stop", "b=stop"])), str(path), 1.0, 0, DT, None))
+    a, b = outcome["sides"]
+    assert a["distance_left"] == pytest.approx(b["distance_left"], abs=1e-9) and 0.5 < a["distance_left"] < 1.5
+    assert outcome["verdict"]["winner"] == 0 and "even by path" in outcome["verdict"]["text"]
