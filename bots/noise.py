@@ -23,6 +23,7 @@ import tomllib
 from dataclasses import fields, is_dataclass, replace
 from typing import Any
 
+from bots.schema import Problem
 from bots.spec import RobotSpec
 
 NOISE_PRESETS: dict[str, dict[str, Any]] = {
@@ -64,7 +65,7 @@ def parse_value(text: str) -> Any:
     """A command-line value as TOML reads it (`0.02`, `true`, `[0, 0.01]`), else the text itself."""
     try:
         return tomllib.loads(f"v = {text}")["v"]
-    except tomllib.TOMLDecodeError:
+    except (tomllib.TOMLDecodeError, RecursionError):  # (nested past Python's stack: not a value either)
         return text
 
 
@@ -74,24 +75,23 @@ def _closest(name: str, known: list[str]) -> str:
 
 
 def _checked(owner: Any, name: str, value: Any, key: str) -> Any:
-    """`value` converted to the kind of `owner.name`, or a RobotSettingError naming `key`."""
+    """`value` for `owner.name` as a robot file would give it, or a RobotSettingError naming `key`
+    (the field's own Field checks the value when the spec is rebuilt, `_replaced`)."""
     known = [f.name for f in fields(owner)]
     if name not in known:
         raise RobotSettingError(f"{key}: {type(owner).__name__} has no field {name!r}{_closest(name, known)}")
     current = getattr(owner, name)
-    if isinstance(current, tuple) and isinstance(value, list | tuple):
-        value = tuple(value)
-    if isinstance(current, bool) or not isinstance(current, int | float | tuple):
-        raise RobotSettingError(f"{key}: only numbers and pairs of numbers can be set here")
-    numbers = value if isinstance(value, tuple) else (value,)
-    if not all(isinstance(v, int | float) and not isinstance(v, bool) for v in numbers) or (
-        isinstance(current, tuple) and (not isinstance(value, tuple) or len(value) != len(current))
-    ):
-        expected = f"a list of {len(current)} numbers" if isinstance(current, tuple) else "a number"
-        raise RobotSettingError(f"{key}: expected {expected}, got {value!r}")
-    if (name.endswith("_std") or name in ("tick_noise", "max_speed")) and min(numbers) < 0:
-        raise RobotSettingError(f"{key}: must not be negative, got {value!r}")
-    return float(value) if isinstance(current, float) and not isinstance(value, tuple) else value
+    if is_dataclass(current) or (isinstance(current, tuple) and current and is_dataclass(current[0])):
+        raise RobotSettingError(f"{key}: a section, not a value; set one of its fields as {key}.FIELD")
+    return tuple(value) if isinstance(value, list) else value
+
+
+def _replaced(owner: Any, key: str, **changes: Any) -> Any:
+    """`replace(owner, **changes)`, a value its schema refuses a RobotSettingError naming `key`."""
+    try:
+        return replace(owner, **changes)
+    except Problem as problem:
+        raise RobotSettingError(f"{key}: {problem.message}") from None
 
 
 def with_settings(robot: RobotSpec, settings: dict[str, Any]) -> RobotSpec:
@@ -100,7 +100,7 @@ def with_settings(robot: RobotSpec, settings: dict[str, Any]) -> RobotSpec:
     for key, value in settings.items():
         section, _, name = key.rpartition(".")
         if not section:
-            robot = replace(robot, **{name: _checked(robot, name, value, key)})
+            robot = _replaced(robot, key, **{name: _checked(robot, name, value, key)})
             continue
         sections = [f.name for f in fields(robot) if is_dataclass(getattr(robot, f.name)) or isinstance(getattr(robot, f.name), tuple)]
         if section not in sections:
@@ -109,12 +109,12 @@ def with_settings(robot: RobotSpec, settings: dict[str, Any]) -> RobotSpec:
         if current is None:
             raise RobotSettingError(f"{key}: robot {robot.name!r} has no {section}")
         if isinstance(current, tuple) and all(is_dataclass(s) for s in current):
-            changed = tuple(replace(s, **{name: _checked(s, name, value, key)}) for s in current)
+            changed = tuple(_replaced(s, key, **{name: _checked(s, name, value, key)}) for s in current)
         elif is_dataclass(current):
-            changed = replace(current, **{name: _checked(current, name, value, key)})
+            changed = _replaced(current, key, **{name: _checked(current, name, value, key)})
         else:
             raise RobotSettingError(f"{key}: {section!r} is a value, not a section; set it as {section}=...")
-        robot = replace(robot, **{section: changed})
+        robot = _replaced(robot, key, **{section: changed})
     return robot
 
 

@@ -8,13 +8,21 @@ than the c't-Bot is a different `RobotSpec` (in Python or in a TOML file, see `l
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import MISSING, dataclass, field, fields, is_dataclass, replace
 from functools import cached_property
 from pathlib import Path
 from typing import Any
 
 from bots.chassis_spec import ChassisSpec, chassis_from_dict, inscribed_radius
+from bots.schema import WORLD_EXTENT, FileError, Locator, Problem, check_fields, declared
+from bots.schema import read_toml as read_located
+
+REACH = 2.0
+"""Farthest a mount point (sensor, skid) may sit from a robot's reference point (m)."""
+_MOUNT = {"kind": "pair", "unit": "m", "low": -REACH, "high": REACH}
+_ANGLE = {"unit": "rad", "low": -2 * math.pi, "high": 2 * math.pi}
+_RAW = {"unit": "raw units (0..1023)", "low": 0.0, "high": 1023.0}
+_RELATIVE = {"low": -0.5, "high": 0.5}
 
 Point = tuple[float, float]
 CONTACT_RULES = ("slide", "stop")
@@ -31,10 +39,13 @@ class MotorSpec:
     max_acceleration: limit on the change of wheel speed (rad/s^2); inf = none.
     """
 
-    max_wheel_speed: float = 151 / 60 * 2 * math.pi
-    command_max: float = 255.0
-    time_constant: float = 0.0
-    max_acceleration: float = math.inf
+    max_wheel_speed: float = declared(default=151 / 60 * 2 * math.pi, unit="rad/s", low=0.0, above=True, high=1000.0)
+    command_max: float = declared(default=255.0, unit="command units", low=0.0, above=True, high=1e6)
+    time_constant: float = declared(default=0.0, unit="s", low=0.0, high=10.0)
+    max_acceleration: float = declared(default=math.inf, unit="rad/s^2", low=0.0, above=True, infinite=True)
+
+    def __post_init__(self) -> None:
+        check_fields(self)
 
 
 @dataclass(frozen=True)
@@ -48,11 +59,14 @@ class EncoderSpec:
     tick_noise: probability per step of a spurious +-1 tick on a wheel.
     """
 
-    ticks_per_rev: int = 60
-    diameter_error: Point = (0.0, 0.0)
-    track_error: float = 0.0
-    slip_std: float = 0.0
-    tick_noise: float = 0.0
+    ticks_per_rev: int = declared("integer", default=60, unit="ticks", low=1, high=2**53)  # (2**40 in tests: "no quantisation")
+    diameter_error: Point = declared("pair", default=(0.0, 0.0), unit="relative", **_RELATIVE)
+    track_error: float = declared(default=0.0, unit="relative", **_RELATIVE)
+    slip_std: float = declared(default=0.0, unit="relative", low=0.0, high=1.0)
+    tick_noise: float = declared(default=0.0, unit="probability per step", low=0.0, high=1.0)
+
+    def __post_init__(self) -> None:
+        check_fields(self)
 
 
 @dataclass(frozen=True)
@@ -64,11 +78,14 @@ class MouseSpec:
     max_speed: fastest ground speed it tracks (m/s); faster motion reads zero.
     """
 
-    mount: Point = (-0.015, 0.0)
-    dpi: float = 400.0
-    scale_error: float = 0.0
-    noise_std: float = 0.0
-    max_speed: float = math.inf
+    mount: Point = declared(default=(-0.015, 0.0), **_MOUNT)
+    dpi: float = declared(default=400.0, unit="counts per inch", low=0.0, above=True, high=1e15)  # (1e12 in tests: "no quantisation")
+    scale_error: float = declared(default=0.0, unit="relative", **_RELATIVE)
+    noise_std: float = declared(default=0.0, unit="counts", low=0.0, high=1e6)
+    max_speed: float = declared(default=math.inf, unit="m/s", low=0.0, above=True, infinite=True)
+
+    def __post_init__(self) -> None:
+        check_fields(self)
 
 
 @dataclass(frozen=True)
@@ -79,24 +96,25 @@ class IRSensorSpec:
     such a file; None uses c't-Sim's GP2D12 table for `side`, shipped with ctsim.
     """
 
-    name: str
-    position: Point
-    direction: float = 0.0
-    side: str = "left"
-    min_range: float = 0.1
-    max_range: float = 0.8
-    curve: str | None = None
-    noise_std: float = 0.0
-    cone: float = math.radians(3.0)
+    name: str = declared("text")
+    position: Point = declared(**_MOUNT)
+    direction: float = declared(default=0.0, **_ANGLE)
+    side: str = declared("text", default="left", choices=("left", "right"))
+    min_range: float = declared(default=0.1, unit="m", low=0.0, high=10.0)
+    max_range: float = declared(default=0.8, unit="m", low=0.0, above=True, high=10.0)
+    curve: str | None = declared("text", default=None, optional=True)
+    noise_std: float = declared(default=0.0, unit="m", low=0.0, high=1.0)
+    cone: float = declared(default=math.radians(3.0), unit="rad", low=0.0, high=math.pi / 4)
     """Half-angle (rad) of the cone the sensor sees the nearest body in (c't-Sim: 3°); 0 casts one ray."""
-    view: str = "cone"
+    view: str = declared("text", default="cone", choices=IR_VIEWS)
     """What the cone sees of a wall: 'cone' its nearest point in the cone, or 'axis' what
     c't-Sim's Java3D pick finds (measured against the real c't-Sim): the wall where the cone's axis
     meets it, and its corners inside the cone. Other robots and cans are seen in the whole cone."""
 
     def __post_init__(self) -> None:
-        if self.view not in IR_VIEWS:
-            raise ValueError(f"IR sensor {self.name!r}: view must be one of {', '.join(IR_VIEWS)}, got {self.view!r}")
+        check_fields(self)
+        if self.min_range >= self.max_range:
+            raise Problem("min_range", f"must be less than max_range ({self.max_range:g} m), not {self.min_range:g}")
 
 
 @dataclass(frozen=True)
@@ -105,10 +123,13 @@ class FloorSensorSpec:
     `height` m above it: like c't-Sim it averages a "+" of rays up to 40° off vertical, which
     meet the floor within height * tan 40° of the mount point (0: the mount point alone)."""
 
-    name: str
-    position: Point
-    noise_std: float = 0.0
-    height: float = 0.0
+    name: str = declared("text")
+    position: Point = declared(**_MOUNT)
+    noise_std: float = declared(default=0.0, **_RAW)
+    height: float = declared(default=0.0, unit="m", low=0.0, high=1.0)
+
+    def __post_init__(self) -> None:
+        check_fields(self)
 
 
 @dataclass(frozen=True)
@@ -117,13 +138,16 @@ class LightSensorSpec:
     `direction` with a cone of full `opening` (rad; pi sees the whole half-space ahead, as
     c't-Sim's 90-degree half-angle cone); it reads the distance to the nearest lamp surface."""
 
-    name: str
-    position: Point
-    direction: float = 0.0
-    opening: float = math.pi
-    reach: float = 1.0
-    height: float = 0.075
-    noise_std: float = 0.0
+    name: str = declared("text")
+    position: Point = declared(**_MOUNT)
+    direction: float = declared(default=0.0, **_ANGLE)
+    opening: float = declared(default=math.pi, unit="rad", low=0.0, above=True, high=2 * math.pi)
+    reach: float = declared(default=1.0, unit="m", low=0.0, above=True, high=WORLD_EXTENT)
+    height: float = declared(default=0.075, unit="m", low=0.0, high=10.0)
+    noise_std: float = declared(default=0.0, **_RAW)
+
+    def __post_init__(self) -> None:
+        check_fields(self)
 
 
 @dataclass(frozen=True)
@@ -135,12 +159,12 @@ class RobotSpec:
     the motor's time constant and acceleration limit act on every wheel, encoders count every wheel.
     """
 
-    name: str
-    wheel_diameter: float
-    track_width: float
-    body_radius: float
-    mass: float = 0.5
-    skid: Point = (-0.054, 0.0)
+    name: str = declared("text")
+    wheel_diameter: float = declared(unit="m", low=0.0, above=True, high=2.0)
+    track_width: float = declared(unit="m", low=0.0, above=True, high=2 * REACH)
+    body_radius: float = declared(unit="m", low=0.0, above=True, high=REACH)
+    mass: float = declared(default=0.5, unit="kg", low=0.0, above=True, high=1000.0)
+    skid: Point = declared(default=(-0.054, 0.0), **_MOUNT)
     motor: MotorSpec = field(default_factory=MotorSpec)
     encoders: EncoderSpec = field(default_factory=EncoderSpec)
     mouse: MouseSpec | None = field(default_factory=MouseSpec)
@@ -149,7 +173,7 @@ class RobotSpec:
     border: tuple[FloorSensorSpec, ...] = ()
     light: tuple[LightSensorSpec, ...] = ()
     chassis: ChassisSpec | None = None
-    contact: str = "slide"
+    contact: str = declared("text", default="slide", choices=CONTACT_RULES)
     """How the body meets walls and other robots: 'slide' (pymunk's contacts: it stops at the
     surface or slides along it) or 'stop' (c't-Sim's rule: a step that would bring it within its
     radius of anything is not made, the robot keeps its last free position and can still turn)."""
@@ -166,24 +190,15 @@ class RobotSpec:
         return self.motor.max_wheel_speed * self.wheel_radius
 
     def __post_init__(self) -> None:
-        problems = [
-            f"{name} must be a positive number of metres, got {value!r}"
-            for name, value in (
-                ("wheel_diameter", self.wheel_diameter),
-                ("track_width", self.track_width),
-                ("body_radius", self.body_radius),
-            )
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0)
-        ]
-        if self.contact not in CONTACT_RULES:
-            problems.append(f"contact must be one of {', '.join(CONTACT_RULES)}, got {self.contact!r}")
+        try:
+            check_fields(self)
+        except Problem as problem:
+            raise Problem(problem.key, f"{problem.message} (robot {self.name!r})") from None
         if self.chassis is not None and (self.encoders.diameter_error != (0.0, 0.0) or self.encoders.track_error):
-            problems.append("encoders.diameter_error and track_error describe a differential drive; "
-                            "give a general chassis's wheels their real radius instead")
-        if not problems and self.chassis is None and self.track_width > 2 * self.body_radius + 1e-9:
-            problems.append("track_width is wider than the body (2 x body_radius)")
-        if problems:
-            raise ValueError(f"robot {self.name!r}: " + "; ".join(problems))
+            raise Problem("encoders", "diameter_error and track_error describe a differential drive; "
+                                      f"give a general chassis's wheels their real radius instead (robot {self.name!r})")
+        if self.chassis is None and self.track_width > 2 * self.body_radius + 1e-9:
+            raise Problem("track_width", f"{self.track_width:g} m is wider than the body (2 x body_radius = {2 * self.body_radius:g} m; robot {self.name!r})")
 
     def with_changes(self, **changes: Any) -> RobotSpec:
         """A copy with some fields replaced; nested specs take dicts: `encoders={"slip_std": 0.01}`."""
@@ -198,19 +213,39 @@ _NESTED = {"motor": MotorSpec, "encoders": EncoderSpec, "mouse": MouseSpec}
 _LISTS = {"ir": IRSensorSpec, "line": FloorSensorSpec, "border": FloorSensorSpec, "light": LightSensorSpec}
 
 
-def _build(cls: type, data: dict, where: str) -> Any:
-    known = {f.name for f in fields(cls)}
-    unknown = sorted(set(data) - known)
-    if unknown:
-        raise ValueError(f"{where}: unknown key(s) {', '.join(unknown)}; known: {', '.join(sorted(known))}")
-    missing = [f.name for f in fields(cls) if f.default is MISSING and f.default_factory is MISSING and f.name not in data]
-    if missing:
-        raise ValueError(f"{where}: missing key(s) {', '.join(missing)}")
-    values = {k: tuple(v) if isinstance(v, list) else v for k, v in data.items()}
-    try:
-        return cls(**values)
-    except TypeError as err:
-        raise ValueError(f"{where}: {err}") from None
+class _Source:
+    """Where a robot's data came from, to name file, line and key in each problem."""
+
+    def __init__(self, where: str, locator: Locator | None = None):
+        self.where, self.locator = where, locator
+
+    def fail(self, problem: str, table: str | None = None, index: int | None = None, key: str | None = None) -> FileError:
+        line = self.locator.line(table, index, key) if self.locator is not None else None
+        if line is None and self.locator is not None and table is not None:
+            line = self.locator.line(table, index)
+        label = "" if table is None else f"[[{table}]] #{index + 1}: " if index is not None else f"[{table}]: "
+        return FileError(self.where, line, f"{label}{key + ': ' if key else ''}{problem}")
+
+    def build(self, cls: type, data: Any, table: str | None = None, index: int | None = None, **ready: Any) -> Any:
+        """`cls(**data)`, every unknown, missing or bad key a FileError on its line."""
+        if not isinstance(data, dict):
+            raise self.fail("must be a table", table, index)
+        known = [f.name for f in fields(cls)]
+        for key in data:
+            if key not in known:
+                raise self.fail(f"unknown key; known: {', '.join(known)}", table, index, key)
+        for f in fields(cls):
+            if f.default is MISSING and f.default_factory is MISSING and f.name not in data and f.name not in ready:
+                raise self.fail("missing", table, index, f.name)
+        try:
+            return cls(**{**data, **ready})
+        except Problem as problem:
+            head, _, rest = problem.key.partition(".")
+            if rest and head in _NESTED:  # a nested section's problem, raised again by the robot
+                raise self.fail(problem.message, head, None, rest) from None
+            raise self.fail(problem.message, table, index, problem.key or None) from None
+        except (TypeError, ValueError) as err:
+            raise self.fail(str(err), table, index) from None
 
 
 def wheeled_robot(name: str, chassis: ChassisSpec, body_radius: float | None = None, **fields: Any) -> RobotSpec:
@@ -224,48 +259,59 @@ def wheeled_robot(name: str, chassis: ChassisSpec, body_radius: float | None = N
                      body_radius=body_radius, chassis=chassis, **fields)
 
 
-def _chassis_spec(data: dict, where: str) -> ChassisSpec:
-    chassis, rest = chassis_from_dict(data, where)
-    if isinstance(rest.get("mouse2"), dict):
-        rest["mouse2"] = _build(MouseSpec, rest["mouse2"], f"{where}: [chassis.mouse2]")
+def _chassis_spec(data: Any, source: _Source) -> ChassisSpec:
+    if not isinstance(data, dict):
+        raise source.fail("must be a table", "chassis")
+    try:
+        chassis, rest = chassis_from_dict(data, "[chassis]")
+    except (TypeError, ValueError) as err:
+        raise source.fail(str(err).removeprefix("[chassis]: "), "chassis") from None
+    if "mouse2" in rest:
+        rest["mouse2"] = source.build(MouseSpec, rest["mouse2"], "chassis.mouse2")
     if "outline" in rest:
-        rest["outline"] = tuple(tuple(p) for p in rest["outline"])
-    return _build(ChassisSpec, {"chassis": chassis, **rest}, where)
+        outline = rest["outline"]
+        if not isinstance(outline, list) or not all(isinstance(p, list) for p in outline):
+            raise source.fail("must be a list of [x, y] points", "chassis", None, "outline")
+        rest["outline"] = tuple(tuple(p) for p in outline)
+    return source.build(ChassisSpec, rest, "chassis", chassis=chassis)
 
 
-def robot_from_dict(data: dict, where: str = "robot") -> RobotSpec:
-    """Build a `RobotSpec` from plain data (as read from TOML), with messages naming the key.
-    A `[chassis]` table makes it a robot on a general chassis (`wheeled_robot`)."""
+def robot_from_dict(data: dict, where: str = "robot", locator: Locator | None = None) -> RobotSpec:
+    """Build a `RobotSpec` from plain data (as read from TOML): each problem is a FileError naming
+    the file (`where`), the line (with `locator`) and the key. A `[chassis]` table makes it a robot
+    on a general chassis (`wheeled_robot`)."""
+    source = _Source(where, locator)
     data = dict(data)
     for key, cls in _NESTED.items():
-        if isinstance(data.get(key), dict):
-            data[key] = _build(cls, data[key], f"{where}: [{key}]")
+        if key in data:
+            data[key] = source.build(cls, data[key], key)
     for key, cls in _LISTS.items():
         if key in data:
-            data[key] = tuple(_build(cls, item, f"{where}: [[{key}]] #{i + 1}") for i, item in enumerate(data[key]))
-    if not isinstance(data.get("chassis"), dict):
-        return _build(RobotSpec, data, where)
-    chassis = _chassis_spec(data.pop("chassis"), f"{where}: [chassis]")
-    unknown = sorted(set(data) - {f.name for f in fields(RobotSpec)} - {"wheel_diameter", "track_width"})
-    if unknown or "name" not in data:
-        raise ValueError(f"{where}: " + (f"unknown key(s) {', '.join(unknown)}" if unknown else "missing key name"))
-    try:
-        return wheeled_robot(chassis=chassis, **{k: tuple(v) if isinstance(v, list) else v for k, v in data.items()
-                                                 if k not in ("wheel_diameter", "track_width")})
-    except TypeError as err:
-        raise ValueError(f"{where}: {err}") from None
+            if not isinstance(data[key], list):
+                raise source.fail(f"must be written as [[{key}]] tables", None, None, key)
+            data[key] = tuple(source.build(cls, item, key, i) for i, item in enumerate(data[key]))
+    if "chassis" not in data:
+        return source.build(RobotSpec, data)
+    chassis = _chassis_spec(data.pop("chassis"), source)
+    for key in ("wheel_diameter", "track_width"):  # the chassis's first wheel gives these
+        data.pop(key, None)
+    if "body_radius" not in data and not chassis.outline:
+        raise source.fail("missing (a chassis without an outline is a circle of body_radius)", None, None, "body_radius")
+    data.setdefault("body_radius", inscribed_radius(chassis.outline) if chassis.outline else None)
+    radius = data["body_radius"]
+    wheel = 2 * float(chassis.chassis.radius[0])
+    return source.build(RobotSpec, data, chassis=chassis, wheel_diameter=wheel, track_width=radius if isinstance(radius, (int, float)) else 1.0)
 
 
 def read_toml(path: Path, error: type[Exception] = ValueError) -> dict:
-    """A TOML file's data, or `error("path: problem")` for a file that cannot be read or parsed."""
+    """A TOML file's data (bounded: `bots.schema.read_toml`), or `error("file:line: problem")`."""
     try:
-        return tomllib.loads(path.read_text(encoding="utf-8"))
-    except OSError as err:
-        raise error(f"{path}: {err.strerror or err}") from None
-    except tomllib.TOMLDecodeError as err:
-        raise error(f"{path}: {err}") from None
+        return read_located(Path(path))[0]
+    except FileError as err:
+        raise error(str(err)) from None
 
 
 def load_robot(path: str | Path) -> RobotSpec:
     """Read a robot description from a TOML file (the keys are the `RobotSpec` fields)."""
-    return robot_from_dict(read_toml(Path(path)), str(path))
+    data, locator = read_located(Path(path))
+    return robot_from_dict(data, str(path), locator)

@@ -63,8 +63,8 @@ def test_presets_and_overrides():
     assert changed.encoders.diameter_error == (0, 0.01)
     for key, value, words in (
         ("encoders.slip", 0.02, "did you mean 'slip_std'"),
-        ("encoders.slip_std", "lots", "expected a number"),
-        ("encoders.slip_std", -1, "must not be negative"),
+        ("encoders.slip_std", "lots", "must be a number"),
+        ("encoders.slip_std", -1, "at least 0 and at most 1, not -1"),
         ("encoders.diameter_error", 0.1, "a list of 2 numbers"),
         ("engine.power", 1, "no section 'engine'"),
     ):

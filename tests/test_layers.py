@@ -13,7 +13,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 CORE = ("sim.kinematics",)
 BOTS = CORE + ("bots", "sim.world.readings")
-WORLD = CORE + ("sim.world", "bots.spec", "bots.ctbot")
+WORLD = CORE + ("sim.world", "bots.spec", "bots.ctbot", "bots.schema")
 RUN = WORLD + ("bots", "sim.run")
 ANALYSIS = RUN + ("sim.analysis",)
 VIEWS = ANALYSIS + ("sim.views",)

@@ -368,7 +368,7 @@ def test_robot_files_name_a_preset_or_list_wheels(tmp_path):
     assert load_robot(wheels).chassis.chassis.kind.tolist() == [1, 0, 0]
     bad = tmp_path / "bad.toml"
     bad.write_text('name = "b"\nbody_radius = 0.3\n[chassis]\npreset = "hovercraft"\n')
-    with pytest.raises(ValueError, match=r"bad.toml: \[chassis\]: unknown preset 'hovercraft'"):
+    with pytest.raises(ValueError, match=r"bad.toml:3: \[chassis\]: unknown preset 'hovercraft'"):
         load_robot(bad)
     wheel = tmp_path / "wheel.toml"
     wheel.write_text('name = "b"\nbody_radius = 0.3\n[chassis]\n[[chassis.wheels]]\ntype = "omni"\nx = 0.1\ny = 0\nradus = 1\n')

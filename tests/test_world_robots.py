@@ -81,7 +81,7 @@ def test_a_toml_robot_runs_in_the_world(tmp_path):
         (BIG_BOT.replace('side = "right"', 'side = "right"\nrange = 2'), "[[ir]] #2", "range"),
         (BIG_BOT.replace("[motor]", "[motor]\ntop_speed = 3"), "[motor]", "top_speed"),
         ('name = "x"\nwheel_diameter = 0.05\n', "bad.toml", "track_width"),
-        ('name = "x"\nwheel_diameter = = 0.05\n', "bad.toml", "line 2"),
+        ('name = "x"\nwheel_diameter = = 0.05\n', "bad.toml:2:", "TOML syntax"),
     ],
 )
 def test_bad_robot_toml_names_the_file_and_the_key(tmp_path, text, where, key):
@@ -98,10 +98,10 @@ def test_bad_robot_toml_names_the_file_and_the_key(tmp_path, text, where, key):
 @pytest.mark.parametrize(
     ("changes", "problem"),
     [
-        ({"wheel_diameter": -0.05}, "wheel_diameter must be a positive number"),
-        ({"wheel_diameter": math.nan}, "wheel_diameter must be a positive number"),
-        ({"body_radius": 0.0}, "body_radius must be a positive number"),
-        ({"track_width": 0.15}, "track_width is wider than the body"),
+        ({"wheel_diameter": -0.05}, "wheel_diameter: must be a number \\(m\\) greater than 0"),
+        ({"wheel_diameter": math.nan}, "wheel_diameter: must be a number \\(m\\) greater than 0"),
+        ({"body_radius": 0.0}, "body_radius: must be a number \\(m\\) greater than 0"),
+        ({"track_width": 0.15}, "track_width: 0.15 m is wider than the body"),
     ],
 )
 def test_impossible_robots_are_refused(changes, problem):

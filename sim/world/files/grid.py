@@ -100,6 +100,10 @@ class GridPieces:
     movables: tuple[Movable, ...]
 
 
+MAX_CELLS = 250_000
+"""Most tiles in a grid (500 x 500: 120 m square at c't-Sim's 0.24 m cells; its own largest is 40 x 40)."""
+
+
 def build_grid(
     rows: Sequence[str],
     *,
@@ -114,6 +118,10 @@ def build_grid(
     `colours` maps tiles to floor (or, for line tiles, line) colours and falls back to
     DEFAULT_TILE_COLOURS; `row_lines` gives each row's line in the source file for error messages."""
     lines_of = list(row_lines) if row_lines is not None else [None] * len(rows)
+    size = len(rows) * max((len(row) for row in rows), default=0)
+    if size > MAX_CELLS:
+        raise WorldFileError(path, lines_of[0] if lines_of else None,
+                             f"the grid has {len(rows):,} rows of up to {size // len(rows):,} tiles, more than the {MAX_CELLS:,} tiles a grid may have")
     for r, row in enumerate(rows):
         for c, ch in enumerate(row):
             if ch not in KNOWN_TILES:

@@ -1,20 +1,32 @@
 """Importer for c't-Sim parcours XML: `<world><description/><parcours><line>…</line>…</parcours>
 <optics><appearance type="c">…</appearance></optics></world>` (ctsim-reference.md §3).
 
-expat is used directly because ElementTree keeps no line numbers and an error must name the line
-of the offending `<line>`. The DOCTYPE's `parcours.dtd` is never fetched.
+Read by defusedxml's SAX parser, which refuses entity declarations (the "billion laughs"), and
+never fetches the DOCTYPE's `parcours.dtd` or any other external resource (SAX's external-entity
+features off); its locator gives each
+element's line, so an error names the line of the offending `<line>`. Elements may nest at most
+MAX_DEPTH deep and the file is at most `bots.schema.MAX_BYTES` long.
 """
 
 from __future__ import annotations
 
+import io
 import re
+import xml.sax
 from dataclasses import dataclass, field
 from pathlib import Path
-from xml.parsers import expat
+from typing import Any
 
+from defusedxml import DefusedXmlException
+from defusedxml.expatreader import DefusedExpatParser
+
+from bots.schema import MAX_BYTES
 from sim.world.spec import Colour, WorldFileError, WorldSpec
 
 from .grid import DEFAULT_CELL, DEFAULT_TILE_COLOURS, build_grid
+
+MAX_DEPTH = 16
+"""Deepest element nesting a parcours may have (c't-Sim's own: 4)."""
 
 
 @dataclass
@@ -22,8 +34,13 @@ class _Element:
     tag: str
     attrs: dict[str, str]
     line: int
-    text: str = ""
+    chunks: list[str] = field(default_factory=list)
     children: list[_Element] = field(default_factory=list)
+
+    @property
+    def text(self) -> str:
+        """The element's text (kept in pieces as the parser delivers it, joined once)."""
+        return "".join(self.chunks)
 
     def all(self, tag: str) -> list[_Element]:
         return [e for e in self.children if e.tag == tag]
@@ -32,35 +49,58 @@ class _Element:
         return next(iter(self.all(tag)), None)
 
 
+class _TreeBuilder(xml.sax.handler.ContentHandler):
+    """A minimal element tree with each element's start line."""
+
+    def __init__(self, path: Path):
+        super().__init__()
+        self.path = path
+        self.stack: list[_Element] = [_Element("", {}, 0)]
+        self.locator: Any = None
+
+    def setDocumentLocator(self, locator: Any) -> None:  # noqa: N802 (SAX's name)
+        self.locator = locator
+
+    def line(self) -> int | None:
+        return self.locator.getLineNumber() if self.locator is not None else None
+
+    def startElement(self, name: str, attrs: Any) -> None:  # noqa: N802
+        if len(self.stack) > MAX_DEPTH:
+            raise WorldFileError(self.path, self.line(), f"elements nested deeper than {MAX_DEPTH} levels")
+        element = _Element(name, dict(attrs), self.line() or 0)
+        self.stack[-1].children.append(element)
+        self.stack.append(element)
+
+    def endElement(self, name: str) -> None:  # noqa: N802
+        self.stack.pop()
+
+    def characters(self, content: str) -> None:
+        self.stack[-1].chunks.append(content)
+
+
 def _parse_xml(data: bytes, path: Path) -> _Element:
-    """A minimal element tree with each element's start line; expat errors become WorldFileError."""
-    parser = expat.ParserCreate()
-    stack: list[_Element] = [_Element("", {}, 0)]
-
-    def start(tag: str, attrs: dict[str, str]) -> None:
-        element = _Element(tag, attrs, parser.CurrentLineNumber)
-        stack[-1].children.append(element)
-        stack.append(element)
-
-    def end(tag: str) -> None:
-        stack.pop()
-
-    def text(data: str) -> None:
-        stack[-1].text += data
-
-    parser.StartElementHandler = start
-    parser.EndElementHandler = end
-    parser.CharacterDataHandler = text
+    """The element tree; XML errors and refused constructs become WorldFileError."""
+    builder = _TreeBuilder(path)
+    parser = DefusedExpatParser(forbid_dtd=False, forbid_entities=True, forbid_external=False)  # (a DOCTYPE naming parcours.dtd is fine:
+    parser.setFeature(xml.sax.handler.feature_external_ges, False)                              # the features keep it from being read)
+    parser.setFeature(xml.sax.handler.feature_external_pes, False)
+    parser.setContentHandler(builder)
     try:
-        parser.Parse(data, True)
-    except expat.ExpatError as e:
-        raise WorldFileError(path, e.lineno, f"XML error: {expat.ErrorString(e.code)}") from None
-    return stack[0].children[0]
+        parser.parse(io.BytesIO(data))
+    except xml.sax.SAXParseException as e:
+        raise WorldFileError(path, e.getLineNumber(), f"XML error: {e.getMessage()}") from None
+    except DefusedXmlException as e:
+        raise WorldFileError(path, builder.line(), f"XML refused: {type(e).__name__} ({e}); a parcours needs no entities") from None
+    if not builder.stack[0].children:
+        raise WorldFileError(path, None, "XML error: no element found")
+    return builder.stack[0].children[0]
 
 
 def load_parcours(path: Path) -> WorldSpec:
     """Load a c't-Sim parcours file; everything outside the map is a hole, as in c't-Sim."""
     try:
+        if path.stat().st_size > MAX_BYTES:
+            raise WorldFileError(path, None, f"the file has {path.stat().st_size:,} bytes, more than the {MAX_BYTES:,} a ctsim file may have")
         data = path.read_bytes()
     except OSError as e:
         raise WorldFileError(path, None, f"cannot read: {e.strerror}") from None
