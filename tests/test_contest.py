@@ -186,7 +186,10 @@ def test_a_firmware_races_python_controllers_through_the_bridge(lanes, tmp_path)
     speed = 75 * 151 / 60 * 178.1283 / 255 / 1000  # m/s: ACT_MOT units through c't-Sim's mapping
     assert outcome["verdict"]["winner"] == 0 and outcome["verdict"]["reason"] == "goal"
     assert outcome["sides"][0]["arrival"] == pytest.approx(0.1 + 0.02 + 1.3 / speed, abs=0.021)  # two steps of rounding
-    assert (tmp_path / "race.rrd").stat().st_size > 0
+    from test_bridge import read_recording
+
+    events = [str(v) for column in read_recording(tmp_path / "race.rrd")["/events"].values() for v in column]
+    assert any("verdict: fw reached its goal" in text for text in events)  # the judge's word is in the recording too
 
 
 def test_a_hostile_submission_changes_no_other_games_result(lanes, tmp_path):

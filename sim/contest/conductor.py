@@ -100,7 +100,7 @@ def _play(store: Store, games: list[GameRow], settings: Settings, entries: list[
             raise ContestError(outcome["crash"])
         result = _result(game, sides, outcome, out)
         store.record(game.level, game.number, result, _moves(game, sides, outcome) if game.level != PRELIM else [])
-        say(f"{job.title}: {result['verdict']}")
+        say(f"{job.title if game.level != PRELIM else f'preliminary {game.number}'}: {result['verdict']}")
 
 
 def _file_name(game: GameRow, names: list[str]) -> str:
@@ -119,25 +119,10 @@ def _result(game: GameRow, sides: list[int], outcome: dict[str, Any], out: Path)
         k = positions.index(entry) + 1
         outs = [t for t in (side["fell"], side["failed"]) if t is not None]
         result.update({f"arrival{k}": side["arrival"], f"distance{k}": _finite(side["distance_left"]), f"out{k}": min(outs) if outs else None})
-    if game.level == PRELIM:
-        (side,) = race
-        result["reason"], result["verdict"], result["time"] = _alone(side, outcome)
-    else:
-        verdict = outcome["verdict"]
-        result.update(winner=sides[verdict["winner"]], reason=verdict["reason"], verdict=verdict["text"], time=verdict["time"])
+    verdict = outcome["verdict"]
+    winner = None if verdict["winner"] is None else sides[verdict["winner"]]
+    result.update(winner=winner, reason=verdict["reason"], verdict=verdict["text"], time=verdict["time"])
     return result
-
-
-def _alone(side: dict[str, Any], outcome: dict[str, Any]) -> tuple[str, str, float]:
-    """(reason, sentence, time) of a preliminary run: its arrival, or the time its run lasted."""
-    left = f"{side['distance_left']:.2f} m left by path"
-    if side["arrival"] is not None:
-        return "goal", f"reached its goal at {side['arrival']:.2f} s", side["arrival"]
-    if side["failed"] is not None:
-        return "failure", f"controller failed at {side['failed']:.2f} s ({left}): {outcome['error']}", side["end_time"]
-    if side["fell"] is not None:
-        return "fall", f"fell into a hole at {side['fell']:.2f} s ({left})", side["end_time"]
-    return "time limit", f"time limit ({left})", side["end_time"]
 
 
 def _moves(game: GameRow, sides: list[int], outcome: dict[str, Any]) -> list[tuple[int, int, int, int]]:

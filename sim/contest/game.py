@@ -22,7 +22,7 @@ from typing import Any
 
 from bots.ctbot import CTBOT
 from sim.contest.entries import Entry, Seat, robot_spec
-from sim.contest.judge import Guarded, Referee, decide, sides
+from sim.contest.judge import Guarded, Judge
 from sim.contest.paths import PathField
 from sim.contest.rules import level_name
 from sim.run import RunResult, run
@@ -71,7 +71,7 @@ def path_field(source: str, slot: int | None, clearance: float) -> PathField:
 
 def play(job: GameJob) -> dict[str, Any]:
     """Play `job` and return its outcome as plain data: per side `arrival`, `fell`, `failed`,
-    `distance_left`, `end_time`; the `verdict` of a race (`winner` 0/1, `reason`, `text`, `time`);
+    `distance_left`, `end_time`; the `verdict` (`winner` 0/1, None alone; `reason`, `text`, `time`);
     the run's `reason` and `error`; `digest`; `wall_time`. A game that cannot be played (a world that
     does not load, no free address for a firmware) returns `crash` with the reason instead; a
     Ctrl-C inside the run is raised again."""
@@ -105,15 +105,13 @@ def _play(job: GameJob) -> dict[str, Any]:
         guards = [Guarded(setup.controller, spec) for setup, spec in zip(setups, specs)]
         for setup, guard in zip(setups, guards):
             setup.controller = guard
-        referee = Referee(len(setups))
-        observers = [o for o in [recorder, *(o for seat in seats for o in seat.observers)] if o is not None]
-        result = run(world, setups, job.time_limit, dt=job.dt, seed=job.seed, observers=tuple(observers), step_timeout=STEP_TIMEOUT, stop_when=referee)
+        judge = Judge(tuple(entry.name for entry in job.entries), guards, fields, job.time_limit)
+        observers = [o for o in [judge, recorder, *(o for seat in seats for o in seat.observers)] if o is not None]  # the judge first: its verdict goes into the recording
+        result = run(world, setups, job.time_limit, dt=job.dt, seed=job.seed, observers=tuple(observers), step_timeout=STEP_TIMEOUT, stop_when=judge.stop_when)
     if result.reason in ("interrupted", "terminated"):
         raise KeyboardInterrupt(result.error)
-    race = sides(result, guards, referee, fields)
-    outcome: dict[str, Any] = {"sides": [asdict(side) for side in race], "reason": result.reason, "error": result.error, "digest": digest(result)}
-    if len(race) == 2:
-        outcome["verdict"] = asdict(decide((job.entries[0].name, job.entries[1].name), race, job.time_limit))
+    outcome: dict[str, Any] = {"sides": [asdict(side) for side in judge.race], "verdict": asdict(judge.verdict), "reason": result.reason,
+                               "error": result.error, "digest": digest(result)}  # fmt: skip
     if job.recording is not None:
         outcome["recording"] = str(Path(job.recording))
     return outcome

@@ -10,12 +10,14 @@ without an arrival.
 - What is still even (both in their goal in the same step, both fallen in the same step, the same
   way left to within `rules.TIE_M`) goes to the better entry of the preliminary round.
 
-`Referee` watches the run (it is the run loop's `stop_when`); `Guarded` wraps each controller so
-that a failure is pinned on its robot; `decide` turns the finished run into a `Verdict`.
+`Guarded` wraps each controller so that a failure is pinned on its robot; `Judge` watches the run
+(the run loop's `stop_when`, and an observer) and gives the `Verdict` (`decide` for a race, `alone`
+for a preliminary run).
 """
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 
 from bots.commands import Command, wheel_speeds_for
@@ -26,6 +28,10 @@ from sim.contest.rules import TIE_M
 from sim.run import RobotLog, RunResult
 from sim.world import World
 from sim.world.readings import Readings
+
+
+LOG = logging.getLogger("ctsim.contest")
+LOG.setLevel(logging.INFO)  # the verdict reaches a recorder's handler whatever the root logger's level
 
 
 class Guarded:
@@ -60,14 +66,19 @@ class Guarded:
         return command
 
 
-class Referee:
-    """The run loop's `stop_when`: ends the race when a robot is in its own goal ('goal') or in a
-    hole ('fall'), and remembers when each robot fell."""
+class Judge:
+    """Watches one game. As the run loop's `stop_when` it ends the race when a robot is in its own
+    goal ('goal') or in a hole ('fall'), remembering when each fell; as an observer, at the end
+    (before the recorder closes: put it first) it gives each robot's `Side` and the `Verdict`, and
+    says the verdict in the recording's events (through Python logging, which a recorder takes)."""
 
-    def __init__(self, robots: int):
-        self.fell: list[float | None] = [None] * robots
+    def __init__(self, names: tuple[str, ...], guards: list[Guarded], fields: list[PathField], time_limit: float):
+        self.names, self.guards, self.fields, self.time_limit = names, guards, fields, time_limit
+        self.fell: list[float | None] = [None] * len(names)
+        self.race: list[Side] = []
+        self.verdict: Verdict | None = None
 
-    def __call__(self, world: World, logs: list[RobotLog]) -> str | None:
+    def stop_when(self, world: World, logs: list[RobotLog]) -> str | None:
         for i, robot in enumerate(world.robots):
             if robot.fallen and self.fell[i] is None:
                 self.fell[i] = world.time
@@ -76,6 +87,19 @@ class Referee:
         if any(t is not None for t in self.fell):
             return "fall"
         return None
+
+    def on_end(self, result: RunResult) -> None:
+        if result.reason in ("interrupted", "terminated"):
+            return  # no verdict: the game is played again
+        self.race = []
+        for log, guard, fell, field in zip(result.robots, self.guards, self.fell, self.fields):
+            x, y, _ = log.truth_array()[-1]
+            self.race.append(Side(log.goal_time, fell, guard.failed_at, field.distance(float(x), float(y)), result.duration))
+        if len(self.race) == 2:
+            self.verdict = decide(self.names, self.race, self.time_limit)
+        else:
+            self.verdict = alone(self.names[0], self.race[0], result.error, self.time_limit)
+        LOG.info(f"verdict: {self.verdict.text}")
 
 
 @dataclass(frozen=True)
@@ -89,31 +113,17 @@ class Side:
     distance_left: float
     end_time: float
 
-    @property
-    def out(self) -> float | None:
-        """When it dropped out (fell or failed), or None."""
-        times = [t for t in (self.fell, self.failed) if t is not None]
-        return min(times) if times else None
-
 
 @dataclass(frozen=True)
 class Verdict:
-    """The winner's side (0 or 1), how the game was decided ('goal', 'fall', 'failure', 'time
-    limit'), a sentence saying so, and when (s of simulated time)."""
+    """The winner's side (0 or 1; None for a robot alone), how the game was decided ('goal',
+    'fall', 'failure', 'time limit'), a sentence saying so, and when (s of simulated time; alone:
+    the arrival, or the time its run lasted, by which the preliminary round ranks)."""
 
-    winner: int
+    winner: int | None
     reason: str
     text: str
     time: float
-
-
-def sides(result: RunResult, guards: list[Guarded], referee: Referee, fields: list[PathField]) -> list[Side]:
-    """Each robot's `Side` of a finished run."""
-    out = []
-    for log, guard, fell, field in zip(result.robots, guards, referee.fell, fields):
-        x, y, _ = log.truth_array()[-1]
-        out.append(Side(log.goal_time, fell, guard.failed_at, field.distance(float(x), float(y)), result.duration))
-    return out
 
 
 def decide(names: tuple[str, str], race: list[Side], time_limit: float) -> Verdict:
@@ -147,3 +157,15 @@ def _nearer(a: Side, b: Side) -> int:
 
 def _ways(names: tuple[str, str], race: list[Side]) -> str:
     return " against ".join(f"{name} {side.distance_left:.2f} m" for name, side in zip(names, race))
+
+
+def alone(name: str, side: Side, error: str | None, time_limit: float) -> Verdict:
+    """How a preliminary run (one robot against the clock) went."""
+    left = f"{side.distance_left:.2f} m left by path"
+    if side.arrival is not None:
+        return Verdict(None, "goal", f"{name} reached its goal at {side.arrival:.2f} s", side.arrival)
+    if side.failed is not None:
+        return Verdict(None, "failure", f"{name}'s controller failed at {side.failed:.2f} s ({left}): {error}", side.end_time)
+    if side.fell is not None:
+        return Verdict(None, "fall", f"{name} fell into a hole at {side.fell:.2f} s ({left})", side.end_time)
+    return Verdict(None, "time limit", f"time limit {time_limit:g} s: {name} has {left}", side.end_time)
