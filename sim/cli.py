@@ -855,12 +855,17 @@ def cmd_report(args: argparse.Namespace) -> int:
 
 
 def cmd_worlds(args: argparse.Namespace) -> int:
+    import textwrap
+
     from sim.world.files import load_world, shipped_worlds
 
     for name, path in shipped_worlds().items():
         world = load_world(path)
         xmin, ymin, xmax, ymax = world.bounds
-        print(f"{name:<14}{xmax - xmin:5.2f} x {ymax - ymin:<5.2f} m  {world.description}")
+        first = " ".join(world.description.split()).split(". ")[0].rstrip(".")  # its first sentence says what it is for
+        room = len(world.start_order())
+        lead = f"{name:<14}{xmax - xmin:5.2f} x {ymax - ymin:<5.2f} m  "
+        print(textwrap.fill(f"{first} ({room} start{'s' if room != 1 else ''})", width=100, initial_indent=lead, subsequent_indent=" " * len(lead)))
     return 0
 
 

@@ -83,7 +83,6 @@ class DriveToRoom(DriveTo):
 
 
 @register("solve_maze")
-@register("follow_wall")
 class SolveMaze(Plan):
     """Left- or right-hand wall follower for c't-Sim mazes: rooms (c't-Sim's 0.24 m tiles) on a grid
     aligned with the start pose, walls whole tiles. First it drives ahead until a wall is beside or
@@ -276,6 +275,16 @@ class SolveMaze(Plan):
                 if following:
                     return Status.FAILURE  # walled in
         return Status.FAILURE
+
+
+
+@register("follow_wall")
+class FollowWall(SolveMaze):
+    """solve_maze keeping the wall on its left: the other way through a maze (solve_maze's default
+    is the right hand), as the firmware's wall follower offers both."""
+
+    def __init__(self, hand: str = "left", cell_m: float = 0.24, speed_m_s: float = SPEED_NORMAL, max_rooms: int = 1000):
+        super().__init__(hand, cell_m, speed_m_s, max_rooms)
 
 
 @register("wander")
