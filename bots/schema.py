@@ -118,11 +118,17 @@ class Field:
             count = 2 if kind == "pair" else 4
             if not isinstance(value, (list, tuple)) or len(value) != count:
                 self._fail(value)
-            return tuple(self._number(v) for v in value)
+            try:
+                return tuple(self._number(v) for v in value)
+            except Problem:
+                self._fail(value)  # (naming the whole list)
         if kind == "points":
             if not isinstance(value, (list, tuple)) or len(value) < self.minimum or not all(isinstance(p, (list, tuple)) and len(p) == 2 for p in value):
                 self._fail(value)
-            return tuple((self._number(p[0]), self._number(p[1])) for p in value)
+            try:
+                return tuple((self._number(p[0]), self._number(p[1])) for p in value)
+            except Problem:
+                self._fail(value)
         if kind == "colour":
             parsed = parse_colour(value) if isinstance(value, str) else None
             if parsed is None:

@@ -255,7 +255,7 @@ def test_report_groups_by_the_named_settings_and_says_what_it_pools(tmp_path, ca
         ('[axes]\nworld = ["maze", "nowhere"]\n', "run 1, world 'nowhere'"),
         ('[axes]\ncontroller = ["solve_maze", "solve_mase"]\n', "did you mean 'solve_maze'"),
         ('[axes]\n"robot.encoders.slipp" = [0.1]\n', "no field 'slipp'"),
-        ('[base]\nduration = -1\n', "duration must be"),
+        ('[base]\nduration = -1\n', "[base]: duration: must be a number (s) at least 0"),
         ("[axes\n", "s.toml"),
     ],
 )

@@ -27,7 +27,9 @@ from typing import Any
 
 import numpy as np
 
+from bots.schema import Field, Problem
 from bots.spec import read_toml
+from sim.run import DT_RANGE
 
 DEFAULTS: dict[str, Any] = {
     "world": "maze",
@@ -45,6 +47,19 @@ DISTRIBUTIONS = ("uniform", "log_uniform", "integers")
 ARTEFACTS = ("tum", "recording")
 MAX_RUNS = 100_000
 """Most runs one sweep plans: its plan is expanded in memory before the first run (about 1 KB a run)."""
+
+
+SEED = Field("integer", "", 0, 2**63 - 1)
+SETTINGS: dict[str, Field] = {
+    "world": Field("text"), "controller": Field("text"), "robot": Field("text"), "seed": SEED,
+    "duration": Field("number", "s", 0.0, 1e7), "dt": Field("number", "s", *DT_RANGE), "until_goal": Field("boolean"),
+}
+"""Every run setting but `params.NAME` and `robot.FIELD` (checked by the controller and the robot's own schema)."""
+OPTIONS: dict[str, Field] = {
+    "mode": Field("text", choices=("grid", "random"), default="grid"), "samples": Field("integer", "runs", 1, MAX_RUNS, default=0),
+    "seed": Field("integer", "", 0, 2**63 - 1, default=0), "artefacts": Field("texts", choices=ARTEFACTS, default=()),
+}
+"""The `[sweep]` table."""
 
 
 class SpecError(ValueError):
@@ -83,10 +98,21 @@ def _check_key(key: str, where: str) -> None:
     raise SpecError(f"{where}: unknown setting {key!r} (known: {', '.join(DEFAULTS)}, params.NAME, robot.FIELD)")
 
 
+def _check_value(key: str, value: Any, where: str) -> None:
+    """A setting's value against its Field (SETTINGS)."""
+    if key in SETTINGS:
+        try:
+            SETTINGS[key].check(value)
+        except Problem as problem:
+            raise SpecError(f"{where}: {key}: {problem.message}") from None
+
+
 def _check_axis(key: str, values: Any, mode: str, where: str) -> None:
     if isinstance(values, list):
         if not values:
             raise SpecError(f"{where}: axis {key!r} has no values")
+        for value in values:
+            _check_value(key, value, where)
         return
     if isinstance(values, dict) and mode == "random" and len(values) == 1 and next(iter(values)) in DISTRIBUTIONS:
         (kind, bounds), = values.items()
@@ -104,24 +130,26 @@ def spec_from_dict(data: dict[str, Any], source: str = "<sweep>") -> SweepSpec:
     unknown = sorted(set(data) - {"sweep", "base", "axes"})
     if unknown:
         raise SpecError(f"{source}: unknown table(s) {', '.join(unknown)} (expected [sweep], [base], [axes])")
+    for table in ("sweep", "base", "axes"):
+        if not isinstance(data.get(table, {}), dict):
+            raise SpecError(f"{source}: [{table}] must be a table")
     options = dict(data.get("sweep", {}))
-    mode = options.pop("mode", "grid")
-    samples = options.pop("samples", 0)
-    seed = options.pop("seed", 0)
-    artefacts = options.pop("artefacts", [])
-    if options:
-        raise SpecError(f"{source}: [sweep]: unknown key(s) {', '.join(sorted(options))} (known: mode, samples, seed, artefacts)")
-    if mode not in ("grid", "random"):
-        raise SpecError(f"{source}: [sweep] mode must be \"grid\" or \"random\", got {mode!r}")
-    if mode == "random" and not (isinstance(samples, int) and samples > 0):
-        raise SpecError(f"{source}: [sweep] mode = \"random\" needs samples = a positive integer, got {samples!r}")
-    if not isinstance(seed, int):
-        raise SpecError(f"{source}: [sweep] seed must be an integer, got {seed!r}")
-    if not (isinstance(artefacts, list) and set(artefacts) <= set(ARTEFACTS)):
-        raise SpecError(f"{source}: [sweep] artefacts must be a list of {', '.join(map(repr, ARTEFACTS))}, got {artefacts!r}")
+    unknown = sorted(set(options) - set(OPTIONS))
+    if unknown:
+        raise SpecError(f"{source}: [sweep]: unknown key(s) {', '.join(unknown)} (known: {', '.join(OPTIONS)})")
+    chosen = {}
+    for key, spec in OPTIONS.items():
+        try:
+            chosen[key] = spec.check(options[key]) if key in options else spec.default
+        except Problem as problem:
+            raise SpecError(f"{source}: [sweep] {key}: {problem.message}") from None
+    mode, samples, seed, artefacts = chosen.values()
+    if mode == "random" and not samples:
+        raise SpecError(f"{source}: [sweep] mode = \"random\" needs samples = a positive integer")
     base, axes = dict(data.get("base", {})), dict(data.get("axes", {}))
     for key in base:
         _check_key(key, f"{source}: [base]")
+        _check_value(key, base[key], f"{source}: [base]")
     for key, values in axes.items():
         _check_key(key, f"{source}: [axes]")
         _check_axis(key, values, mode, f"{source}: [axes]")

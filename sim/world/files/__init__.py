@@ -60,7 +60,10 @@ def load_world(source: str | Path) -> WorldSpec:
         raise WorldFileError(path, None, f"unknown world file type '{path.suffix}'; expected .toml or .xml")
     if not path.is_file():
         raise WorldFileError(path, None, "no such file")
-    return loader(path)
+    world = loader(path)
+    if not world.start_order():
+        raise WorldFileError(path, None, "the world has no start pose (room for 0 robots): add a start tile (0, 1, 2) or a [[start]]")
+    return world
 
 
 def check_world(source: str | Path) -> list[str]:
@@ -92,6 +95,7 @@ def world_warnings(world: WorldSpec) -> list[str]:
     for slot, count in sorted(slots.items()):
         if count > 1:
             warnings.append(f"{count} starts share slot {slot}; the last one is used")
+    warnings += _crowded(world.start_order())
     for i, goal in enumerate(world.goals, 1):
         centre = tuple(sum(c) / len(goal.vertices) for c in zip(*goal.vertices))
         if any(inside(centre, wall) for wall in solids):
@@ -102,6 +106,24 @@ def world_warnings(world: WorldSpec) -> list[str]:
         if any(inside(can.position, wall) for wall in solids):
             warnings.append(f"movable #{i} at ({can.position[0]:.3f}, {can.position[1]:.3f}) is inside a wall")
     return warnings
+
+
+def _crowded(starts: list, most: int = 10) -> list[str]:
+    """Warnings for start slots closer than two c't-Bots need (the first `most`): robots started
+    there overlap, and a run that uses both is refused. Sorted by x, each start is compared only
+    with those less than that far to its left."""
+    apart = 2 * ROBOT_RADIUS
+    found: list[str] = []
+    order = sorted(range(len(starts)), key=lambda k: starts[k].x)
+    for n, j in enumerate(order):
+        for i in reversed(order[:n]):
+            if starts[j].x - starts[i].x >= apart or len(found) >= most:
+                break
+            gap = math.hypot(starts[j].x - starts[i].x, starts[j].y - starts[i].y)
+            if gap < apart:
+                found.append(f"the starts of slots {starts[i].slot} and {starts[j].slot} are {gap:.3f} m apart, closer than two c't-Bots "
+                             f"need ({apart:.2f} m): robots started there overlap, and a run with both is refused")
+    return found
 
 
 def _distance_to_walls(p: tuple[float, float], walls: list[tuple[tuple[float, float], ...]]) -> float:

@@ -1,16 +1,15 @@
 """ctsim's native world format: TOML a student can write by hand, in metres (worlds/README.md).
 
-tomllib reports line numbers for syntax errors only, so `_Locator` finds the line of the N-th
-`[[wall]]` header or of a key inside it by scanning the text; every user mistake becomes a
-WorldFileError(path, line, problem), never a traceback.
+Every key of every table is declared once in FIELDS (type, unit, range; `bots.schema.Field`).
+tomllib reports line numbers for syntax errors only, so `bots.schema.Locator` finds the line of
+the N-th `[[wall]]` header or of a key inside it by scanning the text; every user mistake becomes
+a WorldFileError(path, line, problem), never a traceback.
 """
 
 from __future__ import annotations
 
 import difflib
 import math
-import re
-import tomllib
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any, NoReturn
@@ -34,69 +33,42 @@ from sim.world.spec import (
     WorldSpec,
 )
 
+from bots.schema import WORLD_EXTENT, Field, Locator, Problem, read_toml
+
 from .geometry import bbox, convex_ccw, segment_box
 from .grid import DEFAULT_CELL, KNOWN_TILES, GridPieces, build_grid
 
 ARRAYS = ("wall", "floor", "line", "hole", "light", "start", "goal", "movable", "fault")
-TOP_KEYS = ("name", "description", "bounds", "floor_colour", "outside_is_hole", "grid", *ARRAYS)
 _REQUIRED: Any = object()
+_POINT = Field("pair", "m", -WORLD_EXTENT, WORLD_EXTENT)
+_AREA = {"box": Field("box", "m", -WORLD_EXTENT, WORLD_EXTENT), "polygon": Field("points", "m", -WORLD_EXTENT, WORLD_EXTENT, minimum=3)}
+_SIZE = {"unit": "m", "low": 0.0, "above": True, "high": 10.0}
+_SLOT = Field("integer", "start slot", 0, 10_000)
+FIELDS: dict[str | None, dict[str, Field]] = {
+    None: {"name": Field("text"), "description": Field("text"), "bounds": _AREA["box"], "floor_colour": Field("colour"),
+           "outside_is_hole": Field("boolean"), "grid": Field("table"), **{name: Field("tables") for name in ARRAYS}},
+    "wall": {**_AREA, "from": _POINT, "to": _POINT, "thickness": Field("number", **_SIZE), "colour": Field("colour")},
+    "floor": {**_AREA, "colour": Field("colour")},
+    "line": {"points": Field("points", "m", -WORLD_EXTENT, WORLD_EXTENT, minimum=2), "width": Field("number", **_SIZE), "colour": Field("colour")},
+    "hole": _AREA,
+    "light": {"position": _POINT, "height": Field("number", "m", 0.0, 100.0, above=True)},
+    "start": {"position": _POINT, "heading_deg": Field("number", "deg", -3600.0, 3600.0), "heading": Field("number", "rad", -20 * math.pi, 20 * math.pi), "slot": _SLOT},
+    "goal": {**_AREA, "slot": _SLOT},
+    "movable": {"position": _POINT, "radius": Field("number", **_SIZE), "mass": Field("number", "kg", 0.0, 10_000.0, above=True)},
+    "fault": {"time": Field("number", "s", 0.0, 1e9), "robot": Field("integer", "index", 0, 1_000_000), "wheel": Field("integer", "index", 0, 1000),
+              "kind": Field("text", choices=FAULT_KINDS)},
+    "grid": {"cell": Field("number", **_SIZE), "origin": _POINT, "rows": Field("text"), "colours": Field("table")},
+    "grid.colours": {tile: Field("colour") for tile in KNOWN_TILES},
+}
+"""Every key of a world file by table (None: the top level; `[[wall]]` tables under "wall"):
+its type, unit and range."""
 _WALL_COLOUR = Wall(()).colour
-
-
-class _Locator:
-    """Line numbers of table headers and keys, found by scanning the TOML text."""
-
-    _ARRAY = re.compile(r"^\s*\[\[\s*([^\[\]#]+?)\s*\]\]")
-    _TABLE = re.compile(r"^\s*\[\s*([^\[\]#]+?)\s*\]")
-
-    def __init__(self, text: str):
-        self.lines = text.splitlines()
-        # (table name, index among same-named arrays or None) -> (header line, last line), 1-based
-        self.sections: dict[tuple[str | None, int | None], tuple[int, int]] = {}
-        counts: dict[str, int] = {}
-        current: tuple[str | None, int | None] = (None, None)
-        start = 1
-        in_string = None
-        for number, line in enumerate(self.lines, 1):
-            if in_string is None:
-                header = self._ARRAY.match(line) or self._TABLE.match(line)
-                if header:
-                    self.sections[current] = (start, number - 1)
-                    name = header.group(1).replace(" ", "").replace('"', "")
-                    if header.re is self._ARRAY:
-                        current = (name, counts.get(name, 0))
-                        counts[name] = current[1] + 1
-                    else:
-                        current = (name, None)
-                    start = number
-            for quote in ('"""', "'''"):
-                if line.count(quote) % 2 and in_string in (None, quote):
-                    in_string = None if in_string else quote
-        self.sections[current] = (start, len(self.lines))
-
-    def line(self, table: str | None, index: int | None, key: str | None = None) -> int | None:
-        """The line of `key` in the table (the header when no key, or when the key is not found)."""
-        span = self.sections.get((table, index))
-        if span is None:
-            return None
-        first, last = span
-        if key is not None:
-            pattern = re.compile(rf"^\s*[\"']?{re.escape(key)}[\"']?\s*=")
-            for number in range(first, last + 1):
-                if pattern.match(self.lines[number - 1]):
-                    return number
-            # not a key = value line: maybe a [key] or [[key]] table of its own
-            name = key if table is None else f"{table}.{key}"
-            sub = self.sections.get((name, 0)) or self.sections.get((name, None))
-            if sub is not None:
-                return sub[0]
-        return first if table is not None else None
 
 
 class _Table:
     """One TOML table with typed, located accessors: each bad value names its file and line."""
 
-    def __init__(self, path: Path, where: _Locator, name: str | None, index: int | None, data: dict):
+    def __init__(self, path: Path, where: Locator, name: str | None, index: int | None, data: dict):
         self.path, self.where, self.name, self.index, self.data = path, where, name, index, data
 
     @property
@@ -126,70 +98,18 @@ class _Table:
             self.fail(f"missing `{key}`")
         return default
 
-    def number(self, key: str, default: Any = _REQUIRED, *, positive: bool = False) -> float:
-        value = self.raw(key, default)
-        if value is default and key not in self.data:
-            return value
-        result = self._number(value, key, f"`{key}`")
-        if positive and result <= 0:
-            self.fail(f"`{key}` must be greater than 0, not {result:g}", key)
-        return result
-
-    def _number(self, value: Any, key: str, what: str) -> float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            self.fail(f"{what} must be a number, not {_kind(value)}", key)
-        if not math.isfinite(value):
-            self.fail(f"{what} must be finite, not {value}", key)
-        return float(value)
-
-    def integer(self, key: str, default: int) -> int:
-        value = self.raw(key, default)
-        if isinstance(value, bool) or not isinstance(value, int):
-            self.fail(f"`{key}` must be an integer, not {_kind(value)}", key)
-        return value
-
-    def text(self, key: str, default: str) -> str:
-        value = self.raw(key, default)
-        if not isinstance(value, str):
-            self.fail(f"`{key}` must be a string, not {_kind(value)}", key)
-        return value
-
-    def boolean(self, key: str, default: bool) -> bool:
-        value = self.raw(key, default)
-        if not isinstance(value, bool):
-            self.fail(f"`{key}` must be true or false, not {_kind(value)}", key)
-        return value
-
-    def numbers(self, key: str, count: int, default: Any = _REQUIRED) -> tuple[float, ...]:
-        value = self.raw(key, default)
-        if value is default and key not in self.data:
-            return value
-        if not isinstance(value, list) or len(value) != count:
-            self.fail(f"`{key}` must be a list of {count} numbers, not {_kind(value)}", key)
-        return tuple(self._number(v, key, f"`{key}`[{i}]") for i, v in enumerate(value))
-
-    def point(self, key: str, default: Any = _REQUIRED) -> Point:
-        return self.numbers(key, 2, default)  # type: ignore[return-value]
-
-    def points(self, key: str, minimum: int) -> tuple[Point, ...]:
-        value = self.raw(key)
-        if not isinstance(value, list) or len(value) < minimum:
-            self.fail(f"`{key}` must be a list of at least {minimum} [x, y] points", key)
-        result = []
-        for i, p in enumerate(value):
-            if not isinstance(p, list) or len(p) != 2:
-                self.fail(f"`{key}`[{i}] must be an [x, y] point, not {_kind(p)}", key)
-            result.append((self._number(p[0], key, f"`{key}`[{i}]"), self._number(p[1], key, f"`{key}`[{i}]")))
-        return tuple(result)
-
-    def colour(self, key: str, default: Any = _REQUIRED) -> Colour:
-        value = self.raw(key, default)
+    def value(self, key: str, default: Any = _REQUIRED) -> Any:
+        """The key's value checked against its declared Field (FIELDS), or `default` when absent."""
         if key not in self.data:
-            return value
-        parsed = parse_colour(value) if isinstance(value, str) else None
-        if parsed is None:
-            self.fail(f"`{key}` must be a colour like \"#a0b0c0\", not {value!r}", key)
-        return parsed
+            return self.raw(key, default)
+        try:
+            return FIELDS[self.name][key].check(self.data[key])
+        except Problem as problem:
+            self.fail(f"`{key}` {problem.message}", key)
+
+    def check_declared(self) -> None:
+        """Unknown keys refused, with the closest declared one."""
+        self.check_keys(FIELDS[self.name])
 
     def area(self, *, segment: bool = False) -> tuple[Point, ...]:
         """A convex polygon from exactly one of `box`, `polygon` (or, for walls, `from`/`to`)."""
@@ -198,17 +118,17 @@ class _Table:
         if len(given) != 1:
             self.fail(f"give exactly one of {options}", given[1] if len(given) > 1 else None)
         if given[0] == "box":
-            x0, y0, x1, y1 = self.numbers("box", 4)
+            x0, y0, x1, y1 = self.value("box")
             if not (x0 < x1 and y0 < y1):
                 self.fail("`box` is [xmin, ymin, xmax, ymax] with xmin < xmax and ymin < ymax", "box")
             return ((x0, y0), (x1, y0), (x1, y1), (x0, y1))
         if given[0] == "polygon":
-            ccw = convex_ccw(self.points("polygon", 3))
+            ccw = convex_ccw(self.value("polygon"))
             if ccw is None:
                 self.fail("`polygon` must be convex with a non-zero area", "polygon")
             return ccw
-        p, q = self.point("from"), self.point("to")
-        thickness = self.number("thickness", 0.02, positive=True)
+        p, q = self.value("from"), self.value("to")
+        thickness = self.value("thickness", 0.02)
         if math.dist(p, q) == 0:
             self.fail("the wall has no length: `from` and `to` are the same point", "to")
         return segment_box(p, q, thickness)
@@ -218,51 +138,27 @@ class _Table:
         return _Table(self.path, self.where, name, index, data)
 
 
-def parse_colour(text: str) -> Colour | None:
-    """`#rrggbb` as RGB in 0..1; None if malformed."""
-    t = text.strip()
-    if len(t) != 7 or t[0] != "#" or any(c not in "0123456789abcdefABCDEF" for c in t[1:]):
-        return None
-    return tuple(int(t[i : i + 2], 16) / 255 for i in (1, 3, 5))  # type: ignore[return-value]
-
-
-def _kind(value: Any) -> str:
-    return {bool: "a boolean", str: "a string", list: "a list", dict: "a table"}.get(
-        type(value), type(value).__name__
-    )
-
-
 def load_toml(path: Path) -> WorldSpec:
     """Load a native TOML world file."""
-    try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as e:
-        raise WorldFileError(path, None, f"cannot read: {e}") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as e:
-        found = re.search(r"\(at line (\d+), column \d+\)", str(e))
-        line = int(found.group(1)) if found else len(text.splitlines()) if "end of document" in str(e) else None
-        problem = re.sub(r"\s*\(at (line \d+, column \d+|end of document)\)", "", str(e)) or "TOML syntax error"
-        raise WorldFileError(path, line, f"TOML syntax: {problem}") from None
-    top = _Table(path, _Locator(text), None, None, data)
-    top.check_keys(TOP_KEYS)
-    name = top.text("name", path.stem)
-    description = top.text("description", "").strip()
-    outside_is_hole = top.boolean("outside_is_hole", False)
+    data, where = read_toml(path, WorldFileError)
+    top = _Table(path, where, None, None, data)
+    top.check_declared()
+    name = top.value("name", path.stem)
+    description = top.value("description", "").strip()
+    outside_is_hole = top.value("outside_is_hole", False)
     tables = {name: _array(top, name) for name in ARRAYS}
-    floor_colour = top.colour("floor_colour", DEFAULT_FLOOR)
+    floor_colour = top.value("floor_colour", DEFAULT_FLOOR)
     grid = _grid(top.child("grid", top.data["grid"]), floor_colour) if "grid" in top.data else None
 
-    walls = [Wall(t.area(segment=True), t.colour("colour", _WALL_COLOUR)) for t in _keys(tables["wall"], "box", "polygon", "from", "to", "thickness", "colour")]  # fmt: skip
-    floor = [FloorRegion(t.area(), t.colour("colour")) for t in _keys(tables["floor"], "box", "polygon", "colour")]  # fmt: skip
-    lines = [_line(t) for t in _keys(tables["line"], "points", "width", "colour")]
-    holes = [Hole(t.area()) for t in _keys(tables["hole"], "box", "polygon")]
-    lights = [Light(t.point("position"), t.number("height", 0.5, positive=True)) for t in _keys(tables["light"], "position", "height")]  # fmt: skip
-    starts = [_start(t) for t in _keys(tables["start"], "position", "heading_deg", "heading", "slot")]
-    goals = [Goal(t.area(), _slot(t)) for t in _keys(tables["goal"], "box", "polygon", "slot")]
-    movables = [Movable(t.point("position"), t.number("radius", 0.025, positive=True), t.number("mass", 0.05, positive=True)) for t in _keys(tables["movable"], "position", "radius", "mass")]  # fmt: skip
-    faults = [_fault(t) for t in _keys(tables["fault"], "time", "robot", "wheel", "kind")]
+    walls = [Wall(t.area(segment=True), t.value("colour", _WALL_COLOUR)) for t in _keys(tables["wall"])]  # fmt: skip
+    floor = [FloorRegion(t.area(), t.value("colour")) for t in _keys(tables["floor"])]  # fmt: skip
+    lines = [_line(t) for t in _keys(tables["line"])]
+    holes = [Hole(t.area()) for t in _keys(tables["hole"])]
+    lights = [Light(t.value("position"), t.value("height", 0.5)) for t in _keys(tables["light"])]  # fmt: skip
+    starts = [_start(t) for t in _keys(tables["start"])]
+    goals = [Goal(t.area(), t.value("slot", 0)) for t in _keys(tables["goal"])]
+    movables = [Movable(t.value("position"), t.value("radius", 0.025), t.value("mass", 0.05)) for t in _keys(tables["movable"])]  # fmt: skip
+    faults = [_fault(t) for t in _keys(tables["fault"])]
     if grid is not None:
         walls[:0], floor[:0], lines[:0] = grid.walls, grid.floor, grid.lines
         holes[:0], lights[:0], starts[:0] = grid.holes, grid.lights, grid.starts
@@ -270,7 +166,7 @@ def load_toml(path: Path) -> WorldSpec:
     if not starts:
         raise WorldFileError(path, None, "the world has no start pose: add a [[start]] or a start tile (0, 1, 2) to the grid")
 
-    bounds = top.numbers("bounds", 4, None)
+    bounds = top.value("bounds", None)
     if bounds is None:
         bounds = _content_bounds(walls, floor, lines, holes, goals, starts, lights, movables, grid)
         if bounds is None:
@@ -303,53 +199,39 @@ def _array(top: _Table, name: str) -> list[_Table]:
     return [top.child(name, v, i) for i, v in enumerate(value)]
 
 
-def _keys(tables: list[_Table], *allowed: str) -> list[_Table]:
+def _keys(tables: list[_Table]) -> list[_Table]:
     for t in tables:
-        t.check_keys(allowed)
+        t.check_declared()
     return tables
 
 
 def _fault(t: _Table) -> WheelFault:
     """A scheduled wheel fault of a robot on a general chassis (`sim.world.chassis_drive`)."""
-    kind = t.text("kind", "")
-    if kind not in FAULT_KINDS:
-        t.fail(f"`kind` must be one of {', '.join(FAULT_KINDS)}, not {kind!r}", "kind")
-    robot, wheel = t.integer("robot", 0), t.integer("wheel", -1)
-    if robot < 0 or wheel < 0:
-        t.fail("`robot` and `wheel` are indices from 0", "wheel" if wheel < 0 else "robot")
-    return WheelFault(t.number("time"), wheel, kind, robot)
+    return WheelFault(t.value("time"), t.value("wheel"), t.value("kind"), t.value("robot", 0))
 
 
 def _line(t: _Table) -> FloorLine:
-    points = t.points("points", 2)
+    points = t.value("points")
     if all(p == points[0] for p in points):
         t.fail("the line has no length: all its points are the same", "points")
-    return FloorLine(points, t.number("width", 0.024, positive=True), t.colour("colour", BLACK))
+    return FloorLine(points, t.value("width", 0.024), t.value("colour", BLACK))
 
 
 def _start(t: _Table) -> Start:
     """`heading_deg` in degrees or `heading` in radians (not both), counter-clockwise from +x."""
     if "heading" in t.data and "heading_deg" in t.data:
         t.fail("give `heading` (radians) or `heading_deg` (degrees), not both", "heading")
-    heading = math.radians(t.number("heading_deg", 0.0)) if "heading" not in t.data else t.number("heading")
-    x, y = t.point("position")
-    return Start(x, y, heading, _slot(t))
-
-
-def _slot(t: _Table) -> int:
-    """A start's or goal's `slot`: 0 (default) or the robot's start slot 1, 2, ..."""
-    slot = t.integer("slot", 0)
-    if slot < 0:
-        t.fail(f"`slot` must be 0 or more, not {slot}", "slot")
-    return slot
+    heading = math.radians(t.value("heading_deg", 0.0)) if "heading" not in t.data else t.value("heading")
+    x, y = t.value("position")
+    return Start(x, y, heading, t.value("slot", 0))
 
 
 def _grid(t: _Table, floor_colour: Colour) -> GridPieces:
     """The `[grid]` shorthand: c't-Sim tiles; the plain-floor tile takes the world's floor colour."""
     if not isinstance(t.data, dict):
         raise WorldFileError(t.path, t.where.line(None, None, "grid"), "`grid` must be a [grid] table")
-    t.check_keys(("cell", "origin", "rows", "colours"))
-    rows_text = t.text("rows", _REQUIRED)
+    t.check_declared()
+    rows_text = t.value("rows")
     rows = rows_text.split("\n")
     if rows and not rows[-1].strip():
         rows.pop()  # the line holding the closing quotes
@@ -366,11 +248,11 @@ def _grid(t: _Table, floor_colour: Colour) -> GridPieces:
         for tile in ct.data:
             if len(tile) != 1 or tile not in KNOWN_TILES:
                 ct.fail(f"`{tile}` is not a grid tile", tile)
-            colours[tile] = ct.colour(tile, floor_colour)
+            colours[tile] = ct.value(tile, floor_colour)
     return build_grid(
         rows,
-        cell=t.number("cell", DEFAULT_CELL, positive=True),
-        origin=t.point("origin", (0.0, 0.0)),
+        cell=t.value("cell", DEFAULT_CELL),
+        origin=t.value("origin", (0.0, 0.0)),
         colours=colours,
         row_lines=[first + i if first else None for i in range(len(rows))],
         path=t.path,
