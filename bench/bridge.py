@@ -79,20 +79,21 @@ def bridge_end_work(seconds: float) -> float:
 
 
 def run_end_work(seconds: float) -> float:
-    """The same end work of a plain run (solve_maze, no bridge, same world and length): the files
-    and figures `ctsim run` writes after the loop, with its recording closed, for comparison."""
+    """The same end work of a plain run (solve_maze, no bridge, same world and length): from its
+    last sample to the last file, the recording closed and the files and figures `ctsim run`
+    writes after the loop, for comparison."""
     from bots.behaviours import make
     from sim.cli import finish
     from sim.run import RobotSetup
     from sim.views.recording import Recorder
 
+    clock = _Clock()
     with tempfile.TemporaryDirectory() as out:
         recorder = Recorder(Path(out) / "run.rrd")
-        result = run(load_world("maze"), [RobotSetup(CTBOT, make("solve_maze"), "solve_maze")], seconds, observers=[recorder])
-        start = time.perf_counter()
+        result = run(load_world("maze"), [RobotSetup(CTBOT, make("solve_maze"), "solve_maze")], seconds, observers=[clock, recorder])
         with contextlib.redirect_stdout(io.StringIO()):
             finish(result, Path(out), {"duration": seconds})
-        return time.perf_counter() - start
+        return time.perf_counter() - clock.last
 
 
 def figures(scale: float):
