@@ -392,3 +392,11 @@ def test_shutdown_comes_after_the_files_are_written_and_list_calls_prints_the_of
     assert code == 0 and fake.shutdown
     assert {"summary.json", "run.rrd"} <= set(written[0]) and any(name.endswith(".png") for name in written[0])
     assert "firmware bot 1 offers 1 remote calls:\n  bot_turn(int16 degrees)" in capsys.readouterr().out
+
+
+def test_a_firmware_silent_on_the_last_block_leaves_a_complete_run():
+    """The block of the last step goes out after the run (`finish`): a firmware that never answers
+    it costs one step timeout and an event, not the run."""
+    result, bridge, (fake,) = bridged(0.5, fakes={"misbehave": (49, "stall")}, step_timeout=0.5)
+    assert result.reason == "duration" and len(fake.blocks) == 50
+    assert any("no reply to the last block" in e.text for e in bridge.bots[0].events)
