@@ -73,17 +73,35 @@ class DefaultOdometry:
                 p[TOLERANCE], p[TURN_TOLERANCE] = fused.tolerance, fused.turn_tolerance
                 p[MEMORY], p[SCALE_ERROR] = TURN_MEMORY, TURN_SCALE_ERROR
                 p[HAS_MOUSE] = 1.0
+        self._out = np.zeros((n, 1 + ESTIMATES, 3))  # (where `update` is not given a run's row)
+        self._truth = np.zeros((max(self.rows.max(initial=-1) + 1, 0), 3))
+        # the kernel for these arrays' types, called without numba's dispatch (a third of its cost),
+        # as `sim.world.compiling.compiled_for` does it for the world (bots/ does not import the world)
+        arguments = (np.zeros((1, 4), np.int64), self.rows, 0.0, self.params, self.state, self.contact_steps, self.poses, self._truth, self._out)
+        self._step = _step.compile(tuple(_step.typeof_pyval(argument) for argument in arguments))
 
     def rows_of(self, k: int) -> np.ndarray:
         """The `k`-th robot's estimates, (estimates, 3), a view into `poses` in the order of
         `names[k]` (valid for the batch's life: `update` writes in place)."""
         return self.poses[k, : len(self.names[k])]
 
-    def update(self, tallies: np.ndarray, time: float) -> None:
+    def update(self, tallies: np.ndarray, time: float, truth: np.ndarray | None = None, out: np.ndarray | None = None) -> None:
         """Step every robot's estimates by one step's readings: `tallies` (rows, 4) int64 encoder
         ticks (left, right) then mouse counts (forward, left) per robot (`SensorFrame.tallies`), read
-        at `time` (s)."""
-        _step(tallies, self.rows, time, self.params, self.state, self.contact_steps, self.poses)
+        at `time` (s). With `out` (n, 1 + ESTIMATES, 3), a run's sample row, each robot's true pose
+        (its row of `truth`, (rows, 3)) and estimates are written there too, in the same pass."""
+        tallies = np.ascontiguousarray(tallies, dtype=np.int64)  # (the types `_step` was compiled for)
+        if out is None:
+            truth, out = self._truth, self._out
+        else:
+            truth, out = np.ascontiguousarray(truth, dtype=np.float64), np.ascontiguousarray(out, dtype=np.float64)
+        self.update_into(tallies, float(time), truth, out)
+
+    def update_into(self, tallies: np.ndarray, time: float, truth: np.ndarray, out: np.ndarray) -> None:
+        """`update` with `out`, for a caller whose arrays already have the types the kernel was
+        compiled for (C-ordered: int64 tallies, float64 truth and out; a float time), as a run's
+        columns do: no conversions, which would cost as much as the kernel's work."""
+        self._step(tallies, self.rows, time, self.params, self.state, self.contact_steps, self.poses, truth, out)
 
 
 @numba.njit(cache=True, inline="always")
@@ -103,11 +121,14 @@ def _clip(value: float, bound: float) -> float:
 @numba.njit(cache=True)
 def _step(
     tallies: np.ndarray, rows: np.ndarray, time: float, params: np.ndarray, state: np.ndarray, contact_steps: np.ndarray,
-    poses: np.ndarray,
+    poses: np.ndarray, truth: np.ndarray, out: np.ndarray,
 ) -> None:
     """One step of every robot's default estimators, in place: the arcs of `EncoderOdometry.arc`
     and `MouseOdometry.arc`, the slip rule of `FusedOdometry.arc` and `_rotation`, laid down as
-    `_ArcOdometry.update` lays them (`advance_one`). Each line keeps the Python expression's order."""
+    `_ArcOdometry.update` lays them (`advance_one`). Each line keeps the Python expression's order.
+    Where `out` has rows: out[i] = the true pose, then the estimates (a run's log, one pass)."""
+    if out.shape[0] != rows.shape[0]:
+        raise ValueError("DefaultOdometry.update: out must have a row for every robot of the batch")
     for i in range(rows.shape[0]):
         r, p, st, pose = rows[i], params[i], state[i], poses[i]
         if r >= tallies.shape[0] or tallies.shape[1] != 4:  # a kernel reads past an array's end without a word
@@ -143,3 +164,8 @@ def _step(
             alpha_fused = alpha_enc - st[TAKEN]
             st[TAKEN] = 0.0
         _lay(pose[FUSED], s_fused, alpha_fused, False)
+    for i in range(out.shape[0]):
+        if rows[i] >= truth.shape[0]:
+            raise ValueError("DefaultOdometry.update: truth must have a row for every robot of the batch")
+        out[i, 0] = truth[rows[i]]
+        out[i, 1:] = poses[i]

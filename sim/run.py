@@ -27,11 +27,11 @@ from bots.chassis_commands import chassis_setpoints
 from bots.commands import BadCommand, motor_commands, wheel_speeds_for
 from bots.controller import Controller, ControllerStopped, Status, reset
 from bots.odometry import Estimator, default_estimators
-from bots.odometry_batch import DefaultOdometry, batched
+from bots.odometry_batch import ESTIMATES, DefaultOdometry, batched
 from bots.spec import RobotSpec
 from sim.world import World
 from sim.world.chassis_drive import FaultError
-from sim.world.readings import Readings
+from sim.world.readings import Readings, SensorFrame
 from sim.world.spec import Start, WheelFault, WorldSpec
 
 
@@ -58,26 +58,32 @@ RESIDENT = 8192
 recorder up to `sim.views.recording.CHUNK` back)."""
 
 
+def row(shape: tuple[int, ...] = (), kind: type = np.float64) -> np.dtype:
+    """The type of one sample's row of a column: `kind` values of `shape` (a numpy subarray dtype)."""
+    return np.dtype((kind, shape)) if shape else np.dtype(kind)
+
+
 class _Columns:
-    """Preallocated float64 arrays of a run's samples (name -> shape of one sample), backed by an
+    """Preallocated arrays of a run's samples (name -> the type of one row, `row`), backed by an
     unlinked temporary file instead of anonymous memory. Pages are touched only when written, and
     rows already written or read can be handed back to the operating system (`release`): they stay
     readable (a read brings its page back from the file), so an hour-long run's resident memory
     does not grow with its length, while every column stays an ordinary numpy array."""
 
-    def __init__(self, shapes: dict[str, tuple[int, ...]], capacity: int):
+    def __init__(self, rows: dict[str, np.dtype], capacity: int):
         page = mmap.PAGESIZE
-        widths = {name: 8 * math.prod(shape) for name, shape in shapes.items()}  # bytes per row
-        sizes = {name: -(-max(capacity, 1) * width // page) * page for name, width in widths.items()}
+        sizes = {name: -(-max(capacity, 1) * kind.itemsize // page) * page for name, kind in rows.items()}
+        total = max(sum(sizes.values()), page)  # (mmap refuses an empty map)
         with tempfile.TemporaryFile() as handle:
-            _reserve(handle.fileno(), sum(sizes.values()))
-            self._map = mmap.mmap(handle.fileno(), sum(sizes.values()))
+            _reserve(handle.fileno(), total)
+            self._map = mmap.mmap(handle.fileno(), total)
         self.arrays: dict[str, np.ndarray] = {}
         self._regions: list[tuple[int, int]] = []  # (byte offset, bytes per row) of each column
         offset = 0
-        for name, shape in shapes.items():
-            self.arrays[name] = np.frombuffer(self._map, np.float64, capacity * math.prod(shape), offset).reshape(capacity, *shape)
-            self._regions.append((offset, widths[name]))
+        for name, kind in rows.items():
+            count = capacity * math.prod(kind.shape)
+            self.arrays[name] = np.frombuffer(self._map, kind.base, count, offset).reshape(capacity, *kind.shape)
+            self._regions.append((offset, kind.itemsize))
             offset += sizes[name]
         self._released = 0
 
@@ -116,63 +122,99 @@ def _reserve(descriptor: int, size: int) -> None:
         ) from None
 
 
+class _Samples:
+    """The run's own columns, one row per sample for all robots at once: the sample times, the
+    arrays the world's sensors are read into (`World.sensor_rows`), and the true pose and default
+    estimates of the robots whose odometry is stepped in one batch (`DefaultOdometry`, which writes
+    them). `count` is the number of complete samples: a sample counts once every robot's part of
+    it is written (a Ctrl-C half-way leaves the last row uncounted)."""
+
+    def __init__(self, sensors: dict[str, np.dtype], batched: int, capacity: int):
+        self.columns = _Columns({"time": row(), "poses": row((batched, 1 + ESTIMATES, 3)), **sensors}, capacity)
+        arrays = self.columns.arrays
+        self.time, self.poses = arrays["time"], arrays["poses"]
+        self.values, self.believed, self.tallies = arrays["values"], arrays["believed"], arrays["tallies"]
+        self.count = 0
+        self.frame: SensorFrame | None = None
+        """The readings of the current sample."""
+
+
 class RobotLog:
     """Everything one robot did in a run, one row per sample (the start of every step, and the
-    end of the run): ground truth and each estimate as (T, 3) arrays, and the current sample's
-    readings. Rows live in file-backed arrays allocated once for the whole run (`_Columns`), so a
-    long run costs 24 bytes of disk per pose and sample, not a Python object per step, and its
-    resident memory stays flat."""
+    end of the run): ground truth and each estimate as (T, 3) arrays, its readings as columns, and
+    the current sample's readings. Rows live in file-backed arrays allocated once for the whole run
+    (`_Columns`): the run's own (`_Samples`) for a robot with the default estimators, else its own;
+    so a long run costs bytes of disk per sample, not a Python object per step, and its resident
+    memory stays flat."""
 
     def __init__(self, name: str, spec: RobotSpec, controller_name: str, params: dict[str, str],
-                 estimators: list[str], capacity: int):
+                 estimators: list[str], samples: _Samples, index: int, world: World, slot: int | None = None):  # fmt: skip
+        """`index`: the robot's index in the world; `slot`: its row in the batched odometry (None:
+        Python estimators, logged by `append`)."""
         self.name, self.spec, self.controller_name, self.params = name, spec, controller_name, params
-        self.latest: Readings | None = None
-        """The readings of the current sample (what the controller gets this step)."""
+        self.index = index
         self.collisions = 0
         self.fell = False
         self.goal_time: float | None = None
         self.notes: dict[str, list] = {}
         """What the run did other than asked (projected infeasible twists): kind -> [first message, count]."""
-        self._columns = _Columns({"poses": (1 + len(estimators), 3)}, capacity)
-        self._poses = self._columns.arrays["poses"]
+        self._samples, self._world = samples, world
+        if slot is None:
+            self._columns: _Columns | None = _Columns({"poses": row((1 + len(estimators), 3))}, len(samples.time))
+            self._poses = self._columns.arrays["poses"]
+        else:
+            self._columns = None
+            self._poses = samples.poses[:, slot, : 1 + len(estimators)]
         """Per sample: the true pose, then each estimate (one row to write a sample, not one per pose)."""
         self._truth = self._poses[:, 0]
         self._estimates = {label: self._poses[:, 1 + k] for k, label in enumerate(estimators)}
-        self._count = 0
 
-    def append(self, readings: Readings, truth: np.ndarray, estimates: np.ndarray | Sequence[np.ndarray]) -> None:
-        """Log one sample: the true pose (3,) and the estimates, (k, 3) or k poses."""
-        n = self._count
+    @property
+    def latest(self) -> Readings | None:
+        """The readings of the current sample (what the controller gets this step)."""
+        frame = self._samples.frame
+        return None if frame is None else frame[self.index]
+
+    def append(self, truth: np.ndarray, estimates: np.ndarray | Sequence[np.ndarray]) -> None:
+        """Log the current sample of a robot with Python estimators: the true pose (3,) and the
+        estimates, (k, 3) or k poses."""
+        n = self._samples.count
         self._truth[n] = truth
         if len(estimates):
             self._poses[n, 1:] = estimates
-        self.latest = readings
-        self._count = n + 1
         self._columns.release_written(n + 1)
-
-    def truncate(self, count: int) -> None:
-        """Keep the first `count` samples."""
-        self._count = min(self._count, count)
 
     def release(self, rows: slice) -> None:
         """Take these rows out of resident memory (they stay readable)."""
-        self._columns.release(rows.start, rows.stop)
+        if self._columns is not None:
+            self._columns.release(rows.start, rows.stop)
 
     def __len__(self) -> int:
-        return self._count
+        return self._samples.count
 
     def note(self, message: str) -> None:
         """Count a message; messages that differ only in their numbers are one kind (bounded memory)."""
         entry = self.notes.setdefault(re.sub(r"-?\d[\d.e+-]*", "#", message), [message, 0])
         entry[1] += 1
 
+    def time_array(self) -> np.ndarray:
+        """(T,) sample times (s), the run's (a view)."""
+        return self._samples.time[: self._samples.count]
+
     def truth_array(self) -> np.ndarray:
         """(T, 3) ground-truth poses (a view, no copy)."""
-        return self._truth[: self._count]
+        return self._truth[: self._samples.count]
 
     def estimate_arrays(self) -> dict[str, np.ndarray]:
         """Estimator name -> (T, 3) estimated poses (views, no copies)."""
-        return {label: poses[: self._count] for label, poses in self._estimates.items()}
+        count = self._samples.count
+        return {label: poses[:count] for label, poses in self._estimates.items()}
+
+    def readings(self, rows: slice) -> dict[str, np.ndarray]:
+        """This robot's readings of samples `rows` as columns: Readings' field name -> (n, width)
+        array (views into the run's columns; not a general chassis's per-wheel fields)."""
+        s = self._samples
+        return self._world.readings_columns(self.index, s.values[rows], s.believed[rows], s.tallies[rows])
 
 
 class RunResult:
@@ -181,46 +223,35 @@ class RunResult:
     'error', 'interrupted' (Ctrl-C), 'terminated' (SIGTERM) or what `run`'s `stop_when` answered;
     `error` holds the one-line message of a failure."""
 
-    def __init__(self, world: WorldSpec, seed: int, dt: float, robots: list[RobotLog], capacity: int):
+    def __init__(self, world: WorldSpec, seed: int, dt: float, robots: list[RobotLog], samples: _Samples):
         self.world, self.seed, self.dt, self.robots = world, seed, dt, robots
         self.reason = "duration"
         self.error: str | None = None
-        self._columns = _Columns({"time": ()}, capacity)
-        self._time = self._columns.arrays["time"]
-        self._count = 0
+        self._samples = samples
 
     @property
     def time(self) -> np.ndarray:
         """(T,) sample times (s), a view."""
-        return self._time[: self._count]
-
-    def append(self, time: float) -> None:
-        """Log one sample time."""
-        self._time[self._count] = time
-        self._count += 1
-        self._columns.release_written(self._count)
-
-    def truncate(self, count: int) -> None:
-        """Keep the first `count` samples."""
-        self._count = min(self._count, count)
+        return self._samples.time[: self._samples.count]
 
     def __len__(self) -> int:
-        return self._count
+        return self._samples.count
 
     @property
     def duration(self) -> float:
         """Simulated seconds covered (0 before the first sample)."""
-        return float(self._time[self._count - 1]) if self._count else 0.0
+        count = self._samples.count
+        return float(self._samples.time[count - 1]) if count else 0.0
 
     def blocks(self, size: int | None = None) -> Iterator[slice]:
         """Row ranges that cover every sample, `size` (default BLOCK) at a time, to read a long run
         through with bounded memory: once the next is asked for, the previous block's rows of the
-        times and of every robot's log leave resident memory again."""
+        run's columns and of every robot's log leave resident memory again."""
         size = size or BLOCK
         for start in range(0, len(self), size):
             rows = slice(start, min(start + size, len(self)))
             yield rows
-            self._columns.release(rows.start, rows.stop)
+            self._samples.columns.release(rows.start, rows.stop)
             for log in self.robots:
                 log.release(rows)
 
@@ -330,24 +361,27 @@ def run(
     members = [i for i, setup in enumerate(robots) if setup.estimators is None and batched(setup.spec)]
     odometry = DefaultOdometry([robots[i].spec for i in members], np.array([placed[i].pose for i in members]).reshape(-1, 3), members) if members else None
     slot = {i: k for k, i in enumerate(members)}
+    samples = _Samples(world.sensor_rows(), len(members), steps + 1)
     logs, controllers, estimators = [], [], []
     for i, (setup, robot) in enumerate(zip(robots, placed)):
-        if i in slot:  # no Python estimators: its rows of the batch are logged
-            chosen, rows, names = [], odometry.rows_of(slot[i]), odometry.names[slot[i]]
+        if i in slot:  # no Python estimators: the batch logs its rows
+            names = odometry.names[slot[i]]
         else:
             chosen = setup.estimators if setup.estimators is not None else default_estimators(setup.spec)
             for estimator in chosen:
                 estimator.reset(setup.spec, robot.pose)
-            rows, names = None, [estimator.name for estimator in chosen]
+            names = [estimator.name for estimator in chosen]
         reset(setup.controller, setup.spec)
-        logs.append(RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params), names, steps + 1))
+        log = RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params), names, samples, i, world, slot.get(i))
+        logs.append(log)
         controllers.append(setup.controller)
-        estimators.append((chosen, rows))
+        if i not in slot:
+            estimators.append((i, log, chosen))
     try:
         world.chassis.schedule_faults([*world_spec.faults, *(replace(f, robot=i) for i, setup in enumerate(robots) for f in setup.faults)])
     except FaultError as err:
         raise RunError(str(err)) from None
-    result = RunResult(world_spec, seed, dt, logs, steps + 1)
+    result = RunResult(world_spec, seed, dt, logs, samples)
     commands = np.zeros((len(robots), 2))
     clock = StepClock(step_timeout)
     call = 0
@@ -358,7 +392,7 @@ def run(
         drivers = [(i, robot.spec, log, controller) for i, (robot, log, controller) in enumerate(zip(world.robots, logs, controllers))]
         can_finish = all(hasattr(controller, "status") for controller in controllers)  # a behaviour says when it is done
         for step in range(steps + 1):
-            _sample(world, logs, estimators, odometry, result)
+            frame = _sample(world, samples, logs, estimators, odometry)
             for on_sample in samplers:
                 on_sample(world, logs)
             if until_goal and any(log.goal_time is not None for log in logs):
@@ -374,13 +408,14 @@ def run(
                 break
             now = world.time
             for i, spec, log, controller in drivers:
+                readings = frame[i]
                 try:
                     call += 1
                     clock.busy = call
-                    command = controller.step(now, log.latest)
+                    command = controller.step(now, readings)
                     clock.busy = 0
                     if spec.chassis is not None:
-                        _drive_chassis(world, i, log, command, log.latest, step)
+                        _drive_chassis(world, i, log, command, readings, step)
                         continue
                     left, right = wheel_speeds_for(command, spec)
                 except (Exception, SystemExit, StepTimeout) as err:  # sys.exit in a controller is its error too
@@ -396,7 +431,6 @@ def run(
         result.error = None if result.reason == "quit" else f"{result.reason} at t = {world.time:.2f} s"
     finally:
         clock.__exit__()
-        _complete_samples(result)
         for robot, log in zip(world.robots, logs):
             log.collisions, log.fell = robot.collisions, robot.fallen
         _notify(observers, "on_end", result)
@@ -469,33 +503,30 @@ def _last_frame(err: BaseException) -> str:
     return f" ({frames[-1].filename}:{frames[-1].lineno})" if frames else ""
 
 
-def _complete_samples(result: RunResult) -> None:
-    """Drop a sample that Ctrl-C cut in half (its time logged, some robot's poses not yet), so
-    that every trajectory has one pose per time."""
-    n = min([len(result)] + [len(log) for log in result.robots])
-    for part in (result, *result.robots):
-        part.truncate(n)
-
-
 def _sample(
-    world: World, logs: list[RobotLog], estimators: list[tuple[list[Estimator], np.ndarray | None]],
-    odometry: DefaultOdometry | None, result: RunResult,
-) -> None:
-    """Read every robot's sensors at the current state and log truth and estimates: per robot,
-    its Python estimators (updated here) or its rows of the default odometry (updated for every
-    robot at once)."""
+    world: World, samples: _Samples, logs: list[RobotLog], estimators: list[tuple[int, RobotLog, list[Estimator]]],
+    odometry: DefaultOdometry | None,
+) -> SensorFrame:
+    """Read every robot's sensors at the current state into the run's next sample row and log
+    truth and estimates: the default odometry of all batched robots updates and logs them in one
+    pass; robots with Python estimators update theirs here. Then note who reached a goal."""
+    n = samples.count
     time = world.time
-    result.append(time)
+    frame = samples.frame = world.read_all((samples.values[n], samples.believed[n], samples.tallies[n]))
+    samples.time[n] = time
     poses = world.poses()
-    frame = world.read_all()
     if odometry is not None:
-        odometry.update(frame.tallies, time)
-    for pose, log, (chosen, rows), readings in zip(poses, logs, estimators, frame):
+        odometry.update_into(frame.tallies, time, poses, samples.poses[n])
+    for i, log, chosen in estimators:
+        readings = frame[i]
         for estimator in chosen:
             estimator.update(readings)
-        log.append(readings, pose, rows if rows is not None else [estimator.pose for estimator in chosen])
+        log.append(poses[i], [estimator.pose for estimator in chosen])
+    samples.count = n + 1
+    samples.columns.release_written(n + 1)
     goals = world.spec.goals
     if goals:
         for (x, y), log, robot in zip(poses[:, :2].tolist(), logs, world.robots):
             if log.goal_time is None and world.spec.in_goal(x, y, robot.slot):
                 log.goal_time = time
+    return frame

@@ -131,17 +131,19 @@ def _rgb(rgb: palette.RGB) -> tuple[int, int, int]:
 
 @dataclass
 class _Track:
-    """One robot's buffers for one chunk of samples; poses come from its RobotLog at flush."""
+    """One robot's part of the recording: what is sent of it so far, and the events noted. Poses
+    and readings come from its RobotLog's columns when a chunk is sent; only a general chassis's
+    readings, whose per-wheel fields are not among the run's columns, are buffered sample by sample."""
 
     log: RobotLog
     estimates: list[str]
     ir: np.ndarray  # (k, 3) body-frame (x, y, direction) of each IR sensor
     channels: list[tuple[str, ...]]  # per FIELDS, the names of its recorded channels (the spec's)
     picks: list[np.ndarray | None]  # per FIELDS, which entries of the readings field (None: all)
-    time: np.ndarray = field(init=False)
+    buffered: bool = False  # a general chassis: readings kept per sample in `sensors`
     sensors: np.ndarray = field(init=False)
-    start: int = 0  # index of the buffer's first sample in the run
-    count: int = 0
+    start: int = 0  # index of the first sample not sent yet
+    count: int = 0  # samples in `sensors` (buffered only)
     tail: np.ndarray | None = None  # the last trail point of each label, (1 + estimates, 2)
     collisions: int = 0
     failures: int = 0
@@ -152,24 +154,24 @@ class _Track:
     def __post_init__(self) -> None:
         recorded = [(f, pick) for f, channels, pick in zip(FIELDS, self.channels, self.picks) if channels]
         self._fields = operator.attrgetter(*(f for f, _ in recorded), "time")  # (two or more names: a tuple)
-        self._picks = [pick for _, pick in recorded] if any(pick is not None for _, pick in recorded) else None
-        self.time = np.empty(CHUNK)
-        self.sensors = np.empty((CHUNK, sum(map(len, self.channels))))
+        self._picks = [pick for _, pick in recorded]
+        self.sensors = np.empty((CHUNK if self.buffered else 0, sum(map(len, self.channels))))
 
     def keep(self, readings: Any) -> None:
-        """Buffer one sample's time and recorded channels."""
-        *parts, now = self._fields(readings)
-        self.time[self.count] = now
-        if self._picks is not None:
-            parts = [part if pick is None else part[pick] for part, pick in zip(parts, self._picks)]
+        """Buffer one sample's recorded channels (a general chassis only)."""
+        *parts, _ = self._fields(readings)
+        parts = [part if pick is None else part[pick] for part, pick in zip(parts, self._picks)]
         np.concatenate(parts, out=self.sensors[self.count])
         self.count += 1
 
-    def column(self, name: str) -> np.ndarray:
-        """This chunk's buffered values of readings field `name`, (n, width)."""
-        k = FIELDS.index(name)
-        left = sum(map(len, self.channels[:k]))
-        return self.sensors[: self.count, left : left + len(self.channels[k])]
+    def columns(self, stop: int) -> dict[str, np.ndarray]:
+        """The recorded readings fields of samples [start, stop): name -> (n, width)."""
+        n = stop - self.start
+        if self.buffered:
+            widths = np.cumsum([0, *map(len, self.channels)])
+            return {f: self.sensors[:n, widths[k] : widths[k + 1]] for k, f in enumerate(FIELDS) if self.channels[k]}
+        values = self.log.readings(slice(self.start, stop))
+        return {f: values[f] if pick is None else values[f][:, pick] for f, channels, pick in zip(FIELDS, self.channels, self.picks) if channels}
 
 
 class Recorder:
@@ -195,6 +197,7 @@ class Recorder:
         self._live: Any = None
         self._live_due = 0.0  # time.monotonic() of the next live send
         self._tracks: list[_Track] = []
+        self._sent = 0  # samples sent so far (of every robot)
         self._chassis: ChassisLayer | None = None
         self._messages: _Messages | None = None
         self._now = 0.0
@@ -237,39 +240,53 @@ class Recorder:
         logging.getLogger().addHandler(self._messages)
 
     def on_sample(self, world: World, logs: list[RobotLog]) -> None:
-        """Copy this sample's readings into the buffers and note events. Rays are drawn from the
-        readings' distances, not cast again: a second ray cast per sensor would cost more than
-        all the rest of the recording."""
+        """Note this sample's events; every CHUNK samples (and at the live view's pace) send what
+        the run's columns hold since the last send. Rays are drawn from the readings' distances,
+        not cast again: a second ray cast per sensor would cost more than all the rest of the
+        recording."""
         self._now = world.time
         for robot, log, track in zip(world.robots, logs, self._tracks):
-            readings = log.latest
-            track.keep(readings)
-            if robot.collisions != track.collisions:
-                track.collisions = robot.collisions
-                self._event(f"{log.name}: collision {robot.collisions} at ({robot.pose[0]:.3f}, {robot.pose[1]:.3f}) m", "WARN")
-            if len(readings.failures) != track.failures:
-                for failure in readings.failures[track.failures :]:
-                    self._event(f"{log.name}: {fault_text(log.spec.chassis.chassis, failure)}", "WARN")
-                track.failures = len(readings.failures)
-            if len(log.notes) != track.notes:  # a new kind of projected command: its first message
-                for message, _ in list(log.notes.values())[track.notes :]:
-                    self._event(f"{log.name}: note: {message}", "WARN")
-                track.notes = len(log.notes)
-            if robot.fallen and not track.fell:
-                track.fell = True
-                self._event(f"{log.name}: fell into a hole at ({robot.pose[0]:.3f}, {robot.pose[1]:.3f}) m", "ERROR")
-            if log.goal_time is not None and not track.goal:
-                track.goal = True
-                self._event(f"{log.name}: reached the goal at {log.goal_time:.2f} s", "INFO")
-            if track.count == CHUNK:
-                self._send(track)
+            if track.buffered:
+                track.keep(log.latest)
+            if (robot.collisions != track.collisions or robot.fallen != track.fell or len(log.notes) != track.notes
+                    or (log.goal_time is not None) != track.goal or track.buffered):  # fmt: skip
+                self._note_events(robot, log, track)
         if self._chassis is not None:
             self._chassis.on_sample(world, logs)
-        if self._live is not None and (self._tracks[0].count == 0 or time.monotonic() >= self._live_due):
-            for track in self._tracks:
-                if track.count:
-                    self._send(track)
-            self._check_live()
+        count = len(logs[0]) if logs else 0
+        if count - self._sent >= CHUNK or (self._live is not None and (self._sent == 0 or time.monotonic() >= self._live_due)):
+            self._send_all(count)
+            if self._live is not None:
+                self._check_live()
+
+    def _note_events(self, robot: Any, log: RobotLog, track: _Track) -> None:
+        """Events of one robot since the last sample: collisions, wheel faults, notes, a fall, the goal."""
+        if robot.collisions != track.collisions:
+            track.collisions = robot.collisions
+            self._event(f"{log.name}: collision {robot.collisions} at ({robot.pose[0]:.3f}, {robot.pose[1]:.3f}) m", "WARN")
+        if track.buffered:
+            failures = log.latest.failures
+            if len(failures) != track.failures:
+                for failure in failures[track.failures :]:
+                    self._event(f"{log.name}: {fault_text(log.spec.chassis.chassis, failure)}", "WARN")
+                track.failures = len(failures)
+        if len(log.notes) != track.notes:  # a new kind of projected command: its first message
+            for message, _ in list(log.notes.values())[track.notes :]:
+                self._event(f"{log.name}: note: {message}", "WARN")
+            track.notes = len(log.notes)
+        if robot.fallen and not track.fell:
+            track.fell = True
+            self._event(f"{log.name}: fell into a hole at ({robot.pose[0]:.3f}, {robot.pose[1]:.3f}) m", "ERROR")
+        if log.goal_time is not None and not track.goal:
+            track.goal = True
+            self._event(f"{log.name}: reached the goal at {log.goal_time:.2f} s", "INFO")
+
+    def _send_all(self, count: int) -> None:
+        """Send every robot's samples up to `count` (what the run has logged completely)."""
+        for track in self._tracks:
+            if count > track.start:
+                self._send(track, count)
+        self._sent = count
 
     def on_end(self, result: RunResult) -> None:
         """Note how the run ended, flush what is buffered and close (also after an error or Ctrl-C)."""
@@ -286,9 +303,7 @@ class Recorder:
         if not self.streams:
             return
         try:
-            for track in self._tracks:
-                if track.count:
-                    self._send(track)
+            self._send_all(len(self._tracks[0].log) if self._tracks else 0)
             if self._live is not None:
                 self._check_live()
         finally:
@@ -363,6 +378,7 @@ class Recorder:
             ir=np.array([(*s.position, s.direction) for s in spec.ir]).reshape(-1, 3),
             channels=list(channels),
             picks=list(picks),
+            buffered=spec.chassis is not None,
         )
 
     def _facts_text(self, world: World, logs: list[RobotLog]) -> str:
@@ -416,17 +432,17 @@ class Recorder:
                         colours = [palette.CHANNELS[(i + 2 * fields.index(f)) % len(palette.CHANNELS)] for i in range(width)]
                         self._log(f"sensors/{group}/{name}/{f}", rr.SeriesLines(colors=colours, names=names, widths=1.0), static=True)
 
-    def _send(self, track: _Track) -> None:
-        """Send one chunk of a robot's samples as columns."""
+    def _send(self, track: _Track, stop: int) -> None:
+        """Send one robot's samples [track.start, stop) as columns."""
         rr = _rerun()
         name = track.log.name
         base = f"world/{name}"
-        truth_all = track.log.truth_array()
-        n = min(track.count, len(truth_all) - track.start)
-        span = slice(track.start, track.start + n)
-        times = [rr.TimeColumn(TIMELINE, duration=track.time[:n].copy())]
-        truth = truth_all[span]
+        span = slice(track.start, stop)
+        n = stop - track.start
+        times = [rr.TimeColumn(TIMELINE, duration=track.log.time_array()[span])]
+        truth = track.log.truth_array()[span]
         estimates = {label: poses[span] for label, poses in track.log.estimate_arrays().items()}
+        readings = track.columns(stop)
 
         self._columns(f"{base}/body", times, rr.Transform3D.columns(translation=_xyz(truth), quaternion=_turn(truth[:, 2])))
         for label, poses in estimates.items():
@@ -440,16 +456,16 @@ class Recorder:
         if self._chassis is not None:
             self._chassis.flush(name)
         if len(track.ir):
-            self._send_rays(track, times, truth)
+            self._send_rays(track, times, truth, readings["ir_distance"])
         for group, (_, fields) in SENSOR_GROUPS.items():
             for f in fields:
-                values = track.column(f)[:n]
-                if not values.shape[1]:
+                if f not in readings:
                     continue
+                values = readings[f]
                 if f == "steering":  # from straight, as `chassis_view.steering_deflection`
                     values = wrap_angle(values - track.log.spec.chassis.chassis.beta[track.picks[FIELDS.index(f)]])
                 self._columns(f"sensors/{group}/{name}/{f}", times, rr.Scalars.columns(scalars=(values * SCALE.get(f, 1.0)).ravel()).partition(np.full(n, values.shape[1])))
-        track.start += n
+        track.start = stop
         track.count = 0
 
     def _send_trails(self, track: _Track, truth: np.ndarray, estimates: dict[str, np.ndarray]) -> None:
@@ -462,7 +478,7 @@ class Recorder:
             ends = np.append(ends, n - 1)  # the trail reaches the last sample sent (the run's end, or a live send)
         if len(ends) == 0:
             return
-        times = [rr.TimeColumn(TIMELINE, duration=track.time[ends].copy())]
+        times = [rr.TimeColumn(TIMELINE, duration=track.log.time_array()[track.start + ends])]
         # piece j is samples ends[j-1]..ends[j] (the first: the last chunk's end, or none, then 0..ends[0])
         joined = track.tail is not None
         first = np.concatenate(([0], ends[:-1] + joined))
@@ -474,13 +490,14 @@ class Recorder:
             self._columns(f"world/{track.log.name}/trail/{label}", times, rr.LineStrips2D.columns(strips=_strips(along[rows], offsets)))  # a piece a row
         track.tail = points[ends[-1]].copy()
 
-    def _send_rays(self, track: _Track, times: list, truth: np.ndarray) -> None:
+    def _send_rays(self, track: _Track, times: list, truth: np.ndarray, distance: np.ndarray) -> None:
+        """IR rays from each sensor to the distance it reports (`distance` (n, k) m, nan: nothing
+        seen: a ray of full length) and the points hit."""
         rr = _rerun()
         n, k = len(truth), len(track.ir)
         c, s = np.cos(truth[:, 2])[:, None], np.sin(truth[:, 2])[:, None]
         x, y, direction = track.ir.T
         origin = np.stack((truth[:, :1] + c * x - s * y, truth[:, 1:2] + s * x + c * y), axis=-1)
-        distance = track.column("ir_distance")[:n]
         hit = np.isfinite(distance)
         reach = np.where(hit, distance, IR_RAY_LENGTH)[..., None]
         angle = truth[:, 2:3] + direction

@@ -336,13 +336,40 @@ class World:
 
     # --- sensors ----------------------------------------------------------------------------
 
-    def read_all(self) -> SensorFrame:
+    def sensor_rows(self) -> dict[str, np.dtype]:
+        """The arrays `read_all` fills each step, as row types (numpy subarray dtypes): `values`
+        int64 (every floor, light and raw IR value), `believed` float64 (every IR distance, m),
+        `tallies` int64 (robots, 4). A run keeps one row of each per sample (`readings_columns`
+        reads a robot's fields back out of them)."""
+        st = self._batch()
+        return {"values": np.dtype((np.int64, (len(st.sensors),))), "believed": np.dtype((np.float64, (len(st.ir.curve),))),
+                "tallies": np.dtype((np.int64, st.tallies.shape))}  # fmt: skip
+
+    def readings_columns(self, index: int, values: np.ndarray, believed: np.ndarray, tallies: np.ndarray) -> dict[str, np.ndarray]:
+        """Robot `index`'s readings fields (Readings' names, each (samples, width)) out of samples of
+        `sensor_rows`' arrays, each with a leading sample axis (views, no copies). A general chassis's
+        per-wheel encoders, steering and second mouse are not among them (`ChassisDrive.fill`)."""
+        st = self._batch()
+        ir, line, border, light = st.layout.slices[index]
+        lights = st.n_floor + st.n_light
+        return {
+            "encoder_ticks": tallies[:, index, :2], "mouse_counts": tallies[:, index, 2:],
+            "ir_raw": values[:, lights + ir.start : lights + ir.stop], "ir_distance": believed[:, ir],
+            "line": values[:, line], "border": values[:, border], "light": values[:, st.n_floor + light.start : st.n_floor + light.stop],
+        }  # fmt: skip
+
+    def read_all(self, rows: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> SensorFrame:
         """Every robot's sensor readings from the current state (the start of the next step):
-        `frame[i]` is robot i's `Readings`."""
+        `frame[i]` is robot i's `Readings`. `rows`: one row of each of `sensor_rows`' arrays
+        (values, believed, tallies) to read into, in place of new arrays: the frame's views then
+        point into them."""
         st = self._batch()
         pose = self._poses
-        values = np.empty(len(st.sensors), dtype=np.int64)
-        believed = np.empty(len(st.ir.curve))
+        if rows is None:
+            values, believed, tallies = np.empty(len(st.sensors), dtype=np.int64), np.empty(len(st.ir.curve)), st.tallies.copy()
+        else:
+            values, believed, tallies = rows
+            tallies[:] = st.tallies
         lights = st.n_floor + st.n_light  # the end of the light rows, where the IR rows start
         if self._round_ir:
             if len(st.ir.noise.rows):
@@ -359,7 +386,7 @@ class World:
             st.light_noise.add_rounded(light, LDR_MAX)
         if not self._round_ir:
             self._read_ir_with_pymunk(pose, ir_raw, believed)
-        frame = SensorFrame(self.time, st.tallies.copy(), ir_raw, believed, floor, light, st.layout)
+        frame = SensorFrame(self.time, tallies, ir_raw, believed, floor, light, st.layout)
         if self.chassis.drives:
             self.chassis.fill(frame)
         return frame

@@ -105,7 +105,11 @@ class SensorFrame(Sequence[Readings]):
         if self._robots is None:
             now, ir_raw, ir_distance, floor, light, layout = self.time, self.ir_raw, self.ir_distance, self.floor, self.light, self._layout
             ticks, mice = self.tallies[:, :2], self.tallies[:, 2:]
-            if layout.counts is None:  # a slice per robot and kind
+            if len(layout.slices) == 1:  # one robot: every IR and light array is its own
+                _, line, border, _ = layout.slices[0]
+                tally = self.tallies[0]
+                self._robots = [Readings(now, tally[:2], tally[2:], ir_raw, ir_distance, floor[line], floor[border], light, NO_STEERING, NO_MOUSE2)]
+            elif layout.counts is None:  # a slice per robot and kind
                 self._robots = [
                     Readings(now, tick, mouse, ir_raw[r], ir_distance[r], floor[f], floor[b], light[li], NO_STEERING, NO_MOUSE2)
                     for (r, f, b, li), tick, mouse in zip(layout.slices, ticks, mice)
