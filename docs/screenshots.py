@@ -1,5 +1,6 @@
 """Make the README's pictures from fresh runs: the rerun viewer on the maze, the line course and
-three robots; the two PNG figures of the maze run; the pygame window (SDL offscreen).
+three robots; the two PNG figures of the maze run; the README's contest (its bracket, its final in
+the viewer); the pygame window (SDL offscreen).
 
     .venv/bin/python docs/screenshots.py [--shot ../shared/tools/rerun-shot]
 
@@ -28,6 +29,24 @@ RUNS = {
     "viewer_three_robots": (["maze", "--robots", "3", "--duration", "30"], 29),
 }
 """Picture name -> (ctsim run arguments, simulated second to show)."""
+CONTEST = ["contest", "right=solve_maze", "left=solve_maze,hand=left", "fast=solve_maze,speed_m_s=0.25",
+           "fastleft=solve_maze,hand=left,speed_m_s=0.25", "slow=solve_maze,speed_m_s=0.1", "wanderer=wander",
+           "careful=avoid_holes,inner=wander", "fw=firmware:tests/fake_firmware.py,rc5=1:3", "--time-limit", "120"]  # fmt: skip
+"""The README's contest: its bracket, and its final in the viewer when the winner arrives."""
+
+
+def _contest(folder: Path, shot: str, python: str) -> None:
+    import sqlite3
+
+    out = folder / "contest"
+    subprocess.run([python, "-m", "sim.cli", "contest", *CONTEST, "--out", str(out)], cwd=ROOT, check=True, stdout=subprocess.DEVNULL)
+    shutil.copy(out / "bracket.png", DOCS / "contest_bracket.png")
+    with sqlite3.connect(out / "contest.sqlite") as db:
+        recording, decided = db.execute("SELECT recording, time FROM games WHERE level = 1").fetchone()
+    if Path(shot).is_file():
+        second = round(decided - 0.5, 1)  # just before the winner's arrival: both bots still on the map
+        subprocess.run([shot, str(out / recording), str(folder / "final"), str(second), python], cwd=ROOT, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        shutil.copy(f"{folder / 'final'}_t{second:g}.png", DOCS / "viewer_contest.png")
 
 
 def _window(path: Path) -> None:
@@ -63,6 +82,7 @@ def main() -> int:
                 shutil.copy(f"{prefix}_t{second:g}.png", DOCS / f"{name}.png")
             else:
                 print(f"screenshots: no rerun-shot at {args.shot}: viewer picture {name}.png not made", file=sys.stderr)
+        _contest(Path(folder), args.shot, python)
     _window(DOCS / "window.png")
     print("\n".join(str(p.relative_to(ROOT)) for p in sorted(DOCS.glob("*.png"))))
     return 0

@@ -224,6 +224,11 @@ def _add_contest(commands) -> None:  # noqa: ANN001 (argparse's subparsers actio
         description="Run a contest as c't-Sim's ContestConductor: every entry alone against the clock, then a seeded knockout "
         "of races between two bots, each from its own start to its own goal; places 1-4 played out. Kept in DIR/contest.sqlite: "
         "run the same command again to resume. Writes each game's recording, bracket.png, bracket.html and ranking.csv.",
+        epilog=f"""exit status:
+  0    the contest is over (an entry whose controller fails loses its game: that is no error)
+  {EXIT_FAILED}    a game could not be played (e.g. a firmware that cannot start); what was decided is kept
+  {EXIT_USER}    a user error found before anything ran (bad option, world, entry, another contest in DIR)
+  {EXIT_INTERRUPTED}  interrupted by Ctrl-C, {EXIT_TERMINATED} by SIGTERM: run the same command again to resume""",
     )
     contest.add_argument("world", metavar="WORLD", help="the knockout world: two start slots with a goal each (shipped: contest; or a c't-Sim contest parcours)")
     contest.add_argument("entries", nargs="+", metavar="ENTRY",

@@ -25,29 +25,7 @@ from sim.contest.store import Store
 from sim.experiments.engines import Processes, Serial
 
 ROOT = Path(__file__).resolve().parents[1]
-LANES = """
-name = "Lanes"
-bounds = [0, 0, 2.0, 0.8]
-[[wall]]
-box = [0, 0.39, 2.0, 0.41]
-[[wall]]
-box = [0, -0.02, 2.0, 0.0]
-[[wall]]
-box = [0, 0.8, 2.0, 0.82]
-[[start]]
-position = [0.2, 0.2]
-slot = 1
-[[start]]
-position = [1.8, 0.6]
-heading_deg = 180
-slot = 2
-[[goal]]
-box = [1.5, 0.05, 1.8, 0.35]
-slot = 1
-[[goal]]
-box = [0.2, 0.45, 0.5, 0.75]
-slot = 2
-"""
+LANES = ROOT / "tests" / "data" / "contest_lanes.toml"
 DRIVER = """
 from bots.commands import Twist
 
@@ -65,7 +43,7 @@ COMPARED = ("level", "number", "entry1", "entry2", "state", "winner", "reason", 
 @pytest.fixture
 def lanes(tmp_path) -> Path:
     world = tmp_path / "lanes.toml"
-    world.write_text(LANES)
+    world.write_text(LANES.read_text())
     (tmp_path / "driver.py").write_text(DRIVER.format(speed=0.2))
     return world
 

@@ -7,48 +7,25 @@ from __future__ import annotations
 
 import math
 import textwrap
+from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 from bots.commands import Twist
+from bots.controller import FunctionController
 from bots.ctbot import CTBOT
 from sim.contest.entries import parse
 from sim.contest.game import GameJob, play
 from sim.contest.judge import Side, decide
 from sim.contest.paths import PathField
 from sim.run import RobotSetup, run
-from bots.controller import FunctionController
-from dataclasses import replace
-from sim.world.spec import Goal, Start
 from sim.world.files import load_world, world_warnings
-from sim.world.spec import WorldFileError
+from sim.world.spec import Goal, Start, WorldFileError
 
 DT = 0.01
-LANES = """
-name = "Lanes"
-bounds = [0, 0, 2.0, 0.8]
-[[wall]]
-box = [0, 0.39, 2.0, 0.41]          # between the lanes
-[[wall]]
-box = [0, -0.02, 2.0, 0.0]
-[[wall]]
-box = [0, 0.8, 2.0, 0.82]
-[[start]]
-position = [0.2, 0.2]
-slot = 1
-[[start]]
-position = [1.8, 0.6]
-heading_deg = 180
-slot = 2
-[[goal]]
-box = [1.5, 0.05, 1.8, 0.35]
-slot = 1
-[[goal]]
-box = [0.2, 0.45, 0.5, 0.75]
-slot = 2
-{extra}
-"""
+LANES = Path(__file__).resolve().parent / "data" / "contest_lanes.toml"
 CONTROLLERS = '''
 from bots.commands import Twist
 
@@ -73,7 +50,7 @@ def lanes(tmp_path):
 
     def make(extra: str = "") -> str:
         path = tmp_path / "lanes.toml"
-        path.write_text(LANES.format(extra=textwrap.dedent(extra)))
+        path.write_text(LANES.read_text() + textwrap.dedent(extra))
         return str(path)
 
     (tmp_path / "bots.py").write_text(CONTROLLERS)
