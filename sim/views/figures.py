@@ -52,8 +52,11 @@ def draw_world(ax, world: WorldSpec, legend: bool = False) -> None:
         from matplotlib.lines import Line2D
         from matplotlib.patches import Patch
 
-        keys = [("wall", palette.WALL, bool(world.walls)), ("goal", palette.GOAL, bool(world.goals)), ("hole", palette.HOLE, bool(world.holes))]
-        handles = [Patch(facecolor=_c(rgb), label=label) for label, rgb, present in keys if present]
+        keys = [("wall", palette.WALL, bool(world.walls)), ("goal", palette.GOAL, bool(world.goals))]
+        handles = [Patch(facecolor=world.floor_colour, edgecolor="0.6", label="floor")]
+        handles += [Patch(facecolor=colour, edgecolor="0.6", label=f"floor patch {palette.hex_colour(palette.from_unit(colour))}") for colour in dict.fromkeys(r.colour for r in world.floor)]
+        handles += [Patch(facecolor=_c(rgb), label=label) for label, rgb, present in keys if present]
+        handles += [Patch(facecolor=_c(palette.HOLE), edgecolor=_c(palette.HOLE_EDGE), label="hole")] if world.holes else []
         handles += [Patch(facecolor=world.lines[0].colour, label="line")] if world.lines else []
         handles += [Line2D([], [], marker="*", color=_c(palette.LIGHT), linestyle="none", label="light")] if world.lights else []
         ax.add_artist(ax.legend(handles=handles, loc="lower left", bbox_to_anchor=(1.01, 0.0), fontsize=8, frameon=False, title="map", title_fontsize=8))

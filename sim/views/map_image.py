@@ -51,7 +51,7 @@ def map_shapes(world: WorldSpec) -> list[Shape]:
             normal = np.array((a[1] - b[1], b[0] - a[0])) / max(np.hypot(*(b - a)), 1e-12) * half
             shapes.append(Shape("polygon", np.array([a + normal, b + normal, b - normal, a - normal]), colour))
         shapes += [Shape("circle", p[None], colour, radius=half) for p in points]
-    shapes += [Shape("polygon", np.asarray(h.vertices, float), palette.HOLE) for h in world.holes]
+    shapes += [Shape("polygon", np.asarray(h.vertices, float), palette.HOLE, palette.HOLE_EDGE, 1.0) for h in world.holes]
     shapes += [Shape("polygon", np.asarray(g.vertices, float), palette.GOAL, palette.GOAL_EDGE, 0.8) for g in world.goals]
     shapes += [Shape("polygon", np.asarray(w.vertices, float), palette.WALL, palette.WALL_EDGE, 0.6) for w in world.walls]
     shapes += [Shape("circle", np.asarray(c.position, float)[None], palette.CAN, palette.WALL_EDGE, 0.5, c.radius) for c in world.movables]

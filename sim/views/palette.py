@@ -27,7 +27,9 @@ WALL_EDGE: RGB = (120, 124, 136)
 as on a white one."""
 BACKGROUND: RGB = (210, 210, 214)
 """Around the map (rerun view, window)."""
-HOLE: RGB = (12, 12, 12)
+HOLE: RGB = (0, 0, 0)
+HOLE_EDGE: RGB = (200, 40, 40)
+"""Holes are black as the floor sensors see them, edged in red: a wall is near black too."""
 GOAL: RGB = (120, 220, 140)
 GOAL_EDGE: RGB = (30, 140, 60)
 CAN: RGB = (200, 120, 42)

@@ -223,12 +223,12 @@ class Window:
             pygame.draw.circle(self.screen, palette.ICR, centre, 5)
 
     def _scale_bar(self) -> None:
-        """A bar of a round length (about 100 px) in the map's bottom left corner."""
+        """A bar of a round length (about 100 px) at the panel's foot, above the keys: drawn on the
+        map it hid what lay in the corner (a lamp of the maze)."""
         import pygame
 
         metres = next(m for m in (0.05, 0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0) if m * self.scale >= 80 or m == 50.0)
-        x, y = 20, self.screen.get_height() - 22
-        pygame.draw.rect(self.screen, palette.BACKGROUND, (x - 6, y - 20, metres * self.scale + 12, 28))
+        x, y = self.screen.get_width() - PANEL, self.screen.get_height() - 36
         pygame.draw.line(self.screen, palette.SCALE_BAR, (x, y), (x + int(metres * self.scale), y), 3)
         label = f"{metres * 100:g} cm" if metres < 1 else f"{metres:g} m"
         self.screen.blit(self.font.render(label, True, palette.SCALE_BAR), (x, y - 17))
