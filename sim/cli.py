@@ -115,6 +115,8 @@ def _add_robot_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--live", action="store_true", help="also stream the recording to a rerun viewer it starts; without one the run goes on, recorded to the file")
     parser.add_argument("--connect", metavar="URL", help="also stream the recording to the rerun viewer at URL (e.g. rerun+http://127.0.0.1:9876/proxy)")
     parser.add_argument("--no-report", action="store_true", help="skip the PNG figures")
+    parser.add_argument("--export-rate", type=_positive(float), metavar="HZ",
+                        help="samples per second in the TUM and CSV files (default: every step; run.parquet always holds every sample)")
 
 
 def _add_web_options(parser: argparse.ArgumentParser, flag: str | None = None, flag_help: str = "") -> None:
@@ -280,7 +282,7 @@ def load_robot_spec(args: argparse.Namespace):
     return with_settings(robot, {key: parse_value(value) for key, value in args.robot_set})
 
 
-RUN_FILES = ("run.rrd", "summary.json", "*.tum", "*.csv", "*.png", "report.html")
+RUN_FILES = ("run.rrd", "run.parquet", "summary.json", "*.tum", "*.csv", "*.png", "report.html")
 """What a run writes into its folder: removed first when a folder is reused, so that nothing
 stale (a robot or figure of an earlier run) is left beside the new results."""
 
@@ -474,7 +476,7 @@ def cmd_run(args: argparse.Namespace) -> int:
             except RunError:  # refused before it started (no room for its trajectories): no run, no summary
                 (out / "summary.json").unlink(missing_ok=True)
                 raise
-            status = finish(result.raw, out, options, report=not args.no_report, metrics={robot.name: robot.metrics for robot in result.robots},
+            status = finish(result.raw, out, options, report=not args.no_report, export_rate=args.export_rate, metrics={robot.name: robot.metrics for robot in result.robots},
                             stop=stop, recording_error=recorder.write_error)
         if web and result.reason not in ("interrupted", "terminated"):
             _serve_until_interrupted(web)
@@ -579,24 +581,25 @@ def cmd_play(args: argparse.Namespace) -> int:
     spec = load_robot_spec(args)
     out = _out_dir(args.out, args.world, "teleop")
     result = play(world, spec, out / "run.rrd", seed=args.seed, dt=args.dt, fps=args.fps, speed=args.speed, frames=args.frames, scale=args.scale, live=args.live, connect=args.connect)
-    return finish(result, out, {"duration": result.duration, "until_goal": False, **_robot_options(args)}, report=not args.no_report)
+    return finish(result, out, {"duration": result.duration, "until_goal": False, **_robot_options(args)}, report=not args.no_report, export_rate=args.export_rate)
 
 
 def finish(result, out: Path, options: dict[str, Any], report: bool = True, metrics: dict[str, dict[str, dict]] | None = None,
-           stop: StopOnSignal | None = None, recording_error: str | None = None) -> int:
+           stop: StopOnSignal | None = None, recording_error: str | None = None, export_rate: float | None = None) -> int:
     """Write summary.json (first: it holds the figures and is small), TUM/CSV trajectories and
     figures of a run; print the table and the files; the exit status (EXIT_STATUSES). A full
     disk or an I/O error ends it with one line and exit 1, having written what fit. `metrics`:
     robot -> estimator -> metrics as a dict, where the caller has them already (else they are
     computed here). With `stop`, a signal received so far skips the figures, one received while
     they are drawn stops them, and either sets the status. `recording_error`: why the recording
-    is incomplete (an I/O error too)."""
+    is incomplete (an I/O error too). `export_rate`: samples per second in the TUM and CSV files
+    (None: every sample)."""
     written = [out / "run.rrd"]
     summary = summarize(result, options, metrics)
     try:
         _write_json(out / "summary.json", summary)
         written.append(out / "summary.json")
-        written += write_trajectories(result, out, summary)
+        written += write_trajectories(result, out, summary, export_rate)
         _write_json(out / "summary.json", summary)  # again, now naming the TUM files
         if report and len(result) and stop is not None and stop.received is not None:
             print(f"ctsim: figures skipped after the signal; `ctsim report {out}` draws them", file=sys.stderr)
@@ -671,13 +674,16 @@ def summarize(result, options: dict[str, Any], metrics: dict[str, dict[str, dict
     }
 
 
-def write_trajectories(result, out: Path, summary: dict[str, Any]) -> list[Path]:
-    """truth.tum and <estimate>.tum (prefixed with the robot name when there are several), and
-    the same as CSV; records the TUM names in the summary for `ctsim report`."""
-    from sim.analysis.export import write_run
+def write_trajectories(result, out: Path, summary: dict[str, Any], export_rate: float | None = None) -> list[Path]:
+    """run.parquet (every sample: poses and readings), truth.tum and <estimate>.tum (prefixed with
+    the robot name when there are several) and the same as CSV, at `export_rate` samples per second
+    (None: all); records the file names in the summary for `ctsim report`."""
+    from sim.analysis.export import write_parquet, write_run
 
-    tums = write_run(result, out, prefix=len(result.robots) > 1, with_csv=True)
-    written = []
+    every = max(1, round(1 / (export_rate * result.dt))) if export_rate else 1
+    written = [write_parquet(result, out / "run.parquet")]
+    summary["parquet"], summary["export_every"] = written[0].name, every
+    tums = write_run(result, out, prefix=len(result.robots) > 1, with_csv=True, every=every)
     for entry in summary["robots"]:
         entry["tum"] = {label: path.name for label, path in tums[entry["name"]].items()}
         written += [path for tum in tums[entry["name"]].values() for path in (tum, tum.with_suffix(".csv"))]
@@ -786,7 +792,7 @@ def cmd_bridge(args: argparse.Namespace) -> int:
                 outcome = f"result {call['result']} at step {call['done_step']}" if call["result"] is not None else "no result (r/D) yet"
                 print(f"{bot['label']}: {call['call']} sent at step {call['sent_step']}: {outcome}")
         # the firmwares are shut down when the files are written (leaving the `with`)
-        return finish(result, out, {"duration": args.duration, "until_goal": False, **_robot_options(args), "bridge": bridge.summary()}, report=not args.no_report)
+        return finish(result, out, {"duration": args.duration, "until_goal": False, **_robot_options(args), "bridge": bridge.summary()}, report=not args.no_report, export_rate=args.export_rate)
 # --- sweep ------------------------------------------------------------------------------------
 
 

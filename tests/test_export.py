@@ -68,7 +68,7 @@ def test_tum_lines_are_what_evo_reads(tmp_path):
 def test_csv_header(tmp_path):
     path = tmp_path / "t.csv"
     write_csv(path, np.array([0.0]), np.array([[0.5, 0.25, 0.125]]))
-    assert path.read_text().splitlines() == ["t,x,y,theta", "0.0,0.5,0.25,0.125"]
+    assert path.read_text().splitlines() == ["t,x,y,theta", "0,0.5,0.25,0.125"]  # each float in its fewest exact digits
 
 
 def test_bad_files_and_shapes_are_refused(tmp_path):
@@ -121,3 +121,42 @@ def test_a_run_written_in_blocks_equals_its_arrays_written_at_once(tmp_path, mon
                 whole = compare(result.time, log.truth_array(), poses)
                 assert metrics[log.name][label].ate_rmse == pytest.approx(whole.ate_rmse, rel=1e-12)
                 assert metrics[log.name][label].path_length == whole.path_length
+
+
+def test_parquet_holds_every_sample_of_poses_and_readings_across_blocks(tmp_path, monkeypatch):
+    """`write_parquet` writes block by block (37 samples here, so 201 samples cross five edges):
+    every pose and every reading of every sample comes back exactly, under its robot's name."""
+    import sim.run
+    from sim.analysis.export import read_parquet, write_parquet
+    from tests.observers import KeepReadings
+
+    robots = [RobotSetup(CTBOT, FunctionController(lambda t, r: Twist(0.1, 0.5))), RobotSetup(CTBOT, FunctionController(lambda t, r: Twist(0.2, -0.3)))]
+    keep = [KeepReadings(0), KeepReadings(1)]
+    result = run(load_world("maze"), robots, 2.0, observers=keep)
+    monkeypatch.setattr(sim.run, "BLOCK", 37)
+    table = read_parquet(write_parquet(result, tmp_path / "run.parquet"))
+    assert np.array_equal(table["time"], result.time)
+    for log, kept in zip(result.robots, keep):
+        for label, poses in {"truth": log.truth_array(), **log.estimate_arrays()}.items():
+            assert np.array_equal(np.column_stack([table[f"{log.name}.{label}.{axis}"] for axis in ("x", "y", "theta")]), poses)
+        assert np.array_equal(table[f"{log.name}.encoder_ticks.right"], [r.encoder_ticks[1] for r in kept.readings])
+        assert np.array_equal(table[f"{log.name}.mouse_counts.left"], [r.mouse_counts[1] for r in kept.readings])
+        for field, sensors in (("ir_raw", CTBOT.ir), ("ir_distance", CTBOT.ir), ("line", CTBOT.line), ("border", CTBOT.border), ("light", CTBOT.light)):
+            for k, sensor in enumerate(sensors):
+                assert np.array_equal(table[f"{log.name}.{field}.{sensor.name}"], [getattr(r, field)[k] for r in kept.readings], equal_nan=True)
+
+
+def test_an_export_rate_keeps_every_nth_sample_and_the_last(tmp_path, monkeypatch):
+    """`write_run(every=10)` over blocks of 37 samples writes samples 0, 10, ..., 200 of 201 and
+    the last (here sample 200 itself), byte for byte what the whole arrays give at those samples."""
+    import sim.run
+    from sim.analysis.export import sampled, write_run
+
+    result = run(load_world("maze"), [RobotSetup(CTBOT, FunctionController(lambda t, r: Twist(0.1, 0.5)))], 2.05)
+    monkeypatch.setattr(sim.run, "BLOCK", 37)
+    written = write_run(result, tmp_path / "rate", prefix=False, with_csv=True, every=10)
+    picked = np.r_[0 : len(result) : 10, len(result) - 1] if (len(result) - 1) % 10 else np.r_[0 : len(result) : 10]
+    assert len(result) == 206 and picked[-1] == 205 and picked[-2] == 200  # the last sample, off the grid, is kept
+    assert np.array_equal(np.concatenate([np.arange(len(result))[sampled(rows, len(result), 10)] for rows in result.blocks()]), picked)
+    write_tum(tmp_path / "whole.tum", result.time[picked], result.robots[0].truth_array()[picked])
+    assert written["ctbot"]["truth"].read_bytes() == (tmp_path / "whole.tum").read_bytes()
