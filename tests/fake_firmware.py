@@ -147,6 +147,8 @@ class FakeFirmware:
                 return False
             if what == "garbage":
                 sock.sendall(b"\x00garbage-not-a-packet" * 3)
+            if what == "foreign":  # motors from another bot's address, on this bot's link
+                sock.sendall(packet("M", "N", 50, 50, 0, (self.address + 7) & 0xFF, 0xFE))
             if what == "flood":
                 try:
                     sock.sendall(b"x" * (2 << 20))

@@ -193,6 +193,7 @@ def test_two_firmware_bots_beside_a_python_controller():
         ("stall", "no DONE from the firmware within 3 s"),
         ("vanish", "closed the connection"),
         ("garbage", "not packets"),
+        ("foreign", "a motor packet from address 135 (0x87), not this bot's 128: refused"),
     ],
 )
 def test_a_bad_peer_ends_the_run_naming_bot_and_step_and_the_recording_stays(tmp_path, what, message):

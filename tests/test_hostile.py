@@ -218,3 +218,124 @@ def test_a_run_onto_a_300_kib_disk_keeps_its_summary_and_says_so_in_one_line(sma
     assert len(err) == 1 and "No space left on device" in err[0]
     summary = summary_of(small_disk / "run")
     assert summary["reason"] == "duration" and summary["time"] == 20.0
+
+
+# --- files: hangs, robot files, worlds that check OK but are not ---------------------------------
+
+BILLION_LAUGHS = ('<?xml version="1.0"?>\n<!DOCTYPE world [\n<!ENTITY a "aaaaaaaaaa">\n'
+                  + "".join(f'<!ENTITY {chr(98 + i)} "' + f"&{chr(97 + i)};" * 10 + '">\n' for i in range(9))
+                  + "]>\n<world><parcours><line>&j;</line></parcours></world>\n")
+
+
+def one_error_line(capsys) -> str:
+    err = capsys.readouterr().err
+    assert err.startswith("ctsim: error: ") and err.count("\n") == 1, err
+    return err
+
+
+@pytest.mark.parametrize("command", ["check", "run"])
+def test_a_kilobyte_of_nested_xml_entities_is_refused_at_once(tmp_path, capsys, command):
+    path = tmp_path / "laughs.xml"
+    path.write_text(BILLION_LAUGHS)
+    assert len(BILLION_LAUGHS) < 1024
+    assert status([command, str(path)] + (["--out", str(tmp_path / "out")] if command == "run" else [])) == 2
+    assert f"{path}:3: XML refused: EntitiesForbidden" in one_error_line(capsys)
+
+
+def test_a_long_xml_text_is_read_in_linear_time(tmp_path, capsys):
+    """200,000 text pieces (one per entity-free character reference) once took quadratic time."""
+    path = tmp_path / "long.xml"
+    path.write_text("<world><parcours><line>" + "&#46;" * 200_000 + "</line></parcours></world>")
+    assert status(["check", str(path)]) == 2
+    assert "more than the 250,000 tiles" not in one_error_line(capsys)  # 200,000 tiles fit, but no start
+
+
+@pytest.mark.parametrize(("suffix", "command"), [("world.toml", "check"), ("robot.toml", "run"), ("sweep.toml", "sweep")])
+def test_deeply_nested_toml_is_one_line_not_a_recursion_error(tmp_path, capsys, suffix, command):
+    path = tmp_path / suffix
+    path.write_text("x = " + "[" * 5000 + "]" * 5000 + "\n")
+    argv = {"check": ["check", str(path)], "run": ["run", "empty", "--robot", str(path), "--out", str(tmp_path / "o")],
+            "sweep": ["sweep", str(path), "--out", str(tmp_path / "o")]}[command]
+    assert status(argv) == 2
+    assert f"{path}" in one_error_line(capsys)
+
+
+ROBOT = 'name = "b"\nwheel_diameter = 0.0567\ntrack_width = 0.0972\nbody_radius = 0.06\n'
+
+
+@pytest.mark.parametrize(
+    ("text", "line", "message"),
+    [
+        (ROBOT + "mass = -1\n", 5, "mass: must be a number (kg) greater than 0 and at most 1,000, not -1"),
+        (ROBOT + "mass = nan\n", 5, "mass: must be a number (kg) greater than 0"),
+        (ROBOT + "mass = 0\n", 5, "mass: must be a number (kg) greater than 0"),
+        (ROBOT + 'mass = "x"\n', 5, "mass: must be a number (kg)"),
+        (ROBOT + "[encoders]\nticks_per_rev = 0\n", 6, "[encoders]: ticks_per_rev: must be a whole number (ticks) at least 1"),
+        (ROBOT + "[encoders]\nticks_per_rev = -60\n", 6, "ticks_per_rev: must be a whole number (ticks) at least 1"),
+        (ROBOT + '[[light]]\nname = "l"\nposition = [0.03, 0]\nreach = 0\n', 8, "[[light]] #1: reach: must be a number (m) greater than 0"),
+        (ROBOT + '[[ir]]\nname = "i"\nposition = [0.05, 0]\nside = "up"\n', 8, "[[ir]] #1: side: must be one of 'left', 'right', not 'up'"),
+        (ROBOT + '[[ir]]\nname = "i"\nposition = [0.05]\n', 7, "[[ir]] #1: position: must be a list of 2 numbers (m)"),
+        (ROBOT + '[[ir]]\nname = "i"\nposition = [50, 0]\n', 7, "at least -2 and at most 2, not [50, 0]"),
+        (ROBOT.replace("0.0567", "true"), 2, "wheel_diameter: must be a number (m) greater than 0 and at most 2, not true"),
+        (ROBOT + "[motor]\nmax_wheel_speed = -15.8\n", 6, "[motor]: max_wheel_speed: must be a number (rad/s) greater than 0"),
+        (ROBOT + "[motor]\ntime_constant = -0.1\n", 6, "[motor]: time_constant: must be a number (s) at least 0"),
+        (ROBOT.replace("body_radius = 0.06", "body_radius = 20"), 4, "body_radius: must be a number (m) greater than 0 and at most 2, not 20"),
+        (ROBOT + "skid = [1, 2, 3]\n", 5, "skid: must be a list of 2 numbers (m)"),
+    ],
+)
+def test_robot_file_mistakes_are_one_line_with_file_line_and_key(tmp_path, capsys, text, line, message):
+    path = tmp_path / "bot.toml"
+    path.write_text(text)
+    assert status(["run", "empty", "--robot", str(path), "--out", str(tmp_path / "out")]) == 2
+    err = one_error_line(capsys)
+    assert f"{path}:{line}: " in err and message in err, err
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_robot_file_that_is_not_utf8_names_file_and_line(tmp_path, capsys):
+    path = tmp_path / "bot.toml"
+    path.write_bytes(ROBOT.encode() + b'# caf\xe9\n')
+    assert status(["run", "empty", "--robot", str(path)]) == 2
+    assert f"{path}:5: not UTF-8 text: byte 0xe9" in one_error_line(capsys)
+
+
+@pytest.mark.parametrize("setting", ["encoders.ticks_per_rev=0", "mass=-1", "ir.side=up", "light.reach=0"])
+def test_robot_set_values_meet_the_same_schema(tmp_path, capsys, setting):
+    assert status(["run", "empty", "--robot-set", setting, "--out", str(tmp_path / "out")]) == 2
+    assert f"ctsim: error: {setting.split('=')[0]}: must be" in one_error_line(capsys)
+
+
+CROWD = "bounds = [0, 0, 1, 1]\n" + "".join(f"[[start]]\nposition = [{0.45 + 0.01 * (k % 10):.2f}, {0.45 + 0.01 * (k // 10):.2f}]\nslot = {k + 1}\n" for k in range(50))
+
+
+def test_fifty_overlapping_starts_are_named_by_check_and_refused_by_run(tmp_path, capsys):
+    path = tmp_path / "crowd.toml"
+    path.write_text(CROWD)
+    assert status(["check", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert out.count("warning: the starts of slots") == 10  # the first ten pairs (of 1,225)
+    assert "are 0.010 m apart, closer than two c't-Bots need (0.12 m)" in out
+    assert status(["run", str(path), "--robots", "50", "--controller", "idle", "--out", str(tmp_path / "out")]) == 2
+    last = capsys.readouterr().err.splitlines()[-1]  # after the same ten warnings
+    assert last == "ctsim: error: ctbot and ctbot1 start 0.010 m apart, closer than their bodies allow (0.120 m): give them starts farther apart"
+
+
+@pytest.mark.parametrize("text", ["bounds = [0, 0, 1, 1]\n", "bounds = [0, 0, 1, 1]\n[[goal]]\nbox = [0.1, 0.1, 0.2, 0.2]\n"])
+def test_a_world_without_room_for_a_robot_fails_check(tmp_path, capsys, text):
+    path = tmp_path / "w.toml"
+    path.write_text(text)
+    assert status(["check", str(path)]) == 2
+    assert "no start pose" in one_error_line(capsys)
+
+
+def test_a_parcours_without_a_start_fails_check(tmp_path, capsys):
+    path = tmp_path / "w.xml"
+    path.write_text("<world><parcours><line>#####</line><line>#.Z.#</line><line>#####</line></parcours></world>")
+    assert status(["check", str(path)]) == 2
+    assert "room for 0 robots" in one_error_line(capsys)
+
+
+def test_bridge_with_more_firmwares_than_starts_is_refused_before_listening(tmp_path, capsys):
+    assert status(["bridge", "empty", "--robots", "50", "--port", "0", "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert "50 firmware bot(s) and 0 Python robot(s), but the world has room for 3" in err and "listening" not in err

@@ -275,6 +275,8 @@ class FirmwareController:
         state = self.state
         key = packet.key
         if packet.command == p.ACT_MOT:
+            if state.address != p.BROADCAST and packet.sender not in (state.address, p.BROADCAST):
+                raise LinkError(f"a motor packet from address {packet.sender} (0x{packet.sender:02x}), not this bot's {state.address}: refused")
             state.motors = (packet.data_l, packet.data_r)
         elif packet.command == p.ACT_LED:
             state.leds = packet.data_l & 0xFF

@@ -9,6 +9,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from bots.schema import FileError
+
 Point = tuple[float, float]
 Colour = tuple[float, float, float]
 
@@ -17,15 +19,11 @@ BLACK: Colour = (0.0, 0.0, 0.0)
 WHITE: Colour = (1.0, 1.0, 1.0)
 
 
-class WorldFileError(Exception):
+class WorldFileError(FileError):
     """A user mistake in a world file; `str()` reads `file:line: problem` for the command line."""
 
     def __init__(self, path: str | Path | None, line: int | None, problem: str):
-        self.path = str(path) if path is not None else "<world>"
-        self.line = line
-        self.problem = problem
-        where = f"{self.path}:{line}" if line is not None else self.path
-        super().__init__(f"{where}: {problem}")
+        super().__init__(path if path is not None else "<world>", line, problem)
 
 
 @dataclass(frozen=True)

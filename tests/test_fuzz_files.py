@@ -1,0 +1,194 @@
+"""The readers of every file kind a user gives (world TOML, c't-Sim parcours XML, robot TOML,
+sweep spec) against structured garbage from hypothesis: the right keys with values of every kind
+and size, unknown keys, nesting, broken XML. Whatever comes in, a reader returns its object or
+raises its one user error (`bots.schema.FileError`, `SpecError`); never another exception, never
+a hang (pytest-timeout would stop one and print where). A robot that loads is also put into a
+world: Chipmunk aborted the process on a negative mass once.
+
+CI runs a short budget; `CTSIM_FUZZ_EXAMPLES=4000 python -m pytest tests/test_fuzz_files.py
+-p no:timeout` runs about ten minutes on one core (the examples are spread over the four kinds).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from pathlib import Path
+
+import pytest
+from hypothesis import HealthCheck, Phase, given, settings
+from hypothesis import strategies as st
+
+from bots.schema import FileError
+from bots.spec import load_robot
+from sim.experiments.plan import SETTINGS, SpecError, load_sweep
+from sim.world import World
+from sim.world.files import load_world, world_warnings
+from sim.world.files.grid import KNOWN_TILES
+from sim.world.files.toml_format import FIELDS
+
+EXAMPLES = int(os.environ.get("CTSIM_FUZZ_EXAMPLES", "25"))
+# (no shrink phase: shrinking structured garbage took minutes; a failure prints its seed to rerun)
+FUZZ = settings(max_examples=EXAMPLES, deadline=None, phases=[Phase.explicit, Phase.reuse, Phase.generate], suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+
+numbers = st.one_of(
+    st.integers(-(2**63), 2**63 - 1), st.floats(), st.sampled_from([0, -1, 1e-300, 1e300, 0.5, 60, 2**40]),
+    st.floats(-2.0, 2.0),
+)
+scalars = st.one_of(numbers, st.booleans(), st.text(max_size=12), st.sampled_from(["#ff00ff", "left", "right", "grid", "random", "maze", "empty"]))
+pairs = st.lists(numbers, min_size=0, max_size=5)
+values = st.recursive(
+    st.one_of(scalars, pairs),
+    lambda inner: st.one_of(st.lists(inner, max_size=4), st.dictionaries(st.text("abcxyz_", min_size=1, max_size=6), inner, max_size=3)),
+    max_leaves=12,
+)
+
+
+def toml_key(key: str) -> str:
+    return json.dumps(key, ensure_ascii=False)
+
+
+def toml_value(value) -> str:
+    """Any of `values` as an inline TOML value (tables inline, so arrays of tables are lists of them)."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        return "nan" if math.isnan(value) else ("inf" if value > 0 else "-inf") if math.isinf(value) else repr(value)
+    if isinstance(value, str):
+        return json.dumps(value, ensure_ascii=True)
+    if isinstance(value, list):
+        return "[" + ", ".join(toml_value(v) for v in value) + "]"
+    return "{" + ", ".join(f"{toml_key(k)} = {toml_value(v)}" for k, v in value.items()) + "}"
+
+
+def toml_text(data: dict) -> str:
+    return "".join(f"{toml_key(k)} = {toml_value(v)}\n" for k, v in data.items())
+
+
+def tables(fields: dict, known_weight: int = 4) -> st.SearchStrategy[dict]:
+    """Tables of known keys (most of them) and a few unknown ones, each with any value."""
+    key = st.one_of(*([st.sampled_from(sorted(fields))] * known_weight), st.text("abcdefghij_", min_size=1, max_size=8))
+    return st.dictionaries(key, values, max_size=6)
+
+
+def well_typed(fields: dict) -> st.SearchStrategy[dict]:
+    """Tables whose values mostly have the right kind, so that the checks behind the types run too."""
+    kinds = {"number": numbers, "integer": st.integers(-5, 10**7), "boolean": st.booleans(), "text": scalars,
+             "pair": st.lists(numbers, min_size=2, max_size=2), "box": st.lists(numbers, min_size=4, max_size=4),
+             "points": st.lists(st.lists(st.floats(-3, 3), min_size=2, max_size=2), max_size=6), "colour": st.just("#80a0c0"),
+             "table": st.dictionaries(st.sampled_from(list(KNOWN_TILES)), st.just("#000000"), max_size=2),
+             "tables": st.just([]), "texts": st.lists(st.sampled_from(["tum", "recording", "x"]), max_size=2)}
+    return st.fixed_dictionaries({}, optional={name: kinds[f.kind] for name, f in fields.items()})
+
+
+WORLD_TABLES = {name: f for name, f in FIELDS.items() if name not in (None, "grid.colours")}
+START = {"start": [{"position": [0.5, 0.5]}]}
+worlds = st.builds(
+    lambda top, arrays, grid: {**top, **START, **arrays, **({"grid": grid} if grid else {})},
+    tables(FIELDS[None]).map(lambda d: {k: v for k, v in d.items() if k != "grid"}),
+    st.dictionaries(st.sampled_from([k for k in WORLD_TABLES if k != "grid"]),
+                    st.lists(st.one_of(well_typed(FIELDS["wall"]), *(well_typed(f) for f in WORLD_TABLES.values()), tables(FIELDS["wall"])), max_size=3),
+                    max_size=4),
+    st.one_of(st.none(), well_typed(FIELDS["grid"]), st.fixed_dictionaries({"rows": st.text("#. 0123Z*LX|-=~", max_size=60)})),
+)
+
+
+def robot_fields() -> dict:
+    from bots.schema import schema_of
+    from bots.spec import IRSensorSpec, LightSensorSpec, MotorSpec, RobotSpec
+
+    return {"robot": schema_of(RobotSpec), "motor": schema_of(MotorSpec), "ir": schema_of(IRSensorSpec), "light": schema_of(LightSensorSpec)}
+
+
+ROBOT = robot_fields()
+BASE_ROBOT = {"name": "fuzz", "wheel_diameter": 0.0567, "track_width": 0.0972, "body_radius": 0.06}
+robots = st.builds(
+    lambda top, motor, ir, light: {**BASE_ROBOT, **top, **({"motor": motor} if motor is not None else {}), **({"ir": ir} if ir else {}),
+                                   **({"light": light} if light else {})},
+    st.one_of(well_typed(ROBOT["robot"]), tables(ROBOT["robot"])).map(lambda d: {k: v for k, v in d.items() if k not in ("motor", "encoders", "mouse", "ir", "line", "border", "light", "chassis")}),
+    st.one_of(st.none(), well_typed(ROBOT["motor"]), tables(ROBOT["motor"])),
+    st.lists(st.builds(lambda d: {"name": "i", "position": [0.05, 0.0], **d}, well_typed(ROBOT["ir"])), max_size=2),
+    st.lists(st.builds(lambda d: {"name": "l", "position": [0.05, 0.0], **d}, well_typed(ROBOT["light"])), max_size=1),
+)
+sweeps = st.fixed_dictionaries({}, optional={
+    "sweep": st.one_of(tables({"mode": 0, "samples": 0, "seed": 0, "artefacts": 0}), values),
+    "base": st.one_of(well_typed(SETTINGS), tables(SETTINGS)),
+    "axes": st.dictionaries(st.sampled_from([*SETTINGS, "params.speed", "robot.mass", "bogus"]), st.one_of(st.lists(scalars, max_size=4), values), max_size=3),
+})
+
+
+@pytest.fixture(scope="module")
+def empty_world():
+    return load_world("empty")
+
+
+@FUZZ
+@given(data=worlds)
+def test_world_files_load_or_say_what_is_wrong(tmp_path_factory, data):
+    path = tmp_path_factory.mktemp("w") / "fuzz.toml"
+    path.write_text(toml_text(data), encoding="utf-8")
+    try:
+        world = load_world(path)
+    except FileError as err:
+        assert str(err).startswith(str(path)) and "\n" not in str(err)
+        return
+    world_warnings(world)
+
+
+xml_text = st.builds(
+    lambda rows, extra, optics: f'<?xml version="1.0"?>\n<world><description>{extra}</description><parcours>'
+    + "".join(f"<line>{row}</line>" for row in rows) + f"</parcours>{optics}</world>",
+    st.lists(st.text("#. 0123Z*LX|-=~&<>;", max_size=30), max_size=12),
+    st.text(max_size=20),
+    st.one_of(st.just(""), st.builds(lambda t, c: f'<optics><appearance type="{t}"><color type="diffuse">{c}</color><clone>{t}</clone></appearance></optics>',
+                                     st.text(max_size=2), st.text("#0x1234567890abcdef", max_size=9))),
+)
+
+
+@FUZZ
+@given(text=st.one_of(xml_text, xml_text.map(lambda t: t[: len(t) // 2]), st.text(max_size=200)))
+def test_parcours_files_load_or_say_what_is_wrong(tmp_path_factory, text):
+    path = tmp_path_factory.mktemp("x") / "fuzz.xml"
+    path.write_text(text, encoding="utf-8")
+    try:
+        world = load_world(path)
+    except FileError as err:
+        assert str(err).startswith(str(path)) and "\n" not in str(err)
+        return
+    world_warnings(world)
+
+
+@FUZZ
+@given(data=robots)
+def test_robot_files_load_or_say_what_is_wrong_and_a_loaded_robot_enters_a_world(tmp_path_factory, empty_world, data):
+    path = tmp_path_factory.mktemp("r") / "fuzz.toml"
+    path.write_text(toml_text(data), encoding="utf-8")
+    try:
+        robot = load_robot(path)
+    except FileError as err:
+        assert str(err).startswith(str(path)) and "\n" not in str(err)
+        return
+    World(empty_world).add_robot(robot)
+
+
+@FUZZ
+@given(data=sweeps)
+def test_sweep_specs_load_or_say_what_is_wrong(tmp_path_factory, data):
+    path = tmp_path_factory.mktemp("s") / "fuzz.toml"
+    path.write_text(toml_text(data), encoding="utf-8")
+    try:
+        load_sweep(path)
+    except SpecError as err:
+        assert str(err).startswith(str(path)) and "\n" not in str(err)
+
+
+def test_the_fuzz_text_is_toml_for_every_kind_of_value(tmp_path):
+    """The serializer the fuzz tests rely on writes what tomllib reads back."""
+    import tomllib
+
+    data = {"a": [1, 2.5, float("inf")], "b": {"c": "x\"y", "d": [{"e": True}]}, "f g": -3}
+    assert tomllib.loads(toml_text(data))["b"] == data["b"]
+    assert Path(tmp_path).is_dir()
