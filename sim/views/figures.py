@@ -239,20 +239,29 @@ def describe(summary: dict) -> str:
     )
 
 
+def read_summary(run_dir: str | Path) -> dict:
+    """summary.json of a run folder; a damaged one is refused naming its line."""
+    summary_path = Path(run_dir) / "summary.json"
+    try:
+        return json.loads(summary_path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as err:
+        raise ValueError(f"{summary_path}:{err.lineno}: {err.msg}") from None
+
+
+def ate_of(summary: dict) -> dict[str, dict[str, float]]:
+    """The ATE RMS (m) of each estimate by robot, as the figures' legends show it."""
+    return {robot["name"]: {label: e["ate_rmse"] for label, e in robot["estimates"].items() if e.get("ate_rmse") is not None} for robot in summary["robots"]}
+
+
 def report_run_dir(run_dir: str | Path) -> list[Path]:
     """Draw the figures of a run folder written by `ctsim run` into that folder."""
     from sim.world.files import load_world
 
     run_dir = Path(run_dir)
-    summary_path = run_dir / "summary.json"
-    try:
-        summary = json.loads(summary_path.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as err:
-        raise ValueError(f"{summary_path}:{err.lineno}: {err.msg}") from None
+    summary = read_summary(run_dir)
     world = load_world(summary["world"]["source"])
     robots = {
         robot["name"]: {label: read_tum(run_dir / name) for label, name in robot["tum"].items()}
         for robot in summary["robots"]
     }
-    ate = {robot["name"]: {label: e["ate_rmse"] for label, e in robot["estimates"].items() if e.get("ate_rmse") is not None} for robot in summary["robots"]}
-    return write_figures(world, robots, run_dir, subtitle=describe(summary), ate=ate)
+    return write_figures(world, robots, run_dir, subtitle=describe(summary), ate=ate_of(summary))

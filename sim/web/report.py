@@ -7,33 +7,22 @@ address `ctsim view RUN_DIR` serves it at (a page cannot start a command: it say
 
 from __future__ import annotations
 
-import json
 from html import escape
 from pathlib import Path
 
+from sim.views.figures import read_summary
 from sim.views.html import facts_table, image, page, run_facts, summary_table
-from sim.web.serve import DEFAULT_HOST, DEFAULT_PORT
+from sim.web.serve import DEFAULT_HOST, DEFAULT_PORT, addresses
 
 REPORT = "report.html"
 RUN_FIGURES = ("trajectories.png", "errors.png")
 """The figures of `ctsim run`, first and in this order; any other PNG of the folder follows."""
 
 
-def viewer_address(host: str = DEFAULT_HOST, port: int = DEFAULT_PORT) -> str:
-    """Where `ctsim view` serves a recording with its default options."""
-    from urllib.parse import quote
-
-    return f"http://{host}:{port}/?url={quote(f'rerun+http://{host}:{port + 1}/proxy', safe='')}"
-
-
 def write_run_report(run_dir: str | Path) -> Path:
     """report.html in a run folder written by `ctsim run` (its summary.json, PNGs and run.rrd)."""
     run_dir = Path(run_dir)
-    summary_path = run_dir / "summary.json"
-    try:
-        summary = json.loads(summary_path.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as err:
-        raise ValueError(f"{summary_path}:{err.lineno}: {err.msg}") from None
+    summary = read_summary(run_dir)
     pictures = [run_dir / name for name in RUN_FIGURES if (run_dir / name).is_file()]
     pictures += sorted(p for p in run_dir.glob("*.png") if p not in pictures)
     body = [
@@ -58,7 +47,7 @@ def _recording_links(run_dir: Path) -> str:
     command = f"ctsim view {run_dir}"
     return (
         f"<p>In a browser: run <code>{escape(command)}</code>, then "
-        f"<a href='{escape(viewer_address(), quote=True)}'>open the recording in rerun's web viewer</a> "
+        f"<a href='{escape(addresses(DEFAULT_HOST, DEFAULT_PORT, DEFAULT_PORT + 1)[0], quote=True)}'>open the recording in rerun's web viewer</a> "
         f"(the address <code>ctsim view</code> prints). With rerun installed: <code>rerun {escape(str(run_dir / 'run.rrd'))}</code> "
         f"(<a href='run.rrd'>run.rrd</a>).</p>"
     )

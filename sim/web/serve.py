@@ -27,8 +27,9 @@ from urllib.parse import quote
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 9090
 """The page's port (rerun's default); the gRPC proxy listens on the next one."""
-START_WAIT_S = 60.0
-"""How long rerun's server may take to listen (it unpacks the viewer's assets first)."""
+START_WAIT_S = 300.0
+"""How long rerun's server may take to listen (it unpacks the viewer's assets first: 15 s were
+seen on a loaded two-core machine); it ends sooner if rerun exits."""
 MAGIC = b"RRF2"
 """The first bytes of an .rrd file of every rerun since 0.23; the next four are its version."""
 
@@ -101,16 +102,24 @@ def _check_free(host: str, port: int) -> None:
             raise ViewError(f"cannot listen on {host}:{port}: {err.strerror or err}") from None
 
 
-def _free_port(host: str) -> int:
+def _free_ports(host: str) -> tuple[int, int]:
+    """Two ports free on `host` now (both held while the second is found, so they differ)."""
     family = socket.AF_INET6 if ":" in host else socket.AF_INET
-    with socket.socket(family, socket.SOCK_STREAM) as probe:
-        probe.bind((host, 0))
-        return probe.getsockname()[1]
+    with socket.socket(family, socket.SOCK_STREAM) as first, socket.socket(family, socket.SOCK_STREAM) as second:
+        first.bind((host, 0))
+        second.bind((host, 0))
+        return first.getsockname()[1], second.getsockname()[1]
 
 
 def _in_url(host: str) -> str:
     """A host as a URL spells it (an IPv6 address in brackets)."""
     return f"[{host}]" if ":" in host else host
+
+
+def addresses(host: str, port: int, grpc_port: int) -> tuple[str, str]:
+    """The page's address (the viewer, told where the recording is) and the recording's (gRPC)."""
+    recording = f"rerun+http://{_in_url(host)}:{grpc_port}/proxy"
+    return f"http://{_in_url(host)}:{port}/?url={quote(recording, safe='')}", recording
 
 
 def _rerun_command() -> Path:
@@ -137,8 +146,7 @@ class WebViewer:
             raise ViewError(f"--port must be between 0 and 65534 (the page's port; the next one is the recording's), got {port}")
         self.recording = recording
         self.host = host
-        self.port = port or _free_port(host)
-        self.grpc_port = (port + 1) if port else _free_port(host)
+        self.port, self.grpc_port = (port, port + 1) if port else _free_ports(host)
         self.process: subprocess.Popen | None = None
         self._log = tempfile.TemporaryFile()
 
@@ -150,12 +158,12 @@ class WebViewer:
     @property
     def grpc_url(self) -> str:
         """Where a recording stream connects (`Recorder(connect=...)`)."""
-        return f"rerun+http://{_in_url(self._reach)}:{self.grpc_port}/proxy"
+        return addresses(self._reach, self.port, self.grpc_port)[1]
 
     @property
     def url(self) -> str:
         """The page to open: the viewer, told where the recording is."""
-        return f"http://{_in_url(self._reach)}:{self.port}/?url={quote(self.grpc_url, safe='')}"
+        return addresses(self._reach, self.port, self.grpc_port)[0]
 
     def __enter__(self) -> WebViewer:
         self.start()
