@@ -85,6 +85,15 @@ DEFAULT_TILE_COLOURS: dict[str, Colour] = {
 }
 
 
+TILE_NAMES: dict[Colour, str] = {
+    DEFAULT_TILE_COLOURS["1"]: "start tile, slot 1",
+    DEFAULT_TILE_COLOURS["2"]: "start tile, slot 2",
+    DEFAULT_TILE_COLOURS["0"]: "white tile (start slot 0, or '.')",
+    DEFAULT_TILE_COLOURS["Z"]: "goal tile",
+}
+"""What c't-Sim's floor tiles of these colours mean, for a map's key."""
+
+
 @dataclass(frozen=True)
 class GridPieces:
     """What a grid contributes to a world."""
