@@ -11,6 +11,7 @@ they are skipped, saying so, and the rest is still made.
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import shutil
 import subprocess
@@ -64,15 +65,40 @@ def _window(path: Path) -> None:
         play(load_world("maze"), CTBOT, Path(folder) / "play.rrd", frames=300, fps=1000, speed=10, events=events, snapshot=path)
 
 
+MANIFEST = DOCS / "screenshots.json"
+"""What each viewer picture shows: its run's arguments, the recording's entities and the viewer's
+views (name, origin). `tests/test_docs.py` records the same runs anew and compares: a change to
+what the code draws fails there until the pictures are made again."""
+
+
+def drawn(recording: Path) -> dict[str, list]:
+    """The entity paths a recording logs, and the (name, origin) of each view of its blueprint."""
+    import rerun.chunk
+
+    reader = rerun.chunk.RrdReader(str(recording))
+    entities = sorted({chunk.entity_path for chunk in reader.stream().to_chunks()})
+    (store,) = reader.blueprints()
+    names, origins = {}, {}
+    for chunk in reader.stream(store=store).to_chunks():
+        batch, where = chunk.to_record_batch(), chunk.entity_path
+        if "ViewBlueprint:space_origin" in batch.schema.names:
+            origins[where] = batch.column("ViewBlueprint:space_origin").to_pylist()[-1][0]
+        if "ViewBlueprint:display_name" in batch.schema.names:
+            names[where] = batch.column("ViewBlueprint:display_name").to_pylist()[-1][0]
+    return {"entities": entities, "views": sorted([names.get(view, ""), origin] for view, origin in origins.items())}
+
+
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--shot", default=str(ROOT.parent / "shared" / "tools" / "rerun-shot"), help="the rerun-shot tool")
     args = parser.parse_args()
     python = sys.executable
+    manifest = {}
     with tempfile.TemporaryDirectory() as folder:
         for name, (arguments, second) in RUNS.items():
             out = Path(folder) / name
             subprocess.run([python, "-m", "sim.cli", "run", *arguments, "--out", str(out)], cwd=ROOT, check=True, stdout=subprocess.DEVNULL)
+            manifest[name] = {"arguments": arguments, **drawn(out / "run.rrd")}
             if name == "viewer_maze":
                 for figure in ("trajectories.png", "errors.png"):
                     shutil.copy(out / figure, DOCS / f"figure_{figure}")
@@ -84,6 +110,7 @@ def main() -> int:
                 print(f"screenshots: no rerun-shot at {args.shot}: viewer picture {name}.png not made", file=sys.stderr)
         _contest(Path(folder), args.shot, python)
     _window(DOCS / "window.png")
+    MANIFEST.write_text(json.dumps(manifest, indent=1) + "\n")
     print("\n".join(str(p.relative_to(ROOT)) for p in sorted(DOCS.glob("*.png"))))
     return 0
 
