@@ -6,6 +6,7 @@ NUMBA_CACHE_DIR: start-up, compiling every kernel the run needs, one simulated s
 files. `first_run_one_process_s` is the same with every kernel compiled in the one process (no
 helper process, `sim.world.compiling.compile_all`), `first_run_warm_s` the command with the cache filled
 by the first: what every later run pays. The machine is shared: read them as ratios.
+`suite_s` is the README's test command as a whole (bar: 5 minutes on a quiet machine).
 """
 
 from __future__ import annotations
@@ -31,6 +32,14 @@ def _timed(cache: str, out: str, prelude: str = "") -> float:
     return time.perf_counter() - started
 
 
+def _suite() -> float:
+    """Wall seconds of the README's test command (`python -m pytest`) in a clean subprocess, with
+    numba's cache as the working tree has it (a fresh clone compiles on top of this)."""
+    started = time.perf_counter()
+    subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider"], cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return time.perf_counter() - started
+
+
 def figures(scale: float):  # noqa: ARG001 (a first run is as long as it is)
     """(name, unit, thunk) of the first run, one process's compile and the warm run."""
     results: dict[str, float] = {}
@@ -47,3 +56,4 @@ def figures(scale: float):  # noqa: ARG001 (a first run is as long as it is)
     yield "first_run_one_process_s", "s (the same, every kernel compiled in one process)", lambda: measure()["one"]
     yield "first_run_warm_s", "s (the same command again, kernels from the cache)", lambda: measure()["warm"]
     yield "first_run_over_warm", "(first / warm, same bench run)", lambda: measure()["first"] / measure()["warm"]
+    yield "suite_s", "s (python -m pytest, the whole suite: run it alone, -k suite_s)", _suite

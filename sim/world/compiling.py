@@ -17,6 +17,8 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+HELPER_TIMEOUT_S = 1800.0
+"""Longest wait for the second process (s), far beyond its minutes on a loaded machine."""
 PROGRESS: Callable[[str], None] | None = None
 """Called with a line of text when kernels are compiled (the command line prints it), None: silent."""
 
@@ -45,8 +47,12 @@ def compile_all(jobs: list[tuple[Any, tuple]], elsewhere: int = 1) -> list[Calla
     own = missing[: len(missing) - elsewhere] if helper is not None else missing
     for kernel, types in own:
         kernel.compile(types)
-    if helper is not None:
-        helper.wait()  # whatever went wrong there is compiled here below
+    if helper is not None:  # whatever went wrong there is compiled here below
+        try:
+            helper.wait(timeout=HELPER_TIMEOUT_S)
+        except subprocess.TimeoutExpired:
+            helper.kill()
+            helper.wait()
     compiled = [kernel.compile(types) for kernel, types in typed]
     if missing and PROGRESS is not None:
         PROGRESS(f"compiled in {time.perf_counter() - started:.0f} s; later runs load them from numba's cache")
