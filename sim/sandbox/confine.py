@@ -4,10 +4,10 @@ processes or threads.
 The limits are the kernel's (`resource.setrlimit`): CPU seconds, address space, open files,
 processes, no core files and no file growth. A process cannot raise a hard limit again. Process
 and thread creation is refused by a seccomp filter (Linux x86-64 and arm64): `fork`, `vfork`,
-`clone` and `clone3` fail with EPERM, and so do `ptrace` and `process_vm_readv/writev`. This holds where RLIMIT_NPROC does not (it counts per user
-and does not bind root), and it keeps a submission to one CPU: a hundred spinning threads would
-starve the classmates checked beside it. (numpy runs with one BLAS thread.) Standard library
-only: this file runs inside the sandbox.
+`clone` and `clone3` fail with EPERM, and so do `ptrace` and `process_vm_readv/writev`. This
+holds where RLIMIT_NPROC does not (it counts per user and does not bind root), and it keeps a
+submission to one CPU: a hundred spinning threads would starve the classmates checked beside it
+(numpy runs with one BLAS thread). Standard library only: this file runs inside the sandbox.
 """
 
 from __future__ import annotations

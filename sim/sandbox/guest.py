@@ -4,7 +4,8 @@ Started as `python -I -S -B -c "import sys; sys.path[:0] = PATH; import guest; g
 CONFIG` (imported, not run as a script, so that its compiled form is used; CONFIG: JSON with
 `path`, the folders to import from; `code`, the file; `limits`; `requests` and `replies`, the
 file descriptors of its two pipes, both in the `wire` format). It first sets its limits and the
-filter against new processes and threads (`confine`), then loads the file as the module `ctsim_student` and says {"ok": null} or {"error": ...}; then, per request:
+filter against new processes and threads (`confine`), then loads the file as the module
+`ctsim_student` and says {"ok": null} or {"error": ...}; then, per request:
 
     {"op": "call", "name": f, "args": [...]}                          -> f(*args)
     {"op": "new", "handle": h, "name": C, "kwargs": {...}}             -> objects[h] = C(**kwargs)
@@ -19,7 +20,8 @@ filter against new processes and threads (`confine`), then loads the file as the
                                                                           (a whole run in one request)
 
 A reply is {"ok": value} with the value as plain data (lists, dicts with string keys, numbers,
-strings, numeric numpy arrays; an object of another kind becomes {"__type__": its type name}; a command [type name, numbers...] or ["bad", type name]), or
+strings, numeric numpy arrays; an object of another kind becomes {"__type__": its type name}; a
+command [type name, numbers...] or ["bad", type name]), or
 {"error": {"type", "message", "line", "missing", "index", "value_error"}} (`index`: the call of a
 feed that raised, else null; `value_error`: the exception is a ValueError, input refused). It
 never sees what the host compares with.
