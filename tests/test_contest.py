@@ -91,6 +91,7 @@ def test_a_contest_from_the_command_line_writes_bracket_ranking_and_database(lan
         (["ONE_START", "solve_maze"], "needs 2 start slot(s), this one has 1"),
         (["contest", "firmware:/no/such/ct-Bot"], "no such firmware file"),
         (["contest", "solve_maze,speed_m_s"], "expected KEY=VALUE"),
+        (["contest", f"firmware:{ROOT / 'README.md'}"], "not executable"),
     ],
 )
 def test_mistakes_are_one_line_and_exit_2(arguments, message, tmp_path, capsys):

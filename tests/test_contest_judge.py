@@ -149,15 +149,19 @@ def test_goal_slots_are_checked_in_world_files(lanes, tmp_path):
         load_world(lanes('[[goal]]\nbox = [0.9, 0.1, 1.0, 0.2]\nslot = -1\n'))
 
 
-def test_the_shipped_contest_world_favours_neither_side():
-    """worlds/contest.toml is turned, not mirrored: the same right-hand wall follower from either
-    start reaches its own goal in the same step; its way left is the same from either start."""
-    world = load_world("contest")
+@pytest.mark.parametrize("name", ["contest", "contest_sprint"])
+def test_the_shipped_contest_worlds_favour_neither_side(name):
+    """The shipped contest worlds are turned, not mirrored: the same right-hand wall follower from
+    either start reaches its own goal in the same step; its way left is the same from either start."""
+    world = load_world(name)
     (a, b) = world.start_order()
     clearance = 0.5 * CTBOT.body_radius
     ways = [PathField(world, world.goals_of(s.slot), clearance).distance(s.x, s.y) for s in (a, b)]
-    assert ways[0] == pytest.approx(ways[1], abs=1e-9) and 3.0 < ways[0] < 8.0
+    assert ways[0] == pytest.approx(ways[1], abs=1e-9) and 2.0 < ways[0] < 8.0
     assert np.allclose([a.x + b.x, a.y + b.y], [world.bounds[2], world.bounds[3]])  # turned about the centre
+    outcome = play(GameJob(2, 1, tuple(parse(["a=solve_maze", "b=solve_maze"])), name, 120.0, 0, DT, None))
+    first, second = outcome["sides"]
+    assert first["arrival"] is not None and first["arrival"] == second["arrival"]  # the same step, to the bit
 
 
 PARCOURS = """<?xml version="1.0" encoding="UTF-8"?>

@@ -15,6 +15,7 @@ Names are unique and safe in file names and recordings (letters, digits, `_ . -`
 
 from __future__ import annotations
 
+import os
 import re
 import subprocess
 import sys
@@ -129,6 +130,8 @@ def _firmware(name: str, path: str, params: tuple[tuple[str, str], ...], text: s
     binary = Path(path)
     if not binary.is_file():
         raise EntryError(f"entry {text!r}: {binary}: no such firmware file")
+    if binary.suffix != ".py" and not os.access(binary, os.X_OK):
+        raise EntryError(f"entry {text!r}: {binary}: not executable (chmod +x, or the firmware's PC build)")
     for key, value in params:
         if key not in ("rc5", "call"):
             raise EntryError(f"entry {text!r}: a firmware takes rc5=T:KEY and call=T:NAME(ARGS), not {key!r}")
