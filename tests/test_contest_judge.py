@@ -40,6 +40,18 @@ class Raiser:
         if t >= 0.5:
             raise RuntimeError("my bug")
         return Twist(0.2, 0.0)
+
+class Hanger:
+    def step(self, t, readings):
+        while t >= 0.5:
+            pass
+        return Twist(0.2, 0.0)
+
+class Quitter:
+    def step(self, t, readings):
+        if t >= 0.5:
+            raise SystemExit(0)
+        return Twist(0.2, 0.0)
 '''
 
 
@@ -100,6 +112,14 @@ def test_a_controller_that_raises_loses_and_its_message_is_kept(lanes, tmp_path)
     verdict = outcome["verdict"]
     assert verdict == {"winner": 1, "reason": "failure", "text": "buggy's controller failed at 0.50 s", "time": 0.5}
     assert "my bug" in outcome["error"] and "bots.py" in outcome["error"]
+
+
+@pytest.mark.parametrize(("cls", "said"), [("Hanger", "took longer than the step time limit of 1 s"), ("Quitter", "raised SystemExit")])
+def test_a_controller_that_hangs_or_exits_loses_and_the_game_goes_on(lanes, tmp_path, monkeypatch, cls, said):
+    """The run's watchdog (here 1 s a step instead of 30) ends an endless loop; sys.exit is a failure too."""
+    monkeypatch.setattr("sim.contest.game.STEP_TIMEOUT", 1.0)
+    outcome = race(tmp_path, lanes(), f"stuck=bots.py:{cls}", "steady=bots.py:Straight,speed=0.05")
+    assert outcome["verdict"]["winner"] == 1 and outcome["verdict"]["reason"] == "failure" and said in outcome["error"]
 
 
 def test_what_is_even_goes_to_the_better_preliminary():
