@@ -129,7 +129,7 @@ def load_file(path: str | Path, name: str | None = None) -> Callable[..., Contro
     sys.modules[spec.name] = module
     try:
         spec.loader.exec_module(module)
-    except Exception as err:  # the student's code: report where it failed, not our traceback
+    except (Exception, SystemExit) as err:  # the student's code (sys.exit too): report where it failed, not our traceback
         line = _user_line(err, path)
         raise ControllerError(f"{path}:{line}: {type(err).__name__}: {err}") from None
     if name:

@@ -34,8 +34,8 @@ STEP_TIMEOUT = 5.0
 EXIT_FAILED, EXIT_USER, EXIT_INTERRUPTED, EXIT_TERMINATED = 1, 2, 130, 143
 EXIT_STATUSES = f"""exit status:
   0    success
-  {EXIT_FAILED}    a run that started failed (a controller raised or returned a bad command); what was
-       recorded up to then is written
+  {EXIT_FAILED}    a run that started failed (a controller raised, called sys.exit, returned a bad command
+       or overran --step-timeout; or the disk filled up); what was recorded up to then is written
   {EXIT_USER}    a user error found before anything ran (bad option, world, robot or controller)
   {EXIT_INTERRUPTED}  interrupted by Ctrl-C; partial results written
   {EXIT_TERMINATED}  terminated by SIGTERM (a job scheduler, `timeout`); partial results written"""

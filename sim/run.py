@@ -418,7 +418,9 @@ def run(
                         _drive_chassis(world, i, log, command, readings, step)
                         continue
                     left, right = wheel_speeds_for(command, spec)
-                except (Exception, SystemExit, StepTimeout) as err:  # sys.exit in a controller is its error too
+                except KeyboardInterrupt:  # Ctrl-C or SIGTERM, not the controller's doing
+                    raise
+                except BaseException as err:  # the controller's error: anything it raises, sys.exit and a step timeout too
                     clock.busy = 0
                     raise _Stop(_failure(err, log, step, world.time, step_timeout)) from None
                 commands[i] = motor_commands(left, right, spec)

@@ -81,6 +81,13 @@ class TermThenBlocks:
             time.sleep(1000)
         return Twist(0.1, 0.0)
 
+class Odd:
+    """Raises what no controller should: a BaseException that is not Ctrl-C."""
+    def step(self, t, readings):
+        if t > 0.05:
+            raise GeneratorExit("odd")
+        return Twist(0.1, 0.0)
+
 class CtrlCTwice:
     """Ctrl-C pressed twice, the second time while the run is being written."""
     def step(self, t, readings):
@@ -131,6 +138,19 @@ def test_sys_exit_in_a_controller_is_the_controllers_error(controllers, tmp_path
     assert run_cli("--controller", f"{controllers}:Exits", "--out", str(tmp_path / "out")) == 1
     assert "raised SystemExit: 3 at step 6" in capsys.readouterr().err
     assert summary_of(tmp_path / "out")["reason"] == "error"
+
+
+def test_any_exception_of_a_controller_is_its_error(controllers, tmp_path, capsys):
+    assert run_cli("--controller", f"{controllers}:Odd", "--out", str(tmp_path / "out")) == 1
+    assert "raised GeneratorExit: odd at step 6" in capsys.readouterr().err
+
+
+def test_sys_exit_while_a_controller_file_loads_is_one_line(tmp_path, capsys):
+    path = tmp_path / "leaves.py"
+    path.write_text("import sys\nsys.exit(4)\n")
+    assert run_cli("--controller", str(path), "--out", str(tmp_path / "out")) == 2
+    err = one_error_line(capsys)
+    assert "leaves.py" in err and "SystemExit: 4" in err
 
 
 def test_sigterm_reaches_a_run_whose_controller_blocks(controllers, tmp_path):
