@@ -655,6 +655,7 @@ def summarize(result, options: dict[str, Any], metrics: dict[str, dict[str, dict
             "distance": path_length(result, log),
             "collisions": log.collisions,
             "fell": log.fell,
+            "status": log.status,
             "goal_time": log.goal_time,
             "estimates": metrics.get(log.name, {}),
             "notes": [{"message": message, "steps": count} for message, count in log.notes.values()],
@@ -707,7 +708,8 @@ def table(summary: dict[str, Any]) -> str:
     lines.append(header)
     for robot in summary["robots"]:
         first = f"{robot['name']:<12}{'':<12}{robot['distance']:>11.3f}{robot['collisions']:>11d}"
-        notes = [note for note in ("fell into a hole" if robot["fell"] else "", f"goal at {robot['goal_time']:.2f} s" if robot["goal_time"] is not None else "") if note]
+        notes = [note for note in ("fell into a hole" if robot["fell"] else "", f"goal at {robot['goal_time']:.2f} s" if robot["goal_time"] is not None else "",
+                                   f"controller: {robot['status']}" if robot.get("status") not in (None, "running") else "") if note]  # fmt: skip
         lines.append(first + ("   " + ", ".join(notes) if notes else ""))
         for name, errors in robot["estimates"].items():
             lines.append(f"{'':<12}{name:<12}{'':>11}{'':>11}{errors['final_position_error']:>12.4f}{errors['ate_rmse']:>11.4f}{math.degrees(errors['final_heading_error']):>12.2f}")

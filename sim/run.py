@@ -155,6 +155,8 @@ class RobotLog:
         self.index = index
         self.collisions = 0
         self.fell = False
+        self.status: str | None = None
+        """How its controller ended, where it says ('success', 'failure'; 'running'), else None."""
         self.goal_time: float | None = None
         self.notes: dict[str, list] = {}
         """What the run did other than asked (projected infeasible twists): kind -> [first message, count]."""
@@ -433,8 +435,9 @@ def run(
         result.error = None if result.reason == "quit" else f"{result.reason} at t = {world.time:.2f} s"
     finally:
         clock.__exit__()
-        for robot, log in zip(world.robots, logs):
+        for robot, log, controller in zip(world.robots, logs, controllers):
             log.collisions, log.fell = robot.collisions, robot.fallen
+            log.status = controller.status.value if isinstance(getattr(controller, "status", None), Status) else None
         _notify(observers, "on_end", result)
     return result
 
