@@ -1,7 +1,8 @@
 """Peak memory and wall time of whole `ctsim run` commands, short against long (issue 17).
 
 Each run is its own process (`/usr/bin/time`-style: `resource.getrusage(RUSAGE_CHILDREN)`), the
-default c't-Bot solving the maze and carrying on to the time limit, recording on, no figures. The
+default c't-Bot wandering the maze to the time limit (solve_maze's runs end at the goal), recording
+on, no figures. The
 short run is the reference measured beside the long one: the difference is what the run's length
 costs (the run's logs live in a temporary file and leave memory as they are written, so what is left
 is the recording's own bookkeeping, about 400 bytes per chunk sent). A third run of half the long
@@ -22,7 +23,7 @@ def _peak_of_run(duration: float) -> tuple[float, float]:
     with tempfile.TemporaryDirectory() as out:
         script = (
             "import resource, subprocess, sys; "
-            f"subprocess.run([sys.executable, '-m', 'sim.cli', 'run', 'maze', '--duration', '{duration}', '--no-until-goal', "
+            f"subprocess.run([sys.executable, '-m', 'sim.cli', 'run', 'maze', '--controller', 'wander', '--duration', '{duration}', '--no-until-goal', "
             f"'--no-report', '--out', '{out}'], stdout=subprocess.DEVNULL, check=True); "
             "print(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss)"
         )

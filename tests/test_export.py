@@ -108,6 +108,7 @@ def test_a_run_written_in_blocks_equals_its_arrays_written_at_once(tmp_path, mon
     robots = [RobotSetup(CTBOT, FunctionController(lambda t, r: Twist(0.1, 0.5))), RobotSetup(CTBOT, FunctionController(lambda t, r: Twist(0.2, -0.3)))]
     result = run(load_world("maze"), robots, 2.0)
     monkeypatch.setattr(sim.run, "BLOCK", 37)
+    monkeypatch.setattr("sim.analysis.export.FILE_ROWS", 37)
     written = write_run(result, tmp_path / "blocks", prefix=True, with_csv=True)
     metrics = compare_run(result)
     for log in result.robots:
@@ -134,6 +135,7 @@ def test_parquet_holds_every_sample_of_poses_and_readings_across_blocks(tmp_path
     keep = [KeepReadings(0), KeepReadings(1)]
     result = run(load_world("maze"), robots, 2.0, observers=keep)
     monkeypatch.setattr(sim.run, "BLOCK", 37)
+    monkeypatch.setattr("sim.analysis.export.FILE_ROWS", 37)
     table = read_parquet(write_parquet(result, tmp_path / "run.parquet"))
     assert np.array_equal(table["time"], result.time)
     for log, kept in zip(result.robots, keep):
@@ -154,6 +156,7 @@ def test_an_export_rate_keeps_every_nth_sample_and_the_last(tmp_path, monkeypatc
 
     result = run(load_world("maze"), [RobotSetup(CTBOT, FunctionController(lambda t, r: Twist(0.1, 0.5)))], 2.05)
     monkeypatch.setattr(sim.run, "BLOCK", 37)
+    monkeypatch.setattr("sim.analysis.export.FILE_ROWS", 37)
     written = write_run(result, tmp_path / "rate", prefix=False, with_csv=True, every=10)
     picked = np.r_[0 : len(result) : 10, len(result) - 1] if (len(result) - 1) % 10 else np.r_[0 : len(result) : 10]
     assert len(result) == 206 and picked[-1] == 205 and picked[-2] == 200  # the last sample, off the grid, is kept
