@@ -226,19 +226,21 @@ class _Source:
         label = "" if table is None else f"[[{table}]] #{index + 1}: " if index is not None else f"[{table}]: "
         return FileError(self.where, line, f"{label}{key + ': ' if key else ''}{problem}")
 
-    def build(self, cls: type, data: Any, table: str | None = None, index: int | None = None, **ready: Any) -> Any:
-        """`cls(**data)`, every unknown, missing or bad key a FileError on its line."""
+    def build(self, cls: type, data: Any, table: str | None = None, index: int | None = None,
+              make: Any = None, given: tuple[str, ...] = (), optional: tuple[str, ...] = ()) -> Any:
+        """`cls(**data)` (or `make(**data)`, which supplies the fields `given` and may do without
+        those `optional`), every unknown, missing or bad key a FileError on its line."""
         if not isinstance(data, dict):
             raise self.fail("must be a table", table, index)
-        known = [f.name for f in fields(cls)]
+        known = [f.name for f in fields(cls) if f.name not in given]
         for key in data:
             if key not in known:
                 raise self.fail(f"unknown key; known: {', '.join(known)}", table, index, key)
         for f in fields(cls):
-            if f.default is MISSING and f.default_factory is MISSING and f.name not in data and f.name not in ready:
+            if f.default is MISSING and f.default_factory is MISSING and f.name not in (*data, *given, *optional):
                 raise self.fail("missing", table, index, f.name)
         try:
-            return cls(**{**data, **ready})
+            return (make or cls)(**data)
         except Problem as problem:
             head, _, rest = problem.key.partition(".")
             if rest and head in _NESTED:  # a nested section's problem, raised again by the robot
@@ -273,7 +275,7 @@ def _chassis_spec(data: Any, source: _Source) -> ChassisSpec:
         if not isinstance(outline, list) or not all(isinstance(p, list) for p in outline):
             raise source.fail("must be a list of [x, y] points", "chassis", None, "outline")
         rest["outline"] = tuple(tuple(p) for p in outline)
-    return source.build(ChassisSpec, rest, "chassis", chassis=chassis)
+    return source.build(ChassisSpec, rest, "chassis", make=lambda **kw: ChassisSpec(chassis, **kw), given=("chassis",))
 
 
 def robot_from_dict(data: dict, where: str = "robot", locator: Locator | None = None) -> RobotSpec:
@@ -293,14 +295,10 @@ def robot_from_dict(data: dict, where: str = "robot", locator: Locator | None = 
     if "chassis" not in data:
         return source.build(RobotSpec, data)
     chassis = _chassis_spec(data.pop("chassis"), source)
-    for key in ("wheel_diameter", "track_width"):  # the chassis's first wheel gives these
+    for key in ("wheel_diameter", "track_width"):  # (the chassis's first wheel gives these)
         data.pop(key, None)
-    if "body_radius" not in data and not chassis.outline:
-        raise source.fail("missing (a chassis without an outline is a circle of body_radius)", None, None, "body_radius")
-    data.setdefault("body_radius", inscribed_radius(chassis.outline) if chassis.outline else None)
-    radius = data["body_radius"]
-    wheel = 2 * float(chassis.chassis.radius[0])
-    return source.build(RobotSpec, data, chassis=chassis, wheel_diameter=wheel, track_width=radius if isinstance(radius, (int, float)) else 1.0)
+    return source.build(RobotSpec, data, make=lambda **kw: wheeled_robot(chassis=chassis, **kw),
+                        given=("chassis", "wheel_diameter", "track_width"), optional=("body_radius",))
 
 
 def read_toml(path: Path, error: type[Exception] = ValueError) -> dict:
