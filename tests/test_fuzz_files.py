@@ -125,17 +125,23 @@ def empty_world():
     return load_world("empty")
 
 
+def loaded(path: Path, text: str, load, error: type[Exception] = FileError):
+    """`load(path)` of `text` written there, or None when it refuses the file with one line that
+    starts with its name; any other exception fails the test."""
+    path.write_text(text, encoding="utf-8")
+    try:
+        return load(path)
+    except error as err:
+        assert str(err).startswith(str(path)) and "\n" not in str(err)
+        return None
+
+
 @FUZZ
 @given(data=worlds)
 def test_world_files_load_or_say_what_is_wrong(tmp_path_factory, data):
-    path = tmp_path_factory.mktemp("w") / "fuzz.toml"
-    path.write_text(toml_text(data), encoding="utf-8")
-    try:
-        world = load_world(path)
-    except FileError as err:
-        assert str(err).startswith(str(path)) and "\n" not in str(err)
-        return
-    world_warnings(world)
+    world = loaded(tmp_path_factory.mktemp("w") / "fuzz.toml", toml_text(data), load_world)
+    if world is not None:
+        world_warnings(world)
 
 
 xml_text = st.builds(
@@ -151,38 +157,23 @@ xml_text = st.builds(
 @FUZZ
 @given(text=st.one_of(xml_text, xml_text.map(lambda t: t[: len(t) // 2]), st.text(max_size=200)))
 def test_parcours_files_load_or_say_what_is_wrong(tmp_path_factory, text):
-    path = tmp_path_factory.mktemp("x") / "fuzz.xml"
-    path.write_text(text, encoding="utf-8")
-    try:
-        world = load_world(path)
-    except FileError as err:
-        assert str(err).startswith(str(path)) and "\n" not in str(err)
-        return
-    world_warnings(world)
+    world = loaded(tmp_path_factory.mktemp("x") / "fuzz.xml", text, load_world)
+    if world is not None:
+        world_warnings(world)
 
 
 @FUZZ
 @given(data=robots)
 def test_robot_files_load_or_say_what_is_wrong_and_a_loaded_robot_enters_a_world(tmp_path_factory, empty_world, data):
-    path = tmp_path_factory.mktemp("r") / "fuzz.toml"
-    path.write_text(toml_text(data), encoding="utf-8")
-    try:
-        robot = load_robot(path)
-    except FileError as err:
-        assert str(err).startswith(str(path)) and "\n" not in str(err)
-        return
-    World(empty_world).add_robot(robot)
+    robot = loaded(tmp_path_factory.mktemp("r") / "fuzz.toml", toml_text(data), load_robot)
+    if robot is not None:
+        World(empty_world).add_robot(robot)
 
 
 @FUZZ
 @given(data=sweeps)
 def test_sweep_specs_load_or_say_what_is_wrong(tmp_path_factory, data):
-    path = tmp_path_factory.mktemp("s") / "fuzz.toml"
-    path.write_text(toml_text(data), encoding="utf-8")
-    try:
-        load_sweep(path)
-    except SpecError as err:
-        assert str(err).startswith(str(path)) and "\n" not in str(err)
+    loaded(tmp_path_factory.mktemp("s") / "fuzz.toml", toml_text(data), load_sweep, SpecError)
 
 
 def test_the_fuzz_text_is_toml_for_every_kind_of_value(tmp_path):
