@@ -513,7 +513,10 @@ def test_the_path_follower_drives_on_after_the_yards_wheel_fault(name):
     from sim.world.files import load_world
 
     result = run(load_world("chassis_yard"), [RobotSetup(WHEELED_ROBOTS[name], make("follow_path_ocp"))], 24.0)
-    assert result.reason == "duration", result.error  # (the car may scrape the yard's tight corners)
+    # a robot may finish the path before 24 s ('done'), never give it up nor fail (the car may scrape
+    # the yard's tight corners)
+    assert result.reason in ("duration", "done"), result.error
+    assert result.robots[0].status != "failure"
 
 
 def test_the_live_stream_gets_every_entity_of_the_file_and_the_projection_note(tmp_path):
