@@ -13,6 +13,7 @@ from bots.commands import Twist
 from bots.controller import FunctionController
 from bots.ctbot import CTBOT
 from sim.analysis.metrics import (
+    BLOCK,
     Comparison,
     compare,
     compare_run,
@@ -60,6 +61,31 @@ def test_ate_rmse_is_the_root_mean_square_of_the_position_distances():
     one_off[-1, 1] += 3.0
     assert compare(TIMES, STRAIGHT, one_off).ate_rmse == pytest.approx(1 / 3, rel=1e-15)
     assert compare(TIMES, STRAIGHT, one_off).max_position_error == 3.0
+
+
+def test_heading_error_duration_and_segment_on_a_run_that_starts_late_and_turned():
+    """A run starting at t = 100 s with heading 1 rad: the heading error is the estimate's minus the
+    truth's (0.2 rad), the duration the time between first and last sample (10 s), and the RPE per
+    metre of 2 m stretches is their error (2k) over 2 m."""
+    k = 0.02
+    truth = STRAIGHT + [0.0, 0.0, 1.0]
+    estimate = truth * [1 + k, 1, 1] + [0.0, 0.0, 0.2]
+    m = compare(TIMES + 100.0, truth, estimate)
+    assert m.final_heading_error == pytest.approx(0.2)
+    assert m.duration == 10.0
+    assert compare(TIMES + 100.0, truth, truth * [1 + k, 1, 1], segment=2.0).rpe_per_metre == pytest.approx(k)
+
+
+def test_a_run_longer_than_one_block_is_compared_whole():
+    """More samples than `compare` reads at once (BLOCK): every sample counts, the last is the last."""
+    n = BLOCK + 4463
+    times = np.arange(n) * 0.001
+    truth = np.column_stack((times, np.zeros(n), np.zeros(n)))
+    estimate = truth * [1.01, 1, 1]
+    m = compare(times, truth, estimate)
+    assert m.final_position_error == pytest.approx(0.01 * times[-1])
+    assert m.ate_rmse == pytest.approx(0.01 * math.sqrt(np.mean(times**2)), rel=1e-12)  # summed in another order
+    assert m.duration == pytest.approx(times[-1])
 
 
 def test_heading_drift_and_a_path_turned_about_the_start():
