@@ -36,8 +36,9 @@ RULES = (
     ("sim.contest", CAPABILITIES + ("sim.contest",)),
     ("sim.cli", ("sim", "bots")),
     ("sim.console", ("sim.cli",)),
+    ("sim.errors", ()),
 )
-EVERYONE = ("sim",)  # the bare package: its version and location, nothing of any layer
+EVERYONE = ("sim", "sim.errors")  # the bare package (its version and location) and the user-error base, a leaf
 
 
 def within(name: str, prefix: str) -> bool:
