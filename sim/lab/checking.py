@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from sim import sanitize
 from sim.lab.artifacts import Tracks, write
 from sim.lab.exercise import Exercise, Scenario, shared_hints
 from sim.lab.student import Student, StudentError
@@ -135,12 +136,12 @@ def check_and_print(exercise: Exercise, file: Path, shown: str | Path, lang: str
     """What `ctsim lab check` and a notebook's check cell do: check `file` (named `shown`), print
     the table, what the code printed and what was written; 0 when every scenario passed, else 1."""
     report = check_file(exercise, file, lang, out=out, degraded=degraded)
-    print(f"exercise {exercise.number}: {exercise.title[lang]}  ({shown}, scenario seed {report.seed})")
+    print(f"exercise {exercise.number}: {exercise.title[lang]}  ({sanitize.name(str(shown))}, scenario seed {report.seed})")
     if report.degraded:
         print(DEGRADED)
     print(table(report, lang))
     if report.output:
-        print(f"your code printed:\n{printable(report.output)}")
+        print(f"your code printed:\n{sanitize.terminal(report.output)}")
     for path in report.artifacts:
         print(f"  wrote {path}")
     return 0 if report.passed else 1
@@ -150,24 +151,18 @@ def _at_line(lang: str) -> str:
     return {"en": "at line", "de": "in Zeile"}[lang]
 
 
-def printable(text: str) -> str:
-    """`text` safe for a terminal: control characters (a student's escape sequences among them)
-    shown as \\x.. escapes, line breaks and tabs kept."""
-    return "".join(c if c in "\n\t" or not (c < " " or "\x7f" <= c < "\xa0") else f"\\x{ord(c):02x}" for c in text)
-
-
 def table(report: CheckReport, lang: str = "en") -> str:
     """The report as a text table with the hints under failing rows (safe for a terminal)."""
     words = {"en": ("scenario", "expected", "got", "tolerance", "result", "pass", "FAIL", "hint", "score"),
              "de": ("Szenario", "erwartet", "erhalten", "Toleranz", "Ergebnis", "ok", "FEHLER", "Hinweis", "Punkte")}[lang]  # fmt: skip
-    columns = [[printable(c) for c in (r.scenario, r.expected, r.got, r.tolerance)] + [words[5] if r.passed else words[6]] for r in report.rows]
+    columns = [[sanitize.name(c) for c in (r.scenario, r.expected, r.got, r.tolerance)] + [words[5] if r.passed else words[6]] for r in report.rows]
     widths = [max([len(words[i])] + [min(len(c[i]), 48) for c in columns]) for i in range(5)]
     line = lambda cells: "  ".join(str(c)[:48].ljust(w) for c, w in zip(cells, widths)).rstrip()  # noqa: E731
     lines = [line(words[:5]), line(["-" * w for w in widths])]
     for row, cells in zip(report.rows, columns):
         lines.append(line(cells))
         if row.hint:
-            lines.append(f"    {words[7]}: {printable(row.hint)}")
+            lines.append(f"    {words[7]}: {sanitize.name(row.hint, 1000)}")
     passed = sum(r.passed for r in report.rows)
     lines.append(f"{words[8]}: {report.score_text} ({passed}/{len(report.rows)})")
     return "\n".join(lines)

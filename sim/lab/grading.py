@@ -20,6 +20,7 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
+from sim import sanitize
 from sim.lab.checking import DEGRADED, CheckReport, Row, check_file, fresh_seed
 from sim.lab.exercise import Exercise, ExerciseError
 from sim.sandbox import SandboxUnavailable, unavailable
@@ -83,11 +84,6 @@ def _isolation(report: CheckReport) -> str:
     return "degraded (no isolation)" if report.degraded else "bubblewrap"
 
 
-def cell(text: str) -> str:
-    """A text cell a spreadsheet will not run: one that starts like a formula gets a leading '."""
-    return f"'{text}" if text[:1] in ("=", "+", "-", "@", "\t", "\r") else text
-
-
 def write_csv(path: Path, ids: list[str], reports: list[CheckReport]) -> Path:
     """One row per student: score, maximum, scenarios passed, isolation and the first problem
     (texts a student chose, such as a folder name, never start a formula)."""
@@ -96,8 +92,8 @@ def write_csv(path: Path, ids: list[str], reports: list[CheckReport]) -> Path:
         writer.writerow(["student", "file", "score", "max_score", "passed", "scenarios", "seed", "isolation", "first_problem"])
         for sid, report in zip(ids, reports):
             first = next((f"{r.scenario}: {r.got if not r.hidden else ''} {r.hint}".strip() for r in report.rows if not r.passed), "")
-            writer.writerow([cell(sid), cell(report.file), f"{round(report.score, 1):g}", f"{report.points:g}", sum(r.passed for r in report.rows),
-                             len(report.rows), report.seed, _isolation(report), cell(first)])  # fmt: skip
+            writer.writerow([sanitize.csv_cell(sid), sanitize.csv_cell(report.file), f"{round(report.score, 1):g}", f"{report.points:g}", sum(r.passed for r in report.rows),
+                             len(report.rows), report.seed, _isolation(report), sanitize.csv_cell(first)])  # fmt: skip
     return path
 
 
@@ -131,26 +127,21 @@ def write_gradescope(folder: Path, ids: list[str], reports: list[CheckReport]) -
     return folder
 
 
-def xml_text(text: str) -> str:
-    """`text` without the characters XML 1.0 cannot hold (a student's output may have any)."""
-    return "".join(c for c in text if c in "\t\n\r" or ("\x20" <= c <= "\ud7ff") or ("\ue000" <= c <= "\ufffd") or c >= "\U00010000")
-
-
 def write_junit(path: Path, ids: list[str], reports: list[CheckReport], title: str) -> Path:
     """JUnit XML: a test suite per student, a test case per scenario, failures with their hints
     and values, the student's printed output as the suite's system-out."""
-    suites = ET.Element("testsuites", name=xml_text(title))
+    suites = ET.Element("testsuites", name=sanitize.xml_text(title))
     for sid, report in zip(ids, reports):
         failures = sum(not r.passed for r in report.rows)
-        suite = ET.SubElement(suites, "testsuite", name=xml_text(sid), tests=str(len(report.rows)), failures=str(failures))
+        suite = ET.SubElement(suites, "testsuite", name=sanitize.xml_text(sid), tests=str(len(report.rows)), failures=str(failures))
         properties = ET.SubElement(suite, "properties")
         ET.SubElement(properties, "property", name="isolation", value=_isolation(report))
         for row in report.rows:
-            case = ET.SubElement(suite, "testcase", classname=xml_text(f"exercise{report.exercise}.{sid}"), name=xml_text(row.scenario))
+            case = ET.SubElement(suite, "testcase", classname=sanitize.xml_text(f"exercise{report.exercise}.{sid}"), name=sanitize.xml_text(row.scenario))
             if not row.passed:
-                ET.SubElement(case, "failure", message=xml_text(row.hint or "failed")).text = xml_text(feedback(row))
+                ET.SubElement(case, "failure", message=sanitize.xml_text(row.hint or "failed")).text = sanitize.xml_text(feedback(row))
         if report.output:
-            ET.SubElement(suite, "system-out").text = xml_text(report.output)
+            ET.SubElement(suite, "system-out").text = sanitize.xml_text(report.output)
     ET.indent(suites)
     ET.ElementTree(suites).write(path, encoding="utf-8", xml_declaration=True)
     return path
