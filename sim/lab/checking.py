@@ -18,6 +18,7 @@ from sim import sanitize
 from sim.lab.artifacts import Tracks, write
 from sim.lab.exercise import Exercise, Scenario, shared_hints
 from sim.lab.student import Student, StudentError
+from sim.sandbox.box import human_size
 from sim.world.spec import WorldSpec
 
 HIDDEN = "(hidden)"
@@ -52,12 +53,17 @@ class Row:
     hint: str = ""
     hidden: bool = False
     problem: str = ""
+    output: str = ""
+    """What the student's code printed during this scenario (shown only where the row's values are)."""
+    values: tuple[str, str] = ("", "")
+    """Expected and got even of a hidden row: for the teacher's files only (CSV, JUnit)."""
 
 
 @dataclass
 class CheckReport:
     """All rows of one file, the seed of its hidden scenarios, the score and what was written;
-    `output`: the start of what the student's code printed; `degraded`: checked without isolation."""
+    `output`: the start of what the student's code printed while loading and in the public
+    scenarios (a hidden scenario's output stays in its row); `degraded`: checked without isolation."""
 
     exercise: int
     file: str
@@ -98,16 +104,28 @@ def check_file(exercise: Exercise, path: str | Path, lang: str = "en", seed: int
     report = CheckReport(exercise.number, str(path), seed, [], exercise.points)
     scenarios = exercise.scenarios(seed, out)
     cpu = exercise.time_limit * len(scenarios) + STARTUP_CPU
-    with Student(path, exercise.modules, cpu, folder, degraded) as student:
+    with Student(path, exercise.modules, cpu, folder, degraded, exercise.wall(len(scenarios))) as student:
         for scenario in scenarios:
+            if student.spent:
+                report.rows.append(_not_run(exercise, scenario, student, lang, shared))
+                continue
             row, outcome = _one(exercise, scenario, student, lang, shared)
+            row.output = student.take_output()
             report.rows.append(row)
             if outcome is not None and outcome.tracks and scenario.out is not None:
                 report.artifacts += write(scenario.out, outcome.tracks, outcome.world)
             if row.problem in FATAL:
                 break
-        report.output, report.degraded = student.output, student.degraded
+        report.degraded = student.degraded
+    report.output = "".join(row.output for row in report.rows if not row.hidden)
     return report
+
+
+def _not_run(exercise: Exercise, scenario: Scenario, student: Student, lang: str, shared: dict) -> Row:
+    """The row of a scenario left when the submission's time was spent."""
+    hint = exercise.hint("budget", lang, shared, budget=student.wall)
+    got = f"not run: the submission's {student.wall:g} s were spent"
+    return Row(scenario.name, HIDDEN if scenario.hidden else "", got, "", False, hint, scenario.hidden, "budget", values=("", got))
 
 
 FATAL = ("load", "forbidden")
@@ -119,14 +137,18 @@ def _one(exercise: Exercise, scenario: Scenario, student: Student, lang: str, sh
     try:
         outcome = exercise.checker.check(scenario, student)
     except StudentError as err:
-        hint = exercise.hint(err.kind, lang, shared, limit=exercise.time_limit, where=f" {_at_line(lang)} {err.line}" if err.line else "")
+        where = f" {_at_line(lang)} {err.line}" if err.line else ""
+        hint = exercise.hint(err.kind, lang, shared, limit=exercise.time_limit, where=where, budget=student.wall,
+                             memory=human_size(student.box.limits.memory), output=human_size(student.box.limits.output))  # fmt: skip
         got = err.public if scenario.hidden else err.detail
-        return Row(scenario.name, HIDDEN if scenario.hidden else "", got, "", False, hint, scenario.hidden, err.kind), None
+        row = Row(scenario.name, HIDDEN if scenario.hidden else "", got, "", False, hint, scenario.hidden, err.kind, values=("", err.detail))
+        return row, None
     problem = "" if outcome.passed else outcome.hint or "wrong"
     hint = exercise.hint(problem, lang, shared, **outcome.hint_args) if problem else ""
+    values = (outcome.expected, outcome.got)
     if scenario.hidden:
-        return Row(scenario.name, HIDDEN, HIDDEN, outcome.tolerance, outcome.passed, hint, True, problem), outcome
-    return Row(scenario.name, outcome.expected, outcome.got, outcome.tolerance, outcome.passed, hint, problem=problem), outcome
+        return Row(scenario.name, HIDDEN, HIDDEN, outcome.tolerance, outcome.passed, hint, True, problem, values=values), outcome
+    return Row(scenario.name, *values, outcome.tolerance, outcome.passed, hint, problem=problem, values=values), outcome
 
 
 DEGRADED = "DEGRADED: run without isolation (bubblewrap missing); the code could read or change files"
