@@ -37,8 +37,11 @@ RULES = (
     ("sim.cli", ("sim", "bots")),
     ("sim.console", ("sim.cli",)),
     ("sim.errors", ()),
+    ("sim.sanitize", ()),
 )
-EVERYONE = ("sim", "sim.errors")  # the bare package (its version and location) and the user-error base, a leaf
+# the bare package (its version and location) and two leaves any layer may use: the user-error base
+# and the making safe of text from outside
+EVERYONE = ("sim", "sim.errors", "sim.sanitize")
 
 
 def within(name: str, prefix: str) -> bool:
