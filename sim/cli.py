@@ -13,6 +13,7 @@ import argparse
 import json
 import math
 import os
+import re
 import signal
 import sys
 import time
@@ -873,6 +874,12 @@ def cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
+def first_sentence(text: str) -> str:
+    """The first sentence of a text: up to a full stop followed by a capital (so that "e.g. a"
+    and "0.24 m" do not end it), whitespace folded."""
+    return re.split(r"(?<=[.!?])\s+(?=[A-Z])", " ".join(text.split()), maxsplit=1)[0]
+
+
 def cmd_worlds(args: argparse.Namespace) -> int:
     import textwrap
 
@@ -881,7 +888,7 @@ def cmd_worlds(args: argparse.Namespace) -> int:
     for name, path in shipped_worlds().items():
         world = load_world(path)
         xmin, ymin, xmax, ymax = world.bounds
-        first = " ".join(world.description.split()).split(". ")[0].rstrip(".")  # its first sentence says what it is for
+        first = first_sentence(world.description).rstrip(".")  # it says what the world is for
         room = len(world.start_order())
         lead = f"{name:<14}{xmax - xmin:5.2f} x {ymax - ymin:<5.2f} m  "
         print(textwrap.fill(f"{first} ({room} start{'s' if room != 1 else ''})", width=100, initial_indent=lead, subsequent_indent=" " * len(lead)))
