@@ -111,11 +111,11 @@ ATTACKS = {
     "deep_reply": (forge("b'{\"ok\": ' + b'[' * 300_000 + b']' * 300_000 + b'}'"), "protocol", "the answer could not be read"),
     # the kernel's shared state
     "keyring_writer": (SYSCALL + STEP + "    if call('add_key', b'user', b'ctsim-answers', b'10/10', 5, -4) < 0:\n"
-                       "        raise PermissionError(ctypes.get_errno(), 'add_key refused')\n    return [x, y, theta]\n", "raised", "PermissionError at line 6"),
+                       "        raise PermissionError(ctypes.get_errno(), 'add_key refused')\n    return [x, y, theta]\n", "raised", "PermissionError at line 7: [Errno 1] add_key refused"),
     "keyring_reader": (SYSCALL + STEP + "    if call('request_key', b'user', b'ctsim-answers', None, 0) < 0:\n"
-                       "        raise LookupError('no key from a classmate')\n    return [x, y, theta]\n", "raised", "LookupError at line 6"),
+                       "        raise LookupError('no key from a classmate')\n    return [x, y, theta]\n", "raised", "LookupError at line 7: no key from a classmate"),
     "io_uring": (SYSCALL + STEP + "    params = (ctypes.c_uint32 * 30)(0, 2)\n    if call('io_uring_setup', 8, params) < 0:\n"
-                 "        raise OSError(ctypes.get_errno(), 'io_uring refused')\n    return [x, y, theta]\n", "raised", "OSError at line 7"),
+                 "        raise OSError(ctypes.get_errno(), 'io_uring refused')\n    return [x, y, theta]\n", "raised", "PermissionError at line 8: [Errno 1] io_uring refused"),
     # what is visible
     "mountinfo": (STEP + "    return open('/proc/self/mountinfo').read()\n", "raised", "FileNotFoundError at line 2"),
     "dist_packages": ("import sys\nsys.path += ['/usr/lib/python3/dist-packages', '/usr/local/lib/python3/dist-packages']\nimport yaml\n" + STEP
@@ -129,9 +129,9 @@ NOTEBOOKS = {
     "deep_notebook": "[" * 100_000 + "]" * 100_000,
 }
 """Attacks handed in as notebooks (forward.ipynb in the student's folder)."""
-ESCAPES, NEWLINE = "eve\x1b[2J\x1b]0;pwned\x07", "frank\n   10/10  mallory"
+ESCAPES, NEWLINE = "eve\x1b[2J\x1b]0;pwned\x07", "frank\n  10\u221510  mallory"
 """Honest students whose folder names hold a terminal escape sequence, and a newline that would
-forge a line of the summary."""
+forge a line of the summary (U+2215, a slash that may be in a file name)."""
 HONEST = {"alice": "reference", "bob": "euler", "erin": "swapped", "nina": "reference", "printer": "reference", ESCAPES: "reference",
           NEWLINE: "reference"}  # fmt: skip
 HELPERS = {"nina": {"numpy.py": "raise ImportError('a numpy.py of my own, beside my solution')\n"}}
@@ -173,11 +173,9 @@ def _exercise_folder(root: Path, number: int, **changes) -> Path:
     folder = root / f"exercises{number}" / f"{number}_forward"
     shutil.copytree(exercise(2).folder, folder)
     toml = folder / "exercise.toml"
-    lines = toml.read_text().splitlines()
     changes |= {"number": number}
-    lines = [f"{line.split('=')[0].strip()} = {changes[line.split('=')[0].strip()]}" if line.split("=")[0].strip() in changes else line
-             for line in lines] + [f"{k} = {v}" for k, v in changes.items() if not any(line.startswith(f"{k} ") for line in lines)]  # fmt: skip
-    toml.write_text("\n".join(lines) + "\n")
+    lines = [line for line in toml.read_text().splitlines() if line.split("=")[0].strip() not in changes]
+    toml.write_text("\n".join([f"{k} = {v}" for k, v in changes.items()] + lines) + "\n")  # top-level keys go before the first table
     return folder.parent
 
 
@@ -287,8 +285,9 @@ def test_the_grader_exits_0_with_one_summary_line_per_student_and_no_escape_reac
     assert "\x1b" not in graded.printed and "\x07" not in graded.printed
     lines = graded.printed.splitlines()
     graded_lines = [line for line in lines if line.lstrip()[:1].isdigit() and "/10  " in line]
-    assert len(graded_lines) == len(HONEST) + len(ATTACKS) - len(HANGS) + 1  # mallory's link too; no forged line
-    assert any("frank\\x0a   10/10  mallory" in line for line in graded_lines)
+    assert len(graded_lines) == len(HONEST) + len(ATTACKS) - len(HANGS) + 1, lines  # mallory's link too
+    assert any("frank\\x0a  10\u221510  mallory" in line for line in graded_lines)
+    assert not any(line.startswith("  10\u2215") for line in lines)  # no forged line
     grades = (graded.root / "teacher" / "grades" / "grades.csv").read_text(encoding="utf-8")
     assert "\x1b" not in grades and "eve\\x1b[2J" in grades
 
@@ -306,8 +305,8 @@ def test_what_a_hidden_scenario_printed_reaches_only_its_row(graded: Graded) -> 
 
 def test_a_forged_long_error_is_cut_everywhere(graded: Graded) -> None:
     results = (graded.root / "teacher" / "grades" / "gradescope" / "long_error" / "results.json").read_text()
-    junit = (graded.root / "teacher" / "grades" / "junit.xml").read_text()
-    assert len(results) < 5000 and "x" * 1000 not in junit and "E" * 1000 not in junit and "m" * 1000 not in junit
+    suite = next(s for s in ET.parse(graded.root / "teacher" / "grades" / "junit.xml").getroot() if s.get("name") == "long_error")
+    assert len(results) < 5000 and len(ET.tostring(suite)) < 5000
 
 
 def test_a_submission_that_sleeps_at_every_start_is_ended_when_its_time_is_spent(graded: Graded) -> None:
