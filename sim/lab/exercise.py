@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from bots.spec import read_toml
+from sim.errors import UserError
 from sim.sandbox.launch import module_file
 
 SHIPPED = Path(__file__).resolve().parent / "exercises"
@@ -37,7 +38,7 @@ file), over all its start-ups, besides its scenarios' time limits: a busy gradin
 a few seconds a start."""
 
 
-class ExerciseError(ValueError):
+class ExerciseError(UserError):
     """A mistake in an exercise folder or in choosing one (message for the user)."""
 
 
