@@ -11,17 +11,19 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 
+LEAVES = ("sim.sanitize",)  # standard library only, no layer of its own: text from outside made safe, for any layer
 CORE = ("sim.kinematics",)
 BOTS = CORE + ("bots", "sim.world.readings")
 WORLD = CORE + ("sim.world", "bots.spec", "bots.ctbot", "bots.schema")
 RUN = WORLD + ("bots", "sim.run")
 ANALYSIS = RUN + ("sim.analysis",)
-VIEWS = ANALYSIS + ("sim.views",)
+VIEWS = ANALYSIS + ("sim.views",) + LEAVES
 SANDBOX = VIEWS + ("sim.sandbox",)  # DESIGN.md §2: untrusted code isolated; the lab and contests use it
 CAPABILITIES = SANDBOX + ("sim.bridge", "sim.lab", "sim.experiments")
 
 # (prefix of a module's name, the prefixes it may import), most specific first.
 RULES = (
+    ("sim.sanitize", ()),
     ("sim.kinematics", CORE),
     ("bots", BOTS),
     ("sim.world", WORLD),
