@@ -744,7 +744,7 @@ def _add_bridge_parser(commands) -> None:
     bridge.add_argument("--call", action="append", type=timed(parse_call), default=[], metavar="T:'CALL'", help="remote call at T s, e.g. 2:'bot_turn(90)' (repeatable)")
     bridge.add_argument("--list-calls", action="store_true", help="ask each firmware for the remote calls it offers and print them (c't-Sim's RemoteCallViewer)")
     bridge.add_argument("--own-physics", action="store_true",
-                        help="firmware bots meet walls (slide) and see them (nearest point in the IR cone) with ctsim's own models instead of c't-Sim's")
+                        help="firmware bots meet walls (slide), see them (nearest point in the IR cone), read lines at one point and meet lamp pillars as whole wall cells, with ctsim's own models instead of c't-Sim's")
     bridge.set_defaults(handler=cmd_bridge)
 
 
@@ -755,7 +755,7 @@ def cmd_bridge(args: argparse.Namespace) -> int:
     from sim.world.files import load_world
 
     step_count(args.duration, args.dt)
-    world = load_world(args.world)
+    world = load_world(args.world, pillars="cell" if args.own_physics else "cylinder")
     spec = load_robot_spec(args)
     if args.robots < 1:
         raise UsageError(f"--robots must be at least 1, got {args.robots}")
