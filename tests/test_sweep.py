@@ -231,6 +231,28 @@ def test_cli_sweep_and_report(tmp_path, capsys):
     assert page.count("src='data:image/png;base64,") == 3 and "<td>runs</td><td class='text'>8</td>" in page  # the figures inside; 8 runs
 
 
+def _pixels_of(png: Path, rgb: tuple[int, int, int]) -> int:
+    import matplotlib.image
+
+    image = (matplotlib.image.imread(png)[..., :3] * 255).round().astype(int)
+    return int((image == rgb).all(axis=-1).sum())
+
+
+def test_the_sweep_figures_draw_each_estimator_in_its_colour(tmp_path):
+    """The box of each estimator is filled with the pale form of its colour in the run figures and
+    the viewer (an area of that exact colour), the success bars in the neutral one."""
+    from sim.experiments.report import write_report
+    from sim.views import palette
+
+    sweep({"base": {"duration": 2.0, "world": "empty", "controller": "wander"}, "axes": {"seed": [0, 1, 2], "robot.encoders.slip_std": [0.0, 0.05]}},
+          tmp_path / "out", Serial(), progress=False)  # noise, so that the boxes have a height
+    box, bars = (tmp_path / "out" / "figures" / name for name in ("ate_rmse_per_estimator.png", "success_per_controller.png"))
+    write_report(tmp_path / "out")
+    for name in ("encoders", "mouse", "fused"):
+        assert _pixels_of(box, palette.pale(palette.estimate_colour(name))) > 100, name
+    assert _pixels_of(bars, palette.NEUTRAL) > 1000
+
+
 def test_report_groups_by_the_named_settings_and_says_what_it_pools(tmp_path, capsys):
     """Per controller: the noise levels and seeds pooled (2 x 2 runs a group); the table's means
     are those of the runs it groups; a setting the sweep lacks is one line naming it."""

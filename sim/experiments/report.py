@@ -16,6 +16,7 @@ import pandas as pd
 from sim.errors import UserError
 from sim.experiments import store
 from sim.experiments.plan import DEFAULTS
+from sim.views import palette
 
 METRIC = "ate_rmse"
 """The error the figures show: RMS absolute trajectory error (m)."""
@@ -114,15 +115,23 @@ def write_report(out: str | Path, metric: str = METRIC, by: list[str] | None = N
     finished = table[table["reason"] != "error"]
     groups = [c for c in by if not pd.api.types.is_numeric_dtype(finished[c])] if len(finished) else []
     if names and len(finished):
-        labels, data = [], []
+        labels, data, colours = [], [], []
         parts = finished.groupby(groups, sort=True) if groups else [((), finished)]
         for key, part in parts:
             key = key if isinstance(key, tuple) else (key,)
             for n in names:
                 labels.append("\n".join([n, *map(str, key)]))
                 data.append(part[f"{n}.{metric}"].dropna().to_numpy())
+                colours.append(palette.estimate_colour(n, names))
         fig, ax = plt.subplots(figsize=(max(6, 0.9 * len(labels) + 2), 4.5))
-        ax.boxplot(data, tick_labels=labels, showmeans=True)
+        boxes = ax.boxplot(data, tick_labels=labels, showmeans=True, patch_artist=True,  # the mean not in truth's green
+                           meanprops={"marker": "^", "markerfacecolor": "white", "markeredgecolor": "0.2"})
+        for k, rgb in enumerate(colours):  # each estimator in its colour of the run figures and the viewer
+            boxes["boxes"][k].set(facecolor=palette.unit(palette.pale(rgb)), edgecolor=palette.unit(rgb))
+            boxes["medians"][k].set(color=palette.unit(rgb), linewidth=1.6)
+            for part in ("whiskers", "caps"):
+                for line in boxes[part][2 * k : 2 * k + 2]:
+                    line.set(color=palette.unit(rgb))
         ax.set_ylabel(f"{metric} (m)")
         ax.set_title(f"{metric} per estimator" + (f" and {', '.join(groups)}" if groups else "") + f", {len(finished)} runs\n"
                      + pooled_note(finished, [c for c in (*pooled, *by) if c not in groups and c in swept(finished)]), fontsize=9)
@@ -134,8 +143,11 @@ def write_report(out: str | Path, metric: str = METRIC, by: list[str] | None = N
             for name in names:
                 band = mean_band(finished, parameter, f"{name}.{metric}")
                 x = band.index.to_numpy(dtype=float)
-                ax.plot(x, band["mean"], marker="o", label=name)
-                ax.fill_between(x, band["mean"] - band["half_width"], band["mean"] + band["half_width"], alpha=0.2)
+                rgb = palette.estimate_colour(name, names)
+                ax.plot(x, band["mean"], marker="o", color=palette.unit(rgb), label=name, zorder=3)
+                # the band edged in its estimator's colour: overlapping bands still say whose they are
+                ax.fill_between(x, band["mean"] - band["half_width"], band["mean"] + band["half_width"], facecolor=(*palette.unit(palette.pale(rgb)), 0.3),
+                                edgecolor=palette.unit(rgb), linewidth=0.8, linestyle="--")
             ax.set_xlabel(parameter)
             ax.set_ylabel(f"mean {metric} (m), 95 % band")
             ax.set_title(f"{metric} against {parameter}\n" + pooled_note(finished, [c for c in swept(finished) if c != parameter]), fontsize=9)
@@ -143,7 +155,7 @@ def write_report(out: str | Path, metric: str = METRIC, by: list[str] | None = N
             written.append(_save(fig, folder / f"{metric}_vs_{parameter}.png"))
     rates = success(table).groupby(table["controller"]).mean()
     fig, ax = plt.subplots(figsize=(max(6, 1.4 * len(rates) + 2), 4.5))
-    ax.bar(rates.index.astype(str), 100 * rates.to_numpy())
+    ax.bar(rates.index.astype(str), 100 * rates.to_numpy(), color=palette.unit(palette.NEUTRAL))
     ax.set_ylim(0, 100)
     ax.set_ylabel("success rate (%)")
     what = "runs without error or fall" + (" that reached the goal" if table["until_goal"].astype(bool).any() else "")

@@ -99,6 +99,8 @@ def write_figures(
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.legend_handler import HandlerTuple
+    from matplotlib.lines import Line2D
 
     out, ate = Path(out), ate or {}
     xmin, ymin, xmax, ymax = world.bounds
@@ -144,24 +146,29 @@ def write_figures(
     fig, axes = plt.subplots(2, columns, figsize=(10.0 if columns == 1 else 4.2 * columns + 2.0, 6.5), dpi=120, sharex=True, sharey="row", squeeze=False)
     for column, (name, tracks) in enumerate(robots.items()):
         top, bottom = axes[:, column]
+        keys: list[tuple[tuple[Line2D, Line2D], str]] = []
         for k, (label, estimate) in enumerate(_estimates(tracks)):
-            colour = _c(palette.estimate_colour(label, list(tracks)))
+            rgb = palette.estimate_colour(label, list(tracks))
+            colour, light = _c(rgb), _c(palette.pale(rgb))
             t, position, heading = _errors(tracks["truth"], estimate)
             score = ate.get(name, {}).get(label)
             text = label + (f" (ATE {1000 * score:.1f} mm)" if score is not None else "")
+            dashes = DASHES[k % len(DASHES)]
             for axis, values in ((top, position * 1000), (bottom, np.degrees(heading))):
-                axis.plot(t, values, color=colour, linewidth=0.4, alpha=0.2)
-                axis.plot(t, moving_mean(t, values, MEAN_WINDOW_S), color=colour, linewidth=1.6, linestyle=DASHES[k % len(DASHES)], label=text)
+                axis.plot(t, values, color=light, linewidth=0.5, zorder=1 + k / 10)  # opaque: a band shows whose it is
+                axis.plot(t, moving_mean(t, values, MEAN_WINDOW_S), color=colour, linewidth=1.6, linestyle=dashes, zorder=3)
+            keys.append(((Line2D([], [], color=light, linewidth=6), Line2D([], [], color=colour, linewidth=1.6, linestyle=dashes)), text))
         if several:
             top.set_title(name, fontsize=10, backgroundcolor=_c(colours[name]))
         bottom.set_xlabel("simulated time (s)")
         for axis in (top, bottom):
             axis.grid(True, linewidth=0.3, alpha=0.6)
-        if top.get_legend_handles_labels()[0]:
-            top.legend(fontsize=7 if several else 8, loc="upper left", **({} if several else {"bbox_to_anchor": (1.01, 1.0)}), frameon=False)
+        if keys:  # each estimate's key: its pale band of samples under its moving mean
+            top.legend([h for h, _ in keys], [text for _, text in keys], handler_map={tuple: HandlerTuple(ndivide=1)},
+                       fontsize=7 if several else 8, loc="upper left", **({} if several else {"bbox_to_anchor": (1.01, 1.0)}), frameon=False)
     axes[0, 0].set_ylabel("position error (mm)")
     axes[1, 0].set_ylabel("heading error (deg, unwrapped)")
-    title = f"odometry error against ground truth (thin: every sample; thick: {MEAN_WINDOW_S:g} s moving mean)"
+    title = f"odometry error against ground truth (pale: every sample; dark: {MEAN_WINDOW_S:g} s moving mean)"
     if several:
         fig.text(0.5, 0.955, title, ha="center", fontsize=10)
     else:
@@ -201,13 +208,17 @@ def _ate_table(ate: dict[str, dict[str, float]]) -> str:
     return "\n".join(rows)
 
 
-def _magnify(zoom, main, robots: dict[str, dict[str, Trajectory]]) -> float:
+def _magnify(zoom, main, robots: dict[str, dict[str, Trajectory]]) -> float:  # noqa: ANN001 (matplotlib Axes)
     """Frame `zoom` on the robot whose final estimates lie furthest apart; the magnification
     against `main` (at least 2 cm of view, so millimetre differences still show)."""
+    from matplotlib.ticker import MaxNLocator
+
     ends = max((np.array([poses[-1, :2] for _, poses in tracks.values()]) for tracks in robots.values()), key=lambda e: np.ptp(e, axis=0).max())
     centre, half = ends.mean(axis=0), max(0.6 * np.ptp(ends, axis=0).max(), 0.02)
     zoom.set_xlim(centre[0] - half, centre[0] + half)
     zoom.set_ylim(centre[1] - half, centre[1] + half)
+    for axis in (zoom.xaxis, zoom.yaxis):  # few ticks: a narrow inset's labels must not run into each other
+        axis.set_major_locator(MaxNLocator(nbins=4))
     main.indicate_inset((centre[0] - half, centre[1] - half, 2 * half, 2 * half), inset_ax=None, edgecolor="0.2", linewidth=0.8)
     return float(np.ptp(main.get_xlim()) / (2 * half))
 

@@ -52,6 +52,8 @@ ROBOTS: tuple[RGB, ...] = ((214, 48, 49), (240, 200, 20), (250, 250, 250), (255,
 """Each robot's own colour where several share a run (its outline, name, ground-truth trail), in
 the order they were added: red, yellow, white, pink, brown, light green; none is an estimate's,
 all stand out on a grey floor."""
+NEUTRAL: RGB = (90, 110, 140)
+"""Marks that belong to no estimate or robot (a sweep's success rate per controller)."""
 SCALE_BAR: RGB = (20, 20, 20)
 CHANNELS: tuple[RGB, ...] = ((31, 119, 180), (214, 39, 40), (44, 160, 44), (148, 103, 189), (140, 86, 75), (23, 190, 207))
 """Colours of a sensor's channels (left, right, ...)."""
@@ -63,6 +65,12 @@ def estimate_colour(name: str, others: list[str] | tuple[str, ...] = ()) -> RGB:
         return ESTIMATES[name]
     unknown = [n for n in others if n not in ESTIMATES]
     return SPARE[unknown.index(name) % len(SPARE)] if name in unknown else SPARE[0]
+
+
+def pale(rgb: RGB, strength: float = 0.35) -> RGB:
+    """`rgb` mixed with white (`strength` 1: as is, 0: white): an estimate's every-sample trace
+    and its box fill, opaque so that overlapping traces never blend into a colour of no estimate."""
+    return tuple(round(255 - strength * (255 - c)) for c in rgb)
 
 
 def robot_colours(names: list[str] | tuple[str, ...]) -> dict[str, RGB]:
