@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections import deque
 from collections.abc import Generator
 
 import numpy as np
@@ -28,23 +29,34 @@ from sim.kinematics import (
 from sim.world.readings import Readings
 
 GOAL_TOLERANCE = 0x10
-"""How far (raw units) a line sensor may read from GROUND_GOAL on the goal floor."""
+"""How far (raw units) the line sensors' mean may read from GROUND_GOAL on the goal floor."""
+GOAL_SPREAD = 40.0
+"""Largest standard deviation (raw units) of those readings: twice the harsh preset's line noise."""
+GOAL_READINGS = 10
+"""Steps in a row whose readings of one line sensor average to the goal colour before it counts
+as the goal: one noisy reading near the goal colour is not the goal floor (under harsh noise, 20
+raw units, a floor 40 units off the goal colour reads within the tolerance one time in nine; the
+mean of 20 readings strays by 4.5)."""
 LOOK_STEPS = 8
 """Steps a look averages the IR distances over at least (all it needs when the readings are steady)."""
-LOOK_MAX_STEPS = 64
-"""Steps a look averages noisy IR distances over at most: 5 mm of noise becomes 0.6 mm, which
+LOOK_MAX_STEPS = 32
+"""Steps a look averages noisy IR distances over at most: 5 mm of noise becomes 0.9 mm, which
 squares up within 1 degree from the two sensors 72 mm apart."""
-LOOK_ERROR = 0.0006
+LOOK_ERROR = 0.0009
 """A look goes on while a sensor's mean has a larger standard error than this (m)."""
 SQUARE_BAND = (0.27, 0.7)
 """IR distances (m) trusted for squaring up on a wall: above the 0.1-0.26 m that a wall closer than
 0.1 m folds back to, below the curve's flat end."""
 MOUSE_LEARN_M = 0.1
 """Straight distance (m) after which the mouse's scale is taken from its counts against the encoders'."""
-TURN_LEARN_RAD = 4 * math.pi
+DRIFT_LEARN_M = 1.0
+"""Straight distance (m) after which the encoders' drift per metre is taken from the mouse: by then
+the mouse's random error (about 1.3 degrees per root metre) is below the 1.8 degrees a metre of a
+0.3 % wheel diameter mismatch, and it shrinks as the root of the distance from there."""
+TURN_LEARN_RAD = math.pi
 """Turning (rad) after which the encoders' turns are scaled to the mouse's: two whole turns, over
 which the mouse's 0.24 degree counts average to 0.1 %."""
-TURN_TOLERANCE = 0.004
+TURN_TOLERANCE = 0.001
 """Relative difference between the encoders' and the mouse's turns below which the encoders' is kept:
 0.4 % is 0.4 degrees a quarter turn, and noise-free the two agree within 0.01 % over a run."""
 MAX_SKEW = math.radians(15)
@@ -97,8 +109,10 @@ class SolveMaze(Plan):
     and a wrong track width from leading it into a wall). Looks average noisy readings for longer, a
     way whose two sensors disagree within reach of the curve's fold-back counts as closed (it may be
     a wall touching them), and where the encoders' turn drifts the mouse's is taken
-    (`_correct_odometry`). Ways seen are remembered, so rooms visited again cost no looks. Succeeds
-    on the goal floor (the line sensors read GROUND_GOAL), after driving a quarter room onto it."""
+    (`_correct_odometry`). Ways seen are remembered, so rooms visited again cost one look only, at
+    the way out before driving it (a square-up where something lies ahead in reach). Succeeds
+    on the goal floor (a line sensor's mean over GOAL_READINGS steps reads GROUND_GOAL, which no
+    single noisy reading fakes), after driving a quarter room onto it."""
 
     def __init__(self, hand: str = "right", cell_m: float = 0.24, speed_m_s: float = SPEED_NORMAL, max_rooms: int = 1000):
         if hand not in ("left", "right"):
@@ -115,6 +129,8 @@ class SolveMaze(Plan):
         self.need("line", 1)
         self.entering: Behaviour | None = None
         self.known: dict[tuple[int, int, int], bool] = {}  # (room x, room y, quarter) -> open
+        self.looked: tuple[tuple[int, int], int] | None = None  # the way the last look faced
+        self.floor_seen: deque[list[float]] = deque(maxlen=GOAL_READINGS)  # the last steps' line readings
         self.frame = self.pose  # the grid's origin in this behaviour's odometry frame
         left, right = self.robot.ir[0].position, self.robot.ir[1].position
         self.ir_ahead = 0.5 * (left[0] + right[0])  # sensors ahead of the axle (m)
@@ -124,7 +140,7 @@ class SolveMaze(Plan):
         self.mouse_metre = None if mouse is None else 0.0254 / mouse.dpi  # m per count at the nominal dpi
         self.tick_turn = self.odometry.metres_per_tick / self.robot.track_width  # rad per tick of one wheel
         self.last_pose: Pose | None = None  # the odometry's pose after the last step
-        self.disagreement = 0.0  # encoders' turn less the mouse's driving straight, since the last correction
+        self.disagreement = 0.0  # driving straight: encoders' turn less the mouse's (rad)
         self.mouse_straight = 0.0  # driving straight: the mouse's distance at its nominal dpi (m)
         self.encoders_straight = 0.0  # and the encoders' (m)
         self.turn_products = 0.0  # turning: sum of encoders' x mouse's turn (rad^2)
@@ -134,25 +150,39 @@ class SolveMaze(Plan):
 
     def act(self, t: float, readings: Readings) -> Command:
         self._correct_odometry(readings)
-        if self.entering is None and any(abs(v - GROUND_GOAL) <= GOAL_TOLERANCE for v in readings.line.tolist()):
+        self.floor_seen.append(readings.line.tolist())
+        if self.entering is None and self._on_goal():
             self.entering = self.run(DriveToRoom(self.cell / 4, 0.0, self.speed))
         if self.entering is None:
             return super().act(t, readings)
         command = self.entering.step(t, readings)
         return command if self.entering.status is Status.RUNNING else self.finish(self.entering.status)
 
+    def _on_goal(self) -> bool:
+        """Whether a line sensor's last GOAL_READINGS readings average to the goal floor's colour
+        and scatter no more than noise does (each sensor by itself, and a steady floor: readings
+        crossing from white to black pass through the goal colour on the way)."""
+        if len(self.floor_seen) < GOAL_READINGS:
+            return False
+        seen = np.asarray(self.floor_seen, dtype=float)
+        means, spreads = seen.mean(axis=0).tolist(), seen.std(axis=0).tolist()
+        return any(abs(m - GROUND_GOAL) <= GOAL_TOLERANCE and s <= GOAL_SPREAD for m, s in zip(means, spreads))
+
     def _correct_odometry(self, readings: Readings) -> None:
         """Correct this step's turn of the shared odometry, which the children steer by.
 
-        The encoders' turn drifts: a spurious tick turns the belief by 1.75 degrees at once, slip
-        and a wheel diameter off by 0.3 % by a few degrees a room, a track width off by 1 % by 1
-        degree a quarter turn; each would lead the robot off its line for good. The mouse, 15 mm
-        behind the axle, sees the body's turn as lateral counts (0.24 degrees each) but reads
-        3.75 % off on the real c't-Bot; its scale is learnt from its distance against the
-        encoders' while driving straight, which a 0.3 % diameter error hardly spoils. So:
-        - in a step where the two turns differ by more than half a tick's, the mouse's is taken;
-        - driving straight, the mouse's turn is taken once the two have disagreed by half a tick's
-          since the last correction (noise-free they agree within a count a step);
+        The encoders' turn drifts: a spurious tick turns the belief by 1.75 degrees at once, a
+        wheel diameter off by 0.3 % by 1.8 degrees a metre, a track width off by 1 % by 1 degree
+        a quarter turn; each would lead the robot off its line for good. The mouse, 15 mm behind
+        the axle, sees the body's turn as lateral counts (0.24 degrees each) without bias but
+        with more random error (its noise over 15 mm of lever arm: about 1.3 degrees per root
+        metre, the encoders' slip 0.3), and reads 3.75 % off on the real c't-Bot; its scale is
+        learnt from its distance against the encoders' while driving straight. So:
+        - in a step where the two turns differ by more than half a tick's, the mouse's is taken
+          (a spurious tick or a wheel slipping at a wall; noise moves the mouse's a tenth of that);
+        - driving straight, the encoders' turn is corrected by their drift per metre against the
+          mouse, learnt over all straight driving so far (the mouse's random error averages
+          out as the root of the distance, the wheels' bias does not);
         - turning, the encoders' turn is scaled by the ratio of the mouse's turn to theirs over all
           turns so far, once that is more than TURN_TOLERANCE off 1.
         Without a mouse only the square-ups correct the heading."""
@@ -170,9 +200,8 @@ class SolveMaze(Plan):
                 self.mouse_straight += forward * self.mouse_metre * math.copysign(1.0, driven)
                 self.encoders_straight += abs(driven)
                 self.disagreement += turned - mouse
-                if abs(self.disagreement) > self.tick_turn / 2:
-                    self.odometry.turn_by(-self.disagreement)
-                    self.disagreement = 0.0
+                if self.encoders_straight > DRIFT_LEARN_M:
+                    self.odometry.turn_by(-self.disagreement / self.encoders_straight * abs(driven))
             else:  # turning on the spot, or standing still
                 self.turn_products += turned * mouse
                 self.turn_squares += turned * turned
@@ -204,6 +233,7 @@ class SolveMaze(Plan):
             look = Look(LOOK_STEPS, LOOK_MAX_STEPS, LOOK_ERROR)
             yield look
             self._square_up(look.ir_distance, room, quarter)
+            self.looked = (room, quarter % 4)
             self._learn(room, quarter, self._open(look.ir_distance))
         return self.known[key]
 
@@ -242,6 +272,10 @@ class SolveMaze(Plan):
         """Face `quarter` and drive to the next room's centre; on an abyss back off to this room's
         centre and remember that way as closed. Whether the robot got there."""
         yield self._face(quarter)
+        if self.looked != (room, quarter % 4):  # a way known from before: square up on what lies ahead
+            look = Look(LOOK_STEPS, LOOK_MAX_STEPS, LOOK_ERROR)
+            yield look
+            self._square_up(look.ir_distance, room, quarter)
         step = STEPS[quarter % 4]
         target = np.array([(room[0] + step[0]) * self.cell, (room[1] + step[1]) * self.cell, 0.0])
         local = relative_increment(self.pose, apply_increment(self.frame, target))
