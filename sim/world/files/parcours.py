@@ -5,7 +5,7 @@ Read by defusedxml's SAX parser, which refuses entity declarations (the "billion
 never fetches the DOCTYPE's `parcours.dtd` or any other external resource (SAX's external-entity
 features off); its locator gives each
 element's line, so an error names the line of the offending `<line>`. Elements may nest at most
-MAX_DEPTH deep and the file is at most `bots.schema.MAX_BYTES` long.
+MAX_DEPTH deep and the file is a regular one of at most `bots.schema.MAX_BYTES`.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from typing import Any
 from defusedxml import DefusedXmlException
 from defusedxml.expatreader import DefusedExpatParser
 
-from bots.schema import MAX_BYTES
+from bots.schema import read_bytes
 from sim.world.spec import Colour, WorldFileError, WorldSpec
 
 from .grid import DEFAULT_CELL, DEFAULT_TILE_COLOURS, build_grid
@@ -98,12 +98,7 @@ def _parse_xml(data: bytes, path: Path) -> _Element:
 
 def load_parcours(path: Path) -> WorldSpec:
     """Load a c't-Sim parcours file; everything outside the map is a hole, as in c't-Sim."""
-    try:
-        if path.stat().st_size > MAX_BYTES:
-            raise WorldFileError(path, None, f"the file has {path.stat().st_size:,} bytes, more than the {MAX_BYTES:,} a ctsim file may have")
-        data = path.read_bytes()
-    except OSError as e:
-        raise WorldFileError(path, None, f"cannot read: {e.strerror}") from None
+    data = read_bytes(path, WorldFileError)
     root = _parse_xml(data, path)
     parcours = root.first("parcours")
     if root.tag != "world" or parcours is None:
