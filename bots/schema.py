@@ -20,6 +20,8 @@ from dataclasses import field as dataclass_field
 from pathlib import Path
 from typing import Any
 
+from sim.errors import UserError
+
 MAX_BYTES = 4 * 2**20
 """Largest file ctsim reads (bytes, 4 MiB): the largest c't-Sim parcours is 4 KB, a hand-written
 world or robot a few KB, a 500 x 500 grid 260 KB. TOML is read in pure Python at about 1 MB/s:
@@ -51,7 +53,7 @@ REQUIRED: Any = _Required()
 KINDS = ("number", "integer", "boolean", "text", "pair", "box", "points", "colour", "table", "tables", "texts")
 
 
-class FileError(ValueError):
+class FileError(UserError):
     """A user mistake in a file; `str()` reads `file:line: problem` (the problem starts with the key)."""
 
     def __init__(self, path: str | Path | None, line: int | None, problem: str):

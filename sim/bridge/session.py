@@ -19,6 +19,7 @@ from sim.bridge import protocol as p
 from sim.bridge.firmware import FirmwareController, FirmwareEstimator
 from sim.bridge.firmware_map import png, window
 from sim.bridge.server import Listener
+from sim.errors import UserError
 from sim.run import RobotLog, RobotSetup, RunResult
 from sim.views.recording import TIMELINE, Recorder
 from sim.world import World
@@ -61,7 +62,7 @@ class Bridge:
         `ctsim_ticks`: encoder ticks in c't-Sim's arithmetic (`CtsimEncoders`)."""
         n = len(self.bots)
         if n >= len(p.ADDRESS_POOL):
-            raise ValueError(f"at most {len(p.ADDRESS_POOL)} firmware bots (c't-Sim's address pool)")
+            raise UserError(f"at most {len(p.ADDRESS_POOL)} firmware bots (c't-Sim's address pool)")
         bot = FirmwareController(
             self.listener, f"firmware bot {n + 1}", self.dt, self.connect_timeout, self.step_timeout, self.welcome,
             p.ADDRESS_POOL[n], tuple(rc5), tuple(calls), self.list_calls, ctsim_ticks,

@@ -26,14 +26,19 @@ from typing import Any
 import numpy as np
 
 from bots.spec import read_toml
+from sim.errors import UserError
 from sim.sandbox.launch import module_file
 
 SHIPPED = Path(__file__).resolve().parent / "exercises"
 LANGUAGES = ("en", "de")
 ENVIRONMENT = "CTSIM_LAB_EXERCISES"
+STARTUP_WALL = 30.0
+"""Wall-clock seconds a submission may spend starting its process (Python, numpy, loading its
+file), over all its start-ups, besides its scenarios' time limits: a busy grading machine needs
+a few seconds a start."""
 
 
-class ExerciseError(ValueError):
+class ExerciseError(UserError):
     """A mistake in an exercise folder or in choosing one (message for the user)."""
 
 
@@ -56,7 +61,9 @@ class Scenario:
 @dataclass
 class Exercise:
     """An exercise folder, read. `modules`: the project modules the template imports (say
-    `bots.commands`): with what they import, all of the project the student's code can see."""
+    `bots.commands`): with what they import, all of the project the student's code can see;
+    `budget`: wall-clock seconds for one submission, start-ups included (None: the time limit
+    of every scenario, plus `STARTUP_WALL`)."""
 
     folder: Path
     number: int
@@ -71,6 +78,7 @@ class Exercise:
     ranges: dict[str, Any]
     hints: dict[str, dict[str, str]]
     modules: tuple[str, ...] = ()
+    budget: float | None = None
     _checker: ModuleType | None = field(default=None, repr=False)
 
     @property
@@ -85,6 +93,10 @@ class Exercise:
                 raise ExerciseError(f"{path}: defines no check(scenario, student)")
             self._checker = module
         return self._checker
+
+    def wall(self, scenarios: int) -> float:
+        """Wall-clock seconds one submission of `scenarios` scenarios may take, start-ups included."""
+        return self.budget if self.budget is not None else self.time_limit * scenarios + STARTUP_WALL
 
     def sheet(self, lang: str) -> str:
         """The exercise sheet (Markdown) in `lang`."""
@@ -183,6 +195,7 @@ def load_exercise(folder: str | Path) -> Exercise:
         ranges=dict(data.get("draw", {})),
         hints=hints,
         modules=tuple(modules),
+        budget=float(data["budget"]) if "budget" in data else None,
     )
 
 

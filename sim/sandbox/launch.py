@@ -142,6 +142,7 @@ def _start(path: list[str]) -> list[str]:
 def command(code: Path, folder: bool, modules: tuple[str, ...], config: dict, degraded: bool) -> list[str]:
     """The command line that starts the guest on `code` (bound with its whole folder if `folder`),
     with `modules` of the project importable; `config` completed with the paths inside."""
+    config["preload"] = ["numpy", *modules]
     if degraded:
         site = str(Path(importlib.util.find_spec("numpy").origin).parents[1])
         config |= {"path": [str(ROOT / "sim" / "sandbox"), site, str(ROOT)], "code": str(code)}
