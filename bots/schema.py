@@ -139,15 +139,15 @@ class Field:
                 self._fail(value)
             try:
                 return tuple(self._number(v) for v in value)
-            except Problem:
-                self._fail(value)  # (naming the whole list)
+            except Problem as inner:
+                self._fail(value, _why(inner))  # (naming the whole list)
         if kind == "points":
             if not isinstance(value, (list, tuple)) or len(value) < self.minimum or not all(isinstance(p, (list, tuple)) and len(p) == 2 for p in value):
                 self._fail(value)
             try:
                 return tuple((self._number(p[0]), self._number(p[1])) for p in value)
-            except Problem:
-                self._fail(value)
+            except Problem as inner:
+                self._fail(value, _why(inner))
         if kind == "colour":
             parsed = parse_colour(value) if isinstance(value, str) else None
             if parsed is None:
@@ -175,14 +175,22 @@ class Field:
         if not self._in_range(value):
             self._fail(value)
         if value != 0 and abs(value) < TINY:
-            raise Problem("", f"must be {self.describe()}, not {shown(value)}: a subnormal number, too small to compute with")
+            self._fail(value, SUBNORMAL)
         return float(value) + 0.0  # (-0.0 as 0.0)
 
     def _in_range(self, value: float) -> bool:
         return (value > self.low if self.above else value >= self.low) and value <= self.high
 
-    def _fail(self, value: Any) -> None:
-        raise Problem("", f"must be {self.describe()}, not {shown(value)}")
+    def _fail(self, value: Any, why: str = "") -> None:
+        raise Problem("", f"must be {self.describe()}, not {shown(value)}" + (f": {why}" if why else ""))
+
+
+SUBNORMAL = "a subnormal number, too small to compute with"
+
+
+def _why(problem: Problem) -> str:
+    """The reason a Problem gives after its value (`SUBNORMAL`), '' for none."""
+    return SUBNORMAL if problem.message.endswith(SUBNORMAL) else ""
 
 
 def _figure(value: float) -> str:
@@ -207,7 +215,9 @@ def shown(value: Any) -> str:
 
 def _digit_count(value: int) -> int:
     """Decimal digits of a whole number of any size, without turning it into text."""
-    return max(1, math.floor(abs(value).bit_length() * math.log10(2)) + 1)
+    size = abs(value)
+    digits = max(1, math.floor((size.bit_length() - 1) * math.log10(2)) + 1)
+    return digits + (size >= 10**digits)
 
 
 def parse_number(text: str, kind: type = float) -> float | int:
@@ -343,10 +353,11 @@ def read_bytes(path: Path, error: type[FileError] = FileError) -> bytes:
         descriptor = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
     except OSError as err:
         raise error(path, None, f"cannot read: {err.strerror or err}") from None
+    info = os.fstat(descriptor)
+    if not stat.S_ISREG(info.st_mode):
+        os.close(descriptor)
+        raise error(path, None, f"not a regular file ({_file_kind(info.st_mode)}); give a file ctsim can read to its end")
     with os.fdopen(descriptor, "rb") as file:
-        info = os.fstat(descriptor)
-        if not stat.S_ISREG(info.st_mode):
-            raise error(path, None, f"not a regular file ({_file_kind(info.st_mode)}); give a file ctsim can read to its end")
         if info.st_size > MAX_BYTES:
             raise error(path, None, f"the file has {info.st_size:,} bytes, more than the {MAX_BYTES:,} a ctsim file may have")
         try:

@@ -58,7 +58,7 @@ def load_world(source: str | Path) -> WorldSpec:
     loader = _LOADERS.get(path.suffix.lower())
     if loader is None:
         raise WorldFileError(path, None, f"unknown world file type '{path.suffix}'; expected .toml or .xml")
-    if not path.is_file():
+    if not path.exists():
         raise WorldFileError(path, None, "no such file")
     world = loader(path)
     if not world.start_order():

@@ -10,9 +10,11 @@ MAX_DEPTH deep and the file is a regular one of at most `bots.schema.MAX_BYTES`.
 
 from __future__ import annotations
 
+import difflib
 import io
 import re
 import xml.sax
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -117,6 +119,7 @@ def load_parcours(path: Path) -> WorldSpec:
         path=path,
     )
     description = root.first("description")
+    notes = tuple(_unknown_tags(root))
     return WorldSpec(
         name=path.stem,
         bounds=pieces.bounds,
@@ -132,7 +135,31 @@ def load_parcours(path: Path) -> WorldSpec:
         outside_is_hole=True,
         source=str(path),
         description=re.sub(r"\s+", " ", description.text).strip() if description is not None else "",
+        notes=notes,
     )
+
+
+KNOWN_TAGS = {"world": ("description", "parcours", "optics"), "parcours": ("line", "optics"), "optics": ("appearance",),
+              "appearance": ("description", "color", "clone", "texture")}
+"""The elements c't-Sim reads inside each element (its parcours.dtd): anything else is ignored,
+and said (a misspelt `<line>` would drop a row of the map)."""
+
+
+def _unknown_tags(root: _Element) -> Iterator[str]:
+    """A note per element c't-Sim would not read, with its line and the closest known tag."""
+    todo = [root]
+    while todo:
+        element = todo.pop()
+        known = KNOWN_TAGS.get(element.tag)
+        if known is None:
+            continue
+        for child in element.children:
+            if child.tag in known:
+                todo.append(child)
+                continue
+            close = difflib.get_close_matches(child.tag, known, n=1)
+            hint = f"; did you mean <{close[0]}>?" if close else f" (known there: {', '.join(f'<{t}>' for t in known)})"
+            yield f"line {child.line}: unknown tag <{child.tag}> inside <{element.tag}>, ignored{hint}"
 
 
 def _optics(optics: _Element, path: Path) -> dict[str, Colour]:
