@@ -13,6 +13,7 @@ import argparse
 import json
 import math
 import os
+import re
 import signal
 import sys
 import time
@@ -197,29 +198,10 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _add_lab(commands) -> None:
-    lab = commands.add_parser("lab", help="lab exercises with automatic checking", description="Exercises on kinematics and odometry: write the sheet and template, check your file, grade a folder of submissions.")
-    lab.add_argument("--lang", choices=("en", "de"), default="en", help="language of sheets, hints and tables (default: en)")
-    lab.add_argument("--exercises", action="append", default=[], metavar="DIR", help="a folder with more exercises (one sub-folder each), repeatable")
-    actions = lab.add_subparsers(dest="lab_command", metavar="ACTION", required=True)
-    actions.add_parser("list", help="the exercises")
-    start = actions.add_parser("start", help="write the exercise sheet (Markdown) and the template to fill in")
-    start.add_argument("number", type=int)
-    start.add_argument("dir", nargs="?", type=Path, default=Path("."), help="folder to write into (default: here)")
-    start.add_argument("--notebook", action="store_true", help="write the exercise as a Jupyter notebook instead (sheet, your solution's cell, a cell that checks it)")
-    check = actions.add_parser("check", help="check your file on the examples and on hidden scenarios")
-    check.add_argument("number", type=int)
-    check.add_argument("file", type=Path, help="your file, or the notebook of `lab start --notebook`")
-    check.add_argument("--out", type=Path, default=Path("lab-check"), metavar="DIR", help="folder for figures and recordings (default: lab-check)")
-    check.add_argument("--degraded", action="store_true", help="where bubblewrap is missing, run the file without isolation (said in the result)")
-    grade = actions.add_parser("grade", help="grade a folder of submissions: CSV, Gradescope results.json, JUnit XML")
-    grade.add_argument("number", type=int)
-    grade.add_argument("submissions", type=Path, metavar="SUBMISSIONS_DIR")
-    grade.add_argument("--out", type=Path, default=None, metavar="DIR", help="folder for the grades (default: SUBMISSIONS_DIR/grades)")
-    grade.add_argument("--seed", type=int, help="seed of the hidden scenarios (default: a fresh one, written to grades.csv)")
-    grade.add_argument("--jobs", type=_positive(int), help="parallel checks (default: number of CPUs)")
-    grade.add_argument("--degraded", action="store_true", help="where bubblewrap is missing, grade without isolation (said in every result)")
-    lab.set_defaults(handler=cmd_lab)
+def _add_lab(commands) -> None:  # noqa: ANN001 (argparse's subparsers action)
+    from sim.lab.arguments import add_parser
+
+    add_parser(commands, cmd_lab)
 
 
 def _add_contest(commands) -> None:  # noqa: ANN001 (argparse's subparsers action)
@@ -763,7 +745,7 @@ def _add_bridge_parser(commands) -> None:
     bridge.add_argument("--call", action="append", type=timed(parse_call), default=[], metavar="T:'CALL'", help="remote call at T s, e.g. 2:'bot_turn(90)' (repeatable)")
     bridge.add_argument("--list-calls", action="store_true", help="ask each firmware for the remote calls it offers and print them (c't-Sim's RemoteCallViewer)")
     bridge.add_argument("--own-physics", action="store_true",
-                        help="firmware bots meet walls (slide) and see them (nearest point in the IR cone) with ctsim's own models instead of c't-Sim's")
+                        help="firmware bots meet walls (slide), see them (nearest point in the IR cone), read lines at one point and meet lamp pillars as whole wall cells, with ctsim's own models instead of c't-Sim's")
     bridge.set_defaults(handler=cmd_bridge)
 
 
@@ -774,7 +756,7 @@ def cmd_bridge(args: argparse.Namespace) -> int:
     from sim.world.files import load_world
 
     step_count(args.duration, args.dt)
-    world = load_world(args.world)
+    world = load_world(args.world, pillars="cell" if args.own_physics else "cylinder")
     spec = load_robot_spec(args)
     if args.robots < 1:
         raise UsageError(f"--robots must be at least 1, got {args.robots}")
@@ -873,6 +855,12 @@ def cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
+def first_sentence(text: str) -> str:
+    """The first sentence of a text: up to a full stop followed by a capital (so that "e.g. a"
+    and "0.24 m" do not end it), whitespace folded."""
+    return re.split(r"(?<=[.!?])\s+(?=[A-Z])", " ".join(text.split()), maxsplit=1)[0]
+
+
 def cmd_worlds(args: argparse.Namespace) -> int:
     import textwrap
 
@@ -881,7 +869,7 @@ def cmd_worlds(args: argparse.Namespace) -> int:
     for name, path in shipped_worlds().items():
         world = load_world(path)
         xmin, ymin, xmax, ymax = world.bounds
-        first = " ".join(world.description.split()).split(". ")[0].rstrip(".")  # its first sentence says what it is for
+        first = first_sentence(world.description).rstrip(".")  # it says what the world is for
         room = len(world.start_order())
         lead = f"{name:<14}{xmax - xmin:5.2f} x {ymax - ymin:<5.2f} m  "
         print(textwrap.fill(f"{first} ({room} start{'s' if room != 1 else ''})", width=100, initial_indent=lead, subsequent_indent=" " * len(lead)))

@@ -52,7 +52,7 @@ def test_records_reach_the_guest_with_their_fields_and_properties(tmp_path: Path
 
 
 SNOOP = """
-import ctypes, os, socket
+import ctypes, os, socket, sys
 def attach_to_the_first_process():
     if ctypes.CDLL(None, use_errno=True).ptrace(16, 1, 0, 0) != 0:  # PTRACE_ATTACH
         raise OSError(ctypes.get_errno(), "ptrace refused")
@@ -66,24 +66,39 @@ def look():
                          ("thread", lambda: __import__("threading").Thread(target=print).start()),
                          ("ptrace", attach_to_the_first_process),
                          ("net", lambda: socket.create_connection(("1.1.1.1", 53), timeout=5)),
-                         ("kinematics", lambda: __import__("sim.kinematics"))]:
+                         ("kinematics", lambda: __import__("sim.kinematics")),
+                         ("mountinfo", lambda: open("/proc/self/mountinfo").read()),
+                         ("processes", lambda: os.listdir("/proc")),
+                         ("shell", lambda: os.stat("/usr/bin/sh")),
+                         ("dist_packages", lambda: os.listdir("/usr/lib/python3/dist-packages")),
+                         ("site_packages", lambda: (sys.path.append(%(site)r), __import__("pytest"))),
+                         ("yaml", lambda: __import__("yaml"))]:
         try:
             action()
             found[name] = "done"
         except BaseException as err:
             found[name] = type(err).__name__
-    found["processes"] = sorted(int(p) for p in os.listdir("/proc") if p.isdigit())
+    found["top"] = sorted(os.listdir("/"))
     return sorted(found.items())  # a reply holds lists, no objects
 """
 
 
 def test_the_guest_sees_nothing_of_the_host_and_cannot_start_processes_or_threads(tmp_path: Path) -> None:
     root = str(Path(__file__).resolve().parents[1])
-    with box(tmp_path, SNOOP % {"root": root}) as sandbox:
+    site = str(Path(pytest.__file__).parents[1])
+    with box(tmp_path, SNOOP % {"root": root, "site": site}) as sandbox:
         found = dict(sandbox.call("look", timeout=GENEROUS))
-    assert found.pop("processes") == [1]  # the guest alone, first of its pid namespace: nothing to trace or signal
-    assert "done" not in found.values(), found
+    assert {"dev", "guest", "submission"} <= set(found.pop("top")) <= {"bin", "dev", "guest", "lib", "lib64", "sbin", "submission", "usr", *_interpreter_top()}
+    assert "done" not in found.values(), found  # no /proc: no mount table, no other process to trace or signal
     assert not (tmp_path / "x.txt").exists()
+
+
+def _interpreter_top() -> list[str]:
+    """The top folder of the interpreter's installation where it is not under /usr (pyenv: /root)."""
+    import sys
+
+    top = Path(os.path.realpath(sys.base_prefix)).parts[1]
+    return [] if top == "usr" else [top]
 
 
 REPLIES = "import json, os, sys\nREPLIES = json.loads(sys.argv[1])['replies']\n"

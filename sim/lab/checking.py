@@ -125,7 +125,7 @@ def _not_run(exercise: Exercise, scenario: Scenario, student: Student, lang: str
     """The row of a scenario left when the submission's time was spent."""
     hint = exercise.hint("budget", lang, shared, budget=student.wall)
     got = f"not run: the submission's {student.wall:g} s were spent"
-    return Row(scenario.name, HIDDEN if scenario.hidden else "", got, "", False, hint, scenario.hidden, "budget", values=("", got))
+    return Row(scenario.label(lang), HIDDEN if scenario.hidden else "", got, "", False, hint, scenario.hidden, "budget", values=("", got))
 
 
 FATAL = ("load", "forbidden")
@@ -141,14 +141,14 @@ def _one(exercise: Exercise, scenario: Scenario, student: Student, lang: str, sh
         hint = exercise.hint(err.kind, lang, shared, limit=exercise.time_limit, where=where, budget=student.wall,
                              memory=human_size(student.box.limits.memory), output=human_size(student.box.limits.output))  # fmt: skip
         got = err.public if scenario.hidden else err.detail
-        row = Row(scenario.name, HIDDEN if scenario.hidden else "", got, "", False, hint, scenario.hidden, err.kind, values=("", err.detail))
+        row = Row(scenario.label(lang), HIDDEN if scenario.hidden else "", got, "", False, hint, scenario.hidden, err.kind, values=("", err.detail))
         return row, None
     problem = "" if outcome.passed else outcome.hint or "wrong"
     hint = exercise.hint(problem, lang, shared, **outcome.hint_args) if problem else ""
     values = (outcome.expected, outcome.got)
     if scenario.hidden:
-        return Row(scenario.name, HIDDEN, HIDDEN, outcome.tolerance, outcome.passed, hint, True, problem, values=values), outcome
-    return Row(scenario.name, *values, outcome.tolerance, outcome.passed, hint, problem=problem, values=values), outcome
+        return Row(scenario.label(lang), HIDDEN, HIDDEN, outcome.tolerance, outcome.passed, hint, True, problem, values=values), outcome
+    return Row(scenario.label(lang), *values, outcome.tolerance, outcome.passed, hint, problem=problem, values=values), outcome
 
 
 DEGRADED = "DEGRADED: run without isolation (bubblewrap missing); the code could read or change files"

@@ -53,9 +53,15 @@ class Scenario:
     seed: int
     tolerance: dict[str, float]
     out: Path | None = None
+    names: dict[str, str] = field(default_factory=dict)
+    """The name in other languages than English (an example's `name_de`)."""
 
     def __getitem__(self, key: str) -> Any:
         return self.params[key]
+
+    def label(self, lang: str) -> str:
+        """The name as a table in `lang` shows it."""
+        return self.names.get(lang, self.name)
 
 
 @dataclass
@@ -119,15 +125,16 @@ class Exercise:
         root = np.random.SeedSequence(seed)
         children = root.spawn(len(self.examples) + self.hidden)
         found = [
-            Scenario(name, dict(example), False, _seed(children[i]), self.tolerance, out / slug(name) if out else None)
+            Scenario(name, dict(example), False, _seed(children[i]), self.tolerance, out / slug(name) if out else None,
+                     {lang: str(example[f"name_{lang}"]) for lang in LANGUAGES if f"name_{lang}" in example})
             for i, example in enumerate(self.examples)
             for name in [str(example.get("name", f"example {i + 1}"))]
-        ]
+        ]  # fmt: skip
         draw = getattr(self.checker, "draw", draw_ranges)
         for k in range(self.hidden):
             child = children[len(self.examples) + k]
             rng = np.random.default_rng(child)
-            found.append(Scenario(f"hidden {k + 1}", draw(rng, k, self.ranges), True, _seed(child), self.tolerance, None))
+            found.append(Scenario(f"hidden {k + 1}", draw(rng, k, self.ranges), True, _seed(child), self.tolerance, None, {"de": f"verdeckt {k + 1}"}))
         return found
 
 

@@ -23,19 +23,38 @@ from xml.etree import ElementTree as ET
 from sim import sanitize
 from sim.lab.checking import DEGRADED, CheckReport, Row, check_file, fresh_seed
 from sim.lab.exercise import Exercise, ExerciseError
+from sim.lab.notebook import SUFFIX, submission
 from sim.sandbox import SandboxUnavailable, unavailable
 
 
-def submissions(folder: Path, name: str) -> list[Path]:
-    """The student files in `folder`: every *.py directly in it, or `name` in each sub-folder."""
-    found = sorted(p for p in folder.glob("*.py") if p.is_file() or p.is_symlink())
-    return found or sorted(p for p in folder.glob(f"*/{name}") if p.is_file() or p.is_symlink())
+def submissions(folder: Path, name: str, notebooks: bool = False) -> list[Path]:
+    """The student files in `folder`: every *.py (and notebook, *.ipynb, if `notebooks`) directly
+    in it, or in each sub-folder `name` (else its one notebook)."""
+    def present(p: Path) -> bool:
+        return p.is_file() or p.is_symlink()
+
+    suffixes = (".py", SUFFIX) if notebooks else (".py",)
+    found = sorted(p for p in folder.iterdir() if p.suffix in suffixes and present(p))
+    if found:
+        return found
+    chosen = []
+    for sub in sorted(p for p in folder.iterdir() if p.is_dir()):
+        books = sorted(p for p in sub.glob(f"*{SUFFIX}") if present(p)) if notebooks else []
+        chosen += [sub / name] if present(sub / name) else books if len(books) == 1 else []
+    return chosen
 
 
 def student_id(path: Path, folder: Path) -> str:
     """The file's stem, or its sub-folder's name for `folder/<student>/<file>` (never a path)."""
-    name = path.parent.name if path.parent != folder else path.stem
-    return name if name not in ("", ".", "..") else f"_{name}"
+    return student_ids([path], folder)[0]
+
+
+def student_ids(files: list[Path], folder: Path) -> list[str]:
+    """Each file's stem, or its sub-folder's name for `folder/<student>/<file>` (never a path);
+    the whole file name where two stems are the same (alice.py and alice.ipynb)."""
+    stems = [f.parent.name if f.parent != folder else f.stem for f in files]
+    ids = [f.name if f.parent == folder and stems.count(stem) > 1 else stem for f, stem in zip(files, stems)]
+    return [i if i not in ("", ".", "..") else f"_{i}" for i in ids]
 
 
 def grade(ex: Exercise, folder: str | Path, out: str | Path, lang: str = "en", seed: int | None = None,
@@ -44,9 +63,9 @@ def grade(ex: Exercise, folder: str | Path, out: str | Path, lang: str = "en", s
     write grades.csv, gradescope/<student>/results.json and junit.xml into `out`. Without
     bubblewrap this refuses (SandboxUnavailable) unless `degraded`, and then says so in every result."""
     folder, out = Path(folder).resolve(), Path(out).resolve()
-    files = submissions(folder, ex.file)
+    files = submissions(folder, ex.file, notebooks=True)
     if not files:
-        raise ExerciseError(f"{folder}: no submissions (*.py files, or */{ex.file})")
+        raise ExerciseError(f"{folder}: no submissions (*.py files or notebooks, or */{ex.file} or one notebook a sub-folder)")
     own_folders = files[0].parent != folder
     if own_folders and any(out.is_relative_to(f.parent) for f in files):
         raise ExerciseError(f"{out}: the grades folder must not be inside a student's folder (the student's code would see it)")
@@ -59,7 +78,7 @@ def grade(ex: Exercise, folder: str | Path, out: str | Path, lang: str = "en", s
     with ThreadPoolExecutor(jobs) as pool:
         reports = list(pool.map(lambda f: _check(ex, f, folder, lang, seed, own_folders, degraded), files))
     out.mkdir(parents=True, exist_ok=True)
-    ids = [student_id(f, folder) for f in files]
+    ids = student_ids(files, folder)
     return reports, [write_csv(out / "grades.csv", ids, reports), write_gradescope(out / "gradescope", ids, reports),
                      write_junit(out / "junit.xml", ids, reports, ex.title["en"])]  # fmt: skip
 
@@ -70,10 +89,24 @@ def _check(ex: Exercise, path: Path, folder: Path, lang: str, seed: int, own_fol
     if path.is_symlink() or (own_folder and path.parent.is_symlink()) or not path.resolve().is_relative_to(folder):
         return _failed(ex, path, seed, "link", "the submission is a link, not a file of its own: not graded")
     try:
+        if path.suffix == SUFFIX:
+            return _check_notebook(ex, path, lang, seed, degraded)
         return check_file(ex, path, lang, seed, folder=own_folder, degraded=degraded)
     except Exception:  # noqa: BLE001 (a bug of ctsim on one file must not cost the others their grades)
         print(f"ctsim lab grade: checking {path} failed inside ctsim (a bug, not the student's):\n{traceback.format_exc()}", file=sys.stderr)
         return _failed(ex, path, seed, "grader", "the grader failed on this file (a ctsim bug, not your code): ask your teacher")
+
+
+def _check_notebook(ex: Exercise, path: Path, lang: str, seed: int, degraded: bool) -> CheckReport:
+    """A notebook's report: its solution cell checked as the exercise's file, or, for a notebook
+    that is not one of the exercise, a failed report saying why in one line."""
+    try:
+        with submission(path, ex) as file:
+            report = check_file(ex, file, lang, seed, degraded=degraded)
+    except ExerciseError as err:
+        return _failed(ex, path, seed, "load", str(err).replace(str(path), path.name))
+    report.file = str(path)
+    return report
 
 
 def _failed(ex: Exercise, path: Path, seed: int, problem: str, message: str) -> CheckReport:

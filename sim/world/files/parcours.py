@@ -98,8 +98,9 @@ def _parse_xml(data: bytes, path: Path) -> _Element:
     return builder.stack[0].children[0]
 
 
-def load_parcours(path: Path) -> WorldSpec:
-    """Load a c't-Sim parcours file; everything outside the map is a hole, as in c't-Sim."""
+def load_parcours(path: Path, pillars: str = "cell") -> WorldSpec:
+    """Load a c't-Sim parcours file; everything outside the map is a hole, as in c't-Sim.
+    `pillars`: how lamp pillars stand (`build_grid`)."""
     data = read_bytes(path, WorldFileError)
     root = _parse_xml(data, path)
     parcours = root.first("parcours")
@@ -117,6 +118,7 @@ def load_parcours(path: Path) -> WorldSpec:
         colours=colours,
         row_lines=[row.line for row in rows],
         path=path,
+        pillars=pillars,
     )
     description = root.first("description")
     notes = tuple(_unknown_tags(root))
