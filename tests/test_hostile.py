@@ -12,7 +12,8 @@ from pathlib import Path
 
 import pytest
 
-from sim.cli import LOCK, main
+from sim.cli import main
+from sim.folder_lock import LOCK
 from sim.experiments import Serial, load_results, sweep
 
 STOPS_ONCE = '''
@@ -190,7 +191,7 @@ def test_a_folder_in_use_by_another_run_is_refused(tmp_path, capsys):
 
     (tmp_path / "out").mkdir()
     with open(tmp_path / "out" / LOCK, "w") as held:  # another run holds it
-        held.write("4242\n")
+        held.write("4242 run\n")
         held.flush()
         fcntl.flock(held, fcntl.LOCK_EX)
         assert run_cli("--controller", "square", "--out", str(tmp_path / "out")) == 2
