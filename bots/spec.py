@@ -14,8 +14,9 @@ from pathlib import Path
 from typing import Any
 
 from bots.chassis_spec import ChassisSpec, chassis_from_dict, inscribed_radius
-from bots.schema import WORLD_EXTENT, FileError, Locator, Problem, check_fields, declared
+from bots.schema import MIN_LENGTH, MIN_MASS, WORLD_EXTENT, FileError, Locator, Problem, check_fields, declared
 from bots.schema import read_toml as read_located
+from sim.errors import UserError
 
 REACH = 2.0
 """Farthest a mount point (sensor, skid) may sit from a robot's reference point (m)."""
@@ -164,10 +165,10 @@ class RobotSpec:
     """
 
     name: str = declared("text")
-    wheel_diameter: float = declared(unit="m", low=0.0, above=True, high=2.0)
-    track_width: float = declared(unit="m", low=0.0, above=True, high=2 * REACH)
-    body_radius: float = declared(unit="m", low=0.0, above=True, high=REACH)
-    mass: float = declared(default=0.5, unit="kg", low=0.0, above=True, high=1000.0)
+    wheel_diameter: float = declared(unit="m", low=MIN_LENGTH, high=2.0)
+    track_width: float = declared(unit="m", low=MIN_LENGTH, high=2 * REACH)
+    body_radius: float = declared(unit="m", low=MIN_LENGTH, high=REACH)
+    mass: float = declared(default=0.5, unit="kg", low=MIN_MASS, high=1000.0)
     skid: Point = declared(default=(-0.054, 0.0), **_MOUNT)
     motor: MotorSpec = field(default_factory=MotorSpec)
     encoders: EncoderSpec = field(default_factory=EncoderSpec)
@@ -305,7 +306,7 @@ def robot_from_dict(data: dict, where: str = "robot", locator: Locator | None = 
                         given=("chassis", "wheel_diameter", "track_width"), optional=("body_radius",))
 
 
-def read_toml(path: Path, error: type[Exception] = ValueError) -> dict:
+def read_toml(path: Path, error: type[Exception] = UserError) -> dict:
     """A TOML file's data (bounded: `bots.schema.read_toml`), or `error("file:line: problem")`."""
     try:
         return read_located(Path(path))[0]

@@ -36,8 +36,13 @@ RULES = (
     ("sim.contest", CAPABILITIES + ("sim.contest",)),
     ("sim.cli", ("sim", "bots")),
     ("sim.console", ("sim.cli",)),
+    ("sim.errors", ()),
+    ("sim.sanitize", ()),
+    ("sim.folder_lock", ()),
 )
-EVERYONE = ("sim",)  # the bare package: its version and location, nothing of any layer
+# the bare package (its version and location) and three leaves any layer may use: the user-error
+# base, the making safe of text from outside and the lock of an output folder
+EVERYONE = ("sim", "sim.errors", "sim.sanitize", "sim.folder_lock")
 
 
 def within(name: str, prefix: str) -> bool:

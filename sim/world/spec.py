@@ -44,11 +44,14 @@ class FloorRegion:
 
 @dataclass(frozen=True)
 class FloorLine:
-    """A painted line on the floor: a polyline of `width` metres (c't-Sim: 2.4 cm, black)."""
+    """A painted line on the floor: a polyline of `width` metres (c't-Sim: 2.4 cm, black).
+    `flat`: each segment ends square at its end points (c't-Sim's line tiles, which end at their
+    cell's edge); otherwise the ends and joints are round, half the width past the points."""
 
     points: tuple[Point, ...]
     width: float = 0.024
     colour: Colour = BLACK
+    flat: bool = False
 
 
 @dataclass(frozen=True)
@@ -155,6 +158,9 @@ class WorldSpec:
     outside_is_hole: bool = False
     source: str | None = None
     description: str = ""
+    notes: tuple[str, ...] = ()
+    """What the loader read past but a user should hear of (an unknown XML tag: a misspelt `<line>`
+    drops a map row); `world_warnings` lists them first."""
 
     def start_order(self) -> list[Start]:
         """The starts in the order robots take them, as c't-Sim hands out its slots: slots 1, 2,
