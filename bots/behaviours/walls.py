@@ -59,6 +59,8 @@ which the mouse's 0.24 degree counts average to 0.1 %."""
 TURN_TOLERANCE = 0.001
 """Relative difference between the encoders' and the mouse's turns below which the encoders' is kept:
 0.4 % is 0.4 degrees a quarter turn, and noise-free the two agree within 0.01 % over a run."""
+MAX_VISITS = 4
+"""Visits to one room after which its ways are looked at again (`_visit`)."""
 HEADING_DRIFT = math.radians(1.0) ** 2
 """Variance (rad^2) the believed heading gains per metre driven and per radian turned: the
 mouse-corrected encoders drift about a degree a root metre, and a learnt track leaves about a
@@ -134,6 +136,7 @@ class SolveMaze(Plan):
         self.entering: Behaviour | None = None
         self.known: dict[tuple[int, int, int], bool] = {}  # (room x, room y, quarter) -> open
         self.looked: tuple[tuple[int, int], int] | None = None  # the way the last look faced
+        self.visits: dict[tuple[int, int], int] = {}  # room -> visits since its ways were last seen
         self.floor_seen: deque[list[float]] = deque(maxlen=GOAL_READINGS)  # the last steps' line readings
         self.frame = self.pose  # the grid's origin in this behaviour's odometry frame
         left, right = self.robot.ir[0].position, self.robot.ir[1].position
@@ -247,13 +250,15 @@ class SolveMaze(Plan):
 
     def _open(self, distance: np.ndarray) -> bool:
         """Whether a look sees a way open: both sensors see nothing nearer than OPEN_FRACTION
-        cells, and where one sees something within FOLD_REACH, both see the same face (their
-        difference within MAX_SKEW): a wall touching the sensors reads as far as 0.41 m on one and
-        0.33 m on the other, a wall one room further on reads the same on both."""
+        cells, and where both see something within FOLD_REACH, the same face (their difference
+        within MAX_SKEW): a wall touching the sensors reads as far as 0.41 m on one and 0.33 m on
+        the other, a wall one room further on reads the same on both. One sensor seeing beyond
+        FOLD_REACH sees no wall touching them: the other's nearer reading is the side of the way
+        ahead, seen at a slant by a robot off its line (an open way)."""
         if not clear_ahead(distance, OPEN_FRACTION * self.cell):
             return False
         left, right = np.nan_to_num(distance[:2], nan=math.inf)
-        if min(left, right) >= FOLD_REACH:
+        if max(left, right) >= FOLD_REACH:
             return True
         return abs(left - right) <= self.ir_baseline * math.tan(MAX_SKEW)
 
@@ -282,6 +287,18 @@ class SolveMaze(Plan):
         corrected[2] += gain * float(wrap_angle(quarter * math.pi / 2 + skew - pose[2]))
         self.heading_var *= 1.0 - gain
         self.frame = apply_increment(self.pose, relative_increment(corrected, np.zeros(3)))
+
+    def _visit(self, room: tuple[int, int]) -> None:
+        """Count a visit to `room`; past MAX_VISITS forget its ways, to be seen afresh: a wall
+        follower enters a room at most once through each of its four ways, so more means a way
+        was misread and the plan goes round a loop that is not there."""
+        self.visits[room] = self.visits.get(room, 0) + 1
+        if self.visits[room] > MAX_VISITS:
+            self.visits[room] = 0
+            for q in range(4):
+                i, j = room[0] + STEPS[q][0], room[1] + STEPS[q][1]
+                self.known.pop((*room, q), None)
+                self.known.pop((i, j, (q + 2) % 4), None)
 
     def _drive(self, room: tuple[int, int], quarter: int) -> Generator[Behaviour, Status, bool]:
         """Face `quarter` and drive to the next room's centre; on an abyss back off to this room's
@@ -319,6 +336,7 @@ class SolveMaze(Plan):
             for way in ways:
                 if (yield from self._is_open(room, way)) and (yield from self._drive(room, way)):
                     heading, room = way, (room[0] + STEPS[way % 4][0], room[1] + STEPS[way % 4][1])
+                    self._visit(room)
                     break
             else:
                 if following:
