@@ -346,8 +346,8 @@ class Locator:
         return first if table is not None else None
 
 
-def read_bytes(path: Path, error: type[FileError] = FileError) -> bytes:
-    """A regular file's bytes, at most MAX_BYTES: a FIFO, device or folder is refused at once
+def read_bytes(path: Path, error: type[FileError] = FileError, most: int = MAX_BYTES) -> bytes:
+    """A regular file's bytes, at most `most`: a FIFO, device or folder is refused at once
     (opened without blocking, checked before reading), as is a larger file."""
     try:
         descriptor = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
@@ -358,14 +358,14 @@ def read_bytes(path: Path, error: type[FileError] = FileError) -> bytes:
         os.close(descriptor)
         raise error(path, None, f"not a regular file ({_file_kind(info.st_mode)}); give a file ctsim can read to its end")
     with os.fdopen(descriptor, "rb") as file:
-        if info.st_size > MAX_BYTES:
-            raise error(path, None, f"the file has {info.st_size:,} bytes, more than the {MAX_BYTES:,} a ctsim file may have")
+        if info.st_size > most:
+            raise error(path, None, f"the file has {info.st_size:,} bytes, more than the {most:,} ctsim reads of it")
         try:
-            data = file.read(MAX_BYTES + 1)
+            data = file.read(most + 1)
         except OSError as err:
             raise error(path, None, f"cannot read: {err.strerror or err}") from None
-    if len(data) > MAX_BYTES:  # (grew while read)
-        raise error(path, None, f"the file has more than the {MAX_BYTES:,} bytes a ctsim file may have")
+    if len(data) > most:  # (grew while read)
+        raise error(path, None, f"the file has more than the {most:,} bytes ctsim reads of it")
     return data
 
 
