@@ -7,13 +7,13 @@ shapes every view draws (`map_image.map_shapes`), here as vector patches.
 
 from __future__ import annotations
 
-import json
+import io
 from pathlib import Path
 
 import numpy as np
 
 from sim.analysis.export import read_tum
-from sim.errors import UserError
+from sim.analysis.run_folder import RunFolderError, read_summary, trajectory_text
 from sim.views import palette
 from sim.views.map_image import map_shapes
 from sim.world.files.grid import TILE_NAMES
@@ -241,15 +241,6 @@ def describe(summary: dict) -> str:
     )
 
 
-def read_summary(run_dir: str | Path) -> dict:
-    """summary.json of a run folder; a damaged one is refused naming its line."""
-    summary_path = Path(run_dir) / "summary.json"
-    try:
-        return json.loads(summary_path.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as err:
-        raise UserError(f"{summary_path}:{err.lineno}: {err.msg}") from None
-
-
 def ate_of(summary: dict) -> dict[str, dict[str, float]]:
     """The ATE RMS (m) of each estimate by robot, as the figures' legends show it."""
     return {robot["name"]: {label: e["ate_rmse"] for label, e in robot["estimates"].items() if e.get("ate_rmse") is not None} for robot in summary["robots"]}
@@ -263,7 +254,18 @@ def report_run_dir(run_dir: str | Path) -> list[Path]:
     summary = read_summary(run_dir)
     world = load_world(summary["world"]["source"])
     robots = {
-        robot["name"]: {label: read_tum(run_dir / name) for label, name in robot["tum"].items()}
+        robot["name"]: {label: _trajectory(run_dir, name) for label, name in robot.get("tum", {}).items()}
         for robot in summary["robots"]
     }
+    if not any(robots.values()):
+        raise RunFolderError(run_dir / "summary.json", None, "no trajectories named (robots[].tum): the run wrote none to draw")
     return write_figures(world, robots, run_dir, subtitle=describe(summary), ate=ate_of(summary))
+
+
+def _trajectory(run_dir: Path, name: str) -> tuple:
+    """A TUM file of the run folder (`run_folder.trajectory_text`), its content never quoted."""
+    text = trajectory_text(run_dir, name)
+    try:
+        return read_tum(io.StringIO(text))
+    except ValueError:
+        raise RunFolderError(run_dir / name, None, "not a TUM trajectory (8 numbers a line: timestamp tx ty tz qx qy qz qw)") from None
