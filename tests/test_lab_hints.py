@@ -226,3 +226,12 @@ def test_the_right_estimator_in_both_styles_passes_every_draw(tmp_path: Path) ->
         for seed in SEEDS:
             report = check_file(exercise(3), path, seed=seed, runner=LocalStudent)
             assert report.passed, [(r.scenario, r.got) for r in report.rows if not r.passed]
+
+
+@pytest.mark.parametrize(("number", "name", "exact_test"), [(1, "icc.py", "v_right == v_left"), (2, "forward.py", "v_left == v_right")])
+def test_a_coarse_test_for_the_straight_case_fails_on_every_seed(tmp_path: Path, number: int, name: str, exact_test: str) -> None:
+    source = (Path(__file__).parent / "lab" / f"ex{number}" / "reference.py").read_text()
+    assert exact_test in source
+    path = tmp_path / name
+    path.write_text(source.replace(exact_test, "abs(v_left - v_right) < 1e-3"))
+    assert not any(check_file(exercise(number), path, seed=seed, runner=LocalStudent).passed for seed in range(10))  # a nearly straight draw each time

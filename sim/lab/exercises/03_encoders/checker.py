@@ -107,7 +107,7 @@ class Cumulative(EncoderOdometry):
 
 def mistakes(spec):
     diameter, track, ticks = spec.wheel_diameter, spec.track_width, spec.encoders.ticks_per_rev
-    scaled = lambda factor: EncoderOdometry(Geometry((factor * diameter,) * 2, track))  # noqa: E731 (distances times factor)
+    scaled = lambda factor: EncoderOdometry(Geometry((factor * diameter,) * 2, track))
     return {
         **{key: Mistaken(lay=lay) for key, lay in LAID.items()},
         **{key: Mistaken(arcs=arcs) for key, arcs in ARCS.items()},
