@@ -19,6 +19,7 @@ from typing import Any, Protocol, runtime_checkable
 
 from bots.commands import Command
 from bots.spec import RobotSpec
+from sim.errors import UserError
 from sim.world.readings import Readings
 
 
@@ -42,7 +43,7 @@ class ControllerStopped(RuntimeError):
     peer that hung or vanished): the run ends with this message, naming the robot and step."""
 
 
-class ControllerError(ValueError):
+class ControllerError(UserError):
     """A user mistake in naming, configuring or loading a controller (message for the CLI)."""
 
 

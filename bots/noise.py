@@ -25,6 +25,7 @@ from typing import Any
 
 from bots.schema import Problem
 from bots.spec import RobotSpec
+from sim.errors import UserError
 
 NOISE_PRESETS: dict[str, dict[str, Any]] = {
     "none": {},
@@ -57,7 +58,7 @@ NOISE_PRESETS: dict[str, dict[str, Any]] = {
 """Preset name -> field overrides (see the module's table for the figures and their sources)."""
 
 
-class RobotSettingError(ValueError):
+class RobotSettingError(UserError):
     """An override that names no field of the robot or gives it a value of the wrong kind."""
 
 

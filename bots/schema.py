@@ -17,6 +17,8 @@ from dataclasses import field as dataclass_field
 from pathlib import Path
 from typing import Any
 
+from sim.errors import UserError
+
 MAX_BYTES = 16 * 2**20
 """Largest file ctsim reads (bytes): the largest c't-Sim parcours is 4 KB, a hand-written world
 or robot a few KB; a file beyond this is a mistake, not a world."""
@@ -34,7 +36,7 @@ REQUIRED: Any = _Required()
 KINDS = ("number", "integer", "boolean", "text", "pair", "box", "points", "colour", "table", "tables", "texts")
 
 
-class FileError(ValueError):
+class FileError(UserError):
     """A user mistake in a file; `str()` reads `file:line: problem` (the problem starts with the key)."""
 
     def __init__(self, path: str | Path | None, line: int | None, problem: str):

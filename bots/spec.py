@@ -14,8 +14,16 @@ from pathlib import Path
 from typing import Any
 
 from bots.chassis_spec import ChassisSpec, chassis_from_dict, inscribed_radius
-from bots.schema import WORLD_EXTENT, FileError, Locator, Problem, check_fields, declared
+from bots.schema import (
+    WORLD_EXTENT,
+    FileError,
+    Locator,
+    Problem,
+    check_fields,
+    declared,
+)
 from bots.schema import read_toml as read_located
+from sim.errors import UserError
 
 REACH = 2.0
 """Farthest a mount point (sensor, skid) may sit from a robot's reference point (m)."""
@@ -301,7 +309,7 @@ def robot_from_dict(data: dict, where: str = "robot", locator: Locator | None = 
                         given=("chassis", "wheel_diameter", "track_width"), optional=("body_radius",))
 
 
-def read_toml(path: Path, error: type[Exception] = ValueError) -> dict:
+def read_toml(path: Path, error: type[Exception] = UserError) -> dict:
     """A TOML file's data (bounded: `bots.schema.read_toml`), or `error("file:line: problem")`."""
     try:
         return read_located(Path(path))[0]

@@ -1,8 +1,10 @@
 """The `ctsim` command line: run, view, play, report, sweep, contest, worlds, check, controllers, lab.
 
 User mistakes (bad world files, robot files, controller names or parameters, unwritable folders)
-end in one line `ctsim: error: ...` and exit status 2, never a traceback; a run that fails mid-way
-exits 1 after everything up to then has been written (EXIT_STATUSES lists every status).
+(`sim.errors.UserError`, or an OSError on a path the command line named) end in one line
+`ctsim: error: ...` and exit status 2, never a traceback; a run that fails mid-way exits 1 after
+everything up to then has been written; any other exception is a bug in ctsim: its traceback, a
+line asking for a report, exit 1 (EXIT_STATUSES lists every status).
 """
 
 from __future__ import annotations
@@ -14,16 +16,16 @@ import os
 import signal
 import sys
 import time
+import traceback
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import sim
-from bots.controller import ControllerError
 from bots.noise import NOISE_PRESETS, parse_value
+from sim.errors import UserError
 from sim.run import DT_RANGE, RunError, Terminated, in_controller, step_count
 from sim.world import compiling
-from sim.world.spec import WorldFileError
 
 DEFAULT_WORLD = "maze"
 DEFAULT_CONTROLLER = "solve_maze"
@@ -35,13 +37,14 @@ EXIT_FAILED, EXIT_USER, EXIT_INTERRUPTED, EXIT_TERMINATED = 1, 2, 130, 143
 EXIT_STATUSES = f"""exit status:
   0    success
   {EXIT_FAILED}    a run that started failed (a controller raised, called sys.exit, returned a bad command
-       or overran --step-timeout; or the disk filled up); what was recorded up to then is written
+       or overran --step-timeout; or the disk filled up); what was recorded up to then is written;
+       or ctsim has a bug: its traceback and a request to report it are printed
   {EXIT_USER}    a user error found before anything ran (bad option, world, robot or controller)
   {EXIT_INTERRUPTED}  interrupted by Ctrl-C; partial results written
   {EXIT_TERMINATED}  terminated by SIGTERM (a job scheduler, `timeout`); partial results written"""
 
 
-class UsageError(Exception):
+class UsageError(UserError):
     """A user mistake found by the CLI itself."""
 
 
@@ -194,29 +197,10 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _add_lab(commands) -> None:
-    lab = commands.add_parser("lab", help="lab exercises with automatic checking", description="Exercises on kinematics and odometry: write the sheet and template, check your file, grade a folder of submissions.")
-    lab.add_argument("--lang", choices=("en", "de"), default="en", help="language of sheets, hints and tables (default: en)")
-    lab.add_argument("--exercises", action="append", default=[], metavar="DIR", help="a folder with more exercises (one sub-folder each), repeatable")
-    actions = lab.add_subparsers(dest="lab_command", metavar="ACTION", required=True)
-    actions.add_parser("list", help="the exercises")
-    start = actions.add_parser("start", help="write the exercise sheet (Markdown) and the template to fill in")
-    start.add_argument("number", type=int)
-    start.add_argument("dir", nargs="?", type=Path, default=Path("."), help="folder to write into (default: here)")
-    start.add_argument("--notebook", action="store_true", help="write the exercise as a Jupyter notebook instead (sheet, your solution's cell, a cell that checks it)")
-    check = actions.add_parser("check", help="check your file on the examples and on hidden scenarios")
-    check.add_argument("number", type=int)
-    check.add_argument("file", type=Path, help="your file, or the notebook of `lab start --notebook`")
-    check.add_argument("--out", type=Path, default=Path("lab-check"), metavar="DIR", help="folder for figures and recordings (default: lab-check)")
-    check.add_argument("--degraded", action="store_true", help="where bubblewrap is missing, run the file without isolation (said in the result)")
-    grade = actions.add_parser("grade", help="grade a folder of submissions: CSV, Gradescope results.json, JUnit XML")
-    grade.add_argument("number", type=int)
-    grade.add_argument("submissions", type=Path, metavar="SUBMISSIONS_DIR")
-    grade.add_argument("--out", type=Path, default=None, metavar="DIR", help="folder for the grades (default: SUBMISSIONS_DIR/grades)")
-    grade.add_argument("--seed", type=int, help="seed of the hidden scenarios (default: a fresh one, written to grades.csv)")
-    grade.add_argument("--jobs", type=_positive(int), help="parallel checks (default: number of CPUs)")
-    grade.add_argument("--degraded", action="store_true", help="where bubblewrap is missing, grade without isolation (said in every result)")
-    lab.set_defaults(handler=cmd_lab)
+def _add_lab(commands) -> None:  # noqa: ANN001 (argparse's subparsers action)
+    from sim.lab.arguments import add_parser
+
+    add_parser(commands, cmd_lab)
 
 
 def _add_contest(commands) -> None:  # noqa: ANN001 (argparse's subparsers action)
@@ -291,7 +275,10 @@ def _out_dir(out: Path | None, world: str, controller: str) -> Path:
     if out is None:
         stamp = time.strftime("%Y%m%d-%H%M%S")
         out = Path("runs") / f"{Path(world).stem}-{Path(controller.split(':')[0]).stem}-{stamp}"
-    out.mkdir(parents=True, exist_ok=True)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise UsageError(f"{out}: cannot make the run's folder: {err.strerror or err}") from None
     _lock(out)
     if (out / "summary.json").is_file():
         for pattern in RUN_FILES:
@@ -757,7 +744,7 @@ def _add_bridge_parser(commands) -> None:
     bridge.add_argument("--call", action="append", type=timed(parse_call), default=[], metavar="T:'CALL'", help="remote call at T s, e.g. 2:'bot_turn(90)' (repeatable)")
     bridge.add_argument("--list-calls", action="store_true", help="ask each firmware for the remote calls it offers and print them (c't-Sim's RemoteCallViewer)")
     bridge.add_argument("--own-physics", action="store_true",
-                        help="firmware bots meet walls (slide) and see them (nearest point in the IR cone) with ctsim's own models instead of c't-Sim's")
+                        help="firmware bots meet walls (slide), see them (nearest point in the IR cone), read lines at one point and meet lamp pillars as whole wall cells, with ctsim's own models instead of c't-Sim's")
     bridge.set_defaults(handler=cmd_bridge)
 
 
@@ -768,7 +755,7 @@ def cmd_bridge(args: argparse.Namespace) -> int:
     from sim.world.files import load_world
 
     step_count(args.duration, args.dt)
-    world = load_world(args.world)
+    world = load_world(args.world, pillars="cell" if args.own_physics else "cylinder")
     spec = load_robot_spec(args)
     if args.robots < 1:
         raise UsageError(f"--robots must be at least 1, got {args.robots}")
@@ -931,21 +918,45 @@ def main(argv: list[str] | None = None) -> int:
     except BrokenPipeError:  # `ctsim controllers | head`: the reader has all it wanted
         sys.stdout = None
         return 0
-    except OSError as err:  # a file or folder the user named: no errno, no repr
-        where = f"{err.filename}: " if err.filename else ""
-        print(f"ctsim: error: {where}{err.strerror or err}", file=sys.stderr)
-        return EXIT_USER
-    except (WorldFileError, ControllerError, UsageError, RunError, ValueError) as err:
+    except UserError as err:
         print(f"ctsim: error: {err}", file=sys.stderr)
+        return EXIT_USER
+    except OSError as err:
+        if not _names_user_path(err, args):
+            return _bug()
+        where = f"{err.filename}: " if err.filename else ""  # no errno, no repr
+        print(f"ctsim: error: {where}{err.strerror or err}", file=sys.stderr)
         return EXIT_USER
     except KeyboardInterrupt as stop:  # outside a run (a run keeps its results and ends normally)
         terminated = isinstance(stop, Terminated)
         print(f"ctsim: {'terminated' if terminated else 'interrupted'}", file=sys.stderr)
         return EXIT_TERMINATED if terminated else EXIT_INTERRUPTED
+    except Exception:
+        return _bug()
     finally:
         signal.signal(signal.SIGTERM, previous)
         while _held:
             _held.pop().close()
+
+
+def _names_user_path(err: OSError, args: argparse.Namespace) -> bool:
+    """Whether the failed file is one the command line named (an argument or an option), lies
+    inside one, or is a folder on the way to one: the user's to fix (exit 2), not ctsim's bug."""
+    failed = [Path(os.fsdecode(name)).absolute() for name in (err.filename, err.filename2) if name not in (None, "")]
+    named = []
+    for value in vars(args).values():
+        for item in value if isinstance(value, list) else [value]:
+            if isinstance(item, str | Path) and str(item).strip():
+                named.append(Path(str(item).partition(".py:")[0]).absolute())  # FILE.py:Class names FILE.py
+    return any(path == given or given in path.parents or path in given.parents for path in failed for given in named)
+
+
+def _bug() -> int:
+    """The traceback of an exception that is no user mistake, and what to do about it: exit 1."""
+    traceback.print_exc()
+    print(f"ctsim: error: this is a bug in ctsim {sim.__version__}, not a mistake of yours: please report it "
+          "with the command you ran and the traceback above", file=sys.stderr)
+    return EXIT_FAILED
 
 
 if __name__ == "__main__":

@@ -29,6 +29,7 @@ from bots.controller import Controller, ControllerStopped, Status, reset
 from bots.odometry import Estimator, default_estimators
 from bots.odometry_batch import COVARIANCES, ESTIMATES, DefaultOdometry, batched
 from bots.spec import RobotSpec
+from sim.errors import UserError
 from sim.world import World
 from sim.world.chassis_drive import FaultError
 from sim.world.readings import Readings, SensorFrame
@@ -284,7 +285,7 @@ class Observer(Protocol):
     def on_end(self, result: RunResult) -> None: ...
 
 
-class RunError(RuntimeError):
+class RunError(UserError, RuntimeError):
     """A run that could not start (bad setup); the message is for the user."""
 
 
@@ -391,7 +392,10 @@ def run(
             for estimator in chosen:
                 estimator.reset(setup.spec, robot.pose)
             names = [estimator.name for estimator in chosen]
-        reset(setup.controller, setup.spec)
+        try:
+            reset(setup.controller, setup.spec)
+        except ValueError as err:  # a controller that cannot drive this robot (too few sensors): the user's choice
+            raise RunError(f"{robot.name}: {err}") from None
         uncertain = None if i in slot else [e.name for e in chosen if _has_covariance(e)]
         log = RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params), names, samples, i, world, slot.get(i), uncertain)
         logs.append(log)

@@ -191,3 +191,46 @@ def test_without_bubblewrap_grading_refuses_unless_degraded_and_then_says_so_eve
     assert next(csv.DictReader((tmp_path / "out" / "grades.csv").open()))["isolation"] == "degraded (no isolation)"
     assert "DEGRADED" in json.loads((tmp_path / "out" / "gradescope" / "alice" / "results.json").read_text())["output"]
     assert main(["lab", "check", "1", str(folder / "alice.py")]) == 2  # refused, with the reason on stderr
+
+
+def test_a_submission_that_sleeps_at_every_start_and_call_is_ended_when_its_time_is_spent(tmp_path: Path) -> None:
+    text = "import time\ntime.sleep(2)\ndef step(*a):\n    time.sleep(3600)\n"
+    ex = dataclasses.replace(exercise(2), time_limit=0.5, hidden=3, budget=4.0)
+    report = check_file(ex, write(tmp_path, "forward.py", text), seed=SEED)
+    assert not any(r.passed for r in report.rows) and len(report.rows) == 6
+    assert report.rows[-1].problem == "budget" and "not run" in report.rows[-1].got  # not started again for each scenario
+    assert "4 s of time" in report.rows[-1].hint
+
+
+PRINTS = (SOLUTIONS / "ex2" / "reference.py").read_text() + (
+    "\n_step = step\ndef step(*a):\n    print('inputs', a)\n    return _step(*a)\n")
+
+
+def test_what_a_hidden_scenario_printed_stays_in_its_row(tmp_path: Path) -> None:
+    folder = tmp_path / "subs"
+    folder.mkdir()
+    (folder / "printer.py").write_text(PRINTS)
+    reports, _ = grade(quick(2), folder, tmp_path / "out", seed=SEED)
+    report = reports[0]
+    assert report.passed
+    hidden = [r for r in report.rows if r.hidden]
+    assert all("inputs" in r.output for r in report.rows)
+    assert all(r.output not in report.output for r in hidden) and "inputs (0.0, 0.0, 0.0, 0.1, 0.2" in report.output
+    results = json.loads((tmp_path / "out" / "gradescope" / "printer" / "results.json").read_text())
+    for row, test in zip(report.rows, results["tests"]):
+        assert row.output.splitlines()[0] in test["output"]
+        assert test["visibility"] == ("after_published" if row.hidden else "visible")
+        assert row.hidden == (row.output.splitlines()[0] not in results["output"])
+
+
+def test_the_teacher_s_files_carry_hidden_values_and_unrounded_scores(tmp_path: Path) -> None:
+    folder = tmp_path / "subs"
+    folder.mkdir()
+    (folder / "euler.py").write_text((SOLUTIONS / "ex2" / "euler.py").read_text())
+    reports, _ = grade(exercise(2), folder, tmp_path / "out", seed=SEED)
+    row = next(csv.DictReader((tmp_path / "out" / "grades.csv").open()))
+    assert row["score"] == f"{round(reports[0].score, 4):g}" and len(row["score"].split(".")[-1]) > 1
+    assert row["hidden_values"].count("expected (") == exercise(2).hidden
+    failures = [case.find("failure").text for case in ET.parse(tmp_path / "out" / "junit.xml").getroot().iter("testcase")
+                if case.get("name").startswith("hidden") and case.find("failure") is not None]  # fmt: skip
+    assert failures and all("expected: (" in text and "got: (" in text for text in failures)

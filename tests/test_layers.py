@@ -36,8 +36,12 @@ RULES = (
     ("sim.contest", CAPABILITIES + ("sim.contest",)),
     ("sim.cli", ("sim", "bots")),
     ("sim.console", ("sim.cli",)),
+    ("sim.errors", ()),
+    ("sim.sanitize", ()),
 )
-EVERYONE = ("sim",)  # the bare package: its version and location, nothing of any layer
+# the bare package (its version and location) and two leaves any layer may use: the user-error base
+# and the making safe of text from outside
+EVERYONE = ("sim", "sim.errors", "sim.sanitize")
 
 
 def within(name: str, prefix: str) -> bool:

@@ -138,19 +138,20 @@ def test_template_against_its_grid() -> None:
 
     lines = {_rounded(line.points) for line in world.lines}
     w = 0.1 * CELL
-    cx, cy = _centre(6, 7)  # '/': east and south arms meeting at the centre
-    assert _rounded([(cx + CELL / 2, cy), (cx, cy), (cx, cy - CELL / 2)]) in lines
+    cx, cy = _centre(6, 7)  # '/': east and south arms, each half a width past the centre (a square corner)
+    assert _rounded([(cx - w / 2, cy), (cx + CELL / 2, cy)]) in lines
+    assert _rounded([(cx, cy + w / 2), (cx, cy - CELL / 2)]) in lines
     cx, cy = _centre(5, 3)  # '!': vertical with a gap of one line width at the centre
     assert _rounded([(cx, cy + w / 2), (cx, cy + CELL / 2)]) in lines
     assert _rounded([(cx, cy - w / 2), (cx, cy - CELL / 2)]) in lines
     assert _rounded([(cx, cy - CELL / 2), (cx, cy + CELL / 2)]) not in lines
     cx, cy = _centre(5, 5)  # 'T': a full horizontal and a stem down
     assert _rounded([(cx + CELL / 2, cy), (cx - CELL / 2, cy)]) in lines
-    assert _rounded([(cx, cy), (cx, cy - CELL / 2)]) in lines
+    assert _rounded([(cx, cy + w / 2), (cx, cy - CELL / 2)]) in lines
     cx, cy = _centre(5, 2)  # '[': a full cross
     assert _rounded([(cx, cy + CELL / 2), (cx, cy - CELL / 2)]) in lines
     assert _rounded([(cx + CELL / 2, cy), (cx - CELL / 2, cy)]) in lines
-    assert all(line.width == pytest.approx(0.024) and line.colour == (0, 0, 0) for line in world.lines)
+    assert all(line.width == pytest.approx(0.024) and line.colour == (0, 0, 0) and line.flat for line in world.lines)
 
 
 @needs_shared

@@ -20,6 +20,7 @@ from typing import BinaryIO
 import numpy as np
 
 from bots.uncertainty import COVARIANCE_FIELDS
+from sim.errors import UserError
 
 FILE_ROWS = 8192
 """Samples written at a time (a Parquet row group, a block of TUM and CSV lines): each block is a
@@ -65,9 +66,9 @@ def read_tum(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     to stay continuous. Refuses poses that leave the plane."""
     rows = np.loadtxt(path, comments="#", ndmin=2)
     if rows.shape[1] != 8:
-        raise ValueError(f"{path}: a TUM line has 8 numbers (timestamp tx ty tz qx qy qz qw), found {rows.shape[1]}")
+        raise UserError(f"{path}: a TUM line has 8 numbers (timestamp tx ty tz qx qy qz qw), found {rows.shape[1]}")
     if len(rows) and np.abs(rows[:, [3, 4, 5]]).max() > 1e-9:
-        raise ValueError(f"{path}: trajectory is not planar (nonzero tz, qx or qy)")
+        raise UserError(f"{path}: trajectory is not planar (nonzero tz, qx or qy)")
     heading = np.unwrap(2.0 * np.arctan2(rows[:, 6], rows[:, 7]))
     return rows[:, 0], np.column_stack((rows[:, 1], rows[:, 2], heading))
 
@@ -96,7 +97,7 @@ def read_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray, dict[str, np.nda
         reader = csv.reader(handle)
         header = next(reader)
         if header[:4] != ["t", "x", "y", "theta"]:
-            raise ValueError(f"{path}: expected a header starting t,x,y,theta, got {','.join(header)}")
+            raise UserError(f"{path}: expected a header starting t,x,y,theta, got {','.join(header)}")
         values = np.array([[float(v) for v in row] for row in reader], dtype=np.float64).reshape(-1, len(header))
     return values[:, 0], values[:, 1:4], {name: values[:, 4 + k] for k, name in enumerate(header[4:])}
 

@@ -38,11 +38,12 @@ ENCODER_MARKS = 60
 
 
 def revs_per_second(units: int) -> float:
-    """The wheel's revolutions per second c't-Sim drives for an ACT_MOT value: PWM / 255 of 151/60,
-    computed in float32 (`WheelSimulator.revsThisSimStep`), up to 1e-7 off the exact value. That
-    decides the step of a tick wherever the exact count would be a whole number (75 units: 151
-    ticks in exactly 340 steps), so it is kept."""
-    return float(np.float32(np.float32(units) / np.float32(255)) * np.float32(np.float32(151) / np.float32(60)))
+    """The wheel's revolutions per second c't-Sim drives for an ACT_MOT value, in its arithmetic
+    (`WheelSimulator.revsThisSimStep`): the ratio PWM / 255 and the constant 151 / 60 are each
+    float32, their product is double. Up to 1e-7 off the exact value, which decides the step of a
+    tick wherever the exact count would be a whole number (75 units: 151 ticks in exactly 340
+    steps); rounding the product to float32 as well moves such ticks by a step."""
+    return float(np.float32(units) / np.float32(255)) * float(np.float32(151) / np.float32(60))
 
 
 def wheel_speed(units: int) -> float:

@@ -12,6 +12,7 @@ import socket
 import time
 
 from sim.bridge.protocol import DONE, Decoder, Packet
+from sim.errors import UserError
 
 MAX_REPLY_BYTES = 1 << 20
 """A reply longer than this without a DONE is a flood, not a firmware (its send buffer is 4 KB)."""
@@ -32,7 +33,7 @@ class Listener:
             self.sock.bind((host, port))
         except OSError as err:
             self.sock.close()
-            raise OSError(f"cannot listen on {host}:{port}: {err.strerror or err}") from None
+            raise UserError(f"cannot listen on {host}:{port}: {err.strerror or err}") from None
         self.sock.listen(8)
         self.host, self.port = self.sock.getsockname()[:2]
 

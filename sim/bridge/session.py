@@ -19,6 +19,7 @@ from sim.bridge import protocol as p
 from sim.bridge.firmware import FirmwareController, FirmwareEstimator
 from sim.bridge.firmware_map import png, window
 from sim.bridge.server import Listener
+from sim.errors import UserError
 from sim.run import RobotLog, RobotSetup, RunResult
 from sim.views.recording import TIMELINE, Recorder
 from sim.world import World
@@ -61,7 +62,7 @@ class Bridge:
         `ctsim_ticks`: encoder ticks in c't-Sim's arithmetic (`CtsimEncoders`)."""
         n = len(self.bots)
         if n >= len(p.ADDRESS_POOL):
-            raise ValueError(f"at most {len(p.ADDRESS_POOL)} firmware bots (c't-Sim's address pool)")
+            raise UserError(f"at most {len(p.ADDRESS_POOL)} firmware bots (c't-Sim's address pool)")
         bot = FirmwareController(
             self.listener, f"firmware bot {n + 1}", self.dt, self.connect_timeout, self.step_timeout, self.welcome,
             p.ADDRESS_POOL[n], tuple(rc5), tuple(calls), self.list_calls, ctsim_ticks,
@@ -101,12 +102,22 @@ class Bridge:
         self.close()
 
 
+CTSIM_LINE_HEIGHT = 0.003
+"""m, c't-Sim's line sensors over its floor: 4 mm over the ground plane (the bot's centre 75 mm
+up, the sensors 71 mm below it), the floor's top 1 mm up (its lines lie 1 mm higher still)."""
+
+
 def as_in_ctsim(spec: RobotSpec) -> RobotSpec:
-    """`spec` as c't-Sim simulates it where ctsim's own models differ (both measured against the
+    """`spec` as c't-Sim simulates it where ctsim's own models differ (each measured against the
     real c't-Sim with the same firmware): a step into a wall or robot is not made at all
-    (contact 'stop'), and IR sensors see a wall where their axis meets it or at a corner in their
-    cone (view 'axis'), not at its nearest point in the cone."""
-    return spec.with_changes(contact="stop", ir=tuple(replace(sensor, view="axis") for sensor in spec.ir))
+    (contact 'stop'); IR sensors see a wall where their axis meets it or at a corner in their
+    cone (view 'axis'), not at its nearest point in the cone; line sensors average c't-Sim's
+    cross of rays over their spot (`CTSIM_LINE_HEIGHT`), not the one point under them."""
+    return spec.with_changes(
+        contact="stop",
+        ir=tuple(replace(sensor, view="axis") for sensor in spec.ir),
+        line=tuple(replace(sensor, height=CTSIM_LINE_HEIGHT) for sensor in spec.line),
+    )
 
 
 class BridgeObserver:

@@ -27,6 +27,7 @@ from pathlib import Path
 
 from bots.controller import ControllerError, make
 from bots.spec import RobotSpec
+from sim.errors import UserError
 from sim.run import RobotSetup
 from sim.world.spec import Start
 
@@ -42,7 +43,7 @@ STUDENT_FILE = "controller.py"
 NAME = re.compile(r"[A-Za-z0-9_.-]+")
 
 
-class EntryError(ValueError):
+class EntryError(UserError):
     """A user mistake in naming an entry (message for the command line)."""
 
 

@@ -19,6 +19,7 @@ from dataclasses import replace
 import numba
 import numpy as np
 
+from sim.errors import UserError
 from sim.world.floor import rasterize
 from sim.world.spec import Goal, Hole, WorldSpec
 
@@ -95,7 +96,7 @@ class PathField:
 
     def __init__(self, world: WorldSpec, goals: tuple[Goal, ...], clearance: float, cell: float = CELL):
         if not goals:
-            raise ValueError(f"{world.source or world.name}: the world has no goal to measure the way to")
+            raise UserError(f"{world.source or world.name}: the world has no goal to measure the way to")
         self.origin = (world.bounds[0], world.bounds[1])
         solid, self.cell = _mask(world, tuple(w.vertices for w in world.walls) + tuple(h.vertices for h in world.holes), cell)
         if world.outside_is_hole:  # the map's edge is an abyss's edge

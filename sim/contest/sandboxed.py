@@ -20,6 +20,7 @@ from typing import Any
 
 from bots.commands import BadCommand, Command, CurveCommand, Twist, WheelSpeeds
 from bots.spec import RobotSpec
+from sim.errors import UserError
 from sim.sandbox import Limits, Sandbox, unavailable
 from sim.world.readings import Readings
 
@@ -82,10 +83,10 @@ def command(answer: Any, name: str) -> Command:
 
 
 def check_available() -> None:
-    """Refuse student submissions (a ValueError saying why) where their code cannot be isolated here."""
+    """Refuse student submissions (a UserError saying why) where their code cannot be isolated here."""
     reason = unavailable()
     if reason is not None:
-        raise ValueError(f"{reason}: student submissions run only in the sandbox (the machine needs bubblewrap, see the README)")
+        raise UserError(f"{reason}: student submissions run only in the sandbox (the machine needs bubblewrap, see the README)")
 
 
 @contextmanager

@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from sim.contest.entries import Entry
+from sim.errors import UserError
 
 FILE = "contest.sqlite"
 SCHEMA = """
@@ -59,7 +60,7 @@ RESULT_COLUMNS = ("winner", "reason", "verdict", "time", "arrival1", "arrival2",
                   "error", "recording", "digest", "wall_time")  # fmt: skip
 
 
-class StoreError(ValueError):
+class StoreError(UserError):
     """A contest folder that holds another contest (message for the command line)."""
 
 

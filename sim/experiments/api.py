@@ -22,6 +22,7 @@ import numpy as np
 from bots.controller import Controller, FunctionController
 from bots.spec import RobotSpec
 from sim.analysis.metrics import compare_run, path_lengths
+from sim.errors import UserError
 from sim.run import RobotSetup, RunResult, run
 from sim.world.spec import Start, WorldSpec
 
@@ -54,7 +55,7 @@ def robot(source: str | Path | RobotSpec = "ctbot", changes: dict[str, Any] | No
         elif str(source).endswith(".toml") or Path(source).exists():
             spec = load_robot(source)
         else:
-            raise ValueError(f"unknown robot {str(source)!r} (built-in: {', '.join(ROBOTS)}; or a .toml file)")
+            raise UserError(f"unknown robot {str(source)!r} (built-in: {', '.join(ROBOTS)}; or a .toml file)")
     return change_robot(with_noise(spec, noise), changes or {})
 
 
@@ -72,10 +73,10 @@ def _change(obj: Any, path: list[str], value: Any, key: str) -> Any:
     if isinstance(obj, tuple):  # a sensor group: the change applies to each of its sensors
         return tuple(_change(item, path, value, key) for item in obj)
     if obj is None or not is_dataclass(obj):
-        raise ValueError(f"robot change {key!r}: {'.'.join(path)} names no field here")
+        raise UserError(f"robot change {key!r}: {'.'.join(path)} names no field here")
     names = {f.name for f in fields(obj)}
     if path[0] not in names:
-        raise ValueError(f"robot change {key!r}: {type(obj).__name__} has no field {path[0]!r} (fields: {', '.join(sorted(names))})")
+        raise UserError(f"robot change {key!r}: {type(obj).__name__} has no field {path[0]!r} (fields: {', '.join(sorted(names))})")
     if len(path) > 1:
         value = _change(getattr(obj, path[0]), path[1:], value, key)
     return replace(obj, **{path[0]: value})
@@ -215,7 +216,7 @@ def simulate(
     controller step longer than `step_timeout` seconds (wall clock) ends the run as its error.
     `ctsim run` is this call: `--robots 3` is `robots=[Bot()] * 3`."""
     if not (math.isfinite(dt) and dt > 0):
-        raise ValueError(f"dt must be a positive number of seconds, got {dt!r}")
+        raise UserError(f"dt must be a positive number of seconds, got {dt!r}")
     spec = world(world_source)
     given = [b for item in (*bots, *robots) for b in (item if isinstance(item, list | tuple) else (item,))]
     for b in given:

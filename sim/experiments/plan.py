@@ -29,6 +29,7 @@ import numpy as np
 
 from bots.schema import Field, Problem
 from bots.spec import read_toml
+from sim.errors import UserError
 from sim.run import DT_RANGE
 
 DEFAULTS: dict[str, Any] = {
@@ -62,7 +63,7 @@ OPTIONS: dict[str, Field] = {
 """The `[sweep]` table."""
 
 
-class SpecError(ValueError):
+class SpecError(UserError):
     """A mistake in a sweep spec; the message names the file and the key."""
 
 

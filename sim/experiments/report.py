@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from sim.errors import UserError
 from sim.experiments import store
 from sim.experiments.plan import DEFAULTS
 
@@ -48,7 +49,7 @@ def success(table: pd.DataFrame) -> pd.Series:
     return ok & (table["reached_goal"].fillna(False).astype(bool) | ~table["until_goal"].astype(bool))
 
 
-class ReportError(ValueError):
+class ReportError(UserError):
     """A report asked of a folder or by axes that cannot give one; the message says which."""
 
 

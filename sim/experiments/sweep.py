@@ -21,10 +21,18 @@ from typing import Any
 
 import pandas as pd
 
+from sim.errors import UserError
 from sim.experiments import store
 from sim.experiments.api import Bot, Result, simulate
 from sim.experiments.engines import Dask, Lost, Processes, Serial
-from sim.experiments.plan import Job, SweepSpec, jobs, load_sweep, spec_from_dict
+from sim.experiments.plan import (
+    Job,
+    SpecError,
+    SweepSpec,
+    jobs,
+    load_sweep,
+    spec_from_dict,
+)
 from sim.run import Terminated
 
 STOPPED = ("interrupted", "terminated")
@@ -108,8 +116,8 @@ def check(planned: list[Job]) -> None:
                 tried.add(what)
                 try:
                     build()
-                except Exception as err:
-                    raise ValueError(f"run {job.index}, {what}: {err}") from None
+                except (UserError, OSError) as err:
+                    raise SpecError(f"run {job.index}, {what}: {err}") from None
 
 
 def _progress(total: int, done: int) -> Any:

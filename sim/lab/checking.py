@@ -14,9 +14,11 @@ from typing import Any
 
 import numpy as np
 
+from sim import sanitize
 from sim.lab.artifacts import Tracks, write
 from sim.lab.exercise import Exercise, Scenario, shared_hints
 from sim.lab.student import Student, StudentError
+from sim.sandbox.box import human_size
 from sim.world.spec import WorldSpec
 
 HIDDEN = "(hidden)"
@@ -51,12 +53,17 @@ class Row:
     hint: str = ""
     hidden: bool = False
     problem: str = ""
+    output: str = ""
+    """What the student's code printed during this scenario (shown only where the row's values are)."""
+    values: tuple[str, str] = ("", "")
+    """Expected and got even of a hidden row: for the teacher's files only (CSV, JUnit)."""
 
 
 @dataclass
 class CheckReport:
     """All rows of one file, the seed of its hidden scenarios, the score and what was written;
-    `output`: the start of what the student's code printed; `degraded`: checked without isolation."""
+    `output`: the start of what the student's code printed while loading and in the public
+    scenarios (a hidden scenario's output stays in its row); `degraded`: checked without isolation."""
 
     exercise: int
     file: str
@@ -97,16 +104,28 @@ def check_file(exercise: Exercise, path: str | Path, lang: str = "en", seed: int
     report = CheckReport(exercise.number, str(path), seed, [], exercise.points)
     scenarios = exercise.scenarios(seed, out)
     cpu = exercise.time_limit * len(scenarios) + STARTUP_CPU
-    with Student(path, exercise.modules, cpu, folder, degraded) as student:
+    with Student(path, exercise.modules, cpu, folder, degraded, exercise.wall(len(scenarios))) as student:
         for scenario in scenarios:
+            if student.spent:
+                report.rows.append(_not_run(exercise, scenario, student, lang, shared))
+                continue
             row, outcome = _one(exercise, scenario, student, lang, shared)
+            row.output = student.take_output()
             report.rows.append(row)
             if outcome is not None and outcome.tracks and scenario.out is not None:
                 report.artifacts += write(scenario.out, outcome.tracks, outcome.world)
             if row.problem in FATAL:
                 break
-        report.output, report.degraded = student.output, student.degraded
+        report.degraded = student.degraded
+    report.output = "".join(row.output for row in report.rows if not row.hidden)
     return report
+
+
+def _not_run(exercise: Exercise, scenario: Scenario, student: Student, lang: str, shared: dict) -> Row:
+    """The row of a scenario left when the submission's time was spent."""
+    hint = exercise.hint("budget", lang, shared, budget=student.wall)
+    got = f"not run: the submission's {student.wall:g} s were spent"
+    return Row(scenario.label(lang), HIDDEN if scenario.hidden else "", got, "", False, hint, scenario.hidden, "budget", values=("", got))
 
 
 FATAL = ("load", "forbidden")
@@ -118,14 +137,18 @@ def _one(exercise: Exercise, scenario: Scenario, student: Student, lang: str, sh
     try:
         outcome = exercise.checker.check(scenario, student)
     except StudentError as err:
-        hint = exercise.hint(err.kind, lang, shared, limit=exercise.time_limit, where=f" {_at_line(lang)} {err.line}" if err.line else "")
+        where = f" {_at_line(lang)} {err.line}" if err.line else ""
+        hint = exercise.hint(err.kind, lang, shared, limit=exercise.time_limit, where=where, budget=student.wall,
+                             memory=human_size(student.box.limits.memory), output=human_size(student.box.limits.output))  # fmt: skip
         got = err.public if scenario.hidden else err.detail
-        return Row(scenario.name, HIDDEN if scenario.hidden else "", got, "", False, hint, scenario.hidden, err.kind), None
+        row = Row(scenario.label(lang), HIDDEN if scenario.hidden else "", got, "", False, hint, scenario.hidden, err.kind, values=("", err.detail))
+        return row, None
     problem = "" if outcome.passed else outcome.hint or "wrong"
     hint = exercise.hint(problem, lang, shared, **outcome.hint_args) if problem else ""
+    values = (outcome.expected, outcome.got)
     if scenario.hidden:
-        return Row(scenario.name, HIDDEN, HIDDEN, outcome.tolerance, outcome.passed, hint, True, problem), outcome
-    return Row(scenario.name, outcome.expected, outcome.got, outcome.tolerance, outcome.passed, hint, problem=problem), outcome
+        return Row(scenario.label(lang), HIDDEN, HIDDEN, outcome.tolerance, outcome.passed, hint, True, problem, values=values), outcome
+    return Row(scenario.label(lang), *values, outcome.tolerance, outcome.passed, hint, problem=problem, values=values), outcome
 
 
 DEGRADED = "DEGRADED: run without isolation (bubblewrap missing); the code could read or change files"
@@ -135,12 +158,12 @@ def check_and_print(exercise: Exercise, file: Path, shown: str | Path, lang: str
     """What `ctsim lab check` and a notebook's check cell do: check `file` (named `shown`), print
     the table, what the code printed and what was written; 0 when every scenario passed, else 1."""
     report = check_file(exercise, file, lang, out=out, degraded=degraded)
-    print(f"exercise {exercise.number}: {exercise.title[lang]}  ({shown}, scenario seed {report.seed})")
+    print(f"exercise {exercise.number}: {exercise.title[lang]}  ({sanitize.name(str(shown))}, scenario seed {report.seed})")
     if report.degraded:
         print(DEGRADED)
     print(table(report, lang))
     if report.output:
-        print(f"your code printed:\n{printable(report.output)}")
+        print(f"your code printed:\n{sanitize.terminal(report.output)}")
     for path in report.artifacts:
         print(f"  wrote {path}")
     return 0 if report.passed else 1
@@ -150,24 +173,18 @@ def _at_line(lang: str) -> str:
     return {"en": "at line", "de": "in Zeile"}[lang]
 
 
-def printable(text: str) -> str:
-    """`text` safe for a terminal: control characters (a student's escape sequences among them)
-    shown as \\x.. escapes, line breaks and tabs kept."""
-    return "".join(c if c in "\n\t" or not (c < " " or "\x7f" <= c < "\xa0") else f"\\x{ord(c):02x}" for c in text)
-
-
 def table(report: CheckReport, lang: str = "en") -> str:
     """The report as a text table with the hints under failing rows (safe for a terminal)."""
     words = {"en": ("scenario", "expected", "got", "tolerance", "result", "pass", "FAIL", "hint", "score"),
              "de": ("Szenario", "erwartet", "erhalten", "Toleranz", "Ergebnis", "ok", "FEHLER", "Hinweis", "Punkte")}[lang]  # fmt: skip
-    columns = [[printable(c) for c in (r.scenario, r.expected, r.got, r.tolerance)] + [words[5] if r.passed else words[6]] for r in report.rows]
+    columns = [[sanitize.name(c) for c in (r.scenario, r.expected, r.got, r.tolerance)] + [words[5] if r.passed else words[6]] for r in report.rows]
     widths = [max([len(words[i])] + [min(len(c[i]), 48) for c in columns]) for i in range(5)]
     line = lambda cells: "  ".join(str(c)[:48].ljust(w) for c, w in zip(cells, widths)).rstrip()  # noqa: E731
     lines = [line(words[:5]), line(["-" * w for w in widths])]
     for row, cells in zip(report.rows, columns):
         lines.append(line(cells))
         if row.hint:
-            lines.append(f"    {words[7]}: {printable(row.hint)}")
+            lines.append(f"    {words[7]}: {sanitize.name(row.hint, 1000)}")
     passed = sum(r.passed for r in report.rows)
     lines.append(f"{words[8]}: {report.score_text} ({passed}/{len(report.rows)})")
     return "\n".join(lines)

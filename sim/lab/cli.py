@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from sim.lab.checking import DEGRADED, check_and_print, printable
+from sim import sanitize
+from sim.lab.checking import DEGRADED, check_and_print
 from sim.lab.exercise import Exercise, ExerciseError, exercise, exercises
 from sim.lab.grading import grade
 from sim.lab.notebook import submission, write_notebook
@@ -47,7 +48,7 @@ def _grade(ex: Exercise, args: argparse.Namespace) -> int:
     if any(r.degraded for r in reports):
         print(DEGRADED)
     for report in reports:
-        print(f"{report.score_text:>7}  {printable(report.file)}")
+        print(f"{report.score_text:>7}  {sanitize.name(report.file)}")
     print(f"{sum(r.passed for r in reports)}/{len(reports)} passed; scenario seed {reports[0].seed}")
     for path in written:
         print(f"  wrote {path}")

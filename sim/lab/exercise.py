@@ -26,14 +26,19 @@ from typing import Any
 import numpy as np
 
 from bots.spec import read_toml
+from sim.errors import UserError
 from sim.sandbox.launch import module_file
 
 SHIPPED = Path(__file__).resolve().parent / "exercises"
 LANGUAGES = ("en", "de")
 ENVIRONMENT = "CTSIM_LAB_EXERCISES"
+STARTUP_WALL = 30.0
+"""Wall-clock seconds a submission may spend starting its process (Python, numpy, loading its
+file), over all its start-ups, besides its scenarios' time limits: a busy grading machine needs
+a few seconds a start."""
 
 
-class ExerciseError(ValueError):
+class ExerciseError(UserError):
     """A mistake in an exercise folder or in choosing one (message for the user)."""
 
 
@@ -48,15 +53,23 @@ class Scenario:
     seed: int
     tolerance: dict[str, float]
     out: Path | None = None
+    names: dict[str, str] = field(default_factory=dict)
+    """The name in other languages than English (an example's `name_de`)."""
 
     def __getitem__(self, key: str) -> Any:
         return self.params[key]
+
+    def label(self, lang: str) -> str:
+        """The name as a table in `lang` shows it."""
+        return self.names.get(lang, self.name)
 
 
 @dataclass
 class Exercise:
     """An exercise folder, read. `modules`: the project modules the template imports (say
-    `bots.commands`): with what they import, all of the project the student's code can see."""
+    `bots.commands`): with what they import, all of the project the student's code can see;
+    `budget`: wall-clock seconds for one submission, start-ups included (None: the time limit
+    of every scenario, plus `STARTUP_WALL`)."""
 
     folder: Path
     number: int
@@ -71,6 +84,7 @@ class Exercise:
     ranges: dict[str, Any]
     hints: dict[str, dict[str, str]]
     modules: tuple[str, ...] = ()
+    budget: float | None = None
     _checker: ModuleType | None = field(default=None, repr=False)
 
     @property
@@ -85,6 +99,10 @@ class Exercise:
                 raise ExerciseError(f"{path}: defines no check(scenario, student)")
             self._checker = module
         return self._checker
+
+    def wall(self, scenarios: int) -> float:
+        """Wall-clock seconds one submission of `scenarios` scenarios may take, start-ups included."""
+        return self.budget if self.budget is not None else self.time_limit * scenarios + STARTUP_WALL
 
     def sheet(self, lang: str) -> str:
         """The exercise sheet (Markdown) in `lang`."""
@@ -107,15 +125,16 @@ class Exercise:
         root = np.random.SeedSequence(seed)
         children = root.spawn(len(self.examples) + self.hidden)
         found = [
-            Scenario(name, dict(example), False, _seed(children[i]), self.tolerance, out / slug(name) if out else None)
+            Scenario(name, dict(example), False, _seed(children[i]), self.tolerance, out / slug(name) if out else None,
+                     {lang: str(example[f"name_{lang}"]) for lang in LANGUAGES if f"name_{lang}" in example})
             for i, example in enumerate(self.examples)
             for name in [str(example.get("name", f"example {i + 1}"))]
-        ]
+        ]  # fmt: skip
         draw = getattr(self.checker, "draw", draw_ranges)
         for k in range(self.hidden):
             child = children[len(self.examples) + k]
             rng = np.random.default_rng(child)
-            found.append(Scenario(f"hidden {k + 1}", draw(rng, k, self.ranges), True, _seed(child), self.tolerance, None))
+            found.append(Scenario(f"hidden {k + 1}", draw(rng, k, self.ranges), True, _seed(child), self.tolerance, None, {"de": f"verdeckt {k + 1}"}))
         return found
 
 
@@ -183,6 +202,7 @@ def load_exercise(folder: str | Path) -> Exercise:
         ranges=dict(data.get("draw", {})),
         hints=hints,
         modules=tuple(modules),
+        budget=float(data["budget"]) if "budget" in data else None,
     )
 
 

@@ -20,21 +20,41 @@ from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from xml.etree import ElementTree as ET
 
+from sim import sanitize
 from sim.lab.checking import DEGRADED, CheckReport, Row, check_file, fresh_seed
 from sim.lab.exercise import Exercise, ExerciseError
+from sim.lab.notebook import SUFFIX, submission
 from sim.sandbox import SandboxUnavailable, unavailable
 
 
-def submissions(folder: Path, name: str) -> list[Path]:
-    """The student files in `folder`: every *.py directly in it, or `name` in each sub-folder."""
-    found = sorted(p for p in folder.glob("*.py") if p.is_file() or p.is_symlink())
-    return found or sorted(p for p in folder.glob(f"*/{name}") if p.is_file() or p.is_symlink())
+def submissions(folder: Path, name: str, notebooks: bool = False) -> list[Path]:
+    """The student files in `folder`: every *.py (and notebook, *.ipynb, if `notebooks`) directly
+    in it, or in each sub-folder `name` (else its one notebook)."""
+    def present(p: Path) -> bool:
+        return p.is_file() or p.is_symlink()
+
+    suffixes = (".py", SUFFIX) if notebooks else (".py",)
+    found = sorted(p for p in folder.iterdir() if p.suffix in suffixes and present(p))
+    if found:
+        return found
+    chosen = []
+    for sub in sorted(p for p in folder.iterdir() if p.is_dir()):
+        books = sorted(p for p in sub.glob(f"*{SUFFIX}") if present(p)) if notebooks else []
+        chosen += [sub / name] if present(sub / name) else books if len(books) == 1 else []
+    return chosen
 
 
 def student_id(path: Path, folder: Path) -> str:
     """The file's stem, or its sub-folder's name for `folder/<student>/<file>` (never a path)."""
-    name = path.parent.name if path.parent != folder else path.stem
-    return name if name not in ("", ".", "..") else f"_{name}"
+    return student_ids([path], folder)[0]
+
+
+def student_ids(files: list[Path], folder: Path) -> list[str]:
+    """Each file's stem, or its sub-folder's name for `folder/<student>/<file>` (never a path);
+    the whole file name where two stems are the same (alice.py and alice.ipynb)."""
+    stems = [f.parent.name if f.parent != folder else f.stem for f in files]
+    ids = [f.name if f.parent == folder and stems.count(stem) > 1 else stem for f, stem in zip(files, stems)]
+    return [i if i not in ("", ".", "..") else f"_{i}" for i in ids]
 
 
 def grade(ex: Exercise, folder: str | Path, out: str | Path, lang: str = "en", seed: int | None = None,
@@ -43,9 +63,9 @@ def grade(ex: Exercise, folder: str | Path, out: str | Path, lang: str = "en", s
     write grades.csv, gradescope/<student>/results.json and junit.xml into `out`. Without
     bubblewrap this refuses (SandboxUnavailable) unless `degraded`, and then says so in every result."""
     folder, out = Path(folder).resolve(), Path(out).resolve()
-    files = submissions(folder, ex.file)
+    files = submissions(folder, ex.file, notebooks=True)
     if not files:
-        raise ExerciseError(f"{folder}: no submissions (*.py files, or */{ex.file})")
+        raise ExerciseError(f"{folder}: no submissions (*.py files or notebooks, or */{ex.file} or one notebook a sub-folder)")
     own_folders = files[0].parent != folder
     if own_folders and any(out.is_relative_to(f.parent) for f in files):
         raise ExerciseError(f"{out}: the grades folder must not be inside a student's folder (the student's code would see it)")
@@ -58,7 +78,7 @@ def grade(ex: Exercise, folder: str | Path, out: str | Path, lang: str = "en", s
     with ThreadPoolExecutor(jobs) as pool:
         reports = list(pool.map(lambda f: _check(ex, f, folder, lang, seed, own_folders, degraded), files))
     out.mkdir(parents=True, exist_ok=True)
-    ids = [student_id(f, folder) for f in files]
+    ids = student_ids(files, folder)
     return reports, [write_csv(out / "grades.csv", ids, reports), write_gradescope(out / "gradescope", ids, reports),
                      write_junit(out / "junit.xml", ids, reports, ex.title["en"])]  # fmt: skip
 
@@ -69,10 +89,24 @@ def _check(ex: Exercise, path: Path, folder: Path, lang: str, seed: int, own_fol
     if path.is_symlink() or (own_folder and path.parent.is_symlink()) or not path.resolve().is_relative_to(folder):
         return _failed(ex, path, seed, "link", "the submission is a link, not a file of its own: not graded")
     try:
+        if path.suffix == SUFFIX:
+            return _check_notebook(ex, path, lang, seed, degraded)
         return check_file(ex, path, lang, seed, folder=own_folder, degraded=degraded)
     except Exception:  # noqa: BLE001 (a bug of ctsim on one file must not cost the others their grades)
         print(f"ctsim lab grade: checking {path} failed inside ctsim (a bug, not the student's):\n{traceback.format_exc()}", file=sys.stderr)
         return _failed(ex, path, seed, "grader", "the grader failed on this file (a ctsim bug, not your code): ask your teacher")
+
+
+def _check_notebook(ex: Exercise, path: Path, lang: str, seed: int, degraded: bool) -> CheckReport:
+    """A notebook's report: its solution cell checked as the exercise's file, or, for a notebook
+    that is not one of the exercise, a failed report saying why in one line."""
+    try:
+        with submission(path, ex) as file:
+            report = check_file(ex, file, lang, seed, degraded=degraded)
+    except ExerciseError as err:
+        return _failed(ex, path, seed, "load", str(err).replace(str(path), path.name))
+    report.file = str(path)
+    return report
 
 
 def _failed(ex: Exercise, path: Path, seed: int, problem: str, message: str) -> CheckReport:
@@ -83,47 +117,54 @@ def _isolation(report: CheckReport) -> str:
     return "degraded (no isolation)" if report.degraded else "bubblewrap"
 
 
-def cell(text: str) -> str:
-    """A text cell a spreadsheet will not run: one that starts like a formula gets a leading '."""
-    return f"'{text}" if text[:1] in ("=", "+", "-", "@", "\t", "\r") else text
+FIELD = 300
+"""Characters a text field of the teacher's files keeps (a forged error may be any length)."""
 
 
 def write_csv(path: Path, ids: list[str], reports: list[CheckReport]) -> Path:
-    """One row per student: score, maximum, scenarios passed, isolation and the first problem
-    (texts a student chose, such as a folder name, never start a formula)."""
+    """One row per student: score (unrounded), maximum, scenarios passed, isolation, the first
+    problem and every hidden row's expected and got values (the teacher's file; texts a student
+    chose, such as a folder name, never start a formula nor break a line)."""
     with path.open("w", newline="", encoding="utf-8") as f:
         writer = csv.writer(f)
-        writer.writerow(["student", "file", "score", "max_score", "passed", "scenarios", "seed", "isolation", "first_problem"])
+        writer.writerow(["student", "file", "score", "max_score", "passed", "scenarios", "seed", "isolation", "first_problem", "hidden_values"])
         for sid, report in zip(ids, reports):
-            first = next((f"{r.scenario}: {r.got if not r.hidden else ''} {r.hint}".strip() for r in report.rows if not r.passed), "")
-            writer.writerow([cell(sid), cell(report.file), f"{round(report.score, 1):g}", f"{report.points:g}", sum(r.passed for r in report.rows),
-                             len(report.rows), report.seed, _isolation(report), cell(first)])  # fmt: skip
+            first = next((f"{r.scenario}: {r.values[1]} {r.hint}".strip() for r in report.rows if not r.passed), "")
+            hidden = "; ".join(f"{r.scenario}: {'pass' if r.passed else 'FAIL'} expected {r.values[0] or '-'} got {sanitize.truncate(r.values[1], 120)}"
+                               for r in report.rows if r.hidden)  # fmt: skip
+            writer.writerow([sanitize.csv_cell(sid, FIELD), sanitize.csv_cell(report.file, FIELD), f"{round(report.score, 4):g}", f"{report.points:g}",
+                             sum(r.passed for r in report.rows), len(report.rows), report.seed, _isolation(report),
+                             sanitize.csv_cell(first, FIELD), sanitize.csv_cell(hidden, 4 * FIELD)])  # fmt: skip
     return path
 
 
-def feedback(row: Row) -> str:
+def feedback(row: Row, teacher: bool = False) -> str:
     """What a student reads about one scenario: expected, got (or the error with its line), the
-    tolerance and the hint; hidden values stay hidden."""
-    lines = [f"expected: {row.expected}"] if row.expected else []
-    lines += [f"got: {row.got}"] if row.got else []
+    tolerance, the hint and what the code printed in it; hidden values stay hidden unless it is
+    for the `teacher`."""
+    expected, got = row.values if teacher else (row.expected, row.got)
+    lines = [f"expected: {expected}"] if expected else []
+    lines += [f"got: {sanitize.truncate(got, FIELD)}"] if got else []
     lines += [f"tolerance: {row.tolerance}"] if row.tolerance else []
     lines += [row.hint] if row.hint else []
+    lines += [f"Your code printed:\n{row.output}"] if row.output and not teacher else []
     return "\n".join(lines)
 
 
 def write_gradescope(folder: Path, ids: list[str], reports: list[CheckReport]) -> Path:
     """Gradescope's results.json, one per student in `folder/<student>/results.json` (Gradescope
     grades one submission per container): a test per scenario with its values, error and hint;
-    hidden ones show after publishing; the student's printed output (an excerpt) beside them."""
+    hidden ones (and what the code printed while they ran) show after publishing; the output
+    printed while loading and in the public scenarios at the top."""
     for sid, report in zip(ids, reports):
         share = report.points / len(report.rows) if report.rows else 0.0
         tests = [
             {"name": row.scenario, "score": share if row.passed else 0.0, "max_score": share,
-             "status": "passed" if row.passed else "failed", "output": feedback(row),
+             "status": "passed" if row.passed else "failed", "output": sanitize.json_text(feedback(row), 4 * FIELD + 2000),
              "visibility": "after_published" if row.hidden else "visible"}
             for row in report.rows
         ]  # fmt: skip
-        notes = ([DEGRADED] if report.degraded else []) + ([f"Your code printed:\n{report.output}"] if report.output else [])
+        notes = ([DEGRADED] if report.degraded else []) + ([f"Your code printed:\n{sanitize.json_text(report.output)}"] if report.output else [])
         results = {"score": round(report.score, 4), "output": "\n\n".join(notes), "tests": tests}
         target = folder / sid / "results.json"
         target.parent.mkdir(parents=True, exist_ok=True)
@@ -131,26 +172,22 @@ def write_gradescope(folder: Path, ids: list[str], reports: list[CheckReport]) -
     return folder
 
 
-def xml_text(text: str) -> str:
-    """`text` without the characters XML 1.0 cannot hold (a student's output may have any)."""
-    return "".join(c for c in text if c in "\t\n\r" or ("\x20" <= c <= "\ud7ff") or ("\ue000" <= c <= "\ufffd") or c >= "\U00010000")
-
-
 def write_junit(path: Path, ids: list[str], reports: list[CheckReport], title: str) -> Path:
-    """JUnit XML: a test suite per student, a test case per scenario, failures with their hints
-    and values, the student's printed output as the suite's system-out."""
-    suites = ET.Element("testsuites", name=xml_text(title))
+    """JUnit XML (the teacher's): a test suite per student, a test case per scenario, failures with
+    their hints and values (hidden ones too), what the code printed in each scenario as its
+    system-out."""
+    suites = ET.Element("testsuites", name=sanitize.xml_text(title))
     for sid, report in zip(ids, reports):
         failures = sum(not r.passed for r in report.rows)
-        suite = ET.SubElement(suites, "testsuite", name=xml_text(sid), tests=str(len(report.rows)), failures=str(failures))
+        suite = ET.SubElement(suites, "testsuite", name=sanitize.xml_text(sid), tests=str(len(report.rows)), failures=str(failures))
         properties = ET.SubElement(suite, "properties")
         ET.SubElement(properties, "property", name="isolation", value=_isolation(report))
         for row in report.rows:
-            case = ET.SubElement(suite, "testcase", classname=xml_text(f"exercise{report.exercise}.{sid}"), name=xml_text(row.scenario))
+            case = ET.SubElement(suite, "testcase", classname=sanitize.xml_text(f"exercise{report.exercise}.{sid}"), name=sanitize.xml_text(row.scenario))
             if not row.passed:
-                ET.SubElement(case, "failure", message=xml_text(row.hint or "failed")).text = xml_text(feedback(row))
-        if report.output:
-            ET.SubElement(suite, "system-out").text = xml_text(report.output)
+                ET.SubElement(case, "failure", message=sanitize.xml_text(row.hint or "failed", FIELD)).text = sanitize.xml_text(feedback(row, teacher=True))
+            if row.output:
+                ET.SubElement(case, "system-out").text = sanitize.xml_text(row.output)
     ET.indent(suites)
     ET.ElementTree(suites).write(path, encoding="utf-8", xml_declaration=True)
     return path

@@ -19,11 +19,14 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+from sim import sanitize
 from sim.lab.exercise import Exercise, ExerciseError
 
 SOLUTION_TAG = "solution"
 """The tag of the code cell that holds the student's solution."""
 SUFFIX = ".ipynb"
+LARGEST = 20 << 20
+"""Bytes of the largest notebook read (an exercise's is a few kilobytes; outputs may add images)."""
 
 
 def _cell(kind: str, text: str, tags: tuple[str, ...] = ()) -> dict[str, Any]:
@@ -76,10 +79,14 @@ def write_notebook(exercise: Exercise, folder: Path, lang: str = "en", extra: tu
 
 def solution_source(path: Path) -> str:
     """The code of the notebook's cell tagged `solution`, its magic lines (`%%writefile`) dropped."""
+    if path.stat().st_size > LARGEST:
+        raise ExerciseError(f"{path}: not a notebook of an exercise ({path.stat().st_size} bytes; at most {LARGEST})")
     try:
         document = json.loads(path.read_text(encoding="utf-8"))
     except (json.JSONDecodeError, UnicodeDecodeError) as err:
-        raise ExerciseError(f"{path}: not a notebook (not JSON: {err})") from None
+        raise ExerciseError(f"{path}: not a notebook (not JSON: {sanitize.name(str(err), 200)})") from None
+    except RecursionError:
+        raise ExerciseError(f"{path}: not a notebook (its JSON is nested too deep to read)") from None
     cells = document.get("cells") if isinstance(document, dict) else None
     if not isinstance(cells, list):
         raise ExerciseError(f"{path}: not a notebook (no cells)")
@@ -87,7 +94,9 @@ def solution_source(path: Path) -> str:
     if len(tagged) != 1:
         raise ExerciseError(f"{path}: {len(tagged)} code cells tagged '{SOLUTION_TAG}'; the solution must be in exactly one (the cell `ctsim lab start --notebook` wrote)")
     source = tagged[0].get("source", "")
-    text = "".join(source) if isinstance(source, list) else str(source)
+    if not (isinstance(source, str) or (isinstance(source, list) and all(isinstance(line, str) for line in source))):
+        raise ExerciseError(f"{path}: the '{SOLUTION_TAG}' cell's source is not text (nbformat: a string or a list of strings)")
+    text = "".join(source)
     return "".join(line for line in text.splitlines(keepends=True) if not line.lstrip().startswith("%"))
 
 

@@ -3,7 +3,10 @@ and the checks that turn what comes back into numbers and commands or a `Student
 
 Each request waits at most what is left of the scenario's budget; one that runs over ends the
 student's process (a fresh one starts for the next scenario). Starting the process is not the
-student's time.
+scenario's time, but it is the submission's: the whole submission has a wall-clock budget
+(`wall`, start-ups included) after which its process is ended and nothing more of it is run, so
+that code which sleeps at every start or overruns every call holds a grading slot for that long
+at most, not once per scenario.
 """
 
 from __future__ import annotations
@@ -27,11 +30,28 @@ class Student:
     """A student's file, run in a sandbox of its own. `modules`: the project modules its template
     imports (all of the project it can see); `cpu`: CPU seconds for its whole life; `folder`: its
     whole folder is the submission (helper modules beside it); `degraded`: allow running without
-    isolation where bubblewrap is missing."""
+    isolation where bubblewrap is missing; `wall`: seconds of wall-clock time for all of it, from
+    now, start-ups included."""
 
-    def __init__(self, path: str | Path, modules: tuple[str, ...] = (), cpu: float = 60.0, folder: bool = False, degraded: bool = False):
+    def __init__(self, path: str | Path, modules: tuple[str, ...] = (), cpu: float = 60.0, folder: bool = False, degraded: bool = False,
+                 wall: float = math.inf):  # fmt: skip
         self.box = Sandbox(path, modules, Limits(cpu=cpu), folder, degraded)
         self.budget = math.inf
+        self.wall, self.deadline = wall, time.monotonic() + wall
+
+    @property
+    def spent(self) -> bool:
+        """Whether the submission's wall-clock budget is used up (nothing more of it runs)."""
+        return time.monotonic() >= self.deadline
+
+    def _over(self) -> StudentError:
+        self.box.close()
+        message = f"your submission used up its {self.wall:g} s of time (start-ups included): it was ended, and what was left is not run"
+        return StudentError("budget", message, message)
+
+    def take_output(self) -> str:
+        """What the student's code printed since the last call (one scenario's output)."""
+        return self.box.take_output()
 
     @property
     def alive(self) -> bool:
@@ -52,13 +72,20 @@ class Student:
         self.budget = budget
 
     def _timed(self, ask: Callable[[float], Any]) -> Any:
-        if not self.alive:
-            self.box.start()  # a StudentError if the file does not load
-        started = time.perf_counter()
+        if self.spent:
+            raise self._over()
         try:
-            return ask(self.budget)
-        finally:
-            self.budget -= time.perf_counter() - started
+            if not self.alive:
+                self.box.start(min(self.box.limits.startup, self.deadline - time.monotonic()))  # a StudentError if it does not load
+            started = time.perf_counter()
+            try:
+                return ask(min(self.budget, self.deadline - time.monotonic()))
+            finally:
+                self.budget -= time.perf_counter() - started
+        except StudentError as err:
+            if err.kind == "timeout" and self.spent:
+                raise self._over() from None
+            raise
 
     def call(self, name: str, *args: Any) -> Any:
         """`name(*args)` in the student's file; plain data back."""
@@ -107,7 +134,10 @@ def numbers(value: Any, shape: tuple[int, ...], what: str, infinite: bool = Fals
         raise StudentError("shape", message, message)
     if np.isnan(array).any() or not (infinite or np.isfinite(array).all()):
         message = f"{what} returned NaN" + ("" if infinite else " or infinity")
-        raise StudentError("nan", f"{message}: {array.tolist()}", message)
+        bad = np.isnan(array) | (np.isinf(array) & (not infinite))
+        index = tuple(int(i) for i in np.argwhere(bad)[0])
+        where = f": {array.tolist()}" if array.size <= 6 else f" first at index {index} of {array.shape}, {int(bad.sum())} values in all"
+        raise StudentError("nan", message + where, message)
     return array
 
 

@@ -18,7 +18,8 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, Callable
 
-from sim.sandbox import launch, wire
+from sim import sanitize
+from sim.sandbox import launch, reply, wire
 
 
 @dataclass(frozen=True)
@@ -70,22 +71,26 @@ def _said(kind: str, message: str) -> StudentError:
     return StudentError(kind, message, message)
 
 
-def _raised(info: Any, what: str, loading: bool) -> StudentError:
-    """The guest's error description as a StudentError (checked: the untrusted code can forge it)."""
-    if not (isinstance(info, dict) and isinstance(info.get("type"), str) and isinstance(info.get("message"), str)
-            and isinstance(info.get("line"), (int, type(None))) and isinstance(info.get("missing"), (str, type(None)))):  # fmt: skip
-        return _said("protocol", f"{what}: the answer is not the sandbox's (malformed error)")
-    kind_name, message, line, missing = info["type"][:80], info["message"][:300], info["line"], info["missing"]
+def _raised(info: dict[str, Any], what: str, loading: bool, memory: int) -> StudentError:
+    """The guest's error description (fields checked by `reply.error`) as a StudentError;
+    `memory`: the guest's limit (bytes), for the message."""
+    kind_name, message, line = sanitize.name(info["type"], 80), sanitize.name(info["message"], 300), info["line"]
+    missing = sanitize.name(info["missing"] or "", 120)
     where = f" at line {line}" if line else ""
     if kind_name == "MemoryError":
-        text = f"{what} ran out of memory{where} (the limit is a few hundred megabytes)"
+        text = f"{what} ran out of memory{where} (the limit is {human_size(memory)} of address space)"
         return StudentError("memory", text, text, kind_name, line)
     if missing and missing.split(".")[0] in launch.PROJECT:
         text = f"{what}: import of {missing}{where} is not available here (the robot's code sees only its readings and what the template imports)"
         return StudentError("forbidden", text, text, kind_name, line)
     detail = f"{what} raised {kind_name}{where}" + (f": {message}" if message else "")
     kind = "load" if loading else "raised"
-    return StudentError(kind, detail, f"{what} raised {kind_name}{where}", kind_name, line, info.get("value_error") is True)
+    return StudentError(kind, detail, f"{what} raised {kind_name}{where}", kind_name, line, info["value_error"])
+
+
+def human_size(memory: int) -> str:
+    """Bytes as people say them: 1 GiB, 512 MiB."""
+    return f"{memory / (1 << 30):g} GiB" if memory >= 1 << 30 else f"{memory / (1 << 20):g} MiB"
 
 
 def _first_pid(info: int, deadline: float) -> int | None:
@@ -123,17 +128,32 @@ class Sandbox:
         self.process: subprocess.Popen | None = None
         self._handles = 0
         self._excerpt = bytearray()
+        self._segment = 0
+        self._lock = threading.Lock()
         self.printed = 0
         self.flooded = False
 
     @property
     def output(self) -> str:
-        """The start of what the code printed (stdout and stderr), at most `limits.excerpt` characters."""
+        """The start of what the code printed (stdout and stderr) since the last `take_output`, at
+        most `limits.excerpt` characters."""
         text = self._excerpt.decode("utf-8", errors="replace")[: self.limits.excerpt]
-        return text + (f"\n[... {self.printed - len(self._excerpt)} more bytes]" if self.printed > len(self._excerpt) else "")
+        return text + (f"\n[... {self._segment - len(self._excerpt)} more bytes]" if self._segment > len(self._excerpt) else "")
 
-    def start(self) -> None:
-        """Start the guest and load the file; a StudentError if it does not load."""
+    def take_output(self) -> str:
+        """`output`, with everything the code printed before its last answer (or its end), and a
+        fresh excerpt begun: what one scenario printed stays with that scenario."""
+        with self._lock:
+            if self.process is not None:
+                self._read_pending()
+            text = self.output
+            self._excerpt, self._segment = bytearray(), 0
+        return text
+
+    def start(self, startup: float | None = None) -> None:
+        """Start the guest and load the file within `startup` seconds (default `limits.startup`);
+        a StudentError if it does not load (a timeout if it takes longer)."""
+        startup = self.limits.startup if startup is None else startup
         requests, self._requests = os.pipe()
         self._replies, replies = os.pipe()
         info, info_write = os.pipe()
@@ -150,15 +170,16 @@ class Sandbox:
         finally:
             for fd in (*passed, info_write) if self.degraded else passed:
                 os.close(fd)
-        self._pid1 = None if self.degraded else _first_pid(info, time.monotonic() + self.limits.startup)
+        self._pid1 = None if self.degraded else _first_pid(info, time.monotonic() + startup)
         if self.degraded:
             os.close(info)
-        self.flooded = False
+        self.flooded, self._printed_now = False, 0
+        os.set_blocking(self.process.stdout.fileno(), False)
         self._reader = threading.Thread(target=self._drain, daemon=True)
         self._reader.start()
-        hello = self._receive(time.monotonic() + self.limits.startup, "loading your file")
+        hello = self._receive(time.monotonic() + startup, "loading your file")
         if "error" in hello:
-            error = _raised(hello["error"], "loading your file", loading=True)
+            error = _raised(hello["error"], "loading your file", True, self.limits.memory)
             self.close()
             raise error
         self.confined = hello.get("confined") is True
@@ -177,13 +198,13 @@ class Sandbox:
             raise _said("timeout", f"{what} took longer than the time limit (an endless loop?)") from None
         except OSError:
             raise self._ended(what) from None
-        reply = self._receive(deadline, what)
-        if "error" in reply:
-            index = reply["error"].get("index") if isinstance(reply["error"], dict) else None
-            if name_call is not None and isinstance(index, int) and index >= 0:
+        answer = self._receive(deadline, what)
+        if "error" in answer:
+            index = answer["error"]["index"]
+            if name_call is not None and index is not None and index >= 0:
                 what = name_call(index)
-            raise _raised(reply["error"], what, loading=False)
-        return reply["ok"]
+            raise _raised(answer["error"], what, False, self.limits.memory)
+        return answer["ok"]
 
     def call(self, name: str, *args: Any, timeout: float) -> Any:
         """`name(*args)` in the file; plain data back."""
@@ -224,7 +245,7 @@ class Sandbox:
                 raise TimeoutError
 
         try:
-            reply = wire.receive(self._replies, self.limits.reply, wait)
+            answer = reply.read(wire.receive_body(self._replies, self.limits.reply, wait))
         except TimeoutError:
             self.close()
             raise _said("timeout", f"{what} took longer than the time limit (an endless loop?)") from None
@@ -233,10 +254,7 @@ class Sandbox:
         except wire.WireError as err:
             self.close()
             raise _said("protocol", f"{what}: the answer could not be read ({err})") from None
-        if not (isinstance(reply, dict) and ("ok" in reply or "error" in reply)):
-            self.close()
-            raise _said("protocol", f"{what}: the answer is not the sandbox's")
-        return reply
+        return answer
 
     def _ended(self, what: str) -> StudentError:
         """The guest is gone: why, as far as the exit status tells."""
@@ -255,15 +273,34 @@ class Sandbox:
 
     def _drain(self) -> None:
         """Keep the start of the output (over every guest of this sandbox); end this guest when it
-        prints more than the limit."""
-        stream, printed = self.process.stdout, 0
-        while chunk := stream.read1(1 << 16):
-            printed += len(chunk)
+        prints more than the limit. Reads happen under the lock, so `take_output` sees every byte
+        the guest wrote before it answered."""
+        stream = self.process.stdout.fileno()
+        while True:
+            select.select([stream], [], [])
+            with self._lock:
+                if not self._read_pending():
+                    return
+
+    def _read_pending(self) -> bool:
+        """Read what the guest's output pipe holds now (the lock held); False at its end."""
+        stream = self.process.stdout.fileno()
+        while True:
+            try:
+                chunk = os.read(stream, 1 << 16)
+            except BlockingIOError:
+                return True
+            except OSError:
+                return False
+            if not chunk:
+                return False
+            self._printed_now += len(chunk)
             self.printed += len(chunk)
+            self._segment += len(chunk)
             room = self.limits.excerpt * 4 - len(self._excerpt)
             if room > 0:
                 self._excerpt += chunk[:room]
-            if printed > self.limits.output and not self.flooded:
+            if self._printed_now > self.limits.output and not self.flooded:
                 self.flooded = True
                 self._kill()
 

@@ -2,7 +2,8 @@
 
 Started as `python -I -S -B -c "import sys; sys.path[:0] = PATH; import guest; guest.main()"
 CONFIG` (imported, not run as a script, so that its compiled form is used; CONFIG: JSON with
-`path`, the folders to import from; `code`, the file; `limits`; `requests` and `replies`, the
+`path`, the folders to import from; `code`, the file; `preload`, the modules imported before the
+file's folder is on the path (numpy, the project modules it may use); `limits`; `requests` and `replies`, the
 file descriptors of its two pipes, both in the `wire` format). It first sets its limits and the
 filter against new processes and threads (`confine`), then loads the file as the module
 `ctsim_student` and says {"ok": null} or {"error": ...}; then, per request:
@@ -19,8 +20,8 @@ filter against new processes and threads (`confine`), then loads the file as the
                                                                           objects[h].m(*args), a list
                                                                           (a whole run in one request)
 
-A reply is {"ok": value} with the value as plain data (lists, dicts with string keys, numbers,
-strings, numeric numpy arrays; an object of another kind becomes {"__type__": its type name}; a
+A reply is {"ok": value} with the value as plain data (lists, numbers, strings; tuples and
+numeric numpy arrays as lists; an object of another kind becomes {"__type__": its type name}; a
 command [type name, numbers...] or ["bad", type name]), or
 {"error": {"type", "message", "line", "missing", "index", "value_error"}} (`index`: the call of a
 feed that raised, else null; `value_error`: the exception is a ValueError, input refused). It
@@ -71,15 +72,14 @@ def describe(err: BaseException, path: str) -> dict[str, Any]:
 
 
 def plain(value: Any) -> Any:
-    """`value` as plain data; anything else becomes {'__type__': its type name}."""
+    """`value` as a reply's data: numbers, strings, None, lists (tuples and numeric numpy arrays
+    become lists); anything else {'__type__': its type name} (what the host's reader accepts)."""
     if value is None or isinstance(value, (bool, str, int, float)):
         return value
     if type(value).__module__ == "numpy" and getattr(value, "dtype", None) is not None and value.dtype.kind in "biuf":
-        return value
+        return value.tolist()
     if isinstance(value, (tuple, list)):
         return [plain(v) for v in value]
-    if isinstance(value, dict) and all(isinstance(k, str) and not k.startswith("__") for k in value):
-        return {k: plain(v) for k, v in value.items()}
     return {"__type__": type(value).__name__}
 
 
@@ -165,6 +165,8 @@ def serve(config: dict[str, Any]) -> None:
     limits = config["limits"]
     confine.set_limits(limits["cpu"], limits["memory"], limits["files"], limits["processes"])
     confined = confine.forbid_new_tasks()
+    for name in config["preload"]:  # the guest's own imports first: a numpy.py beside the file cannot replace them
+        importlib.import_module(name)
     path = config["code"]
     sys.path[:0] = [str(Path(path).parent)]
     name_missing_modules()

@@ -3,13 +3,14 @@
 Inside bubblewrap the guest gets new user, mount, pid, network, IPC, UTS and cgroup namespaces (and
 may make no user namespace of its own), no capabilities, its own session, and dies with its parent.
 It is the first process of its pid namespace itself (no bubblewrap process beside it that it could
-trace and make start processes for it). Its file system is built from nothing:
-the interpreter's installation and /usr read-only (their site-packages hidden), numpy, the guest's
-three files under /guest, the project modules asked for (with what they import at module level)
-under /guest/lib, and the untrusted file (or its folder) read-only under /submission. Nothing else: no
-/etc, /home, /tmp, the project's other code, the other submissions or the grader's outputs;
-/proc is the sandbox's own, so no process outside it can be seen; the only network is an
-unconfigured loopback.
+trace and make start processes for it). Its file system is built from nothing,
+read-only: the interpreter, its standard library (its site-packages hidden) and the shared
+libraries these and numpy load, each file at its own path (not /usr whole: no dist-packages, no
+other programs); numpy; the guest's three files under /guest; the project modules asked for (with
+what they import at module level) under /guest/lib; and the untrusted file (or its folder) under
+/submission. Nothing else: no /etc, /home, /tmp, /proc (no mount table naming the teacher's
+folders, no other process), the project's other code, the other submissions or the grader's
+outputs; the only network is an unconfigured loopback.
 
 Degraded, the guest is a plain child process with the same limits and filter but the file system
 and network of the user running it: for a machine without bubblewrap, and only when asked for.
@@ -78,6 +79,8 @@ def unavailable() -> str | None:
     executable = bubblewrap()
     if executable is None:
         return "bubblewrap (bwrap) is not installed"
+    if shutil.which("ldd") is None:
+        return "ldd is not installed (it lists the libraries the sandbox must hold)"
     command = [executable, *_namespaces(), *_system(), "--", _interpreter(), "-I", "-S", "-c", "pass"]
     try:
         result = subprocess.run(command, capture_output=True, timeout=60, stdin=subprocess.DEVNULL)
@@ -95,25 +98,57 @@ def _interpreter() -> str:
 
 def _namespaces() -> list[str]:
     return ["--unshare-all", "--unshare-user", "--disable-userns", "--uid", "65534", "--gid", "65534", "--cap-drop", "ALL",
-            "--as-pid-1", "--die-with-parent", "--new-session", "--clearenv", "--proc", "/proc", "--dev", "/dev"]  # fmt: skip
+            "--as-pid-1", "--die-with-parent", "--new-session", "--clearenv", "--dev", "/dev"]  # fmt: skip
 
 
 def _system() -> list[str]:
-    """/usr and the interpreter's installation, read-only, with their site-packages hidden."""
-    args = ["--ro-bind", "/usr", "/usr"]
+    """The interpreter, its standard library (its site-packages hidden) and the shared libraries
+    they and numpy load, read-only, each at its own path; nothing else of /usr or the installation."""
+    args: list[str] = []
     for top in ("/bin", "/lib", "/lib64", "/sbin"):
-        if os.path.islink(top):
+        if os.path.islink(top):  # merged /usr: the loader's paths go through these links
             args += ["--symlink", os.readlink(top), top]
-        elif os.path.isdir(top):
-            args += ["--ro-bind", top, top]
+    for source, target in _system_files():
+        args += ["--ro-bind", source, target]
     prefix = os.path.realpath(sys.base_prefix)
-    if not prefix.startswith("/usr/"):
-        args += ["--ro-bind", prefix, prefix]
     paths = sysconfig.get_paths(vars={"base": prefix, "platbase": prefix})
     for hidden in sorted({paths["purelib"], paths["platlib"]}):
         if os.path.isdir(hidden):
             args += ["--tmpfs", hidden, "--remount-ro", hidden]
     return args
+
+
+@functools.cache
+def _system_files() -> tuple[tuple[str, str], ...]:
+    """(host path, path inside) of the interpreter, its standard library folders and every shared
+    library the interpreter, the standard library's extension modules and numpy's load (as `ldd`
+    lists them). Found once a process."""
+    prefix = os.path.realpath(sys.base_prefix)
+    paths = sysconfig.get_paths(vars={"base": prefix, "platbase": prefix})
+    folders = sorted({os.path.realpath(paths["stdlib"]), os.path.realpath(paths["platstdlib"])})
+    numpy = Path(importlib.util.find_spec("numpy").origin).parent
+    compiled = [str(p) for folder in folders for p in Path(folder, "lib-dynload").glob("*.so")]
+    compiled += [str(p) for p in (*numpy.rglob("*.so"), *numpy.with_name("numpy.libs").glob("*.so*"))]
+    files = [(_interpreter(), _interpreter())] + [(folder, folder) for folder in folders]
+    libraries = [p for p in _libraries([_interpreter(), *compiled]) if not Path(p).resolve().is_relative_to(numpy.parent.resolve())]
+    return tuple(files + [(library, _inside(library)) for library in libraries])  # numpy's own: under /guest/lib, found beside it
+
+
+def _libraries(files: list[str]) -> list[str]:
+    """The shared libraries `files` load, from `ldd` (absolute paths; not found ones left out)."""
+    result = subprocess.run(["ldd", *files], capture_output=True, text=True, check=False, stdin=subprocess.DEVNULL)
+    found = set()
+    for line in result.stdout.splitlines():
+        path = line.split("=>")[-1].strip().split(" (")[0]
+        if path.startswith("/") and os.path.isfile(path):
+            found.add(path)
+    return sorted(found)
+
+
+def _inside(path: str) -> str:
+    """Where a library is bound inside: its folder resolved (the sandbox has the same /lib links),
+    its own name kept (the name the loader asks for)."""
+    return os.path.join(os.path.realpath(os.path.dirname(path)), os.path.basename(path))
 
 
 def _numpy() -> list[tuple[str, str]]:
@@ -142,6 +177,7 @@ def _start(path: list[str]) -> list[str]:
 def command(code: Path, folder: bool, modules: tuple[str, ...], config: dict, degraded: bool) -> list[str]:
     """The command line that starts the guest on `code` (bound with its whole folder if `folder`),
     with `modules` of the project importable; `config` completed with the paths inside."""
+    config["preload"] = ["numpy", *modules]
     if degraded:
         site = str(Path(importlib.util.find_spec("numpy").origin).parents[1])
         config |= {"path": [str(ROOT / "sim" / "sandbox"), site, str(ROOT)], "code": str(code)}

@@ -11,7 +11,8 @@ three tagged objects:
     {"__type__": type name}                        a value of another kind, not sent (`Opaque`)
 
 Nothing else crosses: no pickle, no code. A reader refuses a message longer than its limit before
-it reads the body. This module imports the standard library only (numpy when an array comes), so
+it reads the body. This is what the host sends and the guest reads; the guest's replies are read
+by the host with `sim.sandbox.reply`, which accepts far less (the untrusted code may forge them). This module imports the standard library only (numpy when an array comes), so
 that the guest inside the sandbox can use it as it is.
 """
 
@@ -175,10 +176,15 @@ def receive(fd: int, limit: int, wait: Callable[[int], None] | None = None) -> A
     """Read one message from `fd`; EOFError when the writer is gone, WireError for a message over
     `limit` bytes or not of plain data. `wait(fd)`, if given, is called before each read (to
     raise when a deadline passes); without it the read blocks."""
+    return loads(receive_body(fd, limit, wait))
+
+
+def receive_body(fd: int, limit: int, wait: Callable[[int], None] | None = None) -> bytes:
+    """One message's body from `fd`, not decoded (as `receive`; for a reader of its own)."""
     (length,) = HEADER.unpack(read_exactly(fd, HEADER.size, wait))
     if length > limit:
         raise WireError(f"a message of {length} bytes (the limit is {limit})")
-    return loads(read_exactly(fd, length, wait))
+    return read_exactly(fd, length, wait)
 
 
 def read_exactly(fd: int, n: int, wait: Callable[[int], None] | None = None) -> bytes:

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from sim.analysis.export import read_tum
+from sim.errors import UserError
 from sim.views import palette
 from sim.views.map_image import map_shapes
 from sim.world.files.grid import TILE_NAMES
@@ -246,7 +247,7 @@ def read_summary(run_dir: str | Path) -> dict:
     try:
         return json.loads(summary_path.read_text(encoding="utf-8"))
     except json.JSONDecodeError as err:
-        raise ValueError(f"{summary_path}:{err.lineno}: {err.msg}") from None
+        raise UserError(f"{summary_path}:{err.lineno}: {err.msg}") from None
 
 
 def ate_of(summary: dict) -> dict[str, dict[str, float]]:

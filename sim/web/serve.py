@@ -23,6 +23,7 @@ import time
 from pathlib import Path
 from urllib.parse import quote
 
+from sim.errors import UserError
 
 DEFAULT_HOST = "127.0.0.1"
 DEFAULT_PORT = 9090
@@ -34,7 +35,7 @@ MAGIC = b"RRF2"
 """The first bytes of an .rrd file of every rerun since 0.23; the next four are its version."""
 
 
-class ViewError(ValueError):
+class ViewError(UserError):
     """Something the user asked to view or serve that cannot be: one line, no traceback."""
 
 

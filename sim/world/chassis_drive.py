@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING, Any, Literal
 import numba
 import numpy as np
 
+from sim.errors import UserError
 from sim.kinematics import (
     counts_per_metre,
     mouse_displacement_from_increment,
@@ -57,7 +58,7 @@ FaultKind = Literal["lock", "free", "steering"]
 _log = logging.getLogger(__name__)
 
 
-class FaultError(ValueError):
+class FaultError(UserError):
     """A fault that cannot strike (no such robot or wheel, a steering fault on an unsteered wheel)."""
 
 

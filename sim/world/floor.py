@@ -75,12 +75,18 @@ def _convex_mask(xs, ys, vertices):
     return mask
 
 
-def _segment_mask(xs, ys, a, b, half_width):
+def _segment_mask(xs, ys, a, b, half_width, flat=False):
+    """Pixels within `half_width` of the segment a-b: with round ends, or (`flat`) only those
+    beside it, so that the stroke ends square at a and b."""
     a, b = np.asarray(a, dtype=np.float64), np.asarray(b, dtype=np.float64)
     d = b - a
     length2 = float(d @ d)
-    t = np.clip(((xs - a[0]) * d[0] + (ys - a[1]) * d[1]) / length2, 0.0, 1.0) if length2 > 0 else 0.0
-    return (xs - a[0] - t * d[0]) ** 2 + (ys - a[1] - t * d[1]) ** 2 <= half_width**2
+    if length2 == 0:
+        return np.zeros(np.broadcast_shapes(xs.shape, ys.shape), dtype=bool) if flat else (xs - a[0]) ** 2 + (ys - a[1]) ** 2 <= half_width**2
+    along = ((xs - a[0]) * d[0] + (ys - a[1]) * d[1]) / length2
+    t = np.clip(along, 0.0, 1.0)
+    near = (xs - a[0] - t * d[0]) ** 2 + (ys - a[1] - t * d[1]) ** 2 <= half_width**2
+    return near & (along >= 0.0) & (along <= 1.0) if flat else near
 
 
 def rasterize(world: WorldSpec, cell: float = 0.002) -> FloorMap:
@@ -105,7 +111,7 @@ def rasterize(world: WorldSpec, cell: float = 0.002) -> FloorMap:
             cover = _pixel_centres(shape, origin, cell, (a, b), margin=line.width / 2)
             if cover:
                 window, xs, ys = cover
-                value[window][_segment_mask(xs, ys, a, b, line.width / 2)] = colour
+                value[window][_segment_mask(xs, ys, a, b, line.width / 2, line.flat)] = colour
     for h in world.holes:
         cover = _pixel_centres(shape, origin, cell, h.vertices)
         if cover:

@@ -14,11 +14,13 @@ from pathlib import Path
 
 import numpy as np
 
+from sim.errors import UserError
+
 CNY70_MAX = 1023
 LDR_MAX = 1023
 
 
-class CurveFileError(ValueError):
+class CurveFileError(UserError):
     """A characteristic file that cannot be read; the message names the file and line."""
 
 

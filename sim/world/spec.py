@@ -44,11 +44,14 @@ class FloorRegion:
 
 @dataclass(frozen=True)
 class FloorLine:
-    """A painted line on the floor: a polyline of `width` metres (c't-Sim: 2.4 cm, black)."""
+    """A painted line on the floor: a polyline of `width` metres (c't-Sim: 2.4 cm, black).
+    `flat`: each segment ends square at its end points (c't-Sim's line tiles, which end at their
+    cell's edge); otherwise the ends and joints are round, half the width past the points."""
 
     points: tuple[Point, ...]
     width: float = 0.024
     colour: Colour = BLACK
+    flat: bool = False
 
 
 @dataclass(frozen=True)

@@ -52,15 +52,17 @@ def _resolve(source: str | Path) -> Path:
     raise WorldFileError(source, None, f"no such world file or shipped world; {hint}shipped: {', '.join(worlds) or 'none'}")
 
 
-def load_world(source: str | Path) -> WorldSpec:
-    """Load a world from a `.toml` or c't-Sim `.xml` file, or a shipped world by bare name."""
+def load_world(source: str | Path, pillars: str = "cell") -> WorldSpec:
+    """Load a world from a `.toml` or c't-Sim `.xml` file, or a shipped world by bare name.
+    `pillars`: how a c't-Sim parcours' lamp pillars stand, 'cell' (wall blocks) or 'cylinder'
+    (c't-Sim's own 0.1 m cylinders, as the bridge loads them; `sim.world.files.grid`)."""
     path = _resolve(source)
     loader = _LOADERS.get(path.suffix.lower())
     if loader is None:
         raise WorldFileError(path, None, f"unknown world file type '{path.suffix}'; expected .toml or .xml")
     if not path.is_file():
         raise WorldFileError(path, None, "no such file")
-    world = loader(path)
+    world = load_parcours(path, pillars) if loader is load_parcours else loader(path)
     if not world.start_order():
         raise WorldFileError(path, None, "the world has no start pose (room for 0 robots): add a start tile (0, 1, 2) or a [[start]]")
     return world

@@ -4,13 +4,15 @@ and the `[grid]` shorthand of the TOML format, so one layout means the same worl
 Semantics (c't-Sim's ParcoursLoader/Parcours, v2.x, read for the rules only):
 - rows are given top-down; the last row is y = 0; cell (col, row) covers [col, col+1]·cell × [row, row+1]·cell;
 - `X` is one wall block; maximal horizontal runs of `=` and vertical runs of `#` become one box each;
-- `*` is a pillar: a wall block with a light 0.5 m above its centre (c't-Sim draws a 0.1 m cylinder;
-  we use the whole cell, as for `X`). A pillar at the end of a `=` run (or else of a `#` run) joins
-  that run's box, so `*=====*` is one box and a wall has no seam at its corner posts;
+- `*` is a pillar with a light 0.5 m above its centre. By default it is a wall block (the whole
+  cell, as `X`), and a pillar at the end of a `=` run (or else of a `#` run) joins that run's box,
+  so `*=====*` is one box and a wall has no seam at its corner posts. With pillars="cylinder" it is
+  c't-Sim's own: a cylinder of 0.1 m diameter (Java3D's, a 15-sided prism with a corner due north),
+  never part of a run, the rest of its cell open floor;
 - `L` is a hole; starts `0 1 2 $` (slots 0 1 2 1) face an adjacent `.` tile, looked for south,
   north, west, east in that order; with none they face +x (c't-Sim's default heading);
-- line tiles are black polylines 0.1 cell wide through the cell centre; corners are two half
-  segments meeting at the centre; `!` and `%` have a gap of one line width at the centre;
+- line tiles are black lines 0.1 cell wide through the cell centre, c't-Sim's outlines: flat ends
+  at the cell's edges, square corners; `!` and `%` have a gap of one line width at the centre;
 - `o` and the line+object tiles put a movable can at the cell centre; `l` (BPS beacon) and `O`
   (c't-Sim's internal 'already built' marker, found in some shipped files) are plain floor.
 """
@@ -41,6 +43,9 @@ from sim.world.spec import (
 DEFAULT_CELL = 0.24  # m, c't-Sim's blockSizeInM
 LIGHT_HEIGHT = 0.5  # m, c't-Sim's LIGHTZ
 LINE_WIDTH_CELLS = 0.1  # c't-Sim's LINEWIDTH, in cells
+PILLAR_STYLES = ("cell", "cylinder")
+PILLAR_DIAMETER = 0.1  # m, c't-Sim's lamp pillar (ParcoursLoader: createPillar(x, y, 0.1f, ...))
+PILLAR_SIDES = 15  # Java3D's Cylinder: 15 divisions round its axis
 
 _N, _E, _S, _W = "N", "E", "S", "W"
 # Which cell edges a line tile's line reaches (c't-Sim's LINE_* shapes; corner names as in template.xml).
@@ -121,11 +126,15 @@ def build_grid(
     colours: Mapping[str, Colour] = DEFAULT_TILE_COLOURS,
     row_lines: Sequence[int | None] | None = None,
     path: str | Path | None = None,
+    pillars: str = "cell",
 ) -> GridPieces:
     """Turn grid rows (top-down, as written) into world pieces.
 
     `colours` maps tiles to floor (or, for line tiles, line) colours and falls back to
-    DEFAULT_TILE_COLOURS; `row_lines` gives each row's line in the source file for error messages."""
+    DEFAULT_TILE_COLOURS; `row_lines` gives each row's line in the source file for error messages;
+    `pillars`: 'cell' (a lamp pillar is a wall block) or 'cylinder' (c't-Sim's 0.1 m cylinder)."""
+    if pillars not in PILLAR_STYLES:
+        raise ValueError(f"pillars must be one of {PILLAR_STYLES}, not {pillars!r}")
     lines_of = list(row_lines) if row_lines is not None else [None] * len(rows)
     size = len(rows) * max((len(row) for row in rows), default=0)
     if size > MAX_CELLS:
@@ -143,7 +152,8 @@ def build_grid(
     cells = _Cells(cell, origin)
     return GridPieces(
         bounds=(origin[0], origin[1], origin[0] + width * cell, origin[1] + tiles.height * cell),
-        walls=tuple(Wall(cells.box(*span)) for span in _wall_spans(tiles)),
+        walls=tuple(Wall(cells.box(*span)) for span in _wall_spans(tiles, pillars == "cell"))
+        + tuple(Wall(_pillar(*cells.centre(c, r))) for c, r, _ in tiles.cells("*") if pillars == "cylinder"),
         floor=tuple(_floor(tiles, cells, colour)),
         lines=tuple(line for c, r, ch in tiles.cells(LINE_ARMS) for line in _line(ch, c, r, cells, colour[ch])),
         holes=tuple(Hole(cells.box(*span)) for span in _runs(tiles, lambda ch: ch == HOLE_TILE)),
@@ -204,22 +214,33 @@ def _runs(
                 c += 1
 
 
-def _wall_spans(tiles: _Tiles) -> list[tuple[int, int, int, int]]:
+def _pillar(x: float, y: float) -> tuple[Point, ...]:
+    """c't-Sim's lamp pillar at (x, y): Java3D's cylinder, corners on the circle of 0.05 m from due
+    north clockwise (its vertex k at angle -pi/2 + k 2pi/15 about the axis, which stands up after
+    the pillar's rotation about x)."""
+    r = PILLAR_DIAMETER / 2
+    angles = (math.pi / 2 - k * 2 * math.pi / PILLAR_SIDES for k in range(PILLAR_SIDES))
+    return tuple(reversed([(x + r * math.cos(a), y + r * math.sin(a)) for a in angles]))  # counter-clockwise
+
+
+def _wall_spans(tiles: _Tiles, pillar_blocks: bool = True) -> list[tuple[int, int, int, int]]:
     """Wall boxes (col, row, w, h): `=` runs, then `#` runs, each taking the pillars at its ends
-    and between its cells; what is left (`X`, lone pillars) is one block per cell."""
+    and between its cells; what is left (`X`, lone pillars) is one block per cell. Without
+    `pillar_blocks` the pillars are no part of any box."""
     used: set[tuple[int, int]] = set()
     spans = []
-    for c, r, w, _ in _runs(tiles, lambda ch: ch in "=*"):
+    post = "*" if pillar_blocks else ""
+    for c, r, w, _ in _runs(tiles, lambda ch: ch in "=" + post):
         if any(tiles.at(c + i, r) == "=" for i in range(w)):
             spans.append((c, r, w, 1))
             used.update((c + i, r) for i in range(w))
     transposed = _Tiles(["".join(tiles.at(c, r) for r in range(tiles.height)) for c in range(tiles.width)])
     used_t = {(r, c) for c, r in used}
-    for r, c, h, _ in _runs(transposed, lambda ch: ch in "#*", used_t):
+    for r, c, h, _ in _runs(transposed, lambda ch: ch in "#" + post, used_t):
         if any(tiles.at(c, r + i) == "#" for i in range(h)):
             spans.append((c, r, 1, h))
             used.update((c, r + i) for i in range(h))
-    spans.extend((c, r, 1, 1) for c, r, _ in tiles.cells("X*") if (c, r) not in used)
+    spans.extend((c, r, 1, 1) for c, r, _ in tiles.cells("X" + post) if (c, r) not in used)
     return spans
 
 
@@ -246,28 +267,30 @@ def _floor(tiles: _Tiles, cells: _Cells, colour: Mapping[str, Colour]) -> Iterat
 
 
 def _line(ch: str, c: int, r: int, cells: _Cells, colour: Colour) -> Iterator[FloorLine]:
-    """The polylines of one line tile."""
+    """The lines of one line tile, as c't-Sim's outlines (ParcoursLoader's LINE_* polygons): a
+    straight line runs edge to edge; an arm that ends at the centre (corners, T stems) reaches
+    half a line width past it, so corners are square; every end is flat, at the cell's edge or
+    at the gap of `!` and `%` (one line width at the centre)."""
     cx, cy = cells.centre(c, r)
     half = cells.size / 2
     width = LINE_WIDTH_CELLS * cells.size
     ends = {_N: (cx, cy + half), _S: (cx, cy - half), _E: (cx + half, cy), _W: (cx - half, cy)}
     arms = [a for a in (_N, _E, _S, _W) if a in LINE_ARMS[ch]]
+
+    def arm(a: str, start: float) -> FloorLine:
+        """The arm towards edge `a` from `start` (m, signed) along it from the centre."""
+        ex, ey = ends[a]
+        dx, dy = (ex - cx) / half, (ey - cy) / half
+        return FloorLine(((cx + dx * start, cy + dy * start), (ex, ey)), width, colour, flat=True)
+
     if ch in GAPPED_LINES:
-        a, b = arms
-        gap = width / 2
-        for arm in (a, b):
-            ex, ey = ends[arm]
-            dx, dy = (ex - cx) / half, (ey - cy) / half
-            yield FloorLine(((cx + dx * gap, cy + dy * gap), (ex, ey)), width, colour)
+        yield from (arm(a, width / 2) for a in arms)
         return
     for a, b in ((_N, _S), (_E, _W)):
         if a in arms and b in arms:
-            yield FloorLine((ends[a], ends[b]), width, colour)
+            yield FloorLine((ends[a], ends[b]), width, colour, flat=True)
             arms = [x for x in arms if x not in (a, b)]
-    if len(arms) == 2:
-        yield FloorLine((ends[arms[0]], (cx, cy), ends[arms[1]]), width, colour)
-    elif len(arms) == 1:
-        yield FloorLine(((cx, cy), ends[arms[0]]), width, colour)
+    yield from (arm(a, -width / 2) for a in arms)
 
 
 def _heading(tiles: _Tiles, c: int, r: int) -> float:

@@ -96,8 +96,9 @@ def _parse_xml(data: bytes, path: Path) -> _Element:
     return builder.stack[0].children[0]
 
 
-def load_parcours(path: Path) -> WorldSpec:
-    """Load a c't-Sim parcours file; everything outside the map is a hole, as in c't-Sim."""
+def load_parcours(path: Path, pillars: str = "cell") -> WorldSpec:
+    """Load a c't-Sim parcours file; everything outside the map is a hole, as in c't-Sim.
+    `pillars`: how lamp pillars stand (`build_grid`)."""
     try:
         if path.stat().st_size > MAX_BYTES:
             raise WorldFileError(path, None, f"the file has {path.stat().st_size:,} bytes, more than the {MAX_BYTES:,} a ctsim file may have")
@@ -120,6 +121,7 @@ def load_parcours(path: Path) -> WorldSpec:
         colours=colours,
         row_lines=[row.line for row in rows],
         path=path,
+        pillars=pillars,
     )
     description = root.first("description")
     return WorldSpec(
