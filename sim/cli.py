@@ -678,6 +678,12 @@ def write_trajectories(result, out: Path, summary: dict[str, Any], export_rate: 
     return written
 
 
+def _nees(errors: dict[str, Any]) -> str:
+    """An estimate's mean NEES for the table ('-' without a covariance; 3 is consistent)."""
+    value = errors.get("nees_mean")
+    return "-" if value is None or not math.isfinite(value) else f"{value:.1f}"
+
+
 def table(summary: dict[str, Any]) -> str:
     """The short end-of-run table: per robot distance and collisions, per estimate its errors."""
     reached = [robot["name"] for robot in summary["robots"] if robot["goal_time"] is not None]
@@ -691,7 +697,7 @@ def table(summary: dict[str, Any]) -> str:
         f"{summary['world']['name']}, seed {summary['seed']}, noise {summary.get('noise', 'none')}, "
         f"{summary['time']:.2f} s simulated: {outcome}"
     ]
-    header = f"{'robot':<12}{'estimate':<12}{'distance m':>11}{'collisions':>11}{'final err m':>12}{'ATE RMS m':>11}{'final hdg °':>12}"
+    header = f"{'robot':<12}{'estimate':<12}{'distance m':>11}{'collisions':>11}{'final err m':>12}{'ATE RMS m':>11}{'final hdg °':>12}{'NEES':>7}"
     lines.append(header)
     for robot in summary["robots"]:
         first = f"{robot['name']:<12}{'':<12}{robot['distance']:>11.3f}{robot['collisions']:>11d}"
@@ -699,7 +705,7 @@ def table(summary: dict[str, Any]) -> str:
                                    f"controller: {robot['status']}" if robot.get("status") not in (None, "running") else "") if note]  # fmt: skip
         lines.append(first + ("   " + ", ".join(notes) if notes else ""))
         for name, errors in robot["estimates"].items():
-            lines.append(f"{'':<12}{name:<12}{'':>11}{'':>11}{errors['final_position_error']:>12.4f}{errors['ate_rmse']:>11.4f}{math.degrees(errors['final_heading_error']):>12.2f}")
+            lines.append(f"{'':<12}{name:<12}{'':>11}{'':>11}{errors['final_position_error']:>12.4f}{errors['ate_rmse']:>11.4f}{math.degrees(errors['final_heading_error']):>12.2f}{_nees(errors):>7}")
     return "\n".join(lines)
 
 
