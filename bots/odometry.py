@@ -19,11 +19,34 @@ import numpy as np
 
 from bots.chassis_odometry import chassis_estimators
 from bots.odometry_steps import (
-    HAS_MOUSE, MEMORY, MOUNT_X, MOUNT_Y, MOUSE_VAR, PARAMS, PER_METRE, GATE, DISTANCE_MEMORY, SLIP_VAR, STATE, TICK_LEFT, TICK_RIGHT, TICK_VAR_LEFT,
-    TICK_VAR_RIGHT, TIME, TOLERANCE, TRACK, TURN_TOLERANCE, encoder_step, fused_step, mouse_step,
+    DISTANCE_MEMORY,
+    GATE,
+    HAS_MOUSE,
+    MEMORY,
+    MOUNT_X,
+    MOUNT_Y,
+    MOUSE_VAR,
+    PARAMS,
+    PER_METRE,
+    SLIP_VAR,
+    STATE,
+    TICK_LEFT,
+    TICK_RIGHT,
+    TICK_VAR_LEFT,
+    TICK_VAR_RIGHT,
+    TIME,
+    TOLERANCE,
+    TRACK,
+    TURN_TOLERANCE,
+    encoder_step,
+    fused_step,
+    mouse_step,
+    mouse_terms,
+    pose_covariance,
+    wheel_terms,
 )
 from bots.spec import RobotSpec
-from bots.uncertainty import COVARIANCE_FIELDS, ERRORS, Belief, mouse_terms, pose_covariance, square, wheel_terms
+from bots.uncertainty import COVARIANCE_FIELDS, ERRORS, Belief, square
 from sim.kinematics import MouseEstimator, advance
 from sim.kinematics.mouse import counts_per_metre
 from sim.world.readings import Readings
@@ -38,9 +61,11 @@ SLIP_MEMORY = 0.1
 """Metres of the mouse's path over which the fused estimator forgets the encoders' and the
 mouse's distance disagreeing: a robot standing still forgets nothing (a wheel spinning against a
 wall stays slip), one driving sees a slide of a few millimetres among 10 cm."""
-GATE_SIGMAS = 3.0
-"""Standard deviations of the calibration still unknown that the two sensors may disagree by
-(per metre driven, per radian turned) before the fused estimator calls it slip or a slide."""
+GATE_SIGMAS = 5.0
+"""Standard deviations of the random noise summed over the memory, and of the calibration still
+unknown (per metre driven, per radian turned), that the two sensors may disagree by before the
+fused estimator calls it slip or a slide: at 3 the detectors, whose sums are correlated from step
+to step, fired often enough on noise alone to make the fused heading worse than the mouse's."""
 NOISE_COUNTS = 3.0
 """Mouse noise (counts) allowed over the memory: 0.2-0.5 counts per step add up to 1-2.5 counts."""
 

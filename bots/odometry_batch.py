@@ -16,17 +16,22 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
-import numba
 import numpy as np
 
 from bots.odometry import default_estimators
-from bots.odometry_steps import HAS_MOUSE, PARAMS, STATE, TIME, encoder_step, fused_step, mouse_step
+from bots.odometry_steps import (
+    ENCODERS,
+    ESTIMATES,
+    FUSED,
+    MOUSE,
+    PARAMS,
+    STATE,
+    TIME,
+    batch_step,
+)
 from bots.spec import RobotSpec
-from bots.uncertainty import COVARIANCE_FIELDS, ERRORS, pose_covariance
-from sim.kinematics.batch import advance_one
+from bots.uncertainty import COVARIANCE_FIELDS, ERRORS
 
-# the estimates of one robot (n, ESTIMATES, 3): the order of `default_estimators`
-ENCODERS, FIRMWARE, MOUSE, FUSED, ESTIMATES = 0, 1, 2, 3, 4
 COVARIANCES = len(COVARIANCE_FIELDS)
 
 
@@ -74,7 +79,7 @@ class DefaultOdometry:
         # as `sim.world.compiling.compiled_for` does it for the world (bots/ does not import the world)
         arguments = (np.zeros((1, 4), np.int64), self.rows, 0.0, self.params, self.state, self.contact_steps, self.calibration,
                      self.poses, self.errors, self.lags, self._truth, self._out, self._cov_out)  # fmt: skip
-        self._step = _step.compile(tuple(_step.typeof_pyval(argument) for argument in arguments))
+        self._step = batch_step.compile(tuple(batch_step.typeof_pyval(argument) for argument in arguments))
 
     def rows_of(self, k: int) -> np.ndarray:
         """The `k`-th robot's estimates, (estimates, 3), a view into `poses` in the order of
@@ -104,46 +109,3 @@ class DefaultOdometry:
                    self.poses, self.errors, self.lags, truth, out, cov_out)  # fmt: skip
 
 
-@numba.njit(cache=True, inline="always")
-def _lay(pose: np.ndarray, s: float, alpha: float, end_heading: bool) -> None:
-    """`_ArcOdometry.update`: the pose after the arc, in place."""
-    pose[0], pose[1], pose[2] = advance_one(pose[0], pose[1], pose[2], s, alpha, end_heading)
-
-
-@numba.njit(cache=True)
-def _step(
-    tallies: np.ndarray, rows: np.ndarray, time: float, params: np.ndarray, state: np.ndarray, contact_steps: np.ndarray,
-    calibration: np.ndarray, poses: np.ndarray, errors: np.ndarray, lags: np.ndarray, truth: np.ndarray, out: np.ndarray,
-    cov_out: np.ndarray,
-) -> None:
-    """One step of every robot's default estimators, in place: the compiled steps the Python
-    estimators call (`bots.odometry_steps`), laid down as `_ArcOdometry.update` lays them
-    (`advance_one`). Where `out` has rows: out[i] = the true pose, then the estimates, and
-    cov_out[i] their covariances (a run's log, one pass)."""
-    if out.shape[0] != rows.shape[0] or cov_out.shape[0] != rows.shape[0]:
-        raise ValueError("DefaultOdometry.update: out and cov_out must have a row for every robot of the batch")
-    for i in range(rows.shape[0]):
-        r, p, pose, cov = rows[i], params[i], poses[i], errors[i]
-        if r >= tallies.shape[0] or tallies.shape[1] != 4:  # a kernel reads past an array's end without a word
-            raise ValueError("DefaultOdometry.update: tallies must be (robots, 4) with a row for every robot of the batch")
-        left, right = float(tallies[r, 0]), float(tallies[r, 1])
-        s, alpha = encoder_step(p, pose[ENCODERS, 2], cov[ENCODERS], left, right, False)
-        _lay(pose[ENCODERS], s, alpha, False)
-        s, alpha = encoder_step(p, pose[FIRMWARE, 2], cov[FIRMWARE], left, right, True)
-        _lay(pose[FIRMWARE], s, alpha, True)
-        if p[HAS_MOUSE] == 0.0:
-            continue
-        forward, lateral = float(tallies[r, 2]), float(tallies[r, 3])
-        s, alpha = mouse_step(p, pose[MOUSE, 2], cov[MOUSE], forward, lateral)
-        _lay(pose[MOUSE], s, alpha, False)
-        s, alpha, sliding = fused_step(p, state[i], pose[FUSED], calibration[i], cov[FUSED], lags[i, FUSED], left, right, forward, lateral, time)
-        contact_steps[i] += sliding
-        _lay(pose[FUSED], s, alpha, False)
-    for i in range(out.shape[0]):
-        if rows[i] >= truth.shape[0]:
-            raise ValueError("DefaultOdometry.update: truth must have a row for every robot of the batch")
-        out[i, 0] = truth[rows[i]]
-        out[i, 1:] = poses[i]
-        estimates = ESTIMATES if params[i, HAS_MOUSE] != 0.0 else FIRMWARE + 1
-        for j in range(estimates):
-            pose_covariance(errors[i, j], poses[i, j, 2], lags[i, j], cov_out[i, j])

@@ -1,7 +1,9 @@
 """One step of each default estimator's arc and error covariance, compiled, so that the Python
 estimators (`bots.odometry`) and the batch of a run's robots (`bots.odometry_batch`) run the
 same code: each takes a robot's parameter row (PARAMS) and returns the increment (s, alpha) for
-its caller to lay down.
+its caller to lay down; `batch_step` steps every robot of the batch. Every compiled part of the
+odometry is in this one file: numba caches a kernel by its own file's stamp, so a kernel calling
+one from another file would keep the old callee after that file changed.
 
 The fused estimator is an extended Kalman filter of the pose and the four calibration errors of
 `bots.uncertainty` (wheel scales, track, mouse resolution). Each step both sensors measure the
@@ -33,8 +35,18 @@ import math
 import numba
 import numpy as np
 
-from bots.uncertainty import ERRORS, LEFT_SCALE, MOUSE_SCALE, RIGHT_SCALE, TRACK_SCALE, mouse_terms, propagate, wheel_terms
+from bots.uncertainty import (
+    ERRORS,
+    HEADING,
+    LEFT_SCALE,
+    MOUSE_SCALE,
+    RIGHT_SCALE,
+    TRACK_SCALE,
+)
+from sim.kinematics.batch import advance_one
 
+# the estimates of one robot in the batch (n, ESTIMATES, 3): the order of `default_estimators`
+ENCODERS, FIRMWARE, MOUSE, FUSED, ESTIMATES = 0, 1, 2, 3, 4
 IGNORED = 1e6
 """Variance (m², rad²) of a channel left out for a step: a million times any real one."""
 
@@ -49,7 +61,84 @@ TICK_LEFT, TICK_RIGHT, TRACK, PER_METRE, MOUNT_X, MOUNT_Y, TOLERANCE, TURN_TOLER
 SLIP_VAR, TICK_VAR_LEFT, TICK_VAR_RIGHT, MOUSE_VAR, DISTANCE_MEMORY, PARAMS = range(11, 17)
 # the fused estimator's detector state (STATE,) float64, as `FusedOdometry`'s attributes of those
 # names; TIME is nan before the first step
-DISAGREEMENT, TURN_DISAGREEMENT, TAKEN, TURNING, TIME, TRAVEL, TURN_TRAVEL, STATE = range(8)
+DISAGREEMENT, TURN_DISAGREEMENT, TAKEN, TURNING, TIME, TRAVEL, TURN_TRAVEL, DISAGREEMENT_VAR, TURN_VAR, STATE = range(10)
+
+
+@numba.njit(cache=True)
+def wheel_terms(s_left: float, s_right: float, alpha: float, track: float, var_left: float, var_right: float,
+                jac: np.ndarray, noise: np.ndarray) -> None:  # fmt: skip
+    """The encoder increment's error model, in place: `jac` (2, ERRORS) of (s, alpha) on the
+    scales for wheel arcs s_left, s_right (m) and heading change alpha over `track` (m); `noise`
+    (2, 2) for independent wheel-arc variances var_left, var_right (m²)."""
+    jac[:, :] = 0.0
+    jac[0, LEFT_SCALE], jac[0, RIGHT_SCALE] = 0.5 * s_left, 0.5 * s_right
+    jac[1, LEFT_SCALE], jac[1, RIGHT_SCALE], jac[1, TRACK_SCALE] = -s_left / track, s_right / track, -alpha
+    noise[0, 0] = 0.25 * (var_left + var_right)
+    noise[0, 1] = noise[1, 0] = 0.5 * (var_right - var_left) / track
+    noise[1, 1] = (var_left + var_right) / (track * track)
+
+
+@numba.njit(cache=True)
+def mouse_terms(s: float, alpha: float, mount_x: float, mount_y: float, var: float, jac: np.ndarray, noise: np.ndarray) -> None:
+    """The mouse increment's error model, in place: `jac` on the resolution's error for the
+    increment (s m, alpha rad), `noise` for a variance `var` (m²) of each axis's reading, through
+    alpha = lateral/m_x, s = forward + alpha*m_y."""
+    jac[:, :] = 0.0
+    jac[0, MOUSE_SCALE], jac[1, MOUSE_SCALE] = -s, -alpha
+    lever = mount_y / mount_x
+    noise[0, 0] = var * (1.0 + lever * lever)
+    noise[0, 1] = noise[1, 0] = var * lever / mount_x
+    noise[1, 1] = var / (mount_x * mount_x)
+
+
+@numba.njit(cache=True)
+def propagate(cov: np.ndarray, heading: float, s: float, alpha: float, end_heading: bool, jac: np.ndarray, noise: np.ndarray) -> None:
+    """`cov` (ERRORS, ERRORS) after laying the increment (s, alpha) from `heading` (rad, before
+    the step) whose error is jac @ errors + n, n ~ noise: cov <- A cov A^T + G noise G^T, with A
+    the identity but for the pose rows (d pose'/d pose and G @ jac, G = d pose'/d (s, alpha))."""
+    angle = heading + (alpha if end_heading else 0.5 * alpha)
+    c, sn = math.cos(angle), math.sin(angle)
+    lever = s if end_heading else 0.5 * s
+    g = ((c, -lever * sn), (sn, lever * c), (0.0, 1.0))
+    a = np.zeros((3, ERRORS))
+    for r in range(3):
+        a[r, r] = 1.0
+        for j in range(ERRORS):
+            a[r, j] += g[r][0] * jac[0, j] + g[r][1] * jac[1, j]
+    a[0, HEADING] -= s * sn
+    a[1, HEADING] += s * c
+    rows = np.zeros((3, ERRORS))  # a @ cov
+    for r in range(3):
+        for j in range(ERRORS):
+            total = 0.0
+            for k in range(ERRORS):
+                total += a[r, k] * cov[k, j]
+            rows[r, j] = total
+    pose = np.zeros((3, 3))  # a @ cov @ a^T, + G noise G^T
+    for r in range(3):
+        for q in range(3):
+            total = 0.0
+            for k in range(ERRORS):
+                total += rows[r, k] * a[q, k]
+            pose[r, q] = total + (g[r][0] * (noise[0, 0] * g[q][0] + noise[0, 1] * g[q][1]) + g[r][1] * (noise[1, 0] * g[q][0] + noise[1, 1] * g[q][1]))
+    for r in range(3):
+        for j in range(3, ERRORS):
+            cov[r, j] = cov[j, r] = rows[r, j]
+        for q in range(3):
+            cov[r, q] = pose[r, q]
+
+
+@numba.njit(cache=True)
+def pose_covariance(cov: np.ndarray, heading: float, lag: np.ndarray, out: np.ndarray) -> None:
+    """The reported pose covariance's six entries (COVARIANCE_FIELDS) into `out`: the propagated
+    one plus the quantisation lag `lag` (2, 2) of the increment (s along the heading, alpha)."""
+    c, sn = math.cos(heading), math.sin(heading)
+    out[0] = cov[0, 0] + lag[0, 0] * c * c
+    out[1] = cov[0, 1] + lag[0, 0] * c * sn
+    out[2] = cov[0, 2] + lag[0, 1] * c
+    out[3] = cov[1, 1] + lag[0, 0] * sn * sn
+    out[4] = cov[1, 2] + lag[0, 1] * sn
+    out[5] = cov[2, 2] + lag[1, 1]
 
 
 @numba.njit(cache=True)
@@ -143,13 +232,16 @@ def fused_step(
     wheel_terms(at_left, at_right, corrected_mouse[1], track, var_left, var_right, j_enc, r_enc)
     wheel_terms(at_left, at_right, corrected_mouse[1], track, p[TICK_LEFT] ** 2 / 12.0, p[TICK_RIGHT] ** 2 / 12.0, j_enc, q_enc)
     corrected_enc = u_enc + _apply(j_enc, calibration)
-    # slip: the encoders' distance beyond the mouse's, over the last DISTANCE_MEMORY of the mouse's path
+    # slip: the encoders' distance beyond the mouse's, over the last DISTANCE_MEMORY of the mouse's
+    # path, against its quantisation band, GATE sigmas of its random noise summed as it is, and of
+    # the calibration still unknown over that path
     forget = math.exp(-abs(corrected_mouse[0]) / p[DISTANCE_MEMORY])
     st[DISAGREEMENT] = st[DISAGREEMENT] * forget + corrected_enc[0] - corrected_mouse[0]
+    st[DISAGREEMENT_VAR] = st[DISAGREEMENT_VAR] * forget * forget + r_enc[0, 0] + r_mouse[0, 0]
     st[TRAVEL] = st[TRAVEL] * forget + abs(corrected_mouse[0])
     scale = math.sqrt(max(0.25 * (cov[LEFT_SCALE, LEFT_SCALE] + cov[RIGHT_SCALE, RIGHT_SCALE] + 2.0 * cov[LEFT_SCALE, RIGHT_SCALE]) + cov[MOUSE_SCALE, MOUSE_SCALE], 0.0))
-    slipped = abs(st[DISAGREEMENT]) > p[TOLERANCE] + p[GATE] * scale * st[TRAVEL]
-    # a slide: the mouse's rotation beyond the encoders', over the last TURN_MEMORY seconds
+    slipped = abs(st[DISAGREEMENT]) > p[TOLERANCE] + p[GATE] * (math.sqrt(st[DISAGREEMENT_VAR]) + scale * st[TRAVEL])
+    # a slide: the mouse's rotation beyond the encoders', over the last TURN_MEMORY seconds, the same way
     if math.isnan(st[TIME]):
         keep = 1.0
     else:
@@ -159,10 +251,11 @@ def fused_step(
     st[TURNING] = st[TURNING] * keep + abs(corrected_enc[1])
     st[TURN_TRAVEL] = st[TURN_TRAVEL] * keep + abs(corrected_enc[0])
     st[TURN_DISAGREEMENT] = st[TURN_DISAGREEMENT] * keep + corrected_mouse[1] - corrected_enc[1]
+    st[TURN_VAR] = st[TURN_VAR] * keep * keep + r_enc[1, 1] + r_mouse[1, 1]
     st[TAKEN] = st[TAKEN] * keep
     turn_scale = math.sqrt(max(cov[TRACK_SCALE, TRACK_SCALE] + cov[MOUSE_SCALE, MOUSE_SCALE], 0.0))
     mismatch = math.sqrt(max(cov[LEFT_SCALE, LEFT_SCALE] + cov[RIGHT_SCALE, RIGHT_SCALE] - 2.0 * cov[LEFT_SCALE, RIGHT_SCALE], 0.0))
-    band = p[TURN_TOLERANCE] + p[GATE] * (turn_scale * st[TURNING] + mismatch * st[TURN_TRAVEL] / track)
+    band = p[TURN_TOLERANCE] + p[GATE] * (math.sqrt(st[TURN_VAR]) + turn_scale * st[TURNING] + mismatch * st[TURN_TRAVEL] / track)
     sliding = abs(st[TURN_DISAGREEMENT]) > band
     a_enc, a_mouse = r_enc + q_enc, r_mouse + q_mouse
     if slipped:
@@ -198,3 +291,48 @@ def fused_step(
     else:
         st[TAKEN] += alpha - corrected_enc[1]
     return s, alpha, sliding
+
+
+@numba.njit(cache=True, inline="always")
+def _lay(pose: np.ndarray, s: float, alpha: float, end_heading: bool) -> None:
+    """`_ArcOdometry.update`: the pose after the arc, in place."""
+    pose[0], pose[1], pose[2] = advance_one(pose[0], pose[1], pose[2], s, alpha, end_heading)
+
+
+@numba.njit(cache=True)
+def batch_step(
+    tallies: np.ndarray, rows: np.ndarray, time: float, params: np.ndarray, state: np.ndarray, contact_steps: np.ndarray,
+    calibration: np.ndarray, poses: np.ndarray, errors: np.ndarray, lags: np.ndarray, truth: np.ndarray, out: np.ndarray,
+    cov_out: np.ndarray,
+) -> None:
+    """One step of every robot's default estimators, in place: the compiled steps the Python
+    estimators call (`bots.odometry_steps`), laid down as `_ArcOdometry.update` lays them
+    (`advance_one`). Where `out` has rows: out[i] = the true pose, then the estimates, and
+    cov_out[i] their covariances (a run's log, one pass)."""
+    if out.shape[0] != rows.shape[0] or cov_out.shape[0] != rows.shape[0]:
+        raise ValueError("DefaultOdometry.update: out and cov_out must have a row for every robot of the batch")
+    for i in range(rows.shape[0]):
+        r, p, pose, cov = rows[i], params[i], poses[i], errors[i]
+        if r >= tallies.shape[0] or tallies.shape[1] != 4:  # a kernel reads past an array's end without a word
+            raise ValueError("DefaultOdometry.update: tallies must be (robots, 4) with a row for every robot of the batch")
+        left, right = float(tallies[r, 0]), float(tallies[r, 1])
+        s, alpha = encoder_step(p, pose[ENCODERS, 2], cov[ENCODERS], left, right, False)
+        _lay(pose[ENCODERS], s, alpha, False)
+        s, alpha = encoder_step(p, pose[FIRMWARE, 2], cov[FIRMWARE], left, right, True)
+        _lay(pose[FIRMWARE], s, alpha, True)
+        if p[HAS_MOUSE] == 0.0:
+            continue
+        forward, lateral = float(tallies[r, 2]), float(tallies[r, 3])
+        s, alpha = mouse_step(p, pose[MOUSE, 2], cov[MOUSE], forward, lateral)
+        _lay(pose[MOUSE], s, alpha, False)
+        s, alpha, sliding = fused_step(p, state[i], pose[FUSED], calibration[i], cov[FUSED], lags[i, FUSED], left, right, forward, lateral, time)
+        contact_steps[i] += sliding
+        _lay(pose[FUSED], s, alpha, False)
+    for i in range(out.shape[0]):
+        if rows[i] >= truth.shape[0]:
+            raise ValueError("DefaultOdometry.update: truth must have a row for every robot of the batch")
+        out[i, 0] = truth[rows[i]]
+        out[i, 1:] = poses[i]
+        estimates = ESTIMATES if params[i, HAS_MOUSE] != 0.0 else FIRMWARE + 1
+        for j in range(estimates):
+            pose_covariance(errors[i, j], poses[i, j, 2], lags[i, j], cov_out[i, j])

@@ -11,6 +11,9 @@ a mobile robot", their per-wheel distance variance growing with the distance rol
 systematic errors of UMBmark as constant states, which make the pose covariance of a wrong track
 width grow with the rotation and that of a wheel mismatch with distance squared).
 
+The kernels of this model (`wheel_terms`, `mouse_terms`, `propagate`, `pose_covariance`) live in
+`bots.odometry_steps`, beside the steps that call them (numba caches a kernel by its own file).
+
 Quantisation is not a random walk here: counts are carried, so each channel lags the truth by
 less than one count at any time (uniform, variance count²/12) and that lag never adds up. It is
 added to the reported pose covariance (`pose_covariance`), never to the propagated one.
@@ -25,7 +28,6 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numba
 import numpy as np
 
 from bots.spec import RobotSpec
@@ -75,83 +77,6 @@ class Belief:
         cov[TRACK_SCALE, TRACK_SCALE] = self.track_std**2
         cov[MOUSE_SCALE, MOUSE_SCALE] = self.mouse_scale_std**2
         return cov
-
-
-@numba.njit(cache=True)
-def wheel_terms(s_left: float, s_right: float, alpha: float, track: float, var_left: float, var_right: float,
-                jac: np.ndarray, noise: np.ndarray) -> None:  # fmt: skip
-    """The encoder increment's error model, in place: `jac` (2, ERRORS) of (s, alpha) on the
-    scales for wheel arcs s_left, s_right (m) and heading change alpha over `track` (m); `noise`
-    (2, 2) for independent wheel-arc variances var_left, var_right (m²)."""
-    jac[:, :] = 0.0
-    jac[0, LEFT_SCALE], jac[0, RIGHT_SCALE] = 0.5 * s_left, 0.5 * s_right
-    jac[1, LEFT_SCALE], jac[1, RIGHT_SCALE], jac[1, TRACK_SCALE] = -s_left / track, s_right / track, -alpha
-    noise[0, 0] = 0.25 * (var_left + var_right)
-    noise[0, 1] = noise[1, 0] = 0.5 * (var_right - var_left) / track
-    noise[1, 1] = (var_left + var_right) / (track * track)
-
-
-@numba.njit(cache=True)
-def mouse_terms(s: float, alpha: float, mount_x: float, mount_y: float, var: float, jac: np.ndarray, noise: np.ndarray) -> None:
-    """The mouse increment's error model, in place: `jac` on the resolution's error for the
-    increment (s m, alpha rad), `noise` for a variance `var` (m²) of each axis's reading, through
-    alpha = lateral/m_x, s = forward + alpha*m_y."""
-    jac[:, :] = 0.0
-    jac[0, MOUSE_SCALE], jac[1, MOUSE_SCALE] = -s, -alpha
-    lever = mount_y / mount_x
-    noise[0, 0] = var * (1.0 + lever * lever)
-    noise[0, 1] = noise[1, 0] = var * lever / mount_x
-    noise[1, 1] = var / (mount_x * mount_x)
-
-
-@numba.njit(cache=True)
-def propagate(cov: np.ndarray, heading: float, s: float, alpha: float, end_heading: bool, jac: np.ndarray, noise: np.ndarray) -> None:
-    """`cov` (ERRORS, ERRORS) after laying the increment (s, alpha) from `heading` (rad, before
-    the step) whose error is jac @ errors + n, n ~ noise: cov <- A cov A^T + G noise G^T, with A
-    the identity but for the pose rows (d pose'/d pose and G @ jac, G = d pose'/d (s, alpha))."""
-    angle = heading + (alpha if end_heading else 0.5 * alpha)
-    c, sn = math.cos(angle), math.sin(angle)
-    lever = s if end_heading else 0.5 * s
-    g = ((c, -lever * sn), (sn, lever * c), (0.0, 1.0))
-    a = np.zeros((3, ERRORS))
-    for r in range(3):
-        a[r, r] = 1.0
-        for j in range(ERRORS):
-            a[r, j] += g[r][0] * jac[0, j] + g[r][1] * jac[1, j]
-    a[0, HEADING] -= s * sn
-    a[1, HEADING] += s * c
-    rows = np.zeros((3, ERRORS))  # a @ cov
-    for r in range(3):
-        for j in range(ERRORS):
-            total = 0.0
-            for k in range(ERRORS):
-                total += a[r, k] * cov[k, j]
-            rows[r, j] = total
-    pose = np.zeros((3, 3))  # a @ cov @ a^T, + G noise G^T
-    for r in range(3):
-        for q in range(3):
-            total = 0.0
-            for k in range(ERRORS):
-                total += rows[r, k] * a[q, k]
-            pose[r, q] = total + (g[r][0] * (noise[0, 0] * g[q][0] + noise[0, 1] * g[q][1]) + g[r][1] * (noise[1, 0] * g[q][0] + noise[1, 1] * g[q][1]))
-    for r in range(3):
-        for j in range(3, ERRORS):
-            cov[r, j] = cov[j, r] = rows[r, j]
-        for q in range(3):
-            cov[r, q] = pose[r, q]
-
-
-@numba.njit(cache=True)
-def pose_covariance(cov: np.ndarray, heading: float, lag: np.ndarray, out: np.ndarray) -> None:
-    """The reported pose covariance's six entries (COVARIANCE_FIELDS) into `out`: the propagated
-    one plus the quantisation lag `lag` (2, 2) of the increment (s along the heading, alpha)."""
-    c, sn = math.cos(heading), math.sin(heading)
-    out[0] = cov[0, 0] + lag[0, 0] * c * c
-    out[1] = cov[0, 1] + lag[0, 0] * c * sn
-    out[2] = cov[0, 2] + lag[0, 1] * c
-    out[3] = cov[1, 1] + lag[0, 0] * sn * sn
-    out[4] = cov[1, 2] + lag[0, 1] * sn
-    out[5] = cov[2, 2] + lag[1, 1]
 
 
 def square(entries: np.ndarray) -> np.ndarray:
