@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
 from bots.commands import Command
+from bots.schema import parse_number
 from bots.spec import RobotSpec
 from sim.errors import UserError
 from sim.world.readings import Readings
@@ -86,7 +87,7 @@ def _convert(text: str, annotation: Any, default: Any) -> Any:
             return False
         raise ValueError(f"expected true or false, got {text!r}")
     if kind in (int, float):
-        return kind(text)
+        return parse_number(text, kind)
     return text
 
 

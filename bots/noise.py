@@ -23,7 +23,7 @@ import tomllib
 from dataclasses import fields, is_dataclass, replace
 from typing import Any
 
-from bots.schema import Problem
+from bots.schema import MAX_DIGITS, Problem
 from bots.spec import RobotSpec
 from sim.errors import UserError
 
@@ -63,11 +63,14 @@ class RobotSettingError(UserError):
 
 
 def parse_value(text: str) -> Any:
-    """A command-line value as TOML reads it (`0.02`, `true`, `[0, 0.01]`), else the text itself."""
+    """A command-line value as TOML reads it (`0.02`, `true`, `[0, 0.01]`), else the text itself;
+    ValueError for a whole number longer than `bots.schema.MAX_DIGITS`."""
     try:
         return tomllib.loads(f"v = {text}")["v"]
     except (tomllib.TOMLDecodeError, RecursionError):  # (nested past Python's stack: not a value either)
         return text
+    except ValueError:  # (a number past Python's digit limit)
+        raise ValueError(f"a whole number of thousands of digits; ctsim's numbers have at most {MAX_DIGITS}") from None
 
 
 def _closest(name: str, known: list[str]) -> str:

@@ -14,14 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from bots.chassis_spec import ChassisSpec, chassis_from_dict, inscribed_radius
-from bots.schema import (
-    WORLD_EXTENT,
-    FileError,
-    Locator,
-    Problem,
-    check_fields,
-    declared,
-)
+from bots.schema import MIN_LENGTH, MIN_MASS, WORLD_EXTENT, FileError, Locator, Problem, check_fields, declared
 from bots.schema import read_toml as read_located
 from sim.errors import UserError
 
@@ -168,10 +161,10 @@ class RobotSpec:
     """
 
     name: str = declared("text")
-    wheel_diameter: float = declared(unit="m", low=0.0, above=True, high=2.0)
-    track_width: float = declared(unit="m", low=0.0, above=True, high=2 * REACH)
-    body_radius: float = declared(unit="m", low=0.0, above=True, high=REACH)
-    mass: float = declared(default=0.5, unit="kg", low=0.0, above=True, high=1000.0)
+    wheel_diameter: float = declared(unit="m", low=MIN_LENGTH, high=2.0)
+    track_width: float = declared(unit="m", low=MIN_LENGTH, high=2 * REACH)
+    body_radius: float = declared(unit="m", low=MIN_LENGTH, high=REACH)
+    mass: float = declared(default=0.5, unit="kg", low=MIN_MASS, high=1000.0)
     skid: Point = declared(default=(-0.054, 0.0), **_MOUNT)
     motor: MotorSpec = field(default_factory=MotorSpec)
     encoders: EncoderSpec = field(default_factory=EncoderSpec)

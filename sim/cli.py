@@ -13,6 +13,7 @@ import argparse
 import json
 import math
 import os
+import re
 import signal
 import sys
 import time
@@ -24,6 +25,7 @@ from typing import Any
 import sim
 from bots.noise import NOISE_PRESETS, parse_value
 from sim.errors import UserError
+from sim.folder_lock import hold
 from sim.run import DT_RANGE, RunError, Terminated, in_controller, step_count
 from sim.world import compiling
 
@@ -287,29 +289,14 @@ def _out_dir(out: Path | None, world: str, controller: str) -> Path:
     return out
 
 
-LOCK = ".ctsim.lock"
-"""A run holds this file in its folder locked (flock) while it runs: a second run into the same
-folder is refused instead of interleaving its files with the first's."""
 _held: list[Any] = []  # the open lock files of this command, closed (released) when it ends
 
 
 def _lock(out: Path) -> None:
-    try:
-        import fcntl
-    except ImportError:  # not POSIX: folders are not locked
-        return
-    handle = open(out / LOCK, "a+", encoding="utf-8")
-    try:
-        fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except OSError:
-        handle.seek(0)
-        owner = handle.read().strip() or "unknown"
-        handle.close()
-        raise UsageError(f"{out} is in use by another ctsim run (process {owner}); wait for it to end or give another --out") from None
-    handle.truncate(0)
-    handle.write(f"{os.getpid()}\n")
-    handle.flush()
-    _held.append(handle)
+    """Hold `out` for this run (`sim.folder_lock`): a second run into it is refused."""
+    handle = hold(out, "run")
+    if handle is not None:
+        _held.append(handle)
 
 
 def _terminate(signum: int, frame: Any) -> None:
@@ -860,6 +847,12 @@ def cmd_report(args: argparse.Namespace) -> int:
     return 0
 
 
+def first_sentence(text: str) -> str:
+    """The first sentence of a text: up to a full stop followed by a capital (so that "e.g. a"
+    and "0.24 m" do not end it), whitespace folded."""
+    return re.split(r"(?<=[.!?])\s+(?=[A-Z])", " ".join(text.split()), maxsplit=1)[0]
+
+
 def cmd_worlds(args: argparse.Namespace) -> int:
     import textwrap
 
@@ -868,7 +861,7 @@ def cmd_worlds(args: argparse.Namespace) -> int:
     for name, path in shipped_worlds().items():
         world = load_world(path)
         xmin, ymin, xmax, ymax = world.bounds
-        first = " ".join(world.description.split()).split(". ")[0].rstrip(".")  # its first sentence says what it is for
+        first = first_sentence(world.description).rstrip(".")  # it says what the world is for
         room = len(world.start_order())
         lead = f"{name:<14}{xmax - xmin:5.2f} x {ymax - ymin:<5.2f} m  "
         print(textwrap.fill(f"{first} ({room} start{'s' if room != 1 else ''})", width=100, initial_indent=lead, subsequent_indent=" " * len(lead)))

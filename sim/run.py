@@ -296,6 +296,13 @@ class Terminated(KeyboardInterrupt):
 DT_RANGE = (1e-4, 1.0)
 """Steps (s) a run takes: below 0.1 ms a run is millions of steps per simulated minute for nothing
 the motors or sensors resolve; above 1 s a robot crosses a maze cell between two sensor reads."""
+MAX_DURATION = 1e7
+"""Longest run (simulated s, about 116 days): the sweep spec's limit too."""
+
+
+MAX_STEP_TIMEOUT = 86_400.0
+"""Longest wall-clock time limit on a controller step (s): a day; the operating system's timer
+holds no more than about 10^8 s."""
 
 
 class StepTimeout(BaseException):
@@ -314,6 +321,8 @@ class StepClock:
     """The clock of the run going on in this process, if any."""
 
     def __init__(self, limit: float | None):
+        if limit is not None and not (isinstance(limit, (int, float)) and 0 < limit <= MAX_STEP_TIMEOUT):
+            raise RunError(f"the step time limit must be more than 0 and at most {MAX_STEP_TIMEOUT:,.0f} s (a day), got {limit!r}")
         self.limit = limit
         self.busy = 0
         self._seen, self._ticks, self._previous = 0, 0, None
@@ -488,6 +497,8 @@ def step_count(duration: float, dt: float) -> int:
         raise RunError(f"the step dt must be between {lo:g} and {hi:g} s, got {dt!r}")
     if isinstance(duration, bool) or not isinstance(duration, (int, float)) or not (math.isfinite(duration) and duration >= 0):
         raise RunError(f"duration must be a non-negative number of seconds, got {duration!r}")
+    if duration > MAX_DURATION:
+        raise RunError(f"a duration of {duration:g} s is more than the {MAX_DURATION:g} s (about 116 days) a run may have")
     steps = int(round(duration / dt))
     if steps == 0 and duration > 0:
         raise RunError(f"a duration of {duration:g} s is less than half a step (dt = {dt:g} s): nothing would be simulated")

@@ -196,3 +196,11 @@ def test_the_readmes_wanderer_wanders_where_the_readme_runs_it(tmp_path, monkeyp
     assert len(robots) == 3
     for robot in robots:
         assert robot["collisions"] == 0 and robot["distance"] > 5.0  # 60 s at 0.15 m/s is 9 m, less the turns
+
+
+def test_ctsim_worlds_shows_a_whole_first_sentence(capsys):
+    from sim.cli import first_sentence
+
+    assert first_sentence("A race, e.g. its first\nround: 0.24 m cells. Then more.") == "A race, e.g. its first round: 0.24 m cells."
+    assert main(["worlds"]) == 0
+    assert "(ctsim contest), e.g. its preliminary round" in " ".join(capsys.readouterr().out.split())

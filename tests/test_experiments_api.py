@@ -1,5 +1,5 @@
 """The Python API: worlds and robots by name, robot changes by dotted name, results as arrays and
-frames, recordings, the README's examples, and sweep plans (grid, random, ids)."""
+frames, recordings, the examples of docs/experiments.md, and sweep plans (grid, random, ids)."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from bots.ctbot import CTBOT
 from sim.experiments import Bot, SpecError, change_robot, simulate, spec_from_dict
 from sim.experiments.plan import jobs, run_id, settings
 
-README = Path(__file__).resolve().parents[1] / "README.md"
+EXPERIMENTS = Path(__file__).resolve().parents[1] / "docs" / "experiments.md"
 
 
 def test_simulate_gives_arrays_and_metrics():
@@ -82,16 +82,14 @@ def test_recording_is_written(tmp_path):
 
 
 def test_readme_examples_run(tmp_path, monkeypatch):
-    """Every ```python block of the README's 'Many runs' section runs as written, except the
-    dask-jobqueue one, which needs a SLURM cluster."""
-    text = README.read_text(encoding="utf-8")
-    section = text[text.index("## Many runs"):]
-    section = section[: section.find("\n## ", 1)]
+    """Every ```python block of docs/experiments.md runs as written, except the dask-jobqueue one,
+    which needs a SLURM cluster."""
+    section = EXPERIMENTS.read_text(encoding="utf-8")
     blocks = [b for b in re.findall(r"```python\n(.*?)```", section, re.S) if "dask_jobqueue" not in b]
     assert len(blocks) == 3
     monkeypatch.chdir(tmp_path)
     for block in blocks:
-        exec(compile(block, str(README), "exec"), {"__name__": "__main__"})
+        exec(compile(block, str(EXPERIMENTS), "exec"), {"__name__": "__main__"})
 
 
 def test_grid_plan_and_ids():

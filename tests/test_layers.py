@@ -38,10 +38,11 @@ RULES = (
     ("sim.console", ("sim.cli",)),
     ("sim.errors", ()),
     ("sim.sanitize", ()),
+    ("sim.folder_lock", ()),
 )
-# the bare package (its version and location) and two leaves any layer may use: the user-error base
-# and the making safe of text from outside
-EVERYONE = ("sim", "sim.errors", "sim.sanitize")
+# the bare package (its version and location) and three leaves any layer may use: the user-error
+# base, the making safe of text from outside and the lock of an output folder
+EVERYONE = ("sim", "sim.errors", "sim.sanitize", "sim.folder_lock")
 
 
 def within(name: str, prefix: str) -> bool:

@@ -7,13 +7,13 @@ shapes every view draws (`map_image.map_shapes`), here as vector patches.
 
 from __future__ import annotations
 
-import json
+import io
 from pathlib import Path
 
 import numpy as np
 
 from sim.analysis.export import read_tum
-from sim.errors import UserError
+from sim.analysis.run_folder import RunFolderError, read_summary, trajectory_text
 from sim.views import palette
 from sim.views.map_image import map_shapes
 from sim.world.files.grid import TILE_NAMES
@@ -251,15 +251,6 @@ def describe(summary: dict) -> str:
     )
 
 
-def read_summary(run_dir: str | Path) -> dict:
-    """summary.json of a run folder; a damaged one is refused naming its line."""
-    summary_path = Path(run_dir) / "summary.json"
-    try:
-        return json.loads(summary_path.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as err:
-        raise UserError(f"{summary_path}:{err.lineno}: {err.msg}") from None
-
-
 def ate_of(summary: dict) -> dict[str, dict[str, float]]:
     """The ATE RMS (m) of each estimate by robot, as the figures' legends show it."""
     return {robot["name"]: {label: e["ate_rmse"] for label, e in robot["estimates"].items() if e.get("ate_rmse") is not None} for robot in summary["robots"]}
@@ -273,32 +264,53 @@ def report_run_dir(run_dir: str | Path) -> list[Path]:
     summary = read_summary(run_dir)
     world = load_world(summary["world"]["source"])
     robots = {
-        robot["name"]: {label: read_tum(run_dir / name) for label, name in robot["tum"].items()}
+        robot["name"]: {label: _trajectory(run_dir, name) for label, name in robot.get("tum", {}).items()}
         for robot in summary["robots"]
     }
+    if not any(robots.values()):
+        raise RunFolderError(run_dir / "summary.json", None, "no trajectories named (robots[].tum): the run wrote none to draw")
     return write_figures(world, robots, run_dir, subtitle=describe(summary), ate=ate_of(summary), bands=bands_of(run_dir, summary))
+
+
+def _trajectory(run_dir: Path, name: str) -> tuple:
+    """A TUM file of the run folder (`run_folder.trajectory_text`), its content never quoted."""
+    text = trajectory_text(run_dir, name)
+    try:
+        return read_tum(io.StringIO(text))
+    except ValueError:
+        raise RunFolderError(run_dir / name, None, "not a TUM trajectory (8 numbers a line: timestamp tx ty tz qx qy qz qw)") from None
 
 
 def bands_of(run_dir: Path, summary: dict) -> dict[str, dict[str, Trajectory]]:
     """Robot -> label -> (times, (T, 6) covariance entries) from a run folder's run.parquet
-    (none without it, or for estimates without a covariance)."""
+    (none without it, for estimates without a covariance, or from a file Arrow cannot read: the
+    bands are an addition to the figures, never a reason to refuse them)."""
+    import pyarrow as pa
+
+    path = run_dir / "run.parquet"
+    if path.is_symlink() or not path.is_file():
+        return {}
+    try:
+        return _bands(path, summary)
+    except (OSError, pa.ArrowException, KeyError, TypeError, ValueError):
+        return {}
+
+
+def _bands(path: Path, summary: dict) -> dict[str, dict[str, Trajectory]]:
     import pyarrow.parquet as pq
 
-    from bots.uncertainty import COVARIANCE_FIELDS
+    from bots.uncertainty import COVARIANCE_FIELDS as fields
 
-    path = run_dir / summary.get("parquet", "run.parquet")
-    if not path.is_file():
-        return {}
     names = set(pq.read_schema(path).names)
     wanted = {(robot["name"], label) for robot in summary["robots"] for label in robot["estimates"]
-              if all(f"{robot['name']}.{label}.{entry}" in names for entry in COVARIANCE_FIELDS)}  # fmt: skip
+              if all(f"{robot['name']}.{label}.{entry}" in names for entry in fields)}  # fmt: skip
     if not wanted:
         return {}
-    columns = ["time", *(f"{robot}.{label}.{entry}" for robot, label in sorted(wanted) for entry in COVARIANCE_FIELDS)]
+    columns = ["time", *(f"{robot}.{label}.{entry}" for robot, label in sorted(wanted) for entry in fields)]
     table = pq.read_table(path, columns=columns)
     times = table.column("time").to_numpy()
     bands: dict[str, dict[str, Trajectory]] = {}
     for robot, label in sorted(wanted):
-        entries = np.column_stack([table.column(f"{robot}.{label}.{entry}").to_numpy() for entry in COVARIANCE_FIELDS])
+        entries = np.column_stack([table.column(f"{robot}.{label}.{entry}").to_numpy() for entry in fields])
         bands.setdefault(robot, {})[label] = (times, entries)
     return bands
