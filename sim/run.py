@@ -26,6 +26,7 @@ import numpy as np
 from bots.chassis_commands import chassis_setpoints
 from bots.commands import BadCommand, motor_commands, wheel_speeds_for
 from bots.controller import Controller, ControllerStopped, Status, reset
+from bots.estimators import check, name_of
 from bots.odometry import Estimator, default_estimators
 from bots.odometry_batch import COVARIANCES, ESTIMATES, DefaultOdometry, batched
 from bots.spec import RobotSpec
@@ -399,7 +400,10 @@ def run(
         else:
             chosen = setup.estimators if setup.estimators is not None else default_estimators(setup.spec)
             for estimator in chosen:
-                estimator.reset(setup.spec, robot.pose)
+                try:
+                    estimator.reset(setup.spec, robot.pose)
+                except Exception as err:  # a user's estimator that cannot take this robot: the user's choice
+                    raise RunError(f"{robot.name}: estimator {name_of(estimator)!r} could not be reset: {type(err).__name__}: {err}{_last_frame(err)}") from None
             names = [estimator.name for estimator in chosen]
         try:
             reset(setup.controller, setup.spec)
@@ -542,6 +546,20 @@ def _last_frame(err: BaseException) -> str:
     return f" ({frames[-1].filename}:{frames[-1].lineno})" if frames else ""
 
 
+def _update(estimator: Estimator, readings: Readings, log: RobotLog, step: int) -> None:
+    """Step an estimator; one that raises or leaves a bad pose or covariance ends the run (_Stop),
+    as a controller's error does."""
+    try:
+        estimator.update(readings)
+        problem = check(estimator)
+    except KeyboardInterrupt:
+        raise
+    except BaseException as err:  # the estimator's error (a user's code; sys.exit too)
+        raise _Stop(f"estimator {name_of(estimator)!r} of {log.name} raised {type(err).__name__}: {err} at step {step} (t = {readings.time:.2f} s){_last_frame(err)}") from None
+    if problem is not None:
+        raise _Stop(f"estimator {name_of(estimator)!r} of {log.name} failed at step {step} (t = {readings.time:.2f} s): {problem}")
+
+
 def _has_covariance(estimator: Estimator) -> bool:
     """Whether an estimator reports a covariance (the Protocol's optional `covariance`)."""
     return hasattr(type(estimator), "covariance") or hasattr(estimator, "covariance")
@@ -564,7 +582,7 @@ def _sample(
     for i, log, chosen in estimators:
         readings = frame[i]
         for estimator in chosen:
-            estimator.update(readings)
+            _update(estimator, readings, log, n)
         log.append(poses[i], [estimator.pose for estimator in chosen], [estimator.covariance for estimator in chosen if _has_covariance(estimator)])
     samples.count = n + 1
     samples.columns.release_written(n + 1)
