@@ -255,6 +255,14 @@ def option(field: Field, kind: type = float) -> Any:
     return parse
 
 
+def file_stem(name: str, limit: int = 100) -> str:
+    """A robot's (or an estimate's) name as the start of a file name inside a run folder: its
+    runs of letters, digits, '.', '-' and '_', joined by '_' (no '/', no '..', nothing hidden);
+    '' when nothing is left (such a name is refused where it is given)."""
+    parts = [part for part in re.split(r"[^\w.-]+", name) if part.strip(".")]
+    return "_".join(parts).lstrip(".")[:limit]
+
+
 def parse_colour(text: str) -> tuple[float, float, float] | None:
     """`#rrggbb` as RGB in 0..1; None if malformed."""
     t = text.strip()

@@ -575,6 +575,8 @@ def _sample(
     n = samples.count
     time = world.time
     frame = samples.frame = world.read_all((samples.values[n], samples.believed[n], samples.tallies[n]))
+    for array in (frame.tallies, frame.ir_raw, frame.ir_distance, frame.floor, frame.light):
+        array.flags.writeable = False  # (views of the run's recorded rows: a controller must not rewrite them)
     samples.time[n] = time
     poses = world.poses()
     if odometry is not None:
