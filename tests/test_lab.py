@@ -265,4 +265,12 @@ def test_german_sheets_command_with_lang_after_the_file_is_taken(tmp_path: Path,
     path.write_text((SOLUTIONS / "ex2" / "reference.py").read_text())
     assert main(["lab", "check", "2", str(path), "--lang", "de", "--out", str(tmp_path / "out")]) == 0
     printed = capsys.readouterr().out
-    assert "Viertelkreis" in printed and "verdeckt 1" in printed and "Punkte: 10/10" in printed
+    assert "Viertelkreis" in printed and "verdeckt 1" in printed and "(verdeckt)" in printed and "Punkte: 10/10" in printed
+
+
+def test_grading_without_a_seed_draws_a_fresh_one_each_time(tmp_path: Path) -> None:
+    folder = tmp_path / "subs"
+    folder.mkdir()
+    (folder / "alice.py").write_text((SOLUTIONS / "ex1" / "reference.py").read_text())
+    seeds = {grade(quick(1), folder, tmp_path / f"out{i}")[0][0].seed for i in range(2)}
+    assert len(seeds) == 2  # 32 random bits each: the same twice once in four billion
