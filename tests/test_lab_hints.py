@@ -115,26 +115,6 @@ def _share(number: int, codes: dict[str, str], tmp_path: Path, name: str) -> tup
     return named / len(codes), missed
 
 
-def test_exercise_2_class_of_wrong_submissions_mostly_gets_a_hint_naming_its_mistake(tmp_path: Path, record_property) -> None:
-    kinds = [*STEP_WRONG, *STEP_AFTER, "theta_degrees"]
-    codes = {f"{kind}/{style}": (numpy_style(forward_code(kind)) if style == "numpy" else forward_code(kind)) for kind in kinds for style in ("math", "numpy")}
-    assert len(kinds) >= 30 and len(codes) >= 60
-    share, missed = _share(2, codes, tmp_path, "forward.py")
-    record_property("hint_share_exercise_2", share)
-    print(f"exercise 2: {share:.1%} of {len(codes)} wrong submissions ({len(kinds)} kinds) named; missed: {missed}")
-    assert share >= BAR, missed
-
-
-def test_the_right_step_in_both_styles_passes_every_draw(tmp_path: Path) -> None:
-    for style, code in (("math", STEP.format(**STEP_RIGHT)), ("numpy", numpy_style(STEP.format(**STEP_RIGHT)))):
-        path = tmp_path / style / "forward.py"
-        path.parent.mkdir()
-        path.write_text(code)
-        for seed in SEEDS:
-            report = check_file(exercise(2), path, seed=seed, runner=LocalStudent)
-            assert report.passed, [(r.scenario, r.got) for r in report.rows if not r.passed]
-
-
 ODOMETRY = '''import math
 
 import numpy as np
@@ -207,22 +187,41 @@ def numpy_odometry(code: str) -> str:
     return code.replace("math.", "np.").replace("if alpha else 1.0", "if abs(alpha) > 1e-15 else 1.0").replace("import math\n\n", "")
 
 
-@pytest.mark.filterwarnings("ignore:invalid value encountered:RuntimeWarning")  # the NaN kind's own 0/0
-def test_exercise_3_class_of_wrong_submissions_mostly_gets_a_hint_naming_its_mistake(tmp_path: Path, record_property) -> None:
-    codes = {f"{kind}/{style}": (numpy_odometry(odometry_code(kind)) if style == "numpy" else odometry_code(kind))
-             for kind in ODOMETRY_WRONG for style in ("math", "numpy")}  # fmt: skip
-    assert len(ODOMETRY_WRONG) >= 30 and len(codes) >= 60
-    share, missed = _share(3, codes, tmp_path, "encoders.py")
-    record_property("hint_share_exercise_3", share)
-    print(f"exercise 3: {share:.1%} of {len(codes)} wrong submissions ({len(ODOMETRY_WRONG)} kinds) named; missed: {missed}")
+@pytest.mark.parametrize(("number", "name", "exact_test"), [(1, "icc.py", "v_right == v_left"), (2, "forward.py", "v_left == v_right")])
+def test_a_coarse_test_for_the_straight_case_fails_on_every_seed(tmp_path: Path, number: int, name: str, exact_test: str) -> None:
+    source = (Path(__file__).parent / "lab" / f"ex{number}" / "reference.py").read_text()
+    assert exact_test in source
+    path = tmp_path / name
+    path.write_text(source.replace(exact_test, "abs(v_left - v_right) < 1e-3"))
+    assert not any(check_file(exercise(number), path, seed=seed, runner=LocalStudent).passed for seed in range(10))  # a nearly straight draw each time
+
+
+def _class(number: int) -> tuple[int, dict[str, str], str]:
+    """Exercise `number`'s class: (kinds, files by kind/style, the file's name)."""
+    if number == 2:
+        kinds = [*STEP_WRONG, *STEP_AFTER, "theta_degrees"]
+        return len(kinds), {f"{k}/{style}": (numpy_style(forward_code(k)) if style == "numpy" else forward_code(k)) for k in kinds for style in ("math", "numpy")}, "forward.py"
+    codes = {f"{k}/{style}": (numpy_odometry(odometry_code(k)) if style == "numpy" else odometry_code(k)) for k in ODOMETRY_WRONG for style in ("math", "numpy")}
+    return len(ODOMETRY_WRONG), codes, "encoders.py"
+
+
+@pytest.mark.filterwarnings("ignore:invalid value encountered:RuntimeWarning")  # exercise 3's NaN kind: its own 0/0
+@pytest.mark.parametrize("number", [2, 3])
+def test_a_class_of_wrong_submissions_mostly_gets_a_hint_naming_its_mistake(tmp_path: Path, record_property, number: int) -> None:
+    kinds, codes, name = _class(number)
+    assert kinds >= 30 and len(codes) >= 60
+    share, missed = _share(number, codes, tmp_path, name)
+    record_property(f"hint_share_exercise_{number}", share)
+    print(f"exercise {number}: {share:.1%} of {len(codes)} wrong submissions ({kinds} kinds) named; missed: {missed}")
     assert share >= BAR, missed
 
 
-def test_the_right_estimator_in_both_styles_passes_every_draw(tmp_path: Path) -> None:
-    for style, code in (("math", odometry_code("")), ("numpy", numpy_odometry(odometry_code("")))):
-        path = tmp_path / style / "encoders.py"
+@pytest.mark.parametrize(("number", "name", "code"), [(2, "forward.py", STEP.format(**STEP_RIGHT)), (3, "encoders.py", odometry_code(""))])
+def test_the_right_solution_in_both_styles_passes_every_draw(tmp_path: Path, number: int, name: str, code: str) -> None:
+    for style, text in (("math", code), ("numpy", numpy_style(code) if number == 2 else numpy_odometry(code))):
+        path = tmp_path / style / name
         path.parent.mkdir()
-        path.write_text(code)
+        path.write_text(text)
         for seed in SEEDS:
-            report = check_file(exercise(3), path, seed=seed, runner=LocalStudent)
+            report = check_file(exercise(number), path, seed=seed, runner=LocalStudent)
             assert report.passed, [(r.scenario, r.got) for r in report.rows if not r.passed]

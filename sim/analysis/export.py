@@ -20,6 +20,7 @@ from typing import BinaryIO
 import numpy as np
 
 from bots.schema import file_stem
+from bots.uncertainty import COVARIANCE_FIELDS
 from sim.errors import UserError
 
 FILE_ROWS = 8192
@@ -163,8 +164,9 @@ def sampled(rows: slice, total: int, every: int) -> np.ndarray | slice:
 
 def write_parquet(result, path: str | Path) -> Path:  # noqa: ANN001 (sim.run.RunResult)
     """Every sample of a run as one Parquet table, a row per sample, written block by block:
-    `time` (s); per robot `<robot>.<label>.x|y|theta` (m, rad) of the truth and each estimate;
-    and its readings `<robot>.<field>.<channel>` in the devices' units (`Readings`: encoder
+    `time` (s); per robot `<robot>.<label>.x|y|theta` (m, rad) of the truth and each estimate,
+    `<robot>.<label>.cov_xx|cov_xy|cov_xt|cov_yy|cov_yt|cov_tt` (m², m·rad, rad²) of each
+    estimate that has a covariance; and its readings `<robot>.<field>.<channel>` in the devices' units (`Readings`: encoder
     ticks and mouse counts of the step, raw IR, IR distance m, line, border, light; a general
     chassis's per-wheel readings are in the recording only)."""
     import pyarrow as pa
@@ -179,6 +181,9 @@ def write_parquet(result, path: str | Path) -> Path:  # noqa: ANN001 (sim.run.Ru
                 for label, poses in {"truth": log.truth_array(), **log.estimate_arrays()}.items():
                     for k, axis in enumerate(("x", "y", "theta")):
                         columns[f"{log.name}.{label}.{axis}"] = poses[rows, k]
+                for label, entries in log.covariance_arrays().items():
+                    for k, entry in enumerate(COVARIANCE_FIELDS):
+                        columns[f"{log.name}.{label}.{entry}"] = entries[rows, k]
                 if log.spec.chassis is None:
                     for name, values in log.readings(rows).items():
                         for channel, column in zip(_channels(log.spec, name), values.T):

@@ -22,6 +22,8 @@ from sim.sandbox.box import human_size
 from sim.world.spec import WorldSpec
 
 HIDDEN = "(hidden)"
+HIDDEN_IN = {"en": HIDDEN, "de": "(verdeckt)"}
+"""What a hidden row shows for its values, by language."""
 STARTUP_CPU = 10.0
 """CPU seconds a student's process may use besides the scenarios' time limits (Python, numpy)."""
 
@@ -149,7 +151,7 @@ def _not_run(exercise: Exercise, scenario: Scenario, student: Student, lang: str
     """The row of a scenario left when the submission's time was spent."""
     hint = exercise.hint("budget", lang, shared, budget=student.wall)
     got = f"not run: the submission's {student.wall:g} s were spent"
-    return Row(scenario.label(lang), HIDDEN if scenario.hidden else "", got, "", False, hint, scenario.hidden, "budget", values=("", got))
+    return Row(scenario.label(lang), HIDDEN_IN[lang] if scenario.hidden else "", got, "", False, hint, scenario.hidden, "budget", values=("", got))
 
 
 FATAL = ("load", "forbidden")
@@ -166,12 +168,12 @@ def _one(exercise: Exercise, scenario: Scenario, student: Student, lang: str, sh
         hint = exercise.hint(key, lang, shared, limit=exercise.time_limit, where=where, budget=student.wall,
                              memory=human_size(student.box.limits.memory), output=human_size(student.box.limits.output))  # fmt: skip
         got = err.public if scenario.hidden else err.detail
-        row = Row(scenario.label(lang), HIDDEN if scenario.hidden else "", got, "", False, hint, scenario.hidden, key, values=("", err.detail))
+        row = Row(scenario.label(lang), HIDDEN_IN[lang] if scenario.hidden else "", got, "", False, hint, scenario.hidden, key, values=("", err.detail))
         return row, None
     problem = "" if outcome.passed else outcome.hint or (outcome.matches or ("wrong",))[0]
     hint = exercise.hint(problem, lang, shared, **outcome.hint_args) if problem else ""
     values = (outcome.expected, outcome.got)
-    shown = (HIDDEN, HIDDEN) if scenario.hidden else values
+    shown = (HIDDEN_IN[lang],) * 2 if scenario.hidden else values
     row = Row(scenario.label(lang), *shown, outcome.tolerance, outcome.passed, hint, scenario.hidden, problem, values=values,
               matches=outcome.matches if outcome.passed or outcome.hint is None else None, hint_args=outcome.hint_args)  # fmt: skip
     return row, outcome
@@ -205,7 +207,7 @@ def table(report: CheckReport, lang: str = "en") -> str:
              "de": ("Szenario", "erwartet", "erhalten", "Toleranz", "Ergebnis", "ok", "FEHLER", "Hinweis", "Punkte")}[lang]  # fmt: skip
     columns = [[sanitize.name(c) for c in (r.scenario, r.expected, r.got, r.tolerance)] + [words[5] if r.passed else words[6]] for r in report.rows]
     widths = [max([len(words[i])] + [min(len(c[i]), 48) for c in columns]) for i in range(5)]
-    line = lambda cells: "  ".join(str(c)[:48].ljust(w) for c, w in zip(cells, widths)).rstrip()  # noqa: E731
+    line = lambda cells: "  ".join(str(c)[:48].ljust(w) for c, w in zip(cells, widths)).rstrip()
     lines = [line(words[:5]), line(["-" * w for w in widths])]
     for row, cells in zip(report.rows, columns):
         lines.append(line(cells))

@@ -33,7 +33,7 @@ def estimates(student: Student, name: str, robot: RobotSpec, start: np.ndarray, 
     update, (T, 3)."""
     handle = student.new(name)
     student.method(handle, "reset", robot, np.asarray(start, dtype=np.float64), what=f"{name}.reset()")
-    at = lambda i: f"{name}.update() at t = {samples[i].time:.2f} s"  # noqa: E731
+    at = lambda i: f"{name}.update() at t = {samples[i].time:.2f} s"
     poses = student.feed(handle, "update", [(readings,) for readings in samples], "pose", at)
     return numbers(poses, (len(samples), 3), f"{name}.pose after each update()")
 
@@ -84,7 +84,7 @@ class Collect:
     def __init__(self):
         self.samples: list[Readings] = []
 
-    def on_sample(self, world, logs) -> None:  # noqa: ANN001
+    def on_sample(self, world, logs) -> None:
         self.samples.append(logs[0].latest)
 
 
@@ -140,7 +140,7 @@ PREPARED_KEPT = 64
 """Scenarios kept prepared (a grading's few, for every submission: they share the seed)."""
 
 
-def _prepare(scenario, spec: RobotSpec, reference, mistakes: dict) -> _Prepared:  # noqa: ANN001
+def _prepare(scenario, spec: RobotSpec, reference, mistakes: dict) -> _Prepared:
     """The scenario's run and replays, made once per grading: every submission graded with the
     same seed gets the same scenarios (kept only without artifacts: those record the run)."""
     key = (scenario.name, scenario.seed, json.dumps(scenario.params, sort_keys=True, default=str), type(reference).__name__, tuple(mistakes))
@@ -163,7 +163,7 @@ def _prepare(scenario, spec: RobotSpec, reference, mistakes: dict) -> _Prepared:
     return prepared
 
 
-def check_estimator(scenario, spec: RobotSpec, student: Student, reference, mistakes: dict) -> Outcome:  # noqa: ANN001
+def check_estimator(scenario, spec: RobotSpec, student: Student, reference, mistakes: dict) -> Outcome:
     """An estimator exercise: a run on the scenario's wheel-speed `segments` on an open floor
     (sampled every `dt` s, default 0.01) with `reference` (an estimator), then the student's
     `Odometry` fed the same readings, compared over the whole run (the scenario's tolerances

@@ -9,9 +9,10 @@ import importlib.util
 import itertools
 import math
 import traceback
+from collections.abc import Callable
 from pathlib import Path
 from types import SimpleNamespace
-from typing import Any, Callable
+from typing import Any
 
 from sim.lab.student import StudentError, command
 from sim.sandbox import Limits
@@ -63,7 +64,7 @@ class LocalStudent:
     def feed(self, handle: int, name: str, series: list[tuple], attribute: str, name_call: Callable[[int], str]) -> list:
         target, values = self.objects[handle], []
         for index, args in enumerate(series):
-            self._guard(lambda: getattr(target, name)(*args), name_call(index))
+            self._guard(lambda args=args: getattr(target, name)(*args), name_call(index))
             values.append(plain(getattr(target, attribute)))
         return values
 

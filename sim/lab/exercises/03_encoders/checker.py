@@ -2,7 +2,6 @@
 encoder odometry fed the same ticks; every scenario's result is compared with typical mistakes
 replayed on the recorded readings, so that the hint names the mistake that explains them all."""
 
-import dataclasses
 import math
 
 import numpy as np
@@ -72,51 +71,61 @@ ARCS = {
 """Wrong arcs from the wheels' arcs (m) and the track: (centre arc s, heading change α)."""
 
 
-class Mistaken(EncoderOdometry):
-    """Encoder odometry with one step of it wrong: `lay` the pose, or `arcs` the arc."""
+def _right_arcs(left, right, track):
+    return (left + right) / 2, (right - left) / track
 
-    def __init__(self, geometry=None, lay=None, arcs=None):
-        super().__init__(geometry)
-        self.lay, self.arcs = lay, arcs
 
-    def arc(self, readings):
-        if self.arcs is None:
-            return super().arc(readings)
-        left, right = readings.encoder_ticks.tolist()
-        return self.arcs(left * self.metres_per_tick[0], right * self.metres_per_tick[1], self.track)
+class Mistaken:
+    """Encoder odometry as a student writes it (ticks -> wheel arcs -> the exact arc), with one
+    step of it wrong: `geometry` the wheels and track believed, `arcs` the arc from the wheels'
+    arcs, or `lay` the new pose."""
+
+    name = "mistaken"
+
+    def __init__(self, geometry=None, lay=None, arcs=_right_arcs):
+        self.geometry, self.arcs = geometry, arcs
+        self.lay = lay or (lambda p, s, a: chord_along(p, s, a, a / 2))
+
+    def reset(self, robot, pose):
+        believed = self.geometry or Geometry.nominal(robot)
+        self.track = believed.track_width
+        self.per_tick = tuple(math.pi * d / robot.encoders.ticks_per_rev for d in believed.wheel_diameters)
+        self.pose = np.array(pose, dtype=float)
+
+    def ticks(self, readings):
+        return np.asarray(readings.encoder_ticks, dtype=np.float64)
 
     def update(self, readings):
-        if self.lay is None:
-            return super().update(readings)
-        s, alpha = self.arc(readings)
+        left, right = self.ticks(readings).tolist()
+        s, alpha = self.arcs(left * self.per_tick[0], right * self.per_tick[1], self.track)
         self.pose = self.lay(self.pose, s, alpha)
 
 
-class Cumulative(EncoderOdometry):
+class Cumulative(Mistaken):
     """encoder_ticks taken for running totals: each step uses the difference to the last reading."""
 
     def reset(self, robot, pose):
         super().reset(robot, pose)
         self.last = np.zeros(2)
 
-    def update(self, readings):
-        ticks = np.asarray(readings.encoder_ticks, dtype=np.float64)
+    def ticks(self, readings):
+        ticks = super().ticks(readings)
         change, self.last = ticks - self.last, ticks
-        super().update(dataclasses.replace(readings, encoder_ticks=change))
+        return change
 
 
 def mistakes(spec):
     diameter, track, ticks = spec.wheel_diameter, spec.track_width, spec.encoders.ticks_per_rev
-    scaled = lambda factor: EncoderOdometry(Geometry((factor * diameter,) * 2, track))  # noqa: E731 (distances times factor)
+    scaled = lambda factor: Mistaken(Geometry((factor * diameter,) * 2, track))
     return {
         **{key: Mistaken(lay=lay) for key, lay in LAID.items()},
         **{key: Mistaken(arcs=arcs) for key, arcs in ARCS.items()},
         "cumulative": Cumulative(),
-        "hardcoded": EncoderOdometry(Geometry.nominal(CTBOT)),
+        "hardcoded": Mistaken(Geometry.nominal(CTBOT)),
         "radius": scaled(0.5),
         "diameter_2pi": scaled(2.0),
-        "millimetres": EncoderOdometry(Geometry((1000 * diameter,) * 2, 1000 * track)),
-        "ticks": EncoderOdometry(Geometry((ticks / math.pi,) * 2, track)),  # one metre of rim per tick
+        "millimetres": Mistaken(Geometry((1000 * diameter,) * 2, 1000 * track)),
+        "ticks": Mistaken(Geometry((ticks / math.pi,) * 2, track)),  # one metre of rim per tick
         "no_pi": scaled(1 / math.pi),
         "ticks_per_rev": scaled(ticks / 100),  # 100 ticks a turn taken, not the robot's
         "dt_scaled": scaled(0.01),  # ticks taken for ticks per second, times the step
