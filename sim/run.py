@@ -31,6 +31,7 @@ from bots.odometry import Estimator, default_estimators
 from bots.odometry_batch import COVARIANCES, ESTIMATES, DefaultOdometry, batched
 from bots.spec import RobotSpec
 from sim.errors import UserError
+from sim.guards import ControllerBrokeOut, Guard
 from sim.world import World
 from sim.world.chassis_drive import FaultError
 from sim.world.readings import Readings, SensorFrame
@@ -249,6 +250,8 @@ class RunResult:
         self.world, self.seed, self.dt, self.robots = world, seed, dt, robots
         self.reason = "duration"
         self.error: str | None = None
+        self.notes: list[str] = []
+        """What the run's guards put back that a controller had changed (`sim.guards`), once each."""
         self._samples = samples
 
     @property
@@ -423,8 +426,10 @@ def run(
     commands = np.zeros((len(robots), 2))
     clock = StepClock(step_timeout)
     call = 0
+    guard: Guard | None = None
     try:
         clock.__enter__()
+        guard = Guard().__enter__()
         _notify(observers, "on_start", world, logs)  # inside: Ctrl-C while a recorder opens still ends the run
         samplers = [observer.on_sample for observer in observers if hasattr(observer, "on_sample")]
         drivers = [(i, robot.spec, log, controller) for i, (robot, log, controller) in enumerate(zip(world.robots, logs, controllers))]
@@ -462,15 +467,27 @@ def run(
                     clock.busy = 0
                     raise _Stop(_failure(err, log, step, world.time, step_timeout)) from None
                 commands[i] = motor_commands(left, right, spec)
+            guard.check()
             world.step(commands)
     except _Stop as stop:
         result.reason, result.error = "error", str(stop)
+    except ControllerBrokeOut as broke:
+        result.reason, result.error = "error", f"{_who(logs)} {broke} at step {step} (t = {world.time:.2f} s)"
+    except Exception as err:  # ctsim's own code failing: a ctsim bug, unless a controller replaced what it calls
+        replaced = guard.replaced() if guard is not None else ""
+        if not replaced:
+            raise
+        result.reason = "error"
+        result.error = f"{_who(logs)} replaced {replaced}, and the run failed with {type(err).__name__}: {err} at t = {world.time:.2f} s"
     except KeyboardInterrupt as stop:
         clock.busy = 0
         result.reason = "quit" if isinstance(stop, Quit) else "terminated" if isinstance(stop, Terminated) else "interrupted"
         result.error = None if result.reason == "quit" else f"{result.reason} at t = {world.time:.2f} s"
     finally:
         clock.__exit__()
+        if guard is not None:
+            guard.__exit__()
+            result.notes = list(guard.notes.values())
         for robot, log, controller in zip(world.robots, logs, controllers):
             log.collisions, log.fell = robot.collisions, robot.fallen
             log.status = controller.status.value if isinstance(getattr(controller, "status", None), Status) else None
@@ -480,6 +497,13 @@ def run(
 
 class _Stop(Exception):
     pass
+
+
+def _who(logs: list[RobotLog]) -> str:
+    """The controller(s) of a run, for a line about what one of them did."""
+    if len(logs) == 1:
+        return f"controller {logs[0].controller_name!r} of {logs[0].name}"
+    return f"a controller (of {', '.join(log.name for log in logs[:5])}{', ...' if len(logs) > 5 else ''})"
 
 
 def _failure(err: BaseException, log: RobotLog, step: int, time: float, step_timeout: float | None) -> str:
