@@ -255,6 +255,14 @@ def option(field: Field, kind: type = float) -> Any:
     return parse
 
 
+def file_stem(name: str, limit: int = 100) -> str:
+    """A robot's (or an estimate's) name as the start of a file name inside a run folder: its
+    runs of letters, digits, '.', '-' and '_', joined by '_' (no '/', no '..', nothing hidden);
+    '' when nothing is left (such a name is refused where it is given)."""
+    parts = [part for part in re.split(r"[^\w.-]+", name) if part.strip(".")]
+    return "_".join(parts).lstrip(".")[:limit]
+
+
 def parse_colour(text: str) -> tuple[float, float, float] | None:
     """`#rrggbb` as RGB in 0..1; None if malformed."""
     t = text.strip()
@@ -346,8 +354,8 @@ class Locator:
         return first if table is not None else None
 
 
-def read_bytes(path: Path, error: type[FileError] = FileError) -> bytes:
-    """A regular file's bytes, at most MAX_BYTES: a FIFO, device or folder is refused at once
+def read_bytes(path: Path, error: type[FileError] = FileError, most: int = MAX_BYTES) -> bytes:
+    """A regular file's bytes, at most `most`: a FIFO, device or folder is refused at once
     (opened without blocking, checked before reading), as is a larger file."""
     try:
         descriptor = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
@@ -358,14 +366,14 @@ def read_bytes(path: Path, error: type[FileError] = FileError) -> bytes:
         os.close(descriptor)
         raise error(path, None, f"not a regular file ({_file_kind(info.st_mode)}); give a file ctsim can read to its end")
     with os.fdopen(descriptor, "rb") as file:
-        if info.st_size > MAX_BYTES:
-            raise error(path, None, f"the file has {info.st_size:,} bytes, more than the {MAX_BYTES:,} a ctsim file may have")
+        if info.st_size > most:
+            raise error(path, None, f"the file has {info.st_size:,} bytes, more than the {most:,} ctsim reads of it")
         try:
-            data = file.read(MAX_BYTES + 1)
+            data = file.read(most + 1)
         except OSError as err:
             raise error(path, None, f"cannot read: {err.strerror or err}") from None
-    if len(data) > MAX_BYTES:  # (grew while read)
-        raise error(path, None, f"the file has more than the {MAX_BYTES:,} bytes a ctsim file may have")
+    if len(data) > most:  # (grew while read)
+        raise error(path, None, f"the file has more than the {most:,} bytes ctsim reads of it")
     return data
 
 

@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from bots.chassis_spec import ChassisSpec, chassis_from_dict, inscribed_radius
-from bots.schema import MIN_LENGTH, MIN_MASS, WORLD_EXTENT, FileError, Locator, Problem, check_fields, declared
+from bots.schema import MIN_LENGTH, MIN_MASS, WORLD_EXTENT, FileError, Locator, Problem, check_fields, declared, file_stem, shown
 from bots.schema import read_toml as read_located
 from sim.errors import UserError
 
@@ -198,7 +198,9 @@ class RobotSpec:
         try:
             check_fields(self)
         except Problem as problem:
-            raise Problem(problem.key, f"{problem.message} (robot {self.name!r})") from None
+            raise Problem(problem.key, f"{problem.message} (robot {shown(self.name)})") from None
+        if not file_stem(self.name):
+            raise Problem("name", f"{shown(self.name)} leaves nothing to name the robot's files by: give it letters or digits")
         if self.chassis is not None and (self.encoders.diameter_error != (0.0, 0.0) or self.encoders.track_error):
             raise Problem("encoders", "diameter_error and track_error describe a differential drive; "
                                       f"give a general chassis's wheels their real radius instead (robot {self.name!r})")

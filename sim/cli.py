@@ -147,6 +147,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _add_robot_options(run)
     run.add_argument("--controller", action="append", metavar="NAME|FILE.py[:NAME]", help="controller: a registered name (see `ctsim controllers`) or a Python file; repeat for several robots (default: solve_maze)")
+    run.add_argument("--estimator", action="append", default=[], metavar="FILE.py[:CLASS]",
+                     help="your own odometry estimator (reset(robot, pose), update(readings), pose, optional covariance) beside the shipped ones, in every output (repeatable)")
     run.add_argument("--param", action="append", type=_param, default=[], metavar="KEY=VALUE", help="controller parameter, repeatable; applies to every robot's controller")
     run.add_argument("--robots", type=int, metavar="N", help="number of robots (default: one per --controller); a single controller is used by all")
     run.add_argument("--duration", type=_positive(float), default=DEFAULT_DURATION, metavar="SECONDS", help=f"simulated time to run at most (default: {DEFAULT_DURATION:g})")
@@ -421,6 +423,7 @@ def _setups(args: argparse.Namespace, spec, room: int) -> list:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
+    from bots.estimators import load
     from sim.experiments import simulate, world
     from sim.views.recording import Recorder, keep_pandas_out_of_arrow
     from sim.world.files import world_warnings
@@ -428,6 +431,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     step_count(args.duration, args.dt)
     place = world(args.world)
     setups = _setups(args, load_robot_spec(args), len(place.start_order()))
+    extra = [load(source) for source in args.estimator]  # (before the folder is made: a bad file is refused first)
     for warning in world_warnings(place):
         print(f"ctsim: warning: {args.world}: {warning}", file=sys.stderr)
     until_goal = bool(place.goals) if args.until_goal is None else args.until_goal
@@ -444,7 +448,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         with StopOnSignal() as stop:
             try:
                 result = simulate(place, *setups, duration=args.duration, dt=args.dt, seed=args.seed, until_goal=until_goal,
-                                  observers=(stop.starting, recorder, Progress(args.duration, args.dt), stop), step_timeout=args.step_timeout)
+                                  observers=(stop.starting, recorder, Progress(args.duration, args.dt), stop), step_timeout=args.step_timeout,
+                                  estimators=extra)
             except KeyboardInterrupt as signalled:  # before the run started: nothing simulated, said so in the summary
                 return _stopped_before_start(out, place, args, options, signalled)
             except RunError:  # refused before it started (no room for its trajectories): no run, no summary
@@ -665,6 +670,12 @@ def write_trajectories(result, out: Path, summary: dict[str, Any], export_rate: 
     return written
 
 
+def _nees(errors: dict[str, Any]) -> str:
+    """An estimate's mean NEES for the table ('-' without a covariance; 3 is consistent)."""
+    value = errors.get("nees_mean")
+    return "-" if value is None or not math.isfinite(value) else f"{value:.1f}"
+
+
 def table(summary: dict[str, Any]) -> str:
     """The short end-of-run table: per robot distance and collisions, per estimate its errors."""
     reached = [robot["name"] for robot in summary["robots"] if robot["goal_time"] is not None]
@@ -678,7 +689,7 @@ def table(summary: dict[str, Any]) -> str:
         f"{summary['world']['name']}, seed {summary['seed']}, noise {summary.get('noise', 'none')}, "
         f"{summary['time']:.2f} s simulated: {outcome}"
     ]
-    header = f"{'robot':<12}{'estimate':<12}{'distance m':>11}{'collisions':>11}{'final err m':>12}{'ATE RMS m':>11}{'final hdg °':>12}"
+    header = f"{'robot':<12}{'estimate':<12}{'distance m':>11}{'collisions':>11}{'final err m':>12}{'ATE RMS m':>11}{'final hdg °':>12}{'NEES':>7}"
     lines.append(header)
     for robot in summary["robots"]:
         first = f"{robot['name']:<12}{'':<12}{robot['distance']:>11.3f}{robot['collisions']:>11d}"
@@ -686,7 +697,7 @@ def table(summary: dict[str, Any]) -> str:
                                    f"controller: {robot['status']}" if robot.get("status") not in (None, "running") else "") if note]  # fmt: skip
         lines.append(first + ("   " + ", ".join(notes) if notes else ""))
         for name, errors in robot["estimates"].items():
-            lines.append(f"{'':<12}{name:<12}{'':>11}{'':>11}{errors['final_position_error']:>12.4f}{errors['ate_rmse']:>11.4f}{math.degrees(errors['final_heading_error']):>12.2f}")
+            lines.append(f"{'':<12}{name:<12}{'':>11}{'':>11}{errors['final_position_error']:>12.4f}{errors['ate_rmse']:>11.4f}{math.degrees(errors['final_heading_error']):>12.2f}{_nees(errors):>7}")
     return "\n".join(lines)
 
 

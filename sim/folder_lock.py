@@ -55,3 +55,22 @@ def held(folder: Path, command: str) -> Iterator[None]:
     finally:
         if handle is not None:
             handle.close()
+
+
+def holder(folder: Path) -> str | None:
+    """Who holds `folder` now ("process 4242, ctsim run"), or None when no command does."""
+    try:
+        import fcntl
+    except ImportError:
+        return None
+    try:
+        handle = open(folder / LOCK, encoding="utf-8")
+    except OSError:
+        return None
+    with handle:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_SH | fcntl.LOCK_NB)
+        except OSError:
+            pid, _, command = handle.read(200).strip().partition(" ")
+            return f"process {pid or 'unknown'}, ctsim {command or 'command'}"
+        return None

@@ -6,6 +6,7 @@ one line naming the file and line or the option."""
 from __future__ import annotations
 
 import math
+import shutil
 import os
 import sys
 
@@ -187,3 +188,18 @@ def test_a_misspelt_row_tag_and_other_unknown_tags_are_warned_with_their_line(tm
 def test_a_device_is_refused_as_a_file():
     with pytest.raises(FileError, match="a character device"):
         load_robot("/dev/zero")
+
+
+@pytest.mark.parametrize("line, message", [("number = nan", "number: must be a whole number at least 1 and at most 9,999, not nan"),
+                                           ("number = 1\ntime_limit = 1e999", "time_limit: must be a number (s) greater than 0 and at most 3,600, not inf")])
+def test_an_exercise_file_with_a_value_at_the_edge_names_file_and_key(tmp_path, line, message):
+    from sim.lab.exercise import SHIPPED, ExerciseError, load_exercise
+
+    folder = tmp_path / "ex"
+    shutil.copytree(next(p for p in sorted(SHIPPED.iterdir()) if p.is_dir()), folder)
+    toml = folder / "exercise.toml"
+    toml.write_text(f"{line}\n" + "\n".join(row for row in toml.read_text().splitlines() if not row.startswith(("number", "time_limit"))))
+    with pytest.raises(ExerciseError) as refused:
+        load_exercise(folder)
+    assert str(refused.value) == f"{toml}: {message}"
+

@@ -14,7 +14,7 @@ ROOT = Path(__file__).resolve().parents[1]
 CORE = ("sim.kinematics",)
 BOTS = CORE + ("bots", "sim.world.readings")
 WORLD = CORE + ("sim.world", "bots.spec", "bots.ctbot", "bots.schema")
-RUN = WORLD + ("bots", "sim.run")
+RUN = WORLD + ("bots", "sim.run", "sim.guards")
 ANALYSIS = RUN + ("sim.analysis",)
 VIEWS = ANALYSIS + ("sim.views",)
 SANDBOX = VIEWS + ("sim.sandbox",)  # DESIGN.md §2: untrusted code isolated; the lab and contests use it
@@ -26,6 +26,7 @@ RULES = (
     ("bots", BOTS),
     ("sim.world", WORLD),
     ("sim.run", RUN),
+    ("sim.guards", ()),
     ("sim.analysis", ANALYSIS),
     ("sim.views", VIEWS),
     ("sim.bridge", CAPABILITIES),

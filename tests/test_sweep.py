@@ -45,7 +45,7 @@ class Crash:
     def step(self, t, readings):
         if self.always or not MARKER.exists():
             MARKER.touch()
-            os._exit(3)
+            os.kill(os.getpid(), signal.SIGKILL)  # (a real death: os._exit in a run is the controller's error)
         return Twist(0.1, 0.0)
 
 class Raise:
