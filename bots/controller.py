@@ -13,11 +13,13 @@ import enum
 import importlib.util
 import inspect
 import sys
+import types
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
 from bots.commands import Command
+from bots.schema import parse_number
 from bots.spec import RobotSpec
 from sim.errors import UserError
 from sim.world.readings import Readings
@@ -86,7 +88,7 @@ def _convert(text: str, annotation: Any, default: Any) -> Any:
             return False
         raise ValueError(f"expected true or false, got {text!r}")
     if kind in (int, float):
-        return kind(text)
+        return parse_number(text, kind)
     return text
 
 
@@ -123,16 +125,7 @@ def load_file(path: str | Path, name: str | None = None) -> Callable[..., Contro
     """The controller defined in a student's Python file: the class or function called `name`,
     else the single class with a `step` method, else a function called `controller`."""
     path = Path(path)
-    if not path.is_file():
-        raise ControllerError(f"{path}: no such controller file")
-    spec = importlib.util.spec_from_file_location(f"ctsim_user_{path.stem}", path)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module
-    try:
-        spec.loader.exec_module(module)
-    except (Exception, SystemExit) as err:  # the student's code (sys.exit too): report where it failed, not our traceback
-        line = _user_line(err, path)
-        raise ControllerError(f"{path}:{line}: {type(err).__name__}: {err}") from None
+    module = user_module(path, "controller", ControllerError)
     if name:
         if not hasattr(module, name):
             raise ControllerError(f"{path}: defines no {name!r}")
@@ -151,6 +144,22 @@ def load_file(path: str | Path, name: str | None = None) -> Callable[..., Contro
     if inspect.isclass(found) or not _takes_readings(found):
         return found
     return lambda: FunctionController(found)
+
+
+def user_module(path: Path, kind: str, error: type[UserError]) -> types.ModuleType:
+    """A user's Python file run as a module (a controller's, an estimator's); `error` names the
+    file and line where it failed to load, with no traceback of ours."""
+    if not path.is_file():
+        raise error(f"{path}: no such {kind} file")
+    spec = importlib.util.spec_from_file_location(f"ctsim_user_{path.stem}", path)
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    try:
+        spec.loader.exec_module(module)
+    except (Exception, SystemExit) as err:  # the user's code (sys.exit too): report where it failed, not our traceback
+        line = _user_line(err, path)
+        raise error(f"{path}:{line}: {type(err).__name__}: {err}") from None
+    return module
 
 
 def _takes_readings(function: Callable) -> bool:

@@ -10,7 +10,10 @@ the line found by `Locator`. `read_toml` bounds a file's size and nesting depth.
 from __future__ import annotations
 
 import math
+import os
 import re
+import stat
+import sys
 import tomllib
 from dataclasses import dataclass, fields
 from dataclasses import field as dataclass_field
@@ -19,13 +22,27 @@ from typing import Any
 
 from sim.errors import UserError
 
-MAX_BYTES = 16 * 2**20
-"""Largest file ctsim reads (bytes): the largest c't-Sim parcours is 4 KB, a hand-written world
-or robot a few KB; a file beyond this is a mistake, not a world."""
+MAX_BYTES = 4 * 2**20
+"""Largest file ctsim reads (bytes, 4 MiB): the largest c't-Sim parcours is 4 KB, a hand-written
+world or robot a few KB, a 500 x 500 grid 260 KB. TOML is read in pure Python at about 1 MB/s:
+16 MiB of 600,000 walls took 15 s to parse, 4 MiB takes a few."""
 MAX_DEPTH = 16
 """Deepest nesting of tables and lists in a file: ctsim's deepest is 4 (a robot's chassis wheels)."""
 WORLD_EXTENT = 1e4
 """Largest coordinate (m) anywhere in a world or on a robot: ±10 km."""
+MIN_LENGTH = 1e-3
+"""Smallest size (m) of a body, wheel, wall, line or grid cell: 1 mm. The contact solver's slop is
+0.5 mm, and ever smaller bodies end in NaN poses (a robot of 1e-307 kg did)."""
+MIN_MASS = 1e-3
+"""Smallest mass (kg) of a robot or a movable object: 1 g (a c't-Bot is 0.5 kg, c't-Sim's can 50 g)."""
+MAX_DIGITS = 40
+"""Most digits a whole number written in a file or an option may have: ctsim's largest are seeds
+(20 digits); Python would refuse 4,300 and more with advice meant for programmers."""
+TINY = sys.float_info.min
+"""Smallest magnitude of a non-zero number (2.2e-308): below it floats are subnormal, lose their
+precision and turn to 0 in the first product, so a value there is refused."""
+
+
 class _Required:
     def __repr__(self) -> str:
         return "REQUIRED"
@@ -122,15 +139,15 @@ class Field:
                 self._fail(value)
             try:
                 return tuple(self._number(v) for v in value)
-            except Problem:
-                self._fail(value)  # (naming the whole list)
+            except Problem as inner:
+                self._fail(value, _why(inner))  # (naming the whole list)
         if kind == "points":
             if not isinstance(value, (list, tuple)) or len(value) < self.minimum or not all(isinstance(p, (list, tuple)) and len(p) == 2 for p in value):
                 self._fail(value)
             try:
                 return tuple((self._number(p[0]), self._number(p[1])) for p in value)
-            except Problem:
-                self._fail(value)
+            except Problem as inner:
+                self._fail(value, _why(inner))
         if kind == "colour":
             parsed = parse_colour(value) if isinstance(value, str) else None
             if parsed is None:
@@ -149,19 +166,31 @@ class Field:
         return tuple(value)
 
     def _number(self, value: Any) -> float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or math.isnan(value):
+        """A finite (or, with `infinite`, +inf) float in range; ints of any size are compared
+        exactly before they become floats, -0.0 becomes 0.0, and subnormals are refused."""
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or (isinstance(value, float) and math.isnan(value)):
             self._fail(value)
-        if math.isinf(value) and not (self.infinite and value > 0):
+        if isinstance(value, float) and math.isinf(value) and not (self.infinite and value > 0):
             self._fail(value)
         if not self._in_range(value):
             self._fail(value)
-        return float(value)
+        if value != 0 and abs(value) < TINY:
+            self._fail(value, SUBNORMAL)
+        return float(value) + 0.0  # (-0.0 as 0.0)
 
     def _in_range(self, value: float) -> bool:
         return (value > self.low if self.above else value >= self.low) and value <= self.high
 
-    def _fail(self, value: Any) -> None:
-        raise Problem("", f"must be {self.describe()}, not {shown(value)}")
+    def _fail(self, value: Any, why: str = "") -> None:
+        raise Problem("", f"must be {self.describe()}, not {shown(value)}" + (f": {why}" if why else ""))
+
+
+SUBNORMAL = "a subnormal number, too small to compute with"
+
+
+def _why(problem: Problem) -> str:
+    """The reason a Problem gives after its value (`SUBNORMAL`), '' for none."""
+    return SUBNORMAL if problem.message.endswith(SUBNORMAL) else ""
 
 
 def _figure(value: float) -> str:
@@ -178,8 +207,60 @@ def shown(value: Any) -> str:
     if isinstance(value, (list, tuple)):
         text = repr(list(value))
         return text if len(text) <= 40 else f"a list of {len(value)}"
+    if isinstance(value, int) and value.bit_length() > 3 * MAX_DIGITS:
+        return f"a whole number of about {_digit_count(value):,} digits"
     text = repr(value)
     return text if len(text) <= 40 else text[:37] + "..."
+
+
+def _digit_count(value: int) -> int:
+    """Decimal digits of a whole number of any size, without turning it into text."""
+    size = abs(value)
+    digits = max(1, math.floor((size.bit_length() - 1) * math.log10(2)) + 1)
+    return digits + (size >= 10**digits)
+
+
+def parse_number(text: str, kind: type = float) -> float | int:
+    """An option's text as a finite number of `kind` (float or int): ValueError saying why, in
+    words, for text that is none, infinite or NaN, or a whole number of more than MAX_DIGITS digits."""
+    body = text.strip().replace("_", "")
+    digits = len(re.sub(r"[^0-9]", "", body.partition("e")[0].partition("E")[0]))
+    if digits > MAX_DIGITS:
+        raise ValueError(f"expected a number, got one of {digits:,} digits (at most {MAX_DIGITS})")
+    try:
+        value = kind(body)
+    except ValueError:
+        what = "a whole number" if kind is int else "a number"
+        raise ValueError(f"expected {what}, got {shown(text)}") from None
+    if kind is float and not math.isfinite(value):
+        raise ValueError(f"expected a finite number, got {shown(text)}")
+    return value
+
+
+def option(field: Field, kind: type = float) -> Any:
+    """An argparse `type` checking an option's value against `field`: argparse names the option
+    with the reason (`argument --step-timeout: must be a number (s) greater than 0 and at most
+    86,400, not 1e+308`)."""
+    import argparse
+
+    def parse(text: str) -> Any:
+        try:
+            number = parse_number(text, kind)
+            return field.check(number)
+        except Problem as problem:
+            raise argparse.ArgumentTypeError(problem.message) from None
+        except ValueError as err:
+            raise argparse.ArgumentTypeError(str(err)) from None
+
+    return parse
+
+
+def file_stem(name: str, limit: int = 100) -> str:
+    """A robot's (or an estimate's) name as the start of a file name inside a run folder: its
+    runs of letters, digits, '.', '-' and '_', joined by '_' (no '/', no '..', nothing hidden);
+    '' when nothing is left (such a name is refused where it is given)."""
+    parts = [part for part in re.split(r"[^\w.-]+", name) if part.strip(".")]
+    return "_".join(parts).lstrip(".")[:limit]
 
 
 def parse_colour(text: str) -> tuple[float, float, float] | None:
@@ -273,17 +354,45 @@ class Locator:
         return first if table is not None else None
 
 
-def read_text(path: Path, error: type[FileError] = FileError) -> str:
-    """A file's text: at most MAX_BYTES, UTF-8 (a bad byte is named with its line)."""
+def read_bytes(path: Path, error: type[FileError] = FileError, most: int = MAX_BYTES) -> bytes:
+    """A regular file's bytes, at most `most`: a FIFO, device or folder is refused at once
+    (opened without blocking, checked before reading), as is a larger file."""
     try:
-        size = path.stat().st_size
-        if size > MAX_BYTES:
-            raise error(path, None, f"the file has {size:,} bytes, more than the {MAX_BYTES:,} a ctsim file may have")
-        data = path.read_bytes()
+        descriptor = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
     except OSError as err:
         raise error(path, None, f"cannot read: {err.strerror or err}") from None
+    info = os.fstat(descriptor)
+    if not stat.S_ISREG(info.st_mode):
+        os.close(descriptor)
+        raise error(path, None, f"not a regular file ({_file_kind(info.st_mode)}); give a file ctsim can read to its end")
+    with os.fdopen(descriptor, "rb") as file:
+        if info.st_size > most:
+            raise error(path, None, f"the file has {info.st_size:,} bytes, more than the {most:,} ctsim reads of it")
+        try:
+            data = file.read(most + 1)
+        except OSError as err:
+            raise error(path, None, f"cannot read: {err.strerror or err}") from None
+    if len(data) > most:  # (grew while read)
+        raise error(path, None, f"the file has more than the {most:,} bytes ctsim reads of it")
+    return data
+
+
+def _file_kind(mode: int) -> str:
+    kinds = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a named pipe"), (stat.S_ISCHR, "a character device"),
+             (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
+    return next((name for test, name in kinds if test(mode)), "not a regular file")
+
+
+BOM = "\ufeff"
+"""The UTF-8 byte-order mark some Windows editors put first: accepted and dropped."""
+
+
+def read_text(path: Path, error: type[FileError] = FileError) -> str:
+    """A file's text (`read_bytes`): UTF-8 (a bad byte is named with its line), a leading
+    byte-order mark dropped."""
+    data = read_bytes(path, error)
     try:
-        return data.decode("utf-8")
+        return data.decode("utf-8").removeprefix(BOM)
     except UnicodeDecodeError as err:
         line = data[: err.start].count(b"\n") + 1
         raise error(path, line, f"not UTF-8 text: byte 0x{data[err.start]:02x}; save the file as UTF-8") from None
@@ -302,6 +411,11 @@ def read_toml(path: Path, error: type[FileError] = FileError) -> tuple[dict, Loc
         raise error(path, line, f"TOML syntax: {problem}") from None
     except RecursionError:
         raise error(path, None, f"lists or tables nested deeper than {MAX_DEPTH} levels") from None
+    except ValueError:  # (tomllib's int() of a number past Python's digit limit)
+        found = re.search(rf"[0-9_]{{{MAX_DIGITS + 1},}}", text)
+        line = text[: found.start()].count("\n") + 1 if found else None
+        raise error(path, line, f"a whole number of {len(found.group()) if found else 'thousands of'} digits; "
+                                f"ctsim's numbers have at most {MAX_DIGITS}") from None
     if _depth(data) > MAX_DEPTH:
         raise error(path, None, f"lists or tables nested deeper than {MAX_DEPTH} levels")
     return data, Locator(text)

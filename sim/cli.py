@@ -25,6 +25,7 @@ from typing import Any
 import sim
 from bots.noise import NOISE_PRESETS, parse_value
 from sim.errors import UserError
+from sim.folder_lock import hold
 from sim.run import DT_RANGE, RunError, Terminated, in_controller, step_count
 from sim.world import compiling
 
@@ -112,7 +113,7 @@ def _add_robot_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("world", nargs="?", default=DEFAULT_WORLD, help=f"a shipped world's name (see `ctsim worlds`) or a .toml/.xml world file (default: {DEFAULT_WORLD})")
     parser.add_argument("--robot", default="ctbot", metavar="NAME|FILE.toml", help="robot description: a built-in name (ctbot, omni3, mecanum4, car, ocp_vehicle) or a TOML robot file (default: ctbot)")
     parser.add_argument("--seed", type=_seed, default=0, help="seed of every random number in the run (the noise of --noise realistic or harsh); same seed, same run (default: 0)")
-    parser.add_argument("--noise", choices=NOISE_PRESETS, default="none", help="sensor and odometry noise of the robot: none (exact sensors), realistic (the c't-Bot's figures, see bots/noise.py) or harsh (default: none)")
+    parser.add_argument("--noise", choices=NOISE_PRESETS, default="realistic", help="sensor and odometry noise of the robot: realistic (the c't-Bot's figures and their sources, see bots/noise.py), harsh, or none (exact sensors, for checks against closed forms) (default: realistic)")
     parser.add_argument("--robot-set", action="append", type=_param, default=[], metavar="SECTION.FIELD=VALUE", help="override one field of the robot description after --noise, repeatable: encoders.slip_std=0.02, mouse.dpi=415, ir.noise_std=0")
     parser.add_argument("--dt", type=_step, default=0.01, metavar="SECONDS", help="simulation step (default: 0.01)")
     parser.add_argument("--out", type=_folder, metavar="DIR", help="folder for run.rrd, summary.json, TUM/CSV trajectories and figures (default: runs/<world>-<controller>-<time>)")
@@ -146,6 +147,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     _add_robot_options(run)
     run.add_argument("--controller", action="append", metavar="NAME|FILE.py[:NAME]", help="controller: a registered name (see `ctsim controllers`) or a Python file; repeat for several robots (default: solve_maze)")
+    run.add_argument("--estimator", action="append", default=[], metavar="FILE.py[:CLASS]",
+                     help="your own odometry estimator (reset(robot, pose), update(readings), pose, optional covariance) beside the shipped ones, in every output (repeatable)")
     run.add_argument("--param", action="append", type=_param, default=[], metavar="KEY=VALUE", help="controller parameter, repeatable; applies to every robot's controller")
     run.add_argument("--robots", type=int, metavar="N", help="number of robots (default: one per --controller); a single controller is used by all")
     run.add_argument("--duration", type=_positive(float), default=DEFAULT_DURATION, metavar="SECONDS", help=f"simulated time to run at most (default: {DEFAULT_DURATION:g})")
@@ -288,29 +291,14 @@ def _out_dir(out: Path | None, world: str, controller: str) -> Path:
     return out
 
 
-LOCK = ".ctsim.lock"
-"""A run holds this file in its folder locked (flock) while it runs: a second run into the same
-folder is refused instead of interleaving its files with the first's."""
 _held: list[Any] = []  # the open lock files of this command, closed (released) when it ends
 
 
 def _lock(out: Path) -> None:
-    try:
-        import fcntl
-    except ImportError:  # not POSIX: folders are not locked
-        return
-    handle = open(out / LOCK, "a+", encoding="utf-8")
-    try:
-        fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-    except OSError:
-        handle.seek(0)
-        owner = handle.read().strip() or "unknown"
-        handle.close()
-        raise UsageError(f"{out} is in use by another ctsim run (process {owner}); wait for it to end or give another --out") from None
-    handle.truncate(0)
-    handle.write(f"{os.getpid()}\n")
-    handle.flush()
-    _held.append(handle)
+    """Hold `out` for this run (`sim.folder_lock`): a second run into it is refused."""
+    handle = hold(out, "run")
+    if handle is not None:
+        _held.append(handle)
 
 
 def _terminate(signum: int, frame: Any) -> None:
@@ -435,6 +423,7 @@ def _setups(args: argparse.Namespace, spec, room: int) -> list:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
+    from bots.estimators import load
     from sim.experiments import simulate, world
     from sim.views.recording import Recorder, keep_pandas_out_of_arrow
     from sim.world.files import world_warnings
@@ -442,6 +431,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     step_count(args.duration, args.dt)
     place = world(args.world)
     setups = _setups(args, load_robot_spec(args), len(place.start_order()))
+    extra = [load(source) for source in args.estimator]  # (before the folder is made: a bad file is refused first)
     for warning in world_warnings(place):
         print(f"ctsim: warning: {args.world}: {warning}", file=sys.stderr)
     until_goal = bool(place.goals) if args.until_goal is None else args.until_goal
@@ -458,7 +448,8 @@ def cmd_run(args: argparse.Namespace) -> int:
         with StopOnSignal() as stop:
             try:
                 result = simulate(place, *setups, duration=args.duration, dt=args.dt, seed=args.seed, until_goal=until_goal,
-                                  observers=(stop.starting, recorder, Progress(args.duration, args.dt), stop), step_timeout=args.step_timeout)
+                                  observers=(stop.starting, recorder, Progress(args.duration, args.dt), stop), step_timeout=args.step_timeout,
+                                  estimators=extra)
             except KeyboardInterrupt as signalled:  # before the run started: nothing simulated, said so in the summary
                 return _stopped_before_start(out, place, args, options, signalled)
             except RunError:  # refused before it started (no room for its trajectories): no run, no summary
@@ -679,6 +670,12 @@ def write_trajectories(result, out: Path, summary: dict[str, Any], export_rate: 
     return written
 
 
+def _nees(errors: dict[str, Any]) -> str:
+    """An estimate's mean NEES for the table ('-' without a covariance; 3 is consistent)."""
+    value = errors.get("nees_mean")
+    return "-" if value is None or not math.isfinite(value) else f"{value:.1f}"
+
+
 def table(summary: dict[str, Any]) -> str:
     """The short end-of-run table: per robot distance and collisions, per estimate its errors."""
     reached = [robot["name"] for robot in summary["robots"] if robot["goal_time"] is not None]
@@ -692,7 +689,7 @@ def table(summary: dict[str, Any]) -> str:
         f"{summary['world']['name']}, seed {summary['seed']}, noise {summary.get('noise', 'none')}, "
         f"{summary['time']:.2f} s simulated: {outcome}"
     ]
-    header = f"{'robot':<12}{'estimate':<12}{'distance m':>11}{'collisions':>11}{'final err m':>12}{'ATE RMS m':>11}{'final hdg °':>12}"
+    header = f"{'robot':<12}{'estimate':<12}{'distance m':>11}{'collisions':>11}{'final err m':>12}{'ATE RMS m':>11}{'final hdg °':>12}{'NEES':>7}"
     lines.append(header)
     for robot in summary["robots"]:
         first = f"{robot['name']:<12}{'':<12}{robot['distance']:>11.3f}{robot['collisions']:>11d}"
@@ -700,7 +697,7 @@ def table(summary: dict[str, Any]) -> str:
                                    f"controller: {robot['status']}" if robot.get("status") not in (None, "running") else "") if note]  # fmt: skip
         lines.append(first + ("   " + ", ".join(notes) if notes else ""))
         for name, errors in robot["estimates"].items():
-            lines.append(f"{'':<12}{name:<12}{'':>11}{'':>11}{errors['final_position_error']:>12.4f}{errors['ate_rmse']:>11.4f}{math.degrees(errors['final_heading_error']):>12.2f}")
+            lines.append(f"{'':<12}{name:<12}{'':>11}{'':>11}{errors['final_position_error']:>12.4f}{errors['ate_rmse']:>11.4f}{math.degrees(errors['final_heading_error']):>12.2f}{_nees(errors):>7}")
     return "\n".join(lines)
 
 

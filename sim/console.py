@@ -4,8 +4,10 @@ import's traceback; from then on `sim.cli.main` handles them."""
 
 from __future__ import annotations
 
+import os
 import signal
 import sys
+import threading
 
 STATUS = {signal.SIGINT: 130, signal.SIGTERM: 143}
 """Exit status by signal while loading: the same as `sim.cli.EXIT_INTERRUPTED` and `EXIT_TERMINATED`."""
@@ -23,4 +25,10 @@ def main() -> int:
 
     for number, handler in previous.items():
         signal.signal(number, handler)
-    return command_line()
+    status = command_line()
+    if any(t.is_alive() and not t.daemon for t in threading.enumerate() if t is not threading.main_thread()):
+        # a controller left a thread running: Python would wait for it; the run is written, so leave
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(status)
+    return status

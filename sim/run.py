@@ -26,10 +26,12 @@ import numpy as np
 from bots.chassis_commands import chassis_setpoints
 from bots.commands import BadCommand, motor_commands, wheel_speeds_for
 from bots.controller import Controller, ControllerStopped, Status, reset
+from bots.estimators import check, name_of
 from bots.odometry import Estimator, default_estimators
-from bots.odometry_batch import ESTIMATES, DefaultOdometry, batched
+from bots.odometry_batch import COVARIANCES, ESTIMATES, DefaultOdometry, batched
 from bots.spec import RobotSpec
 from sim.errors import UserError
+from sim.guards import ControllerBrokeOut, Guard
 from sim.world import World
 from sim.world.chassis_drive import FaultError
 from sim.world.readings import Readings, SensorFrame
@@ -52,6 +54,8 @@ class RobotSetup:
     """The robot's name in logs and recordings (default: its spec's name, numbered after the first)."""
 
 
+_UPPER = (np.array([0, 0, 0, 1, 1, 2]), np.array([0, 1, 2, 1, 2, 2]))
+"""Where a (3, 3) covariance's COVARIANCE_FIELDS entries are."""
 BLOCK = 65536
 """Samples per block when a finished run is read through (metrics, files)."""
 RESIDENT = 8192
@@ -131,9 +135,9 @@ class _Samples:
     it is written (a Ctrl-C half-way leaves the last row uncounted)."""
 
     def __init__(self, sensors: dict[str, np.dtype], batched: int, capacity: int):
-        self.columns = _Columns({"time": row(), "poses": row((batched, 1 + ESTIMATES, 3)), **sensors}, capacity)
+        self.columns = _Columns({"time": row(), "poses": row((batched, 1 + ESTIMATES, 3)), "covariances": row((batched, ESTIMATES, COVARIANCES)), **sensors}, capacity)
         arrays = self.columns.arrays
-        self.time, self.poses = arrays["time"], arrays["poses"]
+        self.time, self.poses, self.covariances = arrays["time"], arrays["poses"], arrays["covariances"]
         self.values, self.believed, self.tallies = arrays["values"], arrays["believed"], arrays["tallies"]
         self.count = 0
         self.frame: SensorFrame | None = None
@@ -142,16 +146,19 @@ class _Samples:
 
 class RobotLog:
     """Everything one robot did in a run, one row per sample (the start of every step, and the
-    end of the run): ground truth and each estimate as (T, 3) arrays, its readings as columns, and
-    the current sample's readings. Rows live in file-backed arrays allocated once for the whole run
+    end of the run): ground truth and each estimate as (T, 3) arrays, each estimate's covariance
+    where it has one as (T, 6) (`bots.uncertainty.COVARIANCE_FIELDS`), its readings as columns,
+    and the current sample's readings. Rows live in file-backed arrays allocated once for the whole run
     (`_Columns`): the run's own (`_Samples`) for a robot with the default estimators, else its own;
     so a long run costs bytes of disk per sample, not a Python object per step, and its resident
     memory stays flat."""
 
     def __init__(self, name: str, spec: RobotSpec, controller_name: str, params: dict[str, str],
-                 estimators: list[str], samples: _Samples, index: int, world: World, slot: int | None = None):  # fmt: skip
+                 estimators: list[str], samples: _Samples, index: int, world: World, slot: int | None = None,
+                 uncertain: Sequence[str] | None = None):  # fmt: skip
         """`index`: the robot's index in the world; `slot`: its row in the batched odometry (None:
-        Python estimators, logged by `append`)."""
+        Python estimators, logged by `append`); `uncertain`: the estimates that have a covariance
+        (None: all)."""
         self.name, self.spec, self.controller_name, self.params = name, spec, controller_name, params
         self.index = index
         self.collisions = 0
@@ -162,15 +169,20 @@ class RobotLog:
         self.notes: dict[str, list] = {}
         """What the run did other than asked (projected infeasible twists): kind -> [first message, count]."""
         self._samples, self._world = samples, world
+        uncertain = list(estimators if uncertain is None else uncertain)
         if slot is None:
-            self._columns: _Columns | None = _Columns({"poses": row((1 + len(estimators), 3))}, len(samples.time))
-            self._poses = self._columns.arrays["poses"]
+            rows = {"poses": row((1 + len(estimators), 3)), "covariances": row((len(uncertain), COVARIANCES))}
+            self._columns: _Columns | None = _Columns(rows, len(samples.time))
+            self._poses, self._covariances = self._columns.arrays["poses"], self._columns.arrays["covariances"]
         else:
             self._columns = None
             self._poses = samples.poses[:, slot, : 1 + len(estimators)]
-        """Per sample: the true pose, then each estimate (one row to write a sample, not one per pose)."""
+            self._covariances = samples.covariances[:, slot, : len(estimators)]
+        """Per sample: the true pose, then each estimate (one row to write a sample, not one per
+        pose); and the covariances of those in `uncertain`."""
         self._truth = self._poses[:, 0]
         self._estimates = {label: self._poses[:, 1 + k] for k, label in enumerate(estimators)}
+        self._uncertain = {label: self._covariances[:, k] for k, label in enumerate(uncertain)}
 
     @property
     def latest(self) -> Readings | None:
@@ -178,13 +190,15 @@ class RobotLog:
         frame = self._samples.frame
         return None if frame is None else frame[self.index]
 
-    def append(self, truth: np.ndarray, estimates: np.ndarray | Sequence[np.ndarray]) -> None:
-        """Log the current sample of a robot with Python estimators: the true pose (3,) and the
-        estimates, (k, 3) or k poses."""
+    def append(self, truth: np.ndarray, estimates: np.ndarray | Sequence[np.ndarray], covariances: Sequence[np.ndarray] = ()) -> None:
+        """Log the current sample of a robot with Python estimators: the true pose (3,), the
+        estimates, (k, 3) or k poses, and the (3, 3) covariances of those with one."""
         n = self._samples.count
         self._truth[n] = truth
         if len(estimates):
             self._poses[n, 1:] = estimates
+        for k, cov in enumerate(covariances):
+            self._covariances[n, k] = cov[_UPPER]
         self._columns.release_written(n + 1)
 
     def release(self, rows: slice) -> None:
@@ -213,6 +227,12 @@ class RobotLog:
         count = self._samples.count
         return {label: poses[:count] for label, poses in self._estimates.items()}
 
+    def covariance_arrays(self) -> dict[str, np.ndarray]:
+        """Estimator name -> (T, 6) covariance entries (COVARIANCE_FIELDS: m², m·rad, rad²) of the
+        estimates that have one (views, no copies)."""
+        count = self._samples.count
+        return {label: values[:count] for label, values in self._uncertain.items()}
+
     def readings(self, rows: slice) -> dict[str, np.ndarray]:
         """This robot's readings of samples `rows` as columns: Readings' field name -> (n, width)
         array (views into the run's columns; not a general chassis's per-wheel fields)."""
@@ -230,6 +250,8 @@ class RunResult:
         self.world, self.seed, self.dt, self.robots = world, seed, dt, robots
         self.reason = "duration"
         self.error: str | None = None
+        self.notes: list[str] = []
+        """What the run's guards put back that a controller had changed (`sim.guards`), once each."""
         self._samples = samples
 
     @property
@@ -278,6 +300,13 @@ class Terminated(KeyboardInterrupt):
 DT_RANGE = (1e-4, 1.0)
 """Steps (s) a run takes: below 0.1 ms a run is millions of steps per simulated minute for nothing
 the motors or sensors resolve; above 1 s a robot crosses a maze cell between two sensor reads."""
+MAX_DURATION = 1e7
+"""Longest run (simulated s, about 116 days): the sweep spec's limit too."""
+
+
+MAX_STEP_TIMEOUT = 86_400.0
+"""Longest wall-clock time limit on a controller step (s): a day; the operating system's timer
+holds no more than about 10^8 s."""
 
 
 class StepTimeout(BaseException):
@@ -296,6 +325,8 @@ class StepClock:
     """The clock of the run going on in this process, if any."""
 
     def __init__(self, limit: float | None):
+        if limit is not None and not (isinstance(limit, (int, float)) and 0 < limit <= MAX_STEP_TIMEOUT):
+            raise RunError(f"the step time limit must be more than 0 and at most {MAX_STEP_TIMEOUT:,.0f} s (a day), got {limit!r}")
         self.limit = limit
         self.busy = 0
         self._seen, self._ticks, self._previous = 0, 0, None
@@ -372,13 +403,17 @@ def run(
         else:
             chosen = setup.estimators if setup.estimators is not None else default_estimators(setup.spec)
             for estimator in chosen:
-                estimator.reset(setup.spec, robot.pose)
+                try:
+                    estimator.reset(setup.spec, robot.pose)
+                except Exception as err:  # a user's estimator that cannot take this robot: the user's choice
+                    raise RunError(f"{robot.name}: estimator {name_of(estimator)!r} could not be reset: {type(err).__name__}: {err}{_last_frame(err)}") from None
             names = [estimator.name for estimator in chosen]
         try:
             reset(setup.controller, setup.spec)
         except ValueError as err:  # a controller that cannot drive this robot (too few sensors): the user's choice
             raise RunError(f"{robot.name}: {err}") from None
-        log = RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params), names, samples, i, world, slot.get(i))
+        uncertain = None if i in slot else [e.name for e in chosen if _has_covariance(e)]
+        log = RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params), names, samples, i, world, slot.get(i), uncertain)
         logs.append(log)
         controllers.append(setup.controller)
         if i not in slot:
@@ -391,8 +426,10 @@ def run(
     commands = np.zeros((len(robots), 2))
     clock = StepClock(step_timeout)
     call = 0
+    guard: Guard | None = None
     try:
         clock.__enter__()
+        guard = Guard().__enter__()
         _notify(observers, "on_start", world, logs)  # inside: Ctrl-C while a recorder opens still ends the run
         samplers = [observer.on_sample for observer in observers if hasattr(observer, "on_sample")]
         drivers = [(i, robot.spec, log, controller) for i, (robot, log, controller) in enumerate(zip(world.robots, logs, controllers))]
@@ -430,15 +467,27 @@ def run(
                     clock.busy = 0
                     raise _Stop(_failure(err, log, step, world.time, step_timeout)) from None
                 commands[i] = motor_commands(left, right, spec)
+            guard.check()
             world.step(commands)
     except _Stop as stop:
         result.reason, result.error = "error", str(stop)
+    except ControllerBrokeOut as broke:
+        result.reason, result.error = "error", f"{_who(logs)} {broke} at step {step} (t = {world.time:.2f} s)"
+    except Exception as err:  # ctsim's own code failing: a ctsim bug, unless a controller replaced what it calls
+        replaced = guard.replaced() if guard is not None else ""
+        if not replaced:
+            raise
+        result.reason = "error"
+        result.error = f"{_who(logs)} replaced {replaced}, and the run failed with {type(err).__name__}: {err} at t = {world.time:.2f} s"
     except KeyboardInterrupt as stop:
         clock.busy = 0
         result.reason = "quit" if isinstance(stop, Quit) else "terminated" if isinstance(stop, Terminated) else "interrupted"
         result.error = None if result.reason == "quit" else f"{result.reason} at t = {world.time:.2f} s"
     finally:
         clock.__exit__()
+        if guard is not None:
+            guard.__exit__()
+            result.notes = list(guard.notes.values())
         for robot, log, controller in zip(world.robots, logs, controllers):
             log.collisions, log.fell = robot.collisions, robot.fallen
             log.status = controller.status.value if isinstance(getattr(controller, "status", None), Status) else None
@@ -448,6 +497,13 @@ def run(
 
 class _Stop(Exception):
     pass
+
+
+def _who(logs: list[RobotLog]) -> str:
+    """The controller(s) of a run, for a line about what one of them did."""
+    if len(logs) == 1:
+        return f"controller {logs[0].controller_name!r} of {logs[0].name}"
+    return f"a controller (of {', '.join(log.name for log in logs[:5])}{', ...' if len(logs) > 5 else ''})"
 
 
 def _failure(err: BaseException, log: RobotLog, step: int, time: float, step_timeout: float | None) -> str:
@@ -469,6 +525,8 @@ def step_count(duration: float, dt: float) -> int:
         raise RunError(f"the step dt must be between {lo:g} and {hi:g} s, got {dt!r}")
     if isinstance(duration, bool) or not isinstance(duration, (int, float)) or not (math.isfinite(duration) and duration >= 0):
         raise RunError(f"duration must be a non-negative number of seconds, got {duration!r}")
+    if duration > MAX_DURATION:
+        raise RunError(f"a duration of {duration:g} s is more than the {MAX_DURATION:g} s (about 116 days) a run may have")
     steps = int(round(duration / dt))
     if steps == 0 and duration > 0:
         raise RunError(f"a duration of {duration:g} s is less than half a step (dt = {dt:g} s): nothing would be simulated")
@@ -512,6 +570,25 @@ def _last_frame(err: BaseException) -> str:
     return f" ({frames[-1].filename}:{frames[-1].lineno})" if frames else ""
 
 
+def _update(estimator: Estimator, readings: Readings, log: RobotLog, step: int) -> None:
+    """Step an estimator; one that raises or leaves a bad pose or covariance ends the run (_Stop),
+    as a controller's error does."""
+    try:
+        estimator.update(readings)
+        problem = check(estimator)
+    except KeyboardInterrupt:
+        raise
+    except BaseException as err:  # the estimator's error (a user's code; sys.exit too)
+        raise _Stop(f"estimator {name_of(estimator)!r} of {log.name} raised {type(err).__name__}: {err} at step {step} (t = {readings.time:.2f} s){_last_frame(err)}") from None
+    if problem is not None:
+        raise _Stop(f"estimator {name_of(estimator)!r} of {log.name} failed at step {step} (t = {readings.time:.2f} s): {problem}")
+
+
+def _has_covariance(estimator: Estimator) -> bool:
+    """Whether an estimator reports a covariance (the Protocol's optional `covariance`)."""
+    return hasattr(type(estimator), "covariance") or hasattr(estimator, "covariance")
+
+
 def _sample(
     world: World, samples: _Samples, logs: list[RobotLog], estimators: list[tuple[int, RobotLog, list[Estimator]]],
     odometry: DefaultOdometry | None,
@@ -522,15 +599,17 @@ def _sample(
     n = samples.count
     time = world.time
     frame = samples.frame = world.read_all((samples.values[n], samples.believed[n], samples.tallies[n]))
+    for array in (frame.tallies, frame.ir_raw, frame.ir_distance, frame.floor, frame.light):
+        array.flags.writeable = False  # (views of the run's recorded rows: a controller must not rewrite them)
     samples.time[n] = time
     poses = world.poses()
     if odometry is not None:
-        odometry.update_into(frame.tallies, time, poses, samples.poses[n])
+        odometry.update_into(frame.tallies, time, poses, samples.poses[n], samples.covariances[n])
     for i, log, chosen in estimators:
         readings = frame[i]
         for estimator in chosen:
-            estimator.update(readings)
-        log.append(poses[i], [estimator.pose for estimator in chosen])
+            _update(estimator, readings, log, n)
+        log.append(poses[i], [estimator.pose for estimator in chosen], [estimator.covariance for estimator in chosen if _has_covariance(estimator)])
     samples.count = n + 1
     samples.columns.release_written(n + 1)
     goals = world.spec.goals

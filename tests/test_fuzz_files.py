@@ -3,7 +3,8 @@ sweep spec) against structured garbage from hypothesis: the right keys with valu
 and size, unknown keys, nesting, broken XML. Whatever comes in, a reader returns its object or
 raises its one user error (`bots.schema.FileError`, `SpecError`); never another exception, never
 a hang (pytest-timeout would stop one and print where). A robot that loads is also put into a
-world: Chipmunk aborted the process on a negative mass once.
+world: Chipmunk aborted the process on a negative mass once. Each test tallies how many of its
+files loaded: a strategy whose files are all refused would test the refusals alone, and fails.
 
 CI runs a short budget; `CTSIM_FUZZ_EXAMPLES=6000 python -m pytest tests/test_fuzz_files.py
 -p no:timeout` runs about ten minutes on one core (2500 took 4.5 minutes: 12,500 files).
@@ -30,7 +31,7 @@ from sim.world.files.toml_format import FIELDS
 
 EXAMPLES = int(os.environ.get("CTSIM_FUZZ_EXAMPLES", "25"))
 # (no shrink phase: shrinking structured garbage took minutes; a failure prints its seed to rerun)
-FUZZ = settings(max_examples=EXAMPLES, deadline=None, phases=[Phase.explicit, Phase.reuse, Phase.generate], suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+FUZZ = settings(max_examples=EXAMPLES, deadline=None, derandomize=True, database=None, phases=[Phase.explicit, Phase.reuse, Phase.generate], suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 
 numbers = st.one_of(
     st.integers(-(2**63), 2**63 - 1), st.floats(), st.sampled_from([0, -1, 1e-300, 1e300, 0.5, 60, 2**40]),
@@ -96,6 +97,18 @@ worlds = st.builds(
 )
 
 
+coordinate = st.floats(-5, 5, allow_subnormal=False)
+size = st.floats(0.001, 2)
+boxes = st.builds(lambda x, y, w, h: [x, y, x + w, y + h], coordinate, coordinate, size, size)
+sound_worlds = st.fixed_dictionaries(
+    {"start": st.lists(st.fixed_dictionaries({"position": st.lists(coordinate, min_size=2, max_size=2)}, optional={"slot": st.integers(0, 5), "heading_deg": st.floats(-360, 360)}), min_size=1, max_size=4), "bounds": st.just([-8, -8, 8, 8])},
+    optional={"wall": st.lists(st.fixed_dictionaries({"box": boxes}), max_size=5), "goal": st.lists(st.fixed_dictionaries({"box": boxes}), max_size=2),
+              "movable": st.lists(st.fixed_dictionaries({"position": st.lists(coordinate, min_size=2, max_size=2)}, optional={"radius": st.floats(0.001, 0.5), "mass": st.floats(0.001, 5)}), max_size=3),
+              "grid": st.fixed_dictionaries({"rows": st.text("#. 012Z*LX|-=~", min_size=1, max_size=40).map(lambda r: r + "1")})},
+)
+"""Worlds made to load (every value in its range), so that the checks after loading run too."""
+
+
 def robot_fields() -> dict:
     from bots.schema import schema_of
     from bots.spec import IRSensorSpec, LightSensorSpec, MotorSpec, RobotSpec
@@ -125,25 +138,58 @@ def empty_world():
     return load_world("empty")
 
 
-def loaded(path: Path, text: str, load, error: type[Exception] = FileError):
-    """`load(path)` of `text` written there, or None when it refuses the file with one line that
-    starts with its name; any other exception fails the test."""
-    path.write_text(text, encoding="utf-8")
-    try:
-        return load(path)
-    except error as err:
-        assert str(err).startswith(str(path)) and "\n" not in str(err)
-        return None
+LEAST_LOADED = 0.2
+"""Least share of a strategy's files that must load: a strategy that only ever produces refused
+files would test the refusals alone (the examples are derandomized, so the share is fixed)."""
 
 
-@FUZZ
-@given(data=worlds)
-def test_world_files_load_or_say_what_is_wrong(tmp_path_factory, data):
-    world = loaded(tmp_path_factory.mktemp("w") / "fuzz.toml", toml_text(data), load_world)
-    if world is not None:
-        world_warnings(world)
+class Tally:
+    """How many of a strategy's files loaded and how many were refused."""
+
+    def __init__(self) -> None:
+        self.loads = self.refused = 0
+
+    def loaded(self, path: Path, text: str, load, error: type[Exception] = FileError):
+        """`load(path)` of `text` written there, or None when it refuses the file with one line
+        that starts with its name; any other exception fails the test."""
+        path.write_text(text, encoding="utf-8")
+        try:
+            made = load(path)
+        except error as err:
+            assert str(err).startswith(str(path)) and "\n" not in str(err)
+            self.refused += 1
+            return None
+        self.loads += 1
+        return made
+
+    def check(self) -> None:
+        total = self.loads + self.refused
+        assert total >= EXAMPLES // 2, f"only {total} files were generated"
+        assert self.loads >= LEAST_LOADED * total, f"{self.loads} of {total} generated files loaded (at least {LEAST_LOADED:.0%} must)"
 
 
+def test_world_files_load_or_say_what_is_wrong(tmp_path_factory):
+    tally = Tally()
+
+    @FUZZ
+    @given(data=st.one_of(worlds, sound_worlds, sound_worlds))
+    def one(data):
+        world = tally.loaded(tmp_path_factory.mktemp("w") / "fuzz.toml", toml_text(data), load_world)
+        if world is not None:
+            world_warnings(world)
+
+    one()
+    tally.check()
+
+
+xml_safe = st.text(st.characters(blacklist_characters="<>&", blacklist_categories=("Cs", "Cc")), max_size=20)
+sound_xml = st.builds(
+    lambda rows, extra: f'<?xml version="1.0"?>\n<world><description>{extra}</description><parcours>'
+    + "".join(f"<line>{row}</line>" for row in rows) + "</parcours></world>",
+    st.lists(st.text("#. 012Z*LX|-=~o", min_size=1, max_size=30), min_size=1, max_size=12).map(lambda rows: [*rows, "1"]),
+    xml_safe,
+)
+"""Parcours made to load: known tiles, a start tile, text without markup."""
 xml_text = st.builds(
     lambda rows, extra, optics: f'<?xml version="1.0"?>\n<world><description>{extra}</description><parcours>'
     + "".join(f"<line>{row}</line>" for row in rows) + f"</parcours>{optics}</world>",
@@ -154,26 +200,53 @@ xml_text = st.builds(
 )
 
 
-@FUZZ
-@given(text=st.one_of(xml_text, xml_text.map(lambda t: t[: len(t) // 2]), st.text(max_size=200)))
-def test_parcours_files_load_or_say_what_is_wrong(tmp_path_factory, text):
-    world = loaded(tmp_path_factory.mktemp("x") / "fuzz.xml", text, load_world)
-    if world is not None:
-        world_warnings(world)
+def test_parcours_files_load_or_say_what_is_wrong(tmp_path_factory):
+    tally = Tally()
+
+    @FUZZ
+    @given(text=st.one_of(xml_text, xml_text.map(lambda t: t[: len(t) // 2]), st.text(max_size=200), sound_xml, sound_xml))
+    def one(text):
+        world = tally.loaded(tmp_path_factory.mktemp("x") / "fuzz.xml", text, load_world)
+        if world is not None:
+            world_warnings(world)
+
+    one()
+    tally.check()
 
 
-@FUZZ
-@given(data=robots)
-def test_robot_files_load_or_say_what_is_wrong_and_a_loaded_robot_enters_a_world(tmp_path_factory, empty_world, data):
-    robot = loaded(tmp_path_factory.mktemp("r") / "fuzz.toml", toml_text(data), load_robot)
-    if robot is not None:
-        World(empty_world).add_robot(robot)
+def test_robot_files_load_or_say_what_is_wrong_and_a_loaded_robot_enters_a_world(tmp_path_factory, empty_world):
+    tally = Tally()
+
+    @FUZZ
+    @given(data=robots)
+    def one(data):
+        robot = tally.loaded(tmp_path_factory.mktemp("r") / "fuzz.toml", toml_text(data), load_robot)
+        if robot is not None:
+            World(empty_world).add_robot(robot)
+
+    one()
+    tally.check()
 
 
-@FUZZ
-@given(data=sweeps)
-def test_sweep_specs_load_or_say_what_is_wrong(tmp_path_factory, data):
-    loaded(tmp_path_factory.mktemp("s") / "fuzz.toml", toml_text(data), load_sweep, SpecError)
+def test_sweep_specs_load_or_say_what_is_wrong(tmp_path_factory):
+    tally = Tally()
+
+    @FUZZ
+    @given(data=sweeps)
+    def one(data):
+        tally.loaded(tmp_path_factory.mktemp("s") / "fuzz.toml", toml_text(data), load_sweep, SpecError)
+
+    one()
+    tally.check()
+
+
+def test_a_strategy_of_refused_files_alone_fails_the_tally(tmp_path):
+    """The tally's own check: files that are all refused do not pass as a fuzz test."""
+    tally = Tally()
+    for k in range(EXAMPLES):
+        tally.loaded(tmp_path / f"bad{k}.toml", "x = [", load_robot)
+    with pytest.raises(AssertionError, match=f"0 of {EXAMPLES} generated files loaded"):
+        tally.check()
 
 
 def test_the_fuzz_text_is_toml_for_every_kind_of_value(tmp_path):

@@ -12,7 +12,8 @@ from pathlib import Path
 
 import pytest
 
-from sim.cli import LOCK, main
+from sim.cli import main
+from sim.folder_lock import LOCK
 from sim.experiments import Serial, load_results, sweep
 
 STOPS_ONCE = '''
@@ -190,7 +191,7 @@ def test_a_folder_in_use_by_another_run_is_refused(tmp_path, capsys):
 
     (tmp_path / "out").mkdir()
     with open(tmp_path / "out" / LOCK, "w") as held:  # another run holds it
-        held.write("4242\n")
+        held.write("4242 run\n")
         held.flush()
         fcntl.flock(held, fcntl.LOCK_EX)
         assert run_cli("--controller", "square", "--out", str(tmp_path / "out")) == 2
@@ -286,9 +287,9 @@ ROBOT = 'name = "b"\nwheel_diameter = 0.0567\ntrack_width = 0.0972\nbody_radius 
 @pytest.mark.parametrize(
     ("text", "line", "message"),
     [
-        (ROBOT + "mass = -1\n", 5, "mass: must be a number (kg) greater than 0 and at most 1,000, not -1"),
-        (ROBOT + "mass = nan\n", 5, "mass: must be a number (kg) greater than 0"),
-        (ROBOT + "mass = 0\n", 5, "mass: must be a number (kg) greater than 0"),
+        (ROBOT + "mass = -1\n", 5, "mass: must be a number (kg) at least 0.001 and at most 1,000, not -1"),
+        (ROBOT + "mass = nan\n", 5, "mass: must be a number (kg) at least 0.001"),
+        (ROBOT + "mass = 0\n", 5, "mass: must be a number (kg) at least 0.001"),
         (ROBOT + 'mass = "x"\n', 5, "mass: must be a number (kg)"),
         (ROBOT + "[encoders]\nticks_per_rev = 0\n", 6, "[encoders]: ticks_per_rev: must be a whole number (ticks) at least 1"),
         (ROBOT + "[encoders]\nticks_per_rev = -60\n", 6, "ticks_per_rev: must be a whole number (ticks) at least 1"),
@@ -296,10 +297,10 @@ ROBOT = 'name = "b"\nwheel_diameter = 0.0567\ntrack_width = 0.0972\nbody_radius 
         (ROBOT + '[[ir]]\nname = "i"\nposition = [0.05, 0]\nside = "up"\n', 8, "[[ir]] #1: side: must be one of 'left', 'right', not 'up'"),
         (ROBOT + '[[ir]]\nname = "i"\nposition = [0.05]\n', 7, "[[ir]] #1: position: must be a list of 2 numbers (m)"),
         (ROBOT + '[[ir]]\nname = "i"\nposition = [50, 0]\n', 7, "at least -2 and at most 2, not [50, 0]"),
-        (ROBOT.replace("0.0567", "true"), 2, "wheel_diameter: must be a number (m) greater than 0 and at most 2, not true"),
+        (ROBOT.replace("0.0567", "true"), 2, "wheel_diameter: must be a number (m) at least 0.001 and at most 2, not true"),
         (ROBOT + "[motor]\nmax_wheel_speed = -15.8\n", 6, "[motor]: max_wheel_speed: must be a number (rad/s) greater than 0"),
         (ROBOT + "[motor]\ntime_constant = -0.1\n", 6, "[motor]: time_constant: must be a number (s) at least 0"),
-        (ROBOT.replace("body_radius = 0.06", "body_radius = 20"), 4, "body_radius: must be a number (m) greater than 0 and at most 2, not 20"),
+        (ROBOT.replace("body_radius = 0.06", "body_radius = 20"), 4, "body_radius: must be a number (m) at least 0.001 and at most 2, not 20"),
         (ROBOT + "skid = [1, 2, 3]\n", 5, "skid: must be a list of 2 numbers (m)"),
     ],
 )

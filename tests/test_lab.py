@@ -91,7 +91,7 @@ def test_bad_student_code_fails_with_a_clear_message_and_leaks_nothing_hidden(tm
 
 def test_hidden_scenarios_differ_by_seed_and_repeat_with_it() -> None:
     ex = exercise(1)
-    params = lambda seed: [s.params for s in ex.scenarios(seed) if s.hidden]  # noqa: E731
+    params = lambda seed: [s.params for s in ex.scenarios(seed) if s.hidden]
     assert params(1) == params(1)
     assert params(1) != params(2)
 
@@ -177,7 +177,7 @@ def test_without_bubblewrap_grading_refuses_unless_degraded_and_then_says_so_eve
     from sim.lab import grading
     from sim.sandbox import SandboxUnavailable, launch
 
-    missing = lambda: "bubblewrap (bwrap) is not installed"  # noqa: E731  (as on a machine without it)
+    missing = lambda: "bubblewrap (bwrap) is not installed"
     monkeypatch.setattr(launch, "unavailable", missing)
     monkeypatch.setattr(grading, "unavailable", missing)
     folder = tmp_path / "subs"
@@ -234,3 +234,50 @@ def test_the_teacher_s_files_carry_hidden_values_and_unrounded_scores(tmp_path: 
     failures = [case.find("failure").text for case in ET.parse(tmp_path / "out" / "junit.xml").getroot().iter("testcase")
                 if case.get("name").startswith("hidden") and case.find("failure") is not None]  # fmt: skip
     assert failures and all("expected: (" in text and "got: (" in text for text in failures)
+
+
+def test_a_folder_of_notebooks_and_files_is_graded_alike(tmp_path: Path) -> None:
+    from sim.lab.notebook import write_notebook
+
+    folder = tmp_path / "subs"
+    folder.mkdir()
+    path = write_notebook(exercise(2), tmp_path)
+    document = json.loads(path.read_text())
+    solution = next(c for c in document["cells"] if "solution" in c["metadata"].get("tags", []))
+    solution["source"] = "%%writefile forward.py\n" + (SOLUTIONS / "ex2" / "reference.py").read_text()
+    (folder / "nora.ipynb").write_text(json.dumps(document))
+    (folder / "nora.py").write_text((SOLUTIONS / "ex2" / "euler.py").read_text())
+    (folder / "olaf.ipynb").write_text('{"cells": [}')
+    grade(quick(2), folder, tmp_path / "out", seed=SEED)
+    rows = {r["student"]: r for r in csv.DictReader((tmp_path / "out" / "grades.csv").open())}
+    assert rows["nora.ipynb"]["score"] == "10" and rows["nora.py"]["score"] != "10"
+    assert rows["olaf"]["score"] == "0" and "not a notebook (not JSON" in rows["olaf"]["first_problem"]
+
+
+def test_every_problem_has_a_hint_of_its_own_in_both_languages() -> None:
+    shared = shared_hints()
+    for kind in ("load", "raised", "timeout", "crash", "forbidden", "type", "shape", "nan", "wrong", "budget", "protocol", "output", "memory"):
+        assert set(shared[kind]) == {"en", "de"} and all(len(text.split()) > 5 for text in shared[kind].values()), kind
+
+
+def test_german_sheets_command_with_lang_after_the_file_is_taken(tmp_path: Path, capsys) -> None:
+    path = tmp_path / "forward.py"
+    path.write_text((SOLUTIONS / "ex2" / "reference.py").read_text())
+    assert main(["lab", "check", "2", str(path), "--lang", "de", "--out", str(tmp_path / "out")]) == 0
+    printed = capsys.readouterr().out
+    assert "Viertelkreis" in printed and "verdeckt 1" in printed and "(verdeckt)" in printed and "Punkte: 10/10" in printed
+
+
+def test_grading_without_a_seed_draws_a_fresh_one_each_time(tmp_path: Path) -> None:
+    folder = tmp_path / "subs"
+    folder.mkdir()
+    (folder / "alice.py").write_text((SOLUTIONS / "ex1" / "reference.py").read_text())
+    seeds = {grade(quick(1), folder, tmp_path / f"out{i}")[0][0].seed for i in range(2)}
+    assert len(seeds) == 2  # 32 random bits each: the same twice once in four billion
+
+
+def test_lab_help_lists_the_lab_s_own_exit_statuses(capsys) -> None:
+    with pytest.raises(SystemExit):
+        main(["lab", "--help"])
+    printed = capsys.readouterr().out
+    assert "every submission graded" in printed and "a scenario failed" in printed and "controller raised" not in printed

@@ -225,7 +225,7 @@ def graded(tmp_path_factory) -> Graded:
     hangs, _, _ = _grade_by_cli(["lab", "--exercises", short, "grade", "93", str(root / "hangs"), "--out", str(root / "teacher" / "hangs"), *common])
     rows = {r["student"].removeprefix("'"): r for r in csv.DictReader((root / "teacher" / "grades" / "grades.csv").open(encoding="utf-8"))}
     rows |= {r["student"]: r for r in csv.DictReader((root / "teacher" / "hangs" / "grades.csv").open(encoding="utf-8")) if r["student"] in HANGS}
-    by_name = lambda found: {Path(r.file).parent.name: r for r in found}  # noqa: E731
+    by_name = lambda found: {Path(r.file).parent.name: r for r in found}
     reports = by_name(reports) | {k: v for k, v in by_name(hangs).items() if k in HANGS}
     return Graded(root, reports, by_name(alone), rows, files, printed, status)
 

@@ -14,7 +14,7 @@ ROOT = Path(__file__).resolve().parents[1]
 CORE = ("sim.kinematics",)
 BOTS = CORE + ("bots", "sim.world.readings")
 WORLD = CORE + ("sim.world", "bots.spec", "bots.ctbot", "bots.schema")
-RUN = WORLD + ("bots", "sim.run")
+RUN = WORLD + ("bots", "sim.run", "sim.guards")
 ANALYSIS = RUN + ("sim.analysis",)
 VIEWS = ANALYSIS + ("sim.views",)
 SANDBOX = VIEWS + ("sim.sandbox",)  # DESIGN.md §2: untrusted code isolated; the lab and contests use it
@@ -26,6 +26,7 @@ RULES = (
     ("bots", BOTS),
     ("sim.world", WORLD),
     ("sim.run", RUN),
+    ("sim.guards", ()),
     ("sim.analysis", ANALYSIS),
     ("sim.views", VIEWS),
     ("sim.bridge", CAPABILITIES),
@@ -38,10 +39,11 @@ RULES = (
     ("sim.console", ("sim.cli",)),
     ("sim.errors", ()),
     ("sim.sanitize", ()),
+    ("sim.folder_lock", ()),
 )
-# the bare package (its version and location) and two leaves any layer may use: the user-error base
-# and the making safe of text from outside
-EVERYONE = ("sim", "sim.errors", "sim.sanitize")
+# the bare package (its version and location) and three leaves any layer may use: the user-error
+# base, the making safe of text from outside and the lock of an output folder
+EVERYONE = ("sim", "sim.errors", "sim.sanitize", "sim.folder_lock")
 
 
 def within(name: str, prefix: str) -> bool:

@@ -180,7 +180,7 @@ def test_default_estimators_follow_the_sensors():
     assert [e.name for e in default_estimators(on_axle)] == ["encoders", "firmware"]
     with pytest.raises(ValueError, match="no mouse"):
         MouseOdometry().reset(CTBOT.with_changes(mouse=None), np.zeros(3))
-    with pytest.raises(ValueError, match="slip"):
+    with pytest.raises(ValueError, match="ekf"):
         FusedOdometry("average")
 
 

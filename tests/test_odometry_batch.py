@@ -76,8 +76,8 @@ def robots_and_steps(draw):
 @settings(max_examples=200)
 @given(robots_and_steps(), st.permutations(range(5)))
 def test_batch_steps_as_the_python_estimators(case, order):
-    """Random robots and readings: every estimate, the fused estimator's state and its contact
-    count equal the Python estimators' after every step."""
+    """Random robots and readings: every estimate and its error covariance, the fused estimator's
+    state, calibration and contact count equal the Python estimators' after every step."""
     robots, starts, times, steps = case
     n = len(robots)
     rows = [r for r in order if r < n + 1][:n]  # each robot's row in the tallies, shuffled
@@ -99,13 +99,14 @@ def test_batch_steps_as_the_python_estimators(case, order):
                 estimator.update(readings)
             estimates = batch.rows_of(k)
             assert len(estimates) == len(chosen)
-            for estimator, estimate in zip(chosen, estimates):
+            for j, (estimator, estimate) in enumerate(zip(chosen, estimates)):
                 assert estimate.tolist() == estimator.pose.tolist(), estimator.name
+                assert batch.errors[k, j].tolist() == estimator.errors.tolist(), estimator.name
             if len(chosen) == 4:
                 fused = chosen[3]
-                state = batch.state[k].tolist()
-                assert state[:4] == [fused.disagreement, fused.turn_disagreement, fused.taken, fused.turning]
-                assert state[4] == fused.time and batch.contact_steps[k] == fused.contact_steps
+                assert batch.state[k].tolist() == fused.state.tolist(), "the detectors' state"
+                assert batch.calibration[k].tolist() == fused.calibration.tolist()
+                assert batch.contact_steps[k] == fused.contact_steps
 
 
 def test_general_chassis_stays_with_the_python_estimators():

@@ -111,7 +111,13 @@ def test_view_refuses_with_one_line(run_dir, tmp_path, capsys):
     older.write_bytes(recording[:4] + bytes([0, 15, 0, 0]) + recording[8:])
     text = tmp_path / "notes.rrd"
     text.write_text("not a recording\n")
+    header = tmp_path / "header.rrd"
+    header.write_bytes(recording[:12])  # the stream header alone: a run killed before it recorded
+    cut = tmp_path / "cut.rrd"
+    cut.write_bytes(recording[:40])
     cases = {
+        header: "a recording with no data in it",
+        cut: "a recording with no data in it",
         tmp_path / "nothing": "no such run",
         tmp_path: "no run.rrd in this folder",
         newer: "recorded by rerun 0.99.0, newer than rerun 0.41",

@@ -98,9 +98,9 @@ def test_bad_robot_toml_names_the_file_and_the_key(tmp_path, text, where, key):
 @pytest.mark.parametrize(
     ("changes", "problem"),
     [
-        ({"wheel_diameter": -0.05}, "wheel_diameter: must be a number \\(m\\) greater than 0"),
-        ({"wheel_diameter": math.nan}, "wheel_diameter: must be a number \\(m\\) greater than 0"),
-        ({"body_radius": 0.0}, "body_radius: must be a number \\(m\\) greater than 0"),
+        ({"wheel_diameter": -0.05}, "wheel_diameter: must be a number \\(m\\) at least 0.001"),
+        ({"wheel_diameter": math.nan}, "wheel_diameter: must be a number \\(m\\) at least 0.001"),
+        ({"body_radius": 0.0}, "body_radius: must be a number \\(m\\) at least 0.001"),
         ({"track_width": 0.15}, "track_width: 0.15 m is wider than the body"),
     ],
 )

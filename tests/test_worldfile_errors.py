@@ -40,8 +40,8 @@ def _error(tmp_path: Path, text: str, suffix: str = ".toml") -> WorldFileError:
         # numbers and types
         (START + "[[light]]\nposition = [nan, 1]\n", 4, "at most 10,000, not [nan, 1]"),
         (START + "[[movable]]\nposition = [1, 1]\nradius = inf\n", 5, "at most 10, not inf"),
-        (START + "[[wall]]\nfrom = [0, 0]\nto = [1, 0]\nthickness = 'thin'\n", 6, "must be a number (m) greater than 0 and at most 10, not 'thin'"),
-        (START + "[[wall]]\nfrom = [0, 0]\nto = [1, 0]\nthickness = -0.1\n", 6, "greater than 0 and at most 10, not -0.1"),
+        (START + "[[wall]]\nfrom = [0, 0]\nto = [1, 0]\nthickness = 'thin'\n", 6, "must be a number (m) at least 0.001 and at most 10, not 'thin'"),
+        (START + "[[wall]]\nfrom = [0, 0]\nto = [1, 0]\nthickness = -0.1\n", 6, "at least 0.001 and at most 10, not -0.1"),
         (START + "[[floor]]\nbox = [0, 0, 1, 1]\ncolour = 'white'\n", 5, 'must be a colour like "#a0b0c0"'),
         (START + "[[floor]]\nbox = [0, 0, 1, 1]\n", 3, "missing `colour`"),
         ("[[start]]\nposition = [0.5, true]\n", 2, "must be a list of 2 numbers (m)"),

@@ -19,6 +19,8 @@ from typing import BinaryIO
 
 import numpy as np
 
+from bots.schema import file_stem
+from bots.uncertainty import COVARIANCE_FIELDS
 from sim.errors import UserError
 
 FILE_ROWS = 8192
@@ -109,26 +111,44 @@ def write_run(result, directory: str | Path, prefix: bool = True, with_csv: bool
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     tracks = [(log.name, label, poses) for log in result.robots for label, poses in {"truth": log.truth_array(), **log.estimate_arrays()}.items()]
-    stems = [directory / (f"{robot}_{label}" if prefix else label) for robot, label, _ in tracks]
-    with ExitStack() as stack:
-        tum = [stack.enter_context(open(f"{stem}.tum", "wb")) for stem in stems]
-        tables = [stack.enter_context(open(f"{stem}.csv", "wb")) for stem in stems] if with_csv else []
-        for handle in tum:
-            handle.write(TUM_HEADER.encode())
-        for table in tables:
-            table.write(_csv_header(["t", "x", "y", "theta"]))
-        for rows in result.blocks(FILE_ROWS):
-            picked = sampled(rows, len(result), every)
-            times = result.time[picked]
-            for k, (_, _, poses) in enumerate(tracks):
-                chosen = poses[picked]
-                _tum_rows(tum[k], times, chosen)
-                if with_csv:
-                    _numbers(tables[k], [times, *chosen.T], ",")
+    stems = [directory / stem for stem in _stems([f"{file_stem(robot)}_{file_stem(label)}" if prefix else file_stem(label) for robot, label, _ in tracks])]
+    per_group = max(1, MOST_OPEN // (2 if with_csv else 1))
+    for first in range(0, len(tracks), per_group):  # (a group's files open at once: at most MOST_OPEN handles)
+        group = range(first, min(first + per_group, len(tracks)))
+        with ExitStack() as stack:
+            tum = [stack.enter_context(open(f"{stems[k]}.tum", "wb")) for k in group]
+            tables = [stack.enter_context(open(f"{stems[k]}.csv", "wb")) for k in group] if with_csv else []
+            for handle in tum:
+                handle.write(TUM_HEADER.encode())
+            for table in tables:
+                table.write(_csv_header(["t", "x", "y", "theta"]))
+            for rows in result.blocks(FILE_ROWS):
+                picked = sampled(rows, len(result), every)
+                times = result.time[picked]
+                for j, k in enumerate(group):
+                    chosen = tracks[k][2][picked]
+                    _tum_rows(tum[j], times, chosen)
+                    if with_csv:
+                        _numbers(tables[j], [times, *chosen.T], ",")
     written: dict[str, dict[str, Path]] = {}
     for (robot, label, _), stem in zip(tracks, stems):
         written.setdefault(robot, {})[label] = Path(f"{stem}.tum")
     return written
+
+
+MOST_OPEN = 64
+"""Most trajectory files `write_run` holds open at once: a run of 120 robots writes 1,200, more
+than a `ulimit -n` of 1,024 allows; groups of files are written one after another."""
+
+
+def _stems(stems: list[str]) -> list[str]:
+    """The file stems, made distinct where two names came out alike (`a b` and `a_b`): -2, -3, ..."""
+    seen: dict[str, int] = {}
+    distinct = []
+    for stem in stems:
+        seen[stem] = seen.get(stem, 0) + 1
+        distinct.append(stem if seen[stem] == 1 else f"{stem}-{seen[stem]}")
+    return distinct
 
 
 def sampled(rows: slice, total: int, every: int) -> np.ndarray | slice:
@@ -144,8 +164,9 @@ def sampled(rows: slice, total: int, every: int) -> np.ndarray | slice:
 
 def write_parquet(result, path: str | Path) -> Path:  # noqa: ANN001 (sim.run.RunResult)
     """Every sample of a run as one Parquet table, a row per sample, written block by block:
-    `time` (s); per robot `<robot>.<label>.x|y|theta` (m, rad) of the truth and each estimate;
-    and its readings `<robot>.<field>.<channel>` in the devices' units (`Readings`: encoder
+    `time` (s); per robot `<robot>.<label>.x|y|theta` (m, rad) of the truth and each estimate,
+    `<robot>.<label>.cov_xx|cov_xy|cov_xt|cov_yy|cov_yt|cov_tt` (m², m·rad, rad²) of each
+    estimate that has a covariance; and its readings `<robot>.<field>.<channel>` in the devices' units (`Readings`: encoder
     ticks and mouse counts of the step, raw IR, IR distance m, line, border, light; a general
     chassis's per-wheel readings are in the recording only)."""
     import pyarrow as pa
@@ -160,6 +181,9 @@ def write_parquet(result, path: str | Path) -> Path:  # noqa: ANN001 (sim.run.Ru
                 for label, poses in {"truth": log.truth_array(), **log.estimate_arrays()}.items():
                     for k, axis in enumerate(("x", "y", "theta")):
                         columns[f"{log.name}.{label}.{axis}"] = poses[rows, k]
+                for label, entries in log.covariance_arrays().items():
+                    for k, entry in enumerate(COVARIANCE_FIELDS):
+                        columns[f"{log.name}.{label}.{entry}"] = entries[rows, k]
                 if log.spec.chassis is None:
                     for name, values in log.readings(rows).items():
                         for channel, column in zip(_channels(log.spec, name), values.T):

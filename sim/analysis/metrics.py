@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from sim.analysis.nees import nees
 from sim.kinematics import relative_increment, wrap_angle
 
 RPE_SPACING = 0.01
@@ -89,6 +90,9 @@ class Metrics:
         every RPE_SPACING of path, per metre (nan when the path is shorter than 1 m).
     heading_drift_per_metre, heading_drift_per_minute: |final heading error| over the path length
         (rad/m) and over the duration (rad/min).
+    nees_mean, nees_final: the normalised estimation error squared (`sim.analysis.nees`) averaged
+        over all samples and at the last one (nan for an estimate without a covariance); a
+        consistent estimator's is 3 on average over runs.
     """
 
     final_position_error: float
@@ -101,6 +105,8 @@ class Metrics:
     rpe_per_metre: float
     heading_drift_per_metre: float
     heading_drift_per_minute: float
+    nees_mean: float = math.nan
+    nees_final: float = math.nan
 
 
 def _ratio(value: float, scale: float) -> float:
@@ -120,9 +126,11 @@ class Comparison:
         self._count = 0
         self._sum_squares = self._max = 0.0
         self._rpe_squares, self._rpe_count = 0.0, 0
+        self._nees_sum, self._nees_last = 0.0, math.nan
 
-    def add(self, times: np.ndarray, truth: np.ndarray, estimate: np.ndarray) -> None:
-        """The next samples: (n,) times and (n, 3) poses of both."""
+    def add(self, times: np.ndarray, truth: np.ndarray, estimate: np.ndarray, covariance: np.ndarray | None = None) -> None:
+        """The next samples: (n,) times and (n, 3) poses of both, and the estimate's (n, 6)
+        covariance entries where it has them."""
         if truth.shape != estimate.shape or truth.ndim != 2 or truth.shape[1] != 3 or len(times) != len(truth):
             raise ValueError(f"expected truth and estimate of the same shape (T, 3) and T times, got {truth.shape}, {estimate.shape}, {times.shape}")
         if not len(truth):
@@ -139,6 +147,10 @@ class Comparison:
         self._rpe_count += len(rpe)
         self._driven, self._last_time = float(driven[-1]), float(times[-1])
         self._last_truth, self._last_estimate = truth[-1:].copy(), estimate[-1:].copy()
+        if covariance is not None:
+            normalised = nees(truth, estimate, covariance)
+            self._nees_sum += float(np.sum(normalised))
+            self._nees_last = float(normalised[-1])
 
     def metrics(self) -> Metrics:
         """The metrics of everything added so far."""
@@ -158,6 +170,8 @@ class Comparison:
             rpe_per_metre=math.sqrt(self._rpe_squares / self._rpe_count) / self.segment if self._rpe_count else math.nan,
             heading_drift_per_metre=_ratio(abs(heading), length),
             heading_drift_per_minute=_ratio(abs(heading), duration / 60.0),
+            nees_mean=self._nees_sum / self._count if math.isfinite(self._nees_last) else math.nan,
+            nees_final=self._nees_last,
         )
 
 
@@ -179,8 +193,10 @@ def compare_run(result) -> dict[str, dict[str, Metrics]]:  # noqa: ANN001 (sim.r
         times = result.time[rows]
         for log in result.robots:
             truth = log.truth_array()[rows]
+            covariances = log.covariance_arrays()
             for name, poses in log.estimate_arrays().items():
-                comparisons[log.name][name].add(times, truth, poses[rows])
+                covariance = covariances[name][rows] if name in covariances else None
+                comparisons[log.name][name].add(times, truth, poses[rows], covariance)
     return {robot: {name: c.metrics() for name, c in by_name.items()} for robot, by_name in comparisons.items()}
 
 

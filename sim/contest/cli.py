@@ -10,6 +10,7 @@ from sim.contest.bracket import write_html, write_png
 from sim.contest.conductor import ContestError, Settings, conduct
 from sim.contest.entries import EntryError, parse
 from sim.contest.ranking import ranking, table, write_csv
+from sim.folder_lock import held
 
 EXIT_FAILED = 1
 
@@ -50,14 +51,20 @@ def contest_command(args: argparse.Namespace) -> int:
     out = args.out or Path("runs") / f"contest-{Path(world).stem}"
     settings = Settings(world, prelim, args.time_limit, args.seed, args.dt)
     runner = engine(args.engine, args.jobs, args.scheduler)
-    print(f"ctsim contest: {len(entries)} entries in {out} (run the same command again to resume after an interruption)", file=sys.stderr, flush=True)
+    try:
+        with held(out, "contest"):  # (a second contest into `out` would play every game twice)
+            print(f"ctsim contest: {len(entries)} entries in {out} (run the same command again to resume after an interruption)", file=sys.stderr, flush=True)
+            return _play(settings, entries, out, runner, args)
+    finally:
+        runner.close()
+
+
+def _play(settings: Settings, entries: list, out: Path, runner, args: argparse.Namespace) -> int:  # noqa: ANN001 (an engine)
     try:
         store = conduct(settings, entries, out, runner, record=not args.no_record)
     except ContestError as err:
         print(f"ctsim: error: {err}", file=sys.stderr)
         return EXIT_FAILED
-    finally:
-        runner.close()
     rows = ranking(store)
     print(table(rows))
     written = [write_csv(rows, out / "ranking.csv"), write_png(store, out / "bracket.png"), write_html(store, out / "bracket.html", rows)]

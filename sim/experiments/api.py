@@ -118,7 +118,9 @@ def _text(value: Any) -> str:
 
 @dataclass
 class RobotResult:
-    """One robot's run: trajectories as numpy arrays and odometry metrics per estimator."""
+    """One robot's run: trajectories as numpy arrays and odometry metrics per estimator;
+    `covariances` the (T, 6) covariance entries (`bots.uncertainty.COVARIANCE_FIELDS`) of the
+    estimates that have one."""
 
     name: str
     controller: str
@@ -128,6 +130,7 @@ class RobotResult:
     collisions: int
     fell: bool
     goal_time: float | None
+    covariances: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
     def distance(self) -> float:
@@ -190,6 +193,7 @@ def result_of(raw: RunResult) -> Result:
             collisions=log.collisions,
             fell=log.fell,
             goal_time=log.goal_time,
+            covariances=log.covariance_arrays(),
         )
         for log in raw.robots
     ]
@@ -209,11 +213,16 @@ def simulate(
     live: bool = False,
     observers: Iterable = (),
     step_timeout: float | None = None,
+    estimators: Iterable[Any] = (),
 ) -> Result:
     """Run `bots` and `robots` (Bots or lists of them; default: one c't-Bot solving the maze) in a
     world for `duration` seconds of simulated time, or until one reaches a goal, every Bot with
     the `noise` preset unless it names its own; `record` writes a rerun recording there; a
     controller step longer than `step_timeout` seconds (wall clock) ends the run as its error.
+    `estimators`: your own (classes, factories, estimator objects or "FILE.py:Class", as
+    `bots.estimators.made` takes them): every robot without estimators of its own gets a fresh
+    one of each beside its defaults, in every output; one that fails a step ends the run as a
+    controller's error does.
     `ctsim run` is this call: `--robots 3` is `robots=[Bot()] * 3`."""
     if not (math.isfinite(dt) and dt > 0):
         raise UserError(f"dt must be a positive number of seconds, got {dt!r}")
@@ -223,6 +232,11 @@ def simulate(
         if not isinstance(b, Bot | RobotSetup):
             raise TypeError(f"simulate: a robot is a Bot or a RobotSetup, got {type(b).__name__}: {b!r}")
     setups = [b.setup(noise) if isinstance(b, Bot) else b for b in (given or [Bot()])]
+    extra = list(estimators)
+    if extra:
+        from bots.estimators import alongside
+
+        setups = [replace(s, estimators=alongside(s.spec, extra)) if s.estimators is None else s for s in setups]
     watchers = list(observers)
     if record is not None or live:
         from sim.views.recording import Recorder

@@ -30,7 +30,7 @@ import numpy as np
 from bots.schema import Field, Problem
 from bots.spec import read_toml
 from sim.errors import UserError
-from sim.run import DT_RANGE
+from sim.run import DT_RANGE, MAX_DURATION
 
 DEFAULTS: dict[str, Any] = {
     "world": "maze",
@@ -53,7 +53,7 @@ MAX_RUNS = 100_000
 SEED = Field("integer", "", 0, 2**63 - 1)
 SETTINGS: dict[str, Field] = {
     "world": Field("text"), "controller": Field("text"), "robot": Field("text"), "seed": SEED,
-    "duration": Field("number", "s", 0.0, 1e7), "dt": Field("number", "s", *DT_RANGE), "until_goal": Field("boolean"),
+    "duration": Field("number", "s", 0.0, MAX_DURATION), "dt": Field("number", "s", *DT_RANGE), "until_goal": Field("boolean"),
 }
 """Every run setting but `params.NAME` and `robot.FIELD` (checked by the controller and the robot's own schema)."""
 OPTIONS: dict[str, Field] = {

@@ -22,6 +22,7 @@ from typing import Any
 import pandas as pd
 
 from sim.errors import UserError
+from sim.folder_lock import held
 from sim.experiments import store
 from sim.experiments.api import Bot, Result, simulate
 from sim.experiments.engines import Dask, Lost, Processes, Serial
@@ -147,7 +148,12 @@ def sweep(
     out = Path(out)
     planned = jobs(spec, out)
     check(planned)
-    out.mkdir(parents=True, exist_ok=True)
+    with held(out, "sweep"):  # (a second sweep into `out` is refused: it would run every run twice)
+        return _sweep(planned, out, runner, on_row, progress)
+
+
+def _sweep(planned: list, out: Path, runner: Serial | Processes | Dask | None, on_row: Callable[[dict[str, Any]], None] | None,
+           progress: bool) -> pd.DataFrame:
     finished = store.done(out)
     todo = [job for job in planned if job.run_id not in finished]
     owned = runner is None

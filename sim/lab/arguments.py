@@ -34,7 +34,7 @@ def add_parser(commands: argparse._SubParsersAction, handler: Callable[[argparse
     lab.add_argument("--exercises", action="append", default=[], metavar="DIR", help="a folder with more exercises (one sub-folder each), repeatable")
     actions = lab.add_subparsers(dest="lab_command", metavar="ACTION", required=True)
 
-    def action(name: str, help: str) -> argparse.ArgumentParser:  # noqa: A002 (argparse's word)
+    def action(name: str, help: str) -> argparse.ArgumentParser:
         parser = actions.add_parser(name, help=help, epilog=EXIT_STATUSES)
         parser.add_argument("--lang", default=argparse.SUPPRESS, **LANG)  # after the action too; unset keeps the one before
         return parser

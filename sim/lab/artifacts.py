@@ -21,7 +21,7 @@ Tracks = dict[str, tuple[np.ndarray, np.ndarray]]
 """label -> (times (T,), poses (T, 3)); 'truth' among them."""
 
 
-def observers(scenario) -> tuple:  # noqa: ANN001 (sim.lab.exercise.Scenario)
+def observers(scenario) -> tuple:
     """A Recorder writing `run.rrd` into the scenario's folder when it is public and `lab check`
     writes artifacts; nothing otherwise."""
     from sim.views.recording import Recorder

@@ -22,6 +22,8 @@ from sim.sandbox.box import human_size
 from sim.world.spec import WorldSpec
 
 HIDDEN = "(hidden)"
+HIDDEN_IN = {"en": HIDDEN, "de": "(verdeckt)"}
+"""What a hidden row shows for its values, by language."""
 STARTUP_CPU = 10.0
 """CPU seconds a student's process may use besides the scenarios' time limits (Python, numpy)."""
 
@@ -29,7 +31,9 @@ STARTUP_CPU = 10.0
 @dataclass
 class Outcome:
     """What a checker found in one scenario. `hint`: a key of the exercise's or the shared hints
-    (None when passed), formatted with `hint_args`; `tracks` (and `world`) for the figures."""
+    (None when passed), formatted with `hint_args`; `matches`: the typical mistakes whose result
+    equals the student's here (passed or not; None: not compared), in the exercise's order;
+    `tracks` (and `world`) for the figures."""
 
     expected: str
     got: str
@@ -39,6 +43,7 @@ class Outcome:
     hint_args: dict[str, Any] = field(default_factory=dict)
     tracks: Tracks | None = None
     world: WorldSpec | None = None
+    matches: tuple[str, ...] | None = None
 
 
 @dataclass
@@ -57,6 +62,9 @@ class Row:
     """What the student's code printed during this scenario (shown only where the row's values are)."""
     values: tuple[str, str] = ("", "")
     """Expected and got even of a hidden row: for the teacher's files only (CSV, JUnit)."""
+    matches: tuple[str, ...] | None = None
+    """The typical mistakes whose result equals the student's in this scenario (see `Outcome`)."""
+    hint_args: dict[str, Any] = field(default_factory=dict)
 
 
 @dataclass
@@ -95,16 +103,17 @@ def fresh_seed() -> int:
 
 
 def check_file(exercise: Exercise, path: str | Path, lang: str = "en", seed: int | None = None, out: Path | None = None,
-               folder: bool = False, degraded: bool = False) -> CheckReport:  # fmt: skip
+               folder: bool = False, degraded: bool = False, runner: type[Student] = Student) -> CheckReport:  # fmt: skip
     """Run `exercise`'s checker on the student's file over its public and hidden scenarios, the
     file in a sandbox of its own (with its whole folder if `folder`; without isolation only if
-    `degraded` and bubblewrap is missing)."""
+    `degraded` and bubblewrap is missing). `runner`: what runs the file (a stand-in of
+    `Student`'s interface runs trusted files in this process, for tests of the checkers alone)."""
     seed = fresh_seed() if seed is None else seed
     shared = shared_hints()
     report = CheckReport(exercise.number, str(path), seed, [], exercise.points)
     scenarios = exercise.scenarios(seed, out)
     cpu = exercise.time_limit * len(scenarios) + STARTUP_CPU
-    with Student(path, exercise.modules, cpu, folder, degraded, exercise.wall(len(scenarios))) as student:
+    with runner(path, exercise.modules, cpu, folder, degraded, exercise.wall(len(scenarios))) as student:
         for scenario in scenarios:
             if student.spent:
                 report.rows.append(_not_run(exercise, scenario, student, lang, shared))
@@ -118,14 +127,31 @@ def check_file(exercise: Exercise, path: str | Path, lang: str = "en", seed: int
                 break
         report.degraded = student.degraded
     report.output = "".join(row.output for row in report.rows if not row.hidden)
+    _name_the_mistake(exercise, report.rows, lang, shared)
     return report
+
+
+def _name_the_mistake(exercise: Exercise, rows: list[Row], lang: str, shared: dict) -> None:
+    """One mistake for the whole file where one explains every compared row (its result equals
+    the student's in each, passed or failed: a mistake that would have failed a row the student
+    passed is not theirs): every failing row that it explains gets its hint. Where none explains
+    all, each row keeps its own."""
+    compared = [row for row in rows if row.matches is not None]
+    if not any(not row.passed for row in compared):
+        return
+    common = [key for key in next(row.matches for row in compared if not row.passed) if all(key in row.matches for row in compared)]
+    if not common:
+        return
+    for row in rows:
+        if not row.passed and row.matches is not None and common[0] in row.matches:
+            row.problem, row.hint = common[0], exercise.hint(common[0], lang, shared, **row.hint_args)
 
 
 def _not_run(exercise: Exercise, scenario: Scenario, student: Student, lang: str, shared: dict) -> Row:
     """The row of a scenario left when the submission's time was spent."""
     hint = exercise.hint("budget", lang, shared, budget=student.wall)
     got = f"not run: the submission's {student.wall:g} s were spent"
-    return Row(scenario.label(lang), HIDDEN if scenario.hidden else "", got, "", False, hint, scenario.hidden, "budget", values=("", got))
+    return Row(scenario.label(lang), HIDDEN_IN[lang] if scenario.hidden else "", got, "", False, hint, scenario.hidden, "budget", values=("", got))
 
 
 FATAL = ("load", "forbidden")
@@ -138,17 +164,19 @@ def _one(exercise: Exercise, scenario: Scenario, student: Student, lang: str, sh
         outcome = exercise.checker.check(scenario, student)
     except StudentError as err:
         where = f" {_at_line(lang)} {err.line}" if err.line else ""
-        hint = exercise.hint(err.kind, lang, shared, limit=exercise.time_limit, where=where, budget=student.wall,
+        key = f"{err.kind}_{err.exception}" if f"{err.kind}_{err.exception}" in exercise.hints else err.kind  # raised_ZeroDivisionError
+        hint = exercise.hint(key, lang, shared, limit=exercise.time_limit, where=where, budget=student.wall,
                              memory=human_size(student.box.limits.memory), output=human_size(student.box.limits.output))  # fmt: skip
         got = err.public if scenario.hidden else err.detail
-        row = Row(scenario.label(lang), HIDDEN if scenario.hidden else "", got, "", False, hint, scenario.hidden, err.kind, values=("", err.detail))
+        row = Row(scenario.label(lang), HIDDEN_IN[lang] if scenario.hidden else "", got, "", False, hint, scenario.hidden, key, values=("", err.detail))
         return row, None
-    problem = "" if outcome.passed else outcome.hint or "wrong"
+    problem = "" if outcome.passed else outcome.hint or (outcome.matches or ("wrong",))[0]
     hint = exercise.hint(problem, lang, shared, **outcome.hint_args) if problem else ""
     values = (outcome.expected, outcome.got)
-    if scenario.hidden:
-        return Row(scenario.label(lang), HIDDEN, HIDDEN, outcome.tolerance, outcome.passed, hint, True, problem, values=values), outcome
-    return Row(scenario.label(lang), *values, outcome.tolerance, outcome.passed, hint, problem=problem, values=values), outcome
+    shown = (HIDDEN_IN[lang],) * 2 if scenario.hidden else values
+    row = Row(scenario.label(lang), *shown, outcome.tolerance, outcome.passed, hint, scenario.hidden, problem, values=values,
+              matches=outcome.matches if outcome.passed or outcome.hint is None else None, hint_args=outcome.hint_args)  # fmt: skip
+    return row, outcome
 
 
 DEGRADED = "DEGRADED: run without isolation (bubblewrap missing); the code could read or change files"
@@ -179,7 +207,7 @@ def table(report: CheckReport, lang: str = "en") -> str:
              "de": ("Szenario", "erwartet", "erhalten", "Toleranz", "Ergebnis", "ok", "FEHLER", "Hinweis", "Punkte")}[lang]  # fmt: skip
     columns = [[sanitize.name(c) for c in (r.scenario, r.expected, r.got, r.tolerance)] + [words[5] if r.passed else words[6]] for r in report.rows]
     widths = [max([len(words[i])] + [min(len(c[i]), 48) for c in columns]) for i in range(5)]
-    line = lambda cells: "  ".join(str(c)[:48].ljust(w) for c, w in zip(cells, widths)).rstrip()  # noqa: E731
+    line = lambda cells: "  ".join(str(c)[:48].ljust(w) for c, w in zip(cells, widths)).rstrip()
     lines = [line(words[:5]), line(["-" * w for w in widths])]
     for row, cells in zip(report.rows, columns):
         lines.append(line(cells))

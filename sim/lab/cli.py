@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 from sim import sanitize
+from sim.folder_lock import held
 from sim.lab.checking import DEGRADED, check_and_print
 from sim.lab.exercise import Exercise, ExerciseError, exercise, exercises
 from sim.lab.grading import grade
@@ -44,7 +45,8 @@ def _grade(ex: Exercise, args: argparse.Namespace) -> int:
     if not args.submissions.is_dir():
         raise ExerciseError(f"{args.submissions}: no such folder")
     out = args.out or args.submissions / "grades"
-    reports, written = grade(ex, args.submissions, out, args.lang, args.seed, args.jobs, args.degraded)
+    with held(out, "lab grade"):  # (two gradings into one folder would interleave their tables)
+        reports, written = grade(ex, args.submissions, out, args.lang, args.seed, args.jobs, args.degraded)
     if any(r.degraded for r in reports):
         print(DEGRADED)
     for report in reports:

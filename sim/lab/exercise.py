@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from bots.schema import Field, Problem
 from bots.spec import read_toml
 from sim.errors import UserError
 from sim.sandbox.launch import module_file
@@ -188,22 +189,43 @@ def load_exercise(folder: str | Path) -> Exercise:
     for name in modules:
         if module_file(name) is None:
             raise ExerciseError(f"{path}: modules: {name!r} is no module of ctsim (sim.* or bots.*)")
+    value = _checked(data, path)
     return Exercise(
         folder=folder,
-        number=int(data["number"]),
+        number=value("number"),
         title=_texts(data, "title", path),
         summary=_texts(data, "summary", path),
-        file=str(data["file"]),
-        time_limit=float(data.get("time_limit", 5.0)),
-        hidden=int(data.get("hidden", 0)),
-        points=float(data.get("points", 10.0)),
+        file=value("file"),
+        time_limit=value("time_limit", 5.0),
+        hidden=value("hidden", 0),
+        points=value("points", 10.0),
         tolerance={k: float(v) for k, v in data.get("tolerance", {}).items()},
         examples=list(data.get("example", [])),
         ranges=dict(data.get("draw", {})),
         hints=hints,
         modules=tuple(modules),
-        budget=float(data["budget"]) if "budget" in data else None,
+        budget=value("budget", None),
     )
+
+
+FIELDS = {"number": Field("integer", "", 1, 9999), "file": Field("text"), "time_limit": Field("number", "s", 0.0, 3600.0, above=True),
+          "hidden": Field("integer", "scenarios", 0, 100_000), "points": Field("number", "points", 0.0, 1e6),
+          "budget": Field("number", "s", 0.0, 86_400.0, above=True)}
+"""The scalar keys of exercise.toml, checked as every ctsim file's (`bots.schema.Field`)."""
+
+
+def _checked(data: dict, path: Path):
+    """`value(key, default)`: the key's value checked against FIELDS, ExerciseError naming file and key."""
+
+    def value(key: str, default=None):
+        if key not in data:
+            return default
+        try:
+            return FIELDS[key].check(data[key])
+        except Problem as problem:
+            raise ExerciseError(f"{path}: {key}: {problem.message}") from None
+
+    return value
 
 
 def folders(extra: list[str | Path] | None = None) -> list[Path]:

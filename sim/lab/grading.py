@@ -93,7 +93,7 @@ def _check(ex: Exercise, path: Path, folder: Path, lang: str, seed: int, own_fol
             return _check_notebook(ex, path, lang, seed, degraded)
         return check_file(ex, path, lang, seed, folder=own_folder, degraded=degraded)
     except Exception:  # noqa: BLE001 (a bug of ctsim on one file must not cost the others their grades)
-        print(f"ctsim lab grade: checking {path} failed inside ctsim (a bug, not the student's):\n{traceback.format_exc()}", file=sys.stderr)
+        print(f"ctsim lab grade: checking {sanitize.name(str(path))} failed inside ctsim (a bug, not the student's):\n{traceback.format_exc()}", file=sys.stderr)
         return _failed(ex, path, seed, "grader", "the grader failed on this file (a ctsim bug, not your code): ask your teacher")
 
 

@@ -9,6 +9,10 @@ again after it (the run loop would otherwise report it as a controller error of 
 
 from __future__ import annotations
 
+import json
+import threading
+from dataclasses import dataclass
+
 import numpy as np
 
 from bots.commands import Command, WheelSpeeds
@@ -29,7 +33,7 @@ def estimates(student: Student, name: str, robot: RobotSpec, start: np.ndarray, 
     update, (T, 3)."""
     handle = student.new(name)
     student.method(handle, "reset", robot, np.asarray(start, dtype=np.float64), what=f"{name}.reset()")
-    at = lambda i: f"{name}.update() at t = {samples[i].time:.2f} s"  # noqa: E731
+    at = lambda i: f"{name}.update() at t = {samples[i].time:.2f} s"
     poses = student.feed(handle, "update", [(readings,) for readings in samples], "pose", at)
     return numbers(poses, (len(samples), 3), f"{name}.pose after each update()")
 
@@ -80,7 +84,7 @@ class Collect:
     def __init__(self):
         self.samples: list[Readings] = []
 
-    def on_sample(self, world, logs) -> None:  # noqa: ANN001
+    def on_sample(self, world, logs) -> None:
         self.samples.append(logs[0].latest)
 
 
@@ -118,30 +122,68 @@ def moved(truth: np.ndarray, dt: float, seconds: float = 1.0) -> float:
     return float(np.hypot(*(truth[-1, :2] - truth[max(0, len(truth) - 1 - round(seconds / dt)), :2])))
 
 
-def check_estimator(scenario, spec: RobotSpec, student: Student, reference, mistakes: dict) -> Outcome:  # noqa: ANN001
-    """An estimator exercise: a run on the scenario's wheel-speed `segments` on an open floor
-    (sampled every `dt` s, default 0.01) with `reference` (an estimator), then the student's
-    `Odometry` fed the same readings, compared over the whole run (the scenario's tolerances
-    `position` m and `heading` rad, headings wrapped: a wrapped estimate is as right as a
-    continuous one); a failure is matched against `mistakes` (hint key -> estimator), each
-    replayed on the same readings, the closest within the tolerance naming the hint."""
+@dataclass(frozen=True)
+class _Prepared:
+    """What a scenario of an estimator exercise is before any student's code: the run, the
+    reference's estimate and each typical mistake's final pose on the same readings."""
+
+    time: np.ndarray
+    truth: np.ndarray
+    expected: np.ndarray
+    samples: list[Readings]
+    wrong: dict[str, np.ndarray]
+
+
+_PREPARED: dict[tuple, _Prepared] = {}
+_PREPARED_LOCK = threading.Lock()
+PREPARED_KEPT = 64
+"""Scenarios kept prepared (a grading's few, for every submission: they share the seed)."""
+
+
+def _prepare(scenario, spec: RobotSpec, reference, mistakes: dict) -> _Prepared:
+    """The scenario's run and replays, made once per grading: every submission graded with the
+    same seed gets the same scenarios (kept only without artifacts: those record the run)."""
+    key = (scenario.name, scenario.seed, json.dumps(scenario.params, sort_keys=True, default=str), type(reference).__name__, tuple(mistakes))
+    if scenario.out is None:
+        with _PREPARED_LOCK:
+            if key in _PREPARED:
+                return _PREPARED[key]
     schedule, collect = Schedule(scenario["segments"]), Collect()
     setup = RobotSetup(spec, schedule, "schedule", estimators=[reference])
     result = run(open_floor(), [setup], schedule.duration + 0.5, float(scenario.params.get("dt", 0.01)), scenario.seed, observers=(collect, *observers(scenario)))
     log = result.robots[0]
-    start = log.truth_array()[0]
-    expected = log.estimate_arrays()[reference.name]
-    yours = estimates(student, "Odometry", spec, start, collect.samples)
+    truth = log.truth_array()
+    wrong = {k: replay(estimator, spec, truth[0], collect.samples) for k, estimator in mistakes.items()}
+    prepared = _Prepared(result.time, truth, log.estimate_arrays()[reference.name], collect.samples, wrong)
+    if scenario.out is None:
+        with _PREPARED_LOCK:
+            if len(_PREPARED) >= PREPARED_KEPT:
+                _PREPARED.pop(next(iter(_PREPARED)))
+            _PREPARED[key] = prepared
+    return prepared
+
+
+def check_estimator(scenario, spec: RobotSpec, student: Student, reference, mistakes: dict) -> Outcome:
+    """An estimator exercise: a run on the scenario's wheel-speed `segments` on an open floor
+    (sampled every `dt` s, default 0.01) with `reference` (an estimator), then the student's
+    `Odometry` fed the same readings, compared over the whole run (the scenario's tolerances
+    `position` m and `heading` rad, headings wrapped: a wrapped estimate is as right as a
+    continuous one). `mistakes` (hint key -> estimator) are each replayed on the same readings;
+    those whose final pose is the student's within the tolerance are the row's matches, the
+    closest first."""
+    prepared = _prepare(scenario, spec, reference, mistakes)
+    expected, start = prepared.expected, prepared.truth[0]
+    yours = estimates(student, "Odometry", spec, start, prepared.samples)
     tol_p, tol_h = scenario.tolerance["position"], scenario.tolerance["heading"]
     worst = float(np.hypot(*(yours[:, :2] - expected[:, :2]).T).max())
     heading = float(np.abs(wrap_angle(yours[:, 2] - expected[:, 2])).max())
-    tracks = {"truth": (result.time, log.truth_array()), "reference": (result.time, expected), "yours": (result.time, yours)}
+    tracks = {"truth": (prepared.time, prepared.truth), "reference": (prepared.time, expected), "yours": (prepared.time, yours)}
     tolerance = f"{tol_p:g} m, {tol_h:g} rad"
+    off = {key: pose_distance(pose, yours[-1]) for key, pose in prepared.wrong.items()}
+    matches = tuple(sorted((key for key in off if off[key] <= tol_p), key=off.get))
     if worst <= tol_p and heading <= tol_h:
-        return Outcome(fmt(expected[-1]), fmt(yours[-1]), True, tolerance, tracks=tracks)
-    off = {key: pose_distance(replay(wrong, spec, start, collect.samples), yours[-1]) for key, wrong in mistakes.items()}
-    hint = min((key for key in off if off[key] <= tol_p), key=off.get, default=None)
-    return Outcome(*differing(expected[-1], yours[-1]), False, tolerance, hint, {"error": worst}, tracks=tracks)
+        return Outcome(fmt(expected[-1]), fmt(yours[-1]), True, tolerance, tracks=tracks, matches=matches)
+    return Outcome(*differing(expected[-1], yours[-1]), False, tolerance, None, {"error": worst}, tracks=tracks, matches=matches)
 
 
 def pose_distance(a: np.ndarray, b: np.ndarray) -> float:

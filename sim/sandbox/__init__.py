@@ -2,9 +2,12 @@
 
 One `Sandbox` holds one untrusted Python file, run by a small guest program in a process of its
 own, inside bubblewrap (user, mount, pid, network namespaces; see `launch`), with kernel limits on
-CPU time, memory, open files and output and no way to start processes or threads (`confine`). Host and guest
-exchange plain data only, length-prefixed JSON (`wire`): numbers, strings, lists, numpy arrays in
-a fixed layout, read-only records of a dataclass's fields; never pickle, never code.
+CPU time, memory, open files and output, no way to start processes or threads and none to reach
+the kernel's shared state (keyrings, io_uring: `confine`). Host and guest exchange plain data
+only, length-prefixed JSON (`wire`): the host sends numbers, strings, lists, numpy arrays in a
+fixed layout and read-only records of a dataclass's fields; the guest answers in numbers,
+strings and lists alone, read by the host with a reader that accepts nothing else (`reply`);
+never pickle, never code.
 
     from sim.sandbox import Limits, Sandbox, StudentError
 
@@ -23,7 +26,8 @@ a fixed layout, read-only records of a dataclass's fields; never pickle, never c
   answer the guest is gone and the next request starts a fresh one (`start()` explicitly).
 - `close()` (or leaving the `with`) kills the guest with every process it has and returns when
   they are gone; write results only after it.
-- `output`: an excerpt of what the code printed; `degraded`: True when it ran without isolation
+- `output`: an excerpt of what the code printed (`take_output()`: since the last call, so that
+  each scenario keeps its own); `degraded`: True when it ran without isolation
   (only with `degraded=True`, where bubblewrap is missing: `unavailable()` says why);
   `confined`: True when the filter against new processes and threads holds.
 """

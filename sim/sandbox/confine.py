@@ -103,7 +103,7 @@ def _program(audit_arch: int, numbers: dict[str, int]) -> list[tuple[int, int, i
     rows += [(JEQ, "deny", 0, number) for number in numbers.values()]
     labels = {"allow": len(rows), "deny": len(rows) + 1}
     rows += [(RET, 0, 0, ALLOW), (RET, 0, 0, ERRNO | errno.EPERM)]
-    jump = lambda target, i: labels[target] - i - 1 if isinstance(target, str) else target  # noqa: E731
+    jump = lambda target, i: labels[target] - i - 1 if isinstance(target, str) else target
     return [(code, jump(jt, i), jump(jf, i), k) for i, (code, jt, jf, k) in enumerate(rows)]
 
 

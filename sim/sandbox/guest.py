@@ -117,7 +117,7 @@ def answer(module: Any, objects: dict[int, Any], request: dict[str, Any]) -> Any
             try:
                 getattr(target, request["name"])(*args)
                 values.append(plain(getattr(target, request["attribute"])))
-            except BaseException as err:  # noqa: BLE001
+            except BaseException as err:
                 raise FeedError(index) from err
         return values
     raise ValueError(f"unknown request {op!r}")
@@ -129,7 +129,7 @@ def name_missing_modules() -> None:
     nothing is refused here)."""
     original, original_module = builtins.__import__, importlib.import_module
 
-    def naming(name, globals=None, locals=None, fromlist=(), level=0):  # noqa: A002 (builtins' signature)
+    def naming(name, globals=None, locals=None, fromlist=(), level=0):
         try:
             return original(name, globals, locals, fromlist, level)
         except ModuleNotFoundError as err:

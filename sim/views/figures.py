@@ -7,13 +7,13 @@ shapes every view draws (`map_image.map_shapes`), here as vector patches.
 
 from __future__ import annotations
 
-import json
+import io
 from pathlib import Path
 
 import numpy as np
 
 from sim.analysis.export import read_tum
-from sim.errors import UserError
+from sim.analysis.run_folder import RunFolderError, read_summary, trajectory_text
 from sim.views import palette
 from sim.views.map_image import map_shapes
 from sim.world.files.grid import TILE_NAMES
@@ -90,11 +90,14 @@ def write_figures(
     out: str | Path,
     subtitle: str = "",
     ate: dict[str, dict[str, float]] | None = None,
+    bands: dict[str, dict[str, Trajectory]] | None = None,
 ) -> list[Path]:
     """`trajectories.png` (every robot's truth and estimates over the map, beside the end of the
-    run magnified) and `errors.png` (position and heading error of each estimate over time) in
-    `out`. `robots` maps a robot name to its trajectories by label, 'truth' among them; `ate`
-    the ATE RMS (m) of each estimate by robot, shown in the legends; `subtitle` says what ran."""
+    run magnified) and `errors.png` (position and heading error of each estimate over time, and
+    its 3 sigma band where it has a covariance) in `out`. `robots` maps a robot name to its
+    trajectories by label, 'truth' among them; `ate` the ATE RMS (m) of each estimate by robot,
+    shown in the legends; `bands` robot -> label -> (times, (T, 6) covariance entries,
+    `bots.uncertainty.COVARIANCE_FIELDS`); `subtitle` says what ran."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -157,6 +160,13 @@ def write_figures(
             for axis, values in ((top, position * 1000), (bottom, np.degrees(heading))):
                 axis.plot(t, values, color=light, linewidth=0.5, zorder=1 + k / 10)  # opaque: a band shows whose it is
                 axis.plot(t, moving_mean(t, values, MEAN_WINDOW_S), color=colour, linewidth=1.6, linestyle=dashes, zorder=3)
+            if label in (bands or {}).get(name, {}):
+                times, entries = bands[name][label]
+                xx, xy, yy, tt = entries[:, 0], entries[:, 1], entries[:, 3], entries[:, 5]
+                major = 0.5 * (xx + yy) + np.sqrt(0.25 * (xx - yy) ** 2 + xy**2)  # the position's larger eigenvalue
+                top.fill_between(times, 0.0, 3000 * np.sqrt(np.maximum(major, 0.0)), color=colour, alpha=0.12, linewidth=0)
+                spread = 3 * np.degrees(np.sqrt(np.maximum(tt, 0.0)))
+                bottom.fill_between(times, -spread, spread, color=colour, alpha=0.12, linewidth=0)
             keys.append(((Line2D([], [], color=light, linewidth=6), Line2D([], [], color=colour, linewidth=1.6, linestyle=dashes)), text))
         if several:
             top.set_title(name, fontsize=10, backgroundcolor=_c(colours[name]))
@@ -168,7 +178,7 @@ def write_figures(
                        fontsize=7 if several else 8, loc="upper left", **({} if several else {"bbox_to_anchor": (1.01, 1.0)}), frameon=False)
     axes[0, 0].set_ylabel("position error (mm)")
     axes[1, 0].set_ylabel("heading error (deg, unwrapped)")
-    title = f"odometry error against ground truth (pale: every sample; dark: {MEAN_WINDOW_S:g} s moving mean)"
+    title = f"odometry error against ground truth (pale: every sample; dark: {MEAN_WINDOW_S:g} s moving mean; shaded: 3σ)"
     if several:
         fig.text(0.5, 0.955, title, ha="center", fontsize=10)
     else:
@@ -244,21 +254,12 @@ def _save(fig, path: Path) -> Path:
 
 
 def describe(summary: dict) -> str:
-    """One line saying what ran: world, controller(s), seed, simulated time, dt."""
+    """One line saying what ran: world, controller(s), noise, seed, simulated time, dt."""
     controllers = sorted({robot["controller"] for robot in summary["robots"]})
     return (
-        f"world {summary['world']['name']} \u00b7 controller {', '.join(controllers)} \u00b7 seed {summary['seed']} \u00b7 "
+        f"world {summary['world']['name']} \u00b7 controller {', '.join(controllers)} \u00b7 noise {summary.get('noise', 'none')} \u00b7 seed {summary['seed']} \u00b7 "
         f"{summary['time']:.1f} s simulated (dt {1000 * summary['dt']:g} ms, {summary['reason']}) \u00b7 ctsim {summary['ctsim_version']}"
     )
-
-
-def read_summary(run_dir: str | Path) -> dict:
-    """summary.json of a run folder; a damaged one is refused naming its line."""
-    summary_path = Path(run_dir) / "summary.json"
-    try:
-        return json.loads(summary_path.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as err:
-        raise UserError(f"{summary_path}:{err.lineno}: {err.msg}") from None
 
 
 def ate_of(summary: dict) -> dict[str, dict[str, float]]:
@@ -274,7 +275,53 @@ def report_run_dir(run_dir: str | Path) -> list[Path]:
     summary = read_summary(run_dir)
     world = load_world(summary["world"]["source"])
     robots = {
-        robot["name"]: {label: read_tum(run_dir / name) for label, name in robot["tum"].items()}
+        robot["name"]: {label: _trajectory(run_dir, name) for label, name in robot.get("tum", {}).items()}
         for robot in summary["robots"]
     }
-    return write_figures(world, robots, run_dir, subtitle=describe(summary), ate=ate_of(summary))
+    if not any(robots.values()):
+        raise RunFolderError(run_dir / "summary.json", None, "no trajectories named (robots[].tum): the run wrote none to draw")
+    return write_figures(world, robots, run_dir, subtitle=describe(summary), ate=ate_of(summary), bands=bands_of(run_dir, summary))
+
+
+def _trajectory(run_dir: Path, name: str) -> tuple:
+    """A TUM file of the run folder (`run_folder.trajectory_text`), its content never quoted."""
+    text = trajectory_text(run_dir, name)
+    try:
+        return read_tum(io.StringIO(text))
+    except ValueError:
+        raise RunFolderError(run_dir / name, None, "not a TUM trajectory (8 numbers a line: timestamp tx ty tz qx qy qz qw)") from None
+
+
+def bands_of(run_dir: Path, summary: dict) -> dict[str, dict[str, Trajectory]]:
+    """Robot -> label -> (times, (T, 6) covariance entries) from a run folder's run.parquet
+    (none without it, for estimates without a covariance, or from a file Arrow cannot read: the
+    bands are an addition to the figures, never a reason to refuse them)."""
+    import pyarrow as pa
+
+    path = run_dir / "run.parquet"
+    if path.is_symlink() or not path.is_file():
+        return {}
+    try:
+        return _bands(path, summary)
+    except (OSError, pa.ArrowException, KeyError, TypeError, ValueError):
+        return {}
+
+
+def _bands(path: Path, summary: dict) -> dict[str, dict[str, Trajectory]]:
+    import pyarrow.parquet as pq
+
+    from bots.uncertainty import COVARIANCE_FIELDS as fields
+
+    names = set(pq.read_schema(path).names)
+    wanted = {(robot["name"], label) for robot in summary["robots"] for label in robot["estimates"]
+              if all(f"{robot['name']}.{label}.{entry}" in names for entry in fields)}  # fmt: skip
+    if not wanted:
+        return {}
+    columns = ["time", *(f"{robot}.{label}.{entry}" for robot, label in sorted(wanted) for entry in fields)]
+    table = pq.read_table(path, columns=columns)
+    times = table.column("time").to_numpy()
+    bands: dict[str, dict[str, Trajectory]] = {}
+    for robot, label in sorted(wanted):
+        entries = np.column_stack([table.column(f"{robot}.{label}.{entry}").to_numpy() for entry in fields])
+        bands.setdefault(robot, {})[label] = (times, entries)
+    return bands

@@ -13,8 +13,12 @@ Layout (all on the timeline "sim_time", seconds of simulated time):
     world/<robot>/rays, hits           IR rays to the distance each sensor reports, and that point
     world/<robot>/trail/<label>        LineStrips2D, one piece per TRAIL_EVERY samples (truth and
                                        each estimate); the blueprint shows all history
+    world/<robot>/ellipse/<est>        LineStrips2D, the 95 % ellipse of the estimate's position
+                                       every ELLIPSE_EVERY samples (those with a covariance); all history
     errors/<robot>/position            Scalars, |estimate - truth| (mm), one series per estimate
+    errors/<robot>/position/band       Scalars, 3 sigma of the position error's major axis (mm)
     errors/<robot>/heading             Scalars, wrapped heading error (deg), one series per estimate
+    errors/<robot>/heading/band_upper  Scalars, +3 sigma of the heading (deg); band_lower -3 sigma
     sensors/<group>/<robot>/<field>    Scalars, readings in their units (SENSOR_GROUPS)
     events                             TextLog: start, collisions, wheel faults, falls, goal,
                                        notes (the first of each kind), messages, end, errors
@@ -64,6 +68,11 @@ memory flat. At most `sim.run.RESIDENT` samples, which the run's logs keep in me
 recorder to read."""
 TRAIL_EVERY = 10
 """Samples per trail piece: every pose is in the trail, but in 10x fewer rows for the viewer."""
+ELLIPSE_EVERY = 200
+"""Samples between two uncertainty ellipses along an estimate's trail (2 s at the default step)."""
+ELLIPSE_SCALE = math.sqrt(-2.0 * math.log(0.05))
+"""Radius, in standard deviations, of the ellipse holding 95 % of a 2-D normal (chi2(2) = 5.99)."""
+ELLIPSE_POINTS = 37
 LIVE_PORT = 9876
 """Port of a viewer that `--live` spawns (rerun's default)."""
 LIVE_WAIT_S = 10.0
@@ -423,6 +432,14 @@ class Recorder:
                 who = [f"{name} {label}" if several else label for label in track.estimates]
                 self._log(f"errors/{name}/position", rr.SeriesLines(colors=colours, names=who, widths=1.2), static=True)
                 self._log(f"errors/{name}/heading", rr.SeriesLines(colors=colours, names=who, widths=1.2), static=True)
+            uncertain = list(track.log.covariance_arrays())
+            if uncertain:
+                band = [_rgb(palette.estimate_colour(label, track.estimates)) for label in uncertain]
+                for label, colour in zip(uncertain, band):
+                    self._log(f"{base}/ellipse/{label}", rr.LineStrips2D.from_fields(colors=colour, radii=-0.8, draw_order=49), static=True)
+                for path, sign in (("position/band", ""), ("heading/band_upper", "+"), ("heading/band_lower", "-")):
+                    names = [f"{name} {label} {sign}3σ" if several else f"{label} {sign}3σ" for label in uncertain]
+                    self._log(f"errors/{name}/{path}", rr.SeriesLines(colors=band, names=names, widths=0.6), static=True)
             for group, (_, fields) in SENSOR_GROUPS.items():
                 for f in fields:
                     sides = track.channels[FIELDS.index(f)]
@@ -453,6 +470,9 @@ class Recorder:
             self._columns(f"errors/{name}/position", times, rr.Scalars.columns(scalars=(1000 * np.hypot(error[..., 0], error[..., 1])).ravel()).partition(per_sample))
             self._columns(f"errors/{name}/heading", times, rr.Scalars.columns(scalars=np.degrees(wrap_angle(error[..., 2])).ravel()).partition(per_sample))
         self._send_trails(track, truth, estimates)
+        covariances = {label: entries[span] for label, entries in track.log.covariance_arrays().items()}
+        if covariances:
+            self._send_uncertainty(track, times, {label: estimates[label] for label in covariances}, covariances)
         if self._chassis is not None:
             self._chassis.flush(name)
         if len(track.ir):
@@ -490,6 +510,29 @@ class Recorder:
             self._columns(f"world/{track.log.name}/trail/{label}", times, rr.LineStrips2D.columns(strips=_strips(along[rows], offsets)))  # a piece a row
         track.tail = points[ends[-1]].copy()
 
+    def _send_uncertainty(self, track: _Track, times: list, estimates: dict[str, np.ndarray], covariances: dict[str, np.ndarray]) -> None:
+        """The 3 sigma bands of the error plots, and every ELLIPSE_EVERY samples each estimate's
+        95 % position ellipse: `covariances` label -> (n, 6) COVARIANCE_FIELDS entries."""
+        rr = _rerun()
+        name = track.log.name
+        entries = np.stack(list(covariances.values()), axis=1)  # (n, labels, 6)
+        n, k = entries.shape[:2]
+        xx, xy, yy, tt = entries[..., 0], entries[..., 1], entries[..., 3], entries[..., 5]
+        major = 0.5 * (xx + yy) + np.sqrt(0.25 * (xx - yy) ** 2 + xy**2)  # the larger eigenvalue
+        per_sample = np.full(n, k)
+        self._columns(f"errors/{name}/position/band", times, rr.Scalars.columns(scalars=(3000 * np.sqrt(np.maximum(major, 0))).ravel()).partition(per_sample))
+        heading = 3 * np.degrees(np.sqrt(np.maximum(tt, 0))).ravel()
+        self._columns(f"errors/{name}/heading/band_upper", times, rr.Scalars.columns(scalars=heading).partition(per_sample))
+        self._columns(f"errors/{name}/heading/band_lower", times, rr.Scalars.columns(scalars=-heading).partition(per_sample))
+        picked = np.flatnonzero((track.start + np.arange(n)) % ELLIPSE_EVERY == 0)
+        if not len(picked):
+            return
+        at = [rr.TimeColumn(TIMELINE, duration=track.log.time_array()[track.start + picked])]
+        for j, (label, poses) in enumerate(estimates.items()):
+            rings = ellipses(poses[picked, :2], entries[picked, j])
+            offsets = np.arange(0, len(picked) * ELLIPSE_POINTS + 1, ELLIPSE_POINTS)
+            self._columns(f"world/{name}/ellipse/{label}", at, rr.LineStrips2D.columns(strips=_strips(rings.reshape(-1, 2), offsets)))
+
     def _send_rays(self, track: _Track, times: list, truth: np.ndarray, distance: np.ndarray) -> None:
         """IR rays from each sensor to the distance it reports (`distance` (n, k) m, nan: nothing
         seen: a ray of full length) and the points hit."""
@@ -515,6 +558,7 @@ class Recorder:
 
         history = rrb.VisibleTimeRanges([rrb.VisibleTimeRange(TIMELINE, start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.cursor_relative())])
         trails = {f"/world/{name}/trail/{label}": history for name, labels in robots.items() for label in ["truth", *labels]}
+        trails |= {f"/world/{name}/ellipse/{label}": history for name, labels in robots.items() for label in labels}
         xmin, ymin, xmax, ymax = world.bounds
         margin = 0.03 * max(xmax - xmin, ymax - ymin)
         bounds = rrb.VisualBounds2D(x_range=(xmin - margin, xmax + margin), y_range=(-ymax - margin, -ymin + margin))  # y flipped, see `world`
@@ -633,6 +677,17 @@ def _strips(points: np.ndarray, offsets: np.ndarray) -> Any:
     rr = _rerun()
     inner = rr.components.Position2DBatch(points).as_arrow_array()
     return pa.ListArray.from_arrays(offsets.astype(np.int32), inner, type=rr.components.LineStrip2DBatch._ARROW_DATATYPE)
+
+
+def ellipses(centres: np.ndarray, entries: np.ndarray) -> np.ndarray:
+    """(m, ELLIPSE_POINTS, 2) closed 95 % ellipses of positions `centres` (m, 2) with covariance
+    entries (m, 6) (`bots.uncertainty.COVARIANCE_FIELDS`; the position block)."""
+    cov = np.stack([np.stack([entries[:, 0], entries[:, 1]], -1), np.stack([entries[:, 1], entries[:, 3]], -1)], -2)
+    values, vectors = np.linalg.eigh(cov)
+    axes = vectors * (ELLIPSE_SCALE * np.sqrt(np.maximum(values, 0.0)))[:, None, :]  # columns: the scaled axes
+    angle = np.linspace(0.0, 2.0 * math.pi, ELLIPSE_POINTS)
+    circle = np.stack((np.cos(angle), np.sin(angle)))  # (2, points)
+    return centres[:, None, :] + np.einsum("mij,jp->mpi", axes, circle)
 
 
 def _xyz(poses: np.ndarray) -> np.ndarray:

@@ -10,7 +10,7 @@ from __future__ import annotations
 from html import escape
 from pathlib import Path
 
-from sim.views.figures import read_summary
+from sim.analysis.run_folder import read_summary
 from sim.views.html import facts_table, image, page, run_facts, summary_table
 from sim.web.serve import DEFAULT_HOST, DEFAULT_PORT, addresses
 

@@ -51,7 +51,26 @@ def recording_of(target: str | Path) -> Path:
     elif not path.is_file():
         raise ViewError(f"{path}: no such run (give a folder written by `ctsim run`, or a .rrd file)")
     check_version(path)
+    _holds_data(path)
     return path
+
+
+def _holds_data(path: Path) -> None:
+    """Refuse a recording with nothing in it (a header alone: a run killed before it recorded,
+    or a file cut short), rather than serve an empty viewer as if it held a run."""
+    import warnings
+
+    from rerun.chunk import RrdReader
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # (rerun warns of a file without its index, then reads it whole)
+        try:
+            reader = RrdReader(path)
+            empty = not reader.recordings() or next(iter(reader.stream()), None) is None
+        except (RuntimeError, ValueError):
+            empty = True
+    if empty:
+        raise ViewError(f"{path}: a recording with no data in it (a header alone, or cut short before its first chunk): nothing to view")
 
 
 def rerun_version() -> tuple[int, ...]:

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bots.schema import FileError, read_bytes
 from sim.errors import UserError
 
 CNY70_MAX = 1023
@@ -117,9 +118,9 @@ def load_ir_curve(path: str | Path, beyond: float | None = None) -> IRCurve:
     the last row's value for any other file."""
     path = Path(path)
     try:
-        lines = path.read_text(encoding="latin-1").splitlines()
-    except OSError as err:
-        raise CurveFileError(f"{path}: {err.strerror or err}") from None
+        lines = read_bytes(path).decode("latin-1").splitlines()
+    except FileError as err:
+        raise CurveFileError(str(err)) from None
     distance, raw = [], []
     for number, line in enumerate(lines, start=1):
         fields = [f.strip() for f in line.split(";") if f.strip()]

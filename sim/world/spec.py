@@ -158,6 +158,9 @@ class WorldSpec:
     outside_is_hole: bool = False
     source: str | None = None
     description: str = ""
+    notes: tuple[str, ...] = ()
+    """What the loader read past but a user should hear of (an unknown XML tag: a misspelt `<line>`
+    drops a map row); `world_warnings` lists them first."""
 
     def start_order(self) -> list[Start]:
         """The starts in the order robots take them, as c't-Sim hands out its slots: slots 1, 2,

@@ -16,7 +16,7 @@ from pathlib import Path
 import sim
 from sim.world.spec import WorldFileError, WorldSpec
 
-from .geometry import inside
+from .geometry import Budget, Near, inside
 from .parcours import load_parcours
 from .toml_format import load_toml
 
@@ -60,7 +60,7 @@ def load_world(source: str | Path, pillars: str = "cell") -> WorldSpec:
     loader = _LOADERS.get(path.suffix.lower())
     if loader is None:
         raise WorldFileError(path, None, f"unknown world file type '{path.suffix}'; expected .toml or .xml")
-    if not path.is_file():
+    if not path.exists():
         raise WorldFileError(path, None, "no such file")
     world = load_parcours(path, pillars) if loader is load_parcours else loader(path)
     if not world.start_order():
@@ -74,52 +74,81 @@ def check_world(source: str | Path) -> list[str]:
     return world_warnings(load_world(source))
 
 
-def world_warnings(world: WorldSpec) -> list[str]:
-    """Warnings from cheap geometric checks: starts in or against walls, over holes or outside the
-    world; clashing start slots; goals and cans inside walls."""
-    warnings = []
-    solids = [w.vertices for w in world.walls]
-    holes = [h.vertices for h in world.holes]
+CHECK_BUDGET = 5_000_000
+"""Most (point, polygon) pairs and polygon corners `world_warnings` looks at: the checks of a 500 x
+500 grid of walls and starts look at about 3 million; beyond the budget they stop and say so."""
+
+
+def world_warnings(world: WorldSpec, budget: int = CHECK_BUDGET) -> list[str]:
+    """What a loader noted (`WorldSpec.notes`), then warnings from cheap geometric checks: starts
+    in or against walls, inside movables, over holes or outside the world; clashing start slots;
+    goals inside walls or outside the world, movables inside walls. Walls, holes and movables are
+    binned (`geometry.Near`), and the work is bounded by `budget` pairs."""
+    warnings = list(world.notes)
+    spent = Budget(budget)
+    walls = Near([w.vertices for w in world.walls], spent)
+    holes = Near([h.vertices for h in world.holes], spent)
+    cans = Near([_square(m.position, m.radius) for m in world.movables], spent)
     xmin, ymin, xmax, ymax = world.bounds
     slots: dict[int, int] = {}
     for i, start in enumerate(world.starts, 1):
         p = (start.x, start.y)
         label = f"start #{i} (slot {start.slot}) at ({start.x:.3f}, {start.y:.3f})"
         slots[start.slot] = slots.get(start.slot, 0) + 1
-        if any(inside(p, wall) for wall in solids):
+        near = [world.walls[k].vertices for k in walls.near(p, ROBOT_RADIUS)]
+        if any(inside(p, wall) for wall in near):
             warnings.append(f"{label} is inside a wall")
-        elif (gap := _distance_to_walls(p, solids)) < ROBOT_RADIUS:
+        elif (gap := _distance_to_walls(p, near)) < ROBOT_RADIUS:
             warnings.append(f"{label} is {gap:.3f} m from a wall, closer than a c't-Bot's radius ({ROBOT_RADIUS} m)")
-        if any(inside(p, hole) for hole in holes):
+        for k in cans.near(p, ROBOT_RADIUS):
+            can = world.movables[k]
+            if (gap := math.dist(p, can.position) - can.radius) < ROBOT_RADIUS:
+                where = "inside" if gap < 0 else f"{gap:.3f} m from"
+                warnings.append(f"{label} is {where} movable #{k + 1}, closer than a c't-Bot's radius ({ROBOT_RADIUS} m): "
+                                "the robot's body overlaps it and shoves it away at the start")
+                break
+        if any(inside(p, world.holes[k].vertices) for k in holes.near(p, 0.0)):
             warnings.append(f"{label} is over a hole")
         if not (xmin < start.x < xmax and ymin < start.y < ymax):
             warnings.append(f"{label} is outside the world's bounds" + (" (over the abyss)" if world.outside_is_hole else ""))
     for slot, count in sorted(slots.items()):
         if count > 1:
             warnings.append(f"{count} starts share slot {slot}; the last one is used")
-    warnings += _crowded(world.start_order())
+    warnings += _crowded(world.start_order(), spent)
     for i, goal in enumerate(world.goals, 1):
         centre = tuple(sum(c) / len(goal.vertices) for c in zip(*goal.vertices))
-        if any(inside(centre, wall) for wall in solids):
+        if any(inside(centre, world.walls[k].vertices) for k in walls.near(centre, 0.0)):
             warnings.append(f"goal #{i} is inside a wall")
+        if not (xmin <= centre[0] <= xmax and ymin <= centre[1] <= ymax):
+            warnings.append(f"goal #{i} at ({centre[0]:.3f}, {centre[1]:.3f}) is outside the world's bounds "
+                            f"[{xmin:g}, {ymin:g}, {xmax:g}, {ymax:g}]: no robot can reach it")
         if goal.slot and goal.slot not in slots:
             warnings.append(f"goal #{i} is for the robot from start slot {goal.slot}, but no start has that slot")
     for i, can in enumerate(world.movables, 1):
-        if any(inside(can.position, wall) for wall in solids):
+        if any(inside(can.position, world.walls[k].vertices) for k in walls.near(can.position, 0.0)):
             warnings.append(f"movable #{i} at ({can.position[0]:.3f}, {can.position[1]:.3f}) is inside a wall")
+    if spent.exhausted:
+        warnings.append(f"the checks stopped after looking at {budget:,} pairs of points and shapes: this world has more "
+                        "starts, walls, holes and movables than `check` looks through; the warnings above are the first found")
     return warnings
 
 
-def _crowded(starts: list, most: int = 10) -> list[str]:
+def _square(centre: tuple[float, float], radius: float) -> tuple[tuple[float, float], ...]:
+    """The box around a circle (for binning movables)."""
+    (x, y), r = centre, radius
+    return ((x - r, y - r), (x + r, y - r), (x + r, y + r), (x - r, y + r))
+
+
+def _crowded(starts: list, budget: Budget, most: int = 10) -> list[str]:
     """Warnings for start slots closer than two c't-Bots need (the first `most`): robots started
     there overlap, and a run that uses both is refused. Sorted by x, each start is compared only
-    with those less than that far to its left."""
+    with those less than that far to its left (within `budget`)."""
     apart = 2 * ROBOT_RADIUS
     found: list[str] = []
     order = sorted(range(len(starts)), key=lambda k: starts[k].x)
     for n, j in enumerate(order):
-        for i in reversed(order[:n]):
-            if starts[j].x - starts[i].x >= apart or len(found) >= most:
+        for i in (order[k] for k in range(n - 1, -1, -1)):
+            if starts[j].x - starts[i].x >= apart or len(found) >= most or not budget.spend(1):
                 break
             gap = math.hypot(starts[j].x - starts[i].x, starts[j].y - starts[i].y)
             if gap < apart:

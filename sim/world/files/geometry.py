@@ -76,3 +76,62 @@ def bbox(points: Sequence[Point]) -> tuple[float, float, float, float]:
     xs = [p[0] for p in points]
     ys = [p[1] for p in points]
     return (min(xs), min(ys), max(xs), max(ys))
+
+
+class Budget:
+    """A count of pairs looked at, shared by a check's parts: `spend(n)` is False once `most`
+    are spent, so a check of any world within the file limits ends in bounded time."""
+
+    def __init__(self, most: int):
+        self.most, self.spent = most, 0
+
+    def spend(self, count: int) -> bool:
+        self.spent += count
+        return self.spent <= self.most
+
+    @property
+    def exhausted(self) -> bool:
+        return self.spent > self.most
+
+
+class Near:
+    """Convex polygons binned by their bounding boxes into square cells of `cell` m, to ask which
+    come within `reach` of a point without looking at them all. A polygon covering more than
+    `most_cells` cells is kept in a list every question looks through (binning it would cost more)."""
+
+    def __init__(self, polygons: Sequence[Sequence[Point]], budget: Budget, cell: float = 0.25, most_cells: int = 16):
+        self.polygons, self.cell, self.budget = polygons, cell, budget
+        self.boxes = [bbox(p) for p in polygons]
+        self.bins: dict[tuple[int, int], list[int]] = {}
+        self.wide: list[int] = []
+        for i, (x0, y0, x1, y1) in enumerate(self.boxes):
+            c0, r0, c1, r1 = (math.floor(v / cell) for v in (x0, y0, x1, y1))
+            if (c1 - c0 + 1) * (r1 - r0 + 1) > most_cells:
+                self.wide.append(i)
+                continue
+            for c in range(c0, c1 + 1):
+                for r in range(r0, r1 + 1):
+                    self.bins.setdefault((c, r), []).append(i)
+
+    def near(self, p: Point, reach: float) -> list[int]:
+        """Indices of the polygons whose bounding box comes within `reach` of p, in index order;
+        [] once the budget is spent."""
+        x, y = p
+        c0, r0, c1, r1 = (math.floor(v / self.cell) for v in (x - reach, y - reach, x + reach, y + reach))
+        if (c1 - c0 + 1) * (r1 - r0 + 1) > 64:  # (a long reach: look through everything)
+            if not self.budget.spend(len(self.polygons)):
+                return []
+            candidates: set[int] | range = range(len(self.polygons))
+        else:
+            candidates = {i for c in range(c0, c1 + 1) for r in range(r0, r1 + 1) for i in self.bins.get((c, r), ())}
+            candidates.update(self.wide)
+            if not self.budget.spend(len(candidates) + 1):
+                return []
+        found = sorted(i for i in candidates if _box_gap(self.boxes[i], p) <= reach)
+        return found if self.budget.spend(sum(len(self.polygons[i]) for i in found)) else []
+
+
+def _box_gap(box_: tuple[float, float, float, float], p: Point) -> float:
+    dx = max(box_[0] - p[0], 0.0, p[0] - box_[2])
+    dy = max(box_[1] - p[1], 0.0, p[1] - box_[3])
+    return math.hypot(dx, dy)

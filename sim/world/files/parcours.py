@@ -5,14 +5,16 @@ Read by defusedxml's SAX parser, which refuses entity declarations (the "billion
 never fetches the DOCTYPE's `parcours.dtd` or any other external resource (SAX's external-entity
 features off); its locator gives each
 element's line, so an error names the line of the offending `<line>`. Elements may nest at most
-MAX_DEPTH deep and the file is at most `bots.schema.MAX_BYTES` long.
+MAX_DEPTH deep and the file is a regular one of at most `bots.schema.MAX_BYTES`.
 """
 
 from __future__ import annotations
 
+import difflib
 import io
 import re
 import xml.sax
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -20,7 +22,7 @@ from typing import Any
 from defusedxml import DefusedXmlException
 from defusedxml.expatreader import DefusedExpatParser
 
-from bots.schema import MAX_BYTES
+from bots.schema import read_bytes
 from sim.world.spec import Colour, WorldFileError, WorldSpec
 
 from .grid import DEFAULT_CELL, DEFAULT_TILE_COLOURS, build_grid
@@ -99,12 +101,7 @@ def _parse_xml(data: bytes, path: Path) -> _Element:
 def load_parcours(path: Path, pillars: str = "cell") -> WorldSpec:
     """Load a c't-Sim parcours file; everything outside the map is a hole, as in c't-Sim.
     `pillars`: how lamp pillars stand (`build_grid`)."""
-    try:
-        if path.stat().st_size > MAX_BYTES:
-            raise WorldFileError(path, None, f"the file has {path.stat().st_size:,} bytes, more than the {MAX_BYTES:,} a ctsim file may have")
-        data = path.read_bytes()
-    except OSError as e:
-        raise WorldFileError(path, None, f"cannot read: {e.strerror}") from None
+    data = read_bytes(path, WorldFileError)
     root = _parse_xml(data, path)
     parcours = root.first("parcours")
     if root.tag != "world" or parcours is None:
@@ -124,6 +121,7 @@ def load_parcours(path: Path, pillars: str = "cell") -> WorldSpec:
         pillars=pillars,
     )
     description = root.first("description")
+    notes = tuple(_unknown_tags(root))
     return WorldSpec(
         name=path.stem,
         bounds=pieces.bounds,
@@ -139,7 +137,31 @@ def load_parcours(path: Path, pillars: str = "cell") -> WorldSpec:
         outside_is_hole=True,
         source=str(path),
         description=re.sub(r"\s+", " ", description.text).strip() if description is not None else "",
+        notes=notes,
     )
+
+
+KNOWN_TAGS = {"world": ("description", "parcours", "optics"), "parcours": ("line", "optics"), "optics": ("appearance",),
+              "appearance": ("description", "color", "clone", "texture")}
+"""The elements c't-Sim reads inside each element (its parcours.dtd): anything else is ignored,
+and said (a misspelt `<line>` would drop a row of the map)."""
+
+
+def _unknown_tags(root: _Element) -> Iterator[str]:
+    """A note per element c't-Sim would not read, with its line and the closest known tag."""
+    todo = [root]
+    while todo:
+        element = todo.pop()
+        known = KNOWN_TAGS.get(element.tag)
+        if known is None:
+            continue
+        for child in element.children:
+            if child.tag in known:
+                todo.append(child)
+                continue
+            close = difflib.get_close_matches(child.tag, known, n=1)
+            hint = f"; did you mean <{close[0]}>?" if close else f" (known there: {', '.join(f'<{t}>' for t in known)})"
+            yield f"line {child.line}: unknown tag <{child.tag}> inside <{element.tag}>, ignored{hint}"
 
 
 def _optics(optics: _Element, path: Path) -> dict[str, Colour]:

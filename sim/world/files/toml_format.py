@@ -33,7 +33,7 @@ from sim.world.spec import (
     WorldSpec,
 )
 
-from bots.schema import WORLD_EXTENT, Field, Locator, Problem, read_toml
+from bots.schema import MIN_LENGTH, MIN_MASS, WORLD_EXTENT, Field, Locator, Problem, read_toml
 
 from .geometry import bbox, convex_ccw, segment_box
 from .grid import DEFAULT_CELL, KNOWN_TILES, GridPieces, build_grid
@@ -42,7 +42,7 @@ ARRAYS = ("wall", "floor", "line", "hole", "light", "start", "goal", "movable", 
 _REQUIRED: Any = object()
 _POINT = Field("pair", "m", -WORLD_EXTENT, WORLD_EXTENT)
 _AREA = {"box": Field("box", "m", -WORLD_EXTENT, WORLD_EXTENT), "polygon": Field("points", "m", -WORLD_EXTENT, WORLD_EXTENT, minimum=3)}
-_SIZE = {"unit": "m", "low": 0.0, "above": True, "high": 10.0}
+_SIZE = {"unit": "m", "low": MIN_LENGTH, "high": 10.0}
 _SLOT = Field("integer", "start slot", 0, 10_000)
 FIELDS: dict[str | None, dict[str, Field]] = {
     None: {"name": Field("text"), "description": Field("text"), "bounds": _AREA["box"], "floor_colour": Field("colour"),
@@ -54,7 +54,7 @@ FIELDS: dict[str | None, dict[str, Field]] = {
     "light": {"position": _POINT, "height": Field("number", "m", 0.0, 100.0, above=True)},
     "start": {"position": _POINT, "heading_deg": Field("number", "deg", -3600.0, 3600.0), "heading": Field("number", "rad", -20 * math.pi, 20 * math.pi), "slot": _SLOT},
     "goal": {**_AREA, "slot": _SLOT},
-    "movable": {"position": _POINT, "radius": Field("number", **_SIZE), "mass": Field("number", "kg", 0.0, 10_000.0, above=True)},
+    "movable": {"position": _POINT, "radius": Field("number", **_SIZE), "mass": Field("number", "kg", MIN_MASS, 10_000.0)},
     "fault": {"time": Field("number", "s", 0.0, 1e9), "robot": Field("integer", "index", 0, 1_000_000), "wheel": Field("integer", "index", 0, 1000),
               "kind": Field("text", choices=FAULT_KINDS)},
     "grid": {"cell": Field("number", **_SIZE), "origin": _POINT, "rows": Field("text"), "colours": Field("table")},

@@ -3,7 +3,7 @@ import math
 import numpy as np
 
 from bots.commands import Twist
-from bots.odometry import EncoderOdometry
+from sim.lab.kit import EncoderOdometry
 
 
 def wrap(angle):

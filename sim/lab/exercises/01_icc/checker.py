@@ -9,12 +9,15 @@ from sim.lab.student import StudentError, numbers
 
 
 def draw(rng, index, ranges):
-    """Uniform draws; the first two hidden scenarios are the special cases with new numbers."""
+    """Uniform draws; the first two hidden scenarios are the special cases with new numbers, the
+    third nearly straight (a coarse test for the straight case, |v_r − v_l| < ε, is caught)."""
     p = {k: float(rng.uniform(*v)) for k, v in ranges.items()}
     if index == 0:
         p["v_right"] = p["v_left"]
     elif index == 1:
         p["v_right"] = -p["v_left"]
+    elif index == 2:
+        p["v_right"] = p["v_left"] * (1 + 1e-3)  # R a few tens of metres: still exact to the tolerance
     return {"v_left": p["v_left"], "v_right": p["v_right"], "track": p["track"], "pose": [p["x"], p["y"], p["theta"]]}
 
 

@@ -6,6 +6,7 @@ import math
 import numpy as np
 
 from bots.odometry import MouseOdometry
+from sim.kinematics import counts_per_metre
 from sim.lab.checking import Outcome
 from sim.lab.runs import check_estimator, robot
 from sim.lab.student import StudentError
@@ -22,30 +23,29 @@ def draw(rng, index, ranges):
     return {"mount": [lever, float(rng.uniform(*ranges["side"]))], "segments": segments, "dt": ranges["dt"]}
 
 
-class Chord(MouseOdometry):
-    """The arc length laid as if it were the chord."""
+class Mouse:
+    """The inverse mouse model as a student writes it (alpha = lateral/m_x, s = forward + alpha·m_y,
+    the chord along the mid-angle), with one step of it wrong: `lateral_sign` -1 flips alpha,
+    `lever` False leaves alpha·m_y out, `chord` False lays the arc length as if it were the chord."""
+
+    name = "mistaken"
+
+    def __init__(self, lateral_sign=1.0, lever=True, chord=True):
+        self.lateral_sign, self.lever, self.chord = lateral_sign, lever, chord
+
+    def reset(self, robot, pose):
+        self.mount = tuple(float(m) for m in robot.mouse.mount)
+        self.per_metre = float(counts_per_metre(robot.mouse.dpi))
+        self.pose = np.array(pose, dtype=float)
 
     def update(self, readings):
-        s, alpha = self.arc(readings)
+        forward, lateral = (v / self.per_metre for v in np.asarray(readings.mouse_counts, dtype=np.float64).tolist())
+        alpha = self.lateral_sign * lateral / self.mount[0]
+        s = forward + (alpha * self.mount[1] if self.lever else 0.0)
+        length = s * float(np.sinc(alpha / (2 * math.pi))) if self.chord else s
         x, y, theta = self.pose
         mid = theta + alpha / 2
-        self.pose = np.array([x + s * math.cos(mid), y + s * math.sin(mid), theta + alpha])
-
-
-class Flipped(MouseOdometry):
-    """alpha = -lateral/m_x, and s = forward + alpha*m_y with that alpha."""
-
-    def arc(self, readings):
-        s, alpha = super().arc(readings)
-        return s - 2 * alpha * self.model.mount[1], -alpha
-
-
-class NoLateralOffset(MouseOdometry):
-    """s = forward, the alpha*m_y term left out."""
-
-    def arc(self, readings):
-        s, alpha = super().arc(readings)
-        return s - alpha * self.model.mount[1], alpha
+        self.pose = np.array([x + length * math.cos(mid), y + length * math.sin(mid), theta + alpha])
 
 
 def spec_for(scenario):
@@ -56,7 +56,7 @@ def check(scenario, student):
     spec = spec_for(scenario)
     if scenario["mount"][0] == 0:
         return refused(student, spec)
-    mistakes = {"chord": Chord(), "flipped": Flipped(), "no_my": NoLateralOffset()}
+    mistakes = {"chord": Mouse(chord=False), "flipped": Mouse(lateral_sign=-1.0), "no_my": Mouse(lever=False)}
     return check_estimator(scenario, spec, student, MouseOdometry(), mistakes)
 
 

@@ -6,7 +6,7 @@ Check your work with:  ctsim lab check 5 drive.py
 import numpy as np
 
 from bots.commands import Twist, WheelSpeeds  # noqa: F401  (what step() returns)
-from bots.odometry import EncoderOdometry  # noqa: F401  (exercise 3's odometry, ready to use)
+from sim.lab.kit import EncoderOdometry  # noqa: F401  (exercise 3's odometry, ready to use)
 
 
 class Driver:

@@ -1,0 +1,111 @@
+"""A user's own odometry estimator beside the shipped ones: loaded from a file, named, and
+checked every step as a controller's command is.
+
+An estimator follows `bots.odometry.Estimator`: `reset(robot, pose)`, `update(readings)`, a `pose`
+(3,) and optionally a `covariance` (3, 3). `ctsim run --estimator FILE.py:Class` and
+`simulate(..., estimators=[...])` give every robot a fresh one beside its defaults; its name is
+its `name` attribute (else the class's), which must be a plain word (it names files) and differ
+from the others'. A step whose update raises, or leaves a pose or covariance of the wrong shape
+or not finite, ends the run as a controller's error does (`check`).
+"""
+
+from __future__ import annotations
+
+import copy
+import inspect
+import math
+import re
+from collections.abc import Callable, Iterable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from bots.controller import user_module
+from bots.odometry import Estimator, default_estimators
+from bots.spec import RobotSpec
+from sim.errors import UserError
+
+NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]{0,39}")
+"""What an estimator's name may be: it is part of file names (`<name>.tum`) and column names."""
+
+
+class EstimatorError(UserError):
+    """A user estimator that cannot be loaded or named (message for the CLI)."""
+
+
+def load(source: str) -> Callable[[], Estimator]:
+    """The estimator class (or factory) of `FILE.py[:NAME]`: the one named, else the file's only
+    class with `reset` and `update` methods."""
+    file, _, name = source.partition(":") if not Path(source).is_file() else (source, "", "")
+    path = Path(file)
+    module = user_module(path, "estimator", EstimatorError)
+    if name:
+        if not hasattr(module, name):
+            raise EstimatorError(f"{path}: defines no {name!r}")
+        return getattr(module, name)
+    found = [v for v in vars(module).values() if inspect.isclass(v) and v.__module__ == module.__name__ and hasattr(v, "update") and hasattr(v, "reset")]
+    if len(found) != 1:
+        raise EstimatorError(f"{path}: expected one class with reset(robot, pose) and update(readings) methods, found {len(found)}; name it with FILE.py:CLASS")
+    return found[0]
+
+
+def made(given: Any) -> Estimator:
+    """A fresh estimator from a class, a factory, an estimator object (copied) or `FILE.py:NAME`."""
+    if isinstance(given, str | Path):
+        given = load(str(given))
+    if hasattr(given, "update") and not inspect.isclass(given):
+        return copy.deepcopy(given)
+    try:
+        estimator = given()
+    except Exception as err:  # the user's constructor
+        raise EstimatorError(f"estimator {getattr(given, '__name__', given)!r} could not be made: {type(err).__name__}: {err}") from None
+    if not (hasattr(estimator, "reset") and hasattr(estimator, "update")):
+        raise EstimatorError(f"{getattr(given, '__name__', given)!r} is not an estimator: it needs reset(robot, pose) and update(readings) methods")
+    return estimator
+
+
+def name_of(estimator: Estimator) -> str:
+    """An estimator's label: its `name`, else its class's name."""
+    return str(getattr(estimator, "name", None) or type(estimator).__name__)
+
+
+def alongside(robot: RobotSpec, extra: Iterable[Any]) -> list[Estimator]:
+    """The robot's default estimators and a fresh one of each `extra`, their names checked."""
+    chosen = [*default_estimators(robot), *(made(given) for given in extra)]
+    seen: set[str] = set()
+    for estimator in chosen:
+        label = name_of(estimator)
+        if not NAME.fullmatch(label):
+            raise EstimatorError(f"estimator name {label!r}: use letters, digits, '_', '.' or '-' (at most 40; it names files)")
+        if label in seen or label == "truth":
+            raise EstimatorError(f"estimator name {label!r} is taken; give yours another `name`")
+        seen.add(label)
+        if getattr(estimator, "name", None) != label:
+            try:
+                estimator.name = label
+            except AttributeError:
+                pass
+    return chosen
+
+
+def check(estimator: Estimator) -> str | None:
+    """What is wrong with an estimator's output after an update (None: nothing): a pose that is
+    not 3 finite numbers, a covariance (where it has one) that is not a finite (3, 3) matrix."""
+    problem = _numbers(getattr(estimator, "pose", None), (3,), "pose")
+    if problem is None and hasattr(estimator, "covariance"):
+        problem = _numbers(estimator.covariance, (3, 3), "covariance")
+    return problem
+
+
+def _numbers(value: Any, shape: tuple[int, ...], what: str) -> str | None:
+    try:
+        array = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        return f"its {what} is not numbers ({type(value).__name__})"
+    if array.shape != shape:
+        return f"its {what} has shape {array.shape}; expected {shape}"
+    if not np.isfinite(array).all():
+        bad = next(float(v) for v in array.ravel() if not math.isfinite(v))
+        return f"its {what} is not finite ({bad})"
+    return None

@@ -1,0 +1,346 @@
+"""One step of each default estimator's arc and error covariance, compiled, so that the Python
+estimators (`bots.odometry`) and the batch of a run's robots (`bots.odometry_batch`) run the
+same code: each takes a robot's parameter row (PARAMS) and returns the increment (s, alpha) for
+its caller to lay down; `batch_step` steps every robot of the batch. Every compiled part of the
+odometry is in this one file: numba caches a kernel by its own file's stamp, so a kernel calling
+one from another file would keep the old callee after that file changed.
+
+The fused estimator is an extended Kalman filter of the pose and the four calibration errors of
+`bots.uncertainty` (wheel scales, track, mouse resolution). Each step both sensors measure the
+same increment (s, alpha): u = u_enc + J_enc k + n_enc = u_mouse + J_mouse k + n_mouse. Their
+difference d (each corrected by the current calibration estimate) measures the calibration
+errors alone, with noise n_enc - n_mouse: the Kalman update moves the calibration (and, through
+their correlation, the pose). The increment laid down is the two corrected increments weighted by
+their information, whose noise is uncorrelated with d's (the same weights), so one step uses
+every reading once. The Jacobians are taken at the mouse's increment (fine counts), not the
+encoders' (a tick arrives on some steps only): Jacobians taken at the encoders' quantised values
+correlate with their own quantisation error and bias the calibration.
+
+Per step, a count's quantisation (up to one count) is far above the random noise, so the
+weights and the update take it as white noise of variance count²/12 on each channel: this
+over-states its sum over many steps (carried counts lag by less than one count, never more),
+which keeps the calibration update cautious. The propagated covariance takes only the random
+noise; the quantisation lag is reported beside it (`lag`, as `bots.uncertainty` does).
+
+Two detectors leave a sensor out where its model does not hold (`bots.odometry.FusedOdometry`
+says why they hold): slip (the encoders' distance strays from the mouse's beyond a quantisation
+band) and wall contact (the mouse's rotation strays from the encoders', a slide read as
+rotation); a channel left out gets the variance IGNORED.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from bots.uncertainty import (
+    ERRORS,
+    HEADING,
+    LEFT_SCALE,
+    MOUSE_SCALE,
+    RIGHT_SCALE,
+    TRACK_SCALE,
+)
+from sim.kinematics.batch import advance_one
+
+# the estimates of one robot in the batch (n, ESTIMATES, 3): the order of `default_estimators`
+ENCODERS, FIRMWARE, MOUSE, FUSED, ESTIMATES = 0, 1, 2, 3, 4
+IGNORED = 1e6
+"""Variance (m², rad²) of a channel left out for a step: a million times any real one."""
+
+# a robot's parameters (PARAMS,) float64: metres of rim per tick (left, right), believed track
+# (m), mouse counts per metre, mouse mount x, y (m), the fused estimator's tolerance (m) and turn
+# tolerance (rad), its TURN_MEMORY (s) and GATE (standard deviations), passed, not compiled in
+# (numba's cache would not see them change in bots.odometry), whether the robot has the mouse estimators
+# (1.0) or only the encoders' (0.0), and the believed noise (`bots.uncertainty.Belief`): relative
+# slip variance, spurious-tick variance per wheel (m²), mouse reading variance (m²); and the
+# fused estimator's DISTANCE_MEMORY (m)
+TICK_LEFT, TICK_RIGHT, TRACK, PER_METRE, MOUNT_X, MOUNT_Y, TOLERANCE, TURN_TOLERANCE, MEMORY, GATE, HAS_MOUSE = range(11)
+SLIP_VAR, TICK_VAR_LEFT, TICK_VAR_RIGHT, MOUSE_VAR, DISTANCE_MEMORY, PARAMS = range(11, 17)
+# the fused estimator's detector state (STATE,) float64, as `FusedOdometry`'s attributes of those
+# names; TIME is nan before the first step
+DISAGREEMENT, TURN_DISAGREEMENT, TAKEN, TURNING, TIME, TRAVEL, TURN_TRAVEL, DISAGREEMENT_VAR, TURN_VAR, STATE = range(10)
+
+
+@numba.njit(cache=True)
+def wheel_terms(s_left: float, s_right: float, alpha: float, track: float, var_left: float, var_right: float,
+                jac: np.ndarray, noise: np.ndarray) -> None:  # fmt: skip
+    """The encoder increment's error model, in place: `jac` (2, ERRORS) of (s, alpha) on the
+    scales for wheel arcs s_left, s_right (m) and heading change alpha over `track` (m); `noise`
+    (2, 2) for independent wheel-arc variances var_left, var_right (m²)."""
+    jac[:, :] = 0.0
+    jac[0, LEFT_SCALE], jac[0, RIGHT_SCALE] = 0.5 * s_left, 0.5 * s_right
+    jac[1, LEFT_SCALE], jac[1, RIGHT_SCALE], jac[1, TRACK_SCALE] = -s_left / track, s_right / track, -alpha
+    noise[0, 0] = 0.25 * (var_left + var_right)
+    noise[0, 1] = noise[1, 0] = 0.5 * (var_right - var_left) / track
+    noise[1, 1] = (var_left + var_right) / (track * track)
+
+
+@numba.njit(cache=True)
+def mouse_terms(s: float, alpha: float, mount_x: float, mount_y: float, var: float, jac: np.ndarray, noise: np.ndarray) -> None:
+    """The mouse increment's error model, in place: `jac` on the resolution's error for the
+    increment (s m, alpha rad), `noise` for a variance `var` (m²) of each axis's reading, through
+    alpha = lateral/m_x, s = forward + alpha*m_y."""
+    jac[:, :] = 0.0
+    jac[0, MOUSE_SCALE], jac[1, MOUSE_SCALE] = -s, -alpha
+    lever = mount_y / mount_x
+    noise[0, 0] = var * (1.0 + lever * lever)
+    noise[0, 1] = noise[1, 0] = var * lever / mount_x
+    noise[1, 1] = var / (mount_x * mount_x)
+
+
+@numba.njit(cache=True)
+def propagate(cov: np.ndarray, heading: float, s: float, alpha: float, end_heading: bool, jac: np.ndarray, noise: np.ndarray) -> None:
+    """`cov` (ERRORS, ERRORS) after laying the increment (s, alpha) from `heading` (rad, before
+    the step) whose error is jac @ errors + n, n ~ noise: cov <- A cov A^T + G noise G^T, with A
+    the identity but for the pose rows (d pose'/d pose and G @ jac, G = d pose'/d (s, alpha))."""
+    angle = heading + (alpha if end_heading else 0.5 * alpha)
+    c, sn = math.cos(angle), math.sin(angle)
+    lever = s if end_heading else 0.5 * s
+    g = ((c, -lever * sn), (sn, lever * c), (0.0, 1.0))
+    a = np.zeros((3, ERRORS))
+    for r in range(3):
+        a[r, r] = 1.0
+        for j in range(ERRORS):
+            a[r, j] += g[r][0] * jac[0, j] + g[r][1] * jac[1, j]
+    a[0, HEADING] -= s * sn
+    a[1, HEADING] += s * c
+    rows = np.zeros((3, ERRORS))  # a @ cov
+    for r in range(3):
+        for j in range(ERRORS):
+            total = 0.0
+            for k in range(ERRORS):
+                total += a[r, k] * cov[k, j]
+            rows[r, j] = total
+    pose = np.zeros((3, 3))  # a @ cov @ a^T, + G noise G^T
+    for r in range(3):
+        for q in range(3):
+            total = 0.0
+            for k in range(ERRORS):
+                total += rows[r, k] * a[q, k]
+            pose[r, q] = total + (g[r][0] * (noise[0, 0] * g[q][0] + noise[0, 1] * g[q][1]) + g[r][1] * (noise[1, 0] * g[q][0] + noise[1, 1] * g[q][1]))
+    for r in range(3):
+        for j in range(3, ERRORS):
+            cov[r, j] = cov[j, r] = rows[r, j]
+        for q in range(3):
+            cov[r, q] = pose[r, q]
+
+
+@numba.njit(cache=True)
+def pose_covariance(cov: np.ndarray, heading: float, lag: np.ndarray, out: np.ndarray) -> None:
+    """The reported pose covariance's six entries (COVARIANCE_FIELDS) into `out`: the propagated
+    one plus the quantisation lag `lag` (2, 2) of the increment (s along the heading, alpha)."""
+    c, sn = math.cos(heading), math.sin(heading)
+    out[0] = cov[0, 0] + lag[0, 0] * c * c
+    out[1] = cov[0, 1] + lag[0, 0] * c * sn
+    out[2] = cov[0, 2] + lag[0, 1] * c
+    out[3] = cov[1, 1] + lag[0, 0] * sn * sn
+    out[4] = cov[1, 2] + lag[0, 1] * sn
+    out[5] = cov[2, 2] + lag[1, 1]
+
+
+@numba.njit(cache=True)
+def _mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a @ b for 2-D arrays (numba's own needs SciPy's BLAS)."""
+    out = np.zeros((a.shape[0], b.shape[1]))
+    for i in range(a.shape[0]):
+        for k in range(a.shape[1]):
+            for j in range(b.shape[1]):
+                out[i, j] += a[i, k] * b[k, j]
+    return out
+
+
+@numba.njit(cache=True)
+def _apply(a: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """a @ v for a 2-D a and a 1-D v."""
+    out = np.zeros(a.shape[0])
+    for i in range(a.shape[0]):
+        for k in range(a.shape[1]):
+            out[i] += a[i, k] * v[k]
+    return out
+
+
+@numba.njit(cache=True)
+def _inverse(m: np.ndarray) -> np.ndarray:
+    det = m[0, 0] * m[1, 1] - m[0, 1] * m[1, 0]
+    out = np.empty((2, 2))
+    out[0, 0], out[0, 1], out[1, 0], out[1, 1] = m[1, 1] / det, -m[0, 1] / det, -m[1, 0] / det, m[0, 0] / det
+    return out
+
+
+@numba.njit(cache=True)
+def wheel_variances(p: np.ndarray, s_left: float, s_right: float) -> tuple[float, float]:
+    """The random variance (m²) of each wheel's arc over a step of these arcs (m): slip and
+    spurious ticks both grow with the distance rolled (m² per metre each), whatever the step."""
+    return (p[SLIP_VAR] + p[TICK_VAR_LEFT]) * abs(s_left), (p[SLIP_VAR] + p[TICK_VAR_RIGHT]) * abs(s_right)
+
+
+@numba.njit(cache=True)
+def mouse_variance(p: np.ndarray, s: float, alpha: float) -> float:
+    """The random variance (m²) of each mouse axis over a step of this increment: its noise
+    (m² per metre) times the floor the sensor passed, (s - alpha m_y, alpha m_x)."""
+    return p[MOUSE_VAR] * math.hypot(s - alpha * p[MOUNT_Y], alpha * p[MOUNT_X])
+
+
+@numba.njit(cache=True)
+def encoder_step(p: np.ndarray, heading: float, cov: np.ndarray, left: float, right: float, end_heading: bool) -> tuple[float, float]:
+    """Encoder odometry: the increment of `left`, `right` ticks; `cov` propagated from `heading`."""
+    s_left, s_right = left * p[TICK_LEFT], right * p[TICK_RIGHT]
+    s, alpha = 0.5 * (s_left + s_right), (s_right - s_left) / p[TRACK]
+    jac, noise = np.zeros((2, ERRORS)), np.zeros((2, 2))
+    var_left, var_right = wheel_variances(p, s_left, s_right)
+    wheel_terms(s_left, s_right, alpha, p[TRACK], var_left, var_right, jac, noise)
+    propagate(cov, heading, s, alpha, end_heading, jac, noise)
+    return s, alpha
+
+
+@numba.njit(cache=True)
+def mouse_arc(p: np.ndarray, forward: float, lateral: float) -> tuple[float, float]:
+    """The mouse's increment (seed 002 §2.1): alpha = lateral/m_x, s = forward + alpha*m_y."""
+    alpha = lateral / p[PER_METRE] / p[MOUNT_X]
+    return forward / p[PER_METRE] + alpha * p[MOUNT_Y], alpha
+
+
+@numba.njit(cache=True)
+def mouse_step(p: np.ndarray, heading: float, cov: np.ndarray, forward: float, lateral: float) -> tuple[float, float]:
+    """Mouse odometry: the increment of these counts; `cov` propagated from `heading`."""
+    s, alpha = mouse_arc(p, forward, lateral)
+    jac, noise = np.zeros((2, ERRORS)), np.zeros((2, 2))
+    mouse_terms(s, alpha, p[MOUNT_X], p[MOUNT_Y], mouse_variance(p, s, alpha), jac, noise)
+    propagate(cov, heading, s, alpha, False, jac, noise)
+    return s, alpha
+
+
+@numba.njit(cache=True)
+def fused_step(
+    p: np.ndarray, st: np.ndarray, pose: np.ndarray, calibration: np.ndarray, cov: np.ndarray, lag: np.ndarray,
+    left: float, right: float, forward: float, lateral: float, time: float,
+) -> tuple[float, float, bool]:
+    """The fused filter's step, in place: `pose` (3,) corrected by the update (not yet advanced),
+    `calibration` (ERRORS,) the estimated errors (entries 3 on), `cov` (ERRORS, ERRORS), `lag`
+    (2, 2) the increment's quantisation lag, `st` (STATE,) the detectors. Returns the increment
+    (s, alpha) to lay from the corrected pose and whether the mouse slid (wall contact)."""
+    track = p[TRACK]
+    s_left, s_right = left * p[TICK_LEFT], right * p[TICK_RIGHT]
+    u_enc = np.array([0.5 * (s_left + s_right), (s_right - s_left) / track])
+    u_mouse = np.array(mouse_arc(p, forward, lateral))
+    # the error models, the encoders' at the arcs of the mouse's increment (see the module)
+    j_enc, r_enc, q_enc = np.zeros((2, ERRORS)), np.zeros((2, 2)), np.zeros((2, 2))
+    j_mouse, r_mouse, q_mouse = np.zeros((2, ERRORS)), np.zeros((2, 2)), np.zeros((2, 2))
+    count = 1.0 / p[PER_METRE]
+    mouse_terms(u_mouse[0], u_mouse[1], p[MOUNT_X], p[MOUNT_Y], mouse_variance(p, u_mouse[0], u_mouse[1]), j_mouse, r_mouse)
+    mouse_terms(u_mouse[0], u_mouse[1], p[MOUNT_X], p[MOUNT_Y], count * count / 12.0, j_mouse, q_mouse)
+    corrected_mouse = u_mouse + _apply(j_mouse, calibration)
+    # the detectors, on the corrected increments
+    at_left = corrected_mouse[0] - 0.5 * corrected_mouse[1] * track
+    at_right = corrected_mouse[0] + 0.5 * corrected_mouse[1] * track
+    var_left, var_right = wheel_variances(p, at_left, at_right)
+    wheel_terms(at_left, at_right, corrected_mouse[1], track, var_left, var_right, j_enc, r_enc)
+    wheel_terms(at_left, at_right, corrected_mouse[1], track, p[TICK_LEFT] ** 2 / 12.0, p[TICK_RIGHT] ** 2 / 12.0, j_enc, q_enc)
+    corrected_enc = u_enc + _apply(j_enc, calibration)
+    # slip: the encoders' distance beyond the mouse's, over the last DISTANCE_MEMORY of the mouse's
+    # path, against its quantisation band, GATE sigmas of its random noise summed as it is, and of
+    # the calibration still unknown over that path
+    forget = math.exp(-abs(corrected_mouse[0]) / p[DISTANCE_MEMORY])
+    st[DISAGREEMENT] = st[DISAGREEMENT] * forget + corrected_enc[0] - corrected_mouse[0]
+    st[DISAGREEMENT_VAR] = st[DISAGREEMENT_VAR] * forget * forget + r_enc[0, 0] + r_mouse[0, 0]
+    st[TRAVEL] = st[TRAVEL] * forget + abs(corrected_mouse[0])
+    scale = math.sqrt(max(0.25 * (cov[LEFT_SCALE, LEFT_SCALE] + cov[RIGHT_SCALE, RIGHT_SCALE] + 2.0 * cov[LEFT_SCALE, RIGHT_SCALE]) + cov[MOUSE_SCALE, MOUSE_SCALE], 0.0))
+    slipped = abs(st[DISAGREEMENT]) > p[TOLERANCE] + p[GATE] * (math.sqrt(st[DISAGREEMENT_VAR]) + scale * st[TRAVEL])
+    # a slide: the mouse's rotation beyond the encoders', over the last TURN_MEMORY seconds, the same way
+    if math.isnan(st[TIME]):
+        keep = 1.0
+    else:
+        elapsed = time - st[TIME]
+        keep = math.exp(-(0.0 if 0.0 > elapsed else elapsed) / p[MEMORY])
+    st[TIME] = time
+    st[TURNING] = st[TURNING] * keep + abs(corrected_enc[1])
+    st[TURN_TRAVEL] = st[TURN_TRAVEL] * keep + abs(corrected_enc[0])
+    st[TURN_DISAGREEMENT] = st[TURN_DISAGREEMENT] * keep + corrected_mouse[1] - corrected_enc[1]
+    st[TURN_VAR] = st[TURN_VAR] * keep * keep + r_enc[1, 1] + r_mouse[1, 1]
+    st[TAKEN] = st[TAKEN] * keep
+    turn_scale = math.sqrt(max(cov[TRACK_SCALE, TRACK_SCALE] + cov[MOUSE_SCALE, MOUSE_SCALE], 0.0))
+    mismatch = math.sqrt(max(cov[LEFT_SCALE, LEFT_SCALE] + cov[RIGHT_SCALE, RIGHT_SCALE] - 2.0 * cov[LEFT_SCALE, RIGHT_SCALE], 0.0))
+    band = p[TURN_TOLERANCE] + p[GATE] * (math.sqrt(st[TURN_VAR]) + turn_scale * st[TURNING] + mismatch * st[TURN_TRAVEL] / track)
+    sliding = abs(st[TURN_DISAGREEMENT]) > band
+    a_enc, a_mouse = r_enc + q_enc, r_mouse + q_mouse
+    if slipped:
+        a_enc[0, 0], a_enc[0, 1], a_enc[1, 0] = IGNORED, 0.0, 0.0
+    if sliding:
+        a_mouse[1, 1], a_mouse[0, 1], a_mouse[1, 0] = IGNORED, 0.0, 0.0
+    # the update: d = corrected_enc - corrected_mouse = h e + v, e = truth - estimate
+    h = j_mouse - j_enc
+    d = corrected_enc - corrected_mouse
+    noise_d = a_enc + a_mouse
+    ph = _mul(cov, h.T)  # (ERRORS, 2)
+    gain = _mul(ph, _inverse(_mul(h, ph) + noise_d))
+    correction = _apply(gain, d)
+    keep_cov = np.eye(ERRORS) - _mul(gain, h)
+    cov[:, :] = _mul(_mul(keep_cov, cov), keep_cov.T) + _mul(_mul(gain, noise_d), gain.T)  # (Joseph's form: stays symmetric, positive)
+    for r in range(3):
+        pose[r] += correction[r]
+    for r in range(3, ERRORS):
+        calibration[r] += correction[r]
+    # the increment: both, corrected by the updated calibration, by their information
+    i_enc, i_mouse = _inverse(a_enc), _inverse(a_mouse)
+    weights = _inverse(i_enc + i_mouse)
+    w_enc, w_mouse = _mul(weights, i_enc), _mul(weights, i_mouse)
+    u = _apply(w_enc, u_enc + _apply(j_enc, calibration)) + _apply(w_mouse, u_mouse + _apply(j_mouse, calibration))
+    jac = _mul(w_enc, j_enc) + _mul(w_mouse, j_mouse)
+    noise = _mul(_mul(w_enc, r_enc), w_enc.T) + _mul(_mul(w_mouse, r_mouse), w_mouse.T)
+    lag[:, :] = _mul(_mul(w_enc, q_enc), w_enc.T) + _mul(_mul(w_mouse, q_mouse), w_mouse.T)
+    propagate(cov, pose[2], u[0], u[1], False, jac, noise)
+    s, alpha = u[0], u[1]
+    if sliding:  # what the mouse's rotation added before the slide was seen is taken back
+        alpha -= st[TAKEN]
+        st[TAKEN] = 0.0
+    else:
+        st[TAKEN] += alpha - corrected_enc[1]
+    return s, alpha, sliding
+
+
+@numba.njit(cache=True, inline="always")
+def _lay(pose: np.ndarray, s: float, alpha: float, end_heading: bool) -> None:
+    """`_ArcOdometry.update`: the pose after the arc, in place."""
+    pose[0], pose[1], pose[2] = advance_one(pose[0], pose[1], pose[2], s, alpha, end_heading)
+
+
+@numba.njit(cache=True)
+def batch_step(
+    tallies: np.ndarray, rows: np.ndarray, time: float, params: np.ndarray, state: np.ndarray, contact_steps: np.ndarray,
+    calibration: np.ndarray, poses: np.ndarray, errors: np.ndarray, lags: np.ndarray, truth: np.ndarray, out: np.ndarray,
+    cov_out: np.ndarray,
+) -> None:
+    """One step of every robot's default estimators, in place: the compiled steps the Python
+    estimators call (`bots.odometry_steps`), laid down as `_ArcOdometry.update` lays them
+    (`advance_one`). Where `out` has rows: out[i] = the true pose, then the estimates, and
+    cov_out[i] their covariances (a run's log, one pass)."""
+    if out.shape[0] != rows.shape[0] or cov_out.shape[0] != rows.shape[0]:
+        raise ValueError("DefaultOdometry.update: out and cov_out must have a row for every robot of the batch")
+    for i in range(rows.shape[0]):
+        r, p, pose, cov = rows[i], params[i], poses[i], errors[i]
+        if r >= tallies.shape[0] or tallies.shape[1] != 4:  # a kernel reads past an array's end without a word
+            raise ValueError("DefaultOdometry.update: tallies must be (robots, 4) with a row for every robot of the batch")
+        left, right = float(tallies[r, 0]), float(tallies[r, 1])
+        s, alpha = encoder_step(p, pose[ENCODERS, 2], cov[ENCODERS], left, right, False)
+        _lay(pose[ENCODERS], s, alpha, False)
+        s, alpha = encoder_step(p, pose[FIRMWARE, 2], cov[FIRMWARE], left, right, True)
+        _lay(pose[FIRMWARE], s, alpha, True)
+        if p[HAS_MOUSE] == 0.0:
+            continue
+        forward, lateral = float(tallies[r, 2]), float(tallies[r, 3])
+        s, alpha = mouse_step(p, pose[MOUSE, 2], cov[MOUSE], forward, lateral)
+        _lay(pose[MOUSE], s, alpha, False)
+        s, alpha, sliding = fused_step(p, state[i], pose[FUSED], calibration[i], cov[FUSED], lags[i, FUSED], left, right, forward, lateral, time)
+        contact_steps[i] += sliding
+        _lay(pose[FUSED], s, alpha, False)
+    for i in range(out.shape[0]):
+        if rows[i] >= truth.shape[0]:
+            raise ValueError("DefaultOdometry.update: truth must have a row for every robot of the batch")
+        out[i, 0] = truth[rows[i]]
+        out[i, 1:] = poses[i]
+        estimates = ESTIMATES if params[i, HAS_MOUSE] != 0.0 else FIRMWARE + 1
+        for j in range(estimates):
+            pose_covariance(errors[i, j], poses[i, j, 2], lags[i, j], cov_out[i, j])

@@ -1,0 +1,87 @@
+"""How sure an odometry estimate is: its error covariance, propagated step by step from the
+sensors' noise model, in compiled kernels shared by the Python estimators and the batch.
+
+The error state of every estimator has ERRORS entries: the pose error (x, y m; heading rad) and
+four relative calibration errors the robot's own code cannot see (left and right wheel scale,
+track width, mouse resolution), each constant through a run. A step's increment (arc length s,
+heading change alpha) is wrong by `jac @ errors + n`, n ~ `noise` (2, 2); laying it down moves the
+pose error by the increment's Jacobians (the mid-angle chord of seed 002 eq 1.12, or the
+firmware's end heading), as in Chong and Kleeman 1997 ("Accurate odometry and error modelling for
+a mobile robot", their per-wheel distance variance growing with the distance rolled, plus the
+systematic errors of UMBmark as constant states, which make the pose covariance of a wrong track
+width grow with the rotation and that of a wheel mismatch with distance squared).
+
+The kernels of this model (`wheel_terms`, `mouse_terms`, `propagate`, `pose_covariance`) live in
+`bots.odometry_steps`, beside the steps that call them (numba caches a kernel by its own file).
+
+Quantisation is not a random walk here: counts are carried, so each channel lags the truth by
+less than one count at any time (uniform, variance count²/12) and that lag never adds up. It is
+added to the reported pose covariance (`pose_covariance`), never to the propagated one.
+
+The believed noise (`Belief.of`) is the robot description's own noise figures, read as its data
+sheet: the random spreads as they are, the systematic errors by their size only (a standard
+deviation), never their sign or which wheel.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from bots.spec import RobotSpec
+
+ERRORS = 7
+"""Entries of an estimator's error state."""
+X, Y, HEADING, LEFT_SCALE, RIGHT_SCALE, TRACK_SCALE, MOUSE_SCALE = range(ERRORS)
+COVARIANCE_FIELDS = ("cov_xx", "cov_xy", "cov_xt", "cov_yy", "cov_yt", "cov_tt")
+"""The six distinct entries of a pose covariance (m², m·rad, rad²), in the order `pose_covariance` writes."""
+
+
+@dataclass(frozen=True)
+class Belief:
+    """The noise an estimator assumes (per metre where random; relative where scales), as
+    `bots.spec` states the world's processes.
+
+    slip_var: variance of a wheel's arc per metre rolled (m² per m, slip_std²); tick_rate:
+    probability that a counted tick is one off; wheel_scale_std, track_std, mouse_scale_std:
+    standard deviation of the unknown relative errors of each wheel's diameter, the track width
+    and the mouse's resolution; mouse_var: variance of each mouse axis per metre of floor passed
+    (m² per m, noise_std²)."""
+
+    slip_var: float = 0.0
+    tick_rate: float = 0.0
+    wheel_scale_std: float = 0.0
+    track_std: float = 0.0
+    mouse_var: float = 0.0
+    mouse_scale_std: float = 0.0
+
+    @classmethod
+    def of(cls, robot: RobotSpec) -> Belief:
+        """The robot description's noise as its data sheet: each wheel's diameter error as the RMS
+        of the two (the mismatch's size, not which wheel), the others by their magnitude."""
+        enc, mouse = robot.encoders, robot.mouse
+        left, right = enc.diameter_error
+        return cls(
+            slip_var=enc.slip_std**2,
+            tick_rate=enc.tick_noise,
+            wheel_scale_std=math.sqrt(0.5 * (left * left + right * right)),
+            track_std=abs(enc.track_error),
+            mouse_var=0.0 if mouse is None else mouse.noise_std**2,
+            mouse_scale_std=0.0 if mouse is None else abs(mouse.scale_error),
+        )
+
+    def prior(self) -> np.ndarray:
+        """(ERRORS, ERRORS) the error covariance at the start: the pose known, the scales not."""
+        cov = np.zeros((ERRORS, ERRORS))
+        cov[LEFT_SCALE, LEFT_SCALE] = cov[RIGHT_SCALE, RIGHT_SCALE] = self.wheel_scale_std**2
+        cov[TRACK_SCALE, TRACK_SCALE] = self.track_std**2
+        cov[MOUSE_SCALE, MOUSE_SCALE] = self.mouse_scale_std**2
+        return cov
+
+
+def square(entries: np.ndarray) -> np.ndarray:
+    """(..., 3, 3) covariance matrices from their (..., 6) COVARIANCE_FIELDS entries."""
+    xx, xy, xt, yy, yt, tt = np.moveaxis(np.asarray(entries, dtype=np.float64), -1, 0)
+    return np.stack([np.stack([xx, xy, xt], -1), np.stack([xy, yy, yt], -1), np.stack([xt, yt, tt], -1)], -2)

@@ -1,0 +1,166 @@
+"""What a controller may change of the process it runs in, put back after each step of a run,
+so that a mistake in a controller's code cannot take the run's guards with it: its signal
+handlers (Ctrl-C, SIGTERM, the step timer's SIGALRM), blocked signals, the step timer itself,
+the recursion limit, stdout and stderr, `os._exit` from a thread, a fork that returns into the
+run loop, and ctsim's and numpy's module attributes.
+
+A controller is the user's own code (or, in a contest, someone else's, which runs sandboxed):
+these guards catch mistakes, not an attacker; code that means harm can still use ctypes. What a
+guard put back is said once per kind at the end of the run (`Guard.notes`).
+
+The checks after a step are a handful of attribute reads and two system calls (about 2 µs, once
+per step for all robots); the module snapshot is compared only when the run ends or fails.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import sys
+import threading
+from types import ModuleType
+from typing import Any
+
+RECURSION_LIMIT = sys.getrecursionlimit()
+"""The recursion limit ctsim started with: a controller that lowers it gets it back."""
+_REAL_EXIT = os._exit
+_SIGNALS = tuple(s for s in (getattr(signal, "SIGINT", None), getattr(signal, "SIGTERM", None), getattr(signal, "SIGALRM", None)) if s is not None)
+_WATCHED = ("numpy", "sim", "bots")
+"""Modules (and their submodules) whose attributes a controller must not replace."""
+
+
+class _Forks:
+    """Whether a run is going in this process (`running`), and whether this process is a fork
+    made while one went (`child`, set in the child by os.register_at_fork): a sweep's workers,
+    forked between runs, are not."""
+
+    running = False
+    child = False
+
+
+def _in_child() -> None:
+    _Forks.child = _Forks.running
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_in_child)
+
+
+class ControllerBrokeOut(Exception):
+    """A controller did what ends a run (`os._exit` from a thread, replacing numpy or ctsim)."""
+
+
+def _snapshot() -> dict[str, dict[str, Any]]:
+    return {name: dict(vars(module)) for name, module in list(sys.modules.items())
+            if isinstance(module, ModuleType) and name.split(".")[0] in _WATCHED}
+
+
+class Guard:
+    """The process state a run relies on, taken at its start (after its handlers and timer are
+    set); `check()` after every step puts back what a controller changed."""
+
+    def __init__(self) -> None:
+        self.main = threading.main_thread() is threading.current_thread()
+        self.handlers = {s: signal.getsignal(s) for s in _SIGNALS} if self.main else {}
+        self.timer = signal.getitimer(signal.ITIMER_REAL) if self.main and hasattr(signal, "getitimer") else None
+        self.streams = [sys.stdout, sys.stderr]
+        self.descriptors = {fd: os.dup(fd) for fd in (1, 2) if _open(fd)}
+        self.modules = _snapshot()
+        self.exited: str | None = None
+        self.notes: dict[str, str] = {}
+        self._exit = os._exit
+
+    def __enter__(self) -> Guard:
+        os._exit = self._guarded_exit
+        _Forks.running, _Forks.child = True, False
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        os._exit = self._exit
+        _Forks.running = False
+        self.exited = None  # (said already, if the run ended by it)
+        self.handlers, self.timer = {}, None  # (the run's clock and handlers are put away by their owners now)
+        self.check()
+        self._put_back_descriptors()
+        replaced = self.replaced()
+        if replaced:
+            self.notes["modules"] = f"the controller replaced {replaced}; ctsim put it back"
+        for descriptor in self.descriptors.values():
+            os.close(descriptor)
+
+    def _guarded_exit(self, status: int = 0) -> None:
+        """os._exit during a run: from the main thread a controller's exit (SystemExit), from
+        another thread the end of that thread and of the run, its data kept."""
+        if _Forks.child:  # (a fork's child leaves as it asked)
+            _REAL_EXIT(status)
+        where = threading.current_thread().name
+        if threading.current_thread() is not threading.main_thread():
+            self.exited = f"called os._exit({status}) from the thread {where!r}"
+        raise SystemExit(status)
+
+    def check(self) -> None:
+        """After a step: a fork's child leaves at once; signal handlers, blocked signals, the step
+        timer, the recursion limit and stdout/stderr are put back; ControllerBrokeOut after an
+        os._exit from a thread."""
+        if _Forks.child:
+            _REAL_EXIT(1)  # (the run and its files belong to the parent)
+        if self.main:
+            for number, handler in self.handlers.items():
+                if signal.getsignal(number) is not handler:
+                    signal.signal(number, handler)
+                    self.notes.setdefault(f"signal {number}", f"the controller changed the handler of {signal.Signals(number).name}; ctsim put its own back")
+            blocked = signal.pthread_sigmask(signal.SIG_BLOCK, ()) if hasattr(signal, "pthread_sigmask") else ()
+            if any(number in blocked for number in _SIGNALS):
+                signal.pthread_sigmask(signal.SIG_UNBLOCK, _SIGNALS)
+                self.notes.setdefault("mask", "the controller blocked ctsim's signals; ctsim unblocked them")
+            if self.timer is not None and self.timer[1] and signal.getitimer(signal.ITIMER_REAL)[1] != self.timer[1]:
+                signal.setitimer(signal.ITIMER_REAL, self.timer[1], self.timer[1])
+                self.notes.setdefault("timer", "the controller stopped the step timer; ctsim started it again")
+        if sys.getrecursionlimit() < RECURSION_LIMIT:
+            sys.setrecursionlimit(RECURSION_LIMIT)
+            self.notes.setdefault("recursion", f"the controller lowered the recursion limit; ctsim put it back to {RECURSION_LIMIT}")
+        if sys.stdout is not self.streams[0] or sys.stderr is not self.streams[1] or self.streams[0].closed or self.streams[1].closed:
+            self._put_back_streams()
+        if self.exited is not None:
+            raise ControllerBrokeOut(self.exited)
+
+    def _put_back_streams(self) -> None:
+        self._put_back_descriptors()
+        for k, name in enumerate(("stdout", "stderr")):
+            stream = self.streams[k]
+            if stream.closed:
+                stream = self.streams[k] = os.fdopen(os.dup(k + 1), "w", buffering=1, encoding=getattr(stream, "encoding", None) or "utf-8", errors="backslashreplace")
+            setattr(sys, name, stream)
+        self.notes.setdefault("streams", "the controller closed or replaced stdout or stderr; ctsim put them back")
+
+    def _put_back_descriptors(self) -> None:
+        for fd, copy in self.descriptors.items():
+            if not _open(fd):
+                os.dup2(copy, fd)
+                self.notes.setdefault("descriptors", "the controller closed file descriptor 1 or 2; ctsim opened it again")
+
+    def replaced(self) -> str:
+        """The functions, classes and modules in numpy's, ctsim's and bots' modules that a
+        controller replaced since the run started (put back), named ('' for none)."""
+        changed = []
+        for name, before in self.modules.items():
+            module = sys.modules.get(name)
+            if module is None:
+                continue
+            now = vars(module)
+            for key, value in before.items():
+                if (callable(value) or isinstance(value, ModuleType)) and now.get(key, _MISSING) is not value:
+                    changed.append(f"{name}.{key}")
+                    setattr(module, key, value)
+        return ", ".join(changed[:5]) + (f" and {len(changed) - 5} more" if len(changed) > 5 else "")
+
+
+_MISSING = object()
+
+
+def _open(fd: int) -> bool:
+    try:
+        os.fstat(fd)
+    except OSError:
+        return False
+    return True

@@ -1,0 +1,156 @@
+"""A controller that takes the run's guards with it (ignores signals, stops the step timer,
+leaves a thread, calls os._exit from a thread, forks, closes stdout, replaces numpy or ctsim,
+lowers the recursion limit) still ends the run with its data and the documented exit status
+(`sim.guards`)."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy
+import pytest
+
+import sim.run
+from sim.cli import main
+
+pytestmark = pytest.mark.skipif(not hasattr(signal, "setitimer"), reason="the step timer and fork are POSIX")
+
+CONTROLLERS = '''
+import os, signal, sys, threading, time
+import numpy
+from bots.commands import Twist
+
+class IgnoresThenBlocks:
+    """Ignores Ctrl-C, SIGTERM and the step timer's signal, stops the timer, then blocks."""
+    def step(self, t, readings):
+        if t < 0.02:
+            for number in (signal.SIGINT, signal.SIGTERM, signal.SIGALRM):
+                signal.signal(number, signal.SIG_IGN)
+            signal.setitimer(signal.ITIMER_REAL, 0)
+            signal.pthread_sigmask(signal.SIG_BLOCK, [signal.SIGALRM])
+        elif t > 0.05:
+            time.sleep(1000)
+        return Twist(0.1, 0.0)
+
+class LeavesAThread:
+    def step(self, t, readings):
+        if t > 0.05 and not hasattr(self, "thread"):
+            self.thread = threading.Thread(target=time.sleep, args=(1000,))
+            self.thread.start()
+        return Twist(0.1, 0.0)
+
+class ExitsFromAThread:
+    def step(self, t, readings):
+        if t > 0.05:
+            thread = threading.Thread(target=os._exit, args=(0,))
+            thread.start()
+            thread.join()
+        return Twist(0.1, 0.0)
+
+class Forks:
+    def step(self, t, readings):
+        if t > 0.05 and not hasattr(self, "child"):
+            self.child = os.fork()
+        return Twist(0.1, 0.0)
+
+class ClosesStdout:
+    def step(self, t, readings):
+        if t > 0.05 and not sys.stdout.closed:
+            sys.stdout.close()
+            os.close(1)
+        return Twist(0.1, 0.0)
+
+class Patches:
+    def step(self, t, readings):
+        if t > 0.05:
+            numpy.zeros = None
+            import sim.run
+            sim.run.motor_commands = None
+        return Twist(0.1, 0.0)
+
+class LowersTheRecursionLimit:
+    def step(self, t, readings):
+        if t > 0.05:
+            sys.setrecursionlimit(80)
+        return Twist(0.1, 0.0)
+'''
+
+
+@pytest.fixture()
+def controllers(tmp_path) -> Path:
+    path = tmp_path / "hostile.py"
+    path.write_text(CONTROLLERS)
+    return path
+
+
+def run(controllers: Path, name: str, out: Path) -> int:
+    return main(["run", "empty", "--controller", f"{controllers}:{name}", "--duration", "0.2", "--step-timeout", "0.4", "--no-report", "--out", str(out)])
+
+
+def summary(out: Path) -> dict:
+    return json.loads((out / "summary.json").read_text())
+
+
+def test_a_controller_that_ignores_signals_and_stops_the_timer_still_meets_the_step_limit(controllers, tmp_path, capsys):
+    assert run(controllers, "IgnoresThenBlocks", tmp_path / "out") == 1
+    assert "took longer than the step time limit of 0.4 s at step 6" in capsys.readouterr().err
+    assert summary(tmp_path / "out")["time"] == pytest.approx(0.06)
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # and the process has its own back
+
+
+def test_os_exit_from_a_thread_ends_the_run_with_its_data(controllers, tmp_path, capsys):
+    assert run(controllers, "ExitsFromAThread", tmp_path / "out") == 1
+    assert "called os._exit(0) from the thread" in capsys.readouterr().err
+    assert summary(tmp_path / "out")["reason"] == "error"
+    assert (tmp_path / "out" / "truth.tum").read_text().count("\n") == 1 + 7
+
+
+def test_a_fork_that_returns_into_the_run_leaves_and_writes_nothing(controllers, tmp_path):
+    assert run(controllers, "Forks", tmp_path / "out") == 0
+    assert summary(tmp_path / "out")["time"] == pytest.approx(0.2)
+    assert (tmp_path / "out" / "truth.tum").read_text().count("\n") == 1 + 21  # written once, whole
+
+
+def test_replacing_numpy_or_ctsim_ends_the_run_as_the_controllers_error_and_is_undone(controllers, tmp_path, capsys):
+    zeros, commands = numpy.zeros, sim.run.motor_commands
+    assert run(controllers, "Patches", tmp_path / "out") == 1
+    assert "replaced numpy.zeros, sim.run.motor_commands, and the run failed" in capsys.readouterr().err
+    assert numpy.zeros is zeros and sim.run.motor_commands is commands
+    assert summary(tmp_path / "out")["reason"] == "error"
+
+
+def test_a_lowered_recursion_limit_is_put_back(controllers, tmp_path):
+    limit = sys.getrecursionlimit()
+    assert run(controllers, "LowersTheRecursionLimit", tmp_path / "out") == 0
+    assert sys.getrecursionlimit() == limit
+
+
+SCRIPT = shutil.which("ctsim") or str(Path(sys.executable).parent / "ctsim")
+
+
+def console(controllers: Path, name: str, out: Path) -> subprocess.CompletedProcess:
+    """`ctsim run` as its console script, in a process of its own."""
+    env = {**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])}
+    return subprocess.run([SCRIPT, "run", "empty", "--controller", f"{controllers}:{name}", "--duration", "0.2", "--no-report", "--out", str(out)],
+                          capture_output=True, text=True, timeout=600, env=env)
+
+
+@pytest.mark.skipif(not Path(SCRIPT).exists(), reason="needs the ctsim console script")
+def test_a_thread_left_running_does_not_keep_ctsim_from_exiting(controllers, tmp_path):
+    done = console(controllers, "LeavesAThread", tmp_path / "out")
+    assert done.returncode == 0, done.stderr
+    assert summary(tmp_path / "out")["reason"] == "duration"
+
+
+@pytest.mark.skipif(not Path(SCRIPT).exists(), reason="needs the ctsim console script")
+def test_closing_stdout_costs_neither_the_table_nor_the_exit_status(controllers, tmp_path):
+    done = console(controllers, "ClosesStdout", tmp_path / "out")
+    assert done.returncode == 0, done.stderr
+    assert "time limit reached" in done.stdout and "wrote:" in done.stdout
+    assert summary(tmp_path / "out")["reason"] == "duration"

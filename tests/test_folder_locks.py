@@ -1,0 +1,77 @@
+"""One writer per output folder: while one ctsim command writes a folder (here held by
+`sim.folder_lock.hold`, as any command holds it), a second run, sweep, contest or lab grading
+into it is refused at once in one line naming the holder, and nothing of the second is written."""
+
+from __future__ import annotations
+
+import os
+
+import pytest
+
+from sim.cli import main
+from sim.experiments import sweep
+from sim.folder_lock import LOCK, FolderInUse, hold
+
+fcntl = pytest.importorskip("fcntl", reason="folders are locked on POSIX only")
+
+SPEC = '[base]\nworld = "empty"\ncontroller = "idle"\nduration = 0.05\n[axes]\nseed = [0, 1]\n'
+
+
+def status(argv: list[str]) -> int:
+    try:
+        return main(argv)
+    except SystemExit as done:
+        return done.code
+
+
+@pytest.fixture()
+def taken(tmp_path):
+    """A folder another ctsim command (a run) is writing."""
+    folder = tmp_path / "out"
+    handle = hold(folder, "run")
+    yield folder
+    handle.close()
+
+
+def refused_in_one_line(capsys, folder) -> None:
+    err = capsys.readouterr().err
+    assert err == f"ctsim: error: {folder} is in use by another ctsim run (process {os.getpid()}); wait for it to end or give another --out\n"
+    assert sorted(p.name for p in folder.iterdir()) == [LOCK]  # nothing of the second command
+
+
+def test_a_second_run_into_a_folder_is_refused(taken, capsys):
+    assert status(["run", "empty", "--controller", "idle", "--duration", "0.05", "--no-report", "--out", str(taken)]) == 2
+    refused_in_one_line(capsys, taken)
+
+
+def test_a_second_sweep_into_a_folder_is_refused(taken, tmp_path, capsys):
+    spec = tmp_path / "spec.toml"
+    spec.write_text(SPEC)
+    assert status(["sweep", str(spec), "--out", str(taken), "--engine", "serial"]) == 2
+    refused_in_one_line(capsys, taken)
+
+
+def test_the_sweep_api_holds_its_folder_too(taken):
+    with pytest.raises(FolderInUse, match="in use by another ctsim run"):
+        sweep({"base": {"world": "empty", "controller": "idle", "duration": 0.05}, "axes": {"seed": [0]}}, taken, progress=False)
+
+
+def test_a_second_contest_into_a_folder_is_refused(taken, capsys):
+    assert status(["contest", "contest", "solve_maze", "idle", "--out", str(taken), "--engine", "serial"]) == 2
+    refused_in_one_line(capsys, taken)
+
+
+def test_a_second_lab_grading_into_a_folder_is_refused(taken, tmp_path, capsys):
+    submissions = tmp_path / "submissions"
+    submissions.mkdir()
+    (submissions / "alice.py").write_text("def icc(*args):\n    return 0.0\n")
+    assert status(["lab", "grade", "1", str(submissions), "--out", str(taken), "--degraded"]) == 2
+    refused_in_one_line(capsys, taken)
+
+
+def test_a_folder_is_free_again_once_its_holder_ends(tmp_path):
+    first = hold(tmp_path / "out", "sweep")
+    with pytest.raises(FolderInUse, match=f"in use by another ctsim sweep \\(process {os.getpid()}\\)"):
+        hold(tmp_path / "out", "contest")
+    first.close()
+    hold(tmp_path / "out", "contest").close()

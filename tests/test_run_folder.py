@@ -1,0 +1,98 @@
+"""What a run writes stays its own and inside its folder: readings a controller gets cannot
+rewrite the recorded sensor data, robot names become file names inside the folder (or are
+refused when nothing of them is left), and a run of many robots writes every trajectory file
+with few handles open at once."""
+
+from __future__ import annotations
+
+import os
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from bots.commands import Twist
+from bots.schema import Problem, file_stem
+from bots.spec import RobotSpec
+from sim.analysis.export import MOST_OPEN, write_run
+from sim.experiments import Bot, simulate
+
+resource = pytest.importorskip("resource", reason="file handle limits are POSIX")
+
+
+class Writes:
+    """Writes into its readings, as a controller that smooths them in place would."""
+
+    def step(self, t, readings):
+        readings.ir_distance[:] = 0.123
+        return Twist(0.1, 0.0)
+
+
+class Reads:
+    """Keeps what it saw."""
+
+    def __init__(self):
+        self.seen = []
+
+    def step(self, t, readings):
+        self.seen.append(readings.ir_distance.copy())
+        return Twist(0.1, 0.0)
+
+
+def test_a_controller_cannot_write_into_its_readings():
+    result = simulate("maze", Bot(Writes()), duration=0.05)
+    assert result.reason == "error" and "assignment destination is read-only at step 0" in result.error
+
+
+def test_the_readings_a_controller_saw_are_the_recorded_ones():
+    reader = Reads()
+    result = simulate("maze", Bot(reader), duration=0.05)
+    recorded = result.raw.robots[0].readings(slice(0, len(reader.seen)))["ir_distance"]
+    np.testing.assert_array_equal(np.array(reader.seen), recorded)
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.text(max_size=40))
+def test_a_robot_name_becomes_a_plain_file_name_or_is_refused(name):
+    stem = file_stem(name)
+    assert "/" not in stem and "\\" not in stem and "\0" not in stem and not stem.startswith(".")
+    assert stem == "" or stem.strip(".") != ""
+    if stem:
+        assert RobotSpec(name=name, wheel_diameter=0.05, track_width=0.09, body_radius=0.06).name == name
+    else:
+        with pytest.raises(Problem, match="leaves nothing to name the robot's files by"):
+            RobotSpec(name=name, wheel_diameter=0.05, track_width=0.09, body_radius=0.06)
+
+
+@pytest.mark.parametrize("name", ["../../../x", "/abs/path", "a/../../b", "..hidden"])
+def test_files_of_a_robot_with_a_path_for_a_name_stay_in_the_folder(tmp_path, name):
+    result = simulate("empty", Bot("square", changes={"name": name}), duration=0.05)
+    out = tmp_path / "deep" / "out"
+    written = write_run(result.raw, out, with_csv=True)
+    paths = [path for tracks in written.values() for path in tracks.values()]
+    assert paths and all(path.parent == out and not path.name.startswith(".") for path in paths)
+    assert sorted(p.name for p in tmp_path.rglob("*") if p.is_file()) == sorted(p.name for p in out.iterdir())
+
+
+def test_robots_whose_names_come_out_alike_get_files_of_their_own(tmp_path):
+    result = simulate("empty", Bot("idle", changes={"name": "a b"}), Bot("idle", changes={"name": "a_b"}), duration=0.05)
+    written = write_run(result.raw, tmp_path, with_csv=True)
+    assert len({path for tracks in written.values() for path in tracks.values()}) == sum(len(t) for t in written.values())
+
+
+@pytest.mark.skipif(not os.path.isdir("/proc/self/fd"), reason="counts open handles in /proc")
+def test_many_robots_are_written_with_few_handles_open(tmp_path):
+    """30 robots, 5 tracks each, TUM and CSV: 300 files under a limit of MOST_OPEN + 40 handles."""
+    world = tmp_path / "wide.toml"
+    world.write_text("bounds = [0, 0, 10, 4]\n" + "".join(f"[[start]]\nposition = [{0.3 + 0.3 * k:.1f}, 2]\nslot = {k + 1}\n" for k in range(30)))
+    result = simulate(str(world), robots=[Bot("idle")] * 30, duration=0.05)
+    soft, hard = resource.getrlimit(resource.RLIMIT_NOFILE)
+    resource.setrlimit(resource.RLIMIT_NOFILE, (len(os.listdir("/proc/self/fd")) + MOST_OPEN + 40, hard))
+    try:
+        written = write_run(result.raw, tmp_path / "out", with_csv=True)
+    finally:
+        resource.setrlimit(resource.RLIMIT_NOFILE, (soft, hard))
+    files = sorted((tmp_path / "out").iterdir())
+    assert len(files) == 2 * sum(len(t) for t in written.values()) >= 300
+    assert all(path.read_text().count("\n") == 1 + len(result.raw) for path in files if path.suffix == ".tum")
