@@ -162,11 +162,13 @@ def write_figures(
                 axis.plot(t, moving_mean(t, values, MEAN_WINDOW_S), color=colour, linewidth=1.6, linestyle=dashes, zorder=3)
             if label in (bands or {}).get(name, {}):
                 times, entries = bands[name][label]
+                # edged in the estimate's colour: where bands overlap, each edge still says whose it is
+                band = {"facecolor": (*light, 0.2), "edgecolor": colour, "linewidth": 0.7, "linestyle": dashes}
                 xx, xy, yy, tt = entries[:, 0], entries[:, 1], entries[:, 3], entries[:, 5]
                 major = 0.5 * (xx + yy) + np.sqrt(0.25 * (xx - yy) ** 2 + xy**2)  # the position's larger eigenvalue
-                top.fill_between(times, 0.0, 3000 * np.sqrt(np.maximum(major, 0.0)), color=colour, alpha=0.12, linewidth=0)
+                top.fill_between(times, 0.0, 3000 * np.sqrt(np.maximum(major, 0.0)), **band)
                 spread = 3 * np.degrees(np.sqrt(np.maximum(tt, 0.0)))
-                bottom.fill_between(times, -spread, spread, color=colour, alpha=0.12, linewidth=0)
+                bottom.fill_between(times, -spread, spread, **band)
             keys.append(((Line2D([], [], color=light, linewidth=6), Line2D([], [], color=colour, linewidth=1.6, linestyle=dashes)), text))
         if several:
             top.set_title(name, fontsize=10, backgroundcolor=_c(colours[name]))
