@@ -1,19 +1,21 @@
 """Noise presets of the c't-Bot and `section.field=value` overrides of any robot description.
 
-A robot description is noise-free by default (exact ground truth for tests); `ctsim run` applies a
-preset, named in the summary. The figures below are per 10 ms step where they are rates:
+A robot description is noise-free by default (exact ground truth for tests); `ctsim run` applies
+the realistic preset unless `--noise none` says otherwise, and names it in the summary, the
+console table and the figures. Every random error is a process in distance (or in ticks counted),
+never in steps, so the same seed-averaged drift comes out at any `--dt` (tests/test_noise_processes.py).
 
-| field | realistic | harsh | why |
+| field | realistic | harsh | source |
 |---|---|---|---|
-| encoders.diameter_error | (0, +0.3 %) | (0, +1 %) | two hand-mounted wheels never match exactly (assumed) |
-| encoders.track_error | +1 % | +3 % | the tyres' contact line is ~1 mm wide on a 97.2 mm track (assumed) |
-| encoders.slip_std | 1 % | 5 % | random slip on a smooth floor (assumed) |
-| encoders.tick_noise | 0.1 % | 1 % | a spurious tick on a flickering light barrier (assumed) |
-| mouse.scale_error | +3.75 % | +3.75 % | the real c't-Bot's ADNS-2610 reads 415 instead of 400 cpi |
-| mouse.noise_std | 0.2 | 0.5 counts | sensor noise (assumed) |
+| encoders.diameter_error | (0, +0.3 %) | (0, +1 %) | Borenstein and Feng 1996 (UMBmark, IEEE T-RA 12(6)) name unequal wheel diameters and the uncertain effective wheelbase as the two dominant systematic errors of differential drives; the sizes are assumed: 0.3 % is 0.17 mm on the c't-Bot's 57 mm hand-mounted rubber tyres |
+| encoders.track_error | +1 % | +3 % | the same paper's other dominant error; size assumed: the tyres' contact patch is about 1 mm wide on a 97.2 mm track |
+| encoders.slip_std | 0.0004 | 0.002 sqrt m | model: variance growing with the distance rolled (Chong and Kleeman 1997); figure assumed: the 1 % per 10 ms step the earlier per-step model used, at the c't-Bot's normal 0.15 m/s (0.33 degrees of heading spread per root metre) |
+| encoders.tick_noise | 0.002 | 0.02 per tick | assumed: the c't-Bot counts 60 edges a turn with CNY70 reflex sensors on a striped disc (30 black, 30 white), whose edges bounce in ambient light; the CNY70 data sheet gives no figure; 0.2 % is one wrong tick in 1.5 m |
+| mouse.scale_error | +3.75 % | +3.75 % | a stated measurement of the c't-Bot: the firmware's bot-local.h calibrates the real bot's ADNS-2610 at 415 cpi against its nominal 400 (`MOUSE_CPI`) |
+| mouse.noise_std | 0.00033 | 0.0008 sqrt m | model: count error growing with the floor passed; figure assumed: the 0.2 counts per 10 ms step the earlier model used at 0.15 m/s (0.33 mm per root metre, 1.3 degrees of heading per root metre from a sensor 15 mm behind the axle); two-mice odometry measured 114 mm E_max,syst on UMBmark (Bonarini, Matteucci, Restelli 2004), comparable with wheel odometry |
 | mouse.max_speed | - | 0.305 m/s | the ADNS-2610's 12 inch/s tracking limit (data sheet) |
-| ir.noise_std | 5 mm | 15 mm | GP2D12 spread on grey walls (assumed) |
-| line/border/light.noise_std | 5 | 20 raw units | CNY70 and LDR readings flicker (assumed) |
+| ir.noise_std | 5 mm | 15 mm | assumed: the GP2D12 application note (Zufferey) measures output noise below 200 mV with a spread independent of distance, and the data sheet a new reading every 38.3 +- 9.6 ms; 5 mm is 3 raw units of the c't-Bot's curve at 0.3 m, 12 at 0.15 m |
+| line/border/light.noise_std | 5 | 20 raw units | assumed: neither the CNY70 nor the LDR data sheet gives a spread; 5 of the 10-bit range is half a percent of ambient-light flicker |
 """
 
 from __future__ import annotations
@@ -32,10 +34,10 @@ NOISE_PRESETS: dict[str, dict[str, Any]] = {
     "realistic": {
         "encoders.diameter_error": (0.0, 0.003),
         "encoders.track_error": 0.01,
-        "encoders.slip_std": 0.01,
-        "encoders.tick_noise": 0.001,
+        "encoders.slip_std": 0.0004,
+        "encoders.tick_noise": 0.002,
         "mouse.scale_error": 0.0375,
-        "mouse.noise_std": 0.2,
+        "mouse.noise_std": 0.00033,
         "ir.noise_std": 0.005,
         "line.noise_std": 5.0,
         "border.noise_std": 5.0,
@@ -44,10 +46,10 @@ NOISE_PRESETS: dict[str, dict[str, Any]] = {
     "harsh": {
         "encoders.diameter_error": (0.0, 0.01),
         "encoders.track_error": 0.03,
-        "encoders.slip_std": 0.05,
-        "encoders.tick_noise": 0.01,
+        "encoders.slip_std": 0.002,
+        "encoders.tick_noise": 0.02,
         "mouse.scale_error": 0.0375,
-        "mouse.noise_std": 0.5,
+        "mouse.noise_std": 0.0008,
         "mouse.max_speed": 0.305,
         "ir.noise_std": 0.015,
         "line.noise_std": 20.0,
@@ -56,6 +58,10 @@ NOISE_PRESETS: dict[str, dict[str, Any]] = {
     },
 }
 """Preset name -> field overrides (see the module's table for the figures and their sources)."""
+
+
+DIFFERENTIAL_ONLY = ("encoders.diameter_error", "encoders.track_error")
+"""Preset fields that describe a differential drive's two wheels (a general chassis refuses them)."""
 
 
 class RobotSettingError(UserError):
@@ -123,8 +129,11 @@ def with_settings(robot: RobotSpec, settings: dict[str, Any]) -> RobotSpec:
 
 
 def with_noise(robot: RobotSpec, preset: str) -> RobotSpec:
-    """`robot` with a noise preset applied (sections it lacks, e.g. no mouse, are skipped)."""
+    """`robot` with a noise preset applied (sections it lacks, e.g. no mouse, are skipped, and a
+    general chassis, whose wheels carry their own real radii, keeps its wheel sizes)."""
     if preset not in NOISE_PRESETS:
         raise RobotSettingError(f"unknown noise preset {preset!r} (known: {', '.join(NOISE_PRESETS)})")
     present = {k: v for k, v in NOISE_PRESETS[preset].items() if getattr(robot, k.partition(".")[0]) not in (None, ())}
+    if robot.chassis is not None:
+        present = {k: v for k, v in present.items() if k not in DIFFERENTIAL_ONLY}
     return with_settings(robot, present)

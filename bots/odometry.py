@@ -105,7 +105,8 @@ def parameters(robot: RobotSpec, geometry: Geometry | None = None) -> np.ndarray
     p[TRACK] = believed.track_width
     belief = Belief.of(robot)
     p[SLIP_VAR] = belief.slip_var
-    p[TICK_VAR_LEFT], p[TICK_VAR_RIGHT] = belief.tick_rate * p[TICK_LEFT] ** 2, belief.tick_rate * p[TICK_RIGHT] ** 2
+    # a metre rolled is 1/tick ticks, each one off by a tick with probability tick_rate: m² per metre
+    p[TICK_VAR_LEFT], p[TICK_VAR_RIGHT] = belief.tick_rate * p[TICK_LEFT], belief.tick_rate * p[TICK_RIGHT]
     if _mouse_applies(robot):
         mount_x, mount_y = (float(m) for m in robot.mouse.mount)
         p[PER_METRE], p[MOUNT_X], p[MOUNT_Y] = float(counts_per_metre(robot.mouse.dpi)), mount_x, mount_y
@@ -114,7 +115,7 @@ def parameters(robot: RobotSpec, geometry: Geometry | None = None) -> np.ndarray
         p[TOLERANCE] = max(p[TICK_LEFT], p[TICK_RIGHT]) + count * (1.0 + abs(mount_y) / abs(mount_x))
         p[TURN_TOLERANCE] = 2.0 * (max(p[TICK_LEFT], p[TICK_RIGHT]) / p[TRACK] + count / abs(mount_x)) + NOISE_COUNTS * count / abs(mount_x)
         p[MEMORY], p[GATE], p[DISTANCE_MEMORY] = TURN_MEMORY, GATE_SIGMAS, SLIP_MEMORY
-        p[MOUSE_VAR] = belief.mouse_var * count * count
+        p[MOUSE_VAR] = belief.mouse_var
         p[HAS_MOUSE] = 1.0
     return p
 
@@ -168,7 +169,7 @@ class _ArcOdometry:
 
 class EncoderOdometry(_ArcOdometry):
     """Wheel encoders through the exact arc: ticks -> wheel arcs -> pose increment (eqs 1.3, 1.12).
-    Covariance: each wheel's arc has variance slip_var * s² + tick_rate * tick² per step, and
+    Covariance: each wheel's arc has variance (slip_var + tick_rate * tick) * |s| per step, and
     the wheel scales and track are unknown by their believed size (`bots.uncertainty`).
 
     geometry: the believed wheel diameters and track; None = the robot's nominal ones."""

@@ -172,8 +172,16 @@ def _inverse(m: np.ndarray) -> np.ndarray:
 
 @numba.njit(cache=True)
 def wheel_variances(p: np.ndarray, s_left: float, s_right: float) -> tuple[float, float]:
-    """The random variance (m²) of each wheel's arc over a step of these arcs (m)."""
-    return p[SLIP_VAR] * s_left * s_left + p[TICK_VAR_LEFT], p[SLIP_VAR] * s_right * s_right + p[TICK_VAR_RIGHT]
+    """The random variance (m²) of each wheel's arc over a step of these arcs (m): slip and
+    spurious ticks both grow with the distance rolled (m² per metre each), whatever the step."""
+    return (p[SLIP_VAR] + p[TICK_VAR_LEFT]) * abs(s_left), (p[SLIP_VAR] + p[TICK_VAR_RIGHT]) * abs(s_right)
+
+
+@numba.njit(cache=True)
+def mouse_variance(p: np.ndarray, s: float, alpha: float) -> float:
+    """The random variance (m²) of each mouse axis over a step of this increment: its noise
+    (m² per metre) times the floor the sensor passed, (s - alpha m_y, alpha m_x)."""
+    return p[MOUSE_VAR] * math.hypot(s - alpha * p[MOUNT_Y], alpha * p[MOUNT_X])
 
 
 @numba.njit(cache=True)
@@ -200,7 +208,7 @@ def mouse_step(p: np.ndarray, heading: float, cov: np.ndarray, forward: float, l
     """Mouse odometry: the increment of these counts; `cov` propagated from `heading`."""
     s, alpha = mouse_arc(p, forward, lateral)
     jac, noise = np.zeros((2, ERRORS)), np.zeros((2, 2))
-    mouse_terms(s, alpha, p[MOUNT_X], p[MOUNT_Y], p[MOUSE_VAR], jac, noise)
+    mouse_terms(s, alpha, p[MOUNT_X], p[MOUNT_Y], mouse_variance(p, s, alpha), jac, noise)
     propagate(cov, heading, s, alpha, False, jac, noise)
     return s, alpha
 
@@ -222,7 +230,7 @@ def fused_step(
     j_enc, r_enc, q_enc = np.zeros((2, ERRORS)), np.zeros((2, 2)), np.zeros((2, 2))
     j_mouse, r_mouse, q_mouse = np.zeros((2, ERRORS)), np.zeros((2, 2)), np.zeros((2, 2))
     count = 1.0 / p[PER_METRE]
-    mouse_terms(u_mouse[0], u_mouse[1], p[MOUNT_X], p[MOUNT_Y], p[MOUSE_VAR], j_mouse, r_mouse)
+    mouse_terms(u_mouse[0], u_mouse[1], p[MOUNT_X], p[MOUNT_Y], mouse_variance(p, u_mouse[0], u_mouse[1]), j_mouse, r_mouse)
     mouse_terms(u_mouse[0], u_mouse[1], p[MOUNT_X], p[MOUNT_Y], count * count / 12.0, j_mouse, q_mouse)
     corrected_mouse = u_mouse + _apply(j_mouse, calibration)
     # the detectors, on the corrected increments

@@ -56,15 +56,17 @@ class EncoderSpec:
     diameter_error: relative error of each wheel's real diameter, (left, right); the robot's own
         code believes the nominal diameter, so this is what UMBmark calibrates.
     track_error: relative error of the real track width against the nominal one.
-    slip_std: relative random slip per step (std of a normal factor on each wheel's arc).
-    tick_noise: probability per step of a spurious +-1 tick on a wheel.
+    slip_std: random slip (sqrt m): after rolling d metres a wheel's arc is off by a normal error
+        of std slip_std * sqrt(d), independent of the step (variance grows with the distance).
+    tick_noise: probability that a tick counted is one too many or one too few (an edge of the
+        light barrier that bounces or is missed): per tick, so per wheel turn, at any step.
     """
 
     ticks_per_rev: int = declared("integer", default=60, unit="ticks", low=1, high=2**53)  # (2**40 in tests: "no quantisation")
     diameter_error: Point = declared("pair", default=(0.0, 0.0), unit="relative", **_RELATIVE)
     track_error: float = declared(default=0.0, unit="relative", **_RELATIVE)
-    slip_std: float = declared(default=0.0, unit="relative", low=0.0, high=1.0)
-    tick_noise: float = declared(default=0.0, unit="probability per step", low=0.0, high=1.0)
+    slip_std: float = declared(default=0.0, unit="sqrt m", low=0.0, high=1.0)
+    tick_noise: float = declared(default=0.0, unit="probability per tick", low=0.0, high=1.0)
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -75,14 +77,16 @@ class MouseSpec:
     """Optical mouse sensor (ADNS-2610 on the c't-Bot) at `mount` in the body frame (m).
 
     dpi: nominal resolution (counts per inch). scale_error: relative error of the real resolution
-    (the real c't-Bot reads 415 instead of 400: 0.0375). noise_std: counts per step (std).
+    (the real c't-Bot reads 415 instead of 400: 0.0375). noise_std: random count error (sqrt m):
+    after the floor passed d metres under the sensor each axis is off by std noise_std * sqrt(d)
+    metres, independent of the step; a sensor at rest reads no noise.
     max_speed: fastest ground speed it tracks (m/s); faster motion reads zero.
     """
 
     mount: Point = declared(default=(-0.015, 0.0), **_MOUNT)
     dpi: float = declared(default=400.0, unit="counts per inch", low=0.0, above=True, high=1e15)  # (1e12 in tests: "no quantisation")
     scale_error: float = declared(default=0.0, unit="relative", **_RELATIVE)
-    noise_std: float = declared(default=0.0, unit="counts", low=0.0, high=1e6)
+    noise_std: float = declared(default=0.0, unit="sqrt m", low=0.0, high=1.0)
     max_speed: float = declared(default=math.inf, unit="m/s", low=0.0, above=True, infinite=True)
 
     def __post_init__(self) -> None:

@@ -41,12 +41,14 @@ COVARIANCE_FIELDS = ("cov_xx", "cov_xy", "cov_xt", "cov_yy", "cov_yt", "cov_tt")
 
 @dataclass(frozen=True)
 class Belief:
-    """The noise an estimator assumes (per step where rates; relative where scales).
+    """The noise an estimator assumes (per metre where random; relative where scales), as
+    `bots.spec` states the world's processes.
 
-    slip_var: variance of a wheel's relative slip per step; tick_rate: probability per step of a
-    spurious +-1 tick on a wheel; wheel_scale_std, track_std, mouse_scale_std: standard deviation
-    of the unknown relative errors of each wheel's diameter, the track width and the mouse's
-    resolution; mouse_var: variance of a mouse count per step and axis (counts²)."""
+    slip_var: variance of a wheel's arc per metre rolled (m² per m, slip_std²); tick_rate:
+    probability that a counted tick is one off; wheel_scale_std, track_std, mouse_scale_std:
+    standard deviation of the unknown relative errors of each wheel's diameter, the track width
+    and the mouse's resolution; mouse_var: variance of each mouse axis per metre of floor passed
+    (m² per m, noise_std²)."""
 
     slip_var: float = 0.0
     tick_rate: float = 0.0

@@ -113,7 +113,7 @@ def _add_robot_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("world", nargs="?", default=DEFAULT_WORLD, help=f"a shipped world's name (see `ctsim worlds`) or a .toml/.xml world file (default: {DEFAULT_WORLD})")
     parser.add_argument("--robot", default="ctbot", metavar="NAME|FILE.toml", help="robot description: a built-in name (ctbot, omni3, mecanum4, car, ocp_vehicle) or a TOML robot file (default: ctbot)")
     parser.add_argument("--seed", type=_seed, default=0, help="seed of every random number in the run (the noise of --noise realistic or harsh); same seed, same run (default: 0)")
-    parser.add_argument("--noise", choices=NOISE_PRESETS, default="none", help="sensor and odometry noise of the robot: none (exact sensors), realistic (the c't-Bot's figures, see bots/noise.py) or harsh (default: none)")
+    parser.add_argument("--noise", choices=NOISE_PRESETS, default="realistic", help="sensor and odometry noise of the robot: realistic (the c't-Bot's figures and their sources, see bots/noise.py), harsh, or none (exact sensors, for checks against closed forms) (default: realistic)")
     parser.add_argument("--robot-set", action="append", type=_param, default=[], metavar="SECTION.FIELD=VALUE", help="override one field of the robot description after --noise, repeatable: encoders.slip_std=0.02, mouse.dpi=415, ir.noise_std=0")
     parser.add_argument("--dt", type=_step, default=0.01, metavar="SECONDS", help="simulation step (default: 0.01)")
     parser.add_argument("--out", type=_folder, metavar="DIR", help="folder for run.rrd, summary.json, TUM/CSV trajectories and figures (default: runs/<world>-<controller>-<time>)")

@@ -47,9 +47,11 @@ def test_seed_matters_with_noise_and_not_without(tmp_path):
     again, _ = _end_pose(tmp_path, "--noise", "realistic", "--seed", "1")
     assert summary["noise"] == "realistic"
     assert not np.array_equal(a, b) and np.array_equal(a, again)  # seeded, reproducible
-    c, quiet = _end_pose(tmp_path, "--seed", "1")
+    default, summary = _end_pose(tmp_path, "--seed", "1")
+    assert summary["noise"] == "realistic" and np.array_equal(default, a)  # the default: realistic noise
+    c, quiet = _end_pose(tmp_path, "--seed", "1", "--noise", "none")
     d, _ = _end_pose(tmp_path, "--seed", "2", "--noise", "none")
-    assert quiet["noise"] == "none" and np.array_equal(c, d)  # the default: exact sensors
+    assert quiet["noise"] == "none" and np.array_equal(c, d)  # exact sensors: the seed changes nothing
 
 
 def test_presets_and_overrides():

@@ -274,3 +274,10 @@ def test_grading_without_a_seed_draws_a_fresh_one_each_time(tmp_path: Path) -> N
     (folder / "alice.py").write_text((SOLUTIONS / "ex1" / "reference.py").read_text())
     seeds = {grade(quick(1), folder, tmp_path / f"out{i}")[0][0].seed for i in range(2)}
     assert len(seeds) == 2  # 32 random bits each: the same twice once in four billion
+
+
+def test_lab_help_lists_the_lab_s_own_exit_statuses(capsys) -> None:
+    with pytest.raises(SystemExit):
+        main(["lab", "--help"])
+    printed = capsys.readouterr().out
+    assert "every submission graded" in printed and "a scenario failed" in printed and "controller raised" not in printed

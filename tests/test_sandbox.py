@@ -119,6 +119,7 @@ def test_whatever_the_code_does_it_ends_as_an_error_of_its_kind_and_a_fresh_gues
         with pytest.raises(StudentError) as caught:
             sandbox.call("f", timeout=2.0 if kind == "timeout" else GENEROUS)  # the loop is endless: any limit ends it
         assert caught.value.kind == kind, caught.value.detail
+        assert kind != "memory" or "the limit is 1 GiB" in caught.value.detail  # the limit it has, said as it is
         if sandbox.process is None:
             sandbox.start()
         assert sandbox.call("g", timeout=GENEROUS) == 42

@@ -220,7 +220,7 @@ def test_artefacts_only_when_asked(tmp_path):
 
 def test_cli_sweep_and_report(tmp_path, capsys):
     spec = tmp_path / "s.toml"
-    spec.write_text('[base]\nduration = 0.3\nworld = "empty"\n[axes]\nseed = [0, 1]\n"robot.mouse.noise_std" = [0.0, 2.0]\ncontroller = ["wander", "idle"]\n')
+    spec.write_text('[base]\nduration = 0.3\nworld = "empty"\n[axes]\nseed = [0, 1]\n"robot.mouse.noise_std" = [0.0, 0.002]\ncontroller = ["wander", "idle"]\n')
     assert main(["sweep", str(spec), "--out", str(tmp_path / "out"), "--engine", "serial"]) == 0
     out = capsys.readouterr().out
     assert "8 runs, 0 failed" in out and "pooled over seed (2 values)" in out
@@ -234,7 +234,7 @@ def test_cli_sweep_and_report(tmp_path, capsys):
 def test_report_groups_by_the_named_settings_and_says_what_it_pools(tmp_path, capsys):
     """Per controller: the noise levels and seeds pooled (2 x 2 runs a group); the table's means
     are those of the runs it groups; a setting the sweep lacks is one line naming it."""
-    spec = {"base": {"duration": 0.3, "world": "empty"}, "axes": {"seed": [0, 1], "robot.mouse.noise_std": [0.0, 2.0], "controller": ["wander", "idle"]}}
+    spec = {"base": {"duration": 0.3, "world": "empty"}, "axes": {"seed": [0, 1], "robot.mouse.noise_std": [0.0, 0.002], "controller": ["wander", "idle"]}}
     table = sweep(spec, tmp_path / "out", Serial(), progress=False)
     assert main(["sweep", "report", str(tmp_path / "out"), "--by", "controller"]) == 0
     out = capsys.readouterr().out

@@ -31,7 +31,7 @@ ROBOTS = 1000
 SPACING = 0.6  # m between robots: a 0.2 m circle and the body fit
 NOISY = with_settings(
     CTBOT.with_changes(encoders={"ticks_per_rev": 10**9}, mouse={"dpi": 1e9}, ir=(), line=(), border=(), light=()),
-    {"encoders.slip_std": 0.02, "mouse.noise_std": 4e-6 * 1e9 / 0.0254},  # 2 % slip a step; 4 um of mouse noise a step and axis
+    {"encoders.slip_std": 0.002, "mouse.noise_std": 0.0003},  # 2 mm of slip a metre rolled; 0.3 mm of mouse noise a metre passed
 )
 
 

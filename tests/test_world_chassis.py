@@ -493,7 +493,8 @@ def test_the_compiled_wheel_step_is_the_cores_forward_kinematics_motor_and_encod
                                    rim, slip, a, forward_pinv(a), rolls, ticks_per_rad, tick_carry, ticks, twist)
 
     expected = np.where(degraded.driven, phi + np.clip((np.clip(target, -top, top) - phi) * lag, -max_change, max_change), phi)
-    solution = forward_kinematics(degraded, expected * (1 + slip), beta, measured=measured)
+    slipped = expected + slip * np.sqrt(np.abs(expected * rim) / dt) / rim  # the arc off by slip * sqrt(|arc|)
+    solution = forward_kinematics(degraded, slipped, beta, measured=measured)
     assert_allclose(twist, solution.twist, atol=1e-12)  # the same pinv, summed in another order
     assert residual == pytest.approx(float(solution.slip), abs=1e-12)
     expected = np.where(measured, expected, rolls @ solution.twist / rim)  # the free wheel rolls with the body

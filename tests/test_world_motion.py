@@ -218,7 +218,7 @@ def test_drive_kernel_agrees_with_the_reference_arc():
     move, alpha, ticks, tick_carry = np.zeros((n, 2)), np.zeros(n), np.zeros((n, 2), dtype=np.int64), carry.copy()
     kernels.drive(
         commands, np.zeros((n, 2)), np.full(n, 255.0), np.full(n, wmax), np.ones(n), np.full(n, np.inf), dt,
-        np.full(n, 60 / (2 * math.pi)), tick_carry, np.zeros((n, 2)), ticks, np.full((n, 2), radius), np.zeros((n, 2)),
+        np.full(n, 60 / (2 * math.pi)), tick_carry, ticks, np.full((n, 2), radius), np.zeros((n, 2)),
         np.full(n, track), pose, move, alpha,
     )  # fmt: skip
     speed = np.clip(commands, -255, 255) / 255 * wmax

@@ -245,9 +245,14 @@ class Look(Behaviour):
             self.ir_distance = np.where(self._seen > 0, self._sum / self._seen, np.nan)
         return self.finish()
 
-    def _scatter(self) -> float:
-        """The largest standard error (m) of a sensor's mean so far (0 for one sample or none)."""
+    @property
+    def ir_error(self) -> np.ndarray:
+        """Each IR sensor's standard error (m) of its mean so far (0 for one sample or none, or
+        for readings that did not change)."""
         n = np.maximum(self._seen, 1)
         mean = self._sum / n
-        variance = np.maximum(self._squares / n - mean * mean, 0.0) / np.maximum(n - 1, 1)
-        return float(np.sqrt(variance.max(initial=0.0)))
+        return np.sqrt(np.maximum(self._squares / n - mean * mean, 0.0) / np.maximum(n - 1, 1))
+
+    def _scatter(self) -> float:
+        """The largest standard error (m) of a sensor's mean so far."""
+        return float(self.ir_error.max(initial=0.0))

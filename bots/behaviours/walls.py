@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections import deque
 from collections.abc import Generator
 
 import numpy as np
@@ -28,25 +29,42 @@ from sim.kinematics import (
 from sim.world.readings import Readings
 
 GOAL_TOLERANCE = 0x10
-"""How far (raw units) a line sensor may read from GROUND_GOAL on the goal floor."""
+"""How far (raw units) the line sensors' mean may read from GROUND_GOAL on the goal floor."""
+GOAL_SPREAD = 40.0
+"""Largest standard deviation (raw units) of those readings: twice the harsh preset's line noise."""
+GOAL_READINGS = 10
+"""Steps in a row whose readings of one line sensor average to the goal colour before it counts
+as the goal: one noisy reading near the goal colour is not the goal floor (under harsh noise, 20
+raw units, a floor 40 units off the goal colour reads within the tolerance one time in nine; the
+mean of 20 readings strays by 4.5)."""
 LOOK_STEPS = 8
 """Steps a look averages the IR distances over at least (all it needs when the readings are steady)."""
-LOOK_MAX_STEPS = 64
-"""Steps a look averages noisy IR distances over at most: 5 mm of noise becomes 0.6 mm, which
+LOOK_MAX_STEPS = 32
+"""Steps a look averages noisy IR distances over at most: 5 mm of noise becomes 0.9 mm, which
 squares up within 1 degree from the two sensors 72 mm apart."""
-LOOK_ERROR = 0.0006
+LOOK_ERROR = 0.0009
 """A look goes on while a sensor's mean has a larger standard error than this (m)."""
 SQUARE_BAND = (0.27, 0.7)
 """IR distances (m) trusted for squaring up on a wall: above the 0.1-0.26 m that a wall closer than
 0.1 m folds back to, below the curve's flat end."""
 MOUSE_LEARN_M = 0.1
 """Straight distance (m) after which the mouse's scale is taken from its counts against the encoders'."""
-TURN_LEARN_RAD = 4 * math.pi
+DRIFT_LEARN_M = 1.0
+"""Straight distance (m) after which the encoders' drift per metre is taken from the mouse: by then
+the mouse's random error (about 1.3 degrees per root metre) is below the 1.8 degrees a metre of a
+0.3 % wheel diameter mismatch, and it shrinks as the root of the distance from there."""
+TURN_LEARN_RAD = math.pi
 """Turning (rad) after which the encoders' turns are scaled to the mouse's: two whole turns, over
 which the mouse's 0.24 degree counts average to 0.1 %."""
-TURN_TOLERANCE = 0.004
+TURN_TOLERANCE = 0.001
 """Relative difference between the encoders' and the mouse's turns below which the encoders' is kept:
 0.4 % is 0.4 degrees a quarter turn, and noise-free the two agree within 0.01 % over a run."""
+MAX_VISITS = 4
+"""Visits to one room after which its ways are looked at again (`_visit`)."""
+HEADING_DRIFT = math.radians(1.0) ** 2
+"""Variance (rad^2) the believed heading gains per metre driven and per radian turned: the
+mouse-corrected encoders drift about a degree a root metre, and a learnt track leaves about a
+degree a radian in the first turns."""
 MAX_SKEW = math.radians(15)
 """Largest angle to a wall face (rad) a look squares up on; more means the two rays hit two faces."""
 OPEN_FRACTION = 0.9
@@ -97,8 +115,10 @@ class SolveMaze(Plan):
     and a wrong track width from leading it into a wall). Looks average noisy readings for longer, a
     way whose two sensors disagree within reach of the curve's fold-back counts as closed (it may be
     a wall touching them), and where the encoders' turn drifts the mouse's is taken
-    (`_correct_odometry`). Ways seen are remembered, so rooms visited again cost no looks. Succeeds
-    on the goal floor (the line sensors read GROUND_GOAL), after driving a quarter room onto it."""
+    (`_correct_odometry`). Ways seen are remembered, so rooms visited again cost one look only, at
+    the way out before driving it (a square-up where something lies ahead in reach). Succeeds
+    on the goal floor (a line sensor's mean over GOAL_READINGS steps reads GROUND_GOAL, which no
+    single noisy reading fakes), after driving a quarter room onto it."""
 
     def __init__(self, hand: str = "right", cell_m: float = 0.24, speed_m_s: float = SPEED_NORMAL, max_rooms: int = 1000):
         if hand not in ("left", "right"):
@@ -115,6 +135,9 @@ class SolveMaze(Plan):
         self.need("line", 1)
         self.entering: Behaviour | None = None
         self.known: dict[tuple[int, int, int], bool] = {}  # (room x, room y, quarter) -> open
+        self.looked: tuple[tuple[int, int], int] | None = None  # the way the last look faced
+        self.visits: dict[tuple[int, int], int] = {}  # room -> visits since its ways were last seen
+        self.floor_seen: deque[list[float]] = deque(maxlen=GOAL_READINGS)  # the last steps' line readings
         self.frame = self.pose  # the grid's origin in this behaviour's odometry frame
         left, right = self.robot.ir[0].position, self.robot.ir[1].position
         self.ir_ahead = 0.5 * (left[0] + right[0])  # sensors ahead of the axle (m)
@@ -124,7 +147,8 @@ class SolveMaze(Plan):
         self.mouse_metre = None if mouse is None else 0.0254 / mouse.dpi  # m per count at the nominal dpi
         self.tick_turn = self.odometry.metres_per_tick / self.robot.track_width  # rad per tick of one wheel
         self.last_pose: Pose | None = None  # the odometry's pose after the last step
-        self.disagreement = 0.0  # encoders' turn less the mouse's driving straight, since the last correction
+        self.heading_var = 0.0  # the believed heading's variance (rad^2): the start pose is aligned
+        self.disagreement = 0.0  # driving straight: encoders' turn less the mouse's (rad)
         self.mouse_straight = 0.0  # driving straight: the mouse's distance at its nominal dpi (m)
         self.encoders_straight = 0.0  # and the encoders' (m)
         self.turn_products = 0.0  # turning: sum of encoders' x mouse's turn (rad^2)
@@ -134,29 +158,46 @@ class SolveMaze(Plan):
 
     def act(self, t: float, readings: Readings) -> Command:
         self._correct_odometry(readings)
-        if self.entering is None and any(abs(v - GROUND_GOAL) <= GOAL_TOLERANCE for v in readings.line.tolist()):
+        self.floor_seen.append(readings.line.tolist())
+        if self.entering is None and self._on_goal():
             self.entering = self.run(DriveToRoom(self.cell / 4, 0.0, self.speed))
         if self.entering is None:
             return super().act(t, readings)
         command = self.entering.step(t, readings)
         return command if self.entering.status is Status.RUNNING else self.finish(self.entering.status)
 
+    def _on_goal(self) -> bool:
+        """Whether a line sensor's last GOAL_READINGS readings average to the goal floor's colour
+        and scatter no more than noise does (each sensor by itself, and a steady floor: readings
+        crossing from white to black pass through the goal colour on the way)."""
+        if len(self.floor_seen) < GOAL_READINGS:
+            return False
+        seen = np.asarray(self.floor_seen, dtype=float)
+        means, spreads = seen.mean(axis=0).tolist(), seen.std(axis=0).tolist()
+        return any(abs(m - GROUND_GOAL) <= GOAL_TOLERANCE and s <= GOAL_SPREAD for m, s in zip(means, spreads))
+
     def _correct_odometry(self, readings: Readings) -> None:
         """Correct this step's turn of the shared odometry, which the children steer by.
 
-        The encoders' turn drifts: a spurious tick turns the belief by 1.75 degrees at once, slip
-        and a wheel diameter off by 0.3 % by a few degrees a room, a track width off by 1 % by 1
-        degree a quarter turn; each would lead the robot off its line for good. The mouse, 15 mm
-        behind the axle, sees the body's turn as lateral counts (0.24 degrees each) but reads
-        3.75 % off on the real c't-Bot; its scale is learnt from its distance against the
-        encoders' while driving straight, which a 0.3 % diameter error hardly spoils. So:
-        - in a step where the two turns differ by more than half a tick's, the mouse's is taken;
-        - driving straight, the mouse's turn is taken once the two have disagreed by half a tick's
-          since the last correction (noise-free they agree within a count a step);
+        The encoders' turn drifts: a spurious tick turns the belief by 1.75 degrees at once, a
+        wheel diameter off by 0.3 % by 1.8 degrees a metre, a track width off by 1 % by 1 degree
+        a quarter turn; each would lead the robot off its line for good. The mouse, 15 mm behind
+        the axle, sees the body's turn as lateral counts (0.24 degrees each) without bias but
+        with more random error (its noise over 15 mm of lever arm: about 1.3 degrees per root
+        metre, the encoders' slip 0.3), and reads 3.75 % off on the real c't-Bot; its scale is
+        learnt from its distance against the encoders' while driving straight. So:
+        - in a step where the two turns differ by more than half a tick's, the mouse's is taken
+          (a spurious tick or a wheel slipping at a wall; noise moves the mouse's a tenth of that);
+        - driving straight, the encoders' turn is corrected by their drift per metre against the
+          mouse, learnt over all straight driving so far (the mouse's random error averages
+          out as the root of the distance, the wheels' bias does not);
         - turning, the encoders' turn is scaled by the ratio of the mouse's turn to theirs over all
           turns so far, once that is more than TURN_TOLERANCE off 1.
         Without a mouse only the square-ups correct the heading."""
         x, y, heading = self.odometry.pose
+        if self.last_pose is not None:
+            last_x, last_y, last_heading = self.last_pose
+            self.heading_var += HEADING_DRIFT * (math.hypot(x - last_x, y - last_y) + abs(heading - last_heading))
         if self.last_pose is not None and self.mouse_turn is not None:
             last_x, last_y, last_heading = self.last_pose
             turned = heading - last_heading
@@ -170,9 +211,8 @@ class SolveMaze(Plan):
                 self.mouse_straight += forward * self.mouse_metre * math.copysign(1.0, driven)
                 self.encoders_straight += abs(driven)
                 self.disagreement += turned - mouse
-                if abs(self.disagreement) > self.tick_turn / 2:
-                    self.odometry.turn_by(-self.disagreement)
-                    self.disagreement = 0.0
+                if self.encoders_straight > DRIFT_LEARN_M:
+                    self.odometry.turn_by(-self.disagreement / self.encoders_straight * abs(driven))
             else:  # turning on the spot, or standing still
                 self.turn_products += turned * mouse
                 self.turn_squares += turned * turned
@@ -203,24 +243,31 @@ class SolveMaze(Plan):
             yield self._face(quarter)
             look = Look(LOOK_STEPS, LOOK_MAX_STEPS, LOOK_ERROR)
             yield look
-            self._square_up(look.ir_distance, room, quarter)
+            self._square_up(look.ir_distance, look.ir_error, room, quarter)
+            self.looked = (room, quarter % 4)
             self._learn(room, quarter, self._open(look.ir_distance))
         return self.known[key]
 
     def _open(self, distance: np.ndarray) -> bool:
         """Whether a look sees a way open: both sensors see nothing nearer than OPEN_FRACTION
-        cells, and where one sees something within FOLD_REACH, both see the same face (their
-        difference within MAX_SKEW): a wall touching the sensors reads as far as 0.41 m on one and
-        0.33 m on the other, a wall one room further on reads the same on both."""
+        cells, and where both see something within FOLD_REACH, the same face (their difference
+        within MAX_SKEW): a wall touching the sensors reads as far as 0.41 m on one and 0.33 m on
+        the other, a wall one room further on reads the same on both. One sensor seeing beyond
+        FOLD_REACH sees no wall touching them: the other's nearer reading is the side of the way
+        ahead, seen at a slant by a robot off its line (an open way)."""
         if not clear_ahead(distance, OPEN_FRACTION * self.cell):
             return False
         left, right = np.nan_to_num(distance[:2], nan=math.inf)
-        if min(left, right) >= FOLD_REACH:
+        if max(left, right) >= FOLD_REACH:
             return True
         return abs(left - right) <= self.ir_baseline * math.tan(MAX_SKEW)
 
-    def _square_up(self, distance: np.ndarray, room: tuple[int, int], quarter: int) -> None:
-        """Correct the grid pose from one wall face seen by both IR sensors facing `quarter`."""
+    def _square_up(self, distance: np.ndarray, error: np.ndarray, room: tuple[int, int], quarter: int) -> None:
+        """Correct the grid pose from one wall face seen by both IR sensors facing `quarter`, their
+        means' standard errors `error` (m): the position along that axis is taken as seen, the
+        heading weighed against the belief's own uncertainty (a look's skew of 5 mm noise
+        averaged 32 times is good to 1 degree, about what the belief drifts in a metre), as a
+        Kalman filter of the heading would; noise-free readings are taken as seen."""
         left, right = distance[0], distance[1]
         low, high = SQUARE_BAND
         if not (low < left < high and low < right < high):
@@ -235,13 +282,32 @@ class SolveMaze(Plan):
         face = (round((along + wall) / self.cell - 0.5) + 0.5) * self.cell  # the nearest tile edge
         corrected = np.array(pose)
         corrected[:2] += (face - wall - along) * axis
-        corrected[2] += float(wrap_angle(quarter * math.pi / 2 + skew - pose[2]))
+        noise = float(np.sum(np.square(error[:2]))) / self.ir_baseline**2  # the skew's variance (rad^2)
+        gain = self.heading_var / (self.heading_var + noise) if noise > 0 else 1.0
+        corrected[2] += gain * float(wrap_angle(quarter * math.pi / 2 + skew - pose[2]))
+        self.heading_var *= 1.0 - gain
         self.frame = apply_increment(self.pose, relative_increment(corrected, np.zeros(3)))
+
+    def _visit(self, room: tuple[int, int]) -> None:
+        """Count a visit to `room`; past MAX_VISITS forget its ways, to be seen afresh: a wall
+        follower enters a room at most once through each of its four ways, so more means a way
+        was misread and the plan goes round a loop that is not there."""
+        self.visits[room] = self.visits.get(room, 0) + 1
+        if self.visits[room] > MAX_VISITS:
+            self.visits[room] = 0
+            for q in range(4):
+                i, j = room[0] + STEPS[q][0], room[1] + STEPS[q][1]
+                self.known.pop((*room, q), None)
+                self.known.pop((i, j, (q + 2) % 4), None)
 
     def _drive(self, room: tuple[int, int], quarter: int) -> Generator[Behaviour, Status, bool]:
         """Face `quarter` and drive to the next room's centre; on an abyss back off to this room's
         centre and remember that way as closed. Whether the robot got there."""
         yield self._face(quarter)
+        if self.looked != (room, quarter % 4):  # a way known from before: square up on what lies ahead
+            look = Look(LOOK_STEPS, LOOK_MAX_STEPS, LOOK_ERROR)
+            yield look
+            self._square_up(look.ir_distance, look.ir_error, room, quarter)
         step = STEPS[quarter % 4]
         target = np.array([(room[0] + step[0]) * self.cell, (room[1] + step[1]) * self.cell, 0.0])
         local = relative_increment(self.pose, apply_increment(self.frame, target))
@@ -270,6 +336,7 @@ class SolveMaze(Plan):
             for way in ways:
                 if (yield from self._is_open(room, way)) and (yield from self._drive(room, way)):
                     heading, room = way, (room[0] + STEPS[way % 4][0], room[1] + STEPS[way % 4][1])
+                    self._visit(room)
                     break
             else:
                 if following:

@@ -243,10 +243,10 @@ def _save(fig, path: Path) -> Path:
 
 
 def describe(summary: dict) -> str:
-    """One line saying what ran: world, controller(s), seed, simulated time, dt."""
+    """One line saying what ran: world, controller(s), noise, seed, simulated time, dt."""
     controllers = sorted({robot["controller"] for robot in summary["robots"]})
     return (
-        f"world {summary['world']['name']} \u00b7 controller {', '.join(controllers)} \u00b7 seed {summary['seed']} \u00b7 "
+        f"world {summary['world']['name']} \u00b7 controller {', '.join(controllers)} \u00b7 noise {summary.get('noise', 'none')} \u00b7 seed {summary['seed']} \u00b7 "
         f"{summary['time']:.1f} s simulated (dt {1000 * summary['dt']:g} ms, {summary['reason']}) \u00b7 ctsim {summary['ctsim_version']}"
     )
 

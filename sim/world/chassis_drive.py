@@ -251,13 +251,13 @@ class ChassisDrive:
 
     @staticmethod
     def _slip(drive: _Drive) -> np.ndarray:
-        """Random relative slip of each wheel's rim speed this step (EncoderSpec.slip_std; tick_noise is
-        a differential-drive model)."""
+        """Random slip of each wheel this step (EncoderSpec.slip_std, sqrt m; `_wheels` scales it by
+        the rim's distance; tick_noise is a differential-drive model)."""
         enc = drive.robot.spec.encoders
         n = drive.nominal.n
         if not enc.slip_std:
             return np.zeros(n)
-        return drive.robot.rngs["encoders"].normal(0.0, enc.slip_std, size=n)
+        return enc.slip_std * drive.robot.rngs["encoders"].standard_normal(n)
 
     def after_step(self, before: np.ndarray, after: np.ndarray, floor: FloorMap) -> None:
         """The second mouse reads the body's true motion (nothing over a hole)."""
@@ -269,9 +269,10 @@ class ChassisDrive:
             metres = mouse_displacement_from_increment(increment, np.asarray(mouse.mount))
             if _over_hole(after[i], np.asarray([mouse.mount]), floor)[0] or np.hypot(*metres) > mouse.max_speed * self.dt:
                 metres = np.zeros(2)
-            noise = drive.robot.rngs["mouse2"].normal(0.0, mouse.noise_std, size=2) if mouse.noise_std else 0.0
             scale = counts_per_metre(mouse.dpi) * (1 + mouse.scale_error)
-            drive.mouse2_counts, drive.mouse2_carry = quantize(metres * scale + noise, drive.mouse2_carry)
+            if mouse.noise_std:  # (sqrt m: the variance grows with the floor passed, as the first mouse's)
+                metres = metres + mouse.noise_std * math.sqrt(math.hypot(*metres)) * drive.robot.rngs["mouse2"].standard_normal(2)
+            drive.mouse2_counts, drive.mouse2_carry = quantize(metres * scale, drive.mouse2_carry)
 
     def fill(self, readings: Sequence[Readings]) -> None:
         """Put each chassis robot's per-wheel ticks, steering angles, second mouse and faults into its readings."""
@@ -304,7 +305,8 @@ def _wheels(dt: float, phi_dot: np.ndarray, target_phi: np.ndarray, max_phi: np.
         elif locked[i]:
             phi_dot[i] = 0.0
         if measured[i]:
-            rhs[i] = phi_dot[i] * rim[i] * (1.0 + slip[i])
+            rim_speed = phi_dot[i] * rim[i]
+            rhs[i] = rim_speed + slip[i] * math.sqrt(abs(rim_speed) / dt)  # arc off by slip * sqrt(|arc|)
     for k in range(3):
         total = 0.0
         for j in range(rhs.shape[0]):

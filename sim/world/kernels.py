@@ -26,9 +26,9 @@ COUNTS_PER_METRE, MAX_STEP, SWEEP_RADIUS, APART_RADIUS, MASS, MOMENT, RADIUS = 1
 STOPS = 17  # 1: c't-Sim's contact rule (`stop_at_contact`), 0: pymunk's
 PARAMS = 18
 # per-robot state (n, STATE) float64, two columns (left, right or x, y) each but ALPHA and BLOCKED
-WHEEL_SPEED, TICK_CARRY, TICK_OFFSET, SLIP, MOUSE_NOISE, MOUSE_CARRY, MOVE, ALPHA = 0, 2, 4, 6, 8, 10, 12, 14
-BLOCKED = 15  # 1 when c't-Sim's contact rule refused the step's move
-STATE = 16
+WHEEL_SPEED, TICK_CARRY, SLIP, MOUSE_NOISE, MOUSE_CARRY, MOVE, ALPHA = 0, 2, 4, 6, 8, 10, 12
+BLOCKED = 13  # 1 when c't-Sim's contact rule refused the step's move
+STATE = 14
 # per-robot counts (n, TALLIES) int64: encoder ticks (left, right), mouse counts (x, y)
 TICKS, COUNTS, TALLIES = 0, 2, 4
 # the world's scalars (SCALARS,) float64: floor raster origin (x, y m), cell (m), whether outside
@@ -65,7 +65,6 @@ def drive(
     dt: float,
     ticks_per_rad: np.ndarray,
     tick_carry: np.ndarray,
-    tick_offset: np.ndarray,
     ticks: np.ndarray,
     real_radius: np.ndarray,
     slip: np.ndarray,
@@ -77,7 +76,9 @@ def drive(
     """Motor model, encoder ticks and the exact-arc motion of every robot for one step.
 
     Writes wheel_speed (rad/s at the end of the step), ticks/tick_carry, and the unobstructed
-    world displacement `move` (n, 2) and heading change `alpha` (n,) of the arc."""
+    world displacement `move` (n, 2) and heading change `alpha` (n,) of the arc. Random slip
+    `slip` (n, 2) (sqrt m, drawn per step) puts each wheel's arc s off by slip * sqrt(|s|): the
+    variance grows with the distance rolled, whatever the step (Chong and Kleeman's model)."""
     for i in range(commands.shape[0]):
         for w in range(2):
             c = min(max(commands[i, w], -command_max[i]), command_max[i])
@@ -87,10 +88,12 @@ def drive(
             change = min(max(change, -max_change[i]), max_change[i])
             wheel_speed[i, w] = current + change
             whole, fraction = quantize_one(wheel_speed[i, w] * dt * ticks_per_rad[i] + tick_carry[i, w])
-            ticks[i, w] = whole + tick_offset[i, w]
+            ticks[i, w] = whole
             tick_carry[i, w] = fraction
-        s_l = wheel_speed[i, 0] * dt * real_radius[i, 0] * (1.0 + slip[i, 0])
-        s_r = wheel_speed[i, 1] * dt * real_radius[i, 1] * (1.0 + slip[i, 1])
+        s_l = wheel_speed[i, 0] * dt * real_radius[i, 0]
+        s_r = wheel_speed[i, 1] * dt * real_radius[i, 1]
+        s_l += slip[i, 0] * math.sqrt(abs(s_l))
+        s_r += slip[i, 1] * math.sqrt(abs(s_r))
         chord, a, _, _ = exact_arc(s_l, s_r, track[i])
         mid = pose[i, 2] + 0.5 * a
         move[i, 0] = chord * math.cos(mid)
@@ -164,7 +167,7 @@ def plan(commands: np.ndarray, params: np.ndarray, state: np.ndarray, tallies: n
         drive(
             commands, state[:, WHEEL_SPEED : WHEEL_SPEED + 2], params[:, COMMAND_MAX], params[:, MAX_SPEED], params[:, LAG],
             params[:, MAX_CHANGE], dt, params[:, TICKS_PER_RAD], state[:, TICK_CARRY : TICK_CARRY + 2],
-            state[:, TICK_OFFSET : TICK_OFFSET + 2], tallies[:, TICKS : TICKS + 2], params[:, REAL_RADIUS : REAL_RADIUS + 2],
+            tallies[:, TICKS : TICKS + 2], params[:, REAL_RADIUS : REAL_RADIUS + 2],
             state[:, SLIP : SLIP + 2], params[:, TRACK], pose, state[:, MOVE : MOVE + 2], state[:, ALPHA],
         )  # fmt: skip
     return bad
@@ -301,7 +304,8 @@ def measure(
     between them; a mouse over a hole reads nothing.
 
     counts_per_metre is 0 for a robot without a mouse; max_step the longest displacement per
-    step (m) the sensor tracks; noise (n, 2) counts to add."""
+    step (m) the sensor tracks; noise (n, 2) counts per sqrt m of floor passed (drawn per step):
+    the error's variance grows with the distance the sensor moved, whatever the step."""
     for i in range(before.shape[0]):
         c0, s0 = math.cos(before[i, 2]), math.sin(before[i, 2])
         c1, s1 = math.cos(after[i, 2]), math.sin(after[i, 2])
@@ -319,8 +323,9 @@ def measure(
         lifted = _in_hole(after[i, 0] + c1 * mx - s1 * my, after[i, 1] + s1 * mx + c1 * my, hole, origin, cell, outside_is_hole)
         if lifted or fx * fx + fy * fy > max_step[i] * max_step[i]:
             fx = fy = 0.0
+        passed = math.sqrt(math.hypot(fx, fy))
         for axis, metres in enumerate((fx, fy)):
-            whole, fraction = quantize_one(metres * counts_per_metre[i] + noise[i, axis] + mouse_carry[i, axis])
+            whole, fraction = quantize_one(metres * counts_per_metre[i] + noise[i, axis] * passed + mouse_carry[i, axis])
             counts[i, axis] = whole
             mouse_carry[i, axis] = fraction
 

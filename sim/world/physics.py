@@ -466,6 +466,8 @@ class World:
             if st.noisy_encoders:
                 st.draw_encoder_noise()
             bad = self._plan(commands, st.params, st.state, st.tallies, before, self.dt)
+            if bad < 0 and st.noisy_encoders:
+                st.add_spurious_ticks()
         if bad >= 0:
             names = [self.robots[i].name for i in np.unique(np.nonzero(~np.isfinite(commands))[0])]
             raise CommandError(f"non-finite motor command for {', '.join(names)} at step {self.steps}")
@@ -629,7 +631,6 @@ class _BatchState:
         self.anchored = _padded([_contacts(s)[1] for s in specs], np.bool_)
         self.state = np.zeros((n, kernels.STATE))
         self.slip = _columns(self.state, kernels.SLIP)
-        self.tick_offset = _columns(self.state, kernels.TICK_OFFSET)
         self.mouse_noise = _columns(self.state, kernels.MOUSE_NOISE)
         self.move = _columns(self.state, kernels.MOVE)
         self.alpha = _columns(self.state, kernels.ALPHA, 1)
@@ -680,16 +681,30 @@ class _BatchState:
             noisy.reseed(robot)
 
     def draw_encoder_noise(self) -> None:
-        """Random slip and spurious ticks for the robots whose encoders have them."""
+        """Random slip for this step of the robots whose encoders have it: each wheel's arc s is
+        off by slip_std * sqrt(|s|) * N(0, 1) (`kernels.drive`), a random walk in the distance rolled."""
         for i, rng, enc in self.noisy_encoders:
-            self.slip[i] = rng.normal(0.0, enc.slip_std, size=2) if enc.slip_std else 0.0
+            if enc.slip_std:
+                self.slip[i] = enc.slip_std * rng.standard_normal(2)
+
+    def add_spurious_ticks(self) -> None:
+        """Each tick counted this step is, with probability tick_noise, one too many or one too few
+        (a light barrier's edge that bounces or is missed): a process in the ticks counted, so
+        the same per wheel turn at any step."""
+        for i, rng, enc in self.noisy_encoders:
             if enc.tick_noise:
-                self.tick_offset[i] = (rng.random(2) < enc.tick_noise) * rng.choice((-1.0, 1.0), size=2)
+                ticks = self.tallies[i, kernels.TICKS : kernels.TICKS + 2]
+                wrong = rng.binomial(np.abs(ticks), enc.tick_noise)
+                if wrong.any():
+                    ticks += 2 * rng.binomial(wrong, 0.5) - wrong
 
     def draw_mouse_noise(self) -> None:
-        """Count noise for the robots whose mouse has it."""
+        """Count noise for the robots whose mouse has it, in counts per sqrt m of floor passed
+        (`kernels.measure` scales it by the step's distance): noise_std (sqrt m) at the counts'
+        own scale."""
         mice = self.noisy_mice
-        self.mouse_noise[mice.rows] = 0.0 + mice.std[:, None] * mice.normals.take(2)  # as rng.normal(0.0, std, size=2)
+        scale = mice.std * self.params[mice.rows, kernels.COUNTS_PER_METRE]
+        self.mouse_noise[mice.rows] = 0.0 + scale[:, None] * mice.normals.take(2)
 
 
 @dataclass(frozen=True)
