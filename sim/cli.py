@@ -24,9 +24,11 @@ from typing import Any
 
 import sim
 from bots.noise import NOISE_PRESETS, parse_value
+from bots.schema import Field, file_stem, option, parse_number, shown
+from sim import sanitize
+from sim.folder_lock import LOCK, hold
 from sim.errors import UserError
-from sim.folder_lock import hold
-from sim.run import DT_RANGE, RunError, Terminated, in_controller, step_count
+from sim.run import DT_RANGE, MAX_DURATION, MAX_STEP_TIMEOUT, RunError, Terminated, in_controller, step_count
 from sim.world import compiling
 
 DEFAULT_WORLD = "maze"
@@ -69,29 +71,42 @@ class Parser(argparse.ArgumentParser):
 def _param(text: str) -> tuple[str, str]:
     key, sep, value = text.partition("=")
     if not sep or not key:
-        raise argparse.ArgumentTypeError(f"expected KEY=VALUE, got {text!r}")
+        raise argparse.ArgumentTypeError(f"expected KEY=VALUE, got {shown(text)}")
+    try:
+        parse_value(value.strip())  # (a number of thousands of digits is refused here, naming the option)
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(f"{key.strip()}: {err}") from None
     return key.strip(), value.strip()
 
 
-def _seed(text: str) -> int:
+def _whole(text: str) -> int:
+    """A whole-number option (at most `bots.schema.MAX_DIGITS` digits)."""
     try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+        return int(parse_number(text, int))
+    except ValueError as err:
+        raise argparse.ArgumentTypeError(str(err)) from None
+
+
+def _seed(text: str) -> int:
+    value = _whole(text)
     if value < 0:
         raise argparse.ArgumentTypeError(f"expected a seed of 0 or more, got {value}")
     return value
 
 
-def _positive(kind: Callable[[str], Any]) -> Callable[[str], Any]:
+def _positive(kind: Callable[[str], Any], high: float = 1e9, unit: str = "") -> Callable[[str], Any]:
+    """A positive option of `kind` (float or int) up to `high`, checked as a file's value is
+    (`bots.schema.option`: NaN, infinities, subnormals and 40+ digit numbers refused)."""
+    checked = option(Field("integer" if kind is int else "number", unit, 0, high, above=True), kind)
+
     def parse(text: str) -> Any:
         try:
-            value = kind(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-        if not (math.isfinite(value) and value > 0):
-            raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
-        return value
+            value = parse_number(text, kind)
+        except ValueError as err:
+            raise argparse.ArgumentTypeError(str(err)) from None
+        if not value > 0:
+            raise argparse.ArgumentTypeError(f"expected a positive number, got {shown(text)}")
+        return checked(text)
 
     return parse
 
@@ -120,7 +135,7 @@ def _add_robot_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--live", action="store_true", help="also stream the recording to a rerun viewer it starts; without one the run goes on, recorded to the file")
     parser.add_argument("--connect", metavar="URL", help="also stream the recording to the rerun viewer at URL (e.g. rerun+http://127.0.0.1:9876/proxy)")
     parser.add_argument("--no-report", action="store_true", help="skip the PNG figures")
-    parser.add_argument("--export-rate", type=_positive(float), metavar="HZ",
+    parser.add_argument("--export-rate", type=_positive(float, 1e6, "Hz"), metavar="HZ",
                         help="samples per second in the TUM and CSV files (default: every step; run.parquet always holds every sample)")
 
 
@@ -130,7 +145,7 @@ def _add_web_options(parser: argparse.ArgumentParser, flag: str | None = None, f
     if flag:
         parser.add_argument(flag, action="store_true", help=flag_help)
     parser.add_argument("--host", default=None, help=f"address to serve the page on (default: {DEFAULT_HOST}, this machine only; 0.0.0.0 for every network)")
-    parser.add_argument("--port", type=int, default=None, help=f"the page's port; the recording is served on the next one (default: {DEFAULT_PORT}; 0: two free ones)")
+    parser.add_argument("--port", type=_whole, default=None, help=f"the page's port; the recording is served on the next one (default: {DEFAULT_PORT}; 0: two free ones)")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -150,9 +165,9 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--estimator", action="append", default=[], metavar="FILE.py[:CLASS]",
                      help="your own odometry estimator (reset(robot, pose), update(readings), pose, optional covariance) beside the shipped ones, in every output (repeatable)")
     run.add_argument("--param", action="append", type=_param, default=[], metavar="KEY=VALUE", help="controller parameter, repeatable; applies to every robot's controller")
-    run.add_argument("--robots", type=int, metavar="N", help="number of robots (default: one per --controller); a single controller is used by all")
-    run.add_argument("--duration", type=_positive(float), default=DEFAULT_DURATION, metavar="SECONDS", help=f"simulated time to run at most (default: {DEFAULT_DURATION:g})")
-    run.add_argument("--step-timeout", type=_positive(float), default=STEP_TIMEOUT, metavar="SECONDS", help=f"a controller step that takes longer (wall clock) ends the run as the controller's error (default: {STEP_TIMEOUT:g})")
+    run.add_argument("--robots", type=_whole, metavar="N", help="number of robots (default: one per --controller); a single controller is used by all")
+    run.add_argument("--duration", type=_positive(float, MAX_DURATION, "s"), default=DEFAULT_DURATION, metavar="SECONDS", help=f"simulated time to run at most (default: {DEFAULT_DURATION:g})")
+    run.add_argument("--step-timeout", type=_positive(float, MAX_STEP_TIMEOUT, "s"), default=STEP_TIMEOUT, metavar="SECONDS", help=f"a controller step that takes longer (wall clock) ends the run as the controller's error (default: {STEP_TIMEOUT:g})")
     run.add_argument("--until-goal", action=argparse.BooleanOptionalAction, default=None, help="stop as soon as a robot reaches a goal area (default: on in worlds that have a goal)")
     _add_web_options(run, "--web", "also serve rerun's web viewer and stream the run into the page as it runs; after the run, serve until Ctrl-C")
     run.set_defaults(handler=cmd_run)
@@ -174,10 +189,10 @@ def build_parser() -> argparse.ArgumentParser:
         "Sensor readings and odometry estimates are drawn over the map; the session is recorded like `run`.",
     )
     _add_robot_options(play)
-    play.add_argument("--frames", type=int, metavar="N", help="quit after N frames (for scripts and tests)")
-    play.add_argument("--fps", type=_positive(float), default=60.0, help="frames per second drawn (default: 60)")
-    play.add_argument("--speed", type=_positive(float), default=1.0, metavar="FACTOR", help="simulated time per real time: 2 runs twice as fast (default: 1, real time)")
-    play.add_argument("--scale", type=_positive(float), default=None, metavar="PX_PER_M", help="pixels per metre (default: fit the world in 900x700)")
+    play.add_argument("--frames", type=_whole, metavar="N", help="quit after N frames (for scripts and tests)")
+    play.add_argument("--fps", type=_positive(float, 1000.0, "frames/s"), default=60.0, help="frames per second drawn (default: 60)")
+    play.add_argument("--speed", type=_positive(float, 1e4), default=1.0, metavar="FACTOR", help="simulated time per real time: 2 runs twice as fast (default: 1, real time)")
+    play.add_argument("--scale", type=_positive(float, 1e5, "px/m"), default=None, metavar="PX_PER_M", help="pixels per metre (default: fit the world in 900x700)")
     play.set_defaults(handler=cmd_play)
 
     report = commands.add_parser("report", help="draw the PNG figures and report.html of a run folder", description="Draw trajectories.png, errors.png and report.html (one self-contained page: table, figures, facts) in a folder written by `ctsim run`.")
@@ -226,11 +241,11 @@ def _add_contest(commands) -> None:  # noqa: ANN001 (argparse's subparsers actio
                          "firmware:PATH (a c't-Bot firmware through the bridge; rc5=T:KEY, call=T:NAME(ARGS)), "
                          "or a folder of student submissions (one entry each, sandboxed)")  # fmt: skip
     contest.add_argument("--prelim", metavar="WORLD", help="world of the preliminary round (default: WORLD)")
-    contest.add_argument("--time-limit", type=_positive(float), default=120.0, metavar="SECONDS", help="simulated time of a game; a game without an arrival goes to the bot nearer its goal by path (default: 120)")
+    contest.add_argument("--time-limit", type=_positive(float, MAX_DURATION, "s"), default=120.0, metavar="SECONDS", help="simulated time of a game; a game without an arrival goes to the bot nearer its goal by path (default: 120)")
     contest.add_argument("--seed", type=_seed, default=0, help="seed of every game (default: 0)")
-    contest.add_argument("--dt", type=_positive(float), default=0.01, metavar="SECONDS", help="simulation step (default: 0.01)")
+    contest.add_argument("--dt", type=_step, default=0.01, metavar="SECONDS", help="simulation step (default: 0.01)")
     contest.add_argument("--out", type=Path, metavar="DIR", help="contest folder (default: runs/contest-<world>)")
-    contest.add_argument("--jobs", type=int, metavar="N", help="games in parallel (default: one per core)")
+    contest.add_argument("--jobs", type=_whole, metavar="N", help="games in parallel (default: one per core)")
     contest.add_argument("--engine", choices=("processes", "dask", "serial"), default="processes", help="local processes (default), a Dask LocalCluster, or one game after another here")
     contest.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="play on the Dask cluster whose scheduler is there (implies --engine dask)")
     contest.add_argument("--no-record", action="store_true", help="write no recordings of the games")
@@ -270,25 +285,50 @@ def load_robot_spec(args: argparse.Namespace):
     return with_settings(robot, {key: parse_value(value) for key, value in args.robot_set})
 
 
-RUN_FILES = ("run.rrd", "run.parquet", "summary.json", "*.tum", "*.csv", "*.png", "report.html")
-"""What a run writes into its folder: removed first when a folder is reused, so that nothing
-stale (a robot or figure of an earlier run) is left beside the new results."""
+RUN_FILES = ("run.rrd", "run.parquet", "summary.json", "report.html", "trajectories.png", "errors.png")
+"""The files every run writes into its folder by these names (its trajectories are named in its
+summary.json): when a folder of an earlier run is reused, these and the trajectories its summary
+names are removed first, so that nothing stale is left beside the new results; nothing else."""
+START = Path.cwd()
+"""The folder ctsim started in: a relative --out is taken from here, so that a controller that
+changes the current folder when it loads cannot move the run's folder."""
 
 
 def _out_dir(out: Path | None, world: str, controller: str) -> Path:
     if out is None:
         stamp = time.strftime("%Y%m%d-%H%M%S")
-        out = Path("runs") / f"{Path(world).stem}-{Path(controller.split(':')[0]).stem}-{stamp}"
+        out = Path("runs") / f"{file_stem(Path(world).stem) or 'world'}-{file_stem(Path(controller.split(':')[0]).stem) or 'run'}-{stamp}"
+    out = START / out
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as err:
         raise UsageError(f"{out}: cannot make the run's folder: {err.strerror or err}") from None
     _lock(out)
-    if (out / "summary.json").is_file():
-        for pattern in RUN_FILES:
-            for stale in out.glob(pattern):
-                stale.unlink()
+    for stale in _earlier_run(out):
+        stale.unlink(missing_ok=True)
     return out
+
+
+def _earlier_run(out: Path) -> list[Path]:
+    """The files an earlier run wrote into `out` (what its summary.json names, and RUN_FILES);
+    UsageError for a folder of other files, which ctsim leaves alone."""
+    from sim.analysis.run_folder import RunFolderError, read_summary
+
+    present = [p for p in out.iterdir() if p.name != LOCK]
+    if not present:
+        return []
+    try:
+        summary = read_summary(out)
+    except RunFolderError:
+        summary = None
+    if summary is None:
+        if not (out / "summary.json").is_file():
+            names = ", ".join(sorted(sanitize.name(p.name) for p in present)[:3])
+            raise UsageError(f"--out {out} holds files that no ctsim run wrote ({names}{', ...' if len(present) > 3 else ''}): "
+                             "give a new or empty folder, or the folder of an earlier run")
+        return [out / name for name in RUN_FILES]  # (an earlier run cut short: its fixed files only)
+    named = [out / name for robot in summary["robots"] for name in robot.get("tum", {}).values()]
+    return [out / name for name in RUN_FILES] + named + [p.with_suffix(".csv") for p in named]
 
 
 _held: list[Any] = []  # the open lock files of this command, closed (released) when it ends
@@ -599,6 +639,8 @@ def finish(result, out: Path, options: dict[str, Any], report: bool = True, metr
         print(f"ctsim: error: writing the run's results into {out}: {err.strerror or err} (written: {kept})", file=sys.stderr)
         return EXIT_FAILED
     print(table(summary))
+    for note in getattr(result, "notes", ()):  # what the run's guards put back (`sim.guards`)
+        print(f"ctsim: note: {note}", file=sys.stderr)
     for log in result.robots:  # what a general chassis did other than asked (projected twists)
         for message, count in log.notes.values():
             print(f"ctsim: note: {log.name}: {message} ({count} step{'s' if count != 1 else ''} like it)", file=sys.stderr)
@@ -609,7 +651,7 @@ def finish(result, out: Path, options: dict[str, Any], report: bool = True, metr
         print(f"ctsim: error: the recording is incomplete: {recording_error}", file=sys.stderr)
         return EXIT_FAILED
     if result.reason == "error":
-        print(f"ctsim: run stopped: {result.error}", file=sys.stderr)
+        print(f"ctsim: run stopped: {sanitize.name(result.error, 2000)}", file=sys.stderr)
         return EXIT_FAILED
     if result.reason in ("interrupted", "terminated"):
         print(f"ctsim: {result.error}; partial results written to {out}", file=sys.stderr)
@@ -678,7 +720,7 @@ def _nees(errors: dict[str, Any]) -> str:
 
 def table(summary: dict[str, Any]) -> str:
     """The short end-of-run table: per robot distance and collisions, per estimate its errors."""
-    reached = [robot["name"] for robot in summary["robots"] if robot["goal_time"] is not None]
+    reached = [sanitize.name(robot["name"], 40) for robot in summary["robots"] if robot["goal_time"] is not None]
     outcome = {
         "goal": f"goal reached by {', '.join(reached)}", "duration": "time limit reached",
         "done": "done (every controller said it is done)", "quit": "quit (window closed)",
@@ -686,13 +728,13 @@ def table(summary: dict[str, Any]) -> str:
     if summary["reason"] == "duration" and reached:
         outcome = f"goal reached by {', '.join(reached)}, ran on to the time limit"
     lines = [
-        f"{summary['world']['name']}, seed {summary['seed']}, noise {summary.get('noise', 'none')}, "
+        f"{sanitize.name(summary['world']['name'])}, seed {summary['seed']}, noise {summary.get('noise', 'none')}, "
         f"{summary['time']:.2f} s simulated: {outcome}"
     ]
     header = f"{'robot':<12}{'estimate':<12}{'distance m':>11}{'collisions':>11}{'final err m':>12}{'ATE RMS m':>11}{'final hdg °':>12}{'NEES':>7}"
     lines.append(header)
     for robot in summary["robots"]:
-        first = f"{robot['name']:<12}{'':<12}{robot['distance']:>11.3f}{robot['collisions']:>11d}"
+        first = f"{sanitize.name(robot['name'], 40):<12}{'':<12}{robot['distance']:>11.3f}{robot['collisions']:>11d}"
         notes = [note for note in ("fell into a hole" if robot["fell"] else "", f"goal at {robot['goal_time']:.2f} s" if robot["goal_time"] is not None else "",
                                    f"controller: {robot['status']}" if robot.get("status") not in (None, "running") else "") if note]  # fmt: skip
         lines.append(first + ("   " + ", ".join(notes) if notes else ""))
@@ -729,14 +771,14 @@ def _add_bridge_parser(commands) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     _add_robot_options(bridge)
-    bridge.add_argument("--robots", type=int, default=1, metavar="N", help="number of firmware bots (default: 1)")
+    bridge.add_argument("--robots", type=_whole, default=1, metavar="N", help="number of firmware bots (default: 1)")
     bridge.add_argument("--controller", action="append", metavar="NAME|FILE.py[:NAME]", help="also add a robot with this Python controller (repeatable)")
     bridge.add_argument("--param", action="append", type=_param, default=[], metavar="KEY=VALUE", help="parameter of the Python controllers")
-    bridge.add_argument("--duration", type=_positive(float), default=60.0, metavar="SECONDS", help="simulated time to run (default: 60)")
+    bridge.add_argument("--duration", type=_positive(float, MAX_DURATION, "s"), default=60.0, metavar="SECONDS", help="simulated time to run (default: 60)")
     bridge.add_argument("--host", default="127.0.0.1", help="address to listen on (default: 127.0.0.1, this machine only)")
-    bridge.add_argument("--port", type=int, default=10001, help="TCP port (default: 10001, the firmware's fixed port)")
-    bridge.add_argument("--connect-timeout", type=_positive(float), default=60.0, metavar="SECONDS", help="wait this long for each firmware to connect (default: 60)")
-    bridge.add_argument("--step-timeout", type=_positive(float), default=10.0, metavar="SECONDS", help="a firmware silent this long in one step has hung (default: 10, c't-Sim's)")
+    bridge.add_argument("--port", type=_whole, default=10001, help="TCP port (default: 10001, the firmware's fixed port)")
+    bridge.add_argument("--connect-timeout", type=_positive(float, MAX_STEP_TIMEOUT, "s"), default=60.0, metavar="SECONDS", help="wait this long for each firmware to connect (default: 60)")
+    bridge.add_argument("--step-timeout", type=_positive(float, MAX_STEP_TIMEOUT, "s"), default=10.0, metavar="SECONDS", help="a firmware silent this long in one step has hung (default: 10, c't-Sim's)")
     bridge.add_argument("--realtime", action="store_true", help="run at c't-Sim's real time (100 steps/s) instead of as fast as the firmware answers")
     bridge.add_argument("--rc5", action="append", type=timed(rc5_code), default=[], metavar="T:KEY", help="press an RC5 key at T s: 0-9, PWR, UP, DOWN, LEFT, RIGHT, PLAY, CH+, CH-, VOL+, VOL-, I/II or a code (repeatable)")
     bridge.add_argument("--call", action="append", type=timed(parse_call), default=[], metavar="T:'CALL'", help="remote call at T s, e.g. 2:'bot_turn(90)' (repeatable)")
@@ -796,7 +838,7 @@ def _add_sweep_parser(commands) -> None:  # noqa: ANN001 (argparse's subparsers 
     sweep.add_argument("--out", type=Path, metavar="DIR", help="sweep folder (default: runs/sweep-<spec name>)")
     sweep.add_argument("--engine", choices=("processes", "dask", "serial"), default="processes", help="local processes (default), a Dask LocalCluster, or one run after another here")
     sweep.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="run on the Dask cluster whose scheduler is there (implies --engine dask)")
-    sweep.add_argument("--jobs", type=int, metavar="N", help="worker processes (default: one per core)")
+    sweep.add_argument("--jobs", type=_whole, metavar="N", help="worker processes (default: one per core)")
     sweep.add_argument("--by", action="append", metavar="SETTING", help="group the summary and figures by this setting, repeatable (default: every swept one but seed); the others are pooled, and each table and figure says so")
     sweep.set_defaults(handler=cmd_sweep)
 
@@ -883,7 +925,7 @@ def cmd_check(args: argparse.Namespace) -> int:
     for warning in warnings:
         print(f"{args.world}: warning: {warning}")
     room = len(world.start_order())
-    print(f"OK {args.world}: {world.name}, {xmax - xmin:.2f} x {ymax - ymin:.2f} m; {counts}; room for {room} robot(s)")
+    print(f"OK {args.world}: {sanitize.name(world.name)}, {xmax - xmin:.2f} x {ymax - ymin:.2f} m; {counts}; room for {room} robot(s)")
     return 0
 
 
@@ -923,7 +965,7 @@ def main(argv: list[str] | None = None) -> int:
         sys.stdout = None
         return 0
     except UserError as err:
-        print(f"ctsim: error: {err}", file=sys.stderr)
+        print(f"ctsim: error: {sanitize.name(str(err), 2000)}", file=sys.stderr)
         return EXIT_USER
     except OSError as err:
         if not _names_user_path(err, args):

@@ -467,7 +467,7 @@ def run(
                     clock.busy = 0
                     raise _Stop(_failure(err, log, step, world.time, step_timeout)) from None
                 commands[i] = motor_commands(left, right, spec)
-            guard.check()
+            guard.after_step(step)
             world.step(commands)
     except _Stop as stop:
         result.reason, result.error = "error", str(stop)

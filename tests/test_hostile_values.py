@@ -203,3 +203,27 @@ def test_an_exercise_file_with_a_value_at_the_edge_names_file_and_key(tmp_path, 
         load_exercise(folder)
     assert str(refused.value) == f"{toml}: {message}"
 
+
+
+@pytest.mark.parametrize(
+    "options, message",
+    [
+        (["--step-timeout", "1e308"], "argument --step-timeout: must be a number (s) greater than 0 and at most 86,400, not 1e+308"),
+        (["--export-rate", "5e-324"], "argument --export-rate: must be a number (Hz) greater than 0 and at most 1,000,000, not 5e-324: a subnormal"),
+        (["--duration", "1e308"], "argument --duration: must be a number (s) greater than 0 and at most 10,000,000"),
+        (["--duration", "nan"], "argument --duration: expected a finite number, got 'nan'"),
+        (["--param", "speed_m_s=" + "9" * 5000], "argument --param: speed_m_s: a whole number of thousands of digits"),
+        (["--seed", "9" * 5000], "argument --seed: expected a number, got one of 5,000 digits (at most 40)"),
+        (["--robots", "9" * 5000], "argument --robots: expected a number, got one of 5,000 digits"),
+        (["--robot-set", "mass=5e-324"], "mass: must be a number (kg) at least 0.001"),
+    ],
+)
+def test_run_options_at_the_edges_are_one_line_naming_the_option(tmp_path, capsys, options, message):
+    from sim.cli import main
+
+    try:
+        code = main(["run", "empty", "--controller", "square", "--no-report", "--out", str(tmp_path / "out"), *options])
+    except SystemExit as done:
+        code = done.code
+    err = capsys.readouterr().err
+    assert code == 2 and message in err and err.count("\n") == 1 and len(err) < 400, err

@@ -96,3 +96,46 @@ def test_many_robots_are_written_with_few_handles_open(tmp_path):
     files = sorted((tmp_path / "out").iterdir())
     assert len(files) == 2 * sum(len(t) for t in written.values()) >= 300
     assert all(path.read_text().count("\n") == 1 + len(result.raw) for path in files if path.suffix == ".tum")
+
+
+def status(argv: list[str]) -> int:
+    from sim.cli import main
+
+    try:
+        return main(argv)
+    except SystemExit as done:
+        return done.code
+
+
+RUN = ["run", "empty", "--controller", "square", "--duration", "0.05", "--no-report"]
+
+
+def test_a_folder_of_other_files_is_refused_and_left_alone(tmp_path, capsys):
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "data.csv").write_text("mine\n")
+    (out / "plot.png").write_bytes(b"png")
+    assert status([*RUN, "--out", str(out)]) == 2
+    assert "holds files that no ctsim run wrote (data.csv, plot.png)" in capsys.readouterr().err
+    assert sorted(p.name for p in out.iterdir()) == [".ctsim.lock", "data.csv", "plot.png"]
+
+
+def test_a_reused_run_folder_loses_only_what_the_earlier_run_wrote(tmp_path):
+    out = tmp_path / "run"
+    assert status([*RUN, "--robots", "2", "--out", str(out)]) == 0
+    (out / "notes.csv").write_text("the user's own\n")
+    assert status([*RUN, "--out", str(out)]) == 0
+    names = {p.name for p in out.iterdir()}
+    assert "notes.csv" in names and "truth.tum" in names and not any(n.startswith("ctbot1_") for n in names)
+
+
+def test_a_controller_that_changes_folder_as_it_loads_cannot_move_the_run(tmp_path, monkeypatch):
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    controller = tmp_path / "moves.py"
+    controller.write_text(f"import os\nos.chdir({str(elsewhere)!r})\nfrom bots.commands import Twist\n"
+                          "class Moves:\n    def step(self, t, readings):\n        return Twist(0.1, 0.0)\n")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr("sim.cli.START", tmp_path)
+    assert status(["run", "empty", "--controller", f"{controller}:Moves", "--duration", "0.05", "--no-report", "--out", "out"]) == 0
+    assert (tmp_path / "out" / "summary.json").is_file() and not any(elsewhere.iterdir())
