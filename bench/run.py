@@ -28,7 +28,8 @@ def figures(quick: bool):
     yield "kinematics_batch_10k_parallel", "robot-steps/s", lambda: kinematics.kinematics_batch(steps=int(3000 * scale), parallel=True)
     yield "kinematics_batch_parallel_ratio", "(parallel / serial, same run; bar >= 1.7 on two cores)", lambda: kinematics.parallel_ratio(steps=int(500 * scale))
     yield "kinematics_poses_parallel_ratio", "(parallel / serial pose-only kernel, same run)", lambda: kinematics.parallel_ratio(steps=int(500 * scale), poses=True)
-    yield "kinematics_batch_100k_parallel_ratio", "(parallel / serial, 100,000 robots: the threads' start-up spread over ten times the work)", lambda: kinematics.parallel_ratio(robots=100_000, steps=max(int(50 * scale), 10), pairs=10)
+    yield ("kinematics_batch_100k_parallel_ratio", "(parallel / serial, 100,000 robots: the threads' start-up spread over ten times the work)",
+           lambda: kinematics.parallel_ratio(robots=100_000, steps=max(int(50 * scale), 10), pairs=10))
     yield "arc_circle_error_dt0.1", "m", lambda: kinematics.arc_circle_error(dt=0.1)
     try:
         from bench import world

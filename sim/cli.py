@@ -26,8 +26,8 @@ import sim
 from bots.noise import NOISE_PRESETS, parse_value
 from bots.schema import Field, file_stem, option, parse_number, shown
 from sim import sanitize
-from sim.folder_lock import LOCK, hold
 from sim.errors import UserError
+from sim.folder_lock import LOCK, hold
 from sim.run import DT_RANGE, MAX_DURATION, MAX_STEP_TIMEOUT, RunError, Terminated, in_controller, step_count
 from sim.world import compiling
 
@@ -126,10 +126,14 @@ def _folder(text: str) -> Path:
 
 def _add_robot_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("world", nargs="?", default=DEFAULT_WORLD, help=f"a shipped world's name (see `ctsim worlds`) or a .toml/.xml world file (default: {DEFAULT_WORLD})")
-    parser.add_argument("--robot", default="ctbot", metavar="NAME|FILE.toml", help="robot description: a built-in name (ctbot, omni3, mecanum4, car, ocp_vehicle) or a TOML robot file (default: ctbot)")
+    parser.add_argument("--robot", default="ctbot", metavar="NAME|FILE.toml",
+                        help="robot description: a built-in name (ctbot, omni3, mecanum4, car, ocp_vehicle) or a TOML robot file (default: ctbot)")
     parser.add_argument("--seed", type=_seed, default=0, help="seed of every random number in the run (the noise of --noise realistic or harsh); same seed, same run (default: 0)")
-    parser.add_argument("--noise", choices=NOISE_PRESETS, default="realistic", help="sensor and odometry noise of the robot: realistic (the c't-Bot's figures and their sources, see bots/noise.py), harsh, or none (exact sensors, for checks against closed forms) (default: realistic)")
-    parser.add_argument("--robot-set", action="append", type=_param, default=[], metavar="SECTION.FIELD=VALUE", help="override one field of the robot description after --noise, repeatable: encoders.slip_std=0.02, mouse.dpi=415, ir.noise_std=0")
+    parser.add_argument("--noise", choices=NOISE_PRESETS, default="realistic",
+                        help="sensor and odometry noise of the robot: realistic (the c't-Bot's figures and their sources, see bots/noise.py), harsh, "
+                        "or none (exact sensors, for checks against closed forms) (default: realistic)")
+    parser.add_argument("--robot-set", action="append", type=_param, default=[], metavar="SECTION.FIELD=VALUE",
+                        help="override one field of the robot description after --noise, repeatable: encoders.slip_std=0.02, mouse.dpi=415, ir.noise_std=0")
     parser.add_argument("--dt", type=_step, default=0.01, metavar="SECONDS", help="simulation step (default: 0.01)")
     parser.add_argument("--out", type=_folder, metavar="DIR", help="folder for run.rrd, summary.json, TUM/CSV trajectories and figures (default: runs/<world>-<controller>-<time>)")
     parser.add_argument("--live", action="store_true", help="also stream the recording to a rerun viewer it starts; without one the run goes on, recorded to the file")
@@ -161,13 +165,15 @@ def build_parser() -> argparse.ArgumentParser:
         "With no arguments: a c't-Bot solving the shipped maze until it reaches the goal.",
     )
     _add_robot_options(run)
-    run.add_argument("--controller", action="append", metavar="NAME|FILE.py[:NAME]", help="controller: a registered name (see `ctsim controllers`) or a Python file; repeat for several robots (default: solve_maze)")
+    run.add_argument("--controller", action="append", metavar="NAME|FILE.py[:NAME]",
+                     help="controller: a registered name (see `ctsim controllers`) or a Python file; repeat for several robots (default: solve_maze)")
     run.add_argument("--estimator", action="append", default=[], metavar="FILE.py[:CLASS]",
                      help="your own odometry estimator (reset(robot, pose), update(readings), pose, optional covariance) beside the shipped ones, in every output (repeatable)")
     run.add_argument("--param", action="append", type=_param, default=[], metavar="KEY=VALUE", help="controller parameter, repeatable; applies to every robot's controller")
     run.add_argument("--robots", type=_whole, metavar="N", help="number of robots (default: one per --controller); a single controller is used by all")
     run.add_argument("--duration", type=_positive(float, MAX_DURATION, "s"), default=DEFAULT_DURATION, metavar="SECONDS", help=f"simulated time to run at most (default: {DEFAULT_DURATION:g})")
-    run.add_argument("--step-timeout", type=_positive(float, MAX_STEP_TIMEOUT, "s"), default=STEP_TIMEOUT, metavar="SECONDS", help=f"a controller step that takes longer (wall clock) ends the run as the controller's error (default: {STEP_TIMEOUT:g})")
+    run.add_argument("--step-timeout", type=_positive(float, MAX_STEP_TIMEOUT, "s"), default=STEP_TIMEOUT, metavar="SECONDS",
+                     help=f"a controller step that takes longer (wall clock) ends the run as the controller's error (default: {STEP_TIMEOUT:g})")
     run.add_argument("--until-goal", action=argparse.BooleanOptionalAction, default=None, help="stop as soon as a robot reaches a goal area (default: on in worlds that have a goal)")
     _add_web_options(run, "--web", "also serve rerun's web viewer and stream the run into the page as it runs; after the run, serve until Ctrl-C")
     run.set_defaults(handler=cmd_run)
@@ -195,7 +201,8 @@ def build_parser() -> argparse.ArgumentParser:
     play.add_argument("--scale", type=_positive(float, 1e5, "px/m"), default=None, metavar="PX_PER_M", help="pixels per metre (default: fit the world in 900x700)")
     play.set_defaults(handler=cmd_play)
 
-    report = commands.add_parser("report", help="draw the PNG figures and report.html of a run folder", description="Draw trajectories.png, errors.png and report.html (one self-contained page: table, figures, facts) in a folder written by `ctsim run`.")
+    report = commands.add_parser("report", help="draw the PNG figures and report.html of a run folder",
+                                 description="Draw trajectories.png, errors.png and report.html (one self-contained page: table, figures, facts) in a folder written by `ctsim run`.")
     report.add_argument("run_dir", type=Path, metavar="RUN_DIR")
     report.set_defaults(handler=cmd_report)
 
@@ -209,7 +216,8 @@ def build_parser() -> argparse.ArgumentParser:
     _add_bridge_parser(commands)
     _add_sweep_parser(commands)
 
-    controllers = commands.add_parser("controllers", help="list the registered controllers and their parameters", description="List the controllers `--controller` accepts by name, with their parameters.")
+    controllers = commands.add_parser("controllers", help="list the registered controllers and their parameters",
+                                      description="List the controllers `--controller` accepts by name, with their parameters.")
     controllers.set_defaults(handler=cmd_controllers)
     _add_lab(commands)
     _add_contest(commands)
@@ -241,7 +249,8 @@ def _add_contest(commands) -> None:  # noqa: ANN001 (argparse's subparsers actio
                          "firmware:PATH (a c't-Bot firmware through the bridge; rc5=T:KEY, call=T:NAME(ARGS)), "
                          "or a folder of student submissions (one entry each, sandboxed)")  # fmt: skip
     contest.add_argument("--prelim", metavar="WORLD", help="world of the preliminary round (default: WORLD)")
-    contest.add_argument("--time-limit", type=_positive(float, MAX_DURATION, "s"), default=120.0, metavar="SECONDS", help="simulated time of a game; a game without an arrival goes to the bot nearer its goal by path (default: 120)")
+    contest.add_argument("--time-limit", type=_positive(float, MAX_DURATION, "s"), default=120.0, metavar="SECONDS",
+                         help="simulated time of a game; a game without an arrival goes to the bot nearer its goal by path (default: 120)")
     contest.add_argument("--seed", type=_seed, default=0, help="seed of every game (default: 0)")
     contest.add_argument("--dt", type=_step, default=0.01, metavar="SECONDS", help="simulation step (default: 0.01)")
     contest.add_argument("--out", type=Path, metavar="DIR", help="contest folder (default: runs/contest-<world>)")
@@ -428,7 +437,8 @@ class Progress:
     def on_start(self, world, logs) -> None:
         from tqdm import tqdm
 
-        self.bar = tqdm(total=round(self.duration, 6), unit="s sim", delay=1.0, disable=not sys.stderr.isatty(), leave=False, file=sys.stderr, bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} s sim [{elapsed}<{remaining}]")
+        self.bar = tqdm(total=round(self.duration, 6), unit="s sim", delay=1.0, disable=not sys.stderr.isatty(), leave=False, file=sys.stderr,
+                        bar_format="{l_bar}{bar}| {n:.1f}/{total:.1f} s sim [{elapsed}<{remaining}]")
 
     def on_sample(self, world, logs) -> None:
         self._count += 1
@@ -778,13 +788,16 @@ def _add_bridge_parser(commands) -> None:
     bridge.add_argument("--host", default="127.0.0.1", help="address to listen on (default: 127.0.0.1, this machine only)")
     bridge.add_argument("--port", type=_whole, default=10001, help="TCP port (default: 10001, the firmware's fixed port)")
     bridge.add_argument("--connect-timeout", type=_positive(float, MAX_STEP_TIMEOUT, "s"), default=60.0, metavar="SECONDS", help="wait this long for each firmware to connect (default: 60)")
-    bridge.add_argument("--step-timeout", type=_positive(float, MAX_STEP_TIMEOUT, "s"), default=10.0, metavar="SECONDS", help="a firmware silent this long in one step has hung (default: 10, c't-Sim's)")
+    bridge.add_argument("--step-timeout", type=_positive(float, MAX_STEP_TIMEOUT, "s"), default=10.0, metavar="SECONDS",
+                        help="a firmware silent this long in one step has hung (default: 10, c't-Sim's)")
     bridge.add_argument("--realtime", action="store_true", help="run at c't-Sim's real time (100 steps/s) instead of as fast as the firmware answers")
-    bridge.add_argument("--rc5", action="append", type=timed(rc5_code), default=[], metavar="T:KEY", help="press an RC5 key at T s: 0-9, PWR, UP, DOWN, LEFT, RIGHT, PLAY, CH+, CH-, VOL+, VOL-, I/II or a code (repeatable)")
+    bridge.add_argument("--rc5", action="append", type=timed(rc5_code), default=[], metavar="T:KEY",
+                        help="press an RC5 key at T s: 0-9, PWR, UP, DOWN, LEFT, RIGHT, PLAY, CH+, CH-, VOL+, VOL-, I/II or a code (repeatable)")
     bridge.add_argument("--call", action="append", type=timed(parse_call), default=[], metavar="T:'CALL'", help="remote call at T s, e.g. 2:'bot_turn(90)' (repeatable)")
     bridge.add_argument("--list-calls", action="store_true", help="ask each firmware for the remote calls it offers and print them (c't-Sim's RemoteCallViewer)")
     bridge.add_argument("--own-physics", action="store_true",
-                        help="firmware bots meet walls (slide), see them (nearest point in the IR cone), read lines at one point and meet lamp pillars as whole wall cells, with ctsim's own models instead of c't-Sim's")
+                        help="firmware bots meet walls (slide), see them (nearest point in the IR cone), read lines at one point "
+                        "and meet lamp pillars as whole wall cells, with ctsim's own models instead of c't-Sim's")
     bridge.set_defaults(handler=cmd_bridge)
 
 
@@ -839,7 +852,8 @@ def _add_sweep_parser(commands) -> None:  # noqa: ANN001 (argparse's subparsers 
     sweep.add_argument("--engine", choices=("processes", "dask", "serial"), default="processes", help="local processes (default), a Dask LocalCluster, or one run after another here")
     sweep.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="run on the Dask cluster whose scheduler is there (implies --engine dask)")
     sweep.add_argument("--jobs", type=_whole, metavar="N", help="worker processes (default: one per core)")
-    sweep.add_argument("--by", action="append", metavar="SETTING", help="group the summary and figures by this setting, repeatable (default: every swept one but seed); the others are pooled, and each table and figure says so")
+    sweep.add_argument("--by", action="append", metavar="SETTING",
+                       help="group the summary and figures by this setting, repeatable (default: every swept one but seed); the others are pooled, and each table and figure says so")
     sweep.set_defaults(handler=cmd_sweep)
 
 

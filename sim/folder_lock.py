@@ -6,8 +6,8 @@ the process: a command that dies, however it dies, leaves the folder free."""
 from __future__ import annotations
 
 import os
-from contextlib import contextmanager
 from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import IO
 

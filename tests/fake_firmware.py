@@ -177,7 +177,7 @@ class FakeFirmware:
         code = block.get("R", (0, 0, b""))[0] & 0xFFFF
         if code in KEYS:
             self.next_motors = KEYS[code]
-        for cmd, sub, dl, dr, to, payload in self.blocks[-1]:
+        for cmd, sub, _dl, _dr, _to, payload in self.blocks[-1]:
             if cmd == "r" and sub == "O":
                 name, _, args = payload.partition(b"\0")
                 if name == b"bot_turn":

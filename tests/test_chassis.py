@@ -45,7 +45,10 @@ def failed_drives(chassis, *wheels):
     return degrade(chassis, *(Failure(w, drive=True) for w in wheels))
 
 
-def equivalent_settings(beta, speed, beta_ref, speed_ref, atol=places(6)):
+ATOL = places(6)
+
+
+def equivalent_settings(beta, speed, beta_ref, speed_ref, atol=ATOL):
     """(β, v) and (β + π, −v) are the same wheel setting (thesis §5.11)."""
     beta, speed = np.asarray(beta), np.asarray(speed)
     same = np.isclose(wrap_angle(beta - beta_ref), 0, atol=atol) & np.isclose(speed, speed_ref, atol=atol)

@@ -13,7 +13,7 @@ from numpy.testing import assert_allclose
 
 from bots.chassis_commands import InfeasibleCommand, chassis_setpoints
 from bots.chassis_spec import ChassisSpec
-from bots.commands import Twist, WheelCommands
+from bots.commands import Twist
 from bots.controller import FunctionController
 from bots.spec import MotorSpec, wheeled_robot
 from bots.wheeled import CAR, OCP_VEHICLE

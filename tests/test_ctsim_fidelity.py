@@ -2,16 +2,14 @@
 
 from __future__ import annotations
 
-
 import pytest
+from shared_data import PARCOURS, needs_parcours
 
 from bots.ctbot import CTBOT
 from sim.world import World
 from sim.world.files import load_world
 from sim.world.sensors import cny70_value
 from sim.world.spec import WorldFileError
-
-from shared_data import PARCOURS, needs_parcours
 
 pytestmark = needs_parcours
 

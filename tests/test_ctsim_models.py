@@ -17,7 +17,6 @@ from sim.world.files.grid import PILLAR_DIAMETER, PILLAR_SIDES, build_grid
 from sim.world.floor import rasterize
 from sim.world.spec import WHITE, FloorLine, WorldSpec
 
-
 # --- encoders ------------------------------------------------------------------------------------
 
 

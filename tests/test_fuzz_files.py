@@ -31,7 +31,8 @@ from sim.world.files.toml_format import FIELDS
 
 EXAMPLES = int(os.environ.get("CTSIM_FUZZ_EXAMPLES", "25"))
 # (no shrink phase: shrinking structured garbage took minutes; a failure prints its seed to rerun)
-FUZZ = settings(max_examples=EXAMPLES, deadline=None, derandomize=True, database=None, phases=[Phase.explicit, Phase.reuse, Phase.generate], suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+FUZZ = settings(max_examples=EXAMPLES, deadline=None, derandomize=True, database=None, phases=[Phase.explicit, Phase.reuse, Phase.generate],
+                suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 
 numbers = st.one_of(
     st.integers(-(2**63), 2**63 - 1), st.floats(), st.sampled_from([0, -1, 1e-300, 1e300, 0.5, 60, 2**40]),
@@ -101,9 +102,11 @@ coordinate = st.floats(-5, 5, allow_subnormal=False)
 size = st.floats(0.001, 2)
 boxes = st.builds(lambda x, y, w, h: [x, y, x + w, y + h], coordinate, coordinate, size, size)
 sound_worlds = st.fixed_dictionaries(
-    {"start": st.lists(st.fixed_dictionaries({"position": st.lists(coordinate, min_size=2, max_size=2)}, optional={"slot": st.integers(0, 5), "heading_deg": st.floats(-360, 360)}), min_size=1, max_size=4), "bounds": st.just([-8, -8, 8, 8])},
+    {"start": st.lists(st.fixed_dictionaries({"position": st.lists(coordinate, min_size=2, max_size=2)}, optional={"slot": st.integers(0, 5), "heading_deg": st.floats(-360, 360)}),
+                       min_size=1, max_size=4), "bounds": st.just([-8, -8, 8, 8])},
     optional={"wall": st.lists(st.fixed_dictionaries({"box": boxes}), max_size=5), "goal": st.lists(st.fixed_dictionaries({"box": boxes}), max_size=2),
-              "movable": st.lists(st.fixed_dictionaries({"position": st.lists(coordinate, min_size=2, max_size=2)}, optional={"radius": st.floats(0.001, 0.5), "mass": st.floats(0.001, 5)}), max_size=3),
+              "movable": st.lists(st.fixed_dictionaries({"position": st.lists(coordinate, min_size=2, max_size=2)}, optional={"radius": st.floats(0.001, 0.5), "mass": st.floats(0.001, 5)}),
+                                  max_size=3),
               "grid": st.fixed_dictionaries({"rows": st.text("#. 012Z*LX|-=~", min_size=1, max_size=40).map(lambda r: r + "1")})},
 )
 """Worlds made to load (every value in its range), so that the checks after loading run too."""

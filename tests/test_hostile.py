@@ -13,8 +13,8 @@ from pathlib import Path
 import pytest
 
 from sim.cli import main
-from sim.folder_lock import LOCK
 from sim.experiments import Serial, load_results, sweep
+from sim.folder_lock import LOCK
 
 STOPS_ONCE = '''
 from pathlib import Path

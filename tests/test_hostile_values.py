@@ -6,8 +6,8 @@ one line naming the file and line or the option."""
 from __future__ import annotations
 
 import math
-import shutil
 import os
+import shutil
 import sys
 
 import pytest

@@ -283,8 +283,8 @@ def test_parallel_kernels_are_bit_identical_to_the_serial_ones(robots: int, seed
     mount = np.array(CTBOT.mouse.mount)
     tpm, cpm = float(ticks_per_metre(WHEEL_RADIUS)), float(counts_per_metre(CTBOT.mouse.dpi))
     for k in range(12):
-        for kernel, (pose, heading_dir, tick_carry, ticks, mouse_carry, counts) in ((step_batch, serial), (step_batch_parallel, parallel)):
-            kernel(pose, heading_dir, arcs[k], TRACK, tpm, tick_carry, ticks, mount, cpm, mouse_carry, counts)
+        for kernel, (poses, heading_dir, tick_carry, ticks, mouse_carry, counts) in ((step_batch, serial), (step_batch_parallel, parallel)):
+            kernel(poses, heading_dir, arcs[k], TRACK, tpm, tick_carry, ticks, mount, cpm, mouse_carry, counts)
         step_poses(*poses_serial, arcs[k], TRACK)
         step_poses_parallel(*poses_parallel, arcs[k], TRACK)
         for a, b in zip(serial + poses_serial, parallel + poses_parallel):

@@ -122,7 +122,8 @@ def test_sensor_series_grouped_by_sensor(recorded):
     result, _, columns = recorded
     log = result.robots[0]
     readings = result.readings_seen
-    for group, field, scale in (("ir_raw", "ir_raw", 1), ("ir_distance", "ir_distance", 1000), ("encoders", "encoder_ticks", 1), ("mouse", "mouse_counts", 1), ("floor", "line", 1), ("floor", "border", 1), ("light", "light", 1)):
+    for group, field, scale in (("ir_raw", "ir_raw", 1), ("ir_distance", "ir_distance", 1000), ("encoders", "encoder_ticks", 1), ("mouse", "mouse_counts", 1), ("floor", "line", 1),
+                                ("floor", "border", 1), ("light", "light", 1)):
         rows = np.array(columns[f"/sensors/{group}/{log.name}/{field}"]["Scalars:scalars"], dtype=float)
         expected = np.array([getattr(r, field) for r in readings], dtype=float) * scale
         assert rows.shape == expected.shape == (len(result.time), 2)

@@ -119,8 +119,8 @@ def test_each_robot_reads_its_own_sensors_in_mixed_and_uniform_fleets():
     sensors' values, as the robot alone in the world reads them (IR aside: the others are in view)."""
     from bots.ctbot import CTBOT
     from sim.world import World
-    from sim.world.readings import ROWS_FROM
     from sim.world.files import load_world
+    from sim.world.readings import ROWS_FROM
 
     blind = CTBOT.with_changes(name="blind", ir=(), light=CTBOT.light[:1], border=())
     spec = load_world("holes_lights")  # lamps and holes: each robot's light and floor readings its own

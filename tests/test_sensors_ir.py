@@ -9,15 +9,14 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from shared_data import CURVES
+from shared_data import needs_curves as needs_shared
 
 from bots.ctbot import CTBOT
 from bots.spec import IRSensorSpec
 from sim.world import World
 from sim.world.sensors import gp2d12, load_ir_curve
 from sim.world.spec import Wall, WorldSpec
-
-from shared_data import CURVES
-from shared_data import needs_curves as needs_shared
 
 SENSOR_X, SENSOR_Y = CTBOT.ir[0].position  # 0.0554 forward, 0.036 to the left
 

@@ -7,15 +7,14 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from shared_data import PARCOURS
+from shared_data import needs_parcours as needs_shared
 
 from bots.behaviours import make
 from bots.ctbot import CTBOT
 from bots.noise import with_noise
 from sim.run import RobotSetup, run
 from sim.world.files import load_world
-
-from shared_data import PARCOURS
-from shared_data import needs_parcours as needs_shared
 
 LIMIT_S = 300.0
 """Simulated time allowed: the slowest case below (realistic noise, seed 1) needs 244 s at 0.25 m/s."""

@@ -239,8 +239,8 @@ def _pixels_of(png: Path, rgb: tuple[int, int, int]) -> int:
 
 
 def test_the_sweep_figures_draw_each_estimator_in_its_colour(tmp_path):
-    """The box of each estimator is filled with the pale form of its colour in the run figures and
-    the viewer (an area of that exact colour), the success bars in the neutral one."""
+    """Each estimator's box is drawn in its colour of the run figures and the viewer, filled with the
+    pale form of it (areas of those exact colours), the success bars in the neutral colour."""
     from sim.experiments.report import write_report
     from sim.views import palette
 
@@ -248,8 +248,10 @@ def test_the_sweep_figures_draw_each_estimator_in_its_colour(tmp_path):
           tmp_path / "out", Serial(), progress=False)  # noise, so that the boxes have a height
     box, bars = (tmp_path / "out" / "figures" / name for name in ("ate_rmse_per_estimator.png", "success_per_controller.png"))
     write_report(tmp_path / "out")
-    for name in ("encoders", "mouse", "fused"):
+    for name in ("encoders", "firmware"):  # boxes tall enough to have an inside
         assert _pixels_of(box, palette.pale(palette.estimate_colour(name))) > 100, name
+    for name in ("encoders", "firmware", "mouse", "fused"):  # every box's edge and median
+        assert _pixels_of(box, palette.estimate_colour(name)) > 20, name
     assert _pixels_of(bars, palette.NEUTRAL) > 1000
 
 

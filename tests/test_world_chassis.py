@@ -336,7 +336,7 @@ def test_a_polygon_robot_stops_at_a_wall_without_tunnelling_and_slides_along_it(
     result = run(world, [RobotSetup(MECANUM4, constant(Twist(1.0, 0.0, vy=0.3)))], 3.0)
     truth = result.robots[0].truth_array()
     corners = np.array(MECANUM4.chassis.outline)
-    for x, y, th in truth:
+    for x, _y, th in truth:
         world_x = x + np.cos(th) * corners[:, 0] - np.sin(th) * corners[:, 1]
         assert world_x.max() < 1.0 + 0.02  # never through the 2 cm wall; pymunk's contact depth is mm
     assert truth[-1, 1] - truth[0, 1] > 0.3  # slid along it
@@ -524,7 +524,6 @@ def test_the_live_stream_gets_every_entity_of_the_file_and_the_projection_note(t
     """Outline, wheels and ICR of a chassis robot (and everything else) go to every stream, not only
     the file; a projected command's note reaches the events of both."""
     import rerun.chunk
-
     from observers import FakeLive
 
     path = tmp_path / "run.rrd"

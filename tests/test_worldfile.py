@@ -8,14 +8,12 @@ import math
 from pathlib import Path
 
 import pytest
+from shared_data import PARCOURS
+from shared_data import needs_parcours as needs_shared
 
 from sim.world.files import check_world, load_world, shipped_worlds
 from sim.world.files.geometry import bbox, inside
 from sim.world.spec import WorldFileError, WorldSpec
-
-
-from shared_data import PARCOURS
-from shared_data import needs_parcours as needs_shared
 
 CELL = 0.24
 

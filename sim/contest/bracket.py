@@ -152,7 +152,8 @@ def write_html(store: Store, path: Path, ranking_rows: list[dict]) -> Path:
         games = [c for c in drawn if c.game.level == level or (level == FINAL and c.game.level == THIRD_PLACE)]
         columns.append(f'<div class="column"><h3>{html.escape(level_name(level))}</h3><div class="round">{"".join(_game_html(c) for c in games)}</div></div>')
     settings = store.settings()
-    facts = f"world {settings['world']} (preliminary: {settings['prelim_world']}), time limit {float(settings['time_limit']):g} s, seed {settings['seed']}, step {float(settings['dt']) * 1000:g} ms, ctsim {settings['ctsim']}"
+    facts = (f"world {settings['world']} (preliminary: {settings['prelim_world']}), time limit {float(settings['time_limit']):g} s, "
+             f"seed {settings['seed']}, step {float(settings['dt']) * 1000:g} ms, ctsim {settings['ctsim']}")
     page = PAGE.format(title=html.escape(f"Contest: {Path(settings['world']).stem}"), facts=html.escape(facts), rounds="".join(columns),
                        ranking=_table(ranking_rows), prelim=_prelim(store))  # fmt: skip
     path.write_text(page, encoding="utf-8")

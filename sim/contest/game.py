@@ -30,7 +30,6 @@ from sim.views import palette
 from sim.world.files import load_world
 from sim.world.spec import WorldSpec
 
-
 STEP_TIMEOUT = 30.0
 """Seconds of wall-clock time one controller step may take before it fails its robot (a file's
 endless loop; a firmware's and a sandbox's own limits, 10 s, speak first)."""

@@ -29,7 +29,6 @@ from sim.run import RobotLog, RunResult
 from sim.world import World
 from sim.world.readings import Readings
 
-
 LOG = logging.getLogger("ctsim.contest")
 LOG.setLevel(logging.INFO)  # the verdict reaches a recorder's handler whatever the root logger's level
 

@@ -22,7 +22,6 @@ from typing import Any
 import pandas as pd
 
 from sim.errors import UserError
-from sim.folder_lock import held
 from sim.experiments import store
 from sim.experiments.api import Bot, Result, simulate
 from sim.experiments.engines import Dask, Lost, Processes, Serial
@@ -34,6 +33,7 @@ from sim.experiments.plan import (
     load_sweep,
     spec_from_dict,
 )
+from sim.folder_lock import held
 from sim.run import Terminated
 
 STOPPED = ("interrupted", "terminated")
@@ -112,7 +112,7 @@ def check(planned: list[Job]) -> None:
     for job in planned:
         s = job.settings
         robot_part = {k: v for k, v in s.items() if k in ("robot", "controller") or k.startswith(("robot.", "params."))}
-        for what, build in ((f"world {s['world']!r}", lambda: world(s["world"])), (f"robot {robot_part}", lambda: bot(s).setup())):
+        for what, build in ((f"world {s['world']!r}", lambda s=s: world(s["world"])), (f"robot {robot_part}", lambda s=s: bot(s).setup())):
             if what not in tried:
                 tried.add(what)
                 try:

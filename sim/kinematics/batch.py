@@ -31,6 +31,7 @@ from numba.extending import intrinsic
 
 from sim.kinematics.arc import _ADVANCE_SERIES_LIMIT, _COS, _SERIES_LIMIT, _SINC
 
+
 @intrinsic
 def _fma(typingctx, a, b, c):
     """a·b + c rounded once: one instruction on x86-64 CPUs since 2013 and on ARM64, a correct but

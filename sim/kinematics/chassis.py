@@ -16,9 +16,10 @@ is u = (sin(α+β), −cos(α+β)), so its *heading* in the body frame is α + �
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from enum import IntEnum
-from typing import Literal, Sequence
+from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray

@@ -56,7 +56,8 @@ def draw_world(ax, world: WorldSpec, legend: bool = False) -> None:
 
         keys = [("wall", palette.WALL, bool(world.walls)), ("goal", palette.GOAL, bool(world.goals))]
         handles = [Patch(facecolor=world.floor_colour, edgecolor="0.6", label="floor")]
-        handles += [Patch(facecolor=colour, edgecolor="0.6", label=TILE_NAMES.get(colour, f"floor {palette.hex_colour(palette.from_unit(colour))}")) for colour in dict.fromkeys(r.colour for r in world.floor)]
+        handles += [Patch(facecolor=colour, edgecolor="0.6", label=TILE_NAMES.get(colour,
+                                                                                  f"floor {palette.hex_colour(palette.from_unit(colour))}")) for colour in dict.fromkeys(r.colour for r in world.floor)]
         handles += [Patch(facecolor=_c(rgb), label=label) for label, rgb, present in keys if present]
         handles += [Patch(facecolor=_c(palette.HOLE), edgecolor=_c(palette.HOLE_EDGE), label="hole")] if world.holes else []
         handles += [Patch(facecolor=world.lines[0].colour, label="line")] if world.lines else []

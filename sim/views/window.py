@@ -122,7 +122,7 @@ class Window:
         left = self.screen.get_width() - PANEL
         lines: list[tuple[str, tuple[int, int, int]]] = [(f"t = {world.time:7.2f} s   speed x{self.speed:g}", palette.ROBOT_EDGE)]
         for robot, log in zip(world.robots, logs):
-            pose, r = robot.pose, robot.spec.body_radius
+            pose = robot.pose
             truth, estimates = log.truth_array(), log.estimate_arrays()
             self._trail(truth, palette.TRUTH, 3)
             for name, poses in estimates.items():

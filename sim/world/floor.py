@@ -7,7 +7,6 @@ large worlds) so that line, border and hole tests cost an array lookup per senso
 from __future__ import annotations
 
 import math
-
 from dataclasses import dataclass
 from functools import cached_property
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import tomllib
 from dataclasses import dataclass, field
-from functools import lru_cache
+from functools import cache
 from pathlib import Path
 
 import numpy as np
@@ -142,7 +142,7 @@ CURVES = Path(__file__).with_name("curves")
 """The project's shipped characteristic tables (`gp2d12.toml`: the c't-Bot's GP2D12 pair)."""
 
 
-@lru_cache(maxsize=None)
+@cache
 def gp2d12(side: str) -> IRCurve:
     """The c't-Bot's default IR characteristic for `side` ("left" or "right"): c't-Sim's measured
     GP2D12 tables, shipped with ctsim as `sim/world/curves/gp2d12.toml` (origin noted there)."""

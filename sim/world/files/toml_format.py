@@ -14,6 +14,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any, NoReturn
 
+from bots.schema import MIN_LENGTH, MIN_MASS, WORLD_EXTENT, Field, Locator, Problem, read_toml
 from sim.world.spec import (
     BLACK,
     DEFAULT_FLOOR,
@@ -32,8 +33,6 @@ from sim.world.spec import (
     WorldFileError,
     WorldSpec,
 )
-
-from bots.schema import MIN_LENGTH, MIN_MASS, WORLD_EXTENT, Field, Locator, Problem, read_toml
 
 from .geometry import bbox, convex_ccw, segment_box
 from .grid import DEFAULT_CELL, KNOWN_TILES, GridPieces, build_grid
