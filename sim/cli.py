@@ -28,7 +28,7 @@ from bots.schema import Field, file_stem, option, parse_number, shown
 from sim import sanitize
 from sim.errors import UserError
 from sim.folder_lock import LOCK, hold
-from sim.run import DT_RANGE, MAX_DURATION, MAX_STEP_TIMEOUT, RunError, Terminated, in_controller, step_count
+from sim.run import DT_RANGE, MAX_DURATION, MAX_STEP_TIMEOUT, Ending, RunError, Terminated, in_controller, step_count
 from sim.world import compiling
 
 DEFAULT_WORLD = "maze"
@@ -507,7 +507,7 @@ def cmd_run(args: argparse.Namespace) -> int:
                 raise
             status = finish(result.raw, out, options, report=not args.no_report, export_rate=args.export_rate, metrics={robot.name: robot.metrics for robot in result.robots},
                             stop=stop, recording_error=recorder.write_error)
-        if web and result.reason not in ("interrupted", "terminated"):
+        if web and not (isinstance(result.reason, Ending) and result.reason.signalled):
             _serve_until_interrupted(web)
     return status
 
@@ -563,10 +563,10 @@ def _unstarted(place, args: argparse.Namespace, options: dict[str, Any], reason:
 
 def _stopped_before_start(out: Path, place, args: argparse.Namespace, options: dict[str, Any], signalled: KeyboardInterrupt) -> int:
     """The summary of a run that a signal stopped before its first step."""
-    reason = "terminated" if isinstance(signalled, Terminated) else "interrupted"
+    reason = Ending.TERMINATED if isinstance(signalled, Terminated) else Ending.INTERRUPTED
     _write_json(out / "summary.json", _unstarted(place, args, options, reason, f"{reason} before the first step"))
     print(f"ctsim: {reason} before the first step; wrote {out / 'summary.json'}", file=sys.stderr)
-    return EXIT_TERMINATED if reason == "terminated" else EXIT_INTERRUPTED
+    return EXIT_TERMINATED if reason is Ending.TERMINATED else EXIT_INTERRUPTED
 
 
 def _write_json(path: Path, data: dict[str, Any], reserve: int = 0) -> None:
@@ -660,12 +660,12 @@ def finish(result, out: Path, options: dict[str, Any], report: bool = True, metr
     if recording_error is not None:
         print(f"ctsim: error: the recording is incomplete: {recording_error}", file=sys.stderr)
         return EXIT_FAILED
-    if result.reason == "error":
+    if result.reason == Ending.ERROR:
         print(f"ctsim: run stopped: {sanitize.name(result.error, 2000)}", file=sys.stderr)
         return EXIT_FAILED
-    if result.reason in ("interrupted", "terminated"):
+    if isinstance(result.reason, Ending) and result.reason.signalled:
         print(f"ctsim: {result.error}; partial results written to {out}", file=sys.stderr)
-        return EXIT_INTERRUPTED if result.reason == "interrupted" else EXIT_TERMINATED
+        return EXIT_INTERRUPTED if result.reason is Ending.INTERRUPTED else EXIT_TERMINATED
     return (stop.status() if stop is not None else None) or 0
 
 
@@ -732,10 +732,10 @@ def table(summary: dict[str, Any]) -> str:
     """The short end-of-run table: per robot distance and collisions, per estimate its errors."""
     reached = [sanitize.name(robot["name"], 40) for robot in summary["robots"] if robot["goal_time"] is not None]
     outcome = {
-        "goal": f"goal reached by {', '.join(reached)}", "duration": "time limit reached",
-        "done": "done (every controller said it is done)", "quit": "quit (window closed)",
+        Ending.GOAL: f"goal reached by {', '.join(reached)}", Ending.DURATION: "time limit reached",
+        Ending.DONE: "done (every controller said it is done)", Ending.QUIT: "quit (window closed)",
     }.get(summary["reason"], summary["reason"])  # fmt: skip
-    if summary["reason"] == "duration" and reached:
+    if summary["reason"] == Ending.DURATION and reached:
         outcome = f"goal reached by {', '.join(reached)}, ran on to the time limit"
     lines = [
         f"{sanitize.name(summary['world']['name'])}, seed {summary['seed']}, noise {summary.get('noise', 'none')}, "
@@ -887,7 +887,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         table = sweep(spec, out, runner)
     finally:
         runner.close()
-    failed = int((table["reason"] == "error").sum())
+    failed = int((table["reason"] == Ending.ERROR).sum())
     show(table)
     print(f"{len(table)} runs, {failed} failed (see the error column); table: {out / 'results.parquet'}")
     return 0

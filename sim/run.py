@@ -19,6 +19,7 @@ import threading
 import traceback
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
+from enum import StrEnum
 from typing import Protocol
 
 import numpy as np
@@ -240,15 +241,38 @@ class RobotLog:
         return self._world.readings_columns(self.index, s.values[rows], s.believed[rows], s.tallies[rows])
 
 
+class Ending(StrEnum):
+    """How a run ended (`RunResult.reason`). A str: summary.json, tables and comparisons with the
+    plain names ("goal") hold its value."""
+
+    DURATION = "duration"
+    """It ran for its whole duration."""
+    GOAL = "goal"
+    """A robot reached a goal area (with `until_goal`)."""
+    DONE = "done"
+    """Every robot's controller said it is done (its `status` is no longer RUNNING)."""
+    QUIT = "quit"
+    """The user closed the window (`ctsim play`)."""
+    ERROR = "error"
+    """A controller failed (raised, returned a bad command, overran its step time): `error` says how."""
+    INTERRUPTED = "interrupted"
+    """Ctrl-C (SIGINT)."""
+    TERMINATED = "terminated"
+    """SIGTERM (a job scheduler, `timeout`)."""
+
+    @property
+    def signalled(self) -> bool:
+        """Whether a signal ended the run (Ctrl-C or SIGTERM): partial results, a status of its own."""
+        return self in (Ending.INTERRUPTED, Ending.TERMINATED)
+
+
 class RunResult:
-    """A finished (or stopped) run. `reason` is 'duration', 'goal', 'done' (every robot's controller
-    said it is done: its `status` is no longer RUNNING), 'quit' (the user closed the window),
-    'error', 'interrupted' (Ctrl-C), 'terminated' (SIGTERM) or what `run`'s `stop_when` answered;
-    `error` holds the one-line message of a failure."""
+    """A finished (or stopped) run. `reason` is an `Ending` or what `run`'s `stop_when` answered
+    (a referee's verdict); `error` holds the one-line message of a failure."""
 
     def __init__(self, world: WorldSpec, seed: int, dt: float, robots: list[RobotLog], samples: _Samples):
         self.world, self.seed, self.dt, self.robots = world, seed, dt, robots
-        self.reason = "duration"
+        self.reason: Ending | str = Ending.DURATION
         self.error: str | None = None
         self.notes: list[str] = []
         """What the run's guards put back that a controller had changed (`sim.guards`), once each."""
@@ -439,10 +463,10 @@ def run(
             for on_sample in samplers:
                 on_sample(world, logs)
             if until_goal and any(log.goal_time is not None for log in logs):
-                result.reason = "goal"
+                result.reason = Ending.GOAL
                 break
             if can_finish and not any(controller.status is Status.RUNNING for controller in controllers):
-                result.reason = "done"
+                result.reason = Ending.DONE
                 break
             if stop_when is not None and (reason := stop_when(world, logs)):
                 result.reason = reason
@@ -470,19 +494,19 @@ def run(
             guard.after_step(step)
             world.step(commands)
     except _Stop as stop:
-        result.reason, result.error = "error", str(stop)
+        result.reason, result.error = Ending.ERROR, str(stop)
     except ControllerBrokeOut as broke:
-        result.reason, result.error = "error", f"{_who(logs)} {broke} at step {step} (t = {world.time:.2f} s)"
+        result.reason, result.error = Ending.ERROR, f"{_who(logs)} {broke} at step {step} (t = {world.time:.2f} s)"
     except Exception as err:  # ctsim's own code failing: a ctsim bug, unless a controller replaced what it calls
         replaced = guard.replaced() if guard is not None else ""
         if not replaced:
             raise
-        result.reason = "error"
+        result.reason = Ending.ERROR
         result.error = f"{_who(logs)} replaced {replaced}, and the run failed with {type(err).__name__}: {err} at t = {world.time:.2f} s"
     except KeyboardInterrupt as stop:
         clock.busy = 0
-        result.reason = "quit" if isinstance(stop, Quit) else "terminated" if isinstance(stop, Terminated) else "interrupted"
-        result.error = None if result.reason == "quit" else f"{result.reason} at t = {world.time:.2f} s"
+        result.reason = Ending.QUIT if isinstance(stop, Quit) else Ending.TERMINATED if isinstance(stop, Terminated) else Ending.INTERRUPTED
+        result.error = None if result.reason is Ending.QUIT else f"{result.reason} at t = {world.time:.2f} s"
     finally:
         clock.__exit__()
         if guard is not None:

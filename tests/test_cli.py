@@ -204,3 +204,12 @@ def test_ctsim_worlds_shows_a_whole_first_sentence(capsys):
     assert first_sentence("A race, e.g. its first\nround: 0.24 m cells. Then more.") == "A race, e.g. its first round: 0.24 m cells."
     assert main(["worlds"]) == 0
     assert "(ctsim contest), e.g. its preliminary round" in " ".join(capsys.readouterr().out.split())
+
+
+def test_a_run_s_ending_is_its_plain_name_in_every_file():
+    """`Ending` is a str: summary.json, the sweep table and comparisons with the names hold its value."""
+    from sim.run import Ending
+
+    assert json.dumps({"reason": Ending.GOAL}) == '{"reason": "goal"}' and f"{Ending.TERMINATED}" == "terminated"
+    assert Ending("error") is Ending.ERROR and Ending.ERROR == "error"
+    assert [e for e in Ending if e.signalled] == [Ending.INTERRUPTED, Ending.TERMINATED]
