@@ -28,8 +28,9 @@ from bots.schema import Field, file_stem, option, parse_number, shown
 from sim import sanitize
 from sim.errors import UserError
 from sim.folder_lock import LOCK, hold
-from sim.run import DT_RANGE, MAX_DURATION, MAX_STEP_TIMEOUT, Ending, RunError, Terminated, in_controller, step_count
+from sim.run import MAX_DURATION, MAX_STEP_TIMEOUT, Ending, RunError, Terminated, in_controller, step_count
 from sim.world import compiling
+from sim.world.step import DEFAULT_DT, DT_RANGE, StepError, check_dt
 
 DEFAULT_WORLD = "maze"
 DEFAULT_CONTROLLER = "solve_maze"
@@ -113,8 +114,10 @@ def _positive(kind: Callable[[str], Any], high: float = 1e9, unit: str = "") -> 
 
 def _step(text: str) -> float:
     value = _positive(float)(text)
-    if not DT_RANGE[0] <= value <= DT_RANGE[1]:
-        raise argparse.ArgumentTypeError(f"expected a step between {DT_RANGE[0]:g} and {DT_RANGE[1]:g} s, got {text!r}")
+    try:
+        check_dt(value)
+    except StepError:
+        raise argparse.ArgumentTypeError(f"expected a step between {DT_RANGE[0]:g} and {DT_RANGE[1]:g} s, got {text!r}") from None
     return value
 
 
@@ -134,7 +137,7 @@ def _add_robot_options(parser: argparse.ArgumentParser) -> None:
                         "or none (exact sensors, for checks against closed forms) (default: realistic)")
     parser.add_argument("--robot-set", action="append", type=_param, default=[], metavar="SECTION.FIELD=VALUE",
                         help="override one field of the robot description after --noise, repeatable: encoders.slip_std=0.02, mouse.dpi=415, ir.noise_std=0")
-    parser.add_argument("--dt", type=_step, default=0.01, metavar="SECONDS", help="simulation step (default: 0.01)")
+    parser.add_argument("--dt", type=_step, default=DEFAULT_DT, metavar="SECONDS", help=f"simulation step (default: {DEFAULT_DT:g})")
     parser.add_argument("--out", type=_folder, metavar="DIR", help="folder for run.rrd, summary.json, TUM/CSV trajectories and figures (default: runs/<world>-<controller>-<time>)")
     parser.add_argument("--live", action="store_true", help="also stream the recording to a rerun viewer it starts; without one the run goes on, recorded to the file")
     parser.add_argument("--connect", metavar="URL", help="also stream the recording to the rerun viewer at URL (e.g. rerun+http://127.0.0.1:9876/proxy)")
@@ -252,7 +255,7 @@ def _add_contest(commands) -> None:  # noqa: ANN001 (argparse's subparsers actio
     contest.add_argument("--time-limit", type=_positive(float, MAX_DURATION, "s"), default=120.0, metavar="SECONDS",
                          help="simulated time of a game; a game without an arrival goes to the bot nearer its goal by path (default: 120)")
     contest.add_argument("--seed", type=_seed, default=0, help="seed of every game (default: 0)")
-    contest.add_argument("--dt", type=_step, default=0.01, metavar="SECONDS", help="simulation step (default: 0.01)")
+    contest.add_argument("--dt", type=_step, default=DEFAULT_DT, metavar="SECONDS", help=f"simulation step (default: {DEFAULT_DT:g})")
     contest.add_argument("--out", type=Path, metavar="DIR", help="contest folder (default: runs/contest-<world>)")
     contest.add_argument("--jobs", type=_whole, metavar="N", help="games in parallel (default: one per core)")
     contest.add_argument("--engine", choices=("processes", "dask", "serial"), default="processes", help="local processes (default), a Dask LocalCluster, or one game after another here")

@@ -37,6 +37,7 @@ from sim.world import World
 from sim.world.chassis_drive import FaultError
 from sim.world.readings import Readings, SensorFrame
 from sim.world.spec import Start, WheelFault, WorldSpec
+from sim.world.step import DEFAULT_DT, StepError, check_dt
 
 
 @dataclass
@@ -321,7 +322,6 @@ class Terminated(KeyboardInterrupt):
     """Raised by a SIGTERM handler (a job scheduler, `timeout`): the run ends as on Ctrl-C."""
 
 
-DT_RANGE = (1e-4, 1.0)
 """Steps (s) a run takes: below 0.1 ms a run is millions of steps per simulated minute for nothing
 the motors or sensors resolve; above 1 s a robot crosses a maze cell between two sensor reads."""
 MAX_DURATION = 1e7
@@ -400,7 +400,7 @@ def run(
     world_spec: WorldSpec,
     robots: list[RobotSetup],
     duration: float,
-    dt: float = 0.01,
+    dt: float = DEFAULT_DT,
     seed: int = 0,
     until_goal: bool = False,
     observers: tuple = (),
@@ -544,9 +544,10 @@ def _failure(err: BaseException, log: RobotLog, step: int, time: float, step_tim
 
 def step_count(duration: float, dt: float) -> int:
     """The number of steps of a run, or RunError for a request the physics cannot hold."""
-    lo, hi = DT_RANGE
-    if isinstance(dt, bool) or not isinstance(dt, (int, float)) or not lo <= dt <= hi:
-        raise RunError(f"the step dt must be between {lo:g} and {hi:g} s, got {dt!r}")
+    try:
+        check_dt(dt)
+    except StepError as err:
+        raise RunError(str(err)) from None
     if isinstance(duration, bool) or not isinstance(duration, (int, float)) or not (math.isfinite(duration) and duration >= 0):
         raise RunError(f"duration must be a non-negative number of seconds, got {duration!r}")
     if duration > MAX_DURATION:

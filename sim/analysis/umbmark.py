@@ -45,6 +45,7 @@ from sim.run import RobotSetup, run
 from sim.world.files import load_world
 from sim.world.readings import Readings
 from sim.world.spec import WorldSpec
+from sim.world.step import DEFAULT_DT
 
 
 class OdometrySquare:
@@ -149,7 +150,7 @@ def square_world() -> WorldSpec:
 
 
 def return_error(robot: RobotSpec, clockwise: bool, side: float, geometry: Geometry, world: WorldSpec,
-                 start: tuple[float, float, float], seed: int, dt: float = 0.01) -> np.ndarray:
+                 start: tuple[float, float, float], seed: int, dt: float = DEFAULT_DT) -> np.ndarray:
     """One square by odometry: (x, y) true end minus odometry end, in the start frame (m)."""
     driver = OdometrySquare(side, clockwise, geometry=geometry)
     setup = RobotSetup(robot, driver, "umbmark-square", start=start, estimators=[EncoderOdometry(geometry)])

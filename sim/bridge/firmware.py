@@ -28,6 +28,7 @@ from sim.bridge.firmware_map import FirmwareMap
 from sim.bridge.protocol import Packet
 from sim.bridge.server import Link, LinkError, Listener
 from sim.world.readings import Readings
+from sim.world.step import DEFAULT_DT
 
 MM_S_PER_UNIT = 151 / 60 * 178.1283 / 255
 """c't-Sim's wheel speed per ACT_MOT unit (mm/s): PWM/255 of 151 rpm on a 178.1283 mm wheel."""
@@ -148,7 +149,7 @@ class FirmwareController:
         self,
         listener: Listener,
         label: str = "firmware bot",
-        dt: float = 0.01,
+        dt: float = DEFAULT_DT,
         connect_timeout: float = 60.0,
         step_timeout: float = 10.0,
         welcome: bool = True,

@@ -23,6 +23,7 @@ from sim.contest.game import GameJob, play
 from sim.contest.rules import PRELIM, PrelimResult, level_name
 from sim.contest.store import GameRow, Store
 from sim.experiments.engines import Lost, Processes, Serial
+from sim.world.step import DEFAULT_DT
 
 GAMES = "games"
 """Sub-folder of the contest folder for the games' recordings."""
@@ -42,7 +43,7 @@ class Settings:
     prelim_world: str
     time_limit: float
     seed: int = 0
-    dt: float = 0.01
+    dt: float = DEFAULT_DT
 
     def as_text(self) -> dict[str, str]:
         return {"world": self.world, "prelim_world": self.prelim_world, "time_limit": repr(self.time_limit), "seed": str(self.seed),

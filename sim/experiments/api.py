@@ -11,7 +11,6 @@ Everything here is a thin layer over `sim.run.run`; `ctsim run` calls `simulate`
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Iterable
 from dataclasses import asdict, dataclass, field, fields, is_dataclass, replace
 from pathlib import Path
@@ -25,6 +24,7 @@ from sim.analysis.metrics import compare_run, path_lengths
 from sim.errors import UserError
 from sim.run import RobotSetup, RunResult, run
 from sim.world.spec import Start, WorldSpec
+from sim.world.step import DEFAULT_DT, check_dt
 
 
 def world(source: str | Path | WorldSpec) -> WorldSpec:
@@ -206,7 +206,7 @@ def simulate(
     robots: Iterable[Bot | RobotSetup] = (),
     noise: str = "none",
     duration: float = 60.0,
-    dt: float = 0.01,
+    dt: float = DEFAULT_DT,
     seed: int = 0,
     until_goal: bool = False,
     record: str | Path | None = None,
@@ -224,8 +224,7 @@ def simulate(
     one of each beside its defaults, in every output; one that fails a step ends the run as a
     controller's error does.
     `ctsim run` is this call: `--robots 3` is `robots=[Bot()] * 3`."""
-    if not (math.isfinite(dt) and dt > 0):
-        raise UserError(f"dt must be a positive number of seconds, got {dt!r}")
+    check_dt(dt)
     spec = world(world_source)
     given = [b for item in (*bots, *robots) for b in (item if isinstance(item, list | tuple) else (item,))]
     for b in given:

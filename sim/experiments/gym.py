@@ -59,6 +59,7 @@ from sim.experiments.api import world as world_spec
 from sim.world import World, WorldSpec
 from sim.world.readings import SensorFrame
 from sim.world.sensors import CNY70_MAX, LDR_MAX
+from sim.world.step import DEFAULT_DT
 
 TASKS = {"maze": "maze", "line": "line"}
 """Task name -> the shipped world it runs in by default."""
@@ -305,7 +306,7 @@ class CtsimEnv(gymnasium.Env):
         action: str = "wheels",
         goal: str = "world",
         control_dt: float = 0.05,
-        dt: float = 0.01,
+        dt: float = DEFAULT_DT,
         episode_seconds: float = 60.0,
         render_mode: str | None = None,
         render_size: int = 400,

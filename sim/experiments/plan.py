@@ -30,7 +30,8 @@ import numpy as np
 from bots.schema import Field, Problem
 from bots.spec import read_toml
 from sim.errors import UserError
-from sim.run import DT_RANGE, MAX_DURATION
+from sim.run import MAX_DURATION
+from sim.world.step import DEFAULT_DT, DT_RANGE
 
 DEFAULTS: dict[str, Any] = {
     "world": "maze",
@@ -38,7 +39,7 @@ DEFAULTS: dict[str, Any] = {
     "robot": "ctbot",
     "seed": 0,
     "duration": 10.0,
-    "dt": 0.01,
+    "dt": DEFAULT_DT,
     "until_goal": False,
 }
 """Every run's settings start from these."""

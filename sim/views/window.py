@@ -30,6 +30,7 @@ from sim.views.chassis_view import (
 from sim.views.recording import Recorder
 from sim.world import IR_RAY_LENGTH, World
 from sim.world.spec import WorldSpec
+from sim.world.step import DEFAULT_DT
 
 os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
 
@@ -254,7 +255,7 @@ def play(
     spec: RobotSpec,
     recording: str | Path | None,
     seed: int = 0,
-    dt: float = 0.01,
+    dt: float = DEFAULT_DT,
     fps: float = 60.0,
     speed: float = 1.0,
     frames: int | None = None,

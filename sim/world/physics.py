@@ -33,6 +33,7 @@ from sim.world.noise import NormalBlocks
 from sim.world.readings import SensorFrame, SensorLayout
 from sim.world.sensors import CNY70_MAX, LDR_MAX, IRCurve, gp2d12, load_ir_curve
 from sim.world.spec import Start, WorldSpec
+from sim.world.step import DEFAULT_DT, check_dt
 
 SLOP = 0.0005
 """pymunk collision slop for a world in metres (its default 0.1 assumes pixels)."""
@@ -148,11 +149,10 @@ class Robot:
 class World:
     """A pymunk world built from a `WorldSpec`, with robots added by `add_robot`."""
 
-    def __init__(self, spec: WorldSpec, dt: float = 0.01, seed: int = 0, floor_cell: float = 0.002, robots_meet: bool = True):
+    def __init__(self, spec: WorldSpec, dt: float = DEFAULT_DT, seed: int = 0, floor_cell: float = 0.002, robots_meet: bool = True):
         """`robots_meet=False`: the robots pass through each other and no sensor sees another
         robot, as copies of one world that happen to share it (a batched Gymnasium env)."""
-        if not (math.isfinite(dt) and dt > 0):
-            raise ValueError(f"the step dt must be a positive number of seconds, got {dt!r}")
+        check_dt(dt)
         self.spec = spec
         self.dt = dt
         self.seed = seed
