@@ -280,21 +280,11 @@ def cmd_lab(args: argparse.Namespace) -> int:
 
 
 def load_robot_spec(args: argparse.Namespace):
-    """The robot of --robot (a built-in name or a TOML robot file) with --noise and --robot-set."""
-    from bots.ctbot import ROBOTS
-    from bots.noise import with_noise, with_settings
-    from bots.spec import load_robot
-    from bots.wheeled import WHEELED_ROBOTS
+    """The robot of --robot (a built-in name or a TOML robot file) with --noise and --robot-set,
+    looked up and changed as the Python API does (`sim.experiments.api.robot`)."""
+    from sim.experiments.api import robot
 
-    ROBOTS = {**ROBOTS, **WHEELED_ROBOTS}
-    if args.robot in ROBOTS:
-        robot = ROBOTS[args.robot]
-    elif args.robot.endswith(".toml") or Path(args.robot).exists():
-        robot = load_robot(args.robot)
-    else:
-        raise UsageError(f"unknown robot {args.robot!r} (built-in: {', '.join(ROBOTS)}; or a .toml file)")
-    robot = with_noise(robot, args.noise)
-    return with_settings(robot, {key: parse_value(value) for key, value in args.robot_set})
+    return robot(args.robot, {key: parse_value(value) for key, value in args.robot_set}, args.noise)
 
 
 RUN_FILES = ("run.rrd", "run.parquet", "summary.json", "report.html", "trajectories.png", "errors.png")

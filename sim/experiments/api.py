@@ -12,7 +12,7 @@ Everything here is a thin layer over `sim.run.run`; `ctsim run` calls `simulate`
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable
-from dataclasses import asdict, dataclass, field, fields, is_dataclass, replace
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -63,23 +63,12 @@ def change_robot(spec: RobotSpec, changes: dict[str, Any]) -> RobotSpec:
     """A copy of `spec` with fields replaced by dotted name: `{"encoders.slip_std": 0.02,
     "mouse.noise_std": 0.5, "ir.noise_std": 0.01, "wheel_diameter": 0.057}`. A name under a
     sensor group (`ir`, `line`, `border`, `light`) changes every sensor of the group; lists
-    become tuples (`"encoders.diameter_error": [0.01, -0.01]`)."""
-    for key, value in changes.items():
-        spec = _change(spec, key.split("."), tuple(value) if isinstance(value, list) else value, key)
-    return spec
+    become tuples (`"encoders.diameter_error": [0.01, -0.01]`). The same as `--robot-set`
+    (`bots.noise.with_settings`): a name that is no field, or a value its field refuses, is a
+    RobotSettingError naming it."""
+    from bots.noise import with_settings
 
-
-def _change(obj: Any, path: list[str], value: Any, key: str) -> Any:
-    if isinstance(obj, tuple):  # a sensor group: the change applies to each of its sensors
-        return tuple(_change(item, path, value, key) for item in obj)
-    if obj is None or not is_dataclass(obj):
-        raise UserError(f"robot change {key!r}: {'.'.join(path)} names no field here")
-    names = {f.name for f in fields(obj)}
-    if path[0] not in names:
-        raise UserError(f"robot change {key!r}: {type(obj).__name__} has no field {path[0]!r} (fields: {', '.join(sorted(names))})")
-    if len(path) > 1:
-        value = _change(getattr(obj, path[0]), path[1:], value, key)
-    return replace(obj, **{path[0]: value})
+    return with_settings(spec, changes)
 
 
 @dataclass
