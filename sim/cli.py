@@ -10,7 +10,6 @@ line asking for a report, exit 1 (EXIT_STATUSES lists every status).
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import os
 import re
@@ -26,6 +25,7 @@ import sim
 from bots.noise import NOISE_PRESETS, parse_value
 from bots.schema import Field, file_stem, option, parse_number, shown
 from sim import sanitize
+from sim.analysis.summary import SUMMARY_ROOM, summarize, unstarted, write_json
 from sim.errors import UserError
 from sim.folder_lock import LOCK, hold
 from sim.run import MAX_DURATION, MAX_STEP_TIMEOUT, Ending, RunError, Terminated, in_controller, step_count
@@ -407,17 +407,6 @@ class _Starting:
         self.stop.phase = "run"
 
 
-def _json_safe(value: Any) -> Any:
-    """Plain JSON: NaN and infinities as null (strict parsers reject them)."""
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, dict):
-        return {k: _json_safe(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_json_safe(v) for v in value]
-    return value
-
-
 class Progress:
     """tqdm progress bar on stderr over simulated time; shown only on a terminal and only when
     the run takes more than a second."""
@@ -484,7 +473,7 @@ def cmd_run(args: argparse.Namespace) -> int:
                  "duration": f"{args.duration:g} s" + (" or until a goal" if until_goal else "")}
         options = {"duration": args.duration, "until_goal": until_goal, **_robot_options(args)}
         keep_pandas_out_of_arrow()
-        _write_json(out / "summary.json", _unstarted(place, args, options, "running", "the run has not ended"), reserve=SUMMARY_ROOM + 2048 * len(setups))
+        write_json(out / "summary.json", unstarted(place, args.seed, args.dt, options, "running", "the run has not ended"), reserve=SUMMARY_ROOM + 2048 * len(setups))
         if web:
             print(f"ctsim: the run streams into {web.url}", file=sys.stderr, flush=True)
         recorder = Recorder(out / "run.rrd", live=args.live, connect=web.grpc_url if web else args.connect, facts=facts)
@@ -543,39 +532,12 @@ def cmd_view(args: argparse.Namespace) -> int:
     return 0
 
 
-SUMMARY_ROOM = 16384
-"""Bytes held for summary.json from a run's start (and 2 KB more per robot), so that a disk that
-fills up during the run (the recording grows) still takes the summary at the end."""
-
-
-def _unstarted(place, args: argparse.Namespace, options: dict[str, Any], reason: str, error: str) -> dict[str, Any]:
-    """The summary of a run that has simulated nothing (yet)."""
-    return {"ctsim_version": sim.__version__, "world": {"name": place.name, "source": str(place.source or place.name)},
-            "seed": args.seed, "dt": args.dt, **options, "time": 0.0, "reason": reason, "error": error, "robots": []}
-
-
 def _stopped_before_start(out: Path, place, args: argparse.Namespace, options: dict[str, Any], signalled: KeyboardInterrupt) -> int:
     """The summary of a run that a signal stopped before its first step."""
     reason = Ending.TERMINATED if isinstance(signalled, Terminated) else Ending.INTERRUPTED
-    _write_json(out / "summary.json", _unstarted(place, args, options, reason, f"{reason} before the first step"))
+    write_json(out / "summary.json", unstarted(place, args.seed, args.dt, options, reason, f"{reason} before the first step"))
     print(f"ctsim: {reason} before the first step; wrote {out / 'summary.json'}", file=sys.stderr)
     return EXIT_TERMINATED if reason is Ending.TERMINATED else EXIT_INTERRUPTED
-
-
-def _write_json(path: Path, data: dict[str, Any], reserve: int = 0) -> None:
-    """Strict JSON (no NaN). Into the space of an existing file as large as it (so that it fits on
-    a disk that has filled up since: `reserve` bytes, padded with whitespace, hold that space),
-    else under a temporary name and renamed: whole or absent."""
-    text = (json.dumps(_json_safe(data), indent=2, allow_nan=False) + "\n").encode()
-    text += b" " * (reserve - len(text))
-    if path.is_file() and path.stat().st_size >= len(text):
-        with open(path, "r+b") as file:
-            file.write(text)
-            file.truncate()
-        return
-    temporary = path.with_name(f".{path.name}.tmp")
-    temporary.write_bytes(text)
-    os.replace(temporary, path)
 
 
 def _robot_options(args: argparse.Namespace) -> dict[str, Any]:
@@ -619,10 +581,10 @@ def finish(result, out: Path, options: dict[str, Any], report: bool = True, metr
     written = [out / "run.rrd"]
     summary = summarize(result, options, metrics)
     try:
-        _write_json(out / "summary.json", summary)
+        write_json(out / "summary.json", summary)
         written.append(out / "summary.json")
         written += write_trajectories(result, out, summary, export_rate)
-        _write_json(out / "summary.json", summary)  # again, now naming the TUM files
+        write_json(out / "summary.json", summary)  # again, now naming the TUM files
         if report and len(result) and stop is not None and stop.received is not None:
             print(f"ctsim: figures skipped after the signal; `ctsim report {out}` draws them", file=sys.stderr)
         elif report and len(result):
@@ -660,43 +622,6 @@ def finish(result, out: Path, options: dict[str, Any], report: bool = True, metr
         print(f"ctsim: {result.error}; partial results written to {out}", file=sys.stderr)
         return EXIT_INTERRUPTED if result.reason is Ending.INTERRUPTED else EXIT_TERMINATED
     return (stop.status() if stop is not None else None) or 0
-
-
-def summarize(result, options: dict[str, Any], metrics: dict[str, dict[str, dict]] | None = None) -> dict[str, Any]:
-    """The figures of the table and what produced them, as plain data for summary.json."""
-    from dataclasses import asdict
-
-    from sim.analysis.metrics import compare_run, path_length
-
-    if metrics is None:
-        metrics = {robot: {name: asdict(m) for name, m in by_name.items()} for robot, by_name in (compare_run(result) if len(result) else {}).items()}
-    robots = [
-        {
-            "name": log.name,
-            "robot": log.spec.name,
-            "controller": log.controller_name,
-            "params": {key: parse_value(value) for key, value in log.params.items()},
-            "distance": path_length(result, log),
-            "collisions": log.collisions,
-            "fell": log.fell,
-            "status": log.status,
-            "goal_time": log.goal_time,
-            "estimates": metrics.get(log.name, {}),
-            "notes": [{"message": message, "steps": count} for message, count in log.notes.values()],
-        }
-        for log in result.robots
-    ]
-    return {
-        "ctsim_version": sim.__version__,
-        "world": {"name": result.world.name, "source": str(result.world.source or result.world.name)},
-        "seed": result.seed,
-        "dt": result.dt,
-        **options,
-        "time": result.duration,
-        "reason": result.reason,
-        "error": result.error,
-        "robots": robots,
-    }
 
 
 def write_trajectories(result, out: Path, summary: dict[str, Any], export_rate: float | None = None) -> list[Path]:

@@ -213,3 +213,19 @@ def test_a_run_s_ending_is_its_plain_name_in_every_file():
     assert json.dumps({"reason": Ending.GOAL}) == '{"reason": "goal"}' and f"{Ending.TERMINATED}" == "terminated"
     assert Ending("error") is Ending.ERROR and Ending.ERROR == "error"
     assert [e for e in Ending if e.signalled] == [Ending.INTERRUPTED, Ending.TERMINATED]
+
+
+def test_the_api_and_the_command_line_describe_a_run_alike(tmp_path, drive):
+    """summary.json has one home (`sim.analysis.summary`): `ctsim run` writes what the API's
+    `Result.summary` gives for the same run, besides the options the command line adds."""
+    from sim.analysis.summary import SCHEMA_VERSION, json_safe
+    from sim.experiments import Bot, simulate
+
+    out = tmp_path / "o"
+    assert main(["run", "empty", "--controller", drive, "--duration", "0.5", "--noise", "none", "--seed", "3", "--out", str(out), "--no-report"]) == 0
+    written = json.loads((out / "summary.json").read_text())
+    given = json.loads(json.dumps(json_safe(simulate("empty", Bot(drive), duration=0.5, seed=3).summary())))
+    assert written["schema_version"] == given["schema_version"] == SCHEMA_VERSION
+    for robot in written["robots"]:
+        del robot["tum"]  # the files of the run folder, named after they are written
+    assert {key: written[key] for key in given} == given

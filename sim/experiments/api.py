@@ -143,16 +143,11 @@ class Result:
     """The rerun recording written (`simulate(record=...)`), or None."""
 
     def summary(self) -> dict[str, Any]:
-        """The run as summary.json describes one (world, seed, dt, time, reason, per robot its
-        distance, collisions and each estimate's metrics)."""
-        import sim
+        """The run as summary.json describes one (`sim.analysis.summary`: world, seed, dt, time,
+        reason, per robot its distance, collisions and each estimate's metrics)."""
+        from sim.analysis.summary import summarize
 
-        robots = [{"name": r.name, "robot": log.spec.name, "controller": r.controller, "params": dict(log.params), "distance": r.distance,
-                   "collisions": r.collisions, "fell": r.fell, "goal_time": r.goal_time, "estimates": r.metrics}
-                  for r, log in zip(self.robots, self.raw.robots)]
-        world = self.raw.world
-        return {"ctsim_version": sim.__version__, "world": {"name": world.name, "source": str(world.source or world.name)}, "seed": self.seed,
-                "dt": self.raw.dt, "time": self.raw.duration, "reason": self.reason, "error": self.error, "robots": robots}
+        return summarize(self.raw, {}, {r.name: r.metrics for r in self.robots})
 
     def _repr_html_(self) -> str:
         """Jupyter shows a result as its summary table, its figures and the run's facts."""
