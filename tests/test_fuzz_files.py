@@ -23,7 +23,7 @@ from hypothesis import strategies as st
 
 from bots.schema import FileError
 from bots.spec import load_robot
-from sim.experiments.plan import SETTINGS, SpecError, load_sweep
+from sim.experiments.plan import OPTIONS, SETTINGS, SpecError, load_sweep
 from sim.world import World
 from sim.world.files import load_world, world_warnings
 from sim.world.files.grid import KNOWN_TILES
@@ -86,6 +86,22 @@ def well_typed(fields: dict) -> st.SearchStrategy[dict]:
     return st.fixed_dictionaries({}, optional={name: kinds[f.kind] for name, f in fields.items()})
 
 
+def in_range(field) -> st.SearchStrategy:
+    """Values a field accepts (its kind, inside its bounds, one of its choices), so that the code
+    after the checks runs too."""
+    low, high = max(field.low, -1e6), min(field.high, 1e6)
+    number = st.floats(low, high, exclude_min=field.above, allow_subnormal=False)
+    if field.choices:
+        return st.sampled_from(field.choices) if field.kind == "text" else st.lists(st.sampled_from(field.choices), max_size=2, unique=True)
+    return {"number": number, "integer": st.integers(int(math.ceil(low)), int(min(high, 10**6))), "boolean": st.booleans(),
+            "pair": st.lists(number, min_size=2, max_size=2), "text": st.text("abc", min_size=1, max_size=6)}[field.kind]
+
+
+def sound(fields: dict) -> st.SearchStrategy[dict]:
+    """Tables of in-range values for those fields whose kind `in_range` knows."""
+    return st.fixed_dictionaries({}, optional={name: in_range(f) for name, f in fields.items() if f.kind in ("number", "integer", "boolean", "pair", "text", "texts")})
+
+
 WORLD_TABLES = {name: f for name, f in FIELDS.items() if name not in (None, "grid.colours")}
 START = {"start": [{"position": [0.5, 0.5]}]}
 worlds = st.builds(
@@ -129,11 +145,23 @@ robots = st.builds(
     st.lists(st.builds(lambda d: {"name": "i", "position": [0.05, 0.0], **d}, well_typed(ROBOT["ir"])), max_size=2),
     st.lists(st.builds(lambda d: {"name": "l", "position": [0.05, 0.0], **d}, well_typed(ROBOT["light"])), max_size=1),
 )
+sound_robots = st.builds(
+    lambda top, motor: {**BASE_ROBOT, **top, "name": "fuzz", "motor": motor},
+    sound({k: f for k, f in ROBOT["robot"].items() if k in ("mass", "skid", "contact")}), sound(ROBOT["motor"]),
+)
+"""Robots made to load (every value in its range), so that entering a world runs too."""
 sweeps = st.fixed_dictionaries({}, optional={
     "sweep": st.one_of(tables({"mode": 0, "samples": 0, "seed": 0, "artefacts": 0}), values),
     "base": st.one_of(well_typed(SETTINGS), tables(SETTINGS)),
     "axes": st.dictionaries(st.sampled_from([*SETTINGS, "params.speed", "robot.mass", "bogus"]), st.one_of(st.lists(scalars, max_size=4), values), max_size=3),
 })
+SWEEP_AXES = {k: f for k, f in SETTINGS.items() if k in ("seed", "duration", "dt", "until_goal")}
+sound_sweeps = st.fixed_dictionaries(
+    {"base": st.fixed_dictionaries({"world": st.just("empty"), "controller": st.just("wander")}, optional={k: in_range(f) for k, f in SWEEP_AXES.items()}),
+     "axes": st.fixed_dictionaries({}, optional={k: st.lists(in_range(f), min_size=1, max_size=3) for k, f in SWEEP_AXES.items()})},
+    optional={"sweep": sound(OPTIONS)},
+)
+"""Sweeps made to load: known settings and options, in-range values."""
 
 
 @pytest.fixture(scope="module")
@@ -221,7 +249,7 @@ def test_robot_files_load_or_say_what_is_wrong_and_a_loaded_robot_enters_a_world
     tally = Tally()
 
     @FUZZ
-    @given(data=robots)
+    @given(data=st.one_of(robots, sound_robots, sound_robots))
     def one(data):
         robot = tally.loaded(tmp_path_factory.mktemp("r") / "fuzz.toml", toml_text(data), load_robot)
         if robot is not None:
@@ -235,7 +263,7 @@ def test_sweep_specs_load_or_say_what_is_wrong(tmp_path_factory):
     tally = Tally()
 
     @FUZZ
-    @given(data=sweeps)
+    @given(data=st.one_of(sweeps, sound_sweeps, sound_sweeps))
     def one(data):
         tally.loaded(tmp_path_factory.mktemp("s") / "fuzz.toml", toml_text(data), load_sweep, SpecError)
 
