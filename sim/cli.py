@@ -314,7 +314,7 @@ def _out_dir(out: Path | None, world: str, controller: str) -> Path:
 def _earlier_run(out: Path) -> list[Path]:
     """The files an earlier run wrote into `out` (what its summary.json names, and RUN_FILES);
     UsageError for a folder of other files, which ctsim leaves alone."""
-    from sim.analysis.run_folder import RunFolderError, read_summary
+    from sim.analysis.run_folder import RunFolderError, read_summary, written_by_ctsim
 
     present = [p for p in out.iterdir() if p.name != LOCK]
     if not present:
@@ -324,7 +324,7 @@ def _earlier_run(out: Path) -> list[Path]:
     except RunFolderError:
         summary = None
     if summary is None:
-        if not (out / "summary.json").is_file():
+        if not written_by_ctsim(out):
             names = ", ".join(sorted(sanitize.name(p.name) for p in present)[:3])
             raise UsageError(f"--out {out} holds files that no ctsim run wrote ({names}{', ...' if len(present) > 3 else ''}): "
                              "give a new or empty folder, or the folder of an earlier run")

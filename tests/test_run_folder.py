@@ -120,6 +120,18 @@ def test_a_folder_of_other_files_is_refused_and_left_alone(tmp_path, capsys):
     assert sorted(p.name for p in out.iterdir()) == [".ctsim.lock", "data.csv", "plot.png"]
 
 
+@pytest.mark.parametrize("text", ['{"x": 1}', "[]", "not json", '{"reason": "done"}'])
+def test_a_folder_with_a_summary_json_no_run_wrote_is_refused_and_left_alone(tmp_path, capsys, text):
+    """Someone else's summary.json beside their data once made the folder look like a run's and was overwritten."""
+    out = tmp_path / "mine"
+    out.mkdir()
+    (out / "summary.json").write_text(text)
+    (out / "data.csv").write_text("mine\n")
+    assert status([*RUN, "--out", str(out)]) == 2
+    assert "holds files that no ctsim run wrote (data.csv, summary.json)" in capsys.readouterr().err
+    assert (out / "summary.json").read_text() == text and (out / "data.csv").read_text() == "mine\n"
+
+
 def test_a_reused_run_folder_loses_only_what_the_earlier_run_wrote(tmp_path):
     out = tmp_path / "run"
     assert status([*RUN, "--robots", "2", "--out", str(out)]) == 0

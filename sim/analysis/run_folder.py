@@ -67,6 +67,17 @@ def read_summary(run_dir: str | Path) -> dict[str, Any]:
     return summary
 
 
+def written_by_ctsim(run_dir: str | Path) -> bool:
+    """Whether the folder's summary.json is one a ctsim run wrote (a whole JSON object naming
+    ctsim's version and how the run ended, a run cut short included): only then may a new run
+    replace its files; someone else's summary.json is theirs."""
+    try:
+        summary = json.loads(read_bytes(Path(run_dir) / SUMMARY, RunFolderError, MOST_SUMMARY_BYTES).decode("utf-8"))
+    except (RunFolderError, ValueError, RecursionError):  # (not readable, not UTF-8, not JSON, too deep)
+        return False
+    return isinstance(summary, dict) and isinstance(summary.get("ctsim_version"), str) and isinstance(summary.get("reason"), str)
+
+
 def _refuse(constant: str) -> None:
     raise ValueError(f"{constant} is no JSON number")
 
