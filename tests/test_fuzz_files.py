@@ -86,20 +86,24 @@ def well_typed(fields: dict) -> st.SearchStrategy[dict]:
     return st.fixed_dictionaries({}, optional={name: kinds[f.kind] for name, f in fields.items()})
 
 
+IN_RANGE_KINDS = ("number", "integer", "boolean", "pair", "text")
+"""The kinds `in_range` draws for any field; a field of another kind only when it has choices."""
+
+
 def in_range(field) -> st.SearchStrategy:
     """Values a field accepts (its kind, inside its bounds, one of its choices), so that the code
     after the checks runs too."""
-    low, high = max(field.low, -1e6), min(field.high, 1e6)
-    number = st.floats(low, high, exclude_min=field.above, allow_subnormal=False)
     if field.choices:
         return st.sampled_from(field.choices) if field.kind == "text" else st.lists(st.sampled_from(field.choices), max_size=2, unique=True)
-    return {"number": number, "integer": st.integers(int(math.ceil(low)), int(min(high, 10**6))), "boolean": st.booleans(),
+    low, high = max(field.low, -1e6), min(field.high, 1e6)
+    number = st.floats(low, high, exclude_min=field.above, allow_subnormal=False)
+    return {"number": number, "integer": st.integers(math.ceil(low), math.floor(high)), "boolean": st.booleans(),
             "pair": st.lists(number, min_size=2, max_size=2), "text": st.text("abc", min_size=1, max_size=6)}[field.kind]
 
 
 def sound(fields: dict) -> st.SearchStrategy[dict]:
-    """Tables of in-range values for those fields whose kind `in_range` knows."""
-    return st.fixed_dictionaries({}, optional={name: in_range(f) for name, f in fields.items() if f.kind in ("number", "integer", "boolean", "pair", "text", "texts")})
+    """Tables of in-range values for the fields `in_range` can draw."""
+    return st.fixed_dictionaries({}, optional={name: in_range(f) for name, f in fields.items() if f.choices or f.kind in IN_RANGE_KINDS})
 
 
 WORLD_TABLES = {name: f for name, f in FIELDS.items() if name not in (None, "grid.colours")}
