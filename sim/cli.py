@@ -455,7 +455,7 @@ def _setups(args: argparse.Namespace, spec, room: int) -> list:
 
 
 def cmd_run(args: argparse.Namespace) -> int:
-    from bots.estimators import load
+    from bots.odometry.user import load
     from sim.experiments import simulate, world
     from sim.views.recording import Recorder, keep_pandas_out_of_arrow
     from sim.world.files import world_warnings

@@ -27,15 +27,16 @@ import numpy as np
 from bots.chassis_commands import chassis_setpoints
 from bots.commands import BadCommand, motor_commands, wheel_speeds_for
 from bots.controller import Controller, ControllerStopped, Status, reset
-from bots.estimators import check, name_of
-from bots.odometry import Estimator, default_estimators
-from bots.odometry_batch import COVARIANCES, ESTIMATES, DefaultOdometry, batched
+from bots.odometry.base import Estimator
+from bots.odometry.batch import COVARIANCES, ESTIMATES, DefaultOdometry, batched
+from bots.odometry.defaults import default_estimators
+from bots.odometry.user import check, name_of
+from bots.readings import Readings, SensorFrame
 from bots.spec import RobotSpec
 from sim.errors import UserError
 from sim.guards import ControllerBrokeOut, Guard
 from sim.world import World
 from sim.world.chassis_drive import FaultError
-from sim.world.readings import Readings, SensorFrame
 from sim.world.spec import Start, WheelFault, WorldSpec
 from sim.world.step import DEFAULT_DT, StepError, check_dt
 

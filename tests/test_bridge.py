@@ -281,8 +281,8 @@ def test_motor_units_are_c_t_sims_pwm_mapping():
 
 def test_mouse_sideways_sign_is_converted_at_the_protocol_edge():
     """ctsim's mouse counts are (forward, left); c't-Sim's dX points the other way, dY forward."""
+    from bots.readings import Readings
     from sim.bridge.firmware import FirmwareController
-    from sim.world.readings import Readings
 
     bot = FirmwareController(listener=None)
     block = Decoder().feed(bot._block(1, 0.01, Readings(), Readings(mouse_counts=np.array([10, 3]))))  # the dots of the motion after

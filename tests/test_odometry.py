@@ -15,14 +15,12 @@ from observers import KeepReadings
 from bots.commands import Twist, WheelSpeeds
 from bots.controller import FunctionController
 from bots.ctbot import CTBOT
-from bots.odometry import (
-    EncoderOdometry,
-    FirmwareOdometry,
-    FusedOdometry,
-    Geometry,
-    MouseOdometry,
-    default_estimators,
-)
+from bots.odometry.base import Geometry
+from bots.odometry.defaults import default_estimators
+from bots.odometry.encoder import EncoderOdometry
+from bots.odometry.firmware import FirmwareOdometry
+from bots.odometry.fused import FusedOdometry
+from bots.odometry.mouse import MouseOdometry
 from sim.analysis.metrics import path_lengths
 from sim.kinematics import (
     advance,

@@ -9,14 +9,11 @@ import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
 from bots.chassis_commands import InfeasibleCommand, chassis_setpoints
-from bots.chassis_odometry import (
-    ChassisEncoderOdometry,
-    ChassisMouseOdometry,
-    mouse_applies,
-)
 from bots.chassis_spec import PRESETS, ChassisSpec
 from bots.commands import Twist, WheelCommands
 from bots.controller import FunctionController
+from bots.odometry.chassis import ChassisEncoderOdometry, ChassisMouseOdometry, mouse_applies
+from bots.readings import Readings
 from bots.spec import EncoderSpec, MotorSpec, MouseSpec, load_robot, wheeled_robot
 from bots.wheeled import CAR, MECANUM4, WHEELED_ROBOTS
 from sim.kinematics import (
@@ -38,7 +35,6 @@ from sim.kinematics.chassis import (
 )
 from sim.run import RobotSetup, run
 from sim.world import World
-from sim.world.readings import Readings
 from sim.world.spec import Start, Wall, WheelFault, WorldSpec, box
 
 DT = 0.01

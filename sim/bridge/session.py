@@ -13,7 +13,7 @@ import time
 from dataclasses import replace
 from typing import Any
 
-from bots.odometry import default_estimators
+from bots.odometry.defaults import default_estimators
 from bots.spec import EncoderSpec, RobotSpec
 from sim.bridge import protocol as p
 from sim.bridge.firmware import FirmwareController, FirmwareEstimator

@@ -204,7 +204,7 @@ def simulate(
     the `noise` preset unless it names its own; `record` writes a rerun recording there; a
     controller step longer than `step_timeout` seconds (wall clock) ends the run as its error.
     `estimators`: your own (classes, factories, estimator objects or "FILE.py:Class", as
-    `bots.estimators.made` takes them): every robot without estimators of its own gets a fresh
+    `bots.odometry.user.made` takes them): every robot without estimators of its own gets a fresh
     one of each beside its defaults, in every output; one that fails a step ends the run as a
     controller's error does.
     `ctsim run` is this call: `--robots 3` is `robots=[Bot()] * 3`."""
@@ -217,7 +217,7 @@ def simulate(
     setups = [b.setup(noise) if isinstance(b, Bot) else b for b in (given or [Bot()])]
     extra = list(estimators)
     if extra:
-        from bots.estimators import alongside
+        from bots.odometry.user import alongside
 
         setups = [replace(s, estimators=alongside(s.spec, extra)) if s.estimators is None else s for s in setups]
     watchers = list(observers)
