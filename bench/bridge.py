@@ -17,7 +17,7 @@ from pathlib import Path
 
 from bots.ctbot import CTBOT
 from sim.bridge import Bridge
-from sim.run import run
+from sim.run.loop import run
 from sim.world.files import load_world
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -84,8 +84,8 @@ def run_end_work(seconds: float) -> float:
     writes after the loop, for comparison."""
     from bots.behaviours import make
     from sim.cli import finish
-    from sim.run import RobotSetup
-    from sim.views.recording import Recorder
+    from sim.run.loop import RobotSetup
+    from sim.views.recording.recorder import Recorder
 
     clock = _Clock()
     with tempfile.TemporaryDirectory() as out:

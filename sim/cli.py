@@ -28,7 +28,9 @@ from sim import sanitize
 from sim.analysis.summary import SUMMARY_ROOM, summarize, unstarted, write_json
 from sim.errors import UserError
 from sim.folder_lock import LOCK, hold
-from sim.run import MAX_DURATION, MAX_STEP_TIMEOUT, Ending, RunError, Terminated, in_controller, step_count
+from sim.run.clock import MAX_STEP_TIMEOUT, in_controller
+from sim.run.ending import Ending, RunError, Terminated
+from sim.run.loop import MAX_DURATION, step_count
 from sim.world import compiling
 from sim.world.step import DEFAULT_DT, DT_RANGE, StepError, check_dt
 
@@ -354,7 +356,7 @@ class StopOnSignal:
     - "run" (from the run's start): a signal asks the run to stop at the next step boundary. A
       signal raised wherever the process happens to be (inside rerun's stream, a compiled kernel, a
       socket call) can leave a lock held, and the run would hang instead of writing what it has.
-      Inside a controller step (`sim.run.in_controller`) it stops at once: a controller that blocks
+      Inside a controller step (`sim.run.clock.in_controller`) it stops at once: a controller that blocks
       must not make the run deaf. A second signal stops at once.
     - "write" (summary and trajectories): signals are only noted, so those files are whole.
     - "draw" (figures): a signal stops at once; the figures can be drawn later (`ctsim report`).
@@ -439,7 +441,7 @@ def _setups(args: argparse.Namespace, spec, room: int) -> list:
     """One RobotSetup per robot from --controller/--robots/--param; the world has start slots for
     `room` robots (one slot each)."""
     from bots.behaviours import make
-    from sim.run import RobotSetup
+    from sim.run.loop import RobotSetup
 
     names = args.controller or [DEFAULT_CONTROLLER]
     count = args.robots if args.robots is not None else len(names)
@@ -457,7 +459,8 @@ def _setups(args: argparse.Namespace, spec, room: int) -> list:
 def cmd_run(args: argparse.Namespace) -> int:
     from bots.odometry.user import load
     from sim.experiments import simulate, world
-    from sim.views.recording import Recorder, keep_pandas_out_of_arrow
+    from sim.views.recording.arrow import keep_pandas_out_of_arrow
+    from sim.views.recording.recorder import Recorder
     from sim.world.files import world_warnings
 
     step_count(args.duration, args.dt)
@@ -512,7 +515,7 @@ def _web_viewer(args: argparse.Namespace):
 
 def _serve_until_interrupted(web, what: str = "") -> None:
     """Serve until Ctrl-C, which is then the normal end (SIGTERM ends as everywhere else)."""
-    from sim.run import Terminated
+    from sim.run.ending import Terminated
 
     print(f"ctsim: serving {what}{web.url} until Ctrl-C", flush=True)
     try:
@@ -721,8 +724,9 @@ def _add_bridge_parser(commands) -> None:
 
 def cmd_bridge(args: argparse.Namespace) -> int:
     from sim.bridge import Bridge
-    from sim.run import run
-    from sim.views.recording import Recorder, keep_pandas_out_of_arrow
+    from sim.run.loop import run
+    from sim.views.recording.arrow import keep_pandas_out_of_arrow
+    from sim.views.recording.recorder import Recorder
     from sim.world.files import load_world
 
     step_count(args.duration, args.dt)

@@ -34,8 +34,8 @@ from sim.bridge import (  # noqa: E402
 from sim.bridge.firmware import MM_S_PER_UNIT, wheel_speed  # noqa: E402
 from sim.bridge.firmware_map import window  # noqa: E402
 from sim.bridge.protocol import remote_call_payload  # noqa: E402
-from sim.run import RobotSetup, run  # noqa: E402
-from sim.views.recording import Recorder  # noqa: E402
+from sim.run.loop import RobotSetup, run  # noqa: E402
+from sim.views.recording.recorder import Recorder  # noqa: E402
 from sim.world.spec import Start, Wall, WorldSpec, box  # noqa: E402
 
 EMPTY = WorldSpec("empty", (-5.0, -5.0, 5.0, 5.0), starts=(Start(0.0, 0.0, 0.0, 1), Start(0.0, 1.0, 0.0, 2), Start(0.0, -1.0, 0.0, 0)))

@@ -29,7 +29,7 @@ from sim.kinematics.chassis import (
     nearest_feasible,
     nearest_steerable,
 )
-from sim.run import RobotSetup, run
+from sim.run.loop import RobotSetup, run
 from sim.world import World
 from sim.world.spec import Start, WorldSpec
 

@@ -208,7 +208,7 @@ def test_ctsim_worlds_shows_a_whole_first_sentence(capsys):
 
 def test_a_run_s_ending_is_its_plain_name_in_every_file():
     """`Ending` is a str: summary.json, the sweep table and comparisons with the names hold its value."""
-    from sim.run import Ending
+    from sim.run.ending import Ending
 
     assert json.dumps({"reason": Ending.GOAL}) == '{"reason": "goal"}' and f"{Ending.TERMINATED}" == "terminated"
     assert Ending("error") is Ending.ERROR and Ending.ERROR == "error"

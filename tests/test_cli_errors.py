@@ -17,7 +17,7 @@ from sim.errors import UserError
 from sim.experiments.plan import SpecError
 from sim.experiments.report import ReportError
 from sim.lab.exercise import ExerciseError
-from sim.run import RunError
+from sim.run.ending import RunError
 from sim.web.serve import ViewError
 from sim.world import World
 from sim.world.chassis_drive import FaultError

@@ -30,7 +30,7 @@ from sim.kinematics import (
     wrap_angle,
 )
 from sim.kinematics.mouse import counts_per_metre
-from sim.run import RobotSetup, run
+from sim.run.loop import RobotSetup, run
 from sim.world.files import load_world
 from sim.world.spec import WorldSpec
 

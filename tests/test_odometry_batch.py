@@ -26,7 +26,7 @@ from bots.readings import Readings
 from bots.wheeled import MECANUM4
 from sim.kinematics import advance
 from sim.kinematics.batch import advance_one
-from sim.run import RobotSetup, run
+from sim.run.loop import RobotSetup, run
 from sim.world.files import load_world
 
 ROBOTS = {

@@ -33,7 +33,7 @@ from sim.kinematics.chassis import (
     nearest_feasible,
     null_space,
 )
-from sim.run import RobotSetup, run
+from sim.run.loop import RobotSetup, run
 from sim.world import World
 from sim.world.spec import Start, Wall, WheelFault, WorldSpec, box
 
@@ -397,7 +397,7 @@ def test_a_recording_of_a_chassis_robot_holds_wheels_outline_and_icr(tmp_path):
     import rerun.chunk
 
     from sim.views.chassis_view import body_outline
-    from sim.views.recording import Recorder
+    from sim.views.recording.recorder import Recorder
 
     path = tmp_path / "run.rrd"
     result = run(EMPTY, [RobotSetup(CAR, constant(Twist(0.3, 0.2)))], 2.0, observers=(Recorder(path),))
@@ -430,7 +430,7 @@ def test_a_recorded_wheel_fault_is_an_event_and_turns_the_wheel_red(tmp_path):
     import rerun.chunk
 
     from sim.views import palette
-    from sim.views.recording import Recorder
+    from sim.views.recording.recorder import Recorder
 
     path = tmp_path / "run.rrd"
     setup = RobotSetup(MECANUM4, constant(Twist(0.2, 0.3)), faults=(WheelFault(0.2, 1, "free"),))

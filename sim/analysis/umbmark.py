@@ -43,7 +43,7 @@ from bots.odometry.base import Geometry
 from bots.odometry.encoder import EncoderOdometry
 from bots.readings import Readings
 from bots.spec import RobotSpec
-from sim.run import RobotSetup, run
+from sim.run.loop import RobotSetup, run
 from sim.world.files import load_world
 from sim.world.spec import WorldSpec
 from sim.world.step import DEFAULT_DT

@@ -26,7 +26,7 @@ from bots.readings import Readings
 from bots.spec import RobotSpec
 from sim.contest.paths import PathField
 from sim.contest.rules import TIE_M
-from sim.run import RobotLog, RunResult
+from sim.run.samples import RobotLog, RunResult
 from sim.world import World
 
 LOG = logging.getLogger("ctsim.contest")

@@ -23,7 +23,7 @@ from sim.kinematics import wrap_angle
 from sim.lab.artifacts import observers
 from sim.lab.checking import Outcome, differing, fmt
 from sim.lab.student import Student, StudentError, numbers
-from sim.run import RobotSetup, run
+from sim.run.loop import RobotSetup, run
 from sim.world.spec import Start, WorldSpec
 
 
