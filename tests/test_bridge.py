@@ -237,7 +237,7 @@ def test_the_listener_binds_loopback_only_by_default():
 
 
 def test_cli_bridge_runs_a_fake_firmware_and_writes_the_results(tmp_path, capsys):
-    from sim.cli import main
+    from sim.cli.entry import main
 
     probe = socket.socket()
     probe.bind(("127.0.0.1", 0))
@@ -256,7 +256,7 @@ def test_cli_bridge_runs_a_fake_firmware_and_writes_the_results(tmp_path, capsys
 
 
 def test_cli_bridge_help_says_how_to_start_the_firmware(capsys):
-    from sim.cli import main
+    from sim.cli.entry import main
 
     with pytest.raises(SystemExit):
         main(["bridge", "--help"])
@@ -265,7 +265,7 @@ def test_cli_bridge_help_says_how_to_start_the_firmware(capsys):
 
 @pytest.mark.parametrize("option", ["--rc5=x:3", "--rc5=1:HELP", "--call=1:bot turn", "--call=-1:bot_turn(9)"])
 def test_cli_bad_timed_options_are_user_errors(option, capsys):
-    from sim.cli import main
+    from sim.cli.entry import main
 
     with pytest.raises(SystemExit) as exit_info:
         main(["bridge", "maze", option])
@@ -379,7 +379,7 @@ def test_the_firmware_map_is_drawn_where_the_firmware_believes_it_drove(tmp_path
 
 
 def test_shutdown_comes_after_the_files_are_written_and_list_calls_prints_the_offer(tmp_path, capsys):
-    from sim.cli import main
+    from sim.cli.entry import main
 
     probe = socket.socket()
     probe.bind(("127.0.0.1", 0))

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from sim.cli import main
+from sim.cli.entry import main
 
 CTSIM = [sys.executable, "-m", "sim.cli"]
 DRIVE = """
@@ -199,7 +199,7 @@ def test_the_readmes_wanderer_wanders_where_the_readme_runs_it(tmp_path, monkeyp
 
 
 def test_ctsim_worlds_shows_a_whole_first_sentence(capsys):
-    from sim.cli import first_sentence
+    from sim.cli.worlds import first_sentence
 
     assert first_sentence("A race, e.g. its first\nround: 0.24 m cells. Then more.") == "A race, e.g. its first round: 0.24 m cells."
     assert main(["worlds"]) == 0

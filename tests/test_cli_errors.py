@@ -9,8 +9,8 @@ import pytest
 from bots.controller import ControllerError
 from bots.noise import RobotSettingError
 from bots.schema import FileError
-from sim import cli
-from sim.cli import main
+from sim.cli import options as cli
+from sim.cli.entry import main
 from sim.contest.entries import EntryError
 from sim.contest.store import StoreError
 from sim.errors import UserError

@@ -17,7 +17,7 @@ import numpy
 import pytest
 
 import sim.run.loop
-from sim.cli import main
+from sim.cli.entry import main
 
 pytestmark = pytest.mark.skipif(not hasattr(signal, "setitimer"), reason="the step timer and fork are POSIX")
 

@@ -221,7 +221,7 @@ def _closed_port() -> int:
 
 
 def test_no_viewer_costs_the_live_view_only(tmp_path, capsys):
-    from sim.cli import main
+    from sim.cli.entry import main
 
     out = tmp_path / "o"
     code = main(["run", "empty", "--controller", "square", "--duration", "2", "--connect", f"rerun+http://127.0.0.1:{_closed_port()}/proxy", "--out", str(out), "--no-report"])
@@ -340,7 +340,7 @@ def test_ctsim_run_leaves_pandas_unloaded_and_usable(tmp_path):
 
     script = f"""
 import sys
-from sim.cli import main
+from sim.cli.entry import main
 code = main(["run", "maze", "--duration", "0.5", "--no-report", "--out", {str(tmp_path / "out")!r}])
 assert code == 0, code
 assert "pandas" not in sys.modules, "pandas loaded by the recording"
