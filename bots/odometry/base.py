@@ -49,21 +49,15 @@ TURN_MEMORY = 0.25
 """Time constant (s) over which the fused estimator forgets the mouse's and the encoders' rotation
 disagreeing: long enough to see a slide build up, short enough that a wrong track width (a few
 per cent of the turning) never adds up to the band."""
-
-
 SLIP_MEMORY = 0.1
 """Metres of the mouse's path over which the fused estimator forgets the encoders' and the
 mouse's distance disagreeing: a robot standing still forgets nothing (a wheel spinning against a
 wall stays slip), one driving sees a slide of a few millimetres among 10 cm."""
-
-
 GATE_SIGMAS = 5.0
 """Standard deviations of the random noise summed over the memory, and of the calibration still
 unknown (per metre driven, per radian turned), that the two sensors may disagree by before the
 fused estimator calls it slip or a slide: at 3 the detectors, whose sums are correlated from step
 to step, fired often enough on noise alone to make the fused heading worse than the mouse's."""
-
-
 NOISE_COUNTS = 3.0
 """Mouse noise (counts) allowed over the memory: 0.2-0.5 counts per step add up to 1-2.5 counts."""
 

@@ -14,11 +14,7 @@ from sim.errors import UserError
 from sim.world.step import DEFAULT_DT, DT_RANGE, StepError, check_dt
 
 DEFAULT_WORLD = "maze"
-
-
 DEFAULT_CONTROLLER = "solve_maze"
-
-
 EXIT_FAILED, EXIT_USER, EXIT_INTERRUPTED, EXIT_TERMINATED = 1, 2, 130, 143
 EXIT_STATUSES = f"""exit status:
   0    success

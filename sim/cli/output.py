@@ -21,8 +21,6 @@ RUN_FILES = ("run.rrd", "run.parquet", "summary.json", "report.html", "trajector
 """The files every run writes into its folder by these names (its trajectories are named in its
 summary.json): when a folder of an earlier run is reused, these and the trajectories its summary
 names are removed first, so that nothing stale is left beside the new results; nothing else."""
-
-
 START = Path.cwd()
 """The folder ctsim started in: a relative --out is taken from here, so that a controller that
 changes the current folder when it loads cannot move the run's folder."""

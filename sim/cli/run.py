@@ -18,8 +18,6 @@ from sim.run.loop import MAX_DURATION, step_count
 
 DEFAULT_DURATION = 300.0
 """The default run: a c't-Bot solving the shipped maze, until it reaches the goal (at most 300 s)."""
-
-
 STEP_TIMEOUT = 5.0
 """Seconds (wall clock) a controller step may take in `ctsim run` (`--step-timeout`)."""
 

@@ -21,12 +21,8 @@ from sim.world.spec import WorldSpec
 
 _UPPER = (np.array([0, 0, 0, 1, 1, 2]), np.array([0, 1, 2, 1, 2, 2]))
 """Where a (3, 3) covariance's COVARIANCE_FIELDS entries are."""
-
-
 BLOCK = 65536
 """Samples per block when a finished run is read through (metrics, files)."""
-
-
 RESIDENT = 8192
 """Samples of a running log kept in resident memory: observers read the latest ones (the
 recorder up to `sim.views.recording.recorder.CHUNK` back)."""

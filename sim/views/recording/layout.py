@@ -14,31 +14,17 @@ from sim.views.recording.arrow import lazy_rerun
 from sim.world.spec import WorldSpec
 
 TIMELINE = "sim_time"
-
-
 TURNING = (WheelType.STEERED, WheelType.CASTOR, WheelType.SPHERICAL)
 """Wheels whose steering angle changes in a run, and so is recorded."""
-
-
 TRAIL_EVERY = 10
 """Samples per trail piece: every pose is in the trail, but in 10x fewer rows for the viewer."""
-
-
 ELLIPSE_EVERY = 200
 """Samples between two uncertainty ellipses along an estimate's trail (2 s at the default step)."""
-
-
 ELLIPSE_SCALE = math.sqrt(-2.0 * math.log(0.05))
 """Radius, in standard deviations, of the ellipse holding 95 % of a 2-D normal (chi2(2) = 5.99)."""
-
-
 ELLIPSE_POINTS = 37
-
-
 FIELDS = ("ir_raw", "ir_distance", "line", "border", "light", "encoder_ticks", "mouse_counts", "mouse2_counts", "steering")
 """Readings fields recorded as time series, in buffer column order."""
-
-
 SENSOR_GROUPS = {
     "ir_raw": ("IR raw (ADC)", ("ir_raw",)),
     "ir_distance": ("IR distance (mm)", ("ir_distance",)),
@@ -49,8 +35,6 @@ SENSOR_GROUPS = {
     "steering": ("steered from straight (deg)", ("steering",)),
 }
 """Sensor plot -> (title, readings fields); each field is logged under sensors/<group>/<robot>/<field>."""
-
-
 SCALE = {"ir_distance": 1000.0, "steering": 180.0 / math.pi}
 """Recorded unit per SI unit where a field is shown in other units (m -> mm, rad -> deg)."""
 
@@ -59,7 +43,7 @@ def rgb(rgb: palette.RGB) -> tuple[int, int, int]:
     return tuple(rgb)
 
 
-def channels(spec: Any, name: str) -> tuple[tuple[str, ...], np.ndarray | None]:
+def field_channels(spec: Any, name: str) -> tuple[tuple[str, ...], np.ndarray | None]:
     """The channels of readings field `name` that a robot spec has (known before the first
     reading): their names, and which entries of the field they are (None: all of them). A general
     chassis has an encoder per wheel, may have a second mouse, and records the steering of the

@@ -11,12 +11,8 @@ from urllib.parse import urlsplit
 
 LIVE_PORT = 9876
 """Port of a viewer that `--live` spawns (rerun's default)."""
-
-
 LIVE_WAIT_S = 10.0
 """How long to wait for a spawned viewer to listen, and for a live chunk to reach the viewer."""
-
-
 LIVE_EVERY_S = 0.5
 """Wall-clock seconds after which a live view gets what is buffered, full chunk or not: a run
 paced at real time (`ctsim bridge --realtime`) fills a chunk only every 80 s."""

@@ -50,7 +50,7 @@ from sim.world import IR_RAY_LENGTH, World
 if TYPE_CHECKING:
     from sim.run import RobotLog, RunResult
 from sim.views.recording.arrow import ArrowOwned, lazy_rerun, strips, turn, xyz
-from sim.views.recording.layout import ELLIPSE_EVERY, ELLIPSE_POINTS, FIELDS, SCALE, SENSOR_GROUPS, TIMELINE, TRAIL_EVERY, blueprint, channels, ellipses, log_world, rgb
+from sim.views.recording.layout import ELLIPSE_EVERY, ELLIPSE_POINTS, FIELDS, SCALE, SENSOR_GROUPS, TIMELINE, TRAIL_EVERY, blueprint, ellipses, field_channels, log_world, rgb
 from sim.views.recording.live import LiveStream
 
 CHUNK = 8000
@@ -147,7 +147,7 @@ class Recorder(LiveStream):
 
     def _open(self, world: World, logs: list[RobotLog]) -> None:
         rr = lazy_rerun()
-        groups = [g for g, (_, fields) in SENSOR_GROUPS.items() if any(channels(log.spec, f)[0] for log in logs for f in fields)]
+        groups = [g for g, (_, fields) in SENSOR_GROUPS.items() if any(field_channels(log.spec, f)[0] for log in logs for f in fields)]
         views = blueprint(world.spec, {log.name: list(log.estimate_arrays()) for log in logs}, groups)
         self.streams = []
         if self.path is not None:
@@ -268,7 +268,7 @@ class Recorder(LiveStream):
 
     def _track(self, log: RobotLog) -> _Track:
         spec = log.spec
-        channels, picks = zip(*(channels(spec, f) for f in FIELDS))
+        channels, picks = zip(*(field_channels(spec, f) for f in FIELDS))
         return _Track(
             log=log,
             estimates=list(log.estimate_arrays()),
