@@ -1,5 +1,5 @@
 """Issue 16: the compiled sensor paths give the bits of the reference ones: IR curve lookup and
-inverse (`Nonekernels.sensing.ir_values` against `IRCurve`), the IR grid broad phase against every circle,
+inverse (`kernels.sensing.ir_values` against `IRCurve`), the IR grid broad phase against every circle,
 and noise drawn in blocks against one draw at a time."""
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ RANGES = [(0.1, 0.8), (0.05, 0.5)]
 
 
 def compiled(curve: IRCurve, low: float, high: float, distance: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """`Nonekernels.sensing.ir_values` for one curve and range, without noise."""
+    """`kernels.sensing.ir_values` for one curve and range, without noise."""
     n = len(distance)
     raw, believed = np.empty(n, dtype=np.int64), np.empty(n)
     inverse = curve.inverse_table(low, high)

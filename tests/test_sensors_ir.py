@@ -207,7 +207,7 @@ def test_shipped_tables_are_ctsims_files(side):
 
 
 def test_compiled_cone_agrees_with_pymunk_queries():
-    """The world reads IR with a compiled kernel (`Nonekernels.sensing.sense_ir`: walls, robots, cans); at 300
+    """The world reads IR with a compiled kernel (`kernels.sensing.sense_ir`: walls, robots, cans); at 300
     random poses in the maze beside another robot and a can it gives the distances of
     `World.ray_distance`'s pymunk queries (to 1e-9 m: two exact computations of one geometry)."""
     from sim.world.files import load_world

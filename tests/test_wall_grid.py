@@ -1,4 +1,4 @@
-"""The uniform grid over the static walls (`Nonekernels.grids.build_wall_grid`): each cell lists the walls
+"""The uniform grid over the static walls (`kernels.grids.build_wall_grid`): each cell lists the walls
 whose boxes overlap it, and IR readings and swept moves through the grid are those of checking
 every wall, bit for bit (the grid with one infinite cell is that plain loop over every wall)."""
 

@@ -4,7 +4,7 @@ The physical contract (DESIGN.md §4) in one place. Each step: sensors are read 
 the start (`read_all`), the caller computes motor commands, then `step` runs the motor model,
 counts encoder ticks, turns wheel arcs into an exact-arc motion, cuts it where a wall or another
 body is in the way, lets pymunk resolve contacts (a lone robot clear of every wall moves as pymunk
-would move it, without pymunk: `Nonekernels.motion.glide`), and measures the true motion (for the mouse) and
+would move it, without pymunk: `kernels.motion.glide`), and measures the true motion (for the mouse) and
 ground contact (for holes). The per-robot arithmetic runs in compiled kernels over all robots
 at once (`sim.world.kernels`); pymunk does the geometry. Everything random draws from
 per-sensor generators spawned from the world's seed.
@@ -140,7 +140,7 @@ class Robot:
     """The start slot it was placed at (None: an explicit pose); its goals are `spec.goals_of(slot)`."""
     fallen: bool = False
     """In a hole (c't-Sim's IN_HOLE): the last step's move was refused because a wheel or the skid
-    would have been over a hole (`Nonekernels.floor.hold_at_holes`); clears when a move is allowed again."""
+    would have been over a hole (`kernels.floor.hold_at_holes`); clears when a move is allowed again."""
     collisions: int = 0
 
     @property
@@ -307,7 +307,7 @@ class World:
         st, walls, ir = self._state, self._walls, self._state.ir
         self._round_ir = self._round_bodies and len(ir.curve) > 0
         read = len(st.sensors) if self._round_ir else st.n_floor + st.n_light  # pymunk reads IR otherwise
-        # quiet steps (`Nonekernels.contacts.settle`, `Nonekernels.motion.glide`) for one round robot and nothing else that
+        # quiet steps (`kernels.contacts.settle`, `kernels.motion.glide`) for one round robot and nothing else that
         # moves, whose contacts can only be with walls, met in their fixed order; the contacts of
         # several bodies come in the order of pymunk's tree of moving shapes, which a skipped step
         # would leave unchanged (the same physics, but other roundings later)
@@ -439,7 +439,7 @@ class World:
     def _read_ir_with_pymunk(self, pose: np.ndarray, raw: np.ndarray, believed: np.ndarray) -> None:
         """Raw values and believed distances of every IR sensor in a world with a robot of polygon
         outline, whose true distances pymunk's queries give (they see every shape), then noise and
-        the curves (`Nonekernels.sensing.ir_values`)."""
+        the curves (`kernels.sensing.ir_values`)."""
         st = self._batch()
         ir = st.ir
         n = len(ir.curve)
@@ -505,7 +505,7 @@ class World:
 
     def _apply_motion(self) -> None:
         """Make each body's velocity after pymunk's velocity phase move/dt and alpha/dt (the forces
-        `Nonekernels.contacts.settle` wrote), step pymunk and move the robots.
+        `kernels.contacts.settle` wrote), step pymunk and move the robots.
 
         pymunk moves bodies *before* it solves contacts, with the velocity they have; a velocity
         set before `space.step` would push the body into a wall unchecked. So the body enters the
@@ -555,7 +555,7 @@ def wall_cell(boxes: np.ndarray) -> float:
 @dataclass(frozen=True)
 class _WallArrays:
     """The walls as flat arrays for the kernels: all vertices, each wall's slice of them, its
-    bounding box (xmin, ymin, xmax, ymax) and a uniform grid over the boxes (`Nonekernels.grids.build_wall_grid`;
+    bounding box (xmin, ymin, xmax, ymax) and a uniform grid over the boxes (`kernels.grids.build_wall_grid`;
     walls are static, so it is built once): its origin and cell size (`frame`) and its cells."""
 
     vertices: np.ndarray
@@ -686,7 +686,7 @@ class _BatchState:
 
     def draw_encoder_noise(self) -> None:
         """Random slip for this step of the robots whose encoders have it: each wheel's arc s is
-        off by slip_std * sqrt(|s|) * N(0, 1) (`Nonekernels.motion.drive`), a random walk in the distance rolled."""
+        off by slip_std * sqrt(|s|) * N(0, 1) (`kernels.motion.drive`), a random walk in the distance rolled."""
         for i, rng, enc in self.noisy_encoders:
             if enc.slip_std:
                 self.slip[i] = enc.slip_std * rng.standard_normal(2)
@@ -704,7 +704,7 @@ class _BatchState:
 
     def draw_mouse_noise(self) -> None:
         """Count noise for the robots whose mouse has it, in counts per sqrt m of floor passed
-        (`Nonekernels.motion.measure` scales it by the step's distance): noise_std (sqrt m) at the counts'
+        (`kernels.motion.measure` scales it by the step's distance): noise_std (sqrt m) at the counts'
         own scale."""
         mice = self.noisy_mice
         scale = mice.std * self.params[mice.rows, layout.COUNTS_PER_METRE]
@@ -729,7 +729,7 @@ class _IRArrays:
 
     @property
     def curves(self) -> tuple[np.ndarray, ...]:
-        """The curve arguments of `Nonekernels.sensing.ir_values` (curve .. lowest)."""
+        """The curve arguments of `kernels.sensing.ir_values` (curve .. lowest)."""
         return self.curve, self.tables, self.curve_ends[:, 0], self.beyond, self.inverse, self.curve_ends[:, 1]
 
     @classmethod
