@@ -46,12 +46,12 @@ from sim.kinematics import wrap_angle
 from sim.views import palette
 from sim.views.chassis_view import ChassisLayer, body_outline, fault_text
 from sim.world import IR_RAY_LENGTH, World
-
-if TYPE_CHECKING:
-    from sim.run import RobotLog, RunResult
 from sim.views.recording.arrow import ArrowOwned, lazy_rerun, strips, turn, xyz
 from sim.views.recording.layout import ELLIPSE_EVERY, ELLIPSE_POINTS, FIELDS, SCALE, SENSOR_GROUPS, TIMELINE, TRAIL_EVERY, blueprint, ellipses, field_channels, log_world, rgb
 from sim.views.recording.live import LiveStream
+
+if TYPE_CHECKING:
+    from sim.run.samples import RobotLog, RunResult
 
 CHUNK = 8000
 """Samples per `send_columns` batch. Each batch costs rerun's conversions once per entity (8,000
