@@ -45,10 +45,10 @@ import numpy as np
 from sim.kinematics import wrap_angle
 from sim.views import palette
 from sim.views.chassis_view import ChassisLayer, body_outline, fault_text
-from sim.world import IR_RAY_LENGTH, World
 from sim.views.recording.arrow import ArrowOwned, lazy_rerun, strips, turn, xyz
 from sim.views.recording.layout import ELLIPSE_EVERY, ELLIPSE_POINTS, FIELDS, SCALE, SENSOR_GROUPS, TIMELINE, TRAIL_EVERY, blueprint, ellipses, field_channels, log_world, rgb
 from sim.views.recording.live import LiveStream
+from sim.world import IR_RAY_LENGTH, World
 
 if TYPE_CHECKING:
     from sim.run.samples import RobotLog, RunResult
