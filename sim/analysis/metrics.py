@@ -91,8 +91,11 @@ class Metrics:
     heading_drift_per_metre, heading_drift_per_minute: |final heading error| over the path length
         (rad/m) and over the duration (rad/min).
     nees_mean, nees_final: the normalised estimation error squared (`sim.analysis.nees`) averaged
-        over all samples and at the last one (nan for an estimate without a covariance); a
-        consistent estimator's is 3 on average over runs.
+        over the samples where it is defined and at the last one (nan for an estimate without a
+        covariance, or where it is degenerate); a consistent estimator's nees_final averages 3
+        over runs (`sim.analysis.nees.interval`); nees_mean, an average over one run's correlated
+        samples, has no such interval.
+    nees_defined: the share of samples whose covariance is not degenerate (nan without one).
     """
 
     final_position_error: float
@@ -107,6 +110,7 @@ class Metrics:
     heading_drift_per_minute: float
     nees_mean: float = math.nan
     nees_final: float = math.nan
+    nees_defined: float = math.nan
 
 
 def _ratio(value: float, scale: float) -> float:
@@ -126,7 +130,7 @@ class Comparison:
         self._count = 0
         self._sum_squares = self._max = 0.0
         self._rpe_squares, self._rpe_count = 0.0, 0
-        self._nees_sum, self._nees_last = 0.0, math.nan
+        self._nees_sum, self._nees_last, self._nees_count, self._covariances = 0.0, math.nan, 0, 0
 
     def add(self, times: np.ndarray, truth: np.ndarray, estimate: np.ndarray, covariance: np.ndarray | None = None) -> None:
         """The next samples: (n,) times and (n, 3) poses of both, and the estimate's (n, 6)
@@ -149,7 +153,10 @@ class Comparison:
         self._last_truth, self._last_estimate = truth[-1:].copy(), estimate[-1:].copy()
         if covariance is not None:
             normalised = nees(truth, estimate, covariance)
-            self._nees_sum += float(np.sum(normalised))
+            defined = np.isfinite(normalised)
+            self._nees_sum += float(np.sum(normalised[defined]))
+            self._nees_count += int(np.count_nonzero(defined))
+            self._covariances += len(normalised)
             self._nees_last = float(normalised[-1])
 
     def metrics(self) -> Metrics:
@@ -170,8 +177,9 @@ class Comparison:
             rpe_per_metre=math.sqrt(self._rpe_squares / self._rpe_count) / self.segment if self._rpe_count else math.nan,
             heading_drift_per_metre=_ratio(abs(heading), length),
             heading_drift_per_minute=_ratio(abs(heading), duration / 60.0),
-            nees_mean=self._nees_sum / self._count if math.isfinite(self._nees_last) else math.nan,
+            nees_mean=self._nees_sum / self._nees_count if self._nees_count else math.nan,
             nees_final=self._nees_last,
+            nees_defined=self._nees_count / self._covariances if self._covariances else math.nan,
         )
 
 
