@@ -84,20 +84,29 @@ def reference(spec_file, tmp_path_factory) -> pd.DataFrame:
     return sweep(spec_file, tmp_path_factory.mktemp("processes"), Processes(2), progress=False)
 
 
-def test_200_runs_on_processes(reference):
+@pytest.fixture(scope="module")
+def serial(spec_file, tmp_path_factory) -> pd.DataFrame:
+    """The same 200 runs one after another in this process."""
+    return sweep(spec_file, tmp_path_factory.mktemp("serial"), Serial(), progress=False)
+
+
+def test_200_runs_on_processes(reference, serial):
     assert len(reference) == RUNS and reference["run_id"].is_unique
     assert (reference["reason"] == "duration").all(), reference.loc[reference.reason != "duration", "error"].tolist()
     assert list(reference["run"]) == list(range(RUNS))
     assert {"mouse.ate_rmse", "encoders.final_position_error", "robot.encoders.slip_std"} <= set(reference.columns)
+    pd.testing.assert_frame_equal(measured(reference), measured(serial))
 
 
-def test_dask_local_cluster_gives_the_same_table(spec_file, reference, tmp_path):
-    runner = Dask(workers=2)
+def test_dask_local_cluster_of_three_workers_gives_the_serial_table(spec_file, serial, tmp_path):
+    """Three worker processes (tasks of several runs each) give the serial table bit for bit."""
+    runner = Dask(workers=3)
     try:
+        assert runner.workers == 3 and len({pid for pid in runner.client.run(os.getpid).values()}) == 3
         table = sweep(spec_file, tmp_path, runner, progress=False)
     finally:
         runner.close()
-    pd.testing.assert_frame_equal(measured(table), measured(reference))
+    pd.testing.assert_frame_equal(measured(table), measured(serial))
 
 
 def test_killed_half_way_resumes_with_every_row_once(spec_file, reference, tmp_path):
@@ -135,12 +144,14 @@ def _group_gone(pgid: int) -> bool:
     return False
 
 
+@pytest.mark.parametrize("engine", ["processes", "dask"])
 @pytest.mark.parametrize("signum, status", [(signal.SIGINT, 130), (signal.SIGTERM, 143)], ids=["sigint", "sigterm"])
-def test_a_signal_to_the_whole_group_stops_the_sweep_and_resume_finishes_it(spec_file, reference, tmp_path, signum, status):
+def test_a_signal_to_the_whole_group_stops_the_sweep_and_resume_finishes_it(spec_file, reference, tmp_path, signum, status, engine):
     """As a terminal's Ctrl-C (SIGINT to every process of the foreground group) or a job
-    scheduler's SIGTERM: every process ends, finished rows stay, the rest run on resume."""
+    scheduler's SIGTERM: every process ends (a LocalCluster's workers too), with one line and no
+    traceback; finished rows stay, the rest run on resume."""
     process = subprocess.Popen(
-        [sys.executable, "-m", "sim.cli", "sweep", str(spec_file), "--out", str(tmp_path), "--jobs", "2"],
+        [sys.executable, "-m", "sim.cli", "sweep", str(spec_file), "--out", str(tmp_path), "--jobs", "2", "--engine", engine],
         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, start_new_session=True,
     )
     try:
@@ -151,7 +162,8 @@ def test_a_signal_to_the_whole_group_stops_the_sweep_and_resume_finishes_it(spec
         if process.poll() is None:
             os.killpg(process.pid, signal.SIGKILL)
             process.wait()
-    assert process.returncode == status and err.strip().endswith(("interrupted", "terminated"))
+    assert process.returncode == status and err.strip().splitlines()[-1] in ("ctsim: interrupted", "ctsim: terminated")
+    assert "Traceback" not in err, err
     while not _group_gone(process.pid):  # the workers end with the sweep (else pytest-timeout says so)
         time.sleep(0.05)
     kept = load_results(tmp_path)

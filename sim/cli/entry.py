@@ -10,9 +10,11 @@ line asking for a report, exit 1 (EXIT_STATUSES lists every status).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import signal
 import sys
+import threading
 import traceback
 from pathlib import Path
 
@@ -70,6 +72,21 @@ def main(argv: list[str] | None = None) -> int:
         signal.signal(signal.SIGTERM, previous)
         while held:
             held.pop().close()
+
+
+def leave(status: int) -> int:
+    """How the process ends after `main` returned `status`: at once (`os._exit`, its output
+    flushed) when Ctrl-C or SIGTERM stopped the command, since everything it wrote is closed by
+    then and Python's teardown of numba, Dask, rerun and pandas keeps whoever stopped it waiting
+    for seconds on a busy machine, or when a controller left a thread running, which Python would
+    wait for; otherwise `status`, for a normal exit."""
+    stray = any(t.is_alive() and not t.daemon for t in threading.enumerate() if t is not threading.main_thread())
+    if stray or status in (EXIT_INTERRUPTED, EXIT_TERMINATED):
+        for stream in (sys.stdout, sys.stderr):
+            with contextlib.suppress(Exception):  # (a closed or replaced stream: nothing left to flush)
+                stream.flush()
+        os._exit(status)
+    return status
 
 
 def _names_user_path(err: OSError, args: argparse.Namespace) -> bool:
