@@ -9,11 +9,12 @@ nothing.
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
+
+from sim.out_files import temporary_beside
 
 RESULTS = "results.parquet"
 PARTS = "parts"
@@ -21,9 +22,8 @@ PARTS = "parts"
 
 def _write(frame: pd.DataFrame, path: Path) -> None:
     """Write a table under a temporary name, then rename it into place."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    frame.to_parquet(tmp, index=False)
-    os.replace(tmp, path)
+    with temporary_beside(path, ".parquet") as temporary:
+        frame.to_parquet(temporary, index=False)
 
 
 def append(out: Path, row: dict[str, Any]) -> None:

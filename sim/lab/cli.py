@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 from pathlib import Path
 
 from sim import sanitize
@@ -11,6 +12,7 @@ from sim.lab.checking import DEGRADED, check_and_print
 from sim.lab.exercise import Exercise, ExerciseError, exercise, exercises
 from sim.lab.grading import grade
 from sim.lab.notebook import submission, write_notebook
+from sim.out_files import write_text
 from sim.sandbox import SandboxUnavailable
 
 
@@ -60,11 +62,11 @@ def _grade(ex: Exercise, args: argparse.Namespace) -> int:
 def _start(ex, folder: Path, lang: str) -> int:
     folder.mkdir(parents=True, exist_ok=True)
     sheet, template = folder / f"exercise{ex.number}.md", folder / ex.file
-    sheet.write_text(ex.sheet(lang), encoding="utf-8")
-    if template.exists():
+    write_text(sheet, ex.sheet(lang))
+    if os.path.lexists(template):
         print(f"kept {template} (it exists; delete it for a fresh template)")
     else:
-        template.write_text(ex.template(), encoding="utf-8")
+        write_text(template, ex.template())
         print(f"wrote {template}")
     print(f"wrote {sheet}\nthen: ctsim lab check {ex.number} {template}")
     return 0

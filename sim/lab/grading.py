@@ -24,6 +24,7 @@ from sim import sanitize
 from sim.lab.checking import DEGRADED, CheckReport, Row, check_file, fresh_seed
 from sim.lab.exercise import Exercise, ExerciseError
 from sim.lab.notebook import SUFFIX, submission
+from sim.out_files import replacing, subfolder, write_text
 from sim.sandbox import SandboxUnavailable, unavailable
 
 
@@ -125,7 +126,7 @@ def write_csv(path: Path, ids: list[str], reports: list[CheckReport]) -> Path:
     """One row per student: score (unrounded), maximum, scenarios passed, isolation, the first
     problem and every hidden row's expected and got values (the teacher's file; texts a student
     chose, such as a folder name, never start a formula nor break a line)."""
-    with path.open("w", newline="", encoding="utf-8") as f:
+    with replacing(path, text=True, newline="") as f:
         writer = csv.writer(f)
         writer.writerow(["student", "file", "score", "max_score", "passed", "scenarios", "seed", "isolation", "first_problem", "hidden_values"])
         for sid, report in zip(ids, reports):
@@ -166,9 +167,7 @@ def write_gradescope(folder: Path, ids: list[str], reports: list[CheckReport]) -
         ]  # fmt: skip
         notes = ([DEGRADED] if report.degraded else []) + ([f"Your code printed:\n{sanitize.json_text(report.output)}"] if report.output else [])
         results = {"score": round(report.score, 4), "output": "\n\n".join(notes), "tests": tests}
-        target = folder / sid / "results.json"
-        target.parent.mkdir(parents=True, exist_ok=True)
-        target.write_text(json.dumps(results, indent=2, ensure_ascii=False) + "\n", encoding="utf-8")
+        write_text(subfolder(subfolder(folder) / sid) / "results.json", json.dumps(results, indent=2, ensure_ascii=False) + "\n")
     return folder
 
 
@@ -189,5 +188,6 @@ def write_junit(path: Path, ids: list[str], reports: list[CheckReport], title: s
             if row.output:
                 ET.SubElement(case, "system-out").text = sanitize.xml_text(row.output)
     ET.indent(suites)
-    ET.ElementTree(suites).write(path, encoding="utf-8", xml_declaration=True)
+    with replacing(path) as file:
+        ET.ElementTree(suites).write(file, encoding="utf-8", xml_declaration=True)
     return path

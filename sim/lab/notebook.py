@@ -13,6 +13,7 @@ Notebooks are plain JSON (nbformat 4): writing and reading one needs no Jupyter 
 from __future__ import annotations
 
 import json
+import os
 import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -21,6 +22,7 @@ from typing import Any
 
 from sim import sanitize
 from sim.lab.exercise import Exercise, ExerciseError
+from sim.out_files import write_text
 
 SOLUTION_TAG = "solution"
 """The tag of the code cell that holds the student's solution."""
@@ -69,11 +71,11 @@ def notebook(exercise: Exercise, lang: str = "en", extra: tuple[str, ...] | list
 def write_notebook(exercise: Exercise, folder: Path, lang: str = "en", extra: tuple[str, ...] | list[str] = ()) -> Path:
     """exerciseN.ipynb in `folder` (kept if it exists: it may hold a student's work)."""
     path = folder / f"exercise{exercise.number}{SUFFIX}"
-    if not path.exists():
+    if not os.path.lexists(path):
         document = notebook(exercise, lang, extra)
         for i, cell in enumerate(document["cells"]):  # nbformat 4.5 wants an id per cell
             cell["id"] = f"ctsim-{exercise.number}-{i}"
-        path.write_text(json.dumps(document, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
+        write_text(path, json.dumps(document, indent=1, ensure_ascii=False) + "\n")
     return path
 
 
