@@ -10,7 +10,7 @@ from sim import sanitize
 from sim.folder_lock import held
 from sim.lab.checking import DEGRADED, check_and_print
 from sim.lab.exercise import Exercise, ExerciseError, exercise, exercises
-from sim.lab.grading import grade
+from sim.lab.grading import grade, others, submissions
 from sim.lab.notebook import submission, write_notebook
 from sim.out_files import write_text
 from sim.sandbox import SandboxUnavailable
@@ -53,6 +53,9 @@ def _grade(ex: Exercise, args: argparse.Namespace) -> int:
         print(DEGRADED)
     for report in reports:
         print(f"{report.score_text:>7}  {sanitize.name(report.file)}")
+    folder = args.submissions.resolve()
+    for item, why in others(folder, submissions(folder, ex.file, notebooks=True), out):
+        print(f"{'-':>7}  {sanitize.name(str(item))}: not graded: {why}")
     print(f"{sum(r.passed for r in reports)}/{len(reports)} passed; scenario seed {reports[0].seed}")
     for path in written:
         print(f"  wrote {path}")
