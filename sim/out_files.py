@@ -42,12 +42,12 @@ def kind(mode: int) -> str:
 
 
 @contextmanager
-def temporary_beside(path: Path, suffix: str = "") -> Iterator[Path]:
-    """A fresh file name in `path`'s folder for a writer that opens files by name (pyarrow,
-    matplotlib, rerun), renamed onto `path` when the block ends without an error (removed when
-    it does not). `suffix` keeps the extension a writer reads its format from."""
+def temporary_beside(path: Path) -> Iterator[Path]:
+    """A fresh file name in `path`'s folder for a writer that opens files by name (pyarrow),
+    renamed onto `path` when the block ends without an error (removed when it does not). Hidden
+    and ending in .tmp: no reader of the folder's files by their extension takes it for one."""
     path = Path(path)
-    temporary = path.with_name(f".{path.name[:100]}.{secrets.token_hex(6)}.tmp{suffix}")
+    temporary = path.with_name(f".{path.name[:100]}.{secrets.token_hex(6)}.tmp")
     os.close(os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL | NOFOLLOW, 0o666))  # (the umask applies, as to any file)
     try:
         yield temporary

@@ -174,7 +174,7 @@ def write_parquet(result, path: str | Path) -> Path:  # noqa: ANN001 (sim.run.Ru
     import pyarrow.parquet as pq
 
     path = Path(path)
-    with temporary_beside(path, ".parquet") as temporary:  # (never through a link planted in the folder)
+    with temporary_beside(path) as temporary:  # (never through a link planted in the folder)
         writer = None
         try:
             for rows in result.blocks(FILE_ROWS) if len(result) else [slice(0, 0)]:  # (lazily: each block leaves memory as the next is read)

@@ -22,7 +22,7 @@ PARTS = "parts"
 
 def _write(frame: pd.DataFrame, path: Path) -> None:
     """Write a table under a temporary name, then rename it into place."""
-    with temporary_beside(path, ".parquet") as temporary:
+    with temporary_beside(path) as temporary:
         frame.to_parquet(temporary, index=False)
 
 
