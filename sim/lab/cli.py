@@ -58,7 +58,7 @@ def _grade(ex: Exercise, args: argparse.Namespace) -> int:
         print(f"{'-':>7}  {sanitize.name(str(item))}: not graded: {why}")
     print(f"{sum(r.passed for r in reports)}/{len(reports)} passed; scenario seed {reports[0].seed}")
     for path in written:
-        print(f"  wrote {path}")
+        print(f"  wrote {sanitize.name(str(path))}")
     return 1 if any(row.problem == "grader" for r in reports for row in r.rows) else 0
 
 
@@ -67,11 +67,11 @@ def _start(ex, folder: Path, lang: str) -> int:
     sheet, template = folder / f"exercise{ex.number}.md", folder / ex.file
     write_text(sheet, ex.sheet(lang))
     if os.path.lexists(template):
-        print(f"kept {template} (it exists; delete it for a fresh template)")
+        print(f"kept {sanitize.name(str(template))} (it exists; delete it for a fresh template)")
     else:
         write_text(template, ex.template())
-        print(f"wrote {template}")
-    print(f"wrote {sheet}\nthen: ctsim lab check {ex.number} {template}")
+        print(f"wrote {sanitize.name(str(template))}")
+    print(f"wrote {sanitize.name(str(sheet))}\nthen: ctsim lab check {ex.number} {sanitize.name(str(template))}")
     return 0
 
 
@@ -79,6 +79,7 @@ def _start_notebook(ex, folder: Path, lang: str, extra: list[str]) -> int:
     folder.mkdir(parents=True, exist_ok=True)
     existed = (folder / f"exercise{ex.number}.ipynb").exists()
     path = write_notebook(ex, folder, lang, extra)
-    print(f"kept {path} (it exists; delete it for a fresh notebook)" if existed else f"wrote {path}")
-    print(f"then: open it in Jupyter, or ctsim lab check {ex.number} {path}")
+    shown = sanitize.name(str(path))
+    print(f"kept {shown} (it exists; delete it for a fresh notebook)" if existed else f"wrote {shown}")
+    print(f"then: open it in Jupyter, or ctsim lab check {ex.number} {shown}")
     return 0
