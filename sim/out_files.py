@@ -92,6 +92,20 @@ def open_in_place(path: Path) -> IO[bytes] | None:
     return os.fdopen(descriptor, "r+b")
 
 
+def own_file(path: Path) -> Path:
+    """`path`, when nothing stands at it or a regular file of its own (no link, no second name)
+    does, for a file a library opens by name to read and write in place (SQLite's database):
+    NotAFileOfItsOwn otherwise."""
+    try:
+        info = os.lstat(path)
+    except FileNotFoundError:
+        return Path(path)
+    if not stat.S_ISREG(info.st_mode) or info.st_nlink != 1:
+        what = kind(info.st_mode) if not stat.S_ISREG(info.st_mode) else f"a hard link (a file with {info.st_nlink} names)"
+        raise NotAFileOfItsOwn(f"{shown(str(path), 1000)} is {what}, not a file of its own: ctsim writes nothing through it (remove it)")
+    return Path(path)
+
+
 def subfolder(path: Path) -> Path:
     """`path` as a folder of its own (created if need be, with its parents): NotAFileOfItsOwn
     when it is a link or anything but a folder."""

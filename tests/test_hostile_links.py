@@ -123,3 +123,24 @@ def test_report_writes_its_figures_and_page_beside_links_never_through_them(kind
     assert all(os.lstat(folder / name).st_nlink == 1 and not (folder / name).is_symlink() for name in victims)
     assert "the user" not in (folder / "report.html").read_text()
     capsys.readouterr()
+
+
+@pytest.mark.parametrize("kind", ("symlink", "hardlink", "fifo"))
+def test_a_contest_database_is_never_opened_through_what_stands_at_its_name(kind, tmp_path, victim):
+    from sim.contest.store import FILE, Store
+
+    plant(kind, tmp_path / FILE, victim)
+    with pytest.raises(NotAFileOfItsOwn, match=f"{FILE} is a"):
+        Store(tmp_path)
+    assert untouched(victim)
+
+
+def test_a_sweeps_parts_folder_that_is_a_link_is_refused(tmp_path):
+    from sim.experiments import store
+
+    outside = tmp_path / "elsewhere"
+    outside.mkdir()
+    os.symlink(outside, tmp_path / store.PARTS)
+    with pytest.raises(NotAFileOfItsOwn, match="parts is a symbolic link"):
+        store.append(tmp_path, {"run_id": "r0", "value": 1.0})
+    assert not list(outside.iterdir())

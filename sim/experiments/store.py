@@ -14,7 +14,7 @@ from typing import Any
 
 import pandas as pd
 
-from sim.out_files import temporary_beside
+from sim.out_files import subfolder, temporary_beside
 
 RESULTS = "results.parquet"
 PARTS = "parts"
@@ -28,9 +28,7 @@ def _write(frame: pd.DataFrame, path: Path) -> None:
 
 def append(out: Path, row: dict[str, Any]) -> None:
     """Keep one finished run's row on disk."""
-    parts = out / PARTS
-    parts.mkdir(parents=True, exist_ok=True)
-    _write(pd.DataFrame([row]), parts / f"{row['run_id']}.parquet")
+    _write(pd.DataFrame([row]), subfolder(out / PARTS) / f"{row['run_id']}.parquet")
 
 
 def _tables(out: Path) -> list[pd.DataFrame]:
