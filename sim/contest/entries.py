@@ -29,7 +29,7 @@ from bots.controller import ControllerError, make
 from bots.spec import RobotSpec
 from sim import sanitize
 from sim.errors import UserError
-from sim.run import RobotSetup
+from sim.run.loop import RobotSetup
 from sim.world.spec import Start
 
 KINDS = ("controller", "file", "firmware", "student")
