@@ -11,7 +11,7 @@ import stat
 import pytest
 
 from sim.analysis.summary import write_json
-from sim.cli import main
+from sim.cli.entry import main
 from sim.folder_lock import LOCK, hold
 from sim.out_files import NotAFileOfItsOwn, subfolder, write_text
 

@@ -18,7 +18,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from sim.cli import main
+from sim.cli.entry import main
 from sim.lab import exercise
 from sim.lab.exercise import ExerciseError
 from sim.lab.grading import grade, others, submissions
