@@ -6,20 +6,24 @@ the floor to 0.4 m up, each vertical face a strip of two triangles split by a di
 Java3D tests a triangle against a cone segment this way (its `intersectCone`, read in
 hharrison/java3d-core, and measured against the real c't-Sim with its own `watchObstacle`):
 
-- if the cone's axis pierces the triangle, the triangle's key is the axis parameter (0..1 along
-  the segment) and its point the piercing point;
+- if the cone's axis pierces the triangle, the triangle's key is the distance to the piercing
+  point, and that point its find;
 - otherwise the first of its edges, in vertex order, whose closest approach to the axis lies
-  within the cone's radius there gives the key (the distance along the axis to that approach, in
-  metres: a different unit, which Java3D compares all the same) and its point (on the edge);
+  within the cone's radius there gives the key (the distance along the axis to that approach)
+  and its find (the edge's point of that approach);
 - of a face's two triangles the smaller key wins, and the face reads the distance from the sensor
-  to that point; the pick reads the nearest face.
+  to that find; the pick reads the nearest face. (Java3D's source keys a piercing by its axis
+  parameter, 0..1; the real c't-Sim's readings fit the distance.)
 
 So a corner is seen within the full cone, a face where the axis meets it or, near the face's
 diagonal, at the diagonal's nearest point, and a sensor inside a wall sees the face it looks out
 through. The IR sensors sit at the bot's centre, 75 mm up. The vertex order of a face follows
 Java3D's Box: for a wall polygon's edge k (counter-clockwise from its lowest-left corner, as
 `sim.world.spec.box` gives it) an even edge's diagonal rises from its start to its end and its
-first triangle tests the start's vertical edge before the diagonal; an odd edge's diagonal falls.
+first triangle tests the start's vertical edge before the diagonal; an odd edge's diagonal falls
+(`FACES`). Not reproduced: Java3D's bounds tree, which skips a face some cones graze (a face whose
+plane the axis runs beside, within the cone but off the face: c't-Sim then sees nothing of it), and
+c't-Sim's lamp pillars and cans, 15-sided cylinders, are taken as polygons of this rule.
 """
 
 from __future__ import annotations
