@@ -46,8 +46,8 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return EXIT_USER
     previous = signal.signal(signal.SIGTERM, terminate)
-    if sys.stderr.isatty():  # someone waits at a terminal: say why the first run takes a while
-        compiling.PROGRESS = lambda line: print(f"ctsim: {line}", file=sys.stderr, flush=True)
+    said = compiling.PROGRESS  # someone waits, at a terminal or on a log: say why the first run takes a while, and how it goes
+    compiling.PROGRESS = lambda line: print(f"ctsim: {line}", file=sys.stderr, flush=True)
     try:
         return args.handler(args)
     except BrokenPipeError:  # `ctsim controllers | head`: the reader has all it wanted
@@ -70,6 +70,7 @@ def main(argv: list[str] | None = None) -> int:
         return _bug()
     finally:
         signal.signal(signal.SIGTERM, previous)
+        compiling.PROGRESS = said
         while held:
             held.pop().close()
 
