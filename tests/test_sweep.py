@@ -239,7 +239,7 @@ def test_cli_sweep_and_report(tmp_path, capsys):
     assert "8 runs, 0 failed" in out and "pooled over seed (2 values)" in out
     assert main(["sweep", "report", str(tmp_path / "out")]) == 0
     names = {Path(line).name for line in capsys.readouterr().out.splitlines() if line.startswith(str(tmp_path))}
-    assert names == {"summary.csv", "ate_rmse_per_estimator.png", "ate_rmse_vs_robot.mouse.noise_std.png", "success_per_controller.png", "report.html"}
+    assert names == {"summary.csv", "ate_rmse_per_estimator.png", "ate_rmse_vs_robot.mouse.noise_std.png", "outcomes.png", "report.html"}
     page = (tmp_path / "out" / "report.html").read_text()
     assert page.count("src='data:image/png;base64,") == 3 and "<td>runs</td><td class='text'>8</td>" in page  # the figures inside; 8 runs
 
@@ -253,19 +253,19 @@ def _pixels_of(png: Path, rgb: tuple[int, int, int]) -> int:
 
 def test_the_sweep_figures_draw_each_estimator_in_its_colour(tmp_path):
     """Each estimator's box is drawn in its colour of the run figures and the viewer, filled with the
-    pale form of it (areas of those exact colours), the success bars in the neutral colour."""
+    pale form of it (areas of those exact colours), the outcome bars of runs that ran out of time in that outcome's colour."""
     from sim.experiments.report import write_report
     from sim.views import palette
 
     sweep({"base": {"duration": 2.0, "world": "empty", "controller": "wander"}, "axes": {"seed": [0, 1, 2], "robot.encoders.slip_std": [0.0, 0.05]}},
           tmp_path / "out", Serial(), progress=False)  # noise, so that the boxes have a height
-    box, bars = (tmp_path / "out" / "figures" / name for name in ("ate_rmse_per_estimator.png", "success_per_controller.png"))
+    box, bars = (tmp_path / "out" / "figures" / name for name in ("ate_rmse_per_estimator.png", "outcomes.png"))
     write_report(tmp_path / "out")
     for name in ("encoders", "firmware"):  # boxes tall enough to have an inside
         assert _pixels_of(box, palette.pale(palette.estimate_colour(name))) > 100, name
     for name in ("encoders", "firmware", "mouse", "fused"):  # every box's edge and median
         assert _pixels_of(box, palette.estimate_colour(name)) > 20, name
-    assert _pixels_of(bars, palette.NEUTRAL) > 1000
+    assert _pixels_of(bars, palette.OUTCOMES["time limit"]) > 1000
 
 
 def test_report_groups_by_the_named_settings_and_says_what_it_pools(tmp_path, capsys):
@@ -285,7 +285,7 @@ def test_report_groups_by_the_named_settings_and_says_what_it_pools(tmp_path, ca
     assert summary.loc[1, "mouse.nees.mean"] == pytest.approx(ends.mean(), rel=1e-12) and summary.loc[1, "mouse.nees.runs"] == 4
     assert (summary.loc[1, "mouse.nees.low"], summary.loc[1, "mouse.nees.high"]) == pytest.approx(interval(4), rel=1e-12)
     assert summary.loc[1, "mouse.nees.verdict"] in ("consistent", "over-confident", "too cautious")
-    assert "mouse NEES (95 % interval)" in out and f"in {interval(4)[0]:.2f}-{interval(4)[1]:.2f}" in out
+    assert "NEES at the runs' end per estimator" in out and f"its 95 % interval {interval(4)[0]:.2f}–{interval(4)[1]:.2f} for that many runs" in out
     assert main(["sweep", "report", str(tmp_path / "out"), "--by", "robot.wheels"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("ctsim: error: no setting 'robot.wheels' in this sweep") and err.count("\n") == 1
