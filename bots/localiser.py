@@ -1,0 +1,247 @@
+"""Monte Carlo localisation (Thrun, Burgard and Fox, Probabilistic Robotics, ch. 8): odometry
+held to the map by the IR sensors, as a particle filter.
+
+Each particle is a pose the robot may be at. Motion: the robot's own fused odometry (encoders and
+mouse, `bots.odometry.FusedOdometry`; the encoders alone without a mouse) gives the increment
+since the last update, and every particle takes it with noise of the estimators' belief
+(`bots.uncertainty.Belief`: slip per metre rolled, mouse noise per metre passed, the calibration
+still unknown per metre and per radian), INFLATE times wider. Measurement: every EVERY steps
+in which the robot moved, the map (`MapModel`, handed over by the run loop: a prior the robot
+carries, never its true pose) weighs each particle by the likelihood of the IR sensors' raw
+values there; the set is resampled (low variance) when its effective size falls below half.
+
+Lost and found (augmented MCL, Probabilistic Robotics table 8.3, on a score that does not depend
+on the scene): `score` is the scan's likelihood averaged over the particles, over the most any
+pose could give that scan, in [0, 1]. Its fast and slow averages are compared: while the fast
+one falls below the slow one, a share 1 - fast/slow of the particles is drawn anew, from poses
+where the robot fits, each kept as likely as the current scan says (sensor resetting, Lenser and
+Veloso 2000), so that a kidnapped robot is found again. `lost` says when the fast score is below
+LOST_BELOW of the slow one.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Protocol
+
+import numba
+import numpy as np
+
+from bots.odometry import EncoderOdometry, FusedOdometry, _mouse_applies
+from bots.spec import RobotSpec
+from bots.uncertainty import Belief
+from sim.kinematics import relative_pose
+from sim.world.readings import Readings
+
+PARTICLES = 500
+"""Default particle count: 1,000 ray casts an update (two IR sensors), some 0.6 ms on a 2-core VM."""
+EVERY = 5
+"""Steps between measurement updates (50 ms at c't-Sim's 10 ms step; the GP2D12 gives a new
+reading every 38 ms): the ray casts of one update spread over five world steps."""
+INFLATE = 2.0
+"""Factor on the believed motion noise's standard deviations: the particles must spread over
+what the odometry cannot know between two scans (quantisation, a wheel slipping at a wall)."""
+ROUGHEN = np.array((0.001, 0.001, 0.004))
+"""Standard deviations (forward m, lateral m, turn rad) every particle moves by at least in an
+update: roughening (Probabilistic Robotics §4.3.4), so that a set resampled onto a few poses
+spreads again before the next scan."""
+TURN_FLOOR = 0.01
+"""Relative error of a turn (rad per rad turned) the motion noise never goes below."""
+FAST, SLOW = 0.3, 0.02
+"""Per update: how quickly the fast and the slow average of the scan score follow it."""
+LOST_BELOW, FOUND_AT = 0.1, 0.5
+"""Lost when the fast score falls below LOST_BELOW of the slow one (in the maze its ratio stays
+above 0.25 while the filter is on the robot, and falls below 0.01 within a second of a
+kidnapping); found again when it is back above FOUND_AT of the slow score before the loss."""
+INJECT = 0.2
+"""The most of the particles drawn anew in one update while lost: the others keep adding up the
+evidence of the scans since."""
+CANDIDATES = 20
+"""Free poses drawn per particle injected, of which the scan picks (sensor resetting)."""
+
+
+class MapModel(Protocol):
+    """What the localiser needs of the map (`sim.world.localising.MapScan` is one)."""
+
+    def likelihood(self, particles: np.ndarray, raw: np.ndarray, out: np.ndarray) -> None:
+        """out (n,) = likelihood of the raw IR values at each of the (n, 3) particles."""
+
+    def best(self, raw: np.ndarray) -> float:
+        """The most likelihood any pose could give these raw values."""
+
+    def free(self, rng: np.random.Generator, count: int) -> np.ndarray:
+        """(count, 3) poses drawn uniformly where the robot fits."""
+
+
+@numba.njit(cache=True)
+def move_particles(particles: np.ndarray, dx: float, dy: float, dtheta: float, std: np.ndarray, normals: np.ndarray) -> None:
+    """Every particle moved by the body-frame increment (dx, dy m, dtheta rad), each part off by
+    std (forward, lateral m; turn rad) times the particle's row of `normals` (n, 3)."""
+    for i in range(particles.shape[0]):
+        fx = dx + std[0] * normals[i, 0]
+        fy = dy + std[1] * normals[i, 1]
+        turn = dtheta + std[2] * normals[i, 2]
+        mid = particles[i, 2] + 0.5 * turn
+        c, s = math.cos(mid), math.sin(mid)
+        particles[i, 0] += c * fx - s * fy
+        particles[i, 1] += s * fx + c * fy
+        particles[i, 2] += turn
+
+
+@numba.njit(cache=True)
+def low_variance_resample(particles: np.ndarray, weights: np.ndarray, start: float) -> np.ndarray:
+    """The particles drawn in proportion to their `weights` (summing to 1) by one comb of n equal
+    teeth from `start` in [0, 1/n) (Probabilistic Robotics table 4.4): a particle of weight w is
+    drawn floor(n w) or ceil(n w) times."""
+    n = particles.shape[0]
+    out = np.empty_like(particles)
+    total, j = weights[0], 0
+    for i in range(n):
+        tooth = start + i / n
+        while tooth > total and j < n - 1:
+            j += 1
+            total += weights[j]
+        out[i] = particles[j]
+    return out
+
+
+@numba.njit(cache=True)
+def mean_and_covariance(particles: np.ndarray, weights: np.ndarray, reference: float, out_mean: np.ndarray, out_cov: np.ndarray) -> None:
+    """Weighted mean pose and (3, 3) covariance of the particles, headings taken within pi of
+    `reference` (each particle's heading is folded there too, so that it stays continuous)."""
+    sx = sy = ss = sc = 0.0
+    for i in range(particles.shape[0]):
+        turn = particles[i, 2] - reference
+        turn -= 2.0 * math.pi * math.floor((turn + math.pi) / (2.0 * math.pi))
+        particles[i, 2] = reference + turn
+        w = weights[i]
+        sx += w * particles[i, 0]
+        sy += w * particles[i, 1]
+        ss += w * math.sin(turn)
+        sc += w * math.cos(turn)
+    out_mean[0], out_mean[1], out_mean[2] = sx, sy, reference + math.atan2(ss, sc)
+    out_cov[:] = 0.0
+    for i in range(particles.shape[0]):
+        e0, e1 = particles[i, 0] - out_mean[0], particles[i, 1] - out_mean[1]
+        e2 = particles[i, 2] - out_mean[2]
+        e2 -= 2.0 * math.pi * math.floor((e2 + math.pi) / (2.0 * math.pi))
+        w = weights[i]
+        out_cov[0, 0] += w * e0 * e0
+        out_cov[0, 1] += w * e0 * e1
+        out_cov[0, 2] += w * e0 * e2
+        out_cov[1, 1] += w * e1 * e1
+        out_cov[1, 2] += w * e1 * e2
+        out_cov[2, 2] += w * e2 * e2
+    out_cov[1, 0], out_cov[2, 0], out_cov[2, 1] = out_cov[0, 1], out_cov[0, 2], out_cov[1, 2]
+
+
+class MonteCarloLocaliser:
+    """A particle filter of the pose against the map (the module says how). Before `reset`, the
+    run loop hands it the map and a generator (`use_map`). After each update: `pose` and
+    `covariance` (the particles' weighted mean and spread), `lost`, `score` (of the last scan),
+    `particles` (n, 3) and their `weights`, and `updated` (the time of the last scan, s)."""
+
+    name = "localiser"
+
+    def __init__(self, particles: int = PARTICLES, every: int = EVERY):
+        if particles < 2 or every < 1:
+            raise ValueError(f"a localiser needs 2 or more particles and 1 or more steps between scans, got {particles} and {every}")
+        self.count, self.every = particles, every
+        self.map: MapModel | None = None
+
+    def use_map(self, scan: MapModel, rng: np.random.Generator) -> None:
+        """The map of the world the robot carries and the generator of its random draws."""
+        self.map, self.rng = scan, rng
+
+    def reset(self, robot: RobotSpec, pose: np.ndarray) -> None:
+        if self.map is None:
+            raise ValueError("a localiser needs the world's map: run it through the run loop (ctsim run --estimator localiser)")
+        self.odometry = FusedOdometry() if _mouse_applies(robot) else EncoderOdometry()
+        self.odometry.reset(robot, pose)
+        self.mouse_lever = abs(robot.mouse.mount[0]) if _mouse_applies(robot) else 0.0
+        self.track = robot.track_width
+        self.belief = Belief.of(robot)
+        start = np.asarray(pose, dtype=np.float64)
+        self.particles = np.tile(start, (self.count, 1))
+        self.weights = np.full(self.count, 1.0 / self.count)
+        self._likelihood = np.empty(self.count)
+        self._mean, self._cov = start.copy(), np.zeros((3, 3))
+        self._anchor = start.copy()  # the odometry's pose at the last update
+        self.pose = start.copy()
+        self.covariance = np.zeros((3, 3))
+        self._steps, self._rolled, self._turned = 0, 0.0, 0.0
+        self.score = self.fast = self.slow = math.nan  # (the first scan sets the averages)
+        self.lost = False
+        self.updated = 0.0
+
+    def update(self, readings: Readings) -> None:
+        before = self.odometry.pose
+        self.odometry.update(readings)
+        step = relative_pose(before, self.odometry.pose)
+        self._rolled += math.hypot(step[0], step[1])
+        self._turned += abs(step[2])
+        self._steps += 1
+        if self._steps >= self.every and (self._rolled > 0.0 or self._turned > 0.0):
+            self._scan(readings)
+        dx, dy, dtheta = relative_pose(self._anchor, self.odometry.pose)
+        x, y, theta = self._mean.tolist()
+        c, s = math.cos(theta), math.sin(theta)
+        self.pose = np.array((x + c * dx - s * dy, y + s * dx + c * dy, theta + dtheta))
+
+    def _scan(self, readings: Readings) -> None:
+        """Move the particles by the odometry since the last scan, weigh them by this one, inject
+        and resample as the module says, and take their mean and spread."""
+        increment = relative_pose(self._anchor, self.odometry.pose)
+        move_particles(self.particles, *increment, self._motion_std(), self.rng.standard_normal((self.count, 3)))
+        self._anchor = self.odometry.pose.copy()
+        self._steps, self._rolled, self._turned = 0, 0.0, 0.0
+        raw = readings.ir_raw
+        self.map.likelihood(self.particles, raw, self._likelihood)
+        weighted = self.weights * self._likelihood
+        total = float(weighted.sum())
+        self.score = total / self.map.best(raw)
+        if math.isnan(self.fast):
+            self.fast = self.slow = self.score
+        self.fast += FAST * (self.score - self.fast)
+        if not self.lost:  # (lost, the slow average keeps what finding the robot again must reach)
+            self.slow += SLOW * (self.score - self.slow)
+        self.lost = self.fast < (FOUND_AT if self.lost else LOST_BELOW) * self.slow
+        self.weights = weighted / total if total > 0.0 else np.full(self.count, 1.0 / self.count)
+        effective = 1.0 / float(np.dot(self.weights, self.weights))
+        inject = min(1.0 - self.fast / self.slow, INJECT) if self.lost else 0.0
+        if effective < 0.5 * self.count or inject > 0.0:
+            self.particles = low_variance_resample(self.particles, self.weights, self.rng.random() / self.count)
+            self.weights = np.full(self.count, 1.0 / self.count)
+            drawn = self.rng.binomial(self.count, inject)
+            if drawn:
+                self._inject(drawn, raw)
+        mean_and_covariance(self.particles, self.weights, float(self._mean[2]), self._mean, self._cov)
+        self.covariance = self._cov.copy()
+        self.updated = readings.time
+
+    def _inject(self, count: int, raw: np.ndarray) -> None:
+        """Replace `count` particles by free poses the current scan picks (sensor resetting)."""
+        candidates = self.map.free(self.rng, CANDIDATES * count)
+        if len(candidates) == 0:
+            return
+        likelihood = np.empty(len(candidates))
+        self.map.likelihood(candidates, raw, likelihood)
+        total = likelihood.sum()
+        if total <= 0.0:
+            return
+        chosen = candidates[self.rng.choice(len(candidates), size=count, p=likelihood / total)]
+        chosen[:, 2] = self._mean[2] + (chosen[:, 2] - self._mean[2] + math.pi) % math.tau - math.pi
+        self.particles[self.rng.choice(self.count, size=count, replace=False)] = chosen
+
+    def _motion_std(self) -> np.ndarray:
+        """(forward m, lateral m, turn rad) standard deviations of the increment since the last
+        scan: the believed random noise over the distance rolled and the calibration still
+        unknown over the distance and the turn, INFLATE times wider."""
+        b, rolled, turned = self.belief, self._rolled, self._turned
+        forward = 0.5 * b.slip_var * rolled + (b.wheel_scale_std * rolled) ** 2
+        if self.mouse_lever:
+            turn = b.mouse_var / self.mouse_lever**2 * rolled + (max(b.mouse_scale_std, TURN_FLOOR) * turned) ** 2
+        else:
+            turn = 2.0 * b.slip_var / self.track**2 * rolled + (max(b.track_std, TURN_FLOOR) * turned) ** 2
+        lateral = turn * rolled * rolled / 4.0 + b.mouse_var * rolled
+        return np.hypot(INFLATE * np.sqrt(np.array((forward, lateral, turn))), ROUGHEN)
