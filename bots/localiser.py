@@ -53,11 +53,20 @@ LOST_BELOW, FOUND_AT = 0.1, 0.5
 """Lost when the fast score falls below LOST_BELOW of the slow one (in the maze its ratio stays
 above 0.25 while the filter is on the robot, and falls below 0.01 within a second of a
 kidnapping); found again when it is back above FOUND_AT of the slow score before the loss."""
-INJECT = 0.2
-"""The most of the particles drawn anew in one update while lost: the others keep adding up the
+FOUND_SPREAD = 0.05
+"""...and only once the particles' position spread (root of the covariance's trace, m) is this small."""
+RECOVERY = 5000
+"""Particles while lost: the scan picks where a kidnapped robot may be among the whole map's free
+floor, which takes ten times the particles that follow a robot already found."""
+INJECT = 0.1
+"""The share of the particles drawn anew in each update while lost: the others keep adding up the
 evidence of the scans since."""
-CANDIDATES = 20
-"""Free poses drawn per particle injected, of which the scan picks (sensor resetting)."""
+CANDIDATES = 10
+"""Free poses drawn per particle drawn anew, of which the scan picks (sensor resetting)."""
+TEMPER = 0.3
+"""While lost, a scan weighs the particles by its likelihood to this power (annealing): among
+thousands of hypotheses, one near the robot but a few millimetres or degrees off must survive
+the scans until the motion noise brings it closer."""
 
 
 class MapModel(Protocol):
@@ -89,15 +98,15 @@ def move_particles(particles: np.ndarray, dx: float, dy: float, dtheta: float, s
 
 
 @numba.njit(cache=True)
-def low_variance_resample(particles: np.ndarray, weights: np.ndarray, start: float) -> np.ndarray:
-    """The particles drawn in proportion to their `weights` (summing to 1) by one comb of n equal
-    teeth from `start` in [0, 1/n) (Probabilistic Robotics table 4.4): a particle of weight w is
-    drawn floor(n w) or ceil(n w) times."""
+def low_variance_resample(particles: np.ndarray, weights: np.ndarray, count: int, start: float) -> np.ndarray:
+    """`count` particles drawn in proportion to their `weights` (summing to 1) by one comb of
+    `count` equal teeth from `start` in [0, 1/count) (Probabilistic Robotics table 4.4): a particle
+    of weight w is drawn floor(count w) or ceil(count w) times."""
     n = particles.shape[0]
-    out = np.empty_like(particles)
+    out = np.empty((count, particles.shape[1]))
     total, j = weights[0], 0
-    for i in range(n):
-        tooth = start + i / n
+    for i in range(count):
+        tooth = start + i / count
         while tooth > total and j < n - 1:
             j += 1
             total += weights[j]
@@ -143,10 +152,10 @@ class MonteCarloLocaliser:
 
     name = "localiser"
 
-    def __init__(self, particles: int = PARTICLES, every: int = EVERY):
-        if particles < 2 or every < 1:
-            raise ValueError(f"a localiser needs 2 or more particles and 1 or more steps between scans, got {particles} and {every}")
-        self.count, self.every = particles, every
+    def __init__(self, particles: int = PARTICLES, every: int = EVERY, recovery: int = RECOVERY):
+        if not 2 <= particles <= recovery or every < 1:
+            raise ValueError(f"a localiser needs 2 or more particles, at most `recovery` ({recovery}), and 1 or more steps between scans, got {particles} and {every}")
+        self.count, self.every, self.recovery = particles, every, recovery
         self.map: MapModel | None = None
 
     def use_map(self, scan: MapModel, rng: np.random.Generator) -> None:
@@ -164,7 +173,7 @@ class MonteCarloLocaliser:
         start = np.asarray(pose, dtype=np.float64)
         self.particles = np.tile(start, (self.count, 1))
         self.weights = np.full(self.count, 1.0 / self.count)
-        self._likelihood = np.empty(self.count)
+        self.likelihood = np.ones(self.count)
         self._mean, self._cov = start.copy(), np.zeros((3, 3))
         self._anchor = start.copy()  # the odometry's pose at the last update
         self.pose = start.copy()
@@ -189,49 +198,56 @@ class MonteCarloLocaliser:
         self.pose = np.array((x + c * dx - s * dy, y + s * dx + c * dy, theta + dtheta))
 
     def _scan(self, readings: Readings) -> None:
-        """Move the particles by the odometry since the last scan, weigh them by this one, inject
-        and resample as the module says, and take their mean and spread."""
+        """Move the particles by the odometry since the last scan, weigh them by this one, judge
+        whether the robot is lost, resample (growing the set while lost, drawing some anew) and
+        take their mean and spread."""
+        n = len(self.particles)
         increment = relative_pose(self._anchor, self.odometry.pose)
-        move_particles(self.particles, *increment, self._motion_std(), self.rng.standard_normal((self.count, 3)))
+        move_particles(self.particles, *increment, self._motion_std(), self.rng.standard_normal((n, 3)))
         self._anchor = self.odometry.pose.copy()
         self._steps, self._rolled, self._turned = 0, 0.0, 0.0
         raw = readings.ir_raw
-        self.map.likelihood(self.particles, raw, self._likelihood)
-        weighted = self.weights * self._likelihood
+        self.likelihood = np.empty(n)
+        self.map.likelihood(self.particles, raw, self.likelihood)
+        weighted = self.weights * (self.likelihood**TEMPER if self.lost else self.likelihood)
         total = float(weighted.sum())
         self.score = total / self.map.best(raw)
         if math.isnan(self.fast):
             self.fast = self.slow = self.score
         self.fast += FAST * (self.score - self.fast)
-        if not self.lost:  # (lost, the slow average keeps what finding the robot again must reach)
+        was_lost = self.lost
+        if not was_lost:  # (lost, the slow average keeps what finding the robot again must reach)
             self.slow += SLOW * (self.score - self.slow)
-        self.lost = self.fast < (FOUND_AT if self.lost else LOST_BELOW) * self.slow
-        self.weights = weighted / total if total > 0.0 else np.full(self.count, 1.0 / self.count)
-        effective = 1.0 / float(np.dot(self.weights, self.weights))
-        inject = min(1.0 - self.fast / self.slow, INJECT) if self.lost else 0.0
-        if effective < 0.5 * self.count or inject > 0.0:
-            self.particles = low_variance_resample(self.particles, self.weights, self.rng.random() / self.count)
-            self.weights = np.full(self.count, 1.0 / self.count)
-            drawn = self.rng.binomial(self.count, inject)
-            if drawn:
-                self._inject(drawn, raw)
+            self.lost = self.fast < LOST_BELOW * self.slow
+        else:
+            spread = math.sqrt(self._cov[0, 0] + self._cov[1, 1])
+            self.lost = self.fast < FOUND_AT * self.slow or spread > FOUND_SPREAD
+        self.weights = weighted / total if total > 0.0 else np.full(n, 1.0 / n)
+        size = self.recovery if self.lost else self.count
+        fresh = 0
+        if self.lost:
+            fresh = size - n if not was_lost else self.rng.binomial(size, INJECT)
+        if self.lost or size != n or 1.0 / float(np.dot(self.weights, self.weights)) < 0.5 * n:
+            kept = low_variance_resample(self.particles, self.weights, size - fresh, self.rng.random() / (size - fresh))
+            self.particles = np.concatenate((kept, self._picked(fresh, raw))) if fresh else kept
+            self.weights = np.full(len(self.particles), 1.0 / len(self.particles))
         mean_and_covariance(self.particles, self.weights, float(self._mean[2]), self._mean, self._cov)
         self.covariance = self._cov.copy()
         self.updated = readings.time
 
-    def _inject(self, count: int, raw: np.ndarray) -> None:
-        """Replace `count` particles by free poses the current scan picks (sensor resetting)."""
+    def _picked(self, count: int, raw: np.ndarray) -> np.ndarray:
+        """(count, 3) free poses drawn in proportion to the likelihood of the scan `raw` among
+        CANDIDATES times as many drawn uniformly (sensor resetting); headings within pi of the
+        estimate's."""
         candidates = self.map.free(self.rng, CANDIDATES * count)
-        if len(candidates) == 0:
-            return
         likelihood = np.empty(len(candidates))
         self.map.likelihood(candidates, raw, likelihood)
         total = likelihood.sum()
         if total <= 0.0:
-            return
+            return np.empty((0, 3))
         chosen = candidates[self.rng.choice(len(candidates), size=count, p=likelihood / total)]
         chosen[:, 2] = self._mean[2] + (chosen[:, 2] - self._mean[2] + math.pi) % math.tau - math.pi
-        self.particles[self.rng.choice(self.count, size=count, replace=False)] = chosen
+        return chosen
 
     def _motion_std(self) -> np.ndarray:
         """(forward m, lateral m, turn rad) standard deviations of the increment since the last
