@@ -45,11 +45,13 @@ ROUGHEN = np.array((0.001, 0.001, 0.004))
 """Standard deviations (forward m, lateral m, turn rad) every particle moves by at least in an
 update: roughening (Probabilistic Robotics §4.3.4), so that a set resampled onto a few poses
 spreads again before the next scan."""
+SEARCH = 4.0
+"""While lost, roughening this many times wider: each hypothesis searches the poses around it."""
 TURN_FLOOR = 0.01
 """Relative error of a turn (rad per rad turned) the motion noise never goes below."""
 FAST, SLOW = 0.3, 0.02
 """Per update: how quickly the fast and the slow average of the scan score follow it."""
-LOST_BELOW, FOUND_AT = 0.1, 0.5
+LOST_BELOW, FOUND_AT = 0.01, 0.5
 """Lost when the fast score falls below LOST_BELOW of the slow one (in the maze its ratio stays
 above 0.25 while the filter is on the robot, and falls below 0.01 within a second of a
 kidnapping); found again when it is back above FOUND_AT of the slow score before the loss."""
@@ -58,12 +60,15 @@ FOUND_SPREAD = 0.05
 RECOVERY = 5000
 """Particles while lost: the scan picks where a kidnapped robot may be among the whole map's free
 floor, which takes ten times the particles that follow a robot already found."""
-INJECT = 0.1
+NEAR = np.array((0.15, 0.15, 0.6))
+"""Standard deviations (x, y m; heading rad) of the half of the set that searches around the last
+estimate when the robot is lost: a robot nudged, turned or carried a cell away by hand."""
+INJECT = 0.02
 """The share of the particles drawn anew in each update while lost: the others keep adding up the
 evidence of the scans since."""
 CANDIDATES = 10
 """Free poses drawn per particle drawn anew, of which the scan picks (sensor resetting)."""
-TEMPER = 0.3
+TEMPER = 1.0
 """While lost, a scan weighs the particles by its likelihood to this power (annealing): among
 thousands of hypotheses, one near the robot but a few millimetres or degrees off must survive
 the scans until the motion noise brings it closer."""
@@ -98,19 +103,19 @@ def move_particles(particles: np.ndarray, dx: float, dy: float, dtheta: float, s
 
 
 @numba.njit(cache=True)
-def low_variance_resample(particles: np.ndarray, weights: np.ndarray, count: int, start: float) -> np.ndarray:
-    """`count` particles drawn in proportion to their `weights` (summing to 1) by one comb of
-    `count` equal teeth from `start` in [0, 1/count) (Probabilistic Robotics table 4.4): a particle
-    of weight w is drawn floor(count w) or ceil(count w) times."""
-    n = particles.shape[0]
-    out = np.empty((count, particles.shape[1]))
+def low_variance_resample(weights: np.ndarray, count: int, start: float) -> np.ndarray:
+    """The indices of `count` particles drawn in proportion to their `weights` (summing to 1) by
+    one comb of `count` equal teeth from `start` in [0, 1/count) (Probabilistic Robotics table
+    4.4): a particle of weight w is drawn floor(count w) or ceil(count w) times."""
+    n = weights.shape[0]
+    out = np.empty(count, dtype=np.int64)
     total, j = weights[0], 0
     for i in range(count):
         tooth = start + i / count
         while tooth > total and j < n - 1:
             j += 1
             total += weights[j]
-        out[i] = particles[j]
+        out[i] = j
     return out
 
 
@@ -198,9 +203,9 @@ class MonteCarloLocaliser:
         self.pose = np.array((x + c * dx - s * dy, y + s * dx + c * dy, theta + dtheta))
 
     def _scan(self, readings: Readings) -> None:
-        """Move the particles by the odometry since the last scan, weigh them by this one, judge
-        whether the robot is lost, resample (growing the set while lost, drawing some anew) and
-        take their mean and spread."""
+        """Move the particles by the odometry since the last scan, weigh them by this one, take
+        their weighted mean and spread, judge whether the robot is lost, and resample (growing the
+        set while lost, drawing some anew)."""
         n = len(self.particles)
         increment = relative_pose(self._anchor, self.odometry.pose)
         move_particles(self.particles, *increment, self._motion_std(), self.rng.standard_normal((n, 3)))
@@ -209,45 +214,55 @@ class MonteCarloLocaliser:
         raw = readings.ir_raw
         self.likelihood = np.empty(n)
         self.map.likelihood(self.particles, raw, self.likelihood)
-        weighted = self.weights * (self.likelihood**TEMPER if self.lost else self.likelihood)
+        weighted = self.weights * self.likelihood
         total = float(weighted.sum())
         self.score = total / self.map.best(raw)
+        if self.lost:
+            weighted = self.weights * self.likelihood**TEMPER
+            total = float(weighted.sum())
         if math.isnan(self.fast):
             self.fast = self.slow = self.score
         self.fast += FAST * (self.score - self.fast)
+        self.weights = weighted / total if total > 0.0 else np.full(n, 1.0 / n)
+        mean_and_covariance(self.particles, self.weights, float(self._mean[2]), self._mean, self._cov)
+        self.covariance = self._cov.copy()
         was_lost = self.lost
         if not was_lost:  # (lost, the slow average keeps what finding the robot again must reach)
             self.slow += SLOW * (self.score - self.slow)
             self.lost = self.fast < LOST_BELOW * self.slow
         else:
-            spread = math.sqrt(self._cov[0, 0] + self._cov[1, 1])
-            self.lost = self.fast < FOUND_AT * self.slow or spread > FOUND_SPREAD
-        self.weights = weighted / total if total > 0.0 else np.full(n, 1.0 / n)
+            self.lost = self.fast < FOUND_AT * self.slow or math.sqrt(self._cov[0, 0] + self._cov[1, 1]) > FOUND_SPREAD
         size = self.recovery if self.lost else self.count
-        fresh = 0
-        if self.lost:
-            fresh = size - n if not was_lost else self.rng.binomial(size, INJECT)
-        if self.lost or size != n or 1.0 / float(np.dot(self.weights, self.weights)) < 0.5 * n:
-            kept = low_variance_resample(self.particles, self.weights, size - fresh, self.rng.random() / (size - fresh))
-            self.particles = np.concatenate((kept, self._picked(fresh, raw))) if fresh else kept
-            self.weights = np.full(len(self.particles), 1.0 / len(self.particles))
-        mean_and_covariance(self.particles, self.weights, float(self._mean[2]), self._mean, self._cov)
-        self.covariance = self._cov.copy()
+        if self.lost and not was_lost:  # the set as it was, and as many again around the estimate as over the whole map
+            near = self._mean + self.rng.normal(0.0, 1.0, ((size - n) // 2, 3)) * NEAR
+            self._resample(n, [(near, np.zeros(len(near))), self._picked(size - n - len(near), raw)])
+        elif self.lost or size != n or 1.0 / float(np.dot(self.weights, self.weights)) < 0.5 * n:
+            fresh = self.rng.binomial(size, INJECT) if self.lost else 0
+            self._resample(size - fresh, [self._picked(fresh, raw)] if fresh else [])
         self.updated = readings.time
 
-    def _picked(self, count: int, raw: np.ndarray) -> np.ndarray:
+    def _resample(self, count: int, added: list[tuple[np.ndarray, np.ndarray]]) -> None:
+        """`count` of the particles drawn by their weights, then the `added` ones (poses and, for
+        the recording, the last scan's likelihood there), all of equal weight."""
+        drawn = low_variance_resample(self.weights, count, self.rng.random() / count)
+        self.particles = np.concatenate([self.particles[drawn], *(poses for poses, _ in added)])
+        self.likelihood = np.concatenate([self.likelihood[drawn], *(likelihood for _, likelihood in added)])
+        self.weights = np.full(len(self.particles), 1.0 / len(self.particles))
+
+    def _picked(self, count: int, raw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(count, 3) free poses drawn in proportion to the likelihood of the scan `raw` among
-        CANDIDATES times as many drawn uniformly (sensor resetting); headings within pi of the
-        estimate's."""
+        CANDIDATES times as many drawn uniformly (sensor resetting), headings within pi of the
+        estimate's, and that likelihood (none where no candidate fits the scan)."""
         candidates = self.map.free(self.rng, CANDIDATES * count)
         likelihood = np.empty(len(candidates))
         self.map.likelihood(candidates, raw, likelihood)
         total = likelihood.sum()
         if total <= 0.0:
-            return np.empty((0, 3))
-        chosen = candidates[self.rng.choice(len(candidates), size=count, p=likelihood / total)]
-        chosen[:, 2] = self._mean[2] + (chosen[:, 2] - self._mean[2] + math.pi) % math.tau - math.pi
-        return chosen
+            return np.empty((0, 3)), np.empty(0)
+        chosen = self.rng.choice(len(candidates), size=count, p=likelihood / total)
+        poses = candidates[chosen]
+        poses[:, 2] = self._mean[2] + (poses[:, 2] - self._mean[2] + math.pi) % math.tau - math.pi
+        return poses, likelihood[chosen]
 
     def _motion_std(self) -> np.ndarray:
         """(forward m, lateral m, turn rad) standard deviations of the increment since the last
@@ -260,4 +275,4 @@ class MonteCarloLocaliser:
         else:
             turn = 2.0 * b.slip_var / self.track**2 * rolled + (max(b.track_std, TURN_FLOOR) * turned) ** 2
         lateral = turn * rolled * rolled / 4.0 + b.mouse_var * rolled
-        return np.hypot(INFLATE * np.sqrt(np.array((forward, lateral, turn))), ROUGHEN)
+        return np.hypot(INFLATE * np.sqrt(np.array((forward, lateral, turn))), ROUGHEN * (SEARCH if self.lost else 1.0))

@@ -106,7 +106,7 @@ def test_the_low_variance_resampler_draws_each_particle_floor_or_ceil_of_its_sha
     weights = np.array(raw) + 1e-3
     weights /= weights.sum()
     particles = np.arange(len(weights), dtype=np.float64)[:, None].repeat(3, axis=1)
-    drawn = low_variance_resample(particles, weights, count, tooth / count)
+    drawn = particles[low_variance_resample(weights, count, tooth / count)]
     times = np.bincount(drawn[:, 0].astype(int), minlength=len(weights))
     assert times.sum() == count
     assert np.all(times >= np.floor(count * weights - 1e-9)) and np.all(times <= np.ceil(count * weights + 1e-9))
