@@ -55,12 +55,12 @@ LOST_BELOW, FOUND_AT = 0.01, 0.5
 """Lost when the fast score falls below LOST_BELOW of the slow one (in the maze its ratio stays
 above 0.25 while the filter is on the robot, and falls below 0.01 within a second of a
 kidnapping); found again when it is back above FOUND_AT of the slow score before the loss."""
-FOUND_SPREAD = 0.05
+FOUND_SPREAD = 0.1
 """...and only once the particles' position spread (root of the covariance's trace, m) is this small."""
 RECOVERY = 5000
 """Particles while lost: the scan picks where a kidnapped robot may be among the whole map's free
 floor, which takes ten times the particles that follow a robot already found."""
-NEAR = np.array((0.15, 0.15, 0.6))
+NEAR = np.array((0.05, 0.05, 0.35))
 """Standard deviations (x, y m; heading rad) of the half of the set that searches around the last
 estimate when the robot is lost: a robot nudged, turned or carried a cell away by hand."""
 INJECT = 0.02
@@ -233,9 +233,9 @@ class MonteCarloLocaliser:
         else:
             self.lost = self.fast < FOUND_AT * self.slow or math.sqrt(self._cov[0, 0] + self._cov[1, 1]) > FOUND_SPREAD
         size = self.recovery if self.lost else self.count
-        if self.lost and not was_lost:  # the set as it was, and as many again around the estimate as over the whole map
-            near = self._mean + self.rng.normal(0.0, 1.0, ((size - n) // 2, 3)) * NEAR
-            self._resample(n, [(near, np.zeros(len(near))), self._picked(size - n - len(near), raw)])
+        if self.lost and not was_lost:  # the set as it was, and the rest around the estimate
+            near = self._mean + self.rng.normal(0.0, 1.0, (size - n, 3)) * NEAR
+            self._resample(n, [(near, np.zeros(len(near)))])
         elif self.lost or size != n or 1.0 / float(np.dot(self.weights, self.weights)) < 0.5 * n:
             fresh = self.rng.binomial(size, INJECT) if self.lost else 0
             self._resample(size - fresh, [self._picked(fresh, raw)] if fresh else [])
