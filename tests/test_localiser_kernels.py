@@ -12,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from bots.ctbot import CTBOT
-from bots.localiser import low_variance_resample, mean_and_covariance, move_particles
+from bots.odometry.localiser import low_variance_resample, mean_and_covariance, move_particles
 from sim.kinematics import wrap_angle
 from sim.world import World
 from sim.world.files import load_world

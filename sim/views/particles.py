@@ -4,7 +4,7 @@ particles on the map, each the brighter the more likely the last scan made it, t
 lost, and an event where it loses the robot and finds it again.
 
 Any estimator with `particles`, `likelihood`, `score`, `lost` and `updated` is drawn
-(`bots.localiser.MonteCarloLocaliser`). As `chassis_view.ChassisLayer`, the scans are buffered and
+(`bots.odometry.localiser.MonteCarloLocaliser`). As `chassis_view.ChassisLayer`, the scans are buffered and
 leave with the recorder's chunk of the robot's poses (`flush`).
 """
 

@@ -3,7 +3,7 @@ true state): how likely one scan of the robot's IR sensors is at each of many po
 drawn at random where the robot could stand.
 
 The expected distances are cast against the map's walls by the world's own compiled kernel
-(`kernels.sense_ir`, with each sensor's cone and view), so a particle at the true pose expects
+(`kernels.sensing.sense_ir`, with each sensor's cone and view), so a particle at the true pose expects
 exactly what the world measured before its noise. The likelihood of a raw value r given an
 expected distance d is that of the world's noise model: the reading is d + N(0, sigma²) looked up
 on the sensor's curve and rounded, so P(r | d) is the Gaussian's mass over the distances that
@@ -21,7 +21,8 @@ import numba
 import numpy as np
 
 from bots.spec import RobotSpec
-from sim.world import kernels
+from sim.world.kernels.contacts import clear_of_walls
+from sim.world.kernels.sensing import sense_ir
 from sim.world.physics import IR_RAY_LENGTH, WallArrays, ir_curve_for
 from sim.world.sensors import IRCurve
 from sim.world.spec import WorldSpec
@@ -109,9 +110,9 @@ def scan_likelihood(
             look[j], cones[j], views[j] = particles[i, 2] + direction[k], cone[k], axis[k]
     distance = np.empty(n * m)
     grid = (frame, cells)
-    kernels.sense_ir(origins, look, cones, owner, length, vertices, ranges, boxes, np.empty((0, 4)), distance, 32, grid, views)
+    sense_ir(origins, look, cones, owner, length, vertices, ranges, boxes, np.empty((0, 4)), distance, 32, grid, views)
     for i in range(n):
-        if not kernels._clear_of_walls(particles[i, 0], particles[i, 1], radius, vertices, ranges, boxes, grid):
+        if not clear_of_walls(particles[i, 0], particles[i, 1], radius, vertices, ranges, boxes, grid):
             out[i] = 0.0
             continue
         likelihood = 1.0
@@ -144,7 +145,7 @@ def free_poses(bounds: np.ndarray, radius: float, vertices: np.ndarray, ranges: 
             break
         x = bounds[0] + uniform[j, 0] * (bounds[2] - bounds[0])
         y = bounds[1] + uniform[j, 1] * (bounds[3] - bounds[1])
-        if kernels._clear_of_walls(x, y, radius, vertices, ranges, boxes, grid):
+        if clear_of_walls(x, y, radius, vertices, ranges, boxes, grid):
             out[count, 0], out[count, 1], out[count, 2] = x, y, uniform[j, 2] * 2.0 * math.pi
             count += 1
     return count
@@ -153,7 +154,7 @@ def free_poses(bounds: np.ndarray, radius: float, vertices: np.ndarray, ranges: 
 class MapScan:
     """One robot's IR sensors against one world's map: the likelihood of a scan at many poses
     (`likelihood`) and random poses where the robot fits (`free`). What a localiser gets from the
-    run loop (`bots.localiser.MapModel`); it holds the map, never the robot's true pose."""
+    run loop (`bots.odometry.localiser.MapModel`); it holds the map, never the robot's true pose."""
 
     def __init__(self, world: WorldSpec, robot: RobotSpec):
         self.walls = WallArrays.build(world)

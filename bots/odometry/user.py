@@ -1,15 +1,15 @@
 """A user's own odometry estimator beside the shipped ones: loaded from a file, named, and
 checked every step as a controller's command is.
 
-An estimator follows `bots.odometry.Estimator`: `reset(robot, pose)`, `update(readings)`, a `pose`
+An estimator follows `bots.odometry.base.Estimator`: `reset(robot, pose)`, `update(readings)`, a `pose`
 (3,) and optionally a `covariance` (3, 3). `ctsim run --estimator FILE.py:Class` and
 `simulate(..., estimators=[...])` give every robot a fresh one beside its defaults (`--estimator
-localiser`: the shipped Monte Carlo localiser, `bots.localiser`); its name is
+localiser`: the shipped Monte Carlo localiser, `bots.odometry.localiser`); its name is
 its `name` attribute (else the class's), which must be a plain word (it names files) and differ
 from the others'. A step whose update raises, or leaves a pose or covariance of the wrong shape
 or not finite, ends the run as a controller's error does (`check`). An estimator with a
 `use_map(scan, rng)` method is handed, before `reset`, the robot's map of the world (a
-`bots.localiser.MapModel`: the likelihood of an IR scan at any pose, never the true pose) and a
+`bots.odometry.localiser.MapModel`: the likelihood of an IR scan at any pose, never the true pose) and a
 generator spawned from the run's seed.
 """
 
@@ -26,8 +26,9 @@ from typing import Any
 import numpy as np
 
 from bots.controller import user_module
-from bots.localiser import MonteCarloLocaliser
-from bots.odometry import Estimator, default_estimators
+from bots.odometry.base import Estimator
+from bots.odometry.defaults import default_estimators
+from bots.odometry.localiser import MonteCarloLocaliser
 from bots.spec import RobotSpec
 from sim.errors import UserError
 
@@ -101,13 +102,31 @@ def alongside(robot: RobotSpec, extra: Iterable[Any]) -> list[Estimator]:
     return chosen
 
 
+ROUND_OFF = 1e-9
+"""Relative asymmetry or negative eigenvalue (of the covariance's largest entry) a covariance may
+have from floating-point rounding: products of doubles differ in the 16th digit, a propagated
+covariance after hours of steps in the 10th at most."""
+
+
 def check(estimator: Estimator) -> str | None:
     """What is wrong with an estimator's output after an update (None: nothing): a pose that is
-    not 3 finite numbers, a covariance (where it has one) that is not a finite (3, 3) matrix."""
+    not 3 finite numbers, a covariance (where it has one) that is not a finite, symmetric,
+    positive semi-definite (3, 3) matrix (a covariance that is none would make its NEES nonsense)."""
     problem = _numbers(getattr(estimator, "pose", None), (3,), "pose")
     if problem is None and hasattr(estimator, "covariance"):
-        problem = _numbers(estimator.covariance, (3, 3), "covariance")
+        problem = _numbers(estimator.covariance, (3, 3), "covariance") or _covariance(np.asarray(estimator.covariance, dtype=np.float64))
     return problem
+
+
+def _covariance(cov: np.ndarray) -> str | None:
+    scale = ROUND_OFF * max(float(np.abs(cov).max()), np.finfo(float).tiny)
+    i, j = np.unravel_index(np.argmax(np.abs(cov - cov.T)), cov.shape)
+    if abs(cov[i, j] - cov[j, i]) > scale:
+        return f"its covariance is not symmetric ([{i}, {j}] = {cov[i, j]:.6g}, [{j}, {i}] = {cov[j, i]:.6g})"
+    lowest = float(np.linalg.eigvalsh(cov).min())
+    if lowest < -scale:
+        return f"its covariance is not positive semi-definite (an eigenvalue of {lowest:.6g})"
+    return None
 
 
 def _numbers(value: Any, shape: tuple[int, ...], what: str) -> str | None:

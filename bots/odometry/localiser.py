@@ -27,11 +27,13 @@ from typing import Protocol
 import numba
 import numpy as np
 
-from bots.odometry import EncoderOdometry, FusedOdometry, _mouse_applies
+from bots.odometry.base import mouse_applies
+from bots.odometry.encoder import EncoderOdometry
+from bots.odometry.fused import FusedOdometry
+from bots.readings import Readings
 from bots.spec import RobotSpec
 from bots.uncertainty import Belief
 from sim.kinematics import relative_pose
-from sim.world.readings import Readings
 
 PARTICLES = 500
 """Default particle count: 1,000 ray casts an update (two IR sensors), some 0.6 ms on a 2-core VM."""
@@ -170,9 +172,9 @@ class MonteCarloLocaliser:
     def reset(self, robot: RobotSpec, pose: np.ndarray) -> None:
         if self.map is None:
             raise ValueError("a localiser needs the world's map: run it through the run loop (ctsim run --estimator localiser)")
-        self.odometry = FusedOdometry() if _mouse_applies(robot) else EncoderOdometry()
+        self.odometry = FusedOdometry() if mouse_applies(robot) else EncoderOdometry()
         self.odometry.reset(robot, pose)
-        self.mouse_lever = abs(robot.mouse.mount[0]) if _mouse_applies(robot) else 0.0
+        self.mouse_lever = abs(robot.mouse.mount[0]) if mouse_applies(robot) else 0.0
         self.track = robot.track_width
         self.belief = Belief.of(robot)
         start = np.asarray(pose, dtype=np.float64)
@@ -182,7 +184,6 @@ class MonteCarloLocaliser:
         self._mean, self._cov = start.copy(), np.zeros((3, 3))
         self._anchor = start.copy()  # the odometry's pose at the last update
         self.pose = start.copy()
-        self.covariance = np.zeros((3, 3))
         self._steps, self._rolled, self._turned = 0, 0.0, 0.0
         self.score = self.fast = self.slow = math.nan  # (the first scan sets the averages)
         self.lost = False
@@ -225,7 +226,6 @@ class MonteCarloLocaliser:
         self.fast += FAST * (self.score - self.fast)
         self.weights = weighted / total if total > 0.0 else np.full(n, 1.0 / n)
         mean_and_covariance(self.particles, self.weights, float(self._mean[2]), self._mean, self._cov)
-        self.covariance = self._cov.copy()
         was_lost = self.lost
         if not was_lost:  # (lost, the slow average keeps what finding the robot again must reach)
             self.slow += SLOW * (self.score - self.slow)
@@ -240,6 +240,21 @@ class MonteCarloLocaliser:
             fresh = self.rng.binomial(size, INJECT) if self.lost else 0
             self._resample(size - fresh, [self._picked(fresh, raw)] if fresh else [])
         self.updated = readings.time
+
+    @property
+    def covariance(self) -> np.ndarray:
+        """(3, 3) the particles' weighted covariance at the last scan, plus the motion noise the
+        next scan's move will add for the odometry since (so that it never reads zero, at the
+        start either)."""
+        forward, lateral, turn = self._motion_std().tolist()
+        c, s = math.cos(self.pose[2]), math.sin(self.pose[2])
+        cov = self._cov.copy()
+        cov[0, 0] += c * c * forward**2 + s * s * lateral**2
+        cov[0, 1] += c * s * (forward**2 - lateral**2)
+        cov[1, 0] = cov[0, 1]
+        cov[1, 1] += s * s * forward**2 + c * c * lateral**2
+        cov[2, 2] += turn**2
+        return cov
 
     def _resample(self, count: int, added: list[tuple[np.ndarray, np.ndarray]]) -> None:
         """`count` of the particles drawn by their weights, then the `added` ones (poses and, for
