@@ -78,3 +78,27 @@ def test_a_robot_carried_across_the_maze_is_said_to_be_lost(where: tuple[float, 
     assert rows[rows[:, 0] <= 1.5, 2].any()
     said_found = rows[(rows[:, 0] > 1.5) & (rows[:, 2] == 0)]
     assert np.all(said_found[:, 1] < 0.05)
+
+
+def test_the_recording_shows_the_particles_and_the_scan_score(tmp_path) -> None:  # noqa: ANN001
+    """After every scan the recording holds at most 150 of the particles on the map, the scan's
+    score and the lost flag, and the blueprint plots the two beside the errors."""
+    import rerun.chunk
+
+    path = tmp_path / "run.rrd"
+    simulate("maze", noise="realistic", duration=2.0, seed=0, estimators=["localiser"], record=path)
+    rows: dict[str, list] = {}
+    for chunk in rerun.chunk.RrdReader(path).stream().to_chunks():
+        if not chunk.is_static:
+            batch = chunk.to_record_batch()
+            for name in ("Points2D:positions", "Scalars:scalars"):
+                if name in batch.schema.names:
+                    rows.setdefault(chunk.entity_path, []).extend(batch.column(name).to_pylist())
+    scans = rows["/world/ctbot/localiser/particles"]
+    assert len(scans) >= 30 and all(0 < len(points) <= 150 for points in scans)  # 2 s of scans every 50 ms while it moves
+    assert len(rows["/localisation/ctbot/localiser/scan_score"]) == len(scans) == len(rows["/localisation/ctbot/localiser/lost"])
+    (store,) = rerun.chunk.RrdReader(path).blueprints()
+    origins = [chunk.to_record_batch().column("ViewBlueprint:space_origin").to_pylist()[-1][0]
+               for chunk in rerun.chunk.RrdReader(path).stream(store=store).to_chunks()
+               if "ViewBlueprint:space_origin" in chunk.to_record_batch().schema.names]  # fmt: skip
+    assert "/localisation/ctbot" in origins

@@ -2,7 +2,7 @@
 held to the map by the IR sensors, as a particle filter.
 
 Each particle is a pose the robot may be at. Motion: the robot's own fused odometry (encoders and
-mouse, `bots.odometry.FusedOdometry`; the encoders alone without a mouse) gives the increment
+mouse, `bots.odometry.fused.FusedOdometry`; the encoders alone without a mouse) gives the increment
 since the last update, and every particle takes it with noise of the estimators' belief
 (`bots.uncertainty.Belief`: slip per metre rolled, mouse noise per metre passed, the calibration
 still unknown per metre and per radian), INFLATE times wider. Measurement: every EVERY steps
@@ -10,13 +10,14 @@ in which the robot moved, the map (`MapModel`, handed over by the run loop: a pr
 carries, never its true pose) weighs each particle by the likelihood of the IR sensors' raw
 values there; the set is resampled (low variance) when its effective size falls below half.
 
-Lost and found (augmented MCL, Probabilistic Robotics table 8.3, on a score that does not depend
-on the scene): `score` is the scan's likelihood averaged over the particles, over the most any
-pose could give that scan, in [0, 1]. Its fast and slow averages are compared: while the fast
-one falls below the slow one, a share 1 - fast/slow of the particles is drawn anew, from poses
-where the robot fits, each kept as likely as the current scan says (sensor resetting, Lenser and
-Veloso 2000), so that a kidnapped robot is found again. `lost` says when the fast score is below
-LOST_BELOW of the slow one.
+Lost and found (after augmented MCL, Probabilistic Robotics table 8.3, on a score that does not
+depend on the scene): `score` is the scan's likelihood averaged over the particles, over the most
+any pose could give that scan, in [0, 1]. When its fast average falls below LOST_BELOW of its slow
+one, `lost` is set: the set grows to `recovery` particles, the old ones and the rest spread around
+the estimate (a robot moved by hand), each scan draws INJECT of them anew from free floor where the
+scan fits (sensor resetting, Lenser and Veloso 2000), and they move with SEARCH times the
+roughening. Found again once the fast score is back to FOUND_AT of the slow one before the loss
+and the particles' spread is under FOUND_SPREAD; the set shrinks back.
 """
 
 from __future__ import annotations
@@ -49,6 +50,9 @@ update: roughening (Probabilistic Robotics §4.3.4), so that a set resampled ont
 spreads again before the next scan."""
 SEARCH = 4.0
 """While lost, roughening this many times wider: each hypothesis searches the poses around it."""
+SPREAD_SHARE = 1.0
+"""The share of the particles' spread the covariance reports: roughening and the inflated motion
+noise keep the set from collapsing onto a few poses, and so widen it beyond the error."""
 TURN_FLOOR = 0.01
 """Relative error of a turn (rad per rad turned) the motion noise never goes below."""
 FAST, SLOW = 0.3, 0.02
@@ -243,9 +247,9 @@ class MonteCarloLocaliser:
 
     @property
     def covariance(self) -> np.ndarray:
-        """(3, 3) the particles' weighted covariance at the last scan, plus the motion noise the
+        """(3, 3) the particles' weighted covariance at the last scan plus the motion noise the
         next scan's move will add for the odometry since (so that it never reads zero, at the
-        start either)."""
+        start either), times SPREAD_SHARE."""
         forward, lateral, turn = self._motion_std().tolist()
         c, s = math.cos(self.pose[2]), math.sin(self.pose[2])
         cov = self._cov.copy()
@@ -254,7 +258,7 @@ class MonteCarloLocaliser:
         cov[1, 0] = cov[0, 1]
         cov[1, 1] += s * s * forward**2 + c * c * lateral**2
         cov[2, 2] += turn**2
-        return cov
+        return SPREAD_SHARE * cov
 
     def _resample(self, count: int, added: list[tuple[np.ndarray, np.ndarray]]) -> None:
         """`count` of the particles drawn by their weights, then the `added` ones (poses and, for
