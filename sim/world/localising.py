@@ -81,7 +81,7 @@ def scan_likelihood(
     mounts: np.ndarray,
     direction: np.ndarray,
     cone: np.ndarray,
-    axis: np.ndarray,
+    pick: np.ndarray,
     length: float,
     vertices: np.ndarray,
     ranges: np.ndarray,
@@ -95,7 +95,7 @@ def scan_likelihood(
     out: np.ndarray,
 ) -> None:
     """out[i] = the likelihood of one scan at particles[i] (x, y, heading): the product over the
-    sensors (mounts (m, 2), body-frame direction, cone, axis view) of P(raw | expected distance),
+    sensors (mounts (m, 2), body-frame direction, cone, 1 for c't-Sim's pick view) of P(raw | expected distance),
     the raw value's distance `intervals` (m, INTERVALS, 2) under N(0, sigma[k]²), mixed with the
     `outlier` mass per raw value; 0 for a particle whose body (`radius`) lies in a wall."""
     n, m = particles.shape[0], mounts.shape[0]
@@ -107,7 +107,7 @@ def scan_likelihood(
             j = i * m + k
             origins[j, 0] = particles[i, 0] + c * mounts[k, 0] - s * mounts[k, 1]
             origins[j, 1] = particles[i, 1] + s * mounts[k, 0] + c * mounts[k, 1]
-            look[j], cones[j], views[j] = particles[i, 2] + direction[k], cone[k], axis[k]
+            look[j], cones[j], views[j] = particles[i, 2] + direction[k], cone[k], pick[k]
     distance = np.empty(n * m)
     grid = (frame, cells)
     sense_ir(origins, look, cones, owner, length, vertices, ranges, boxes, np.empty((0, 4)), distance, 32, grid, views)
@@ -162,7 +162,7 @@ class MapScan:
         self.mounts = np.array([s.position for s in ir], dtype=np.float64).reshape(-1, 2)
         self.direction = np.array([s.direction for s in ir], dtype=np.float64)
         self.cone = np.array([s.cone for s in ir], dtype=np.float64)
-        self.axis = np.array([float(s.view == "axis") for s in ir])
+        self.pick = np.array([float(s.view == "pick") for s in ir])
         self.sigma = np.array([math.hypot(s.noise_std, MODEL_STD) for s in ir])
         tables = [raw_intervals(ir_curve_for(s.curve, s.side)) for s in ir]
         self._lowest = [low for low, _ in tables]
@@ -185,7 +185,7 @@ class MapScan:
         (n, 3) `particles`."""
         intervals = self._intervals(raw)
         w = self.walls
-        scan_likelihood(particles, self.mounts, self.direction, self.cone, self.axis, IR_RAY_LENGTH, w.vertices, w.ranges, w.boxes, w.frame,
+        scan_likelihood(particles, self.mounts, self.direction, self.cone, self.pick, IR_RAY_LENGTH, w.vertices, w.ranges, w.boxes, w.frame,
                         w.cells, intervals, self.sigma, self.outlier, self.radius, out)  # fmt: skip
 
     def best(self, raw: np.ndarray) -> float:
