@@ -62,6 +62,18 @@ class Hangs:
         if self.steps == 5:
             time.sleep(1000)
 
+class Terminated:
+    """Sends itself SIGTERM (as `timeout` or systemd would) and then blocks in its update."""
+    name = "terminated"
+    def reset(self, robot, pose):
+        self.pose, self.steps = np.array(pose, dtype=float), 0
+    def update(self, readings):
+        self.steps += 1
+        if self.steps == 5:
+            import os, signal
+            os.kill(os.getpid(), signal.SIGTERM)
+            time.sleep(1000)
+
 class Fickle:
     """A pose that is fine when first read after each update and NaN when read again."""
     name = "fickle"
@@ -161,3 +173,11 @@ def test_a_run_too_long_for_the_address_space_limit_is_refused_in_one_line(tmp_p
     assert done.returncode == 2, done.stderr[-2000:]
     assert done.stderr.startswith("ctsim: error: the run needs about ") and done.stderr.count("\n") == 1 and "ulimit -v" in done.stderr
     assert sorted(p.name for p in out.iterdir()) == [".ctsim.lock"]
+
+
+@pytest.mark.skipif(not hasattr(signal, "setitimer"), reason="the step clock is POSIX")
+def test_the_first_sigterm_inside_an_estimator_ends_the_run_at_once(code, tmp_path, capsys):
+    out = tmp_path / "out"
+    assert run("--controller", "idle", "--estimator", f"{code}:Terminated", "--out", str(out)) == 143
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["reason"] == "terminated" and (out / "truth.tum").is_file()
