@@ -52,18 +52,13 @@ DRIFT_LEARN_M = 1.0
 """Straight distance (m) after which the encoders' drift per metre is taken from the mouse: by then
 the mouse's random error (about 1.3 degrees per root metre) is below the 1.8 degrees a metre of a
 0.3 % wheel diameter mismatch, and it shrinks as the root of the distance from there."""
-TURN_LEARN_RAD = math.pi
-"""Turning (rad) after which the encoders' turns are scaled to the mouse's: two whole turns, over
-which the mouse's 0.24 degree counts average to 0.1 %."""
-TURN_TOLERANCE = 0.001
-"""Relative difference between the encoders' and the mouse's turns below which the encoders' is kept:
-0.4 % is 0.4 degrees a quarter turn, and noise-free the two agree within 0.01 % over a run."""
 MAX_VISITS = 4
 """Visits to one room after which its ways are looked at again (`_visit`)."""
 HEADING_DRIFT = math.radians(2.0) ** 2
 """Variance (rad^2) the believed heading gains per metre driven and per radian turned: the
-mouse-corrected encoders drift about a degree a root metre, and a learnt track leaves about a
-degree a radian in the first turns."""
+mouse-corrected encoders drift about a degree a root metre; twice that, because a belief that
+trusts itself too much squares up too little (seen under realistic noise: runs that drifted 3-5
+degrees off along a corridor of six rooms with a degree a root metre, none with two)."""
 MAX_SKEW = math.radians(15)
 """Largest angle to a wall face (rad) a look squares up on; more means the two rays hit two faces."""
 OPEN_FRACTION = 0.9
@@ -179,9 +174,6 @@ class SolveMaze(Plan):
         self.disagreement = 0.0  # driving straight: encoders' turn less the mouse's (rad)
         self.mouse_straight = 0.0  # driving straight: the mouse's distance at its nominal dpi (m)
         self.encoders_straight = 0.0  # and the encoders' (m)
-        self.turn_products = 0.0  # turning: sum of encoders' x mouse's turn (rad^2)
-        self.turn_squares = 0.0  # sum of encoders' turn squared (rad^2)
-        self.turned_total = 0.0  # sum of |encoders' turn| (rad)
         super().start()
 
     def act(self, t: float, readings: Readings) -> Command:
@@ -224,8 +216,10 @@ class SolveMaze(Plan):
         - driving straight, the encoders' turn is corrected by their drift per metre against the
           mouse, learnt over all straight driving so far (the mouse's random error averages
           out as the root of the distance, the wheels' bias does not);
-        - turning, the encoders' turn is scaled by the ratio of the mouse's turn to theirs over all
-          turns so far, once that is more than TURN_TOLERANCE off 1.
+        - turning on the spot, the mouse's turn is taken once the robot stands again (its counts
+          add up without loss, about 0.2 degrees of noise a quarter turn; the encoders' stop up
+          to a tick off, 1.75 degrees; taken step by step, the mouse's counts would end a turn
+          hunting for its last fraction of a count).
         Without a mouse only the square-ups correct the heading."""
         odometry, last = self.odometry, self.last_pose
         pose = odometry.pose
