@@ -27,7 +27,7 @@ _RELATIVE = {"low": -0.5, "high": 0.5}
 
 Point = tuple[float, float]
 CONTACT_RULES = ("slide", "stop")
-IR_VIEWS = ("cone", "axis")
+IR_VIEWS = ("cone", "pick")
 """`RobotSpec.contact`: pymunk's contacts, or c't-Sim's rule (the bridge's firmware bots)."""
 
 
@@ -94,6 +94,33 @@ class MouseSpec:
 
 
 @dataclass(frozen=True)
+class BeliefSpec:
+    """What the robot's own estimators believe about its odometry errors: standard deviations of
+    the errors it cannot see, as a data sheet states tolerances. Never read from the simulated
+    errors (`EncoderSpec`, `MouseSpec`): a real robot does not know its own, and a filter tuned
+    for one robot may run on another. A robot file's `[belief]` section sets them.
+
+    The defaults are the c't-Bot's stated figures (`bots.noise` gives each one's source; its
+    realistic preset draws true errors of these sizes): wheel_diameter_std, the relative
+    tolerance of each wheel's diameter (0.3 %: 0.17 mm of a 56.7 mm hand-mounted tyre);
+    track_std, that of the track (1 %: the tyres' 1 mm contact patch on a 97.2 mm track);
+    mouse_scale_std, that of the mouse's resolution (3.75 %: the firmware's bot-local.h states the
+    real ADNS-2610 at 415 cpi against its nominal 400); slip_std (sqrt m), tick_noise (per tick)
+    and mouse_noise_std (sqrt m), the random processes as `EncoderSpec` and `MouseSpec` state them.
+    """
+
+    wheel_diameter_std: float = declared(default=0.003, unit="relative", low=0.0, high=0.5)
+    track_std: float = declared(default=0.01, unit="relative", low=0.0, high=0.5)
+    mouse_scale_std: float = declared(default=0.0375, unit="relative", low=0.0, high=0.5)
+    slip_std: float = declared(default=0.0004, unit="sqrt m", low=0.0, high=1.0)
+    tick_noise: float = declared(default=0.002, unit="probability per tick", low=0.0, high=1.0)
+    mouse_noise_std: float = declared(default=0.00033, unit="sqrt m", low=0.0, high=1.0)
+
+    def __post_init__(self) -> None:
+        check_fields(self)
+
+
+@dataclass(frozen=True)
 class IRSensorSpec:
     """An IR distance sensor looking along `direction` (rad, body frame) from `position`.
 
@@ -112,9 +139,11 @@ class IRSensorSpec:
     cone: float = declared(default=math.radians(3.0), unit="rad", low=0.0, high=math.pi / 4)
     """Half-angle (rad) of the cone the sensor sees the nearest body in (c't-Sim: 3°); 0 casts one ray."""
     view: str = declared("text", default="cone", choices=IR_VIEWS)
-    """What the cone sees of a wall: 'cone' its nearest point in the cone, or 'axis' what
-    c't-Sim's Java3D pick finds (measured against the real c't-Sim): the wall where the cone's axis
-    meets it, and its corners inside the cone. Other robots and cans are seen in the whole cone."""
+    """What the cone sees of a wall: 'cone' its nearest point in the cone, or 'pick' what
+    c't-Sim's Java3D cone pick finds (`sim.world.kernels.pick`, measured against the real c't-Sim):
+    the wall where the cone's axis meets it, its corners in the whole cone and, near a face's
+    diagonal, that diagonal; from inside a wall the face it looks out through. Other robots and
+    cans are seen in the whole cone."""
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -157,7 +186,8 @@ class LightSensorSpec:
 
 @dataclass(frozen=True)
 class RobotSpec:
-    """A differential-drive robot: geometry (m, kg), motors and sensors.
+    """A differential-drive robot: geometry (m, kg), motors and sensors, and what its own
+    estimators believe about their errors (`belief`).
 
     With `chassis` set, the robot drives that general chassis instead (built by `wheeled_robot`):
     wheel_diameter and track_width then only describe its first wheel for the shared bookkeeping,
@@ -173,6 +203,7 @@ class RobotSpec:
     motor: MotorSpec = field(default_factory=MotorSpec)
     encoders: EncoderSpec = field(default_factory=EncoderSpec)
     mouse: MouseSpec | None = field(default_factory=MouseSpec)
+    belief: BeliefSpec = field(default_factory=BeliefSpec)
     ir: tuple[IRSensorSpec, ...] = ()
     line: tuple[FloorSensorSpec, ...] = ()
     border: tuple[FloorSensorSpec, ...] = ()
@@ -216,7 +247,7 @@ class RobotSpec:
         return replace(self, **resolved)
 
 
-_NESTED = {"motor": MotorSpec, "encoders": EncoderSpec, "mouse": MouseSpec}
+_NESTED = {"motor": MotorSpec, "encoders": EncoderSpec, "mouse": MouseSpec, "belief": BeliefSpec}
 _LISTS = {"ir": IRSensorSpec, "line": FloorSensorSpec, "border": FloorSensorSpec, "light": LightSensorSpec}
 
 

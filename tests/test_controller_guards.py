@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy
 import pytest
 
-import sim.run
-from sim.cli import main
+import sim.run.loop
+from sim.cli.entry import main
 
 pytestmark = pytest.mark.skipif(not hasattr(signal, "setitimer"), reason="the step timer and fork are POSIX")
 
@@ -70,8 +70,42 @@ class Patches:
     def step(self, t, readings):
         if t > 0.05:
             numpy.zeros = None
-            import sim.run
-            sim.run.motor_commands = None
+            import sim.run.loop
+            sim.run.loop.motor_commands = None
+        return Twist(0.1, 0.0)
+
+class RearmsTheTimerFarAhead:
+    """Keeps the step timer's interval, moves its next expiry a day ahead, then blocks the next
+    step (before the guards' next full check: only the check after every step catches it)."""
+    def step(self, t, readings):
+        if 0.085 < t < 0.095:
+            signal.setitimer(signal.ITIMER_REAL, 86400.0, signal.getitimer(signal.ITIMER_REAL)[1])
+        elif t > 0.095:
+            time.sleep(1000)
+        return Twist(0.1, 0.0)
+
+class ExitsThroughPosix:
+    def step(self, t, readings):
+        if t > 0.05 and not hasattr(self, "thread"):
+            import posix
+            self.thread = threading.Thread(target=posix._exit, args=(0,))
+            self.thread.start()
+            self.thread.join()
+        return Twist(0.1, 0.0)
+
+class RedirectsOutput:
+    def step(self, t, readings):
+        if t > 0.05:
+            quiet = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(quiet, 1)
+            os.dup2(quiet, 2)
+            os.close(quiet)
+        return Twist(0.1, 0.0)
+
+class ReplacesJsonDumps:
+    def step(self, t, readings):
+        import json
+        json.dumps = lambda *args, **kwargs: "{}"
         return Twist(0.1, 0.0)
 
 class LowersTheRecursionLimit:
@@ -118,10 +152,10 @@ def test_a_fork_that_returns_into_the_run_leaves_and_writes_nothing(controllers,
 
 
 def test_replacing_numpy_or_ctsim_ends_the_run_as_the_controllers_error_and_is_undone(controllers, tmp_path, capsys):
-    zeros, commands = numpy.zeros, sim.run.motor_commands
+    zeros, commands = numpy.zeros, sim.run.loop.motor_commands
     assert run(controllers, "Patches", tmp_path / "out") == 1
-    assert "replaced numpy.zeros, sim.run.motor_commands, and the run failed" in capsys.readouterr().err
-    assert numpy.zeros is zeros and sim.run.motor_commands is commands
+    assert "replaced numpy.zeros, sim.run.loop.motor_commands, and the run failed" in capsys.readouterr().err
+    assert numpy.zeros is zeros and sim.run.loop.motor_commands is commands
     assert summary(tmp_path / "out")["reason"] == "error"
 
 
@@ -154,3 +188,28 @@ def test_closing_stdout_costs_neither_the_table_nor_the_exit_status(controllers,
     assert done.returncode == 0, done.stderr
     assert "time limit reached" in done.stdout and "wrote:" in done.stdout
     assert summary(tmp_path / "out")["reason"] == "duration"
+
+
+def test_a_timer_rearmed_far_ahead_still_meets_the_step_limit(controllers, tmp_path, capsys):
+    assert run(controllers, "RearmsTheTimerFarAhead", tmp_path / "out") == 1
+    assert "took longer than the step time limit of 0.4 s at step 10" in capsys.readouterr().err
+
+
+def test_posix_exit_from_a_thread_ends_the_run_with_its_data(controllers, tmp_path, capsys):
+    assert run(controllers, "ExitsThroughPosix", tmp_path / "out") == 1
+    assert "called os._exit(0) from the thread" in capsys.readouterr().err
+    assert summary(tmp_path / "out")["reason"] == "error"
+
+
+def test_output_redirected_with_dup2_is_put_back(controllers, tmp_path, capfd):
+    assert run(controllers, "RedirectsOutput", tmp_path / "out") == 0
+    out, err = capfd.readouterr()
+    assert "wrote:" in out and "redirected file descriptor 1 or 2; ctsim put it back" in err
+
+
+def test_a_replaced_json_dumps_is_put_back_before_the_summary_is_written(controllers, tmp_path, capsys):
+    dumps = json.dumps
+    assert run(controllers, "ReplacesJsonDumps", tmp_path / "out") == 0
+    assert json.dumps is dumps and summary(tmp_path / "out")["reason"] == "duration"
+    assert "replaced json.dumps; ctsim put it back" in capsys.readouterr().err
+

@@ -14,11 +14,15 @@ from typing import Any
 
 import sim
 from bots.noise import parse_value
-from sim.run import RunResult
+from sim.out_files import open_in_place, write_bytes
+from sim.run.samples import RunResult
 from sim.world.spec import WorldSpec
 
-SCHEMA_VERSION = 1
-"""The version of summary.json's keys (readers may check it; files before it have none)."""
+SCHEMA_VERSION = 2
+"""The version of summary.json's keys (readers may check it; files before it have none). 2: each
+estimate's rpe_per_metre (stretches of true path, not evo's) became rpe_translation and
+rpe_rotation (`evo_rpe -d 1 -u m`), nees_mean and nees_final are null where the covariance is
+degenerate, nees_defined added."""
 
 SUMMARY_ROOM = 16384
 """Bytes held for summary.json from a run's start (and 2 KB more per robot), so that a disk that
@@ -93,11 +97,11 @@ def write_json(path: Path, data: dict[str, Any], reserve: int = 0) -> None:
     else under a temporary name and renamed: whole or absent."""
     text = (json.dumps(json_safe(data), indent=2, allow_nan=False) + "\n").encode()
     text += b" " * (reserve - len(text))
-    if path.is_file() and path.stat().st_size >= len(text):
-        with open(path, "r+b") as file:
-            file.write(text)
-            file.truncate()
-        return
-    temporary = path.with_name(f".{path.name}.tmp")
-    temporary.write_bytes(text)
-    os.replace(temporary, path)
+    file = open_in_place(path)  # (a regular file of its own: never through a link)
+    if file is not None:
+        with file:
+            if os.fstat(file.fileno()).st_size >= len(text):
+                file.write(text)
+                file.truncate()
+                return
+    write_bytes(path, text)

@@ -13,15 +13,17 @@ import time
 from dataclasses import replace
 from typing import Any
 
-from bots.odometry import default_estimators
+from bots.odometry.defaults import default_estimators
 from bots.spec import EncoderSpec, RobotSpec
 from sim.bridge import protocol as p
 from sim.bridge.firmware import FirmwareController, FirmwareEstimator
 from sim.bridge.firmware_map import png, window
 from sim.bridge.server import Listener
 from sim.errors import UserError
-from sim.run import RobotLog, RobotSetup, RunResult
-from sim.views.recording import TIMELINE, Recorder
+from sim.run.loop import RobotSetup
+from sim.run.samples import RobotLog, RunResult
+from sim.views.recording.layout import TIMELINE
+from sim.views.recording.recorder import Recorder
 from sim.world import World
 
 CTSIM_STEP = 0.01
@@ -71,7 +73,7 @@ class Bridge:
         return bot
 
     def setup(self, spec: RobotSpec, rc5: tuple = (), calls: tuple = (), start=None, like_ctsim: bool = True) -> RobotSetup:
-        """A robot for `sim.run.run` driven by the next firmware; its estimators are ctsim's own
+        """A robot for `sim.run.loop.run` driven by the next firmware; its estimators are ctsim's own
         plus the pose the firmware reports ('reported'). `like_ctsim`: the robot meets walls and
         sees them as in c't-Sim (`as_in_ctsim`), and ideal encoders count in c't-Sim's arithmetic,
         so that the firmware takes the path it takes there."""
@@ -104,18 +106,19 @@ class Bridge:
 
 CTSIM_LINE_HEIGHT = 0.003
 """m, c't-Sim's line sensors over its floor: 4 mm over the ground plane (the bot's centre 75 mm
-up, the sensors 71 mm below it), the floor's top 1 mm up (its lines lie 1 mm higher still)."""
+up, the sensors 71 mm below it), the floor's top 1 mm up; its lines lie 1 mm higher still, 2 mm
+below the sensors (`WorldSpec.line_height` of a parcours)."""
 
 
 def as_in_ctsim(spec: RobotSpec) -> RobotSpec:
     """`spec` as c't-Sim simulates it where ctsim's own models differ (each measured against the
     real c't-Sim with the same firmware): a step into a wall or robot is not made at all
-    (contact 'stop'); IR sensors see a wall where their axis meets it or at a corner in their
-    cone (view 'axis'), not at its nearest point in the cone; line sensors average c't-Sim's
-    cross of rays over their spot (`CTSIM_LINE_HEIGHT`), not the one point under them."""
+    (contact 'stop'); IR sensors see walls as c't-Sim's Java3D cone pick does (view 'pick'), not
+    at their nearest point in the cone; line sensors average c't-Sim's cross of rays over their
+    spot (`CTSIM_LINE_HEIGHT`), not the one point under them."""
     return spec.with_changes(
         contact="stop",
-        ir=tuple(replace(sensor, view="axis") for sensor in spec.ir),
+        ir=tuple(replace(sensor, view="pick") for sensor in spec.ir),
         line=tuple(replace(sensor, height=CTSIM_LINE_HEIGHT) for sensor in spec.line),
     )
 

@@ -24,8 +24,10 @@ from bots.ctbot import CTBOT
 from sim.contest.entries import Entry, Seat, robot_spec
 from sim.contest.judge import Guarded, Judge
 from sim.contest.paths import PathField
-from sim.contest.rules import level_name
-from sim.run import RunResult, Terminated, run
+from sim.contest.rules import level_name, wall_budget
+from sim.run.ending import Terminated
+from sim.run.loop import run
+from sim.run.samples import RunResult
 from sim.views import palette
 from sim.world.files import load_world
 from sim.world.spec import WorldSpec
@@ -94,14 +96,14 @@ def _play(job: GameJob) -> dict[str, Any]:
     colours = {entry.name: colour for entry, colour in zip(job.entries, palette.CONTESTANTS)}
     recorder = None
     if job.recording is not None:
-        from sim.views.recording import Recorder
+        from sim.views.recording.recorder import Recorder
 
         facts = {"contest game": job.title, "time limit": f"{job.time_limit:g} s"}
         recorder = Recorder(job.recording, application_id="ctsim contest", facts=facts, colours=colours)
     with ExitStack() as stack:  # a firmware's process, a sandbox: gone when the game is
         seats = [stack.enter_context(Seat(entry, spec, start, job.dt, f"{job.level}.{job.number}")) for entry, spec, start in zip(job.entries, specs, starts)]
         setups = [seat.setup(recorder) for seat in seats]
-        guards = [Guarded(setup.controller, spec) for setup, spec in zip(setups, specs)]
+        guards = [Guarded(setup.controller, spec, wall_budget(job.time_limit)) for setup, spec in zip(setups, specs)]
         for setup, guard in zip(setups, guards):
             setup.controller = guard
         judge = Judge(tuple(entry.name for entry in job.entries), guards, fields, job.time_limit)

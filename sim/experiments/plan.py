@@ -30,7 +30,7 @@ import numpy as np
 from bots.schema import Field, Problem
 from bots.spec import read_toml
 from sim.errors import UserError
-from sim.run import MAX_DURATION
+from sim.run.loop import MAX_DURATION
 from sim.world.step import DEFAULT_DT, DT_RANGE
 
 DEFAULTS: dict[str, Any] = {

@@ -14,7 +14,7 @@ import numpy as np
 
 from sim.views import palette
 from sim.views.figures import write_figures
-from sim.views.recording import TIMELINE
+from sim.views.recording.layout import TIMELINE
 from sim.world.spec import Start, WorldSpec
 
 Tracks = dict[str, tuple[np.ndarray, np.ndarray]]
@@ -24,7 +24,7 @@ Tracks = dict[str, tuple[np.ndarray, np.ndarray]]
 def observers(scenario) -> tuple:
     """A Recorder writing `run.rrd` into the scenario's folder when it is public and `lab check`
     writes artifacts; nothing otherwise."""
-    from sim.views.recording import Recorder
+    from sim.views.recording.recorder import Recorder
 
     if scenario.out is None:
         return ()
@@ -44,7 +44,7 @@ def write_tracks_recording(path: Path, tracks: Tracks) -> Path:
     import rerun as rr
 
     rec = rr.RecordingStream("ctsim-lab", send_properties=False)
-    rec.save(str(path))
+    rec.save(str(path))  # (a folder of the lab's own: see write_artifacts)
     rec.log("world", rr.Transform3D(scale=(1.0, -1.0, 1.0)), static=True)
     times, truth = tracks["truth"]
     estimates = [k for k in tracks if k != "truth"]

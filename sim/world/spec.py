@@ -57,7 +57,7 @@ class FloorLine:
 @dataclass(frozen=True)
 class Hole:
     """A convex hole in the floor. As in c't-Sim a robot never drives over it: a move that would
-    bring its skid or a wheel over it is refused (see `kernels.hold_at_holes`)."""
+    bring its skid or a wheel over it is refused (see `kernels.floor.hold_at_holes`)."""
 
     vertices: tuple[Point, ...]
 
@@ -156,6 +156,10 @@ class WorldSpec:
     faults: tuple[WheelFault, ...] = ()
     floor_colour: Colour = DEFAULT_FLOOR
     outside_is_hole: bool = False
+    line_height: float = 0.0
+    """How far (m) the painted lines' top stands above the floor: c't-Sim's line tiles lie 1 mm
+    above its floor tiles, so a floor sensor's slanted rays meet a line nearer the mount point
+    than the floor (`kernels.sample_floor`); 0 is paint."""
     source: str | None = None
     description: str = ""
     notes: tuple[str, ...] = ()

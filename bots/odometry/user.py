@@ -1,7 +1,7 @@
 """A user's own odometry estimator beside the shipped ones: loaded from a file, named, and
 checked every step as a controller's command is.
 
-An estimator follows `bots.odometry.Estimator`: `reset(robot, pose)`, `update(readings)`, a `pose`
+An estimator follows `bots.odometry.base.Estimator`: `reset(robot, pose)`, `update(readings)`, a `pose`
 (3,) and optionally a `covariance` (3, 3). `ctsim run --estimator FILE.py:Class` and
 `simulate(..., estimators=[...])` give every robot a fresh one beside its defaults; its name is
 its `name` attribute (else the class's), which must be a plain word (it names files) and differ
@@ -22,7 +22,8 @@ from typing import Any
 import numpy as np
 
 from bots.controller import user_module
-from bots.odometry import Estimator, default_estimators
+from bots.odometry.base import Estimator
+from bots.odometry.defaults import default_estimators
 from bots.spec import RobotSpec
 from sim.errors import UserError
 
@@ -89,23 +90,52 @@ def alongside(robot: RobotSpec, extra: Iterable[Any]) -> list[Estimator]:
     return chosen
 
 
-def check(estimator: Estimator) -> str | None:
-    """What is wrong with an estimator's output after an update (None: nothing): a pose that is
-    not 3 finite numbers, a covariance (where it has one) that is not a finite (3, 3) matrix."""
-    problem = _numbers(getattr(estimator, "pose", None), (3,), "pose")
-    if problem is None and hasattr(estimator, "covariance"):
-        problem = _numbers(estimator.covariance, (3, 3), "covariance")
-    return problem
+ROUND_OFF = 1e-9
+"""Relative asymmetry or negative eigenvalue (of the covariance's largest entry) a covariance may
+have from floating-point rounding: products of doubles differ in the 16th digit, a propagated
+covariance after hours of steps in the 10th at most."""
 
 
-def _numbers(value: Any, shape: tuple[int, ...], what: str) -> str | None:
+def outputs(estimator: Estimator) -> tuple[np.ndarray | None, np.ndarray | None, str | None]:
+    """An estimator's pose and covariance (None where it has none) after an update, each read once
+    and copied, so that what is checked is what is logged (a property that answers differently
+    when read again, or an array another estimator changes later, cannot slip past the check);
+    and what is wrong with them (None: nothing): a pose that is not 3 finite numbers, a
+    covariance that is not a finite, symmetric, positive semi-definite (3, 3) matrix (a
+    covariance that is none would make its NEES nonsense)."""
+    pose, problem = _numbers(getattr(estimator, "pose", None), (3,), "pose")
+    covariance = None
+    if problem is None and has_covariance(estimator):
+        covariance, problem = _numbers(estimator.covariance, (3, 3), "covariance")
+        problem = problem or _covariance(covariance)
+    return pose, covariance, problem
+
+
+def has_covariance(estimator: Estimator) -> bool:
+    """Whether an estimator reports a covariance (the Protocol's optional `covariance`)."""
+    return hasattr(type(estimator), "covariance") or hasattr(estimator, "covariance")
+
+
+def _covariance(cov: np.ndarray) -> str | None:
+    scale = ROUND_OFF * max(float(np.abs(cov).max()), np.finfo(float).tiny)
+    i, j = np.unravel_index(np.argmax(np.abs(cov - cov.T)), cov.shape)
+    if abs(cov[i, j] - cov[j, i]) > scale:
+        return f"its covariance is not symmetric ([{i}, {j}] = {cov[i, j]:.6g}, [{j}, {i}] = {cov[j, i]:.6g})"
+    lowest = float(np.linalg.eigvalsh(cov).min())
+    if lowest < -scale:
+        return f"its covariance is not positive semi-definite (an eigenvalue of {lowest:.6g})"
+    return None
+
+
+def _numbers(value: Any, shape: tuple[int, ...], what: str) -> tuple[np.ndarray | None, str | None]:
+    """`value` as a fresh array of `shape`, or None and what is wrong with it."""
     try:
-        array = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        return f"its {what} is not numbers ({type(value).__name__})"
+        array = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        return None, f"its {what} is not numbers ({type(value).__name__})"
     if array.shape != shape:
-        return f"its {what} has shape {array.shape}; expected {shape}"
+        return None, f"its {what} has shape {array.shape}; expected {shape}"
     if not np.isfinite(array).all():
         bad = next(float(v) for v in array.ravel() if not math.isfinite(v))
-        return f"its {what} is not finite ({bad})"
-    return None
+        return None, f"its {what} is not finite ({bad})"
+    return array, None
