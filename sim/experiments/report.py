@@ -19,6 +19,7 @@ from sim.errors import UserError
 from sim.experiments import store
 from sim.experiments.plan import DEFAULTS
 from sim.out_files import replacing
+from sim.run.ending import Ending
 from sim.views import palette
 
 METRIC = "ate_rmse"
@@ -58,7 +59,7 @@ def outcomes(table: pd.DataFrame) -> pd.Series:
     goal = table["reached_goal"].fillna(False).astype(bool)
     fell = table["fell"].fillna(False).astype(bool)
     reason = table["reason"]
-    kinds = np.select([reason == "error", goal, fell, reason == "duration"], ["error", "goal reached", "fell", "time limit"], default="controller done")
+    kinds = np.select([reason == Ending.ERROR, goal, fell, reason == Ending.DURATION], ["error", "goal reached", "fell", "time limit"], default="controller done")
     return pd.Series(kinds, index=table.index)
 
 
@@ -202,7 +203,7 @@ def write_report(out: str | Path, metric: str = METRIC, by: list[str] | None = N
     summary_table(table, by, metric).to_csv(out / "summary.csv", index=False)
     written = [out / "summary.csv"]
     names = estimators(table, metric)
-    finished = table[table["reason"] != "error"]
+    finished = table[table["reason"] != Ending.ERROR]
     groups = [c for c in by if not pd.api.types.is_numeric_dtype(finished[c])] if len(finished) else []
     if names and len(finished):
         parts = list(finished.groupby(groups, sort=True)) if groups else [((), finished)]
