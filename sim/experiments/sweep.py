@@ -131,7 +131,15 @@ def sweep(
     (`sim.run.ending.Terminated`, where a handler raises it, as `ctsim sweep` does) stop the runs in
     flight at once and re-raise, with every finished row kept: the same call resumes. `progress`:
     say on stderr how far it has got (`sim.experiments.progress`: a bar on a terminal, else a line
-    every few seconds, and first how many runs a resumed sweep had done)."""
+    every few seconds, and first how many runs a resumed sweep had done).
+
+    >>> import tempfile
+    >>> spec = {"base": {"world": "empty", "duration": 0.1}, "axes": {"seed": [0, 1]}}
+    >>> with tempfile.TemporaryDirectory() as out:
+    ...     table = sweep(spec, out, Serial(), progress=False)
+    >>> sorted(table["seed"]), sorted(table["reason"])
+    ([0, 1], ['duration', 'duration'])
+    """
     if isinstance(spec, dict):
         spec = spec_from_dict(spec)
     elif not isinstance(spec, SweepSpec):

@@ -4,6 +4,11 @@ loop of property accesses per robot (`pymunk.batch`).
 pymunk's batch functions walk every dynamic body of the space (robots and movable obstacles) in
 the space's own order; `BodyArrays` keeps the row of each robot in that walk, and writes back
 the other bodies' values unchanged.
+
+`_Walk` reads pymunk 7.3's private names (`pymunk._chipmunk`'s ffi and lib, `Buffer._float_arr`
+and `_int_arr`, `Space._space`, `Body._body`; pymunk's `batch` module says they may change in
+patch versions): pyproject.toml pins pymunk to 7.3.x, and tests/test_bodies.py holds the walk
+equal to `pymunk.batch.get_space_bodies`.
 """
 
 from __future__ import annotations
@@ -11,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 import pymunk
 import pymunk.batch as batch
-from pymunk._chipmunk import ffi, lib  # the C layer under pymunk.batch (see _Walk)
+from pymunk._chipmunk import ffi, lib  # the C layer under pymunk.batch (see _Walk): pymunk 7.3.x, pinned
 
 _POSE = batch.BodyFields.POSITION | batch.BodyFields.ANGLE
 _MOTION = batch.BodyFields.VELOCITY | batch.BodyFields.ANGULAR_VELOCITY | batch.BodyFields.FORCE | batch.BodyFields.TORQUE
