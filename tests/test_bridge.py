@@ -36,7 +36,7 @@ from sim.bridge.firmware_map import window  # noqa: E402
 from sim.bridge.protocol import remote_call_payload  # noqa: E402
 from sim.run.loop import RobotSetup, run  # noqa: E402
 from sim.views.recording.recorder import Recorder  # noqa: E402
-from sim.world.spec import Start, Wall, WorldSpec, box  # noqa: E402
+from sim.world.spec import Movable, Start, Wall, WorldSpec, box  # noqa: E402
 
 EMPTY = WorldSpec("empty", (-5.0, -5.0, 5.0, 5.0), starts=(Start(0.0, 0.0, 0.0, 1), Start(0.0, 1.0, 0.0, 2), Start(0.0, -1.0, 0.0, 0)))
 
@@ -401,3 +401,31 @@ def test_a_firmware_silent_on_the_last_block_leaves_a_complete_run():
     result, bridge, (fake,) = bridged(0.5, fakes={"misbehave": (49, "stall")}, step_timeout=0.5)
     assert result.reason == "duration" and len(fake.blocks) == 50
     assert any("no reply to the last block" in e.text for e in bridge.bots[0].events)
+
+
+def test_cli_bridge_is_exact_unless_asked_and_run_keeps_its_noise(capsys):
+    """c't-Sim's wheels and sensors are exact: the bridge's --noise is none by default (said in
+    its --help), every other command keeps realistic noise as its default."""
+    from sim.cli.entry import build_parser
+
+    parser = build_parser()
+    assert parser.parse_args(["bridge"]).noise == "none" and parser.parse_args(["bridge", "--noise", "realistic"]).noise == "realistic"
+    assert parser.parse_args(["run"]).noise == "realistic"
+    with pytest.raises(SystemExit):
+        parser.parse_args(["bridge", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "Exact unless asked" in text and "(default: none)" in text
+
+
+def test_a_can_stops_a_firmware_bot_where_c_t_sims_contact_test_does():
+    """RC5 3 towards a can (Java3D's 15-sided cylinder of 30 mm, a corner due north; its box reaches
+    15 cos 12° = 14.67 mm south of its centre): c't-Sim stops the bot when its 60 mm sphere would
+    meet that box, at the last step before y + 0.06 reaches 0.8 - 0.014672 (ctsim's own contacts
+    push the can on)."""
+    can = Movable((0.36, 0.8))
+    world = WorldSpec("can", (0.0, 0.0, 1.2, 1.68), movables=(can,), starts=(Start(0.36, 0.36, math.pi / 2, 1),))
+    result, _, _ = bridged(8.0, rc5=[(0.5, rc5_code("3"))], world=world)
+    y = result.robots[0].truth_array()[-1, 1]
+    contact = 0.8 - 0.015 * math.cos(math.pi / 15) - 0.06
+    assert contact - wheel_speed(75) * 0.01 < y < contact  # within the last step of 1.318 mm before it
+
