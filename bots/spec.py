@@ -65,7 +65,7 @@ class EncoderSpec:
     start_phase: where each disc stands within a tick at the start: 'zero' (on an edge, as
         c't-Sim: the count lags the wheel by half a tick on average, a bias) or 'random'
         (uniform, from the run's seed, as a real wheel stops anywhere: the count's error has
-        zero mean, variance tick²/6).
+        zero mean, variance tick²/6, as the estimators believe).
     """
 
     ticks_per_rev: int = declared("integer", default=60, unit="ticks", low=1, high=2**53)  # (2**40 in tests: "no quantisation")

@@ -169,7 +169,7 @@ def test_a_belief_given_changes_the_covariance():
 def test_counters_started_anywhere_carry_no_bias(phase):
     """c't-Sim starts each counter on an edge: the count then lags the wheel by half a tick on
     average (1.5 mm along the track on the c't-Bot), a bias no seed averages away. Started anywhere
-    within a tick (`start_phase = "random"`, the noise presets' and a real wheel's), the encoders'
+    within a tick (`start_phase = "random"`, as a real wheel stops), the encoders'
     mean error along the track over 400 robots (each 0.3 % faster or slower, so that the wheels end
     at every fraction of a tick) is within 3 standard errors of zero; on an edge, half a tick behind."""
     robots = 400
