@@ -3,10 +3,14 @@ checked every step as a controller's command is.
 
 An estimator follows `bots.odometry.base.Estimator`: `reset(robot, pose)`, `update(readings)`, a `pose`
 (3,) and optionally a `covariance` (3, 3). `ctsim run --estimator FILE.py:Class` and
-`simulate(..., estimators=[...])` give every robot a fresh one beside its defaults; its name is
+`simulate(..., estimators=[...])` give every robot a fresh one beside its defaults (`--estimator
+localiser`: the shipped Monte Carlo localiser, `bots.odometry.localiser`); its name is
 its `name` attribute (else the class's), which must be a plain word (it names files) and differ
 from the others'. A step whose update raises, or leaves a pose or covariance of the wrong shape
-or not finite, ends the run as a controller's error does (`check`).
+or not finite, ends the run as a controller's error does (`check`). An estimator with a
+`use_map(scan, rng)` method is handed, before `reset`, the robot's map of the world (a
+`bots.odometry.localiser.MapModel`: the likelihood of an IR scan at any pose, never the true pose) and a
+generator spawned from the run's seed.
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ import numpy as np
 from bots.controller import user_module
 from bots.odometry.base import Estimator
 from bots.odometry.defaults import default_estimators
+from bots.odometry.localiser import MonteCarloLocaliser
 from bots.spec import RobotSpec
 from sim.errors import UserError
 
@@ -35,9 +40,16 @@ class EstimatorError(UserError):
     """A user estimator that cannot be loaded or named (message for the CLI)."""
 
 
+SHIPPED: dict[str, Callable[[], Estimator]] = {"localiser": MonteCarloLocaliser}
+"""Estimators ctsim ships beside the defaults, by the name `--estimator` takes (a file of that
+name, if there is one, comes first)."""
+
+
 def load(source: str) -> Callable[[], Estimator]:
     """The estimator class (or factory) of `FILE.py[:NAME]`: the one named, else the file's only
-    class with `reset` and `update` methods."""
+    class with `reset` and `update` methods; or a shipped one by name (`SHIPPED`)."""
+    if source in SHIPPED and not Path(source).is_file():
+        return SHIPPED[source]
     file, _, name = source.partition(":") if not Path(source).is_file() else (source, "", "")
     path = Path(file)
     module = user_module(path, "estimator", EstimatorError)
@@ -96,14 +108,24 @@ have from floating-point rounding: products of doubles differ in the 16th digit,
 covariance after hours of steps in the 10th at most."""
 
 
-def check(estimator: Estimator) -> str | None:
-    """What is wrong with an estimator's output after an update (None: nothing): a pose that is
-    not 3 finite numbers, a covariance (where it has one) that is not a finite, symmetric,
-    positive semi-definite (3, 3) matrix (a covariance that is none would make its NEES nonsense)."""
-    problem = _numbers(getattr(estimator, "pose", None), (3,), "pose")
-    if problem is None and hasattr(estimator, "covariance"):
-        problem = _numbers(estimator.covariance, (3, 3), "covariance") or _covariance(np.asarray(estimator.covariance, dtype=np.float64))
-    return problem
+def outputs(estimator: Estimator) -> tuple[np.ndarray | None, np.ndarray | None, str | None]:
+    """An estimator's pose and covariance (None where it has none) after an update, each read once
+    and copied, so that what is checked is what is logged (a property that answers differently
+    when read again, or an array another estimator changes later, cannot slip past the check);
+    and what is wrong with them (None: nothing): a pose that is not 3 finite numbers, a
+    covariance that is not a finite, symmetric, positive semi-definite (3, 3) matrix (a
+    covariance that is none would make its NEES nonsense)."""
+    pose, problem = _numbers(getattr(estimator, "pose", None), (3,), "pose")
+    covariance = None
+    if problem is None and has_covariance(estimator):
+        covariance, problem = _numbers(estimator.covariance, (3, 3), "covariance")
+        problem = problem or _covariance(covariance)
+    return pose, covariance, problem
+
+
+def has_covariance(estimator: Estimator) -> bool:
+    """Whether an estimator reports a covariance (the Protocol's optional `covariance`)."""
+    return hasattr(type(estimator), "covariance") or hasattr(estimator, "covariance")
 
 
 def _covariance(cov: np.ndarray) -> str | None:
@@ -117,14 +139,15 @@ def _covariance(cov: np.ndarray) -> str | None:
     return None
 
 
-def _numbers(value: Any, shape: tuple[int, ...], what: str) -> str | None:
+def _numbers(value: Any, shape: tuple[int, ...], what: str) -> tuple[np.ndarray | None, str | None]:
+    """`value` as a fresh array of `shape`, or None and what is wrong with it."""
     try:
-        array = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        return f"its {what} is not numbers ({type(value).__name__})"
+        array = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        return None, f"its {what} is not numbers ({type(value).__name__})"
     if array.shape != shape:
-        return f"its {what} has shape {array.shape}; expected {shape}"
+        return None, f"its {what} has shape {array.shape}; expected {shape}"
     if not np.isfinite(array).all():
         bad = next(float(v) for v in array.ravel() if not math.isfinite(v))
-        return f"its {what} is not finite ({bad})"
-    return None
+        return None, f"its {what} is not finite ({bad})"
+    return array, None

@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from sim import sanitize
 from sim.analysis.summary import SUMMARY_ROOM, unstarted, write_json
 from sim.cli.observers import Progress, StopOnSignal
 from sim.cli.options import EXIT_INTERRUPTED, EXIT_TERMINATED, UsageError, add_robot_options, add_web_options, load_robot_spec, param, positive, robot_options, robot_setups, whole
@@ -34,8 +35,9 @@ def add_parser(commands) -> None:  # noqa: ANN001 (argparse's subparsers action)
     add_robot_options(run)
     run.add_argument("--controller", action="append", metavar="NAME|FILE.py[:NAME]",
                      help="controller: a registered name (see `ctsim controllers`) or a Python file; repeat for several robots (default: solve_maze)")
-    run.add_argument("--estimator", action="append", default=[], metavar="FILE.py[:CLASS]",
-                     help="your own odometry estimator (reset(robot, pose), update(readings), pose, optional covariance) beside the shipped ones, in every output (repeatable)")
+    run.add_argument("--estimator", action="append", default=[], metavar="FILE.py[:CLASS]|localiser",
+                     help="your own odometry estimator (reset(robot, pose), update(readings), pose, optional covariance) beside the shipped ones, in every output (repeatable); "
+                          "'localiser': the shipped Monte Carlo localiser, odometry held to the map by the IR sensors")
     run.add_argument("--param", action="append", type=param, default=[], metavar="KEY=VALUE", help="controller parameter, repeatable; applies to every robot's controller")
     run.add_argument("--robots", type=whole, metavar="N", help="number of robots (default: one per --controller); a single controller is used by all")
     run.add_argument("--duration", type=positive(float, MAX_DURATION, "s"), default=DEFAULT_DURATION, metavar="SECONDS", help=f"simulated time to run at most (default: {DEFAULT_DURATION:g})")
@@ -107,5 +109,5 @@ def _stopped_before_start(out: Path, place, args: argparse.Namespace, options: d
     """The summary of a run that a signal stopped before its first step."""
     reason = Ending.TERMINATED if isinstance(signalled, Terminated) else Ending.INTERRUPTED
     write_json(out / "summary.json", unstarted(place, args.seed, args.dt, options, reason, f"{reason} before the first step"))
-    print(f"ctsim: {reason} before the first step; wrote {out / 'summary.json'}", file=sys.stderr)
+    print(f"ctsim: {reason} before the first step; wrote {sanitize.name(str(out / 'summary.json'), 1000)}", file=sys.stderr)
     return EXIT_TERMINATED if reason is Ending.TERMINATED else EXIT_INTERRUPTED

@@ -23,15 +23,17 @@ from bots.controller import Controller, ControllerStopped, Status, reset
 from bots.odometry.base import Estimator
 from bots.odometry.batch import DefaultOdometry, batched
 from bots.odometry.defaults import default_estimators
-from bots.odometry.user import check, name_of
+from bots.odometry.user import has_covariance, name_of, outputs
 from bots.readings import Readings, SensorFrame
 from bots.spec import RobotSpec
-from sim.guards import ControllerBrokeOut, Guard
+from sim.guards import ControllerBrokeOut, Guard, foreign_frame
 from sim.run.clock import StepClock, StepTimeout
 from sim.run.ending import Ending, Quit, RunError, Terminated
 from sim.run.samples import RobotLog, RunResult, Samples
 from sim.world import World
 from sim.world.chassis_drive import FaultError
+from sim.world.localising import MapScan
+from sim.world.physics import sensor_rng
 from sim.world.spec import Start, WheelFault, WorldSpec
 from sim.world.step import DEFAULT_DT, StepError, check_dt
 
@@ -103,20 +105,25 @@ def run(
             chosen = setup.estimators if setup.estimators is not None else default_estimators(setup.spec)
             for estimator in chosen:
                 try:
+                    if hasattr(estimator, "use_map"):  # a localiser: the robot's map of the world (never its pose) and a generator of its own
+                        estimator.use_map(MapScan(world_spec, setup.spec), sensor_rng(seed, i, f"estimator {name_of(estimator)}"))
                     estimator.reset(setup.spec, robot.pose)
-                except Exception as err:  # a user's estimator that cannot take this robot: the user's choice
+                except (Exception, SystemExit) as err:  # a user's estimator that cannot take this robot (or leaves): the user's
                     raise RunError(f"{robot.name}: estimator {name_of(estimator)!r} could not be reset: {type(err).__name__}: {err}{_last_frame(err)}") from None
             names = [estimator.name for estimator in chosen]
         try:
             reset(setup.controller, setup.spec)
         except ValueError as err:  # a controller that cannot drive this robot (too few sensors): the user's choice
             raise RunError(f"{robot.name}: {err}") from None
-        uncertain = None if i in slot else [e.name for e in chosen if _has_covariance(e)]
+        except SystemExit as err:  # (the user's code leaving: its mistake, not a way out of ctsim)
+            raise RunError(f"{robot.name}: the controller's reset called sys.exit({err.code!r})") from None
+        uncertain = None if i in slot else [e.name for e in chosen if has_covariance(e)]
         log = RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params), names, samples, i, world, slot.get(i), uncertain)
         logs.append(log)
         controllers.append(setup.controller)
         if i not in slot:
             estimators.append((i, log, chosen))
+            log.estimators = list(chosen)
     try:
         world.chassis.schedule_faults([*world_spec.faults, *(replace(f, robot=i) for i, setup in enumerate(robots) for f in setup.faults)])
     except FaultError as err:
@@ -124,7 +131,6 @@ def run(
     result = RunResult(world_spec, seed, dt, logs, samples)
     commands = np.zeros((len(robots), 2))
     clock = StepClock(step_timeout)
-    call = 0
     guard: Guard | None = None
     try:
         clock.__enter__()
@@ -152,8 +158,7 @@ def run(
             for i, spec, log, controller in drivers:
                 readings = frame[i]
                 try:
-                    call += 1
-                    clock.busy = call
+                    clock.begin()
                     command = controller.step(now, readings)
                     clock.busy = 0
                     if spec.chassis is not None:
@@ -174,10 +179,12 @@ def run(
         result.reason, result.error = Ending.ERROR, f"{_who(logs)} {broke} at step {step} (t = {world.time:.2f} s)"
     except Exception as err:  # ctsim's own code failing: a ctsim bug, unless a controller replaced what it calls
         replaced = guard.replaced() if guard is not None else ""
-        if not replaced:
+        foreign = foreign_frame(err)
+        if not replaced and foreign is None:
             raise
         result.reason = Ending.ERROR
-        result.error = f"{_who(logs)} replaced {replaced}, and the run failed with {type(err).__name__}: {err} at t = {world.time:.2f} s"
+        what = f"replaced {replaced}, and the run" if replaced else f"put its own code into ctsim's ({foreign}), and the run"
+        result.error = f"{_who(logs)} {what} failed with {type(err).__name__}: {err} at t = {world.time:.2f} s"
     except KeyboardInterrupt as stop:
         clock.busy = 0
         result.reason = Ending.QUIT if isinstance(stop, Quit) else Ending.TERMINATED if isinstance(stop, Terminated) else Ending.INTERRUPTED
@@ -270,23 +277,40 @@ def _last_frame(err: BaseException) -> str:
     return f" ({frames[-1].filename}:{frames[-1].lineno})" if frames else ""
 
 
-def _update(estimator: Estimator, readings: Readings, log: RobotLog, step: int) -> None:
-    """Step an estimator; one that raises or leaves a bad pose or covariance ends the run (_Stop),
-    as a controller's error does."""
+def _update(estimator: Estimator, readings: Readings, log: RobotLog, step: int) -> tuple[np.ndarray, np.ndarray | None]:
+    """Step an estimator and read its pose and covariance once (`outputs`), all of it a call
+    under the step clock as a controller's step is (its time limit; a signal acted on at once);
+    one that raises, overruns or leaves a bad pose or covariance ends the run (_Stop), as a
+    controller's error does. The pose and covariance (None without one) as read. The shipped
+    estimators (of `bots`) are not timed: their first update compiles their kernels."""
+    clock = StepClock.active if not type(estimator).__module__.startswith("bots.") else None
     try:
+        if clock is not None:
+            clock.begin()
         estimator.update(readings)
-        problem = check(estimator)
+        pose, covariance, problem = outputs(estimator)
     except KeyboardInterrupt:
         raise
+    except StepTimeout:
+        raise _Stop(f"estimator {name_of(estimator)!r} of {log.name} took longer than the step time limit of {clock.limit:g} s at step {step} (t = {readings.time:.2f} s)") from None
     except BaseException as err:  # the estimator's error (a user's code; sys.exit too)
         raise _Stop(f"estimator {name_of(estimator)!r} of {log.name} raised {type(err).__name__}: {err} at step {step} (t = {readings.time:.2f} s){_last_frame(err)}") from None
+    finally:
+        if clock is not None:
+            clock.busy = 0
     if problem is not None:
         raise _Stop(f"estimator {name_of(estimator)!r} of {log.name} failed at step {step} (t = {readings.time:.2f} s): {problem}")
+    return pose, covariance
 
 
-def _has_covariance(estimator: Estimator) -> bool:
-    """Whether an estimator reports a covariance (the Protocol's optional `covariance`)."""
-    return hasattr(type(estimator), "covariance") or hasattr(estimator, "covariance")
+READINGS = ("tallies", "ir_raw", "ir_distance", "floor", "light")
+"""The arrays of a step's SensorFrame, handed to controllers and estimators as `frozen` copies."""
+
+
+def frozen(array: np.ndarray) -> np.ndarray:
+    """A copy of `array` over immutable bytes: no flag, view or `.base` of it can be made
+    writeable (numpy refuses), and none reaches the run's recorded rows it was copied from."""
+    return np.frombuffer(array.tobytes(), dtype=array.dtype).reshape(array.shape)
 
 
 def _sample(
@@ -299,17 +323,16 @@ def _sample(
     n = samples.count
     time = world.time
     frame = samples.frame = world.read_all((samples.values[n], samples.believed[n], samples.tallies[n]))
-    for array in (frame.tallies, frame.ir_raw, frame.ir_distance, frame.floor, frame.light):
-        array.flags.writeable = False  # (views of the run's recorded rows: a controller must not rewrite them)
+    for name in READINGS:  # (the recorded rows themselves never reach a controller)
+        setattr(frame, name, frozen(getattr(frame, name)))
     samples.time[n] = time
     poses = world.poses()
     if odometry is not None:
         odometry.update_into(frame.tallies, time, poses, samples.poses[n], samples.covariances[n])
     for i, log, chosen in estimators:
         readings = frame[i]
-        for estimator in chosen:
-            _update(estimator, readings, log, n)
-        log.append(poses[i], [estimator.pose for estimator in chosen], [estimator.covariance for estimator in chosen if _has_covariance(estimator)])
+        read = [_update(estimator, readings, log, n) for estimator in chosen]
+        log.append(poses[i], [pose for pose, _ in read], [covariance for _, covariance in read if covariance is not None])
     samples.count = n + 1
     samples.columns.release_written(n + 1)
     goals = world.spec.goals
