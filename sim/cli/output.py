@@ -11,7 +11,7 @@ from typing import Any
 
 from bots.schema import file_stem
 from sim import sanitize
-from sim.analysis.summary import summarize, write_json
+from sim.analysis.summary import goal_note, summarize, write_json
 from sim.cli.observers import StopOnSignal
 from sim.cli.options import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_TERMINATED, UsageError
 from sim.folder_lock import LOCK, hold
@@ -160,6 +160,8 @@ def table(summary: dict[str, Any]) -> str:
     }.get(summary["reason"], summary["reason"])  # fmt: skip
     if summary["reason"] == Ending.DURATION and reached:
         outcome = f"goal reached by {', '.join(reached)}, ran on to the time limit"
+    elif summary["reason"] == Ending.DURATION and any(robot.get("goal") for robot in summary["robots"]):
+        outcome = f"time limit reached, goal not reached in {summary['time']:g} s"
     lines = [
         f"{sanitize.name(summary['world']['name'])}, seed {summary['seed']}, noise {summary.get('noise', 'none')}, "
         f"{summary['time']:.2f} s simulated: {outcome}"
@@ -168,8 +170,8 @@ def table(summary: dict[str, Any]) -> str:
     lines.append(header)
     for robot in summary["robots"]:
         first = f"{sanitize.name(robot['name'], 40):<12}{'':<12}{robot['distance']:>11.3f}{robot['collisions']:>11d}"
-        notes = [note for note in ("fell into a hole" if robot["fell"] else "", f"goal at {robot['goal_time']:.2f} s" if robot["goal_time"] is not None else "",
-                                   f"controller: {robot['status']}" if robot.get("status") not in (None, "running") else "") if note]  # fmt: skip
+        notes = [note for note in ("fell into a hole" if robot["fell"] else "", goal_note(robot),
+                                   f"controller: {robot['status']}" if robot.get("status") not in (None, "running", "goal reached") else "") if note]  # fmt: skip
         lines.append(first + ("   " + ", ".join(notes) if notes else ""))
         for name, errors in robot["estimates"].items():
             lines.append(f"{'':<12}{name:<12}{'':>11}{'':>11}{errors['final_position_error']:>12.4f}{errors['ate_rmse']:>11.4f}{math.degrees(errors['final_heading_error']):>12.2f}{_nees(errors):>7}")

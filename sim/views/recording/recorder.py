@@ -225,6 +225,9 @@ class Recorder(LiveStream):
         if self.streams:
             level = {"error": "ERROR", "interrupted": "WARN", "terminated": "WARN"}.get(result.reason, "INFO")
             self._event(f"end: {result.reason}" + (f": {result.error}" if result.error else ""), level)
+            if result.world.goals:
+                for log in result.robots:
+                    self._event(f"{log.name}: {log.goal_outcome(result.duration)}", "INFO" if log.goal_time is not None else "WARN")
         self.close()
 
     def close(self) -> None:
