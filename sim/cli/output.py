@@ -155,7 +155,7 @@ def table(summary: dict[str, Any]) -> str:
     """The short end-of-run table: per robot distance and collisions, per estimate its errors."""
     reached = [sanitize.name(robot["name"], 40) for robot in summary["robots"] if robot["goal_time"] is not None]
     outcome = {
-        Ending.GOAL: f"goal reached by {', '.join(reached)}", Ending.DURATION: "time limit reached",
+        Ending.GOAL: f"goal reached at {summary['time']:.1f} s by {', '.join(reached)}", Ending.DURATION: "time limit reached",
         Ending.DONE: "done (every controller said it is done)", Ending.QUIT: "quit (window closed)",
     }.get(summary["reason"], summary["reason"])  # fmt: skip
     if summary["reason"] == Ending.DURATION and reached:
