@@ -8,6 +8,7 @@ from __future__ import annotations
 import json
 import signal
 import textwrap
+from pathlib import Path
 
 import numpy as np
 import pyarrow.parquet as pq
@@ -59,6 +60,18 @@ class Hangs:
     def update(self, readings):
         self.steps += 1
         if self.steps == 5:
+            time.sleep(1000)
+
+class Terminated:
+    """Sends itself SIGTERM (as `timeout` or systemd would) and then blocks in its update."""
+    name = "terminated"
+    def reset(self, robot, pose):
+        self.pose, self.steps = np.array(pose, dtype=float), 0
+    def update(self, readings):
+        self.steps += 1
+        if self.steps == 5:
+            import os, signal
+            os.kill(os.getpid(), signal.SIGTERM)
             time.sleep(1000)
 
 class Fickle:
@@ -141,3 +154,30 @@ def test_a_patched_class_method_is_the_controllers_error_not_ctsims(code, tmp_pa
     err = capsys.readouterr().err
     assert f"put its own code into ctsim's ({code}:" in err and "ZeroDivisionError" in err and "Traceback" not in err
     assert json.loads((tmp_path / "out" / "summary.json").read_text())["reason"] == "error"
+
+
+@pytest.mark.skipif(not Path("/proc/self/statm").exists(), reason="the address-space check reads /proc (Linux)")
+def test_a_run_too_long_for_the_address_space_limit_is_refused_in_one_line(tmp_path):
+    """Under `ulimit -v 6 GiB` a run of 1e5 s (4 GiB of samples) used to die of SIGABRT inside
+    the recorder; now it is refused before it starts (exit 2), its folder left empty."""
+    import resource
+    import subprocess
+    import sys
+
+    def limit() -> None:
+        resource.setrlimit(resource.RLIMIT_AS, (6 << 30, resource.RLIM_INFINITY))
+
+    out = tmp_path / "long"
+    done = subprocess.run([sys.executable, "-m", "sim.cli", "run", "empty", "--controller", "idle", "--duration", "1e5", "--no-report", "--out", str(out)],
+                          capture_output=True, text=True, timeout=600, preexec_fn=limit, cwd=Path(__file__).resolve().parents[1])  # fmt: skip
+    assert done.returncode == 2, done.stderr[-2000:]
+    assert done.stderr.startswith("ctsim: error: the run needs about ") and done.stderr.count("\n") == 1 and "ulimit -v" in done.stderr
+    assert sorted(p.name for p in out.iterdir()) == [".ctsim.lock"]
+
+
+@pytest.mark.skipif(not hasattr(signal, "setitimer"), reason="the step clock is POSIX")
+def test_the_first_sigterm_inside_an_estimator_ends_the_run_at_once(code, tmp_path, capsys):
+    out = tmp_path / "out"
+    assert run("--controller", "idle", "--estimator", f"{code}:Terminated", "--out", str(out)) == 143
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["reason"] == "terminated" and (out / "truth.tum").is_file()

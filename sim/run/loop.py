@@ -32,6 +32,8 @@ from sim.run.ending import Ending, Quit, RunError, Terminated
 from sim.run.samples import RobotLog, RunResult, Samples
 from sim.world import World
 from sim.world.chassis_drive import FaultError
+from sim.world.localising import MapScan
+from sim.world.physics import sensor_rng
 from sim.world.spec import Start, WheelFault, WorldSpec
 from sim.world.step import DEFAULT_DT, StepError, check_dt
 
@@ -103,6 +105,8 @@ def run(
             chosen = setup.estimators if setup.estimators is not None else default_estimators(setup.spec)
             for estimator in chosen:
                 try:
+                    if hasattr(estimator, "use_map"):  # a localiser: the robot's map of the world (never its pose) and a generator of its own
+                        estimator.use_map(MapScan(world_spec, setup.spec), sensor_rng(seed, i, f"estimator {name_of(estimator)}"))
                     estimator.reset(setup.spec, robot.pose)
                 except (Exception, SystemExit) as err:  # a user's estimator that cannot take this robot (or leaves): the user's
                     raise RunError(f"{robot.name}: estimator {name_of(estimator)!r} could not be reset: {type(err).__name__}: {err}{_last_frame(err)}") from None
@@ -119,6 +123,7 @@ def run(
         controllers.append(setup.controller)
         if i not in slot:
             estimators.append((i, log, chosen))
+            log.estimators = list(chosen)
     try:
         world.chassis.schedule_faults([*world_spec.faults, *(replace(f, robot=i) for i, setup in enumerate(robots) for f in setup.faults)])
     except FaultError as err:

@@ -13,14 +13,18 @@ from __future__ import annotations
 import pickle
 import subprocess
 import sys
+import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from typing import Any
 
 HELPER_TIMEOUT_S = 1800.0
 """Longest wait for the second process (s), far beyond its minutes on a loaded machine."""
 PROGRESS: Callable[[str], None] | None = None
-"""Called with a line of text when kernels are compiled (the command line prints it), None: silent."""
+"""Called with a line of text when kernels are compiled, and every TICK_S seconds while they are
+(the command line prints it), None: silent."""
+TICK_S = 5.0
 
 
 def compiled_for(kernel: Any, *arguments: Any) -> Callable:
@@ -45,18 +49,44 @@ def compile_all(jobs: list[tuple[Any, tuple]], elsewhere: int = 1) -> list[Calla
         PROGRESS(f"compiling the simulator's kernels for this machine (first run only): {', '.join(k.py_func.__name__ for k, _ in missing)}")
     started = time.perf_counter()
     own = missing[: len(missing) - elsewhere] if helper is not None else missing
-    for kernel, types in own:
-        kernel.compile(types)
-    if helper is not None:  # whatever went wrong there is compiled here below
-        try:
-            helper.wait(timeout=HELPER_TIMEOUT_S)
-        except subprocess.TimeoutExpired:
-            helper.kill()
-            helper.wait()
-    compiled = [kernel.compile(types) for kernel, types in typed]
+    done = [0]
+    with _ticking(lambda: f"compiling: {done[0]} of {len(missing)} kernels done, {time.perf_counter() - started:.0f} s so far (first run only)",
+                  bool(missing) and PROGRESS is not None):  # fmt: skip
+        for kernel, types in own:
+            kernel.compile(types)
+            done[0] += 1
+        if helper is not None:  # whatever went wrong there is compiled here below
+            try:
+                helper.wait(timeout=HELPER_TIMEOUT_S)
+            except subprocess.TimeoutExpired:
+                helper.kill()
+                helper.wait()
+        compiled = [kernel.compile(types) for kernel, types in typed]
     if missing and PROGRESS is not None:
         PROGRESS(f"compiled in {time.perf_counter() - started:.0f} s; later runs load them from numba's cache")
     return compiled
+
+
+@contextmanager
+def _ticking(line: Callable[[], str], on: bool) -> Iterator[None]:
+    """`PROGRESS(line())` every TICK_S seconds meanwhile (if `on`), from a thread that ends with it
+    (a sweep forks its workers only from a process running one thread)."""
+    if not on:
+        yield
+        return
+    stop = threading.Event()
+
+    def tick() -> None:
+        while not stop.wait(TICK_S):
+            PROGRESS(line())
+
+    ticker = threading.Thread(target=tick, name="ctsim compile progress", daemon=True)
+    ticker.start()
+    try:
+        yield
+    finally:
+        stop.set()
+        ticker.join()
 
 
 def _types(kernel: Any, arguments: tuple) -> tuple:
