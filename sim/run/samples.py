@@ -179,6 +179,11 @@ class RobotLog:
         self._estimates = {label: self._poses[:, 1 + k] for k, label in enumerate(estimators)}
         self._uncertain = {label: self._covariances[:, k] for k, label in enumerate(uncertain)}
 
+    def goal_outcome(self, duration: float) -> str:
+        """Whether and when the robot reached its goal, in the words the table, report.html and
+        the recording say it in: 'goal reached at 231.4 s' or 'goal not reached in 300 s'."""
+        return f"goal reached at {self.goal_time:.1f} s" if self.goal_time is not None else f"goal not reached in {duration:g} s"
+
     @property
     def latest(self) -> Readings | None:
         """The readings of the current sample (what the controller gets this step)."""
