@@ -148,8 +148,9 @@ def test_the_same_game_is_the_same_bit_for_bit_in_any_process(lanes, tmp_path):
     (_, there), (_, again) = Processes(2).imap(play, [job, job])
     assert here["digest"] == there["digest"] == again["digest"]
     assert here["sides"] == there["sides"] and here["verdict"] == there["verdict"]
-    other_seed = play(GameJob(2, 1, job.entries, job.world, 4.0, 8, 0.01, None))
-    assert other_seed["sides"] == here["sides"]  # no noise in this world: the seed changes nothing here ...
+    exact = [play(GameJob(2, 1, job.entries, job.world, 4.0, seed, 0.01, None, noise="none")) for seed in (7, 8)]
+    assert exact[0]["sides"] == exact[1]["sides"] and exact[0]["digest"] == exact[1]["digest"]  # no noise: the seed changes nothing ...
+    assert play(GameJob(2, 1, job.entries, job.world, 4.0, 8, 0.01, None))["digest"] != here["digest"]  # ... with the default noise it does
     noisy = [play(GameJob(2, 1, tuple(parse(["a=wander", "b=wander"])), "contest", 3.0, seed, 0.01, None))["digest"] for seed in (1, 1)]
     assert noisy[0] == noisy[1]  # ... and a wanderer among walls is the same run for the same seed
 
