@@ -3,9 +3,9 @@ checked every step as a controller's command is.
 
 An estimator follows `bots.odometry.Estimator`: `reset(robot, pose)`, `update(readings)`, a `pose`
 (3,) and optionally a `covariance` (3, 3). `ctsim run --estimator FILE.py:Class` and
-`simulate(..., estimators=[...])` give every robot a fresh one beside its defaults; its name is
-its `name` attribute (else the class's), which must be a plain word (it names files) and differ
-from the others'. A step whose update raises, or leaves a pose or covariance of the wrong shape
+`simulate(..., estimators=[...])` give every robot a fresh one beside its defaults, which stay in
+their compiled pass (`beside_defaults`); its name is its `name` attribute (else the class's), which
+must be a plain word (it names files) and differ from the others'. A step whose update raises, or leaves a pose or covariance of the wrong shape
 or not finite, ends the run as a controller's error does (`check`).
 """
 
@@ -70,10 +70,11 @@ def name_of(estimator: Estimator) -> str:
     return str(getattr(estimator, "name", None) or type(estimator).__name__)
 
 
-def alongside(robot: RobotSpec, extra: Iterable[Any]) -> list[Estimator]:
-    """The robot's default estimators and a fresh one of each `extra`, their names checked."""
-    chosen = [*default_estimators(robot), *(made(given) for given in extra)]
-    seen: set[str] = set()
+def beside_defaults(robot: RobotSpec, extra: Iterable[Any]) -> list[Estimator]:
+    """A fresh one of each `extra`, to run beside the robot's default estimators (which stay in
+    their compiled pass), each named apart from those and from the others."""
+    chosen = [made(given) for given in extra]
+    seen = {name_of(estimator) for estimator in default_estimators(robot)}
     for estimator in chosen:
         label = name_of(estimator)
         if not NAME.fullmatch(label):
