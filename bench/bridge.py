@@ -17,7 +17,7 @@ from pathlib import Path
 
 from bots.ctbot import CTBOT
 from sim.bridge import Bridge
-from sim.run import run
+from sim.run.loop import run
 from sim.world.files import load_world
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -56,7 +56,7 @@ def bridge_end_work(seconds: float) -> float:
     sys.path.insert(0, str(ROOT / "tests"))
     from fake_firmware import FakeFirmware
 
-    from sim.cli import main
+    from sim.cli.entry import main
 
     class Timed(FakeFirmware):
         last = 0.0
@@ -83,9 +83,9 @@ def run_end_work(seconds: float) -> float:
     last sample to the last file, the recording closed and the files and figures `ctsim run`
     writes after the loop, for comparison."""
     from bots.behaviours import make
-    from sim.cli import finish
-    from sim.run import RobotSetup
-    from sim.views.recording import Recorder
+    from sim.cli.output import finish
+    from sim.run.loop import RobotSetup
+    from sim.views.recording.recorder import Recorder
 
     clock = _Clock()
     with tempfile.TemporaryDirectory() as out:

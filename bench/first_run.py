@@ -25,7 +25,7 @@ ONE_PROCESS = "import sim.world.compiling as c; c.WORKERS = 0; "
 
 def _timed(cache: str, out: str, prelude: str = "") -> float:
     """Wall seconds of `ctsim run` in a clean subprocess with numba's cache at `cache`."""
-    code = f"import sys; {prelude}from sim.cli import main; sys.exit(main({RUN + ['--out', out]!r}))"
+    code = f"import sys; {prelude}from sim.cli.entry import main; sys.exit(main({RUN + ['--out', out]!r}))"
     env = {**os.environ, "NUMBA_CACHE_DIR": cache}
     started = time.perf_counter()
     subprocess.run([sys.executable, "-c", code], cwd=ROOT, env=env, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)

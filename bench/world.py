@@ -105,7 +105,7 @@ def big_maze_ctbot(steps: int, rooms: int = 40) -> float:
 
 
 def maze_run(steps: int, record: bool, noise: str = DEFAULT_NOISE) -> float:
-    """Steps per second of a whole run (`sim.run.run`: sensors, odometry, controller, physics) of
+    """Steps per second of a whole run (`sim.run.loop.run`: sensors, odometry, controller, physics) of
     a c't-Bot with a noise preset (the main job's, realistic) solving the maze for `steps` steps,
     with or without the rerun recorder writing every step to a temporary .rrd (opening and
     closing the file included)."""
@@ -113,8 +113,9 @@ def maze_run(steps: int, record: bool, noise: str = DEFAULT_NOISE) -> float:
     from pathlib import Path
 
     from bots.behaviours import make
-    from sim.run import RobotSetup, run
-    from sim.views.recording import Recorder, keep_pandas_out_of_arrow
+    from sim.run.loop import RobotSetup, run
+    from sim.views.recording.arrow import keep_pandas_out_of_arrow
+    from sim.views.recording.recorder import Recorder
 
     if record:
         keep_pandas_out_of_arrow()  # as `ctsim run` does

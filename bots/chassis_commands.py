@@ -27,6 +27,7 @@ from bots.commands import (
     WheelCommands,
     WheelSpeeds,
 )
+from bots.readings import Readings
 from bots.spec import RobotSpec
 from sim.kinematics.chassis import (
     Chassis,
@@ -37,7 +38,6 @@ from sim.kinematics.chassis import (
     inverse_kinematics,
 )
 from sim.kinematics.ocp import kappa_g_for, ocp_to_twist, v_max_for
-from sim.world.readings import Readings
 
 
 class InfeasibleCommand(BadCommand):

@@ -19,10 +19,10 @@ from pathlib import Path
 from typing import Any, Protocol, runtime_checkable
 
 from bots.commands import Command
+from bots.readings import Readings
 from bots.schema import parse_number
 from bots.spec import RobotSpec
 from sim.errors import UserError
-from sim.world.readings import Readings
 
 
 class Status(enum.Enum):

@@ -12,7 +12,7 @@ systematic errors of UMBmark as constant states, which make the pose covariance 
 width grow with the rotation and that of a wheel mismatch with distance squared).
 
 The kernels of this model (`wheel_terms`, `mouse_terms`, `propagate`, `pose_covariance`) live in
-`bots.odometry_steps`, beside the steps that call them (numba caches a kernel by its own file).
+`bots.odometry.steps`, beside the steps that call them (numba caches a kernel by its own file).
 
 Quantisation is not a random walk here: counts are carried, so each channel lags the truth by
 less than one count at any time (uniform, variance count²/12) and that lag never adds up. It is

@@ -15,6 +15,6 @@ settings.register_profile("ctsim", deadline=None, print_blob=True)
 settings.load_profile("ctsim")
 
 # `ctsim run` keeps pyarrow from importing pandas for the rest of its process
-# (`sim.views.recording.keep_pandas_out_of_arrow`), which suits a command that ends with its run but
+# (`sim.views.recording.arrow.keep_pandas_out_of_arrow`), which suits a command that ends with its run but
 # not a test process that calls the command line in-process and reads Arrow data in later tests:
 # with pandas loaded from the start that trick steps aside, whatever order the tests run in.

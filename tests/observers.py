@@ -24,7 +24,7 @@ class FakeLive:
 
     def recorder(self, path):  # noqa: ANN001
         """A Recorder writing `path` whose live stream is this stand-in."""
-        from sim.views.recording import Recorder
+        from sim.views.recording.recorder import Recorder
 
         live = self
 

@@ -13,7 +13,7 @@ import numpy as np
 
 from bots.behaviours import make
 from bots.ctbot import CTBOT
-from sim.run import RobotSetup, run
+from sim.run.loop import RobotSetup, run
 from sim.world import World
 from sim.world.files import load_world
 from tests.observers import KeepReadings
@@ -24,7 +24,7 @@ READING_FIELDS = ("encoder_ticks", "mouse_counts", "ir_raw", "ir_distance", "lin
 
 
 def maze_solve(steps: int = 1500) -> dict[str, np.ndarray]:
-    """`sim.run.run` of a c't-Bot solving the maze: truth, the four estimates, every reading."""
+    """`sim.run.loop.run` of a c't-Bot solving the maze: truth, the four estimates, every reading."""
     keep = KeepReadings()
     result = run(load_world("maze"), [RobotSetup(CTBOT, make("solve_maze", {}))], steps * 0.01, observers=[keep])
     log = result.robots[0]

@@ -11,8 +11,8 @@ from bots.behaviours import Behaviour, Teleop, TickOdometry, make
 from bots.commands import STOP, Twist, WheelSpeeds
 from bots.controller import REGISTRY, ControllerError, Status, parameters, reset
 from bots.ctbot import CTBOT
+from bots.readings import Readings
 from bots.spec import RobotSpec
-from sim.world.readings import Readings
 
 SHIPPED = {
     "idle", "stop", "drive_distance", "turn", "go_to_pose", "square", "teleop",

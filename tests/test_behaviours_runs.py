@@ -16,7 +16,8 @@ from bots.behaviours import AvoidHoles, DriveDistance, GoToPose, Square, Turn, m
 from bots.controller import Status
 from bots.ctbot import CTBOT
 from sim.kinematics import relative_increment
-from sim.run import RobotSetup, RunResult, run
+from sim.run.loop import RobotSetup, run
+from sim.run.samples import RunResult
 from sim.world.files import load_world
 
 WORLDS = {name: load_world(name) for name in ("empty", "line", "maze", "holes_lights")}

@@ -34,8 +34,8 @@ from sim.bridge import (  # noqa: E402
 from sim.bridge.firmware import MM_S_PER_UNIT, wheel_speed  # noqa: E402
 from sim.bridge.firmware_map import window  # noqa: E402
 from sim.bridge.protocol import remote_call_payload  # noqa: E402
-from sim.run import RobotSetup, run  # noqa: E402
-from sim.views.recording import Recorder  # noqa: E402
+from sim.run.loop import RobotSetup, run  # noqa: E402
+from sim.views.recording.recorder import Recorder  # noqa: E402
 from sim.world.spec import Start, Wall, WorldSpec, box  # noqa: E402
 
 EMPTY = WorldSpec("empty", (-5.0, -5.0, 5.0, 5.0), starts=(Start(0.0, 0.0, 0.0, 1), Start(0.0, 1.0, 0.0, 2), Start(0.0, -1.0, 0.0, 0)))
@@ -237,7 +237,7 @@ def test_the_listener_binds_loopback_only_by_default():
 
 
 def test_cli_bridge_runs_a_fake_firmware_and_writes_the_results(tmp_path, capsys):
-    from sim.cli import main
+    from sim.cli.entry import main
 
     probe = socket.socket()
     probe.bind(("127.0.0.1", 0))
@@ -256,7 +256,7 @@ def test_cli_bridge_runs_a_fake_firmware_and_writes_the_results(tmp_path, capsys
 
 
 def test_cli_bridge_help_says_how_to_start_the_firmware(capsys):
-    from sim.cli import main
+    from sim.cli.entry import main
 
     with pytest.raises(SystemExit):
         main(["bridge", "--help"])
@@ -265,7 +265,7 @@ def test_cli_bridge_help_says_how_to_start_the_firmware(capsys):
 
 @pytest.mark.parametrize("option", ["--rc5=x:3", "--rc5=1:HELP", "--call=1:bot turn", "--call=-1:bot_turn(9)"])
 def test_cli_bad_timed_options_are_user_errors(option, capsys):
-    from sim.cli import main
+    from sim.cli.entry import main
 
     with pytest.raises(SystemExit) as exit_info:
         main(["bridge", "maze", option])
@@ -281,8 +281,8 @@ def test_motor_units_are_c_t_sims_pwm_mapping():
 
 def test_mouse_sideways_sign_is_converted_at_the_protocol_edge():
     """ctsim's mouse counts are (forward, left); c't-Sim's dX points the other way, dY forward."""
+    from bots.readings import Readings
     from sim.bridge.firmware import FirmwareController
-    from sim.world.readings import Readings
 
     bot = FirmwareController(listener=None)
     block = Decoder().feed(bot._block(1, 0.01, Readings(), Readings(mouse_counts=np.array([10, 3]))))  # the dots of the motion after
@@ -379,7 +379,7 @@ def test_the_firmware_map_is_drawn_where_the_firmware_believes_it_drove(tmp_path
 
 
 def test_shutdown_comes_after_the_files_are_written_and_list_calls_prints_the_offer(tmp_path, capsys):
-    from sim.cli import main
+    from sim.cli.entry import main
 
     probe = socket.socket()
     probe.bind(("127.0.0.1", 0))

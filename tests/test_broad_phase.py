@@ -7,7 +7,8 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sim.world.kernels import _contact_time, _near_pairs, _stable_order, keep_apart
+from sim.world.kernels.contacts import _contact_time, keep_apart
+from sim.world.kernels.grids import near_pairs, stable_order
 
 
 def keep_apart_all_pairs(pose: np.ndarray, move: np.ndarray, reach: np.ndarray) -> None:
@@ -54,13 +55,13 @@ def test_pairs_at_exactly_the_conflict_distance_are_candidates() -> None:
     reach = np.array([0.05, 0.05])
     pose = np.array([[0.0, 0.0, 0.0], [0.12, 0.0, 0.0]])
     move = np.array([[0.01, 0.0], [-0.01, 0.0]])
-    assert _near_pairs(pose, move, reach).tolist() == [[0, 1]]
+    assert near_pairs(pose, move, reach).tolist() == [[0, 1]]
 
 
 def test_far_robots_are_never_paired() -> None:
     """1,000 robots 10 m apart on a line: no pair to check."""
     pose = np.column_stack((np.arange(1000) * 10.0, np.zeros(1000), np.zeros(1000)))
-    assert len(_near_pairs(pose, np.full((1000, 2), 0.01), np.full(1000, 0.06))) == 0
+    assert len(near_pairs(pose, np.full((1000, 2), 0.01), np.full(1000, 0.06))) == 0
 
 
 @settings(deadline=None, max_examples=60)
@@ -69,6 +70,6 @@ def test_stable_order_is_numpys_stable_argsort(keys: list[int]) -> None:
     """The grids' hand-written merge sort orders ties as numpy's stable sort does (the grids depend
     on the order of checking pairs and circles)."""
     key = np.array(keys, dtype=np.int64)
-    order, sorted_key = _stable_order(key)
+    order, sorted_key = stable_order(key)
     np.testing.assert_array_equal(order, np.argsort(key, kind="stable"))
     np.testing.assert_array_equal(sorted_key, np.sort(key, kind="stable"))

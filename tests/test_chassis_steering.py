@@ -15,6 +15,7 @@ from bots.chassis_commands import InfeasibleCommand, chassis_setpoints
 from bots.chassis_spec import ChassisSpec
 from bots.commands import Twist
 from bots.controller import FunctionController
+from bots.readings import Readings
 from bots.spec import MotorSpec, wheeled_robot
 from bots.wheeled import CAR, OCP_VEHICLE
 from sim.kinematics import apply_increment, relative_increment, se2_exp, se2_log, wrap_angle
@@ -28,9 +29,8 @@ from sim.kinematics.chassis import (
     nearest_feasible,
     nearest_steerable,
 )
-from sim.run import RobotSetup, run
+from sim.run.loop import RobotSetup, run
 from sim.world import World
-from sim.world.readings import Readings
 from sim.world.spec import Start, WorldSpec
 
 DT = 0.01

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from sim.cli import main
+from sim.cli.entry import main
 
 CTSIM = [sys.executable, "-m", "sim.cli"]
 DRIVE = """
@@ -199,7 +199,7 @@ def test_the_readmes_wanderer_wanders_where_the_readme_runs_it(tmp_path, monkeyp
 
 
 def test_ctsim_worlds_shows_a_whole_first_sentence(capsys):
-    from sim.cli import first_sentence
+    from sim.cli.worlds import first_sentence
 
     assert first_sentence("A race, e.g. its first\nround: 0.24 m cells. Then more.") == "A race, e.g. its first round: 0.24 m cells."
     assert main(["worlds"]) == 0
@@ -208,7 +208,7 @@ def test_ctsim_worlds_shows_a_whole_first_sentence(capsys):
 
 def test_a_run_s_ending_is_its_plain_name_in_every_file():
     """`Ending` is a str: summary.json, the sweep table and comparisons with the names hold its value."""
-    from sim.run import Ending
+    from sim.run.ending import Ending
 
     assert json.dumps({"reason": Ending.GOAL}) == '{"reason": "goal"}' and f"{Ending.TERMINATED}" == "terminated"
     assert Ending("error") is Ending.ERROR and Ending.ERROR == "error"

@@ -9,15 +9,15 @@ import pytest
 from bots.controller import ControllerError
 from bots.noise import RobotSettingError
 from bots.schema import FileError
-from sim import cli
-from sim.cli import main
+from sim.cli import options as cli
+from sim.cli.entry import main
 from sim.contest.entries import EntryError
 from sim.contest.store import StoreError
 from sim.errors import UserError
 from sim.experiments.plan import SpecError
 from sim.experiments.report import ReportError
 from sim.lab.exercise import ExerciseError
-from sim.run import RunError
+from sim.run.ending import RunError
 from sim.web.serve import ViewError
 from sim.world import World
 from sim.world.chassis_drive import FaultError

@@ -18,8 +18,9 @@ from bots.commands import Twist
 from bots.controller import FunctionController
 from bots.ctbot import CTBOT
 from bots.noise import NOISE_PRESETS, RobotSettingError, with_noise, with_settings
-from sim.cli import EXIT_FAILED, EXIT_USER, main
-from sim.run import RobotSetup, run
+from sim.cli.entry import main
+from sim.cli.options import EXIT_FAILED, EXIT_USER
+from sim.run.loop import RobotSetup, run
 from sim.world.files import load_world, worlds_dir
 
 STATUSES = {0, EXIT_FAILED, EXIT_USER}

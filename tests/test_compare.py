@@ -21,7 +21,7 @@ from sim.analysis.metrics import (
     relative_pose_errors,
 )
 from sim.kinematics import wrap_angle
-from sim.run import RobotSetup, run
+from sim.run.loop import RobotSetup, run
 from sim.world.files import load_world
 
 # 10 m straight along x at 1 m/s, sampled every 0.125 s (exact in binary, so 1 m stretches are exact)

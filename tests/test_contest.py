@@ -17,7 +17,7 @@ from pathlib import Path
 
 import pytest
 
-from sim.cli import main
+from sim.cli.entry import main
 from sim.contest import Settings, conduct, parse
 from sim.contest.game import GameJob, play
 from sim.contest.ranking import ranking

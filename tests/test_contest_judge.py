@@ -20,7 +20,7 @@ from sim.contest.entries import parse
 from sim.contest.game import GameJob, play
 from sim.contest.judge import Side, decide
 from sim.contest.paths import PathField
-from sim.run import RobotSetup, run
+from sim.run.loop import RobotSetup, run
 from sim.world.files import load_world, world_warnings
 from sim.world.spec import Goal, Start, WorldFileError
 

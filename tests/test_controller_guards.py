@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy
 import pytest
 
-import sim.run
-from sim.cli import main
+import sim.run.loop
+from sim.cli.entry import main
 
 pytestmark = pytest.mark.skipif(not hasattr(signal, "setitimer"), reason="the step timer and fork are POSIX")
 
@@ -70,8 +70,8 @@ class Patches:
     def step(self, t, readings):
         if t > 0.05:
             numpy.zeros = None
-            import sim.run
-            sim.run.motor_commands = None
+            import sim.run.loop
+            sim.run.loop.motor_commands = None
         return Twist(0.1, 0.0)
 
 class LowersTheRecursionLimit:
@@ -118,10 +118,10 @@ def test_a_fork_that_returns_into_the_run_leaves_and_writes_nothing(controllers,
 
 
 def test_replacing_numpy_or_ctsim_ends_the_run_as_the_controllers_error_and_is_undone(controllers, tmp_path, capsys):
-    zeros, commands = numpy.zeros, sim.run.motor_commands
+    zeros, commands = numpy.zeros, sim.run.loop.motor_commands
     assert run(controllers, "Patches", tmp_path / "out") == 1
-    assert "replaced numpy.zeros, sim.run.motor_commands, and the run failed" in capsys.readouterr().err
-    assert numpy.zeros is zeros and sim.run.motor_commands is commands
+    assert "replaced numpy.zeros, sim.run.loop.motor_commands, and the run failed" in capsys.readouterr().err
+    assert numpy.zeros is zeros and sim.run.loop.motor_commands is commands
     assert summary(tmp_path / "out")["reason"] == "error"
 
 

@@ -17,7 +17,7 @@ from shared_data import PARCOURS
 from shared_data import needs_parcours as needs_shared
 
 from bots.ctbot import CTBOT
-from sim.cli import main
+from sim.cli.entry import main
 from sim.world import World
 from sim.world.files import load_world, room_warning
 from sim.world.spec import Hole, WorldSpec, box

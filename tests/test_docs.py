@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from sim.cli import main
+from sim.cli.entry import main
 
 DOCS = Path(__file__).resolve().parent.parent / "docs"
 

@@ -14,7 +14,7 @@ from bots.commands import Twist
 from bots.controller import FunctionController
 from bots.ctbot import CTBOT
 from sim.analysis.export import export_run, read_csv, read_tum, write_csv, write_tum
-from sim.run import RobotSetup, run
+from sim.run.loop import RobotSetup, run
 from sim.world.files import load_world
 
 finite = st.floats(-1e3, 1e3, allow_nan=False)
@@ -101,13 +101,13 @@ def test_a_run_written_in_blocks_equals_its_arrays_written_at_once(tmp_path, mon
     cross five block edges): every file is byte for byte what the whole arrays give, and the
     metrics read through the same way equal those of the whole arrays (regrouped sums of squares:
     1e-12 relative)."""
-    import sim.run
+    import sim.run.samples
     from sim.analysis.export import write_run
     from sim.analysis.metrics import compare, compare_run
 
     robots = [RobotSetup(CTBOT, FunctionController(lambda t, r: Twist(0.1, 0.5))), RobotSetup(CTBOT, FunctionController(lambda t, r: Twist(0.2, -0.3)))]
     result = run(load_world("maze"), robots, 2.0)
-    monkeypatch.setattr(sim.run, "BLOCK", 37)
+    monkeypatch.setattr(sim.run.samples, "BLOCK", 37)
     monkeypatch.setattr("sim.analysis.export.FILE_ROWS", 37)
     written = write_run(result, tmp_path / "blocks", prefix=True, with_csv=True)
     metrics = compare_run(result)
@@ -127,14 +127,14 @@ def test_a_run_written_in_blocks_equals_its_arrays_written_at_once(tmp_path, mon
 def test_parquet_holds_every_sample_of_poses_and_readings_across_blocks(tmp_path, monkeypatch):
     """`write_parquet` writes block by block (37 samples here, so 201 samples cross five edges):
     every pose and every reading of every sample comes back exactly, under its robot's name."""
-    import sim.run
+    import sim.run.samples
     from sim.analysis.export import read_parquet, write_parquet
     from tests.observers import KeepReadings
 
     robots = [RobotSetup(CTBOT, FunctionController(lambda t, r: Twist(0.1, 0.5))), RobotSetup(CTBOT, FunctionController(lambda t, r: Twist(0.2, -0.3)))]
     keep = [KeepReadings(0), KeepReadings(1)]
     result = run(load_world("maze"), robots, 2.0, observers=keep)
-    monkeypatch.setattr(sim.run, "BLOCK", 37)
+    monkeypatch.setattr(sim.run.samples, "BLOCK", 37)
     monkeypatch.setattr("sim.analysis.export.FILE_ROWS", 37)
     table = read_parquet(write_parquet(result, tmp_path / "run.parquet"))
     assert np.array_equal(table["time"], result.time)
@@ -151,11 +151,11 @@ def test_parquet_holds_every_sample_of_poses_and_readings_across_blocks(tmp_path
 def test_an_export_rate_keeps_every_nth_sample_and_the_last(tmp_path, monkeypatch):
     """`write_run(every=10)` over blocks of 37 samples writes samples 0, 10, ..., 200 of 201 and
     the last (here sample 200 itself), byte for byte what the whole arrays give at those samples."""
-    import sim.run
+    import sim.run.samples
     from sim.analysis.export import sampled, write_run
 
     result = run(load_world("maze"), [RobotSetup(CTBOT, FunctionController(lambda t, r: Twist(0.1, 0.5)))], 2.05)
-    monkeypatch.setattr(sim.run, "BLOCK", 37)
+    monkeypatch.setattr(sim.run.samples, "BLOCK", 37)
     monkeypatch.setattr("sim.analysis.export.FILE_ROWS", 37)
     written = write_run(result, tmp_path / "rate", prefix=False, with_csv=True, every=10)
     picked = np.r_[0 : len(result) : 10, len(result) - 1] if (len(result) - 1) % 10 else np.r_[0 : len(result) : 10]

@@ -8,7 +8,7 @@ import os
 
 import pytest
 
-from sim.cli import main
+from sim.cli.entry import main
 from sim.experiments import sweep
 from sim.folder_lock import LOCK, FolderInUse, hold
 

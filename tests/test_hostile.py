@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from sim.cli import main
+from sim.cli.entry import main
 from sim.experiments import Serial, load_results, sweep
 from sim.folder_lock import LOCK
 
@@ -214,7 +214,7 @@ def test_a_disk_full_while_writing_ends_with_one_line_and_the_summary_kept(tmp_p
     def full(*args, **kwargs):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
 
-    monkeypatch.setattr("sim.cli.write_trajectories", full)
+    monkeypatch.setattr("sim.cli.output.write_trajectories", full)
     assert run_cli("--controller", "square", "--out", str(tmp_path / "out")) == 1
     err = capsys.readouterr().err
     assert err == f"ctsim: error: writing the run's results into {tmp_path / 'out'}: No space left on device (written: summary.json)\n"

@@ -219,7 +219,7 @@ def test_an_exercise_file_with_a_value_at_the_edge_names_file_and_key(tmp_path, 
     ],
 )
 def test_run_options_at_the_edges_are_one_line_naming_the_option(tmp_path, capsys, options, message):
-    from sim.cli import main
+    from sim.cli.entry import main
 
     try:
         code = main(["run", "empty", "--controller", "square", "--no-report", "--out", str(tmp_path / "out"), *options])

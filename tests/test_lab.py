@@ -11,7 +11,7 @@ from xml.etree import ElementTree as ET
 
 import pytest
 
-from sim.cli import main
+from sim.cli.entry import main
 from sim.lab import check_file, exercise
 from sim.lab.exercise import shared_hints
 from sim.lab.grading import grade

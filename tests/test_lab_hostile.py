@@ -18,7 +18,7 @@ from xml.etree import ElementTree as ET
 import pytest
 
 from sim import sanitize
-from sim.cli import main
+from sim.cli.entry import main
 from sim.lab import exercise
 from sim.lab.grading import grade
 from sim.sandbox import unavailable

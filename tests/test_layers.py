@@ -5,6 +5,8 @@ a lazy import hides a dependency from a reader but not from Python."""
 from __future__ import annotations
 
 import ast
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -12,8 +14,8 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 
 CORE = ("sim.kinematics",)
-BOTS = CORE + ("bots", "sim.world.readings")
-WORLD = CORE + ("sim.world", "bots.spec", "bots.ctbot", "bots.schema")
+BOTS = CORE + ("bots",)
+WORLD = CORE + ("sim.world", "bots.spec", "bots.ctbot", "bots.schema", "bots.readings")
 RUN = WORLD + ("bots", "sim.run", "sim.guards")
 ANALYSIS = RUN + ("sim.analysis",)
 VIEWS = ANALYSIS + ("sim.views",)
@@ -146,7 +148,7 @@ def write(root: Path, files: dict[str, str]) -> None:
     ("rel", "text", "expected"),
     [
         ("sim/kinematics/arc.py", "import numpy\nfrom sim.world import World\n", "sim/kinematics/arc.py:2: sim.kinematics.arc imports sim.world"),
-        ("bots/odometry.py", "def f():\n    from sim.world.physics import World\n", "bots/odometry.py:2: bots.odometry imports sim.world.physics"),
+        ("bots/odometry/base.py", "def f():\n    from sim.world.physics import World\n", "bots/odometry/base.py:2: bots.odometry.base imports sim.world.physics"),
         ("sim/views/figures.py", "from sim import cli\n", "sim/views/figures.py:1: sim.views.figures imports sim.cli"),
         ("sim/world/spec.py", "from ..run import run\n", "sim/world/spec.py:1: sim.world.spec imports sim.run"),
         ("sim/loose.py", "", "sim/loose.py: module sim.loose belongs to no layer"),
@@ -166,3 +168,11 @@ def test_a_circle_through_a_lazy_import_is_found(tmp_path: Path) -> None:
         "bots/behaviours/floor.py": "from bots.controller import make\nX = 1\n",
     })
     assert circles(tmp_path) == ["bots.behaviours <-> bots.behaviours.floor <-> bots.controller"]
+
+
+def test_importing_a_controller_loads_no_physics() -> None:
+    """Code on a robot sees readings only, and they are numpy arrays (`bots.readings`): importing a
+    controller brings in no pymunk, numba or world."""
+    code = "import sys, bots.controller; print(sorted(m for m in ('pymunk', 'numba', 'sim.world') if m in sys.modules))"
+    done = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True)
+    assert done.stdout.strip() == "[]", done.stdout

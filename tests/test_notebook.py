@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from sim.cli import main
+from sim.cli.entry import main
 
 ROOT = Path(__file__).resolve().parents[1]
 LAB = ROOT / "tests" / "lab" / "ex2"

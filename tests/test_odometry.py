@@ -15,14 +15,12 @@ from observers import KeepReadings
 from bots.commands import Twist, WheelSpeeds
 from bots.controller import FunctionController
 from bots.ctbot import CTBOT
-from bots.odometry import (
-    EncoderOdometry,
-    FirmwareOdometry,
-    FusedOdometry,
-    Geometry,
-    MouseOdometry,
-    default_estimators,
-)
+from bots.odometry.base import Geometry
+from bots.odometry.defaults import default_estimators
+from bots.odometry.encoder import EncoderOdometry
+from bots.odometry.firmware import FirmwareOdometry
+from bots.odometry.fused import FusedOdometry
+from bots.odometry.mouse import MouseOdometry
 from sim.analysis.metrics import path_lengths
 from sim.kinematics import (
     advance,
@@ -32,7 +30,7 @@ from sim.kinematics import (
     wrap_angle,
 )
 from sim.kinematics.mouse import counts_per_metre
-from sim.run import RobotSetup, run
+from sim.run.loop import RobotSetup, run
 from sim.world.files import load_world
 from sim.world.spec import WorldSpec
 

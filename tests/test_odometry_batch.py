@@ -1,4 +1,4 @@
-"""The batched default odometry (`bots.odometry_batch`) against the Python estimators it stands in
+"""The batched default odometry (`bots.odometry.batch`) against the Python estimators it stands in
 for: the same poses, fused state and contact counts, bit for bit.
 
 Exact equality, no tolerance: the kernel does the Python expressions' IEEE operations in the same
@@ -19,14 +19,15 @@ from test_odometry import OPEN_FLOOR, Wanderer, curves
 from bots.controller import FunctionController
 from bots.ctbot import CTBOT
 from bots.noise import with_noise
-from bots.odometry import EncoderOdometry, default_estimators
-from bots.odometry_batch import DefaultOdometry, batched
+from bots.odometry.batch import DefaultOdometry, batched
+from bots.odometry.defaults import default_estimators
+from bots.odometry.encoder import EncoderOdometry
+from bots.readings import Readings
 from bots.wheeled import MECANUM4
 from sim.kinematics import advance
 from sim.kinematics.batch import advance_one
-from sim.run import RobotSetup, run
+from sim.run.loop import RobotSetup, run
 from sim.world.files import load_world
-from sim.world.readings import Readings
 
 ROBOTS = {
     "ctbot": CTBOT,

@@ -12,7 +12,7 @@ import numpy as np  # noqa: E402
 import pygame  # noqa: E402
 
 from bots.ctbot import CTBOT  # noqa: E402
-from sim.cli import main  # noqa: E402
+from sim.cli.entry import main  # noqa: E402
 from sim.views.window import play  # noqa: E402
 from sim.world.files import load_world  # noqa: E402
 

@@ -14,8 +14,9 @@ from observers import KeepReadings
 from bots.commands import WheelSpeeds
 from bots.controller import FunctionController
 from bots.ctbot import CTBOT
-from sim.run import RobotSetup, run
-from sim.views.recording import CHUNK, TRAIL_EVERY, Recorder
+from sim.run.loop import RobotSetup, run
+from sim.views.recording.layout import TRAIL_EVERY
+from sim.views.recording.recorder import CHUNK, Recorder
 from sim.world.files import load_world
 
 
@@ -220,7 +221,7 @@ def _closed_port() -> int:
 
 
 def test_no_viewer_costs_the_live_view_only(tmp_path, capsys):
-    from sim.cli import main
+    from sim.cli.entry import main
 
     out = tmp_path / "o"
     code = main(["run", "empty", "--controller", "square", "--duration", "2", "--connect", f"rerun+http://127.0.0.1:{_closed_port()}/proxy", "--out", str(out), "--no-report"])
@@ -239,7 +240,7 @@ def test_live_spawns_a_viewer_for_its_stream_and_streams_to_it(tmp_path, monkeyp
     import rerun
     import rerun.sinks
 
-    from sim.views import recording
+    from sim.views.recording import live
 
     port = _closed_port()
     spawned: list[int] = []
@@ -249,7 +250,7 @@ def test_live_spawns_a_viewer_for_its_stream_and_streams_to_it(tmp_path, monkeyp
         spawned.append(port)
         standin.serve_grpc(grpc_port=port)
 
-    monkeypatch.setattr(recording, "LIVE_PORT", port)
+    monkeypatch.setattr(live, "LIVE_PORT", port)
     monkeypatch.setattr(rerun.sinks, "_spawn_viewer", spawn_viewer)
     recorder = Recorder(tmp_path / "run.rrd", live=True)
     result = run(load_world("empty"), [RobotSetup(CTBOT, FunctionController(_drive))], duration=0.5, observers=[recorder])
@@ -278,7 +279,7 @@ def test_a_live_view_gets_samples_before_a_chunk_fills_and_the_file_keeps_every_
     """A run paced at real time fills a chunk every 80 s: a live view gets what is buffered once
     LIVE_EVERY_S has passed (here 0 s: every sample), and the file, sent the same pieces, still
     holds every pose and an unbroken trail."""
-    from sim.views import recording
+    from sim.views.recording import live
 
     viewer = _Viewer()
 
@@ -286,7 +287,7 @@ def test_a_live_view_gets_samples_before_a_chunk_fills_and_the_file_keeps_every_
         self._live = viewer
         self.streams.append(viewer)
 
-    monkeypatch.setattr(recording, "LIVE_EVERY_S", 0.0)
+    monkeypatch.setattr(live, "LIVE_EVERY_S", 0.0)
     monkeypatch.setattr(Recorder, "_open_live", open_live)
     path = tmp_path / "run.rrd"
     result = run(load_world("maze"), [RobotSetup(CTBOT, FunctionController(_drive))], duration=0.5, observers=[Recorder(path, live=True)])
@@ -339,7 +340,7 @@ def test_ctsim_run_leaves_pandas_unloaded_and_usable(tmp_path):
 
     script = f"""
 import sys
-from sim.cli import main
+from sim.cli.entry import main
 code = main(["run", "maze", "--duration", "0.5", "--no-report", "--out", {str(tmp_path / "out")!r}])
 assert code == 0, code
 assert "pandas" not in sys.modules, "pandas loaded by the recording"
@@ -366,8 +367,8 @@ import rerun
 from bots.commands import WheelSpeeds
 from bots.controller import FunctionController
 from bots.ctbot import CTBOT
-from sim.run import RobotSetup, run
-from sim.views.recording import Recorder
+from sim.run.loop import RobotSetup, run
+from sim.views.recording.recorder import Recorder
 from sim.world.files import load_world
 path = {str(tmp_path / "run.rrd")!r}
 run(load_world("maze"), [RobotSetup(CTBOT, FunctionController(lambda t, r: WheelSpeeds(0.1, 0.1)))], 0.5, observers=[Recorder(path)])

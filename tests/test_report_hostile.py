@@ -11,7 +11,7 @@ import shutil
 
 import pytest
 
-from sim.cli import main
+from sim.cli.entry import main
 from sim.folder_lock import hold
 
 

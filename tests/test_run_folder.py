@@ -99,7 +99,7 @@ def test_many_robots_are_written_with_few_handles_open(tmp_path):
 
 
 def status(argv: list[str]) -> int:
-    from sim.cli import main
+    from sim.cli.entry import main
 
     try:
         return main(argv)
@@ -148,6 +148,6 @@ def test_a_controller_that_changes_folder_as_it_loads_cannot_move_the_run(tmp_pa
     controller.write_text(f"import os\nos.chdir({str(elsewhere)!r})\nfrom bots.commands import Twist\n"
                           "class Moves:\n    def step(self, t, readings):\n        return Twist(0.1, 0.0)\n")
     monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr("sim.cli.START", tmp_path)
+    monkeypatch.setattr("sim.cli.output.START", tmp_path)
     assert status(["run", "empty", "--controller", f"{controller}:Moves", "--duration", "0.05", "--no-report", "--out", "out"]) == 0
     assert (tmp_path / "out" / "summary.json").is_file() and not any(elsewhere.iterdir())

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from bots.ctbot import CTBOT
+from bots.readings import Readings
 from sim.sandbox import Limits, Sandbox, StudentError, unavailable, wire
-from sim.world.readings import Readings
 
 pytestmark = pytest.mark.skipif(unavailable() is not None, reason=f"no OS sandbox here: {unavailable()}")
 

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from bots.ctbot import CTBOT
+from bots.readings import ROWS_FROM, Readings, SensorFrame
 from sim.world import World
 from sim.world.files import load_world
-from sim.world.readings import ROWS_FROM, Readings, SensorFrame
 
 BLIND = CTBOT.with_changes(name="blind", ir=(), light=CTBOT.light[:1], border=())
 

@@ -1,5 +1,5 @@
 """Issue 16: the compiled sensor paths give the bits of the reference ones: IR curve lookup and
-inverse (`kernels.ir_values` against `IRCurve`), the IR grid broad phase against every circle,
+inverse (`kernels.sensing.ir_values` against `IRCurve`), the IR grid broad phase against every circle,
 and noise drawn in blocks against one draw at a time."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sim.world import kernels
+from sim.world.kernels.sensing import ir_values, sense_ir
 from sim.world.noise import NormalBlocks
 from sim.world.sensors import IRCurve, gp2d12
 
@@ -19,11 +19,11 @@ RANGES = [(0.1, 0.8), (0.05, 0.5)]
 
 
 def compiled(curve: IRCurve, low: float, high: float, distance: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """`kernels.ir_values` for one curve and range, without noise."""
+    """`kernels.sensing.ir_values` for one curve and range, without noise."""
     n = len(distance)
     raw, believed = np.empty(n, dtype=np.int64), np.empty(n)
     inverse = curve.inverse_table(low, high)
-    kernels.ir_values(
+    ir_values(
         distance, np.full(n, -1, dtype=np.int64), np.zeros(0), np.zeros((0, 1)), np.zeros(0, dtype=np.int64),
         np.zeros(n, dtype=np.int64), curve.per_cm[None], np.array([len(curve.per_cm) - 1]), np.array([curve.beyond], dtype=np.float32),
         inverse[None], np.array([curve.raw_range()[0]]), raw, believed,
@@ -62,7 +62,7 @@ def test_ir_noise_consumes_one_normal_per_sensor_that_sees_something():
     used = np.zeros(1, dtype=np.int64)
     raw, believed = np.empty(1, dtype=np.int64), np.empty(1)
     for distance, expected_used in ((math.inf, 0), (0.3, 1), (math.inf, 1), (0.3, 2)):
-        kernels.ir_values(
+        ir_values(
             np.array([distance]), np.zeros(1, dtype=np.int64), np.array([0.01]), normals, used, np.zeros(1, dtype=np.int64),
             curve.per_cm[None], np.array([len(curve.per_cm) - 1]), np.array([curve.beyond], dtype=np.float32),
             curve.inverse_table()[None], np.array([curve.raw_range()[0]]), raw, believed,
@@ -89,8 +89,8 @@ def test_ir_grid_gives_the_distances_of_every_circle(seed, count, spread):
     origins, look, cone, owner, circles = crowd(seed, count, spread, 40)
     no_walls = (np.zeros((0, 2)), np.zeros((0, 2), dtype=np.int64), np.zeros((0, 4)))
     every, grid = np.empty(40), np.empty(40)
-    kernels.sense_ir(origins, look, cone, owner, 0.85, *no_walls, circles, every, 1 << 30)
-    kernels.sense_ir(origins, look, cone, owner, 0.85, *no_walls, circles, grid, 0)
+    sense_ir(origins, look, cone, owner, 0.85, *no_walls, circles, every, 1 << 30)
+    sense_ir(origins, look, cone, owner, 0.85, *no_walls, circles, grid, 0)
     assert every.tobytes() == grid.tobytes()
 
 
@@ -118,9 +118,9 @@ def test_each_robot_reads_its_own_sensors_in_mixed_and_uniform_fleets():
     per robot) and for a crowd of robots all alike (rows), each robot's views hold its own
     sensors' values, as the robot alone in the world reads them (IR aside: the others are in view)."""
     from bots.ctbot import CTBOT
+    from bots.readings import ROWS_FROM
     from sim.world import World
     from sim.world.files import load_world
-    from sim.world.readings import ROWS_FROM
 
     blind = CTBOT.with_changes(name="blind", ir=(), light=CTBOT.light[:1], border=())
     spec = load_world("holes_lights")  # lamps and holes: each robot's light and floor readings its own

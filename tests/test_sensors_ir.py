@@ -207,11 +207,11 @@ def test_shipped_tables_are_ctsims_files(side):
 
 
 def test_compiled_cone_agrees_with_pymunk_queries():
-    """The world reads IR with a compiled kernel (`kernels.sense_ir`: walls, robots, cans); at 300
+    """The world reads IR with a compiled kernel (`kernels.sensing.sense_ir`: walls, robots, cans); at 300
     random poses in the maze beside another robot and a can it gives the distances of
     `World.ray_distance`'s pymunk queries (to 1e-9 m: two exact computations of one geometry)."""
-    from sim.world import kernels
     from sim.world.files import load_world
+    from sim.world.kernels.sensing import sense_ir
     from sim.world.spec import Movable
 
     spec = load_world("maze")
@@ -226,7 +226,7 @@ def test_compiled_cone_agrees_with_pymunk_queries():
     circles = np.array([(r.body.position.x, r.body.position.y, r.shape.radius, r.index) for r in world.robots]
                        + [(world.movables[0].position.x, world.movables[0].position.y, 0.015, -1)])
     walls = world._walls
-    kernels.sense_ir(points, looks, cones, np.zeros(300, dtype=np.int64), 0.85, walls.vertices, walls.ranges, walls.boxes, circles, out)
+    sense_ir(points, looks, cones, np.zeros(300, dtype=np.int64), 0.85, walls.vertices, walls.ranges, walls.boxes, circles, out)
     expected = [world.ray_distance(me, p, a, cone=c) for p, a, c in zip(points, looks, cones)]
     expected = np.asarray(expected)
     finite = np.isfinite(expected)

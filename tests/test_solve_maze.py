@@ -13,7 +13,7 @@ from shared_data import needs_parcours as needs_shared
 from bots.behaviours import make
 from bots.ctbot import CTBOT
 from bots.noise import with_noise
-from sim.run import RobotSetup, run
+from sim.run.loop import RobotSetup, run
 from sim.world.files import load_world
 
 LIMIT_S = 300.0

@@ -16,7 +16,7 @@ from bots.behaviours import make
 from bots.controller import Status
 from bots.ctbot import CTBOT
 from bots.noise import with_noise
-from sim.run import RobotSetup, run
+from sim.run.loop import RobotSetup, run
 from sim.world.files import load_world
 
 SEEDS = range(20)

@@ -14,7 +14,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from sim.cli import main
+from sim.cli.entry import main
 from sim.experiments import Dask, Processes, Serial, load_results, sweep
 from sim.experiments.store import PARTS
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from bots.ctbot import CTBOT
-from bots.odometry import Geometry
+from bots.odometry.base import Geometry
 from sim.analysis.umbmark import (
     OdometrySquare,
     calibrate,

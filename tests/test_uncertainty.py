@@ -24,7 +24,7 @@ from bots.ctbot import CTBOT
 from bots.noise import with_settings
 from bots.uncertainty import square
 from sim.kinematics import wrap_angle
-from sim.run import RobotSetup, run
+from sim.run.loop import RobotSetup, run
 from sim.world.spec import WorldSpec
 
 ROBOTS = 1000

@@ -10,7 +10,7 @@ import textwrap
 import numpy as np
 import pytest
 
-from sim.cli import main
+from sim.cli.entry import main
 from sim.experiments import simulate
 
 EULER = '''

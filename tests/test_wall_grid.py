@@ -1,4 +1,4 @@
-"""The uniform grid over the static walls (`kernels.build_wall_grid`): each cell lists the walls
+"""The uniform grid over the static walls (`kernels.grids.build_wall_grid`): each cell lists the walls
 whose boxes overlap it, and IR readings and swept moves through the grid are those of checking
 every wall, bit for bit (the grid with one infinite cell is that plain loop over every wall)."""
 
@@ -10,7 +10,10 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from sim.world import kernels
+from sim.world import layout
+from sim.world.kernels.contacts import sweep_walls
+from sim.world.kernels.grids import build_wall_grid, walls_near
+from sim.world.kernels.sensing import sense_ir
 from sim.world.physics import wall_cell
 
 
@@ -49,11 +52,11 @@ walls_and_cells = st.tuples(st.integers(0, 2**32 - 1), st.integers(1, 400), st.s
 def test_each_cell_lists_the_walls_over_it_in_ascending_order(case):
     seed, count, spread, pick = case
     _, _, boxes = random_walls(seed, count, spread)
-    frame, cells = kernels.build_wall_grid(boxes, cell_sizes(boxes, pick))
+    frame, cells = build_wall_grid(boxes, cell_sizes(boxes, pick))
     x0, y0, size = frame
-    cols, rows = cells[kernels.COLUMNS], cells[kernels.ROWS]
-    starts = cells[kernels.STARTS : kernels.STARTS + rows * cols + 1]
-    members = cells[kernels.STARTS + len(starts) :][: starts[-1]]
+    cols, rows = cells[layout.COLUMNS], cells[layout.ROWS]
+    starts = cells[layout.STARTS : layout.STARTS + rows * cols + 1]
+    members = cells[layout.STARTS + len(starts) :][: starts[-1]]
     cell = np.repeat(np.arange(rows * cols), np.diff(starts))  # each entry's cell
     same = cell[1:] == cell[:-1]
     assert np.all(members[1:][same] > members[:-1][same])  # each cell's list ascends
@@ -63,9 +66,9 @@ def test_each_cell_lists_the_walls_over_it_in_ascending_order(case):
     assert np.all((box[:, 0] <= lo_x + size + slack) & (box[:, 2] >= lo_x - slack) & (box[:, 1] <= lo_y + size + slack) & (box[:, 3] >= lo_y - slack))
     every = set(members)
     assert every == set(range(count))
-    _, one = kernels.build_wall_grid(boxes, math.inf)
-    assert one[kernels.COLUMNS] == one[kernels.ROWS] == 1
-    assert np.array_equal(one[kernels.STARTS + 2 :][:count], np.arange(count))  # the plain loop's order
+    _, one = build_wall_grid(boxes, math.inf)
+    assert one[layout.COLUMNS] == one[layout.ROWS] == 1
+    assert np.array_equal(one[layout.STARTS + 2 :][:count], np.arange(count))  # the plain loop's order
 
 
 @given(walls_and_cells, st.integers(0, 2**32 - 1))
@@ -75,7 +78,7 @@ def test_ir_through_the_grid_reads_what_every_wall_gives(case, query_seed):
     to wider than 45 degrees, with and without circles: the same bits as the plain loop."""
     seed, count, spread, pick = case
     vertices, ranges, boxes = random_walls(seed, count, spread)
-    grid = kernels.build_wall_grid(boxes, cell_sizes(boxes, pick))
+    grid = build_wall_grid(boxes, cell_sizes(boxes, pick))
     rng = np.random.default_rng(query_seed)
     m = 60
     origins = rng.uniform(-1.5 * spread, 1.5 * spread, (m, 2))
@@ -86,8 +89,8 @@ def test_ir_through_the_grid_reads_what_every_wall_gives(case, query_seed):
     circles = np.column_stack((rng.uniform(-spread, spread, (5, 2)), np.full(5, 0.05), np.full(5, -1.0)))
     for seen in (circles[:0], circles):
         every, through = np.empty(m), np.empty(m)
-        kernels.sense_ir(origins, look, cone, owner, 0.85, vertices, ranges, boxes, seen, every)
-        kernels.sense_ir(origins, look, cone, owner, 0.85, vertices, ranges, boxes, seen, through, 32, grid)
+        sense_ir(origins, look, cone, owner, 0.85, vertices, ranges, boxes, seen, every)
+        sense_ir(origins, look, cone, owner, 0.85, vertices, ranges, boxes, seen, through, 32, grid)
         assert every.tobytes() == through.tobytes()
 
 
@@ -98,13 +101,13 @@ def test_moves_swept_through_the_grid_are_those_of_every_wall(case, query_seed):
     over several cells: the cut and slid moves of the plain loop, bit for bit."""
     seed, count, spread, pick = case
     vertices, ranges, boxes = random_walls(seed, count, spread)
-    grid = kernels.build_wall_grid(boxes, cell_sizes(boxes, pick))
-    one = kernels.build_wall_grid(boxes, math.inf)
+    grid = build_wall_grid(boxes, cell_sizes(boxes, pick))
+    one = build_wall_grid(boxes, math.inf)
     rng = np.random.default_rng(query_seed)
     pose, move, radius = robots(rng, spread)
     every, through = move.copy(), move.copy()
-    kernels.sweep_walls(pose, every, radius, 1e-4, vertices, ranges, boxes, one)
-    kernels.sweep_walls(pose, through, radius, 1e-4, vertices, ranges, boxes, grid)
+    sweep_walls(pose, every, radius, 1e-4, vertices, ranges, boxes, one)
+    sweep_walls(pose, through, radius, 1e-4, vertices, ranges, boxes, grid)
     assert every.tobytes() == through.tobytes()
 
 
@@ -120,16 +123,16 @@ def test_the_random_worlds_stop_moves_and_meet_rays():
     """The comparisons above are not empty: in such a world many moves are cut or slid, sensors
     read walls, some from inside one, and the grid has many cells with walls over several."""
     vertices, ranges, boxes = random_walls(7, 300, 3.0)
-    frame, cells = kernels.build_wall_grid(boxes, wall_cell(boxes))
-    assert cells[kernels.COLUMNS] * cells[kernels.ROWS] > 50 and len(cells) > 2 * 300 + 50
+    frame, cells = build_wall_grid(boxes, wall_cell(boxes))
+    assert cells[layout.COLUMNS] * cells[layout.ROWS] > 50 and len(cells) > 2 * 300 + 50
     rng = np.random.default_rng(8)
     pose, move, radius = robots(rng, 3.0)
     swept = move.copy()
-    kernels.sweep_walls(pose, swept, radius, 1e-4, vertices, ranges, boxes, (frame, cells))
+    sweep_walls(pose, swept, radius, 1e-4, vertices, ranges, boxes, (frame, cells))
     assert np.sum(np.any(swept != move, axis=1)) > 10
     origins = rng.uniform(-3.0, 3.0, (200, 2))
     out = np.empty(200)
-    kernels.sense_ir(origins, rng.uniform(-math.pi, math.pi, 200), np.full(200, 0.05), np.zeros(200, dtype=np.int64), 0.85,
+    sense_ir(origins, rng.uniform(-math.pi, math.pi, 200), np.full(200, 0.05), np.zeros(200, dtype=np.int64), 0.85,
                      vertices, ranges, boxes, np.zeros((0, 4)), out, 32, (frame, cells))  # fmt: skip
     assert np.isfinite(out).sum() > 100 and (out == 0.0).sum() > 5
 
@@ -140,12 +143,12 @@ def test_a_query_gets_every_wall_over_its_box_once_in_ascending_order(case, quer
     """The order a loop over every wall meets them in, which decides ties and early exits."""
     seed, count, spread, pick = case
     _, _, boxes = random_walls(seed, count, spread)
-    frame, cells = kernels.build_wall_grid(boxes, cell_sizes(boxes, pick))
+    frame, cells = build_wall_grid(boxes, cell_sizes(boxes, pick))
     rng = np.random.default_rng(query_seed)
     for _ in range(40):
         lo = rng.uniform(-1.5 * spread, 1.5 * spread, 2)
         hi = lo + rng.choice([0.0, 0.05, 1.7, spread], 2)
-        near = kernels.walls_near(lo[0], lo[1], hi[0], hi[1], frame, cells).copy()
+        near = walls_near(lo[0], lo[1], hi[0], hi[1], frame, cells).copy()
         assert np.all(np.diff(near) > 0)
         over = (boxes[:, 0] <= hi[0]) & (boxes[:, 2] >= lo[0]) & (boxes[:, 1] <= hi[1]) & (boxes[:, 3] >= lo[1])
         assert set(np.nonzero(over)[0]) <= set(near)

@@ -19,7 +19,7 @@ from urllib.parse import parse_qs, urlsplit
 
 import pytest
 
-from sim.cli import main
+from sim.cli.entry import main
 from sim.views import palette
 from tests.browser import Browser, chromium, share_of
 

@@ -9,14 +9,11 @@ import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
 from bots.chassis_commands import InfeasibleCommand, chassis_setpoints
-from bots.chassis_odometry import (
-    ChassisEncoderOdometry,
-    ChassisMouseOdometry,
-    mouse_applies,
-)
 from bots.chassis_spec import PRESETS, ChassisSpec
 from bots.commands import Twist, WheelCommands
 from bots.controller import FunctionController
+from bots.odometry.chassis import ChassisEncoderOdometry, ChassisMouseOdometry, mouse_applies
+from bots.readings import Readings
 from bots.spec import EncoderSpec, MotorSpec, MouseSpec, load_robot, wheeled_robot
 from bots.wheeled import CAR, MECANUM4, WHEELED_ROBOTS
 from sim.kinematics import (
@@ -36,9 +33,8 @@ from sim.kinematics.chassis import (
     nearest_feasible,
     null_space,
 )
-from sim.run import RobotSetup, run
+from sim.run.loop import RobotSetup, run
 from sim.world import World
-from sim.world.readings import Readings
 from sim.world.spec import Start, Wall, WheelFault, WorldSpec, box
 
 DT = 0.01
@@ -401,7 +397,7 @@ def test_a_recording_of_a_chassis_robot_holds_wheels_outline_and_icr(tmp_path):
     import rerun.chunk
 
     from sim.views.chassis_view import body_outline
-    from sim.views.recording import Recorder
+    from sim.views.recording.recorder import Recorder
 
     path = tmp_path / "run.rrd"
     result = run(EMPTY, [RobotSetup(CAR, constant(Twist(0.3, 0.2)))], 2.0, observers=(Recorder(path),))
@@ -434,7 +430,7 @@ def test_a_recorded_wheel_fault_is_an_event_and_turns_the_wheel_red(tmp_path):
     import rerun.chunk
 
     from sim.views import palette
-    from sim.views.recording import Recorder
+    from sim.views.recording.recorder import Recorder
 
     path = tmp_path / "run.rrd"
     setup = RobotSetup(MECANUM4, constant(Twist(0.2, 0.3)), faults=(WheelFault(0.2, 1, "free"),))

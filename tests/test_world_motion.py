@@ -16,8 +16,10 @@ from sim.kinematics import (
     relative_increment,
     wheel_arcs_to_arc,
 )
-from sim.world import CommandError, World, kernels
+from sim.world import CommandError, World, layout
 from sim.world.files import load_world
+from sim.world.kernels import motion
+from sim.world.kernels.contacts import CLEAR
 from sim.world.spec import Hole, Movable, Wall, WorldSpec, box
 
 OPEN = WorldSpec("open", (-5, -5, 5, 5))
@@ -183,7 +185,7 @@ def test_a_refused_step_draws_no_noise():
 
 
 def test_measure_kernel_agrees_with_the_reference_mouse():
-    """`world_kernels.measure` gives the counts of `mouse_displacement_from_increment` + `quantize`
+    """`kernels.motion.measure` gives the counts of `mouse_displacement_from_increment` + `quantize`
     (carry included) for random true motions, including bent (non-arc) ones."""
     rng = np.random.default_rng(3)
     n = 200
@@ -195,7 +197,7 @@ def test_measure_kernel_agrees_with_the_reference_mouse():
     counts = np.zeros((n, 2), dtype=np.int64)
     mouse_carry = carry.copy()
     hole = np.zeros((1, 1), dtype=bool)
-    kernels.measure(
+    motion.measure(
         before, after, mount, cpm, np.full(n, np.inf), np.zeros((n, 2)),
         mouse_carry, counts, hole, np.array((-10.0, -10.0)), 100.0, False,
     )  # fmt: skip
@@ -206,7 +208,7 @@ def test_measure_kernel_agrees_with_the_reference_mouse():
 
 
 def test_drive_kernel_agrees_with_the_reference_arc():
-    """`world_kernels.drive` moves each robot by the chord and heading change of the reference
+    """`kernels.motion.drive` moves each robot by the chord and heading change of the reference
     exact arc (`integrate_arcs` of one step) and counts ticks like `quantize`."""
     rng = np.random.default_rng(4)
     n = 100
@@ -216,7 +218,7 @@ def test_drive_kernel_agrees_with_the_reference_arc():
     dt, radius, track, wmax = 0.01, CTBOT.wheel_radius, CTBOT.track_width, CTBOT.motor.max_wheel_speed
     carry = rng.uniform(0, 1, (n, 2))
     move, alpha, ticks, tick_carry = np.zeros((n, 2)), np.zeros(n), np.zeros((n, 2), dtype=np.int64), carry.copy()
-    kernels.drive(
+    motion.drive(
         commands, np.zeros((n, 2)), np.full(n, 255.0), np.full(n, wmax), np.ones(n), np.full(n, np.inf), dt,
         np.full(n, 60 / (2 * math.pi)), tick_carry, ticks, np.full((n, 2), radius), np.zeros((n, 2)),
         np.full(n, track), pose, move, alpha,
@@ -238,14 +240,14 @@ def _quiet_trace(quiet: bool, steps: int = 3000) -> tuple[np.ndarray, np.ndarray
     world.add_robot(CTBOT)
     world.poses()  # (builds the step's arrays)
     if not quiet:
-        world._quiet[kernels.QUIET_AFTER] = -1
+        world._quiet[layout.QUIET_AFTER] = -1
     poses, tallies, ir, quiet_steps = [], [], [], 0
     for k in range(steps):
         frame = world.read_all()
         tallies.append(frame.tallies.copy())
         ir.append(frame.ir_raw.copy())
         world.step(np.array([[200.0, 200.0]]) if (k // 300) % 2 == 0 else np.array([[-150.0, 120.0]]))
-        quiet_steps += world._quiet[kernels.STREAK] > world._quiet[kernels.QUIET_AFTER] >= 0
+        quiet_steps += world._quiet[layout.STREAK] > world._quiet[layout.QUIET_AFTER] >= 0
         poses.append(world.poses())
     return np.array(poses), np.array(tallies), np.array(ir), world.robots[0].collisions, quiet_steps
 
@@ -273,9 +275,9 @@ def test_quiet_steps_only_for_one_round_robot_and_nothing_else_that_moves():
     with_can.add_robot(CTBOT, (0.0, 0.0, 0.0))
     for world in (crowded, with_can):
         world.step(np.zeros((len(world.robots), 2)))
-        assert world._quiet[kernels.QUIET_AFTER] == -1
+        assert world._quiet[layout.QUIET_AFTER] == -1
     walled = World(WorldSpec("walled", (-1, -1, 1, 1), walls=(Wall(box(0.1, -0.5, 0.2, 0.5)),)))
-    walled.add_robot(CTBOT, (0.1 - CTBOT.body_radius - 0.5 * kernels.CLEAR, 0.0, 0.0))
+    walled.add_robot(CTBOT, (0.1 - CTBOT.body_radius - 0.5 * CLEAR, 0.0, 0.0))
     for _ in range(10):
         walled.step(np.zeros((1, 2)))
-    assert walled._quiet[kernels.QUIET_AFTER] == walled.space.collision_persistence and walled._quiet[kernels.STREAK] == 0
+    assert walled._quiet[layout.QUIET_AFTER] == walled.space.collision_persistence and walled._quiet[layout.STREAK] == 0

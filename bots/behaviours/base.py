@@ -16,9 +16,9 @@ import numpy as np
 
 from bots.commands import STOP, Command, wheel_speeds_for
 from bots.controller import Status
+from bots.readings import Readings
 from bots.spec import RobotSpec
 from sim.kinematics import Pose, advance_floats, arcs_from_ticks, relative_pose
-from sim.world.readings import Readings
 
 # The firmware's speeds (BOT_SPEED_* in mm/s) as rim speeds in m/s.
 SPEED_SLOW = 0.05

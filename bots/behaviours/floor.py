@@ -14,7 +14,7 @@ from bots.behaviours.base import (
 from bots.behaviours.motion import DriveDistance, Turn
 from bots.commands import Command, Twist
 from bots.controller import Status, make, register
-from sim.world.readings import Readings
+from bots.readings import Readings
 
 LAP_MIN_M = 1.0
 """Travel (m) before a return to the start pose counts as a lap."""

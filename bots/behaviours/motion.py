@@ -10,8 +10,8 @@ import numpy as np
 from bots.behaviours.base import SPEED_NORMAL, Behaviour, Plan, ramp
 from bots.commands import STOP, Command, Twist
 from bots.controller import Status, register
+from bots.readings import Readings
 from sim.kinematics import relative_pose, wrap_angle
-from sim.world.readings import Readings
 
 DISTANCE_TOLERANCE = 2e-4
 """A drive has arrived when it believes itself this close (m)."""

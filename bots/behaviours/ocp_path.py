@@ -17,14 +17,14 @@ import math
 import numpy as np
 
 from bots.chassis_commands import believed_chassis, top_speed
-from bots.chassis_odometry import ChassisEncoderOdometry
 from bots.commands import STOP, Command, CurveCommand
 from bots.controller import Status, register
+from bots.odometry.chassis import ChassisEncoderOdometry
+from bots.readings import Readings
 from bots.spec import RobotSpec
 from sim.kinematics import relative_increment, wrap_angle
 from sim.kinematics.chassis import is_feasible, motion_subspaces, nearest_feasible
 from sim.kinematics.ocp import configuration_space, kappa_g_for, twist_to_ocp
-from sim.world.readings import Readings
 
 ARRIVED = 0.02
 """The path is done when the robot believes itself this close to its last point (m)."""

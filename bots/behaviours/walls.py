@@ -19,6 +19,7 @@ from bots.behaviours.base import (
 from bots.behaviours.motion import DriveDistance, DriveTo, Turn
 from bots.commands import Command, Twist
 from bots.controller import Status, register
+from bots.readings import Readings
 from sim.kinematics import (
     Pose,
     apply_increment,
@@ -26,7 +27,6 @@ from sim.kinematics import (
     relative_pose,
     wrap_angle,
 )
-from sim.world.readings import Readings
 
 GOAL_TOLERANCE = 0x10
 """How far (raw units) the line sensors' mean may read from GROUND_GOAL on the goal floor."""

@@ -103,7 +103,7 @@ def read_csv(path: str | Path) -> tuple[np.ndarray, np.ndarray, dict[str, np.nda
     return values[:, 0], values[:, 1:4], {name: values[:, 4 + k] for k, name in enumerate(header[4:])}
 
 
-def write_run(result, directory: str | Path, prefix: bool = True, with_csv: bool = False, every: int = 1) -> dict[str, dict[str, Path]]:  # noqa: ANN001 (sim.run.RunResult)
+def write_run(result, directory: str | Path, prefix: bool = True, with_csv: bool = False, every: int = 1) -> dict[str, dict[str, Path]]:  # noqa: ANN001 (sim.run.samples.RunResult)
     """Every robot's truth and estimates as TUM files (and CSV with `with_csv`) named
     `<robot>_<label>` (just `<label>` without `prefix`), every `every`-th sample and the last,
     written block by block as the run is read through (`RunResult.blocks`), so memory does not
@@ -162,7 +162,7 @@ def sampled(rows: slice, total: int, every: int) -> np.ndarray | slice:
     return picked
 
 
-def write_parquet(result, path: str | Path) -> Path:  # noqa: ANN001 (sim.run.RunResult)
+def write_parquet(result, path: str | Path) -> Path:  # noqa: ANN001 (sim.run.samples.RunResult)
     """Every sample of a run as one Parquet table, a row per sample, written block by block:
     `time` (s); per robot `<robot>.<label>.x|y|theta` (m, rad) of the truth and each estimate,
     `<robot>.<label>.cov_xx|cov_xy|cov_xt|cov_yy|cov_yt|cov_tt` (m², m·rad, rad²) of each
@@ -216,7 +216,7 @@ def read_parquet(path: str | Path) -> dict[str, np.ndarray]:
     return {name: table.column(name).to_numpy() for name in table.column_names}
 
 
-def export_run(result, directory: str | Path) -> list[Path]:  # noqa: ANN001 (sim.run.RunResult)
+def export_run(result, directory: str | Path) -> list[Path]:  # noqa: ANN001 (sim.run.samples.RunResult)
     """One TUM file per robot and trajectory (`<robot>_truth.tum`, `<robot>_<estimator>.tum`), so
     that e.g. `evo_ape tum ctbot_truth.tum ctbot_encoders.tum` compares them; returns the paths."""
     return [path for labels in write_run(result, directory).values() for path in labels.values()]

@@ -185,7 +185,7 @@ def compare(times: np.ndarray, truth: np.ndarray, estimate: np.ndarray, segment:
     return comparison.metrics()
 
 
-def compare_run(result) -> dict[str, dict[str, Metrics]]:  # noqa: ANN001 (sim.run.RunResult; run imports bots)
+def compare_run(result) -> dict[str, dict[str, Metrics]]:  # noqa: ANN001 (sim.run.samples.RunResult; run imports bots)
     """Robot name -> estimator name -> Metrics for every estimate a run recorded, read through
     block by block (`RunResult.blocks`: memory does not grow with the run's length)."""
     comparisons = {log.name: {name: Comparison() for name in log.estimate_arrays()} for log in result.robots}
@@ -200,7 +200,7 @@ def compare_run(result) -> dict[str, dict[str, Metrics]]:  # noqa: ANN001 (sim.r
     return {robot: {name: c.metrics() for name, c in by_name.items()} for robot, by_name in comparisons.items()}
 
 
-def path_length(result, log) -> float:  # noqa: ANN001 (sim.run.RunResult and one of its RobotLogs)
+def path_length(result, log) -> float:  # noqa: ANN001 (sim.run.samples.RunResult and one of its RobotLogs)
     """Metres a robot of a run really drove, read through block by block."""
     total, last = 0.0, None
     for rows in result.blocks():

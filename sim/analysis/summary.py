@@ -14,7 +14,7 @@ from typing import Any
 
 import sim
 from bots.noise import parse_value
-from sim.run import RunResult
+from sim.run.samples import RunResult
 from sim.world.spec import WorldSpec
 
 SCHEMA_VERSION = 1

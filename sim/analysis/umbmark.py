@@ -39,11 +39,12 @@ import numpy as np
 
 from bots.commands import STOP, Command, Twist
 from bots.controller import Status
-from bots.odometry import EncoderOdometry, Geometry
+from bots.odometry.base import Geometry
+from bots.odometry.encoder import EncoderOdometry
+from bots.readings import Readings
 from bots.spec import RobotSpec
-from sim.run import RobotSetup, run
+from sim.run.loop import RobotSetup, run
 from sim.world.files import load_world
-from sim.world.readings import Readings
 from sim.world.spec import WorldSpec
 from sim.world.step import DEFAULT_DT
 

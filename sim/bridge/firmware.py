@@ -22,12 +22,12 @@ import numpy as np
 
 from bots.commands import WheelSpeeds
 from bots.controller import ControllerStopped, Status
+from bots.readings import Readings
 from bots.spec import RobotSpec
 from sim.bridge import protocol as p
 from sim.bridge.firmware_map import FirmwareMap
 from sim.bridge.protocol import Packet
 from sim.bridge.server import Link, LinkError, Listener
-from sim.world.readings import Readings
 from sim.world.step import DEFAULT_DT
 
 MM_S_PER_UNIT = 151 / 60 * 178.1283 / 255

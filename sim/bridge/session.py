@@ -13,15 +13,17 @@ import time
 from dataclasses import replace
 from typing import Any
 
-from bots.odometry import default_estimators
+from bots.odometry.defaults import default_estimators
 from bots.spec import EncoderSpec, RobotSpec
 from sim.bridge import protocol as p
 from sim.bridge.firmware import FirmwareController, FirmwareEstimator
 from sim.bridge.firmware_map import png, window
 from sim.bridge.server import Listener
 from sim.errors import UserError
-from sim.run import RobotLog, RobotSetup, RunResult
-from sim.views.recording import TIMELINE, Recorder
+from sim.run.loop import RobotSetup
+from sim.run.samples import RobotLog, RunResult
+from sim.views.recording.layout import TIMELINE
+from sim.views.recording.recorder import Recorder
 from sim.world import World
 
 CTSIM_STEP = 0.01
@@ -71,7 +73,7 @@ class Bridge:
         return bot
 
     def setup(self, spec: RobotSpec, rc5: tuple = (), calls: tuple = (), start=None, like_ctsim: bool = True) -> RobotSetup:
-        """A robot for `sim.run.run` driven by the next firmware; its estimators are ctsim's own
+        """A robot for `sim.run.loop.run` driven by the next firmware; its estimators are ctsim's own
         plus the pose the firmware reports ('reported'). `like_ctsim`: the robot meets walls and
         sees them as in c't-Sim (`as_in_ctsim`), and ideal encoders count in c't-Sim's arithmetic,
         so that the firmware takes the path it takes there."""

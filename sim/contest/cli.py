@@ -1,4 +1,4 @@
-"""`ctsim contest`: the thin handler over the package, called by sim/cli.py."""
+"""`ctsim contest`: the thin handler over the package, called by sim/cli/contest.py."""
 
 from __future__ import annotations
 

@@ -28,7 +28,7 @@ from pathlib import Path
 from bots.controller import ControllerError, make
 from bots.spec import RobotSpec
 from sim.errors import UserError
-from sim.run import RobotSetup
+from sim.run.loop import RobotSetup
 from sim.world.spec import Start
 
 KINDS = ("controller", "file", "firmware", "student")

@@ -26,7 +26,9 @@ from sim.contest.entries import Entry, Seat, robot_spec
 from sim.contest.judge import Guarded, Judge
 from sim.contest.paths import PathField
 from sim.contest.rules import level_name
-from sim.run import RunResult, Terminated, run
+from sim.run.ending import Terminated
+from sim.run.loop import run
+from sim.run.samples import RunResult
 from sim.views import palette
 from sim.world.files import load_world
 from sim.world.spec import WorldSpec
@@ -97,7 +99,7 @@ def _play(job: GameJob) -> dict[str, Any]:
     colours = {entry.name: colour for entry, colour in zip(job.entries, palette.CONTESTANTS)}
     recorder = None
     if job.recording is not None:
-        from sim.views.recording import Recorder
+        from sim.views.recording.recorder import Recorder
 
         facts = {"contest game": job.title, "time limit": f"{job.time_limit:g} s", "noise": job.noise}
         recorder = Recorder(job.recording, application_id="ctsim contest", facts=facts, colours=colours)

@@ -22,12 +22,12 @@ from dataclasses import dataclass
 
 from bots.commands import Command, wheel_speeds_for
 from bots.controller import Controller, reset
+from bots.readings import Readings
 from bots.spec import RobotSpec
 from sim.contest.paths import PathField
 from sim.contest.rules import TIE_M
-from sim.run import RobotLog, RunResult
+from sim.run.samples import RobotLog, RunResult
 from sim.world import World
-from sim.world.readings import Readings
 
 LOG = logging.getLogger("ctsim.contest")
 LOG.setLevel(logging.INFO)  # the verdict reaches a recorder's handler whatever the root logger's level

@@ -19,10 +19,10 @@ from pathlib import Path
 from typing import Any
 
 from bots.commands import BadCommand, Command, CurveCommand, Twist, WheelSpeeds
+from bots.readings import Readings
 from bots.spec import RobotSpec
 from sim.errors import UserError
 from sim.sandbox import Limits, Sandbox, unavailable
-from sim.world.readings import Readings
 
 MODULES = ("bots.commands",)
 """What of the project a student's controller may import."""

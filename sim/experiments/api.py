@@ -6,7 +6,7 @@
     result.robots[0].estimates["mouse"] # (T, 3) what the mouse odometry believed
     result.metrics_frame()              # pandas: one row per robot and estimator
 
-Everything here is a thin layer over `sim.run.run`; `ctsim run` calls `simulate` too.
+Everything here is a thin layer over `sim.run.loop.run`; `ctsim run` calls `simulate` too.
 """
 
 from __future__ import annotations
@@ -23,7 +23,8 @@ from bots.noise import DEFAULT_NOISE
 from bots.spec import RobotSpec
 from sim.analysis.metrics import compare_run, path_lengths
 from sim.errors import UserError
-from sim.run import RobotSetup, RunResult, run
+from sim.run.loop import RobotSetup, run
+from sim.run.samples import RunResult
 from sim.world.spec import Start, WorldSpec
 from sim.world.step import DEFAULT_DT, check_dt
 
@@ -135,7 +136,7 @@ class RobotResult:
 
 @dataclass
 class Result:
-    """A finished run. `reason`: as `sim.run.RunResult.reason` ('duration', 'goal', 'done', 'error',
+    """A finished run. `reason`: as `sim.run.samples.RunResult.reason` ('duration', 'goal', 'done', 'error',
     ...); `error`: the one-line message of a failure; `raw`: the run loop's own result (for
     `ctsim run`'s files)."""
 
@@ -213,7 +214,7 @@ def simulate(
     the `noise` preset (`bots.noise.DEFAULT_NOISE`, realistic, as `ctsim run`) unless it names its own; `record` writes a rerun recording there; a
     controller step longer than `step_timeout` seconds (wall clock) ends the run as its error.
     `estimators`: your own (classes, factories, estimator objects or "FILE.py:Class", as
-    `bots.estimators.made` takes them): every robot without estimators of its own gets a fresh
+    `bots.odometry.user.made` takes them): every robot without estimators of its own gets a fresh
     one of each beside its defaults, in every output; one that fails a step ends the run as a
     controller's error does.
     `ctsim run` is this call: `--robots 3` is `robots=[Bot()] * 3`."""
@@ -228,12 +229,12 @@ def simulate(
     noises = [b.noise_of(noise) if isinstance(b, Bot) else "as given" for b in given]
     extra = list(estimators)
     if extra:
-        from bots.estimators import alongside
+        from bots.odometry.user import alongside
 
         setups = [replace(s, estimators=alongside(s.spec, extra)) if s.estimators is None else s for s in setups]
     watchers = list(observers)
     if record is not None or live:
-        from sim.views.recording import Recorder
+        from sim.views.recording.recorder import Recorder
 
         watchers.insert(0, Recorder(record, live=live))
     raw = run(spec, setups, duration, dt=dt, seed=seed, until_goal=until_goal, observers=tuple(watchers), step_timeout=step_timeout)

@@ -54,11 +54,11 @@ from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 
 from bots.noise import DEFAULT_NOISE
+from bots.readings import SensorFrame
 from bots.spec import RobotSpec
 from sim.experiments.api import robot as load_robot_spec
 from sim.experiments.api import world as world_spec
 from sim.world import World, WorldSpec
-from sim.world.readings import SensorFrame
 from sim.world.sensors import CNY70_MAX, LDR_MAX
 from sim.world.step import DEFAULT_DT
 

@@ -32,7 +32,7 @@ from bots.noise import DEFAULT_NOISE, NOISE_PRESETS
 from bots.schema import Field, Problem
 from bots.spec import read_toml
 from sim.errors import UserError
-from sim.run import MAX_DURATION
+from sim.run.loop import MAX_DURATION
 from sim.world.step import DEFAULT_DT, DT_RANGE
 
 DEFAULTS: dict[str, Any] = {

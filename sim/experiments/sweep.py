@@ -34,10 +34,10 @@ from sim.experiments.plan import (
     spec_from_dict,
 )
 from sim.folder_lock import held
-from sim.run import Terminated
+from sim.run.ending import Terminated
 
 STOPPED = ("interrupted", "terminated")
-"""How a run ends when Ctrl-C or SIGTERM cut it short (`sim.run.RunResult.reason`)."""
+"""How a run ends when Ctrl-C or SIGTERM cut it short (`sim.run.samples.RunResult.reason`)."""
 OUTCOME = ("reason", "error", "sim_time", "reached_goal", "goal_time", "fell", "collisions", "distance")
 """Outcome columns of every row, beside the settings and the metrics."""
 
@@ -139,7 +139,7 @@ def sweep(
 ) -> pd.DataFrame:
     """Run every planned run not yet in `out` on `runner` (default: local processes, all cores),
     keeping each row as it finishes; the whole table. Ctrl-C (KeyboardInterrupt) and SIGTERM
-    (`sim.run.Terminated`, where a handler raises it, as `ctsim sweep` does) stop the runs in
+    (`sim.run.ending.Terminated`, where a handler raises it, as `ctsim sweep` does) stop the runs in
     flight at once and re-raise, with every finished row kept: the same call resumes."""
     if isinstance(spec, dict):
         spec = spec_from_dict(spec)

@@ -14,7 +14,7 @@ import numpy as np
 
 from sim.views import palette
 from sim.views.figures import write_figures
-from sim.views.recording import TIMELINE
+from sim.views.recording.layout import TIMELINE
 from sim.world.spec import Start, WorldSpec
 
 Tracks = dict[str, tuple[np.ndarray, np.ndarray]]
@@ -24,7 +24,7 @@ Tracks = dict[str, tuple[np.ndarray, np.ndarray]]
 def observers(scenario) -> tuple:
     """A Recorder writing `run.rrd` into the scenario's folder when it is public and `lab check`
     writes artifacts; nothing otherwise."""
-    from sim.views.recording import Recorder
+    from sim.views.recording.recorder import Recorder
 
     if scenario.out is None:
         return ()

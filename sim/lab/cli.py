@@ -1,4 +1,4 @@
-"""`ctsim lab list|start|check|grade`: thin handlers over the package, called by sim/cli.py."""
+"""`ctsim lab list|start|check|grade`: thin handlers over the package, called by sim/cli/lab.py."""
 
 from __future__ import annotations
 

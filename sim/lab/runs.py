@@ -17,13 +17,13 @@ import numpy as np
 
 from bots.commands import Command, WheelSpeeds
 from bots.ctbot import CTBOT
+from bots.readings import Readings
 from bots.spec import RobotSpec
 from sim.kinematics import wrap_angle
 from sim.lab.artifacts import observers
 from sim.lab.checking import Outcome, differing, fmt
 from sim.lab.student import Student, StudentError, numbers
-from sim.run import RobotSetup, run
-from sim.world.readings import Readings
+from sim.run.loop import RobotSetup, run
 from sim.world.spec import Start, WorldSpec
 
 

@@ -7,7 +7,7 @@ so importing this package stays cheap.
 """
 
 from sim.views.figures import report_run_dir, write_figures
-from sim.views.recording import Recorder
+from sim.views.recording.recorder import Recorder
 from sim.views.window import play
 
 __all__ = ["Recorder", "play", "report_run_dir", "write_figures"]

@@ -108,7 +108,7 @@ def to_world(pose: np.ndarray, points: np.ndarray) -> np.ndarray:
 
 
 class ChassisLayer:
-    """Recording of the chassis robots of a run, for `sim.views.recording.Recorder`: `log(path, data,
+    """Recording of the chassis robots of a run, for `sim.views.recording.recorder.Recorder`: `log(path, data,
     static=True)` logs static data to every stream; `columns(path, times, columns)` sends columns to
     every stream. Wheels and ICR are buffered and leave with the recorder's chunk of the robot's
     poses (`flush`), so that a live view never shows them ahead of the body."""

@@ -1,6 +1,6 @@
 """`ctsim play`: drive a robot by keyboard in a pygame-ce window, recorded like `ctsim run`.
 
-The session is an ordinary run (`sim.run.run`) with two extra observers: the window, which every
+The session is an ordinary run (`sim.run.loop.run`) with two extra observers: the window, which every
 frame handles keys, draws the world with the robot, its IR rays, readings and odometry ghosts,
 and paces the simulation to real time; and the recorder. Offscreen it runs with
 SDL_VIDEODRIVER=dummy, a frame limit and injected events (tests).
@@ -18,7 +18,9 @@ import numpy as np
 
 from bots.behaviours.motion import Teleop
 from bots.spec import RobotSpec
-from sim.run import Quit, RobotLog, RobotSetup, RunResult, run
+from sim.run.ending import Quit
+from sim.run.loop import RobotSetup, run
+from sim.run.samples import RobotLog, RunResult
 from sim.views import palette
 from sim.views.chassis_view import (
     WHEEL_RADIUS_M,
@@ -27,7 +29,7 @@ from sim.views.chassis_view import (
     steering_deflection,
     to_world,
 )
-from sim.views.recording import Recorder
+from sim.views.recording.recorder import Recorder
 from sim.world import IR_RAY_LENGTH, World
 from sim.world.spec import WorldSpec
 from sim.world.step import DEFAULT_DT

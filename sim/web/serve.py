@@ -194,7 +194,7 @@ class WebViewer:
 
     def start(self) -> None:
         """Start rerun's server and wait until both ports listen; one line if it cannot."""
-        from sim.views.recording import listening
+        from sim.views.recording.live import listening
 
         for port in (self.port, self.grpc_port):
             _check_free(self.host, port)

@@ -51,8 +51,8 @@ from sim.world.spec import FAULT_KINDS, WheelFault
 if TYPE_CHECKING:
     from collections.abc import Sequence
 
+    from bots.readings import Readings
     from sim.world.floor import FloorMap
-    from sim.world.readings import Readings
 
 FaultKind = Literal["lock", "free", "steering"]
 _log = logging.getLogger(__name__)
@@ -267,7 +267,8 @@ class ChassisDrive:
                 continue
             increment = relative_increment(before[i], after[i])
             metres = mouse_displacement_from_increment(increment, np.asarray(mouse.mount))
-            if _over_hole(after[i], np.asarray([mouse.mount]), floor)[0] or np.hypot(*metres) > mouse.max_speed * self.dt:
+            (mx, my), c, s = mouse.mount, math.cos(after[i, 2]), math.sin(after[i, 2])
+            if floor.hole_at(after[i, 0] + c * mx - s * my, after[i, 1] + s * mx + c * my) or np.hypot(*metres) > mouse.max_speed * self.dt:
                 metres = np.zeros(2)
             scale = counts_per_metre(mouse.dpi) * (1 + mouse.scale_error)
             if mouse.noise_std:  # (sqrt m: the variance grows with the floor passed, as the first mouse's)
@@ -326,14 +327,3 @@ def _wheels(dt: float, phi_dot: np.ndarray, target_phi: np.ndarray, max_phi: np.
     tx, ty = twist[0] * dt * sinc_h, twist[1] * dt * sinc_h
     return cos_h * tx - sinc_h * h * ty, sinc_h * h * tx + cos_h * ty, twist[2] * dt, math.sqrt(residual)
 
-
-def _over_hole(pose: np.ndarray, points: np.ndarray, floor: FloorMap) -> np.ndarray:
-    """Whether body-frame points (k, 2) of a robot at `pose` lie over a hole."""
-    c, s = math.cos(pose[2]), math.sin(pose[2])
-    x = pose[0] + c * points[:, 0] - s * points[:, 1]
-    y = pose[1] + s * points[:, 0] + c * points[:, 1]
-    ix = np.floor((x - floor.origin[0]) / floor.cell).astype(int)
-    iy = np.floor((y - floor.origin[1]) / floor.cell).astype(int)
-    inside = (ix >= 0) & (iy >= 0) & (iy < floor.hole.shape[0]) & (ix < floor.hole.shape[1])
-    return np.where(inside, floor.hole[np.clip(iy, 0, floor.hole.shape[0] - 1), np.clip(ix, 0, floor.hole.shape[1] - 1)],
-                    floor.outside_is_hole)

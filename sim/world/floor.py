@@ -6,12 +6,12 @@ large worlds) so that line, border and hole tests cost an array lookup per senso
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
 
+from sim.world.kernels.floor import in_hole
 from sim.world.sensors import CNY70_MAX, absorption
 from sim.world.spec import WorldSpec
 
@@ -22,7 +22,7 @@ MAX_CELLS = 8_000_000
 class FloorMap:
     """The floor's absorption (float32, 1 over holes; `sensors.absorption`) and a hole mask on a
     grid with `origin` (m) and `cell` size (m); sampled by the world's compiled kernels
-    (`sim.world.kernels`)."""
+    (`sim.world.kernels.floor`, `sim.world.kernels.sensing`)."""
 
     absorption: np.ndarray
     hole: np.ndarray
@@ -38,11 +38,8 @@ class FloorMap:
 
     def hole_at(self, x: float, y: float) -> bool:
         """Whether the point (x, y) (m) is over a hole (off the map: where that is a hole), as
-        the world's kernels test it."""
-        ix, iy = math.floor((x - self.origin[0]) / self.cell), math.floor((y - self.origin[1]) / self.cell)
-        if ix < 0 or iy < 0 or iy >= self.hole.shape[0] or ix >= self.hole.shape[1]:
-            return self.outside_is_hole
-        return bool(self.hole[iy, ix])
+        the world's kernels test it (`kernels.floor.in_hole`)."""
+        return bool(in_hole(x, y, self.hole, np.asarray(self.origin), self.cell, self.outside_is_hole))
 
     @cached_property
     def value(self) -> np.ndarray:

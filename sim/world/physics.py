@@ -4,7 +4,7 @@ The physical contract (DESIGN.md §4) in one place. Each step: sensors are read 
 the start (`read_all`), the caller computes motor commands, then `step` runs the motor model,
 counts encoder ticks, turns wheel arcs into an exact-arc motion, cuts it where a wall or another
 body is in the way, lets pymunk resolve contacts (a lone robot clear of every wall moves as pymunk
-would move it, without pymunk: `kernels.glide`), and measures the true motion (for the mouse) and
+would move it, without pymunk: `kernels.motion.glide`), and measures the true motion (for the mouse) and
 ground contact (for holes). The per-robot arithmetic runs in compiled kernels over all robots
 at once (`sim.world.kernels`); pymunk does the geometry. Everything random draws from
 per-sensor generators spawned from the world's seed.
@@ -22,15 +22,20 @@ import numpy as np
 import pymunk
 
 import sim
+from bots.readings import SensorFrame, SensorLayout
 from bots.spec import RobotSpec
 from sim.kinematics import counts_per_metre
-from sim.world import kernels, noise_kernels
+from sim.world import layout
 from sim.world.bodies import BodyArrays
 from sim.world.chassis_drive import ChassisDrive
 from sim.world.compiling import compile_all
 from sim.world.floor import FloorMap, rasterize
+from sim.world.kernels.contacts import settle
+from sim.world.kernels.grids import build_wall_grid
+from sim.world.kernels.motion import glide, measure_all, plan
+from sim.world.kernels.noise import ENCODER_DRAWS, add_rounded, draw_step, spurious_ticks
+from sim.world.kernels.sensing import ir_rays, ir_values, read_sensors
 from sim.world.noise import NormalBlocks
-from sim.world.readings import SensorFrame, SensorLayout
 from sim.world.sensors import CNY70_MAX, LDR_MAX, IRCurve, gp2d12, load_ir_curve
 from sim.world.spec import Start, WorldSpec
 from sim.world.step import DEFAULT_DT, check_dt
@@ -77,7 +82,7 @@ class _Noisy:
                 self.normals.restart(k, robot.rngs[name])
 
     def arguments(self) -> tuple[np.ndarray, ...]:
-        """Its rows, standard deviations and normals as `noise_kernels` take them."""
+        """Its rows, standard deviations and normals as `kernels.noise` takes them."""
         return self.rows, self.std, self.normals.values, self.normals.used
 
 
@@ -133,7 +138,7 @@ class Robot:
     """The start slot it was placed at (None: an explicit pose); its goals are `spec.goals_of(slot)`."""
     fallen: bool = False
     """In a hole (c't-Sim's IN_HOLE): the last step's move was refused because a wheel or the skid
-    would have been over a hole (`kernels.hold_at_holes`); clears when a move is allowed again."""
+    would have been over a hole (`kernels.floor.hold_at_holes`); clears when a move is allowed again."""
     collisions: int = 0
 
     @property
@@ -274,7 +279,7 @@ class World:
         st.state[index], st.tallies[index], st.fallen[index] = 0.0, 0, False
         robot.rngs = self._sensor_rngs(robot.spec, index, seed)
         st.reseed(robot)
-        self._quiet[kernels.STREAK] = 0
+        self._quiet[layout.STREAK] = 0
         return robot
 
     @property
@@ -300,7 +305,7 @@ class World:
         st, walls, ir = self._state, self._walls, self._state.ir
         self._round_ir = self._round_bodies and len(ir.curve) > 0
         read = len(st.sensors) if self._round_ir else st.n_floor + st.n_light  # pymunk reads IR otherwise
-        # quiet steps (`kernels.settle`, `kernels.glide`) for one round robot and nothing else that
+        # quiet steps (`kernels.contacts.settle`, `kernels.motion.glide`) for one round robot and nothing else that
         # moves, whose contacts can only be with walls, met in their fixed order; the contacts of
         # several bodies come in the order of pymunk's tree of moving shapes, which a skipped step
         # would leave unchanged (the same physics, but other roundings later)
@@ -312,7 +317,7 @@ class World:
             ir.curve_ends, ir.beyond, ir.inverse,
         )  # fmt: skip
         self._step_noise_arguments = (*st.step_noise.arguments(), len(st.tick_noise), st.slip, st.tick_uniforms, st.mouse_noise)
-        self._tick_noise_arguments = (st.step_noise.rows[: len(st.tick_noise)], st.tick_noise, st.tick_uniforms, st.tallies[:, kernels.TICKS : kernels.TICKS + 2])
+        self._tick_noise_arguments = (st.step_noise.rows[: len(st.tick_noise)], st.tick_noise, st.tick_uniforms, st.tallies[:, layout.TICKS : layout.TICKS + 2])
         self._floor_and_light_arguments = (*st.floor_and_light_noise.arguments(), st.floor_and_light_top)
         self._settle_arguments = (
             st.params, st.state, self._scalars, walls.vertices, walls.ranges, walls.boxes, walls.cells, st.contacts, st.anchored, self.floor.hole,
@@ -323,14 +328,14 @@ class World:
         pose, commands = self._poses, np.zeros((len(self.robots), 2))
         (self._draw_step_noise, self._spurious_ticks, self._floor_and_light_noise,
          self._plan, self._glide, self._measure, self._settle, self._read_sensors) = compile_all([
-            (noise_kernels.draw_step, (commands, *self._step_noise_arguments)),
-            (noise_kernels.spurious_ticks, self._tick_noise_arguments),
-            (noise_kernels.add_rounded, (np.empty(len(st.sensors), np.int64), *self._floor_and_light_arguments)),
-            (kernels.plan, (commands, st.params, st.state, st.tallies, pose, self.dt)),
-            (kernels.glide, (pose, st.params, self._bodies.motion, self._bodies.row_index, self.dt)),
-            (kernels.measure_all, (pose, pose, st.params, st.state, st.tallies, self.floor.hole, self._scalars)),
-            (kernels.settle, (pose, *self._settle_arguments)),
-            (kernels.read_sensors, (pose, *self._read_arguments, np.empty(0, np.int64), np.empty(0))),
+            (draw_step, (commands, *self._step_noise_arguments)),
+            (spurious_ticks, self._tick_noise_arguments),
+            (add_rounded, (np.empty(len(st.sensors), np.int64), *self._floor_and_light_arguments)),
+            (plan, (commands, st.params, st.state, st.tallies, pose, self.dt)),
+            (glide, (pose, st.params, self._bodies.motion, self._bodies.row_index, self.dt)),
+            (measure_all, (pose, pose, st.params, st.state, st.tallies, self.floor.hole, self._scalars)),
+            (settle, (pose, *self._settle_arguments)),
+            (read_sensors, (pose, *self._read_arguments, np.empty(0, np.int64), np.empty(0))),
         ])  # fmt: skip
 
     def poses(self) -> np.ndarray:
@@ -439,7 +444,7 @@ class World:
     def _read_ir_with_pymunk(self, pose: np.ndarray, raw: np.ndarray, believed: np.ndarray) -> None:
         """Raw values and believed distances of every IR sensor in a world with a robot of polygon
         outline, whose true distances pymunk's queries give (they see every shape), then noise and
-        the curves (`kernels.ir_values`)."""
+        the curves (`kernels.sensing.ir_values`)."""
         st = self._batch()
         ir = st.ir
         n = len(ir.curve)
@@ -448,12 +453,12 @@ class World:
         if len(ir.noise.rows):
             ir.noise.normals.reserve(1)
         first = st.n_floor + st.n_light
-        mounts, owner = st.sensors[first:], st.index[first:, kernels.OWNER]
+        mounts, owner = st.sensors[first:], st.index[first:, layout.OWNER]
         origins, look, distance = np.empty((n, 2)), np.empty(n), np.empty(n)
-        kernels.ir_rays(pose, mounts[:, kernels.AT : kernels.AT + 2], owner, mounts[:, kernels.DIRECTION], origins, look)
+        ir_rays(pose, mounts[:, layout.AT : layout.AT + 2], owner, mounts[:, layout.DIRECTION], origins, look)
         for k, (robot, sensor) in enumerate(st.ir_sensors):
             distance[k] = self.ray_distance(robot, origins[k], look[k], cone=sensor.cone, axis=sensor.view == "axis")
-        kernels.ir_values(distance, ir.noise_row, ir.noise.std, ir.noise.normals.values, ir.noise.normals.used, *ir.curves, raw, believed)
+        ir_values(distance, ir.noise_row, ir.noise.std, ir.noise.normals.values, ir.noise.normals.used, *ir.curves, raw, believed)
 
     # --- motion -----------------------------------------------------------------------------
 
@@ -467,7 +472,7 @@ class World:
         before = self._poses
         bad = -1
         if st.step_noise.sensors:  # (a refused step draws no noise)
-            st.step_noise.normals.reserve(noise_kernels.ENCODER_DRAWS)
+            st.step_noise.normals.reserve(ENCODER_DRAWS)
             bad = self._draw_step_noise(commands, *self._step_noise_arguments)
         if bad < 0:
             bad = self._plan(commands, st.params, st.state, st.tallies, before, self.dt)
@@ -482,10 +487,10 @@ class World:
         # a wall or another robot, so that no speed the motors allow tunnels through anything
         # then hold robots at holes, and give pymunk the motion as forces (see `_apply_motion`)
         self._bodies.refresh()
-        was_blocked = st.state[st.stoppers, kernels.BLOCKED] if len(st.stoppers) else None
+        was_blocked = st.state[st.stoppers, layout.BLOCKED] if len(st.stoppers) else None
         changed, quiet = self._settle(before, *self._settle_arguments)
         if was_blocked is not None:  # a robot newly stopped by c't-Sim's rule has met something
-            for i in st.stoppers[(st.state[st.stoppers, kernels.BLOCKED] > 0) & (was_blocked == 0)]:
+            for i in st.stoppers[(st.state[st.stoppers, layout.BLOCKED] > 0) & (was_blocked == 0)]:
                 self.robots[i].collisions += 1
         if changed:
             for robot in self.robots:
@@ -504,7 +509,7 @@ class World:
 
     def _apply_motion(self) -> None:
         """Make each body's velocity after pymunk's velocity phase move/dt and alpha/dt (the forces
-        `kernels.settle` wrote), step pymunk and move the robots.
+        `kernels.contacts.settle` wrote), step pymunk and move the robots.
 
         pymunk moves bodies *before* it solves contacts, with the velocity they have; a velocity
         set before `space.step` would push the body into a wall unchecked. So the body enters the
@@ -554,7 +559,7 @@ def wall_cell(boxes: np.ndarray) -> float:
 @dataclass(frozen=True)
 class _WallArrays:
     """The walls as flat arrays for the kernels: all vertices, each wall's slice of them, its
-    bounding box (xmin, ymin, xmax, ymax) and a uniform grid over the boxes (`kernels.build_wall_grid`;
+    bounding box (xmin, ymin, xmax, ymax) and a uniform grid over the boxes (`kernels.grids.build_wall_grid`;
     walls are static, so it is built once): its origin and cell size (`frame`) and its cells."""
 
     vertices: np.ndarray
@@ -569,7 +574,7 @@ class _WallArrays:
         ends = np.cumsum([len(p) for p in polygons], dtype=np.int64)
         starts = ends - np.array([len(p) for p in polygons], dtype=np.int64)
         boxes = np.array([(*p.min(axis=0), *p.max(axis=0)) for p in polygons]).reshape(-1, 4)
-        frame, cells = kernels.build_wall_grid(boxes, wall_cell(boxes) if len(boxes) > WALL_GRID_ABOVE else math.inf)  # one cell: the plain loop
+        frame, cells = build_wall_grid(boxes, wall_cell(boxes) if len(boxes) > WALL_GRID_ABOVE else math.inf)  # one cell: the plain loop
         return cls(
             vertices=np.concatenate(polygons).reshape(-1, 2) if polygons else np.zeros((0, 2)),
             ranges=np.stack((starts, ends), axis=1).reshape(-1, 2),
@@ -603,48 +608,48 @@ def _columns(array: np.ndarray, start: int, width: int = 2) -> np.ndarray:
 
 class _BatchState:
     """Per-robot parameters and state as arrays for the kernels (rebuilt when a robot joins):
-    packed into a few 2-D arrays in the column layout of `sim.world.kernels` (one argument each
+    packed into a few 2-D arrays in the column layout of `sim.world.layout` (one argument each
     per kernel call), with named views of the columns the Python side uses."""
 
     def __init__(self, robots: list[Robot], dt: float, movable_shapes: list[pymunk.Circle], robots_meet: bool = True):
         n = len(robots)
         specs = [r.spec for r in robots]
         motor = [s.motor for s in specs]
-        self.params = np.zeros((n, kernels.PARAMS))
+        self.params = np.zeros((n, layout.PARAMS))
         p = self.params
-        p[:, kernels.COMMAND_MAX] = [m.command_max for m in motor]
-        p[:, kernels.MAX_SPEED] = [m.max_wheel_speed for m in motor]
-        p[:, kernels.LAG] = [1.0 - math.exp(-dt / m.time_constant) if m.time_constant > 0 else 1.0 for m in motor]
-        p[:, kernels.MAX_CHANGE] = [m.max_acceleration * dt for m in motor]
-        p[:, kernels.TICKS_PER_RAD] = [s.encoders.ticks_per_rev / (2 * math.pi) for s in specs]
-        _columns(p, kernels.REAL_RADIUS)[:] = np.array([[s.wheel_radius * (1 + e) for e in s.encoders.diameter_error] for s in specs]).reshape(n, 2)
-        p[:, kernels.TRACK] = [s.track_width * (1 + s.encoders.track_error) for s in specs]
-        _columns(p, kernels.MOUNT)[:] = np.array([s.mouse.mount if s.mouse else (0.0, 0.0) for s in specs], dtype=np.float64).reshape(n, 2)
-        p[:, kernels.COUNTS_PER_METRE] = [counts_per_metre(s.mouse.dpi) * (1 + s.mouse.scale_error) if s.mouse else 0.0 for s in specs]
-        p[:, kernels.MAX_STEP] = [s.mouse.max_speed * dt if s.mouse else 0.0 for s in specs]
-        p[:, kernels.SWEEP_RADIUS] = [s.body_radius - SWEEP_CLEARANCE for s in specs]
-        p[:, kernels.APART_RADIUS] = [s.body_radius - SWEEP_CLEARANCE / 2 for s in specs]
-        p[:, kernels.MASS] = [r.body.mass for r in robots]
-        p[:, kernels.MOMENT] = [r.body.moment for r in robots]
-        p[:, kernels.RADIUS] = [s.body_radius for s in specs]
-        p[:, kernels.STOPS] = [s.contact == "stop" for s in specs]
-        self.stoppers = np.flatnonzero(p[:, kernels.STOPS])
+        p[:, layout.COMMAND_MAX] = [m.command_max for m in motor]
+        p[:, layout.MAX_SPEED] = [m.max_wheel_speed for m in motor]
+        p[:, layout.LAG] = [1.0 - math.exp(-dt / m.time_constant) if m.time_constant > 0 else 1.0 for m in motor]
+        p[:, layout.MAX_CHANGE] = [m.max_acceleration * dt for m in motor]
+        p[:, layout.TICKS_PER_RAD] = [s.encoders.ticks_per_rev / (2 * math.pi) for s in specs]
+        _columns(p, layout.REAL_RADIUS)[:] = np.array([[s.wheel_radius * (1 + e) for e in s.encoders.diameter_error] for s in specs]).reshape(n, 2)
+        p[:, layout.TRACK] = [s.track_width * (1 + s.encoders.track_error) for s in specs]
+        _columns(p, layout.MOUNT)[:] = np.array([s.mouse.mount if s.mouse else (0.0, 0.0) for s in specs], dtype=np.float64).reshape(n, 2)
+        p[:, layout.COUNTS_PER_METRE] = [counts_per_metre(s.mouse.dpi) * (1 + s.mouse.scale_error) if s.mouse else 0.0 for s in specs]
+        p[:, layout.MAX_STEP] = [s.mouse.max_speed * dt if s.mouse else 0.0 for s in specs]
+        p[:, layout.SWEEP_RADIUS] = [s.body_radius - SWEEP_CLEARANCE for s in specs]
+        p[:, layout.APART_RADIUS] = [s.body_radius - SWEEP_CLEARANCE / 2 for s in specs]
+        p[:, layout.MASS] = [r.body.mass for r in robots]
+        p[:, layout.MOMENT] = [r.body.moment for r in robots]
+        p[:, layout.RADIUS] = [s.body_radius for s in specs]
+        p[:, layout.STOPS] = [s.contact == "stop" for s in specs]
+        self.stoppers = np.flatnonzero(p[:, layout.STOPS])
         """The robots with c't-Sim's contact rule (a refused move counts as a collision)."""
         self.contacts = _padded([_contacts(s)[0] for s in specs], np.float64, (2,))
         self.anchored = _padded([_contacts(s)[1] for s in specs], np.bool_)
-        self.state = np.zeros((n, kernels.STATE))
-        self.slip = _columns(self.state, kernels.SLIP)
-        self.mouse_noise = _columns(self.state, kernels.MOUSE_NOISE)
-        self.move = _columns(self.state, kernels.MOVE)
-        self.alpha = _columns(self.state, kernels.ALPHA, 1)
-        self.tallies = np.zeros((n, kernels.TALLIES), dtype=np.int64)
+        self.state = np.zeros((n, layout.STATE))
+        self.slip = _columns(self.state, layout.SLIP)
+        self.mouse_noise = _columns(self.state, layout.MOUSE_NOISE)
+        self.move = _columns(self.state, layout.MOVE)
+        self.alpha = _columns(self.state, layout.ALPHA, 1)
+        self.tallies = np.zeros((n, layout.TALLIES), dtype=np.int64)
         """Encoder ticks then mouse counts of the last step."""
         self.fallen = np.array([r.fallen for r in robots], dtype=np.bool_)
         encoders = [r for r in robots if r.spec.encoders.slip_std or r.spec.encoders.tick_noise]
         mice = [r for r in robots if r.spec.mouse is not None and r.spec.mouse.noise_std]
         self.step_noise = _Noisy.of([(r.index, r, "encoders", r.spec.encoders.slip_std) for r in encoders]
-                                    + [(r.index, r, "mouse", r.spec.mouse.noise_std * p[r.index, kernels.COUNTS_PER_METRE]) for r in mice])
-        """What a step draws before it moves (`noise_kernels.draw_step`): rows of the robots whose
+                                    + [(r.index, r, "mouse", r.spec.mouse.noise_std * p[r.index, layout.COUNTS_PER_METRE]) for r in mice])
+        """What a step draws before it moves (`kernels.noise.draw_step`): rows of the robots whose
         encoders slip or miscount (std: their slip_std), then of those whose mouse has count noise
         (std: noise_std (sqrt m) at the counts' own scale, counts per sqrt m)."""
         self.tick_noise = np.array([r.spec.encoders.tick_noise for r in encoders], dtype=np.float64)
@@ -658,13 +663,13 @@ class _BatchState:
         self.ir_sensors = ir
         self.n_floor, self.n_light = len(floor), len(light)
         every = floor + light + ir
-        self.sensors = np.zeros((len(every), kernels.SENSOR))
-        self.sensors[:, kernels.AT : kernels.AT + 2] = np.array([s.position for _, s in every], dtype=np.float64).reshape(-1, 2)
-        self.sensors[: len(floor) + len(light), kernels.HEIGHT] = [s.height for _, s in floor + light]
-        self.sensors[len(floor) :, kernels.DIRECTION] = [s.direction for _, s in light + ir]
-        self.sensors[len(floor) :, kernels.OPENING] = [s.opening / 2 for _, s in light] + [s.cone for _, s in ir]
-        self.sensors[len(floor) : len(floor) + len(light), kernels.REACH] = [s.reach for _, s in light]
-        self.sensors[len(floor) + len(light) :, kernels.AXIS] = [s.view == "axis" for _, s in ir]
+        self.sensors = np.zeros((len(every), layout.SENSOR))
+        self.sensors[:, layout.AT : layout.AT + 2] = np.array([s.position for _, s in every], dtype=np.float64).reshape(-1, 2)
+        self.sensors[: len(floor) + len(light), layout.HEIGHT] = [s.height for _, s in floor + light]
+        self.sensors[len(floor) :, layout.DIRECTION] = [s.direction for _, s in light + ir]
+        self.sensors[len(floor) :, layout.OPENING] = [s.opening / 2 for _, s in light] + [s.cone for _, s in ir]
+        self.sensors[len(floor) : len(floor) + len(light), layout.REACH] = [s.reach for _, s in light]
+        self.sensors[len(floor) + len(light) :, layout.AXIS] = [s.view == "axis" for _, s in ir]
 
         def noisy(items):
             return _Noisy.of([(k, robot, s.name, s.noise_std) for k, (robot, s) in enumerate(items) if s.noise_std])
@@ -672,14 +677,14 @@ class _BatchState:
         self.floor_and_light_noise = noisy(floor + light)
         """The noisy floor (line, border) and light sensors: their rows in the values of both."""
         self.floor_and_light_top = np.where(self.floor_and_light_noise.rows < len(floor), CNY70_MAX, LDR_MAX).astype(np.int64)
-        """Each one's highest value (`noise_kernels.add_rounded`)."""
+        """Each one's highest value (`kernels.noise.add_rounded`)."""
         self.ir = _IRArrays.build(ir, noisy(ir))
-        self.index = np.zeros((len(every), kernels.INDEX), dtype=np.int64)
-        self.index[:, kernels.OWNER] = [r.index for r, _ in every]
-        self.index[len(floor) + len(light) :, kernels.NOISE_ROW] = self.ir.noise_row
-        self.index[len(floor) + len(light) :, kernels.CURVE] = self.ir.curve
+        self.index = np.zeros((len(every), layout.INDEX), dtype=np.int64)
+        self.index[:, layout.OWNER] = [r.index for r, _ in every]
+        self.index[len(floor) + len(light) :, layout.NOISE_ROW] = self.ir.noise_row
+        self.index[len(floor) + len(light) :, layout.CURVE] = self.ir.curve
         self.circles = np.array(
-            [(0.0, 0.0, r.shape.radius, r.index if robots_meet else kernels.GHOST) for r in robots if isinstance(r.shape, pymunk.Circle)]
+            [(0.0, 0.0, r.shape.radius, r.index if robots_meet else layout.GHOST) for r in robots if isinstance(r.shape, pymunk.Circle)]
             + [(0.0, 0.0, shape.radius, -1) for shape in movable_shapes],
             dtype=np.float64,
         ).reshape(-1, 4)
@@ -711,7 +716,7 @@ class _IRArrays:
 
     @property
     def curves(self) -> tuple[np.ndarray, ...]:
-        """The curve arguments of `kernels.ir_values` (curve .. lowest)."""
+        """The curve arguments of `kernels.sensing.ir_values` (curve .. lowest)."""
         return self.curve, self.tables, self.curve_ends[:, 0], self.beyond, self.inverse, self.curve_ends[:, 1]
 
     @classmethod

@@ -85,7 +85,7 @@ class IRCurve:
 
     def inverse_table(self, min_range: float = 0.1, max_range: float = 0.8) -> np.ndarray:
         """`inverse(min_range, max_range)` of every raw value in `raw_range()`, lowest first: what a
-        compiled lookup reads (`kernels.ir_values`) instead of interpolating each step."""
+        compiled lookup reads (`kernels.sensing.ir_values`) instead of interpolating each step."""
         low, high = self.raw_range()
         return self.inverse(min_range, max_range)(np.arange(low, high + 1))
 
@@ -162,7 +162,7 @@ def absorption(colour: np.ndarray) -> np.ndarray:
 def cny70_value(colour: np.ndarray) -> np.ndarray:
     """CNY70 reflex sensor value of a uniform floor colour (..., 3): its absorption scaled to
     0 (white) .. 1023 (black) and truncated, as c't-Sim (normal floor #606060 -> 637, goal
-    #66FF00 -> 545). Sensors average a cross of rays: `kernels.sample_floor`."""
+    #66FF00 -> 545). Sensors average a cross of rays: `kernels.sensing.sample_floor`."""
     return np.floor(absorption(colour) * np.float32(CNY70_MAX)).astype(np.int64)
 
 

@@ -57,7 +57,7 @@ class FloorLine:
 @dataclass(frozen=True)
 class Hole:
     """A convex hole in the floor. As in c't-Sim a robot never drives over it: a move that would
-    bring its skid or a wheel over it is refused (see `kernels.hold_at_holes`)."""
+    bring its skid or a wheel over it is refused (see `kernels.floor.hold_at_holes`)."""
 
     vertices: tuple[Point, ...]
 

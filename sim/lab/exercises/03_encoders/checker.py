@@ -7,7 +7,8 @@ import math
 import numpy as np
 
 from bots.ctbot import CTBOT
-from bots.odometry import EncoderOdometry, Geometry
+from bots.odometry.base import Geometry
+from bots.odometry.encoder import EncoderOdometry
 from sim.lab.runs import check_estimator, robot
 
 NEARLY = 1e-3

@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 
-from bots.odometry import MouseOdometry
+from bots.odometry.mouse import MouseOdometry
 from sim.kinematics import counts_per_metre
 from sim.lab.checking import Outcome
 from sim.lab.runs import check_estimator, robot

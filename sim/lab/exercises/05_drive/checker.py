@@ -10,7 +10,7 @@ from sim.kinematics import wrap_angle
 from sim.lab.artifacts import observers
 from sim.lab.checking import Outcome
 from sim.lab.runs import RemoteController, moved, path_distance, robot
-from sim.run import RobotSetup, run
+from sim.run.loop import RobotSetup, run
 from sim.world.spec import Start, Wall, WorldSpec
 
 SPEED = 0.1

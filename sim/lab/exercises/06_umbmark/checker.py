@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from bots.odometry import Geometry
+from bots.odometry.base import Geometry
 from sim.analysis.umbmark import corrected_geometry, systematic_errors, umbmark
 from sim.lab.checking import Outcome, close, diagnose, fmt
 from sim.lab.runs import robot

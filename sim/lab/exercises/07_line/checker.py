@@ -8,7 +8,7 @@ import numpy as np
 from sim.lab.artifacts import observers
 from sim.lab.checking import Outcome
 from sim.lab.runs import RemoteController, moved, path_distance, robot
-from sim.run import RobotSetup, run
+from sim.run.loop import RobotSetup, run
 from sim.world.spec import FloorLine, Goal, Start, WorldSpec
 
 LEG = 0.35

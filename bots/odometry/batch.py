@@ -4,11 +4,11 @@
 robot cost more than the world's own step. `DefaultOdometry` holds the defaults of all robots that
 use them (`default_estimators` of a robot without a general chassis) as arrays and steps them in
 one numba kernel fed straight from the world's per-step tallies. The kernel calls the same
-compiled steps as the Python estimators (`bots.odometry_steps`) and lays the pose with the
+compiled steps as the Python estimators (`bots.odometry.steps`) and lays the pose with the
 compiled twin of their `advance`, so its estimates and covariances equal theirs bit for bit
 (tests/test_odometry_batch.py holds the two together); the Python classes stay what a robot
 given its own `estimators=` runs. Parameters are read from reset Python estimators,
-so every formula for them (tolerances, believed geometry) has one home, `bots.odometry`.
+so every formula for them (tolerances, believed geometry) has one home, `bots.odometry.base`.
 """
 
 from __future__ import annotations
@@ -18,17 +18,8 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from bots.odometry import default_estimators
-from bots.odometry_steps import (
-    ENCODERS,
-    ESTIMATES,
-    FUSED,
-    MOUSE,
-    PARAMS,
-    STATE,
-    TIME,
-    batch_step,
-)
+from bots.odometry.defaults import default_estimators
+from bots.odometry.steps import ENCODERS, ESTIMATES, FUSED, MOUSE, PARAMS, STATE, TIME, batch_step
 from bots.spec import RobotSpec
 from bots.uncertainty import COVARIANCE_FIELDS, ERRORS
 
@@ -37,7 +28,7 @@ COVARIANCES = len(COVARIANCE_FIELDS)
 
 def batched(robot: RobotSpec) -> bool:
     """Whether `DefaultOdometry` steps this robot's default estimators (a general chassis's are
-    `bots.chassis_odometry`'s, stepped in Python)."""
+    `bots.odometry.chassis`'s, stepped in Python)."""
     return robot.chassis is None
 
 

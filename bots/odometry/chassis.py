@@ -21,6 +21,7 @@ import math
 
 import numpy as np
 
+from bots.readings import Readings
 from bots.spec import RobotSpec
 from sim.kinematics import apply_increment, se2_exp
 from sim.kinematics.chassis import (
@@ -31,7 +32,6 @@ from sim.kinematics.chassis import (
     sliding_rows,
 )
 from sim.kinematics.mouse import counts_per_metre
-from sim.world.readings import Readings
 
 _RANK_TOL = 1e-9
 """Relative singular-value cut-off for the mouse equations' rank (as the core's)."""

@@ -34,108 +34,31 @@ the live view only, with one line on stderr.
 from __future__ import annotations
 
 import logging
-import math
 import operator
-import os
-import socket
-import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
-from urllib.parse import urlsplit
 
 import numpy as np
 
 from sim.kinematics import wrap_angle
-from sim.kinematics.chassis import WheelType
 from sim.views import palette
 from sim.views.chassis_view import ChassisLayer, body_outline, fault_text
+from sim.views.recording.arrow import ArrowOwned, lazy_rerun, strips, turn, xyz
+from sim.views.recording.layout import ELLIPSE_EVERY, ELLIPSE_POINTS, FIELDS, SCALE, SENSOR_GROUPS, TIMELINE, TRAIL_EVERY, blueprint, ellipses, field_channels, log_world, rgb
+from sim.views.recording.live import LiveStream
 from sim.world import IR_RAY_LENGTH, World
-from sim.world.spec import WorldSpec
 
 if TYPE_CHECKING:
-    from sim.run import RobotLog, RunResult
+    from sim.run.samples import RobotLog, RunResult
 
-TIMELINE = "sim_time"
-TURNING = (WheelType.STEERED, WheelType.CASTOR, WheelType.SPHERICAL)
-"""Wheels whose steering angle changes in a run, and so is recorded."""
 CHUNK = 8000
 """Samples per `send_columns` batch. Each batch costs rerun's conversions once per entity (8,000
 samples cost a recorded run a quarter less than 4,000), and rerun keeps some 400 bytes per chunk
 sent until the file is closed (its footer): fewer, longer chunks are cheaper and keep a long run's
 memory flat. At most `sim.run.RESIDENT` samples, which the run's logs keep in memory for the
 recorder to read."""
-TRAIL_EVERY = 10
-"""Samples per trail piece: every pose is in the trail, but in 10x fewer rows for the viewer."""
-ELLIPSE_EVERY = 200
-"""Samples between two uncertainty ellipses along an estimate's trail (2 s at the default step)."""
-ELLIPSE_SCALE = math.sqrt(-2.0 * math.log(0.05))
-"""Radius, in standard deviations, of the ellipse holding 95 % of a 2-D normal (chi2(2) = 5.99)."""
-ELLIPSE_POINTS = 37
-LIVE_PORT = 9876
-"""Port of a viewer that `--live` spawns (rerun's default)."""
-LIVE_WAIT_S = 10.0
-"""How long to wait for a spawned viewer to listen, and for a live chunk to reach the viewer."""
-LIVE_EVERY_S = 0.5
-"""Wall-clock seconds after which a live view gets what is buffered, full chunk or not: a run
-paced at real time (`ctsim bridge --realtime`) fills a chunk only every 80 s."""
-
-FIELDS = ("ir_raw", "ir_distance", "line", "border", "light", "encoder_ticks", "mouse_counts", "mouse2_counts", "steering")
-"""Readings fields recorded as time series, in buffer column order."""
-SENSOR_GROUPS = {
-    "ir_raw": ("IR raw (ADC)", ("ir_raw",)),
-    "ir_distance": ("IR distance (mm)", ("ir_distance",)),
-    "floor": ("floor: line and border (0 white, 1023 black)", ("line", "border")),
-    "light": ("light (0 bright, 1023 dark)", ("light",)),
-    "encoders": ("encoders (ticks per step)", ("encoder_ticks",)),
-    "mouse": ("mouse (counts per step: forward, left)", ("mouse_counts", "mouse2_counts")),
-    "steering": ("steered from straight (deg)", ("steering",)),
-}
-"""Sensor plot -> (title, readings fields); each field is logged under sensors/<group>/<robot>/<field>."""
-SCALE = {"ir_distance": 1000.0, "steering": 180.0 / math.pi}
-"""Recorded unit per SI unit where a field is shown in other units (m -> mm, rad -> deg)."""
-
-def _rerun():
-    """rerun, imported lazily (0.5 s, 80 MB); its own log lines about a lost viewer are silenced
-    (unless RUST_LOG says otherwise): the recorder says so itself, in one line."""
-    os.environ.setdefault("RUST_LOG", "warn,re_grpc_client=off,re_sdk=off")
-    import rerun
-
-    return rerun
-
-
-class _NoPandas:
-    """Import finder under which pandas cannot be found."""
-
-    def find_spec(self, name: str, path: Any = None, target: Any = None) -> None:
-        if name == "pandas":
-            raise ModuleNotFoundError("not while pyarrow looks", name=name)
-
-
-def keep_pandas_out_of_arrow() -> None:
-    """pyarrow imports pandas (about 40 MB resident) on its first conversion of a Python list,
-    only to ask whether the list is a pandas object, and rerun converts its strings so. A
-    recording holds no pandas objects: where pandas is not loaded yet, pyarrow's first look is
-    made while pandas cannot be found, and pyarrow remembers it as absent for the process.
-    Whatever needs pandas itself later (`to_pandas`, `to_parquet`) still imports it, and pyarrow
-    then uses it again; but pyarrow's quiet checks stay negative until then (nanosecond
-    timestamps read back as Python objects refuse without pandas). So only the `ctsim run` and
-    `ctsim bridge` commands call this: their process records and runs no code of a user's after."""
-    if "pandas" in sys.modules:
-        return
-    import pyarrow
-
-    finder = _NoPandas()
-    sys.meta_path.insert(0, finder)
-    try:
-        pyarrow.array(["ctsim"])
-    finally:
-        sys.meta_path.remove(finder)
-
-
-def _rgb(rgb: palette.RGB) -> tuple[int, int, int]:
-    return tuple(rgb)
 
 
 @dataclass
@@ -183,7 +106,7 @@ class _Track:
         return {f: values[f] if pick is None else values[f][:, pick] for f, channels, pick in zip(FIELDS, self.channels, self.picks) if channels}
 
 
-class Recorder:
+class Recorder(LiveStream):
     """Run observer that writes a rerun recording to `path` (None: none) and, with `live`, also
     streams it to a viewer: the one at `connect` (a rerun+http:// URL) or else one it spawns.
     `facts` are extra lines for the run's facts document (option -> value). `colours` (robot name
@@ -223,16 +146,16 @@ class Recorder:
             raise
 
     def _open(self, world: World, logs: list[RobotLog]) -> None:
-        rr = _rerun()
-        groups = [g for g, (_, fields) in SENSOR_GROUPS.items() if any(_channels(log.spec, f)[0] for log in logs for f in fields)]
-        blueprint = self.blueprint(world.spec, {log.name: list(log.estimate_arrays()) for log in logs}, groups)
+        rr = lazy_rerun()
+        groups = [g for g, (_, fields) in SENSOR_GROUPS.items() if any(field_channels(log.spec, f)[0] for log in logs for f in fields)]
+        views = blueprint(world.spec, {log.name: list(log.estimate_arrays()) for log in logs}, groups)
         self.streams = []
         if self.path is not None:
             rec = rr.RecordingStream(self.application_id, send_properties=False)
-            rec.set_sinks(rr.FileSink(str(self.path)), default_blueprint=blueprint)
+            rec.set_sinks(rr.FileSink(str(self.path)), default_blueprint=views)
             self.streams.append(rec)
         if self.live:
-            self._open_live(rr, blueprint)
+            self._open_live(rr, views)
         self._log("world", rr.Transform3D(scale=(1.0, -1.0, 1.0)), static=True)
         log_world(self._log, world.spec)
         self._log("facts", rr.TextDocument(self._facts_text(world, logs), media_type=rr.MediaType.MARKDOWN), static=True)
@@ -331,56 +254,21 @@ class Recorder:
             rec.log(path, data, static=static)
 
     def _columns(self, path: str, times: list, columns: Any) -> None:
-        times, columns = [_ArrowOwned(t) for t in times], [_ArrowOwned(c) for c in columns]
+        times, columns = [ArrowOwned(t) for t in times], [ArrowOwned(c) for c in columns]
         for rec in self.streams:
             rec.send_columns(path, times, columns)
 
     def _event(self, text: str, level: str) -> None:
-        rr = _rerun()
+        rr = lazy_rerun()
         for rec in self.streams:
             rec.set_time(TIMELINE, duration=self._now)
             rec.log("events", rr.TextLog(text, level=level))
-
-    def _open_live(self, rr: Any, blueprint: Any) -> None:
-        """A second stream to the viewer at `connect` (or one spawned here), sharing the file's
-        recording id; if no viewer answers, say so and record to the file alone."""
-        url = self.connect or f"rerun+http://127.0.0.1:{LIVE_PORT}/proxy"
-        same = {"recording_id": self.streams[0].get_recording_id()} if self.streams else {}
-        live = rr.RecordingStream(self.application_id, send_properties=False, **same)
-        wait = 0.0
-        if self.connect is None:
-            try:  # spawned for this stream: rerun ignores a spawn without an active recording
-                live.spawn(port=LIVE_PORT, connect=False, hide_welcome_screen=True)
-            except Exception as err:  # no viewer executable, no display: the file still counts
-                return self._lose_live(f"could not start a rerun viewer ({err})")
-            wait = LIVE_WAIT_S
-        if not listening(url, wait):
-            return self._lose_live(f"no rerun viewer answers at {url}")
-        live.set_sinks(rr.GrpcSink(url), default_blueprint=blueprint)
-        self._live = live
-        self.streams.append(live)
-
-    def _check_live(self) -> None:
-        """Wait for the live stream to deliver what it has; a viewer that went away or stalls
-        ends the live view, never the run."""
-        self._live_due = time.monotonic() + LIVE_EVERY_S
-        try:
-            self._live.flush(timeout_sec=LIVE_WAIT_S)
-        except Exception as err:  # rerun raises RuntimeError with gRPC's own words
-            self.streams.remove(self._live)
-            self._live = None
-            self._lose_live(f"the rerun viewer stopped taking data ({str(err).splitlines()[0]})")
-
-    def _lose_live(self, why: str) -> None:
-        self.live_lost = why
-        target = f"; still recording to {self.path}" if self.path is not None else ""
-        print(f"ctsim: live view off: {why}{target}", file=sys.stderr)
 
     # --- internals ------------------------------------------------------------------------
 
     def _track(self, log: RobotLog) -> _Track:
         spec = log.spec
-        channels, picks = zip(*(_channels(spec, f) for f in FIELDS))
+        channels, picks = zip(*(field_channels(spec, f) for f in FIELDS))
         return _Track(
             log=log,
             estimates=list(log.estimate_arrays()),
@@ -410,21 +298,21 @@ class Recorder:
     def _style(self) -> None:
         """Static parts: each robot's outline in its body frame, the estimates' markers, the
         colours of trails and plot series (the data itself is temporal)."""
-        rr = _rerun()
+        rr = lazy_rerun()
         several = len(self._tracks) > 1
         for track in self._tracks:
             name, spec = track.log.name, track.log.spec
             base = f"world/{name}"
             outline = body_outline(spec)
             heading = [(0.0, 0.0), (outline[:, 0].max() + 0.35 * spec.body_radius, 0.0)]
-            own = _rgb(self.colours.get(name, palette.TRUTH))
+            own = rgb(self.colours.get(name, palette.TRUTH))
             self._log(f"{base}/body/outline", rr.LineStrips2D([outline, heading], colors=own, radii=-2.0, draw_order=60), static=True)
             if name in self.colours:
                 self._log(f"{base}/body/name", rr.Points2D([(0.0, 0.0)], colors=own, radii=-3.0, labels=[name], show_labels=True, draw_order=61), static=True)
-            self._log(f"{base}/rays", rr.LineStrips2D.from_fields(colors=_rgb(palette.RAY), radii=-0.75, draw_order=55), static=True)
-            self._log(f"{base}/hits", rr.Points2D.from_fields(colors=_rgb(palette.HIT), radii=-2.5, draw_order=56), static=True)
+            self._log(f"{base}/rays", rr.LineStrips2D.from_fields(colors=rgb(palette.RAY), radii=-0.75, draw_order=55), static=True)
+            self._log(f"{base}/hits", rr.Points2D.from_fields(colors=rgb(palette.HIT), radii=-2.5, draw_order=56), static=True)
             self._log(f"{base}/trail/truth", rr.LineStrips2D.from_fields(colors=own, radii=-2.5, draw_order=48), static=True)
-            colours = [_rgb(palette.estimate_colour(label, track.estimates)) for label in track.estimates]
+            colours = [rgb(palette.estimate_colour(label, track.estimates)) for label in track.estimates]
             for label, colour in zip(track.estimates, colours):
                 self._log(f"{base}/trail/{label}", rr.LineStrips2D.from_fields(colors=colour, radii=-1.0, draw_order=50), static=True)
                 self._log(f"{base}/estimate/{label}/outline", rr.LineStrips2D([0.6 * outline, 0.75 * np.array(heading)], colors=colour, radii=-1.2, draw_order=58), static=True)
@@ -434,7 +322,7 @@ class Recorder:
                 self._log(f"errors/{name}/heading", rr.SeriesLines(colors=colours, names=who, widths=1.2), static=True)
             uncertain = list(track.log.covariance_arrays())
             if uncertain:
-                band = [_rgb(palette.estimate_colour(label, track.estimates)) for label in uncertain]
+                band = [rgb(palette.estimate_colour(label, track.estimates)) for label in uncertain]
                 for label, colour in zip(uncertain, band):
                     self._log(f"{base}/ellipse/{label}", rr.LineStrips2D.from_fields(colors=colour, radii=-0.8, draw_order=49), static=True)
                 for path, sign in (("position/band", ""), ("heading/band_upper", "+"), ("heading/band_lower", "-")):
@@ -451,7 +339,7 @@ class Recorder:
 
     def _send(self, track: _Track, stop: int) -> None:
         """Send one robot's samples [track.start, stop) as columns."""
-        rr = _rerun()
+        rr = lazy_rerun()
         name = track.log.name
         base = f"world/{name}"
         span = slice(track.start, stop)
@@ -461,9 +349,9 @@ class Recorder:
         estimates = {label: poses[span] for label, poses in track.log.estimate_arrays().items()}
         readings = track.columns(stop)
 
-        self._columns(f"{base}/body", times, rr.Transform3D.columns(translation=_xyz(truth), quaternion=_turn(truth[:, 2])))
+        self._columns(f"{base}/body", times, rr.Transform3D.columns(translation=xyz(truth), quaternion=turn(truth[:, 2])))
         for label, poses in estimates.items():
-            self._columns(f"{base}/estimate/{label}", times, rr.Transform3D.columns(translation=_xyz(poses), quaternion=_turn(poses[:, 2])))
+            self._columns(f"{base}/estimate/{label}", times, rr.Transform3D.columns(translation=xyz(poses), quaternion=turn(poses[:, 2])))
         if estimates:
             error = np.stack(list(estimates.values()), axis=1) - truth[:, None]  # (n, estimates, 3)
             per_sample = np.full(n, error.shape[1])
@@ -490,7 +378,7 @@ class Recorder:
 
     def _send_trails(self, track: _Track, truth: np.ndarray, estimates: dict[str, np.ndarray]) -> None:
         """Trail pieces of TRAIL_EVERY samples, each starting where the last ended."""
-        rr = _rerun()
+        rr = lazy_rerun()
         n = len(truth)
         points = np.stack([truth[:, :2], *(poses[:, :2] for poses in estimates.values())], axis=1)  # (n, labels, 2)
         ends = np.arange(TRAIL_EVERY - 1 - track.start % TRAIL_EVERY, n, TRAIL_EVERY)
@@ -507,13 +395,13 @@ class Recorder:
         rows = np.arange(offsets[-1]) + np.repeat(first - offsets[:-1], lengths)
         for k, label in enumerate(["truth", *estimates]):
             along = np.concatenate((track.tail[k : k + 1], points[:, k])) if joined else points[:, k]
-            self._columns(f"world/{track.log.name}/trail/{label}", times, rr.LineStrips2D.columns(strips=_strips(along[rows], offsets)))  # a piece a row
+            self._columns(f"world/{track.log.name}/trail/{label}", times, rr.LineStrips2D.columns(strips=strips(along[rows], offsets)))  # a piece a row
         track.tail = points[ends[-1]].copy()
 
     def _send_uncertainty(self, track: _Track, times: list, estimates: dict[str, np.ndarray], covariances: dict[str, np.ndarray]) -> None:
         """The 3 sigma bands of the error plots, and every ELLIPSE_EVERY samples each estimate's
         95 % position ellipse: `covariances` label -> (n, 6) COVARIANCE_FIELDS entries."""
-        rr = _rerun()
+        rr = lazy_rerun()
         name = track.log.name
         entries = np.stack(list(covariances.values()), axis=1)  # (n, labels, 6)
         n, k = entries.shape[:2]
@@ -531,12 +419,12 @@ class Recorder:
         for j, (label, poses) in enumerate(estimates.items()):
             rings = ellipses(poses[picked, :2], entries[picked, j])
             offsets = np.arange(0, len(picked) * ELLIPSE_POINTS + 1, ELLIPSE_POINTS)
-            self._columns(f"world/{name}/ellipse/{label}", at, rr.LineStrips2D.columns(strips=_strips(rings.reshape(-1, 2), offsets)))
+            self._columns(f"world/{name}/ellipse/{label}", at, rr.LineStrips2D.columns(strips=strips(rings.reshape(-1, 2), offsets)))
 
     def _send_rays(self, track: _Track, times: list, truth: np.ndarray, distance: np.ndarray) -> None:
         """IR rays from each sensor to the distance it reports (`distance` (n, k) m, nan: nothing
         seen: a ray of full length) and the points hit."""
-        rr = _rerun()
+        rr = lazy_rerun()
         n, k = len(truth), len(track.ir)
         c, s = np.cos(truth[:, 2])[:, None], np.sin(truth[:, 2])[:, None]
         x, y, direction = track.ir.T
@@ -546,75 +434,8 @@ class Recorder:
         angle = truth[:, 2:3] + direction
         end = origin + reach * np.stack((np.cos(angle), np.sin(angle)), axis=-1)
         rays = np.stack((origin, end), axis=2).reshape(2 * n * k, 2)  # each ray from its sensor to its end
-        self._columns(f"world/{track.log.name}/rays", times, rr.LineStrips2D.columns(strips=_strips(rays, np.arange(0, 2 * n * k + 1, 2))).partition(np.full(n, k)))
+        self._columns(f"world/{track.log.name}/rays", times, rr.LineStrips2D.columns(strips=strips(rays, np.arange(0, 2 * n * k + 1, 2))).partition(np.full(n, k)))
         self._columns(f"world/{track.log.name}/hits", times, rr.Points2D.columns(positions=end[hit]).partition(hit.sum(axis=1)))
-
-    @staticmethod
-    def blueprint(world: WorldSpec, robots: dict[str, list[str]], groups: list[str]) -> Any:
-        """The map framed on the world with every trail, events and facts below it; per robot
-        its error plots, and one plot per sensor group in `groups`, beside it. `robots` maps each
-        robot's name to its estimates' names."""
-        import rerun.blueprint as rrb
-
-        history = rrb.VisibleTimeRanges([rrb.VisibleTimeRange(TIMELINE, start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.cursor_relative())])
-        trails = {f"/world/{name}/trail/{label}": history for name, labels in robots.items() for label in ["truth", *labels]}
-        trails |= {f"/world/{name}/ellipse/{label}": history for name, labels in robots.items() for label in labels}
-        xmin, ymin, xmax, ymax = world.bounds
-        margin = 0.03 * max(xmax - xmin, ymax - ymin)
-        bounds = rrb.VisualBounds2D(x_range=(xmin - margin, xmax + margin), y_range=(-ymax - margin, -ymin + margin))  # y flipped, see `world`
-        world_map = rrb.Spatial2DView(origin="/", contents="+ /world/**", name=f"map: {world.name}", visual_bounds=bounds, background=_rgb(palette.BACKGROUND), overrides=trails)
-        legend = rrb.PlotLegend(corner=rrb.Corner2D.LeftTop)
-        errors = [
-            rrb.Vertical(
-                rrb.TimeSeriesView(origin=f"/errors/{name}/position", name=f"{name}: position error (mm)", plot_legend=legend),
-                rrb.TimeSeriesView(origin=f"/errors/{name}/heading", name=f"{name}: heading error (deg)", plot_legend=legend),
-                name=f"errors: {name}",
-            )
-            for name, estimates in robots.items()
-            if estimates  # a robot without estimates (a contest's) has no errors to plot
-        ]
-        shown = [(group, title) for group, (title, _) in SENSOR_GROUPS.items() if group in groups]
-        if len(robots) > 1:  # per robot a tab with a plot of each sensor kind: no plot mixes robots
-            sensors = [
-                rrb.Grid(*(rrb.TimeSeriesView(origin=f"/sensors/{group}/{name}", name=f"{name}: {title}", plot_legend=legend) for group, title in shown), name=f"sensors: {name}")
-                for name in robots
-            ]
-        else:
-            sensors = [rrb.TimeSeriesView(origin=f"/sensors/{group}", name=title, plot_legend=legend) for group, title in shown]
-        return rrb.Blueprint(
-            rrb.Horizontal(
-                rrb.Vertical(
-                    world_map,
-                    rrb.Tabs(rrb.TextLogView(origin="/events", name="events"), rrb.TextDocumentView(origin="/facts", name="run facts")),
-                    row_shares=[4, 1],
-                ),
-                rrb.Vertical(rrb.Tabs(*errors), rrb.Tabs(*sensors), row_shares=[3, 2]) if errors else rrb.Tabs(*sensors),
-                column_shares=[3, 2],
-            ),
-            rrb.TimePanel(timeline=TIMELINE),
-            collapse_panels=True,
-        )
-
-
-class _ArrowOwned:
-    """A time or component column whose Arrow data rerun gets as a copy that Arrow owns.
-    rerun frees each chunk in its file-writing thread after writing it, and memory that numpy
-    owns can only be freed holding the GIL: that thread would then wake at every GIL release of
-    the run loop (a context switch every few steps, 55,000 in a 30-minute run against 7,000 with
-    the copy), which made a recorded run a tenth slower."""
-
-    def __init__(self, column: Any):
-        self._column = column
-
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._column, name)
-
-    def as_arrow_array(self) -> Any:
-        import pyarrow as pa
-
-        # (one array: still a copy) in malloc's memory, as numpy's was (1-hour runs peaked at
-        # 274-286 MB so, 288 MB in Arrow's default pool, mimalloc)
-        return pa.concat_arrays([self._column.as_arrow_array()], memory_pool=pa.system_memory_pool())
 
 
 class _Messages(logging.Handler):
@@ -628,91 +449,3 @@ class _Messages(logging.Handler):
     def emit(self, record: logging.LogRecord) -> None:
         level = {"WARNING": "WARN", "CRITICAL": "ERROR"}.get(record.levelname, record.levelname)
         self.recorder._event(f"{record.name}: {record.getMessage()}", level)
-
-
-def _channels(spec: Any, name: str) -> tuple[tuple[str, ...], np.ndarray | None]:
-    """The channels of readings field `name` that a robot spec has (known before the first
-    reading): their names, and which entries of the field they are (None: all of them). A general
-    chassis has an encoder per wheel, may have a second mouse, and records the steering of the
-    wheels that turn (steered, castors, balls); the c't-Bot has two of each pair."""
-    chassis = spec.chassis.chassis if spec.chassis is not None else None
-    mouse = ("forward", "left")
-    if name == "encoder_ticks":
-        return (chassis.names if chassis is not None else ("left", "right")), None
-    if name == "mouse_counts":
-        return (mouse if spec.mouse is not None else ()), None
-    if name == "mouse2_counts":
-        return (tuple(f"mouse 2 {side}" for side in mouse) if chassis is not None and spec.chassis.mouse2 is not None else ()), None
-    if name == "steering":
-        if chassis is None:
-            return (), None
-        turning = np.flatnonzero(np.isin(chassis.kind, TURNING))
-        return tuple(chassis.names[i] for i in turning), turning
-    sensors = getattr(spec, {"ir_raw": "ir", "ir_distance": "ir"}.get(name, name))
-    return tuple(s.name for s in sensors), None
-
-
-def listening(url: str, wait_s: float) -> bool:
-    """Whether something accepts TCP connections at the URL's host and port, trying for up to
-    `wait_s` seconds (a spawned viewer takes a moment to listen)."""
-    parts = urlsplit(url)
-    host, port = parts.hostname or "127.0.0.1", parts.port or LIVE_PORT
-    deadline = time.monotonic() + wait_s
-    while True:
-        try:
-            with socket.create_connection((host, port), timeout=1.0):
-                return True
-        except OSError:
-            if time.monotonic() >= deadline:
-                return False
-            time.sleep(0.2)
-
-
-def _strips(points: np.ndarray, offsets: np.ndarray) -> Any:
-    """Line strips points[offsets[j]:offsets[j + 1]] as rerun's arrow array, built in one go
-    (rerun converts a list of strips one by one, and counts an array's in a Python loop: 20 us a
-    sample for the trails and rays)."""
-    import pyarrow as pa
-
-    rr = _rerun()
-    inner = rr.components.Position2DBatch(points).as_arrow_array()
-    return pa.ListArray.from_arrays(offsets.astype(np.int32), inner, type=rr.components.LineStrip2DBatch._ARROW_DATATYPE)
-
-
-def ellipses(centres: np.ndarray, entries: np.ndarray) -> np.ndarray:
-    """(m, ELLIPSE_POINTS, 2) closed 95 % ellipses of positions `centres` (m, 2) with covariance
-    entries (m, 6) (`bots.uncertainty.COVARIANCE_FIELDS`; the position block)."""
-    cov = np.stack([np.stack([entries[:, 0], entries[:, 1]], -1), np.stack([entries[:, 1], entries[:, 3]], -1)], -2)
-    values, vectors = np.linalg.eigh(cov)
-    axes = vectors * (ELLIPSE_SCALE * np.sqrt(np.maximum(values, 0.0)))[:, None, :]  # columns: the scaled axes
-    angle = np.linspace(0.0, 2.0 * math.pi, ELLIPSE_POINTS)
-    circle = np.stack((np.cos(angle), np.sin(angle)))  # (2, points)
-    return centres[:, None, :] + np.einsum("mij,jp->mpi", axes, circle)
-
-
-def _xyz(poses: np.ndarray) -> np.ndarray:
-    return np.column_stack((poses[:, 0], poses[:, 1], np.zeros(len(poses))))
-
-
-def _turn(heading: np.ndarray) -> np.ndarray:
-    """Quaternions (x, y, z, w) of rotations by `heading` about z."""
-    half = 0.5 * np.asarray(heading)
-    zero = np.zeros_like(half)
-    return np.column_stack((zero, zero, np.sin(half), np.cos(half)))
-
-
-def log_world(log: Any, spec: WorldSpec) -> None:
-    """Draw a WorldSpec once, as static data under world/map, with `log(path, data, static=True)`:
-    the floor as an image of the map's shapes (filled walls, lines at their width), starts."""
-    rr = _rerun()
-    from sim.views.map_image import map_png
-
-    png, per_metre = map_png(spec)
-    xmin, ymin, xmax, ymax = spec.bounds
-    # image pixel (u, v) lies at world (xmin + u/s, ymax - v/s): rows run down from the top edge
-    log("world/map/floor", rr.Transform3D(translation=(xmin, ymax, 0.0), scale=(1 / per_metre, -1 / per_metre, 1.0)), static=True)
-    log("world/map/floor", rr.EncodedImage(contents=png, media_type="image/png", draw_order=-100.0), static=True)
-    if spec.starts:
-        origins = [(s.x, s.y) for s in spec.starts]
-        vectors = [(0.08 * math.cos(s.heading), 0.08 * math.sin(s.heading)) for s in spec.starts]
-        log("world/map/starts", rr.Arrows2D(origins=origins, vectors=vectors, colors=_rgb(palette.START), radii=-1.5, draw_order=10.0), static=True)

@@ -1,7 +1,7 @@
 """A user's own odometry estimator beside the shipped ones: loaded from a file, named, and
 checked every step as a controller's command is.
 
-An estimator follows `bots.odometry.Estimator`: `reset(robot, pose)`, `update(readings)`, a `pose`
+An estimator follows `bots.odometry.base.Estimator`: `reset(robot, pose)`, `update(readings)`, a `pose`
 (3,) and optionally a `covariance` (3, 3). `ctsim run --estimator FILE.py:Class` and
 `simulate(..., estimators=[...])` give every robot a fresh one beside its defaults, which stay in
 their compiled pass (`beside_defaults`); its name is its `name` attribute (else the class's), which
@@ -22,7 +22,8 @@ from typing import Any
 import numpy as np
 
 from bots.controller import user_module
-from bots.odometry import Estimator, default_estimators
+from bots.odometry.base import Estimator
+from bots.odometry.defaults import default_estimators
 from bots.spec import RobotSpec
 from sim.errors import UserError
 

@@ -1,5 +1,5 @@
 """One step of each default estimator's arc and error covariance, compiled, so that the Python
-estimators (`bots.odometry`) and the batch of a run's robots (`bots.odometry_batch`) run the
+estimators (`bots.odometry.base` and its subclasses) and the batch of a run's robots (`bots.odometry.batch`) run the
 same code: each takes a robot's parameter row (PARAMS) and returns the increment (s, alpha) for
 its caller to lay down; `batch_step` steps every robot of the batch. Every compiled part of the
 odometry is in this one file: numba caches a kernel by its own file's stamp, so a kernel calling
@@ -22,7 +22,7 @@ over-states its sum over many steps (carried counts lag by less than one count, 
 which keeps the calibration update cautious. The propagated covariance takes only the random
 noise; the quantisation lag is reported beside it (`lag`, as `bots.uncertainty` does).
 
-Two detectors leave a sensor out where its model does not hold (`bots.odometry.FusedOdometry`
+Two detectors leave a sensor out where its model does not hold (`bots.odometry.fused.FusedOdometry`
 says why they hold): slip (the encoders' distance strays from the mouse's beyond a quantisation
 band) and wall contact (the mouse's rotation strays from the encoders', a slide read as
 rotation); a channel left out gets the variance IGNORED.
@@ -303,7 +303,7 @@ def fused_step(
 
 @numba.njit(cache=True, inline="always")
 def _lay(pose: np.ndarray, s: float, alpha: float, end_heading: bool) -> None:
-    """`_ArcOdometry.update`: the pose after the arc, in place."""
+    """`ArcOdometry.update`: the pose after the arc, in place."""
     pose[0], pose[1], pose[2] = advance_one(pose[0], pose[1], pose[2], s, alpha, end_heading)
 
 
@@ -314,7 +314,7 @@ def batch_step(
     cov_out: np.ndarray,
 ) -> None:
     """One step of every robot's default estimators, in place: the compiled steps the Python
-    estimators call (`bots.odometry_steps`), laid down as `_ArcOdometry.update` lays them
+    estimators call (`bots.odometry.steps`), laid down as `ArcOdometry.update` lays them
     (`advance_one`). Where `out` has rows: out[i] = the true pose, then the estimates, and
     cov_out[i] their covariances (a run's log, one pass)."""
     if out.shape[0] != rows.shape[0] or cov_out.shape[0] != rows.shape[0]:

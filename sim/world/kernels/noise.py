@@ -18,7 +18,7 @@ import math
 import numba
 import numpy as np
 
-from sim.world.kernels import first_bad
+from sim.world.kernels.motion import first_bad
 
 ENCODER_DRAWS = 6
 """Normals an encoder's row gives each step: the two wheels' slip, then per wheel two uniforms

@@ -1,0 +1,164 @@
+"""Odometry estimators: what a robot believes about its pose, from its own readings only.
+
+An estimator is reset with the robot's description and its start pose, then takes each step's
+readings and exposes `pose` (x, y m, heading rad, continuous). The comparison against ground truth
+happens in the run loop's consumers (`sim.analysis.metrics`), never here.
+
+Every estimator turns one step's readings into an arc (centre arc length s, heading change alpha)
+and lays it down either exactly (chord along the mid-angle, seed 002 eqs 1.7, 1.12) or as the
+c't-Bot firmware does (chord along the end heading, ctsim-reference §5).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+from bots.odometry.steps import (
+    DISTANCE_MEMORY,
+    GATE,
+    HAS_MOUSE,
+    MEMORY,
+    MOUNT_X,
+    MOUNT_Y,
+    MOUSE_VAR,
+    PARAMS,
+    PER_METRE,
+    SLIP_VAR,
+    TICK_LEFT,
+    TICK_RIGHT,
+    TICK_VAR_LEFT,
+    TICK_VAR_RIGHT,
+    TOLERANCE,
+    TRACK,
+    TURN_TOLERANCE,
+    mouse_terms,
+    pose_covariance,
+    wheel_terms,
+)
+from bots.readings import Readings
+from bots.spec import RobotSpec
+from bots.uncertainty import COVARIANCE_FIELDS, ERRORS, Belief, square
+from sim.kinematics import MouseEstimator, advance
+from sim.kinematics.mouse import counts_per_metre
+
+TURN_MEMORY = 0.25
+"""Time constant (s) over which the fused estimator forgets the mouse's and the encoders' rotation
+disagreeing: long enough to see a slide build up, short enough that a wrong track width (a few
+per cent of the turning) never adds up to the band."""
+SLIP_MEMORY = 0.1
+"""Metres of the mouse's path over which the fused estimator forgets the encoders' and the
+mouse's distance disagreeing: a robot standing still forgets nothing (a wheel spinning against a
+wall stays slip), one driving sees a slide of a few millimetres among 10 cm."""
+GATE_SIGMAS = 5.0
+"""Standard deviations of the random noise summed over the memory, and of the calibration still
+unknown (per metre driven, per radian turned), that the two sensors may disagree by before the
+fused estimator calls it slip or a slide: at 3 the detectors, whose sums are correlated from step
+to step, fired often enough on noise alone to make the fused heading worse than the mouse's."""
+NOISE_COUNTS = 3.0
+"""Mouse noise (counts) allowed over the memory: 0.2-0.5 counts per step add up to 1-2.5 counts."""
+
+
+class Estimator(Protocol):
+    """Dead reckoning from readings: `reset` at the start pose, `update` every step; `pose`
+    (3,) x, y m, heading rad. Optional: `covariance`, the (3, 3) covariance of the pose's error
+    (m², m·rad, rad²) after the last update; without it, the estimate is reported without one."""
+
+    name: str
+    pose: np.ndarray
+
+    def reset(self, robot: RobotSpec, pose: np.ndarray) -> None: ...
+    def update(self, readings: Readings) -> None: ...
+
+
+@dataclass(frozen=True)
+class Geometry:
+    """What the robot's own code believes about its drive (m): the nominal values unless a
+    calibration such as UMBmark corrected them."""
+
+    wheel_diameters: tuple[float, float]
+    track_width: float
+
+    @classmethod
+    def nominal(cls, robot: RobotSpec) -> Geometry:
+        """The geometry the robot description states."""
+        return cls((robot.wheel_diameter, robot.wheel_diameter), robot.track_width)
+
+
+def parameters(robot: RobotSpec, geometry: Geometry | None = None) -> np.ndarray:
+    """The robot's row of `bots.odometry.steps` parameters (PARAMS,): what its estimators
+    believe of its drive (`geometry`, None: nominal), its mouse and its noise (`Belief.of`)."""
+    p = np.zeros(PARAMS)
+    believed = geometry or Geometry.nominal(robot)
+    p[TICK_LEFT], p[TICK_RIGHT] = (math.pi * d / robot.encoders.ticks_per_rev for d in believed.wheel_diameters)
+    p[TRACK] = believed.track_width
+    belief = Belief.of(robot)
+    p[SLIP_VAR] = belief.slip_var
+    # a metre rolled is 1/tick ticks, each one off by a tick with probability tick_rate: m² per metre
+    p[TICK_VAR_LEFT], p[TICK_VAR_RIGHT] = belief.tick_rate * p[TICK_LEFT], belief.tick_rate * p[TICK_RIGHT]
+    if mouse_applies(robot):
+        mount_x, mount_y = (float(m) for m in robot.mouse.mount)
+        p[PER_METRE], p[MOUNT_X], p[MOUNT_Y] = float(counts_per_metre(robot.mouse.dpi)), mount_x, mount_y
+        count = 1.0 / p[PER_METRE]
+        # the fused estimator's detectors (see FusedOdometry)
+        p[TOLERANCE] = max(p[TICK_LEFT], p[TICK_RIGHT]) + count * (1.0 + abs(mount_y) / abs(mount_x))
+        p[TURN_TOLERANCE] = 2.0 * (max(p[TICK_LEFT], p[TICK_RIGHT]) / p[TRACK] + count / abs(mount_x)) + NOISE_COUNTS * count / abs(mount_x)
+        p[MEMORY], p[GATE], p[DISTANCE_MEMORY] = TURN_MEMORY, GATE_SIGMAS, SLIP_MEMORY
+        p[MOUSE_VAR] = belief.mouse_var
+        p[HAS_MOUSE] = 1.0
+    return p
+
+
+def quantisation_lag(p: np.ndarray, mouse: bool) -> np.ndarray:
+    """(2, 2) covariance of the (s, alpha) lag of carried counts (each uniform over one count):
+    the encoders' or the mouse's."""
+    lag, jac = np.zeros((2, 2)), np.zeros((2, ERRORS))
+    if mouse:
+        mouse_terms(0.0, 0.0, p[MOUNT_X], p[MOUNT_Y], 1.0 / (12.0 * p[PER_METRE] ** 2), jac, lag)
+    else:
+        wheel_terms(0.0, 0.0, 0.0, p[TRACK], p[TICK_LEFT] ** 2 / 12.0, p[TICK_RIGHT] ** 2 / 12.0, jac, lag)
+    return lag
+
+
+class ArcOdometry:
+    """Shared dead reckoning: `step(readings)` gives (s, alpha) for the step, laid by `advance`,
+    and propagates the error covariance `errors` (`bots.uncertainty`) in the same compiled step
+    (`bots.odometry.steps`); `lag` is the quantisation lag reported beside it."""
+
+    name = "arc"
+    end_heading = False
+    uses_mouse = False
+
+    def __init__(self, geometry: Geometry | None = None):
+        self.geometry = geometry
+
+    def reset(self, robot: RobotSpec, pose: np.ndarray) -> None:
+        if self.uses_mouse and not mouse_applies(robot):
+            raise ValueError(f"robot {robot.name!r} has no mouse sensor that sees rotation: {self.name} odometry does not apply")
+        self.robot = robot
+        self.pose = np.asarray(pose, dtype=np.float64).copy()
+        self.params = parameters(robot, self.geometry)
+        self.errors = Belief.of(robot).prior()
+        self.lag = quantisation_lag(self.params, self.uses_mouse)
+        self._entries = np.zeros(len(COVARIANCE_FIELDS))
+
+    def step(self, readings: Readings) -> tuple[float, float]:
+        raise NotImplementedError
+
+    def update(self, readings: Readings) -> None:
+        s, alpha = self.step(readings)
+        self.pose = advance(self.pose, s, alpha, self.end_heading)
+
+    @property
+    def covariance(self) -> np.ndarray:
+        """(3, 3) covariance of the pose's error (m², m·rad, rad²): propagated plus the lag."""
+        pose_covariance(self.errors, float(self.pose[2]), self.lag, self._entries)
+        return square(self._entries)
+
+
+def mouse_applies(robot: RobotSpec) -> bool:
+    """A mouse that can see rotation: present and off the wheel axle line."""
+    return robot.mouse is not None and math.isfinite(robot.mouse.mount[0]) and abs(robot.mouse.mount[0]) >= MouseEstimator.min_lever

@@ -1,0 +1,92 @@
+"""The `ctsim` command line: run, view, play, report, sweep, contest, worlds, check, controllers, lab.
+
+User mistakes (bad world files, robot files, controller names or parameters, unwritable folders)
+(`sim.errors.UserError`, or an OSError on a path the command line named) end in one line
+`ctsim: error: ...` and exit status 2, never a traceback; a run that fails mid-way exits 1 after
+everything up to then has been written; any other exception is a bug in ctsim: its traceback, a
+line asking for a report, exit 1 (EXIT_STATUSES lists every status).
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import signal
+import sys
+import traceback
+from pathlib import Path
+
+import sim
+from sim import sanitize
+from sim.cli import bridge, check, contest, controllers, lab, play, report, run, sweep, view, worlds
+from sim.cli.observers import terminate
+from sim.cli.options import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_TERMINATED, EXIT_USER, Parser
+from sim.cli.output import held
+from sim.errors import UserError
+from sim.run.ending import Terminated
+from sim.world import compiling
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = Parser(prog="ctsim", description="A 2D simulator of c't-Bot style differential-drive robots.")
+    parser.add_argument("--version", action="version", version=f"ctsim {sim.__version__}")
+    commands = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for command in (run, view, play, report, worlds, check, bridge, sweep, controllers, lab, contest):  # the order of --help
+        command.add_parser(commands)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the `ctsim` console script; returns the exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if args.command is None:
+        parser.print_help()
+        return EXIT_USER
+    previous = signal.signal(signal.SIGTERM, terminate)
+    if sys.stderr.isatty():  # someone waits at a terminal: say why the first run takes a while
+        compiling.PROGRESS = lambda line: print(f"ctsim: {line}", file=sys.stderr, flush=True)
+    try:
+        return args.handler(args)
+    except BrokenPipeError:  # `ctsim controllers | head`: the reader has all it wanted
+        sys.stdout = None
+        return 0
+    except UserError as err:
+        print(f"ctsim: error: {sanitize.name(str(err), 2000)}", file=sys.stderr)
+        return EXIT_USER
+    except OSError as err:
+        if not _names_user_path(err, args):
+            return _bug()
+        where = f"{err.filename}: " if err.filename else ""  # no errno, no repr
+        print(f"ctsim: error: {where}{err.strerror or err}", file=sys.stderr)
+        return EXIT_USER
+    except KeyboardInterrupt as stop:  # outside a run (a run keeps its results and ends normally)
+        terminated = isinstance(stop, Terminated)
+        print(f"ctsim: {'terminated' if terminated else 'interrupted'}", file=sys.stderr)
+        return EXIT_TERMINATED if terminated else EXIT_INTERRUPTED
+    except Exception:
+        return _bug()
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+        while held:
+            held.pop().close()
+
+
+def _names_user_path(err: OSError, args: argparse.Namespace) -> bool:
+    """Whether the failed file is one the command line named (an argument or an option), lies
+    inside one, or is a folder on the way to one: the user's to fix (exit 2), not ctsim's bug."""
+    failed = [Path(os.fsdecode(name)).absolute() for name in (err.filename, err.filename2) if name not in (None, "")]
+    named = []
+    for value in vars(args).values():
+        for item in value if isinstance(value, list) else [value]:
+            if isinstance(item, str | Path) and str(item).strip():
+                named.append(Path(str(item).partition(".py:")[0]).absolute())  # FILE.py:Class names FILE.py
+    return any(path == given or given in path.parents or path in given.parents for path in failed for given in named)
+
+
+def _bug() -> int:
+    """The traceback of an exception that is no user mistake, and what to do about it: exit 1."""
+    traceback.print_exc()
+    print(f"ctsim: error: this is a bug in ctsim {sim.__version__}, not a mistake of yours: please report it "
+          "with the command you ran and the traceback above", file=sys.stderr)
+    return EXIT_FAILED

@@ -1,0 +1,176 @@
+"""A run's folder: made (and an earlier run's files cleared), locked, and filled with the summary,
+trajectories, figures and report; the end-of-run table."""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from bots.schema import file_stem
+from sim import sanitize
+from sim.analysis.summary import summarize, write_json
+from sim.cli.observers import StopOnSignal
+from sim.cli.options import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_TERMINATED, UsageError
+from sim.folder_lock import LOCK, hold
+from sim.run.ending import Ending
+
+RUN_FILES = ("run.rrd", "run.parquet", "summary.json", "report.html", "trajectories.png", "errors.png")
+"""The files every run writes into its folder by these names (its trajectories are named in its
+summary.json): when a folder of an earlier run is reused, these and the trajectories its summary
+names are removed first, so that nothing stale is left beside the new results; nothing else."""
+START = Path.cwd()
+"""The folder ctsim started in: a relative --out is taken from here, so that a controller that
+changes the current folder when it loads cannot move the run's folder."""
+
+
+def out_dir(out: Path | None, world: str, controller: str) -> Path:
+    if out is None:
+        stamp = time.strftime("%Y%m%d-%H%M%S")
+        out = Path("runs") / f"{file_stem(Path(world).stem) or 'world'}-{file_stem(Path(controller.split(':')[0]).stem) or 'run'}-{stamp}"
+    out = START / out
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise UsageError(f"{out}: cannot make the run's folder: {err.strerror or err}") from None
+    _lock(out)
+    for stale in _earlier_run(out):
+        stale.unlink(missing_ok=True)
+    return out
+
+
+def _earlier_run(out: Path) -> list[Path]:
+    """The files an earlier run wrote into `out` (what its summary.json names, and RUN_FILES);
+    UsageError for a folder of other files, which ctsim leaves alone."""
+    from sim.analysis.run_folder import RunFolderError, read_summary, written_by_ctsim
+
+    present = [p for p in out.iterdir() if p.name != LOCK]
+    if not present:
+        return []
+    try:
+        summary = read_summary(out)
+    except RunFolderError:
+        summary = None
+    if summary is None:
+        if not written_by_ctsim(out):
+            names = ", ".join(sorted(sanitize.name(p.name) for p in present)[:3])
+            raise UsageError(f"--out {out} holds files that no ctsim run wrote ({names}{', ...' if len(present) > 3 else ''}): "
+                             "give a new or empty folder, or the folder of an earlier run")
+        return [out / name for name in RUN_FILES]  # (an earlier run cut short: its fixed files only)
+    named = [out / name for robot in summary["robots"] for name in robot.get("tum", {}).values()]
+    return [out / name for name in RUN_FILES] + named + [p.with_suffix(".csv") for p in named]
+
+
+held: list[Any] = []  # the open lock files of this command, closed (released) when it ends
+
+
+def _lock(out: Path) -> None:
+    """Hold `out` for this run (`sim.folder_lock`): a second run into it is refused."""
+    handle = hold(out, "run")
+    if handle is not None:
+        held.append(handle)
+
+
+def finish(result, out: Path, options: dict[str, Any], report: bool = True, metrics: dict[str, dict[str, dict]] | None = None,
+           stop: StopOnSignal | None = None, recording_error: str | None = None, export_rate: float | None = None) -> int:
+    """Write summary.json (first: it holds the figures and is small), TUM/CSV trajectories and
+    figures of a run; print the table and the files; the exit status (EXIT_STATUSES). A full
+    disk or an I/O error ends it with one line and exit 1, having written what fit. `metrics`:
+    robot -> estimator -> metrics as a dict, where the caller has them already (else they are
+    computed here). With `stop`, a signal received so far skips the figures, one received while
+    they are drawn stops them, and either sets the status. `recording_error`: why the recording
+    is incomplete (an I/O error too). `export_rate`: samples per second in the TUM and CSV files
+    (None: every sample)."""
+    written = [out / "run.rrd"]
+    summary = summarize(result, options, metrics)
+    try:
+        write_json(out / "summary.json", summary)
+        written.append(out / "summary.json")
+        written += write_trajectories(result, out, summary, export_rate)
+        write_json(out / "summary.json", summary)  # again, now naming the TUM files
+        if report and len(result) and stop is not None and stop.received is not None:
+            print(f"ctsim: figures skipped after the signal; `ctsim report {out}` draws them", file=sys.stderr)
+        elif report and len(result):
+            from sim.views.figures import report_run_dir
+
+            if stop is not None:
+                stop.phase = "draw"
+            try:
+                written += report_run_dir(out)
+            except KeyboardInterrupt:
+                print(f"ctsim: figures stopped by the signal; `ctsim report {out}` draws them", file=sys.stderr)
+        from sim.web.report import write_run_report
+
+        written.append(write_run_report(out))
+    except OSError as err:
+        kept = ", ".join(p.name for p in written[1:]) or "nothing"
+        print(f"ctsim: error: writing the run's results into {out}: {err.strerror or err} (written: {kept})", file=sys.stderr)
+        return EXIT_FAILED
+    print(table(summary))
+    for note in getattr(result, "notes", ()):  # what the run's guards put back (`sim.guards`)
+        print(f"ctsim: note: {note}", file=sys.stderr)
+    for log in result.robots:  # what a general chassis did other than asked (projected twists)
+        for message, count in log.notes.values():
+            print(f"ctsim: note: {log.name}: {message} ({count} step{'s' if count != 1 else ''} like it)", file=sys.stderr)
+    print("wrote:")
+    for path in written:
+        print(f"  {path}")
+    if recording_error is not None:
+        print(f"ctsim: error: the recording is incomplete: {recording_error}", file=sys.stderr)
+        return EXIT_FAILED
+    if result.reason == Ending.ERROR:
+        print(f"ctsim: run stopped: {sanitize.name(result.error, 2000)}", file=sys.stderr)
+        return EXIT_FAILED
+    if isinstance(result.reason, Ending) and result.reason.signalled:
+        print(f"ctsim: {result.error}; partial results written to {out}", file=sys.stderr)
+        return EXIT_INTERRUPTED if result.reason is Ending.INTERRUPTED else EXIT_TERMINATED
+    return (stop.status() if stop is not None else None) or 0
+
+
+def write_trajectories(result, out: Path, summary: dict[str, Any], export_rate: float | None = None) -> list[Path]:
+    """run.parquet (every sample: poses and readings), truth.tum and <estimate>.tum (prefixed with
+    the robot name when there are several) and the same as CSV, at `export_rate` samples per second
+    (None: all); records the file names in the summary for `ctsim report`."""
+    from sim.analysis.export import write_parquet, write_run
+
+    every = max(1, round(1 / (export_rate * result.dt))) if export_rate else 1
+    written = [write_parquet(result, out / "run.parquet")]
+    summary["parquet"], summary["export_every"] = written[0].name, every
+    tums = write_run(result, out, prefix=len(result.robots) > 1, with_csv=True, every=every)
+    for entry in summary["robots"]:
+        entry["tum"] = {label: path.name for label, path in tums[entry["name"]].items()}
+        written += [path for tum in tums[entry["name"]].values() for path in (tum, tum.with_suffix(".csv"))]
+    return written
+
+
+def _nees(errors: dict[str, Any]) -> str:
+    """An estimate's mean NEES for the table ('-' without a covariance; 3 is consistent)."""
+    value = errors.get("nees_mean")
+    return "-" if value is None or not math.isfinite(value) else f"{value:.1f}"
+
+
+def table(summary: dict[str, Any]) -> str:
+    """The short end-of-run table: per robot distance and collisions, per estimate its errors."""
+    reached = [sanitize.name(robot["name"], 40) for robot in summary["robots"] if robot["goal_time"] is not None]
+    outcome = {
+        Ending.GOAL: f"goal reached by {', '.join(reached)}", Ending.DURATION: "time limit reached",
+        Ending.DONE: "done (every controller said it is done)", Ending.QUIT: "quit (window closed)",
+    }.get(summary["reason"], summary["reason"])  # fmt: skip
+    if summary["reason"] == Ending.DURATION and reached:
+        outcome = f"goal reached by {', '.join(reached)}, ran on to the time limit"
+    lines = [
+        f"{sanitize.name(summary['world']['name'])}, seed {summary['seed']}, noise {summary.get('noise', 'none')}, "
+        f"{summary['time']:.2f} s simulated: {outcome}"
+    ]
+    header = f"{'robot':<12}{'estimate':<12}{'distance m':>11}{'collisions':>11}{'final err m':>12}{'ATE RMS m':>11}{'final hdg °':>12}{'NEES':>7}"
+    lines.append(header)
+    for robot in summary["robots"]:
+        first = f"{sanitize.name(robot['name'], 40):<12}{'':<12}{robot['distance']:>11.3f}{robot['collisions']:>11d}"
+        notes = [note for note in ("fell into a hole" if robot["fell"] else "", f"goal at {robot['goal_time']:.2f} s" if robot["goal_time"] is not None else "",
+                                   f"controller: {robot['status']}" if robot.get("status") not in (None, "running") else "") if note]  # fmt: skip
+        lines.append(first + ("   " + ", ".join(notes) if notes else ""))
+        for name, errors in robot["estimates"].items():
+            lines.append(f"{'':<12}{name:<12}{'':>11}{'':>11}{errors['final_position_error']:>12.4f}{errors['ate_rmse']:>11.4f}{math.degrees(errors['final_heading_error']):>12.2f}{_nees(errors):>7}")
+    return "\n".join(lines)

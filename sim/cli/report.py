@@ -1,0 +1,28 @@
+"""`ctsim report`: the figures and report.html of a run folder."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from sim.cli.options import UsageError
+
+
+def add_parser(commands) -> None:  # noqa: ANN001 (argparse's subparsers action)
+    """The `report` command's options."""
+    report = commands.add_parser("report", help="draw the PNG figures and report.html of a run folder",
+                                 description="Draw trajectories.png, errors.png and report.html (one self-contained page: table, figures, facts) in a folder written by `ctsim run`.")
+    report.add_argument("run_dir", type=Path, metavar="RUN_DIR")
+    report.set_defaults(handler=cmd_report)
+
+
+def cmd_report(args: argparse.Namespace) -> int:
+    from sim.views.figures import report_run_dir
+
+    if not (args.run_dir / "summary.json").is_file():
+        raise UsageError(f"{args.run_dir}: not a run folder (no summary.json)")
+    from sim.web.report import write_run_report
+
+    for path in [*report_run_dir(args.run_dir), write_run_report(args.run_dir)]:
+        print(path)
+    return 0

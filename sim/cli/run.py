@@ -1,0 +1,111 @@
+"""`ctsim run`: robots in a world, headless, recorded, with their results written to a run folder."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+from sim.analysis.summary import SUMMARY_ROOM, unstarted, write_json
+from sim.cli.observers import Progress, StopOnSignal
+from sim.cli.options import EXIT_INTERRUPTED, EXIT_TERMINATED, UsageError, add_robot_options, add_web_options, load_robot_spec, param, positive, robot_options, robot_setups, whole
+from sim.cli.output import finish, out_dir
+from sim.cli.view import serve_until_interrupted
+from sim.run.clock import MAX_STEP_TIMEOUT
+from sim.run.ending import Ending, RunError, Terminated
+from sim.run.loop import MAX_DURATION, step_count
+
+DEFAULT_DURATION = 300.0
+"""The default run: a c't-Bot solving the shipped maze, until it reaches the goal (at most 300 s)."""
+STEP_TIMEOUT = 5.0
+"""Seconds (wall clock) a controller step may take in `ctsim run` (`--step-timeout`)."""
+
+
+def add_parser(commands) -> None:  # noqa: ANN001 (argparse's subparsers action)
+    """The `run` command's options."""
+    run = commands.add_parser(
+        "run",
+        help="run a world headless and write a recording, trajectories and figures",
+        description="Run robots in a world for a duration (or until a goal), headless, and write run.rrd (rerun), "
+        "summary.json, one TUM and CSV file per trajectory (truth and each odometry estimate) and PNG figures. "
+        "With no arguments: a c't-Bot solving the shipped maze until it reaches the goal.",
+    )
+    add_robot_options(run)
+    run.add_argument("--controller", action="append", metavar="NAME|FILE.py[:NAME]",
+                     help="controller: a registered name (see `ctsim controllers`) or a Python file; repeat for several robots (default: solve_maze)")
+    run.add_argument("--estimator", action="append", default=[], metavar="FILE.py[:CLASS]",
+                     help="your own odometry estimator (reset(robot, pose), update(readings), pose, optional covariance) beside the shipped ones, in every output (repeatable)")
+    run.add_argument("--param", action="append", type=param, default=[], metavar="KEY=VALUE", help="controller parameter, repeatable; applies to every robot's controller")
+    run.add_argument("--robots", type=whole, metavar="N", help="number of robots (default: one per --controller); a single controller is used by all")
+    run.add_argument("--duration", type=positive(float, MAX_DURATION, "s"), default=DEFAULT_DURATION, metavar="SECONDS", help=f"simulated time to run at most (default: {DEFAULT_DURATION:g})")
+    run.add_argument("--step-timeout", type=positive(float, MAX_STEP_TIMEOUT, "s"), default=STEP_TIMEOUT, metavar="SECONDS",
+                     help=f"a controller step that takes longer (wall clock) ends the run as the controller's error (default: {STEP_TIMEOUT:g})")
+    run.add_argument("--until-goal", action=argparse.BooleanOptionalAction, default=None, help="stop as soon as a robot reaches a goal area (default: on in worlds that have a goal)")
+    add_web_options(run, "--web", "also serve rerun's web viewer and stream the run into the page as it runs; after the run, serve until Ctrl-C")
+    run.set_defaults(handler=cmd_run)
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    from bots.odometry.user import load
+    from sim.experiments import simulate, world
+    from sim.views.recording.arrow import keep_pandas_out_of_arrow
+    from sim.views.recording.recorder import Recorder
+    from sim.world.files import world_warnings
+
+    step_count(args.duration, args.dt)
+    place = world(args.world)
+    setups = robot_setups(args, load_robot_spec(args), len(place.start_order()))
+    extra = [load(source) for source in args.estimator]  # (before the folder is made: a bad file is refused first)
+    for warning in world_warnings(place):
+        print(f"ctsim: warning: {args.world}: {warning}", file=sys.stderr)
+    until_goal = bool(place.goals) if args.until_goal is None else args.until_goal
+    with _web_viewer(args) as web:  # first: a port in use is refused before the folder is touched
+        out = out_dir(args.out, args.world, setups[0].controller_name)
+        facts = {"controller parameters": ", ".join(f"{k}={v}" for k, v in args.param) or "defaults", "noise": args.noise,
+                 "duration": f"{args.duration:g} s" + (" or until a goal" if until_goal else "")}
+        options = {"duration": args.duration, "until_goal": until_goal, **robot_options(args)}
+        keep_pandas_out_of_arrow()
+        write_json(out / "summary.json", unstarted(place, args.seed, args.dt, options, "running", "the run has not ended"), reserve=SUMMARY_ROOM + 2048 * len(setups))
+        if web:
+            print(f"ctsim: the run streams into {web.url}", file=sys.stderr, flush=True)
+        recorder = Recorder(out / "run.rrd", live=args.live, connect=web.grpc_url if web else args.connect, facts=facts)
+        with StopOnSignal() as stop:
+            try:
+                result = simulate(place, *setups, duration=args.duration, dt=args.dt, seed=args.seed, until_goal=until_goal,
+                                  observers=(stop.starting, recorder, Progress(args.duration, args.dt), stop), step_timeout=args.step_timeout,
+                                  estimators=extra)
+            except KeyboardInterrupt as signalled:  # before the run started: nothing simulated, said so in the summary
+                return _stopped_before_start(out, place, args, options, signalled)
+            except RunError:  # refused before it started (no room for its trajectories): no run, no summary
+                (out / "summary.json").unlink(missing_ok=True)
+                raise
+            status = finish(result.raw, out, options, report=not args.no_report, export_rate=args.export_rate, metrics={robot.name: robot.metrics for robot in result.robots},
+                            stop=stop, recording_error=recorder.write_error)
+        if web and not (isinstance(result.reason, Ending) and result.reason.signalled):
+            serve_until_interrupted(web)
+    return status
+
+
+def _web_viewer(args: argparse.Namespace):
+    """With --web, rerun's web viewer for the run to stream into (served on entering); else
+    nothing to enter."""
+    from contextlib import nullcontext
+
+    if not args.web:
+        if args.host is not None or args.port is not None:
+            raise UsageError("--host and --port go with --web")
+        return nullcontext()
+    if args.live or args.connect:
+        raise UsageError("--web serves its own viewer: give it, --live or --connect, not two of them")
+    from sim.web.serve import DEFAULT_HOST, DEFAULT_PORT, WebViewer
+
+    return WebViewer(None, args.host or DEFAULT_HOST, DEFAULT_PORT if args.port is None else args.port)
+
+
+def _stopped_before_start(out: Path, place, args: argparse.Namespace, options: dict[str, Any], signalled: KeyboardInterrupt) -> int:
+    """The summary of a run that a signal stopped before its first step."""
+    reason = Ending.TERMINATED if isinstance(signalled, Terminated) else Ending.INTERRUPTED
+    write_json(out / "summary.json", unstarted(place, args.seed, args.dt, options, reason, f"{reason} before the first step"))
+    print(f"ctsim: {reason} before the first step; wrote {out / 'summary.json'}", file=sys.stderr)
+    return EXIT_TERMINATED if reason is Ending.TERMINATED else EXIT_INTERRUPTED

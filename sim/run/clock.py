@@ -1,0 +1,63 @@
+"""A wall-clock time limit on each controller step, kept by SIGALRM."""
+
+from __future__ import annotations
+
+import signal
+import threading
+
+from sim.run.ending import RunError
+
+MAX_STEP_TIMEOUT = 86_400.0
+"""Longest wall-clock time limit on a controller step (s): a day; the operating system's timer
+holds no more than about 10^8 s."""
+
+
+class StepTimeout(BaseException):
+    """A controller step ran past its time limit (a BaseException, so that a controller's own
+    `except Exception` does not swallow it)."""
+
+
+class StepClock:
+    """A time limit on each controller step, kept by SIGALRM: a timer ticks every quarter of the
+    limit and raises StepTimeout inside a controller that the last four ticks found in the same
+    step (so a step ends between 1 and 1.25 limits). Only in the main thread of a POSIX process
+    (signals go there); elsewhere steps are not timed. `busy` is the number of the controller call
+    in progress (0: none)."""
+
+    active: StepClock | None = None
+    """The clock of the run going on in this process, if any."""
+
+    def __init__(self, limit: float | None):
+        if limit is not None and not (isinstance(limit, (int, float)) and 0 < limit <= MAX_STEP_TIMEOUT):
+            raise RunError(f"the step time limit must be more than 0 and at most {MAX_STEP_TIMEOUT:,.0f} s (a day), got {limit!r}")
+        self.limit = limit
+        self.busy = 0
+        self._seen, self._ticks, self._previous = 0, 0, None
+        self.armed = bool(limit) and hasattr(signal, "setitimer") and threading.current_thread() is threading.main_thread()
+
+    def __enter__(self) -> StepClock:
+        if self.armed:
+            self._previous = signal.signal(signal.SIGALRM, self._tick)
+            signal.setitimer(signal.ITIMER_REAL, self.limit / 4, self.limit / 4)
+            StepClock.active = self
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self.armed:
+            signal.setitimer(signal.ITIMER_REAL, 0)
+            signal.signal(signal.SIGALRM, self._previous)
+            StepClock.active = None
+
+    def _tick(self, signum: int, frame: object) -> None:
+        if self.busy and self.busy == self._seen:
+            self._ticks += 1
+            if self._ticks >= 4:
+                raise StepTimeout
+        else:
+            self._seen, self._ticks = self.busy, 0
+
+
+def in_controller() -> bool:
+    """Whether a run in this process is inside a controller step right now (a signal handler
+    can then raise at once: no ctsim lock is held there)."""
+    return StepClock.active is not None and StepClock.active.busy != 0

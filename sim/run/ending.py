@@ -1,0 +1,46 @@
+"""How a run ends (`Ending`, the result's `reason`), and the exceptions that end it early or refuse
+to start it."""
+
+from __future__ import annotations
+
+from enum import StrEnum
+
+from sim.errors import UserError
+
+
+class Ending(StrEnum):
+    """How a run ended (`RunResult.reason`). A str: summary.json, tables and comparisons with the
+    plain names ("goal") hold its value."""
+
+    DURATION = "duration"
+    """It ran for its whole duration."""
+    GOAL = "goal"
+    """A robot reached a goal area (with `until_goal`)."""
+    DONE = "done"
+    """Every robot's controller said it is done (its `status` is no longer RUNNING)."""
+    QUIT = "quit"
+    """The user closed the window (`ctsim play`)."""
+    ERROR = "error"
+    """A controller failed (raised, returned a bad command, overran its step time): `error` says how."""
+    INTERRUPTED = "interrupted"
+    """Ctrl-C (SIGINT)."""
+    TERMINATED = "terminated"
+    """SIGTERM (a job scheduler, `timeout`)."""
+
+    @property
+    def signalled(self) -> bool:
+        """Whether a signal ended the run (Ctrl-C or SIGTERM): partial results, a status of its own."""
+        return self in (Ending.INTERRUPTED, Ending.TERMINATED)
+
+
+class RunError(UserError, RuntimeError):
+    """A run that could not start (bad setup); the message is for the user."""
+
+
+class Terminated(KeyboardInterrupt):
+    """Raised by a SIGTERM handler (a job scheduler, `timeout`): the run ends as on Ctrl-C."""
+
+
+class Quit(KeyboardInterrupt):
+    """Raised by an observer whose user ended the session (a window closed, Esc pressed): the run
+    ends where it is, with reason 'quit'."""

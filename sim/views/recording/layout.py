@@ -1,0 +1,139 @@
+"""What a recording holds where: its timeline, the readings fields and sensor plots, how often
+trails and ellipses are drawn, the map, and the viewer's blueprint."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+from sim.kinematics.chassis import WheelType
+from sim.views import palette
+from sim.views.recording.arrow import lazy_rerun
+from sim.world.spec import WorldSpec
+
+TIMELINE = "sim_time"
+TURNING = (WheelType.STEERED, WheelType.CASTOR, WheelType.SPHERICAL)
+"""Wheels whose steering angle changes in a run, and so is recorded."""
+TRAIL_EVERY = 10
+"""Samples per trail piece: every pose is in the trail, but in 10x fewer rows for the viewer."""
+ELLIPSE_EVERY = 200
+"""Samples between two uncertainty ellipses along an estimate's trail (2 s at the default step)."""
+ELLIPSE_SCALE = math.sqrt(-2.0 * math.log(0.05))
+"""Radius, in standard deviations, of the ellipse holding 95 % of a 2-D normal (chi2(2) = 5.99)."""
+ELLIPSE_POINTS = 37
+FIELDS = ("ir_raw", "ir_distance", "line", "border", "light", "encoder_ticks", "mouse_counts", "mouse2_counts", "steering")
+"""Readings fields recorded as time series, in buffer column order."""
+SENSOR_GROUPS = {
+    "ir_raw": ("IR raw (ADC)", ("ir_raw",)),
+    "ir_distance": ("IR distance (mm)", ("ir_distance",)),
+    "floor": ("floor: line and border (0 white, 1023 black)", ("line", "border")),
+    "light": ("light (0 bright, 1023 dark)", ("light",)),
+    "encoders": ("encoders (ticks per step)", ("encoder_ticks",)),
+    "mouse": ("mouse (counts per step: forward, left)", ("mouse_counts", "mouse2_counts")),
+    "steering": ("steered from straight (deg)", ("steering",)),
+}
+"""Sensor plot -> (title, readings fields); each field is logged under sensors/<group>/<robot>/<field>."""
+SCALE = {"ir_distance": 1000.0, "steering": 180.0 / math.pi}
+"""Recorded unit per SI unit where a field is shown in other units (m -> mm, rad -> deg)."""
+
+
+def rgb(rgb: palette.RGB) -> tuple[int, int, int]:
+    return tuple(rgb)
+
+
+def field_channels(spec: Any, name: str) -> tuple[tuple[str, ...], np.ndarray | None]:
+    """The channels of readings field `name` that a robot spec has (known before the first
+    reading): their names, and which entries of the field they are (None: all of them). A general
+    chassis has an encoder per wheel, may have a second mouse, and records the steering of the
+    wheels that turn (steered, castors, balls); the c't-Bot has two of each pair."""
+    chassis = spec.chassis.chassis if spec.chassis is not None else None
+    mouse = ("forward", "left")
+    if name == "encoder_ticks":
+        return (chassis.names if chassis is not None else ("left", "right")), None
+    if name == "mouse_counts":
+        return (mouse if spec.mouse is not None else ()), None
+    if name == "mouse2_counts":
+        return (tuple(f"mouse 2 {side}" for side in mouse) if chassis is not None and spec.chassis.mouse2 is not None else ()), None
+    if name == "steering":
+        if chassis is None:
+            return (), None
+        turning = np.flatnonzero(np.isin(chassis.kind, TURNING))
+        return tuple(chassis.names[i] for i in turning), turning
+    sensors = getattr(spec, {"ir_raw": "ir", "ir_distance": "ir"}.get(name, name))
+    return tuple(s.name for s in sensors), None
+
+
+def ellipses(centres: np.ndarray, entries: np.ndarray) -> np.ndarray:
+    """(m, ELLIPSE_POINTS, 2) closed 95 % ellipses of positions `centres` (m, 2) with covariance
+    entries (m, 6) (`bots.uncertainty.COVARIANCE_FIELDS`; the position block)."""
+    cov = np.stack([np.stack([entries[:, 0], entries[:, 1]], -1), np.stack([entries[:, 1], entries[:, 3]], -1)], -2)
+    values, vectors = np.linalg.eigh(cov)
+    axes = vectors * (ELLIPSE_SCALE * np.sqrt(np.maximum(values, 0.0)))[:, None, :]  # columns: the scaled axes
+    angle = np.linspace(0.0, 2.0 * math.pi, ELLIPSE_POINTS)
+    circle = np.stack((np.cos(angle), np.sin(angle)))  # (2, points)
+    return centres[:, None, :] + np.einsum("mij,jp->mpi", axes, circle)
+
+
+def log_world(log: Any, spec: WorldSpec) -> None:
+    """Draw a WorldSpec once, as static data under world/map, with `log(path, data, static=True)`:
+    the floor as an image of the map's shapes (filled walls, lines at their width), starts."""
+    rr = lazy_rerun()
+    from sim.views.map_image import map_png
+
+    png, per_metre = map_png(spec)
+    xmin, ymin, xmax, ymax = spec.bounds
+    # image pixel (u, v) lies at world (xmin + u/s, ymax - v/s): rows run down from the top edge
+    log("world/map/floor", rr.Transform3D(translation=(xmin, ymax, 0.0), scale=(1 / per_metre, -1 / per_metre, 1.0)), static=True)
+    log("world/map/floor", rr.EncodedImage(contents=png, media_type="image/png", draw_order=-100.0), static=True)
+    if spec.starts:
+        origins = [(s.x, s.y) for s in spec.starts]
+        vectors = [(0.08 * math.cos(s.heading), 0.08 * math.sin(s.heading)) for s in spec.starts]
+        log("world/map/starts", rr.Arrows2D(origins=origins, vectors=vectors, colors=rgb(palette.START), radii=-1.5, draw_order=10.0), static=True)
+
+
+def blueprint(world: WorldSpec, robots: dict[str, list[str]], groups: list[str]) -> Any:
+    """The map framed on the world with every trail, events and facts below it; per robot
+    its error plots, and one plot per sensor group in `groups`, beside it. `robots` maps each
+    robot's name to its estimates' names."""
+    import rerun.blueprint as rrb
+
+    history = rrb.VisibleTimeRanges([rrb.VisibleTimeRange(TIMELINE, start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.cursor_relative())])
+    trails = {f"/world/{name}/trail/{label}": history for name, labels in robots.items() for label in ["truth", *labels]}
+    trails |= {f"/world/{name}/ellipse/{label}": history for name, labels in robots.items() for label in labels}
+    xmin, ymin, xmax, ymax = world.bounds
+    margin = 0.03 * max(xmax - xmin, ymax - ymin)
+    bounds = rrb.VisualBounds2D(x_range=(xmin - margin, xmax + margin), y_range=(-ymax - margin, -ymin + margin))  # y flipped, see `world`
+    world_map = rrb.Spatial2DView(origin="/", contents="+ /world/**", name=f"map: {world.name}", visual_bounds=bounds, background=rgb(palette.BACKGROUND), overrides=trails)
+    legend = rrb.PlotLegend(corner=rrb.Corner2D.LeftTop)
+    errors = [
+        rrb.Vertical(
+            rrb.TimeSeriesView(origin=f"/errors/{name}/position", name=f"{name}: position error (mm)", plot_legend=legend),
+            rrb.TimeSeriesView(origin=f"/errors/{name}/heading", name=f"{name}: heading error (deg)", plot_legend=legend),
+            name=f"errors: {name}",
+        )
+        for name, estimates in robots.items()
+        if estimates  # a robot without estimates (a contest's) has no errors to plot
+    ]
+    shown = [(group, title) for group, (title, _) in SENSOR_GROUPS.items() if group in groups]
+    if len(robots) > 1:  # per robot a tab with a plot of each sensor kind: no plot mixes robots
+        sensors = [
+            rrb.Grid(*(rrb.TimeSeriesView(origin=f"/sensors/{group}/{name}", name=f"{name}: {title}", plot_legend=legend) for group, title in shown), name=f"sensors: {name}")
+            for name in robots
+        ]
+    else:
+        sensors = [rrb.TimeSeriesView(origin=f"/sensors/{group}", name=title, plot_legend=legend) for group, title in shown]
+    return rrb.Blueprint(
+        rrb.Horizontal(
+            rrb.Vertical(
+                world_map,
+                rrb.Tabs(rrb.TextLogView(origin="/events", name="events"), rrb.TextDocumentView(origin="/facts", name="run facts")),
+                row_shares=[4, 1],
+            ),
+            rrb.Vertical(rrb.Tabs(*errors), rrb.Tabs(*sensors), row_shares=[3, 2]) if errors else rrb.Tabs(*sensors),
+            column_shares=[3, 2],
+        ),
+        rrb.TimePanel(timeline=TIMELINE),
+        collapse_panels=True,
+    )

@@ -1,0 +1,199 @@
+"""Compiled uniform grids that let a query meet only what is near: the static walls'
+(`build_wall_grid`, `walls_near`), the circles' of a crowd (`circle_grid`) and the pairs of robots
+that could touch in a step (`near_pairs`), with the sort and search they share."""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from sim.world.layout import COLUMNS, ROWS, STARTS
+
+
+@numba.njit(cache=True)
+def build_wall_grid(boxes: np.ndarray, cell: float) -> tuple[np.ndarray, np.ndarray]:
+    """A uniform grid of square `cell`s over the walls' bounding boxes (xmin, ymin, xmax, ymax), for
+    `walls_near`: (frame: origin x, y and cell size; cells: one int64 array, layout above, the
+    buffer one wall long per wall). A wall is listed, in ascending order, in every cell its box
+    overlaps. The grid spans the walls' boxes only (a query beyond it meets its edge cells, whose
+    walls' boxes it misses). An infinite `cell` gives one cell of every wall: the plain loop."""
+    n = boxes.shape[0]
+    x0 = boxes[:, 0].min() if n else 0.0
+    y0 = boxes[:, 1].min() if n else 0.0
+    cols = 1 + max(_cell_index(boxes[:, 2].max(), x0, cell, 1 << 30), 0) if n else 1
+    rows = 1 + max(_cell_index(boxes[:, 3].max(), y0, cell, 1 << 30), 0) if n else 1
+    span = np.empty((n, 4), dtype=np.int64)  # per wall: its first and last column, first and last row
+    count = np.zeros(rows * cols + 1, dtype=np.int64)  # count[k + 1]: walls in cell k
+    for w in range(n):
+        span[w, 0], span[w, 1] = _cell_index(boxes[w, 0], x0, cell, cols - 1), _cell_index(boxes[w, 2], x0, cell, cols - 1)
+        span[w, 2], span[w, 3] = _cell_index(boxes[w, 1], y0, cell, rows - 1), _cell_index(boxes[w, 3], y0, cell, rows - 1)
+        for r in range(span[w, 2], span[w, 3] + 1):
+            for k in range(r * cols + span[w, 0] + 1, r * cols + span[w, 1] + 2):  # (a loop: as below)
+                count[k] += 1
+    starts = np.cumsum(count)
+    first = STARTS + starts.shape[0]  # where the members begin
+    cells = np.empty(first + starts[-1] + max(n, 1), dtype=np.int64)
+    cells[COLUMNS], cells[ROWS] = cols, rows
+    for k in range(starts.shape[0]):  # (loops: numba's slice assignment compiles the formatting of its error message, seconds)
+        cells[STARTS + k] = starts[k]
+    fill = first + starts[:-1]
+    for w in range(n):  # walls in ascending order: each cell's list ascends
+        for r in range(span[w, 2], span[w, 3] + 1):
+            for k in range(r * cols + span[w, 0], r * cols + span[w, 1] + 1):
+                cells[fill[k]] = w
+                fill[k] += 1
+    return np.array((x0, y0, cell)), cells
+
+
+@numba.njit(cache=True, inline="always")
+def _cell_index(x: float, origin: float, cell: float, last: int) -> int:
+    """The grid column (or row) of coordinate `x`, clamped to 0..last; clamped as a float, since
+    numba's floor and int of a float far beyond the grid (or nan) overflow: 0 for nan."""
+    v = (x - origin) / cell
+    return int(v) if 0.0 <= v < last else (last if v >= last else 0)
+
+
+@numba.njit(cache=True, inline="always")
+def walls_near(lo_x: float, lo_y: float, hi_x: float, hi_y: float, frame: np.ndarray, cells: np.ndarray) -> np.ndarray:
+    """The walls listed in the grid cells (`build_wall_grid`) that the query box (lo_x, lo_y, hi_x,
+    hi_y) overlaps, each once and in ascending order: the order of a loop over every wall, so that
+    ties and early exits fall on the same wall. The caller still tests each one's box. One cell's
+    list is returned as it is; the lists of several are merged into the buffer (insertion into a
+    sorted run: a query meets a handful of walls)."""
+    cols, rows = cells[COLUMNS], cells[ROWS]
+    first = STARTS + rows * cols + 1
+    c0, c1 = _cell_index(lo_x, frame[0], frame[2], cols - 1), _cell_index(hi_x, frame[0], frame[2], cols - 1)
+    r0, r1 = _cell_index(lo_y, frame[1], frame[2], rows - 1), _cell_index(hi_y, frame[1], frame[2], rows - 1)
+    if r0 == r1 and c0 == c1:
+        return cells[first + cells[STARTS + r0 * cols + c0] : first + cells[STARTS + r0 * cols + c0 + 1]]
+    buffer = cells[first + cells[first - 1] :]
+    count = 0
+    for r in range(r0, r1 + 1):
+        for p in range(first + cells[STARTS + r * cols + c0], first + cells[STARTS + r * cols + c1 + 1]):
+            w, q = cells[p], count
+            while q > 0 and buffer[q - 1] > w:
+                q -= 1
+            if q > 0 and buffer[q - 1] == w:
+                continue  # listed in an earlier cell
+            for m in range(count, q, -1):
+                buffer[m] = buffer[m - 1]
+            buffer[q] = w
+            count += 1
+    return buffer[:count]
+
+
+@numba.njit(cache=True)
+def circle_grid(circles: np.ndarray, length: float):
+    """A uniform grid over the circles' centres: (cell size, origin x, y, columns, rows, circle
+    order by cell, sorted cell keys, largest radius); key = row * columns + column, so a row's run
+    of cells is one run of keys. Cells are a quarter of the ray length (at least two diameters), so
+    a cone's bounding box spans a handful of cells."""
+    n = circles.shape[0]
+    widest = circles[:, 2].max()
+    cell = max(0.25 * length, 4.0 * widest)
+    x0, y0 = circles[:, 0].min(), circles[:, 1].min()
+    cx = np.empty(n, dtype=np.int64)
+    cy = np.empty(n, dtype=np.int64)
+    for j in range(n):
+        cx[j] = int(math.floor((circles[j, 0] - x0) / cell))
+        cy[j] = int(math.floor((circles[j, 1] - y0) / cell))
+    cols, rows = cx.max() + 1, cy.max() + 1
+    order, sorted_key = stable_order(cy * cols + cx)
+    return cell, x0, y0, cols, rows, order, sorted_key, widest
+
+
+@numba.njit(cache=True)
+def stable_order(key: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(order, key[order]): the stable ascending order of the int64 `key`s, as
+    `np.argsort(key, kind="stable")`. A bottom-up merge sort written out: numba compiles its own
+    argsort in seconds, this in a fraction of one."""
+    n = key.shape[0]
+    order, spare = np.empty(n, dtype=np.int64), np.empty(n, dtype=np.int64)
+    for k in range(n):
+        order[k] = k
+    width = 1
+    while width < n:
+        for low in range(0, n, 2 * width):
+            middle, high = min(low + width, n), min(low + 2 * width, n)
+            i, j = low, middle
+            for k in range(low, high):  # ties from the left run first: stable
+                if i < middle and (j >= high or key[order[i]] <= key[order[j]]):
+                    spare[k] = order[i]
+                    i += 1
+                else:
+                    spare[k] = order[j]
+                    j += 1
+        order, spare = spare, order
+        width *= 2
+    for k in range(n):
+        spare[k] = key[order[k]]
+    return order, spare
+
+
+@numba.njit(cache=True)
+def first_at_least(values: np.ndarray, key: int) -> int:
+    """Index of the first of the ascending `values` that is >= key (len(values) if none): a
+    binary search without numpy's per-call setup (a crowd asks nine times per robot)."""
+    lo, hi = 0, values.shape[0]
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if values[mid] < key:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
+
+
+@numba.njit(cache=True)
+def near_pairs(pose: np.ndarray, move: np.ndarray, reach: np.ndarray) -> np.ndarray:
+    """(m, 2) pairs i < j, in the order of a double loop over i then j, of robots that could touch
+    this step: a uniform grid with cells wider than any pair's reach plus both moves, so robots
+    in cells that are not neighbours can never meet. Cells are found by sorting their keys, which
+    costs n log n whatever the spread of the robots (a dense array of cells could not hold a
+    kilometre of sparse robots)."""
+    n = pose.shape[0]
+    longest = 0.0
+    for i in range(n):
+        longest = max(longest, math.hypot(move[i, 0], move[i, 1]))
+    # the widest conflict distance, with a margin so that a pair at exactly this distance (whose
+    # contact time rounds to just below 1) still falls in neighbouring cells
+    cell = (2.0 * (reach.max() + longest)) * (1.0 + 1e-9) + 1e-9
+    x0, y0 = pose[:, 0].min(), pose[:, 1].min()
+    cx = np.empty(n, dtype=np.int64)
+    cy = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        cx[i] = int((pose[i, 0] - x0) / cell)
+        cy[i] = int((pose[i, 1] - y0) / cell)
+    rows = cy.max() + 3  # keys of the cells one beyond either side stay distinct
+    key = (cx + 1) * rows + (cy + 1)
+    order, sorted_key = stable_order(key)
+    pairs = np.empty((4 * n + 16, 2), dtype=np.int64)
+    count = 0
+    found = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        m = 0
+        for dx in range(-1, 2):
+            low = key[i] + dx * rows - 1  # the column's three cells dy = -1, 0, 1 are consecutive keys
+            for p in range(first_at_least(sorted_key, low), n):
+                if sorted_key[p] > low + 2:
+                    break
+                if order[p] > i:
+                    found[m] = order[p]
+                    m += 1
+        for q in range(1, m):  # ascending, in place (few neighbours: no allocation per robot)
+            j, p = found[q], q
+            while p > 0 and found[p - 1] > j:
+                found[p] = found[p - 1]
+                p -= 1
+            found[p] = j
+        if count + m > pairs.shape[0]:
+            grown = np.empty((2 * (count + m), 2), dtype=np.int64)
+            for q in range(count):  # (a loop: numba's slice assignment compiles the formatting of its error message, seconds)
+                grown[q, 0], grown[q, 1] = pairs[q, 0], pairs[q, 1]
+            pairs = grown
+        for q in range(m):
+            pairs[count, 0], pairs[count, 1] = i, found[q]
+            count += 1
+    return pairs[:count]
