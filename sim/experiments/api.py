@@ -229,9 +229,9 @@ def simulate(
     noises = [b.noise_of(noise) if isinstance(b, Bot) else "as given" for b in given]
     extra = list(estimators)
     if extra:
-        from bots.odometry.user import alongside
+        from bots.odometry.user import beside_defaults
 
-        setups = [replace(s, estimators=alongside(s.spec, extra)) if s.estimators is None else s for s in setups]
+        setups = [replace(s, extra_estimators=beside_defaults(s.spec, extra)) if s.estimators is None else s for s in setups]
     watchers = list(observers)
     if record is not None or live:
         from sim.views.recording.recorder import Recorder

@@ -46,6 +46,9 @@ class RobotSetup:
     params: dict[str, str] = field(default_factory=dict)
     start: Start | tuple[float, float, float] | None = None
     estimators: list[Estimator] | None = None
+    """Estimators in place of the robot's defaults (None: the defaults)."""
+    extra_estimators: list[Estimator] = field(default_factory=list)
+    """A user's own estimators beside the estimators above (the defaults stay in their compiled pass)."""
     faults: tuple[WheelFault, ...] = ()
     """Wheel faults of this robot (a general chassis) scheduled by its environment; `robot` is ignored."""
     name: str | None = None
@@ -97,26 +100,27 @@ def run(
     samples = Samples(world.sensor_rows(), len(members), steps + 1)
     logs, controllers, estimators = [], [], []
     for i, (setup, robot) in enumerate(zip(robots, placed)):
-        if i in slot:  # no Python estimators: the batch logs its rows
-            names = odometry.names[slot[i]]
-        else:
-            chosen = setup.estimators if setup.estimators is not None else default_estimators(setup.spec)
-            for estimator in chosen:
-                try:
-                    estimator.reset(setup.spec, robot.pose)
-                except Exception as err:  # a user's estimator that cannot take this robot: the user's choice
-                    raise RunError(f"{robot.name}: estimator {name_of(estimator)!r} could not be reset: {type(err).__name__}: {err}{_last_frame(err)}") from None
-            names = [estimator.name for estimator in chosen]
+        # Python estimators: a batched robot's own beside the batch's, else all of the robot's
+        chosen = list(setup.extra_estimators) if i in slot else [*(setup.estimators if setup.estimators is not None else default_estimators(setup.spec)), *setup.extra_estimators]
+        for estimator in chosen:
+            try:
+                estimator.reset(setup.spec, robot.pose)
+            except Exception as err:  # a user's estimator that cannot take this robot: the user's choice
+                raise RunError(f"{robot.name}: estimator {name_of(estimator)!r} could not be reset: {type(err).__name__}: {err}{_last_frame(err)}") from None
         try:
             reset(setup.controller, setup.spec)
         except ValueError as err:  # a controller that cannot drive this robot (too few sensors): the user's choice
             raise RunError(f"{robot.name}: {err}") from None
-        uncertain = None if i in slot else [e.name for e in chosen if _has_covariance(e)]
-        log = RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params), names, samples, i, world, slot.get(i), uncertain)
+        names, uncertain = [estimator.name for estimator in chosen], [e.name for e in chosen if _has_covariance(e)]
+        if i in slot:  # the batch logs its rows, the robot's own estimators theirs
+            log = RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params), odometry.names[slot[i]], samples, i, world, slot[i],
+                           extra=names, extra_uncertain=uncertain)  # fmt: skip
+        else:
+            log = RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params), names, samples, i, world, None, uncertain)
         logs.append(log)
         controllers.append(setup.controller)
-        if i not in slot:
-            estimators.append((i, log, chosen))
+        if chosen:
+            estimators.append((i, log, chosen, log.append_extra if i in slot else None))
     try:
         world.chassis.schedule_faults([*world_spec.faults, *(replace(f, robot=i) for i, setup in enumerate(robots) for f in setup.faults)])
     except FaultError as err:
@@ -290,12 +294,13 @@ def _has_covariance(estimator: Estimator) -> bool:
 
 
 def _sample(
-    world: World, samples: Samples, logs: list[RobotLog], estimators: list[tuple[int, RobotLog, list[Estimator]]],
+    world: World, samples: Samples, logs: list[RobotLog], estimators: list[tuple[int, RobotLog, list[Estimator], Callable | None]],
     odometry: DefaultOdometry | None,
 ) -> SensorFrame:
     """Read every robot's sensors at the current state into the run's next sample row and log
     truth and estimates: the default odometry of all batched robots updates and logs them in one
-    pass; robots with Python estimators update theirs here. Then note who reached a goal."""
+    pass; Python estimators (a robot's own, or all of a robot outside the batch) update theirs
+    here. Then note who reached a goal."""
     n = samples.count
     time = world.time
     frame = samples.frame = world.read_all((samples.values[n], samples.believed[n], samples.tallies[n]))
@@ -305,11 +310,15 @@ def _sample(
     poses = world.poses()
     if odometry is not None:
         odometry.update_into(frame.tallies, time, poses, samples.poses[n], samples.covariances[n])
-    for i, log, chosen in estimators:
+    for i, log, chosen, beside_batch in estimators:
         readings = frame[i]
         for estimator in chosen:
             _update(estimator, readings, log, n)
-        log.append(poses[i], [estimator.pose for estimator in chosen], [estimator.covariance for estimator in chosen if _has_covariance(estimator)])
+        covariances = [estimator.covariance for estimator in chosen if _has_covariance(estimator)]
+        if beside_batch is None:
+            log.append(poses[i], [estimator.pose for estimator in chosen], covariances)
+        else:
+            beside_batch([estimator.pose for estimator in chosen], covariances)
     samples.count = n + 1
     samples.columns.release_written(n + 1)
     goals = world.spec.goals
