@@ -69,6 +69,8 @@ def test_a_contest_from_the_command_line_writes_bracket_ranking_and_database(lan
     assert [r["entry"] for r in rows] == ["v03", "v025", "v02", "v015", "v01"]  # the fastest wins every race
     assert [r["place"] for r in rows] == ["1", "2", "3", "4", "5"] and rows[0]["out in"] == "-"
     assert "v03" in printed and "bracket.html" in printed
+    with sqlite3.connect(out / "contest.sqlite") as db:  # the games ran with the default noise of every run, and say so
+        assert db.execute("SELECT value FROM settings WHERE key = 'noise'").fetchone() == ("realistic",)
     page = (out / "bracket.html").read_text()
     recordings = sorted(p.relative_to(out).as_posix() for p in (out / "games").glob("*.rrd"))
     assert len(recordings) == 5 + 5  # five alone, four knockout games and the game for third place
@@ -109,6 +111,8 @@ def test_another_contest_in_the_same_folder_is_refused(lanes, tmp_path, capsys):
     capsys.readouterr()
     assert main(["contest", str(lanes), *drivers(tmp_path, 0.3, 0.25), "--time-limit", "5", "--engine", "serial", "--out", str(out)]) == 2
     assert "holds another contest (entries differ)" in capsys.readouterr().err
+    assert main(["contest", str(lanes), *drivers(tmp_path, 0.3, 0.2), "--time-limit", "5", "--engine", "serial", "--noise", "none", "--out", str(out)]) == 2
+    assert "holds another contest (noise differ)" in capsys.readouterr().err  # --noise is one of the contest's settings
 
 
 def test_resume_after_a_kill_ends_as_an_uninterrupted_contest(lanes, tmp_path):

@@ -44,8 +44,8 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return EXIT_USER
     previous = signal.signal(signal.SIGTERM, terminate)
-    if sys.stderr.isatty():  # someone waits at a terminal: say why the first run takes a while
-        compiling.PROGRESS = lambda line: print(f"ctsim: {line}", file=sys.stderr, flush=True)
+    # say why the first run takes a while, a line every few seconds (a log file too, off a terminal)
+    compiling.PROGRESS = lambda line: print(f"ctsim: {line}", file=sys.stderr, flush=True)
     try:
         return args.handler(args)
     except BrokenPipeError:  # `ctsim controllers | head`: the reader has all it wanted

@@ -8,7 +8,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from bots.noise import NOISE_PRESETS, parse_value
+from bots.noise import DEFAULT_NOISE, NOISE_PRESETS, parse_value
 from bots.schema import Field, option, parse_number, shown
 from sim.errors import UserError
 from sim.world.step import DEFAULT_DT, DT_RANGE, StepError, check_dt
@@ -101,14 +101,19 @@ def folder_name(text: str) -> Path:
     return Path(text)
 
 
+def add_noise_option(parser: argparse.ArgumentParser, whose: str) -> None:
+    """--noise: a preset of `bots.noise`, the default of every way of starting a run (DEFAULT_NOISE)."""
+    parser.add_argument("--noise", choices=NOISE_PRESETS, default=DEFAULT_NOISE,
+                        help=f"sensor and odometry noise {whose}: realistic (the c't-Bot's figures and their sources, see bots/noise.py), harsh, "
+                        f"or none (exact sensors, for checks against closed forms) (default: {DEFAULT_NOISE})")
+
+
 def add_robot_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("world", nargs="?", default=DEFAULT_WORLD, help=f"a shipped world's name (see `ctsim worlds`) or a .toml/.xml world file (default: {DEFAULT_WORLD})")
     parser.add_argument("--robot", default="ctbot", metavar="NAME|FILE.toml",
                         help="robot description: a built-in name (ctbot, omni3, mecanum4, car, ocp_vehicle) or a TOML robot file (default: ctbot)")
     parser.add_argument("--seed", type=seed, default=0, help="seed of every random number in the run (the noise of --noise realistic or harsh); same seed, same run (default: 0)")
-    parser.add_argument("--noise", choices=NOISE_PRESETS, default="realistic",
-                        help="sensor and odometry noise of the robot: realistic (the c't-Bot's figures and their sources, see bots/noise.py), harsh, "
-                        "or none (exact sensors, for checks against closed forms) (default: realistic)")
+    add_noise_option(parser, "of the robot")
     parser.add_argument("--robot-set", action="append", type=param, default=[], metavar="SECTION.FIELD=VALUE",
                         help="override one field of the robot description after --noise, repeatable: encoders.slip_std=0.02, mouse.dpi=415, ir.noise_std=0")
     parser.add_argument("--dt", type=step_size, default=DEFAULT_DT, metavar="SECONDS", help=f"simulation step (default: {DEFAULT_DT:g})")
