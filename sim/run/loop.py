@@ -30,7 +30,7 @@ from sim.guards import ControllerBrokeOut, Guard
 from sim.run.clock import StepClock, StepTimeout
 from sim.run.ending import Ending, Quit, RunError, Terminated
 from sim.run.samples import RobotLog, RunResult, Samples
-from sim.world import World
+from sim.world import World, compiling
 from sim.world.chassis_drive import FaultError
 from sim.world.spec import Start, WheelFault, WorldSpec
 from sim.world.step import DEFAULT_DT, StepError, check_dt
@@ -95,7 +95,8 @@ def run(
     _refuse_overlaps(placed)
     # the default estimators of all robots that use them are stepped together, in one compiled pass
     members = [i for i, setup in enumerate(robots) if setup.estimators is None and batched(setup.spec)]
-    odometry = DefaultOdometry([robots[i].spec for i in members], np.array([placed[i].pose for i in members]).reshape(-1, 3), members) if members else None
+    # (its kernel compiles, where numba's cache lacks it, beside the world's: `compiling.start`)
+    odometry = DefaultOdometry([robots[i].spec for i in members], np.array([placed[i].pose for i in members]).reshape(-1, 3), members, compiling.start) if members else None
     slot = {i: k for k, i in enumerate(members)}
     samples = Samples(world.sensor_rows(), len(members), steps + 1)
     logs, controllers, estimators = [], [], []

@@ -200,8 +200,7 @@ class World:
         self._state = _BatchState([], dt, [], robots_meet)
         self._bodies = BodyArrays(self.space, [])
         self._poses = np.zeros((0, 3))
-        self._kernel_arguments()
-        self._stale = False
+        self._stale = True  # the kernels are compiled (or loaded) at the first use, for the robots then in it
         self.chassis = ChassisDrive(dt)
         """The drive of robots on a general chassis (commands, faults; see `sim.world.chassis_drive`)."""
 
