@@ -20,9 +20,9 @@ TRAIL_EVERY = 10
 """Samples per trail piece: every pose is in the trail, but in 10x fewer rows for the viewer."""
 ELLIPSE_EVERY = 200
 """Samples between two uncertainty ellipses along an estimate's trail (2 s at the default step)..."""
-ELLIPSE_RECENT_S = 10.0
-"""...of which the map shows those of the last this many simulated seconds before the time cursor:
-at 300 s all of them would bury the maze and the truth under rings metres wide."""
+ELLIPSE_RECENT_S = 4.0
+"""...of which the map shows those of the last this many simulated seconds before the time cursor
+(two per estimate): at 300 s all of them would bury the maze and the truth under rings metres wide."""
 ELLIPSE_SCALE = math.sqrt(-2.0 * math.log(0.05))
 """Radius, in standard deviations, of the ellipse holding 95 % of a 2-D normal (chi2(2) = 5.99)."""
 ELLIPSE_POINTS = 37
