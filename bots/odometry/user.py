@@ -119,6 +119,11 @@ def _covariance(cov: np.ndarray) -> str | None:
 
 
 def _numbers(value: Any, shape: tuple[int, ...], what: str) -> str | None:
+    if type(value) is np.ndarray and value.shape == shape and value.dtype == np.float64:
+        if math.isfinite(value.sum()):  # every entry finite (a sum that overflows goes the long way below)
+            return None
+    elif type(value) in (list, tuple) and shape == (len(value),) and all(type(v) is float and math.isfinite(v) for v in value):
+        return None  # (the common answers, checked in a microsecond each step; the rest as numpy reads them)
     try:
         array = np.asarray(value, dtype=np.float64)
     except (TypeError, ValueError):

@@ -120,8 +120,10 @@ def run(
             log = RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params), names, samples, i, world, None, uncertain)
         logs.append(log)
         controllers.append(setup.controller)
-        if chosen:
-            estimators.append((i, log, chosen, log.append_extra if i in slot else None))
+        if i not in slot:  # (it logs its truth with its estimates, even with none)
+            estimators.append((i, log, chosen, None))
+        elif chosen:
+            estimators.append((i, log, chosen, log.append_extra))
     try:
         world.chassis.schedule_faults([*world_spec.faults, *(replace(f, robot=i) for i, setup in enumerate(robots) for f in setup.faults)])
     except FaultError as err:
