@@ -101,19 +101,26 @@ def folder_name(text: str) -> Path:
     return Path(text)
 
 
-def add_noise_option(parser: argparse.ArgumentParser, whose: str) -> None:
-    """--noise: a preset of `bots.noise`, the default of every way of starting a run (DEFAULT_NOISE)."""
-    parser.add_argument("--noise", choices=NOISE_PRESETS, default=DEFAULT_NOISE,
-                        help=f"sensor and odometry noise {whose}: realistic (the c't-Bot's figures and their sources, see bots/noise.py), harsh, "
-                        f"or none (exact sensors, for checks against closed forms) (default: {DEFAULT_NOISE})")
+NOISE_HELP = {
+    "realistic": "sensor and odometry noise of the robot: realistic (the c't-Bot's figures and their sources, see bots/noise.py), harsh, "
+    "or none (exact sensors, for checks against closed forms) (default: realistic)",
+    "none": "sensor and odometry noise of the robots: none (exact, as in c't-Sim, whose wheels and sensors have no noise: the firmware "
+    "takes c't-Sim's path), realistic (the c't-Bot's figures, see bots/noise.py) or harsh (default: none)",
+}
+"""--noise's help by the command's default: every command is realistic (`bots.noise.DEFAULT_NOISE`) unless it stands in for c't-Sim (`bridge`)."""
 
 
-def add_robot_options(parser: argparse.ArgumentParser) -> None:
+def add_noise_option(parser: argparse.ArgumentParser, default: str = DEFAULT_NOISE) -> None:
+    """--noise: a preset of `bots.noise`, by default the one of every way of starting a run."""
+    parser.add_argument("--noise", choices=NOISE_PRESETS, default=default, help=NOISE_HELP[default])
+
+
+def add_robot_options(parser: argparse.ArgumentParser, noise: str = DEFAULT_NOISE) -> None:
     parser.add_argument("world", nargs="?", default=DEFAULT_WORLD, help=f"a shipped world's name (see `ctsim worlds`) or a .toml/.xml world file (default: {DEFAULT_WORLD})")
     parser.add_argument("--robot", default="ctbot", metavar="NAME|FILE.toml",
                         help="robot description: a built-in name (ctbot, omni3, mecanum4, car, ocp_vehicle) or a TOML robot file (default: ctbot)")
     parser.add_argument("--seed", type=seed, default=0, help="seed of every random number in the run (the noise of --noise realistic or harsh); same seed, same run (default: 0)")
-    add_noise_option(parser, "of the robot")
+    add_noise_option(parser, noise)
     parser.add_argument("--robot-set", action="append", type=param, default=[], metavar="SECTION.FIELD=VALUE",
                         help="override one field of the robot description after --noise, repeatable: encoders.slip_std=0.02, mouse.dpi=415, ir.noise_std=0")
     parser.add_argument("--dt", type=step_size, default=DEFAULT_DT, metavar="SECONDS", help=f"simulation step (default: {DEFAULT_DT:g})")

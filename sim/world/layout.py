@@ -21,16 +21,17 @@ STATE = 14
 TICKS, COUNTS, TALLIES = 0, 2, 4
 # the world's scalars (SCALARS,) float64: floor raster origin (x, y m), cell (m), whether outside
 # it is a hole (0/1), the absorption outside it, IR ray length (m), slide margin (m), dt (s), the
-# wall grid's origin (x, y m) and cell (m) (`build_wall_grid`), whether robots meet each other (0/1)
-ORIGIN, CELL, OUTSIDE_IS_HOLE, OUTSIDE_ABSORPTION, IR_LENGTH, SLIDE_MARGIN, DT, WALL_FRAME, ROBOTS_MEET = 0, 2, 3, 4, 5, 6, 7, 8, 11
-SCALARS = 12
+# wall grid's origin (x, y m) and cell (m) (`build_wall_grid`), whether robots meet each other (0/1), how far
+# the lines stand above the floor (m, `WorldSpec.line_height`), the step's number (c't-Sim's order of its robots)
+ORIGIN, CELL, OUTSIDE_IS_HOLE, OUTSIDE_ABSORPTION, IR_LENGTH, SLIDE_MARGIN, DT, WALL_FRAME, ROBOTS_MEET, LINE_HEIGHT, STEP = 0, 2, 3, 4, 5, 6, 7, 8, 11, 12, 13
+SCALARS = 14
 # the wall grid's cells (int64, one array): columns, rows, then the cells' starts (rows x columns
 # + 1, row-major; cell k lists members[starts[k]:starts[k + 1]]), the members, a buffer
 COLUMNS, ROWS, STARTS = 0, 1, 2
 # sensors of all robots (m, SENSOR) float64, floor then light then IR sensors: mount x, y (m),
 # height (m; floor, light), view direction (rad; light, IR), half opening or cone (rad; light,
 # IR), reach (m; light); and (m, INDEX) int64: owning robot, noise row and curve (IR)
-AT, HEIGHT, DIRECTION, OPENING, REACH, AXIS, SENSOR = 0, 2, 3, 4, 5, 6, 7  # AXIS: 1 for an IR sensor's 'axis' view
+AT, HEIGHT, DIRECTION, OPENING, REACH, PICK, SENSOR = 0, 2, 3, 4, 5, 6, 7  # PICK: 1 for an IR sensor's 'pick' view
 OWNER, NOISE_ROW, CURVE, INDEX = 0, 1, 2, 3
 GHOST = -2
 """The owner of a robot's circle that no sensor sees (a world of robots that do not meet, `sense_ir`)."""

@@ -34,6 +34,7 @@ from sim.world.kernels.contacts import settle
 from sim.world.kernels.grids import build_wall_grid
 from sim.world.kernels.motion import glide, measure_all, plan
 from sim.world.kernels.noise import ENCODER_DRAWS, add_rounded, draw_step, spurious_ticks
+from sim.world.kernels.pick import pick_polygon
 from sim.world.kernels.sensing import ir_rays, ir_values, read_sensors
 from sim.world.noise import NormalBlocks
 from sim.world.sensors import CNY70_MAX, LDR_MAX, IRCurve, gp2d12, load_ir_curve
@@ -192,7 +193,7 @@ class World:
         self._lights = np.array([(*light.position, light.height, light.radius) for light in spec.lights], dtype=np.float64).reshape(-1, 4)
         self._scalars = np.array(
             (*self.floor.origin, self.floor.cell, self.floor.outside_is_hole, self.floor.outside_absorption, IR_RAY_LENGTH, SLIDE_MARGIN, dt,
-             *self._walls.frame, float(robots_meet)),
+             *self._walls.frame, float(robots_meet), self.floor.line_height, 0.0),
             dtype=np.float64,
         )
         """The world's scalars for the kernels (`kernels.SCALARS`; writeable: numba types read-only
@@ -311,7 +312,7 @@ class World:
         alone = len(self.robots) == 1 and self._round_bodies and not self.movables
         self._quiet = np.array((0, self.space.collision_persistence if alone else -1), dtype=np.int64)
         self._read_arguments = (
-            st.sensors[:read], st.index[:read], st.n_floor, self.floor.absorption, self._scalars, self._lights, walls.vertices,
+            st.sensors[:read], st.index[:read], st.n_floor, self.floor.ground, self.floor.lines, self._scalars, self._lights, walls.vertices,
             walls.ranges, walls.boxes, walls.cells, st.circles, ir.noise.std, ir.noise.normals.values, ir.noise.normals.used, ir.tables,
             ir.curve_ends, ir.beyond, ir.inverse,
         )  # fmt: skip
@@ -399,11 +400,11 @@ class World:
             self.chassis.fill(frame)
         return frame
 
-    def ray_distance(self, robot: Robot, origin, direction: float, length: float = IR_RAY_LENGTH, cone: float = 0.0, axis: bool = False) -> float:
+    def ray_distance(self, robot: Robot, origin, direction: float, length: float = IR_RAY_LENGTH, cone: float = 0.0, pick: bool = False) -> float:
         """Distance (m) from `origin` to the nearest point of any body other than the robot's own
         within `cone` (rad, half-angle) of world `direction` and within `length`; inf if none.
-        With `axis`, walls are seen only where the axis meets them and at their corners inside
-        the cone (`IRSensorSpec.view`); other bodies in the whole cone.
+        With `pick`, walls are seen as c't-Sim's Java3D pick sees them (`IRSensorSpec.view`,
+        `kernels.pick.pick_polygon`); other bodies in the whole cone.
 
         A cone across a wall at a slant reads the cone's near edge, not the axis. Every body is
         convex, so its nearest point in the cone is its nearest point overall when that lies
@@ -413,32 +414,33 @@ class World:
             return self._cast(robot, origin, direction, length)
         c, s = math.cos(direction), math.sin(direction)
         cos_cone = math.cos(cone)
-        if axis:
-            best = min(self._cast(robot, origin, direction, length), self._wall_corner_in_cone(origin, c, s, cos_cone))
+        if pick:
+            walls = self._walls
+            best = min((pick_polygon(origin[0], origin[1], c, s, length, math.tan(cone), walls.vertices, a, b) for a, b in walls.ranges), default=math.inf)
+            best = min(best, self._cast(robot, origin, direction - cone, length, moving=True), self._cast(robot, origin, direction + cone, length, moving=True))
+            limit = length / cos_cone  # a rim point near the segment's end lies that far
         else:
             best = min(self._cast(robot, origin, direction - cone, length), self._cast(robot, origin, direction + cone, length))
+            limit = length
         for info in self.space.point_query((origin[0], origin[1]), min(best, length), robot.query_filter):
+            if pick and info.shape.body.body_type == pymunk.Body.STATIC:
+                continue  # a wall: seen as the pick sees it
             dx, dy = info.point.x - origin[0], info.point.y - origin[1]
             if info.distance <= 0.0:
                 return 0.0  # the sensor is inside another body
-            if axis and info.shape.body.body_type == pymunk.Body.STATIC:
-                continue  # a wall: seen on the axis and at its corners only
             if dx * c + dy * s >= cos_cone * info.distance:
                 best = min(best, info.distance)
-        return best if best <= length else math.inf
+        return best if best <= limit else math.inf
 
-    def _wall_corner_in_cone(self, origin, c: float, s: float, cos_cone: float) -> float:
-        """Distance to the nearest wall corner within the cone from `origin` about (c, s)."""
-        corners = self._walls.vertices - np.asarray(origin, dtype=np.float64)
-        distance = np.hypot(corners[:, 0], corners[:, 1])
-        inside = corners[:, 0] * c + corners[:, 1] * s >= cos_cone * distance
-        return float(distance[inside].min()) if inside.any() else math.inf
-
-    def _cast(self, robot: Robot, origin, direction: float, length: float) -> float:
-        """Distance (m) along one ray to the first body other than the robot's own; inf if none."""
+    def _cast(self, robot: Robot, origin, direction: float, length: float, moving: bool = False) -> float:
+        """Distance (m) along one ray to the first body other than the robot's own (`moving`: the
+        first that is not a wall); inf if none."""
         end = (origin[0] + length * math.cos(direction), origin[1] + length * math.sin(direction))
-        hit = self.space.segment_query_first((origin[0], origin[1]), end, 0.0, robot.query_filter)
-        return hit.alpha * length if hit is not None else math.inf
+        if not moving:
+            hit = self.space.segment_query_first((origin[0], origin[1]), end, 0.0, robot.query_filter)
+            return hit.alpha * length if hit is not None else math.inf
+        hits = self.space.segment_query((origin[0], origin[1]), end, 0.0, robot.query_filter)
+        return min((hit.alpha * length for hit in hits if hit.shape.body.body_type != pymunk.Body.STATIC), default=math.inf)
 
     def _read_ir_with_pymunk(self, pose: np.ndarray, raw: np.ndarray, believed: np.ndarray) -> None:
         """Raw values and believed distances of every IR sensor in a world with a robot of polygon
@@ -456,7 +458,7 @@ class World:
         origins, look, distance = np.empty((n, 2)), np.empty(n), np.empty(n)
         ir_rays(pose, mounts[:, layout.AT : layout.AT + 2], owner, mounts[:, layout.DIRECTION], origins, look)
         for k, (robot, sensor) in enumerate(st.ir_sensors):
-            distance[k] = self.ray_distance(robot, origins[k], look[k], cone=sensor.cone, axis=sensor.view == "axis")
+            distance[k] = self.ray_distance(robot, origins[k], look[k], cone=sensor.cone, pick=sensor.view == "pick")
         ir_values(distance, ir.noise_row, ir.noise.std, ir.noise.normals.values, ir.noise.normals.used, *ir.curves, raw, believed)
 
     # --- motion -----------------------------------------------------------------------------
@@ -668,7 +670,7 @@ class _BatchState:
         self.sensors[len(floor) :, layout.DIRECTION] = [s.direction for _, s in light + ir]
         self.sensors[len(floor) :, layout.OPENING] = [s.opening / 2 for _, s in light] + [s.cone for _, s in ir]
         self.sensors[len(floor) : len(floor) + len(light), layout.REACH] = [s.reach for _, s in light]
-        self.sensors[len(floor) + len(light) :, layout.AXIS] = [s.view == "axis" for _, s in ir]
+        self.sensors[len(floor) + len(light) :, layout.PICK] = [s.view == "pick" for _, s in ir]
 
         def noisy(items):
             return _Noisy.of([(k, robot, s.name, s.noise_std) for k, (robot, s) in enumerate(items) if s.noise_std])

@@ -10,9 +10,10 @@ import numba
 import numpy as np
 
 from sim.world.kernels.floor import absorption_at
-from sim.world.kernels.geometry import corner_in_cone, polygon_distance, ray_circle, ray_polygon
+from sim.world.kernels.geometry import polygon_distance, ray_circle, ray_polygon
 from sim.world.kernels.grids import build_wall_grid, circle_grid, first_at_least, walls_near
-from sim.world.layout import AT, AXIS, CELL, CURVE, DIRECTION, GHOST, HEIGHT, IR_LENGTH, NOISE_ROW, OPENING, ORIGIN, OUTSIDE_ABSORPTION, OWNER, REACH, WALL_FRAME
+from sim.world.kernels.pick import pick_polygon
+from sim.world.layout import AT, CELL, CURVE, DIRECTION, GHOST, HEIGHT, IR_LENGTH, LINE_HEIGHT, NOISE_ROW, OPENING, ORIGIN, OUTSIDE_ABSORPTION, OWNER, PICK, REACH, WALL_FRAME
 
 
 @numba.njit(cache=True)
@@ -31,12 +32,24 @@ FAN = np.tan(np.radians(np.array((40.0, 20.0, 0.0, -20.0, -40.0))))
 
 
 @numba.njit(cache=True)
+def _line_at(x: float, y: float, lines: np.ndarray, origin: np.ndarray, cell: float) -> np.float32:
+    """The absorption of the line at (x, y); NaN off every line (and off the map)."""
+    ix = int(math.floor((x - origin[0]) / cell))
+    iy = int(math.floor((y - origin[1]) / cell))
+    if ix < 0 or iy < 0 or iy >= lines.shape[0] or ix >= lines.shape[1]:
+        return np.float32(np.nan)
+    return lines[iy, ix]
+
+
+@numba.njit(cache=True)
 def sample_floor(
     pose: np.ndarray,
     offsets: np.ndarray,
     owner: np.ndarray,
     height: np.ndarray,
-    absorption: np.ndarray,
+    ground: np.ndarray,
+    lines: np.ndarray,
+    line_height: float,
     origin: np.ndarray,
     cell: float,
     outside: float,
@@ -45,20 +58,27 @@ def sample_floor(
 ) -> None:
     """CNY70 values (0..1023) of floor sensors mounted at body-frame `offsets` (m, 2) of robots
     `owner`, `height` m above the floor, as c't-Sim's `World.sensGroundReflectionCross`: a fan of
-    rays across the heading (left first) and one along it (back first) meet the floor at
-    height * `fan`; each fan's absorption is summed in float32 and truncated to 0..1023, and the
-    reading is the two fans' truncated mean. Height 0 reads the mount point alone."""
+    rays across the heading (left first) and one along it (back first); a ray meets a line, whose
+    top stands `line_height` above the floor, at (height - line_height) * `fan` off the mount
+    point, else the floor (`ground`, without its lines) at height * `fan`; each fan's absorption
+    is summed in float32 and truncated to 0..1023, and the reading is the two fans' truncated
+    mean. Height 0 reads the mount point alone."""
     out_absorption = np.float32(outside)
     points = np.empty((offsets.shape[0], 2))
     to_world(pose, offsets, owner, points)
     for k in range(points.shape[0]):
         c, s = math.cos(pose[owner[k], 2]), math.sin(pose[owner[k], 2])
+        above_lines = max(height[k] - line_height, 0.0)
         total = 0
         for ux, uy in ((-s, c), (-c, -s)):
             swallowed = np.float32(0.0)
             for j in range(fan.shape[0]):
-                r = height[k] * fan[j]
-                swallowed += absorption_at(points[k, 0] + r * ux, points[k, 1] + r * uy, absorption, origin, cell, out_absorption)
+                r = above_lines * fan[j]
+                value = _line_at(points[k, 0] + r * ux, points[k, 1] + r * uy, lines, origin, cell)
+                if math.isnan(value):
+                    r = height[k] * fan[j]
+                    value = absorption_at(points[k, 0] + r * ux, points[k, 1] + r * uy, ground, origin, cell, out_absorption)
+                swallowed += value
             total += int(swallowed * np.float32(1023.0) / np.float32(fan.shape[0]))
         out[k] = total // 2
 
@@ -99,14 +119,14 @@ def sense_ir(
     out: np.ndarray,
     grid_above: int = 32,
     wall_grid: tuple | None = None,
-    axis: np.ndarray | None = None,
+    pick: np.ndarray | None = None,
 ) -> None:
     """Distance (m) from each IR sensor at `origins` to the nearest point of a wall (convex
     polygons vertices[ranges[w, 0]:ranges[w, 1]], bounding boxes `boxes`) or a circle (x, y,
     radius, owning robot or -1; a sensor skips its own robot's, and every sensor a GHOST's) within `cone` (half-angle, rad) of
     `look` and within `length`; inf if none. As `World.ray_distance`: per convex body the nearest
-    point if it lies in the cone, else the first hit of an edge ray. A sensor with `axis[k]` 1
-    sees a wall where its axis meets it or at a corner inside the cone (c't-Sim's pick).
+    point if it lies in the cone, else the first hit of an edge ray. A sensor with `pick[k]` 1
+    sees a wall as c't-Sim's Java3D cone pick does (`pick.pick_polygon`).
 
     With more than `grid_above` circles, each sensor checks only the circles in the grid cells
     its cone's bounding box overlaps (a crowd would otherwise cost sensors x robots); the nearest
@@ -133,13 +153,13 @@ def sense_ir(
             if boxes[w, 0] > hi_x or boxes[w, 2] < lo_x or boxes[w, 1] > hi_y or boxes[w, 3] < lo_y:
                 continue
             start, end = ranges[w, 0], ranges[w, 1]
+            if pick is not None and pick[k] != 0.0:
+                best = min(best, pick_polygon(ox, oy, cx, cy, length, math.tan(cone[k]), vertices, start, end))
+                continue
             distance, qx, qy = polygon_distance(ox, oy, vertices, start, end)
             if distance <= 0.0:
                 best = 0.0
                 break
-            if axis is not None and axis[k] != 0.0:
-                best = min(best, ray_polygon(ox, oy, cx, cy, vertices, start, end), corner_in_cone(ox, oy, cx, cy, cos_cone, vertices, start, end))
-                continue
             if (qx - ox) * cx + (qy - oy) * cy >= cos_cone * distance:
                 best = min(best, distance)
             best = min(best, ray_polygon(ox, oy, l1x, l1y, vertices, start, end), ray_polygon(ox, oy, l2x, l2y, vertices, start, end))
@@ -172,7 +192,7 @@ def sense_ir(
                 if best < 0.0:
                     break
         best = max(best, 0.0)  # -1: inside a circle
-        out[k] = best if best <= length else math.inf
+        out[k] = best if best <= length or (pick is not None and pick[k] != 0.0) else math.inf  # a pick's rim reaches past the axis's end
 
 
 @numba.njit(cache=True)
@@ -240,7 +260,7 @@ def read_ir(
     owner: np.ndarray,
     direction: np.ndarray,
     cone: np.ndarray,
-    axis: np.ndarray,
+    pick: np.ndarray,
     length: float,
     vertices: np.ndarray,
     ranges: np.ndarray,
@@ -268,7 +288,7 @@ def read_ir(
     ir_rays(pose, offsets, owner, direction, origins, look)
     for i in range(pose.shape[0]):
         circles[i, 0], circles[i, 1] = pose[i, 0], pose[i, 1]
-    sense_ir(origins, look, cone, owner, length, vertices, ranges, boxes, circles, distance, 32, wall_grid, axis)
+    sense_ir(origins, look, cone, owner, length, vertices, ranges, boxes, circles, distance, 32, wall_grid, pick)
     ir_values(distance, noise_row, noise_std, normals, used, curve, tables, last, beyond, inverse, lowest, raw, believed)
 
 
@@ -309,7 +329,8 @@ def read_sensors(
     sensors: np.ndarray,
     index: np.ndarray,
     n_floor: int,
-    absorption: np.ndarray,
+    ground: np.ndarray,
+    lines: np.ndarray,
     scalars: np.ndarray,
     lights: np.ndarray,
     vertices: np.ndarray,
@@ -335,7 +356,7 @@ def read_sensors(
     lo, hi = n_floor, sensors.shape[0] - believed.shape[0]
     origin = scalars[ORIGIN : ORIGIN + 2]
     sample_floor(
-        pose, sensors[:lo, AT : AT + 2], index[:lo, OWNER], sensors[:lo, HEIGHT], absorption, origin, scalars[CELL],
+        pose, sensors[:lo, AT : AT + 2], index[:lo, OWNER], sensors[:lo, HEIGHT], ground, lines, scalars[LINE_HEIGHT], origin, scalars[CELL],
         scalars[OUTSIDE_ABSORPTION], FAN, values[:lo],
     )  # fmt: skip
     sense_light(
@@ -344,7 +365,7 @@ def read_sensors(
     )  # fmt: skip
     if believed.shape[0]:
         read_ir(
-            pose, sensors[hi:, AT : AT + 2], index[hi:, OWNER], sensors[hi:, DIRECTION], sensors[hi:, OPENING], sensors[hi:, AXIS], scalars[IR_LENGTH],
+            pose, sensors[hi:, AT : AT + 2], index[hi:, OWNER], sensors[hi:, DIRECTION], sensors[hi:, OPENING], sensors[hi:, PICK], scalars[IR_LENGTH],
             vertices, ranges, boxes, (scalars[WALL_FRAME : WALL_FRAME + 3], wall_cells), circles, index[hi:, NOISE_ROW], noise_std, normals, used, index[hi:, CURVE], tables,
             curve_ends[:, 0], beyond, inverse, curve_ends[:, 1], values[hi:], believed,
         )  # fmt: skip
