@@ -118,6 +118,8 @@ def build(factory: Callable[..., Controller], params: dict[str, str], label: str
         made = factory(**kwargs)
     except (TypeError, ValueError) as err:
         raise ControllerError(f"controller {label!r}: {err}") from None
+    except SystemExit as err:  # (the user's code leaving: its mistake, not a way out of ctsim)
+        raise ControllerError(f"controller {label!r}: making it called sys.exit({err.code!r})") from None
     return made if hasattr(made, "step") else FunctionController(made)
 
 

@@ -23,7 +23,10 @@ import importlib
 import os
 import signal
 import sys
+import sysconfig
 import threading
+import traceback
+from pathlib import Path
 from types import ModuleType
 from typing import Any
 
@@ -191,6 +194,19 @@ class Guard:
 
 
 _MISSING = object()
+_ROOT = Path(__file__).resolve().parents[1]
+_KNOWN = tuple({str(_ROOT / "sim"), str(_ROOT / "bots"), *(sysconfig.get_paths()[key] for key in ("stdlib", "platstdlib", "purelib", "platlib"))})
+"""Where ctsim's and the installed libraries' code lives: any other code is a user's."""
+
+
+def foreign_frame(err: BaseException) -> str | None:
+    """Where user code (neither ctsim's nor an installed library's) ran in the traceback of a
+    failure inside ctsim, innermost first ('file:line'): a method a controller patched into a
+    class of ctsim's; None when none did (then the failure is ctsim's)."""
+    for frame in reversed(traceback.extract_tb(err.__traceback__)):
+        if not frame.filename.startswith("<") and not str(Path(frame.filename).resolve()).startswith(_KNOWN):
+            return f"{frame.filename}:{frame.lineno}"
+    return None
 
 
 def _open(fd: int) -> bool:

@@ -36,7 +36,7 @@ from sim.bridge.firmware_map import window  # noqa: E402
 from sim.bridge.protocol import remote_call_payload  # noqa: E402
 from sim.run.loop import RobotSetup, run  # noqa: E402
 from sim.views.recording.recorder import Recorder  # noqa: E402
-from sim.world.spec import Start, Wall, WorldSpec, box  # noqa: E402
+from sim.world.spec import Movable, Start, Wall, WorldSpec, box  # noqa: E402
 
 EMPTY = WorldSpec("empty", (-5.0, -5.0, 5.0, 5.0), starts=(Start(0.0, 0.0, 0.0, 1), Start(0.0, 1.0, 0.0, 2), Start(0.0, -1.0, 0.0, 0)))
 
@@ -415,3 +415,17 @@ def test_cli_bridge_is_exact_unless_asked_and_run_keeps_its_noise(capsys):
         parser.parse_args(["bridge", "--help"])
     text = " ".join(capsys.readouterr().out.split())
     assert "Exact unless asked" in text and "(default: none)" in text
+
+
+def test_a_can_stops_a_firmware_bot_where_c_t_sims_contact_test_does():
+    """RC5 3 towards a can (Java3D's 15-sided cylinder of 30 mm, a corner due north; its box reaches
+    15 cos 12° = 14.67 mm south of its centre): c't-Sim stops the bot when its 60 mm sphere would
+    meet that box, at the last step before y + 0.06 reaches 0.8 - 0.014672 (ctsim's own contacts
+    push the can on)."""
+    can = Movable((0.36, 0.8))
+    world = WorldSpec("can", (0.0, 0.0, 1.2, 1.68), movables=(can,), starts=(Start(0.36, 0.36, math.pi / 2, 1),))
+    result, _, _ = bridged(8.0, rc5=[(0.5, rc5_code("3"))], world=world)
+    y = result.robots[0].truth_array()[-1, 1]
+    contact = 0.8 - 0.015 * math.cos(math.pi / 15) - 0.06
+    assert contact - wheel_speed(75) * 0.01 < y < contact  # within the last step of 1.318 mm before it
+

@@ -144,3 +144,11 @@ def test_a_sweeps_parts_folder_that_is_a_link_is_refused(tmp_path):
     with pytest.raises(NotAFileOfItsOwn, match="parts is a symbolic link"):
         store.append(tmp_path, {"run_id": "r0", "value": 1.0})
     assert not list(outside.iterdir())
+
+
+def test_an_out_name_with_escape_sequences_is_printed_as_text(tmp_path, capsys):
+    out = tmp_path / "run\x1b[2J\x1b]0;pwned\x07\u202e"
+    assert main(["run", "empty", "--controller", "idle", "--duration", "0.05", "--no-report", "--out", str(out)]) == 0
+    printed = capsys.readouterr()
+    assert "wrote:" in printed.out and "run\\x1b[2J\\x1b]0;pwned\\x07\\u202e" in printed.out
+    assert not any(c in printed.out + printed.err for c in "\x1b\x07\u202e")

@@ -97,14 +97,24 @@ have from floating-point rounding: products of doubles differ in the 16th digit,
 covariance after hours of steps in the 10th at most."""
 
 
-def check(estimator: Estimator) -> str | None:
-    """What is wrong with an estimator's output after an update (None: nothing): a pose that is
-    not 3 finite numbers, a covariance (where it has one) that is not a finite, symmetric,
-    positive semi-definite (3, 3) matrix (a covariance that is none would make its NEES nonsense)."""
-    problem = _numbers(getattr(estimator, "pose", None), (3,), "pose")
-    if problem is None and hasattr(estimator, "covariance"):
-        problem = _numbers(estimator.covariance, (3, 3), "covariance") or _covariance(np.asarray(estimator.covariance, dtype=np.float64))
-    return problem
+def outputs(estimator: Estimator) -> tuple[np.ndarray | None, np.ndarray | None, str | None]:
+    """An estimator's pose and covariance (None where it has none) after an update, each read once
+    and copied, so that what is checked is what is logged (a property that answers differently
+    when read again, or an array another estimator changes later, cannot slip past the check);
+    and what is wrong with them (None: nothing): a pose that is not 3 finite numbers, a
+    covariance that is not a finite, symmetric, positive semi-definite (3, 3) matrix (a
+    covariance that is none would make its NEES nonsense)."""
+    pose, problem = _numbers(getattr(estimator, "pose", None), (3,), "pose")
+    covariance = None
+    if problem is None and has_covariance(estimator):
+        covariance, problem = _numbers(estimator.covariance, (3, 3), "covariance")
+        problem = problem or _covariance(covariance)
+    return pose, covariance, problem
+
+
+def has_covariance(estimator: Estimator) -> bool:
+    """Whether an estimator reports a covariance (the Protocol's optional `covariance`)."""
+    return hasattr(type(estimator), "covariance") or hasattr(estimator, "covariance")
 
 
 def _covariance(cov: np.ndarray) -> str | None:
@@ -118,19 +128,19 @@ def _covariance(cov: np.ndarray) -> str | None:
     return None
 
 
-def _numbers(value: Any, shape: tuple[int, ...], what: str) -> str | None:
+def _numbers(value: Any, shape: tuple[int, ...], what: str) -> tuple[np.ndarray | None, str | None]:
+    """`value` as a fresh array of `shape`, or None and what is wrong with it."""
     if type(value) is np.ndarray and value.shape == shape and value.dtype == np.float64:
-        if math.isfinite(value.sum()):  # every entry finite (a sum that overflows goes the long way below)
-            return None
-    elif type(value) in (list, tuple) and shape == (len(value),) and all(type(v) is float and math.isfinite(v) for v in value):
-        return None  # (the common answers, checked in a microsecond each step; the rest as numpy reads them)
+        array = value.copy()
+        if math.isfinite(array.sum()):  # every entry finite, told in a microsecond (a sum that overflows goes the long way below)
+            return array, None
     try:
-        array = np.asarray(value, dtype=np.float64)
-    except (TypeError, ValueError):
-        return f"its {what} is not numbers ({type(value).__name__})"
+        array = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError, OverflowError):
+        return None, f"its {what} is not numbers ({type(value).__name__})"
     if array.shape != shape:
-        return f"its {what} has shape {array.shape}; expected {shape}"
+        return None, f"its {what} has shape {array.shape}; expected {shape}"
     if not np.isfinite(array).all():
         bad = next(float(v) for v in array.ravel() if not math.isfinite(v))
-        return f"its {what} is not finite ({bad})"
-    return None
+        return None, f"its {what} is not finite ({bad})"
+    return array, None

@@ -91,7 +91,7 @@ def finish(result, out: Path, options: dict[str, Any], report: bool = True, metr
         written += write_trajectories(result, out, summary, export_rate)
         write_json(out / "summary.json", summary)  # again, now naming the TUM files
         if report and len(result) and stop is not None and stop.received is not None:
-            print(f"ctsim: figures skipped after the signal; `ctsim report {out}` draws them", file=sys.stderr)
+            print(f"ctsim: figures skipped after the signal; `ctsim report {sanitize.name(str(out), 1000)}` draws them", file=sys.stderr)
         elif report and len(result):
             from sim.views.figures import report_run_dir
 
@@ -100,13 +100,13 @@ def finish(result, out: Path, options: dict[str, Any], report: bool = True, metr
             try:
                 written += report_run_dir(out)
             except KeyboardInterrupt:
-                print(f"ctsim: figures stopped by the signal; `ctsim report {out}` draws them", file=sys.stderr)
+                print(f"ctsim: figures stopped by the signal; `ctsim report {sanitize.name(str(out), 1000)}` draws them", file=sys.stderr)
         from sim.web.report import write_run_report
 
         written.append(write_run_report(out))
     except OSError as err:
         kept = ", ".join(p.name for p in written[1:]) or "nothing"
-        print(f"ctsim: error: writing the run's results into {out}: {err.strerror or err} (written: {kept})", file=sys.stderr)
+        print(f"ctsim: error: writing the run's results into {sanitize.name(str(out), 1000)}: {err.strerror or err} (written: {kept})", file=sys.stderr)
         return EXIT_FAILED
     print(table(summary))
     for note in getattr(result, "notes", ()):  # what the run's guards put back (`sim.guards`)
@@ -116,7 +116,7 @@ def finish(result, out: Path, options: dict[str, Any], report: bool = True, metr
             print(f"ctsim: note: {log.name}: {message} ({count} step{'s' if count != 1 else ''} like it)", file=sys.stderr)
     print("wrote:")
     for path in written:
-        print(f"  {path}")
+        print(f"  {sanitize.name(str(path), 1000)}")
     if recording_error is not None:
         print(f"ctsim: error: the recording is incomplete: {recording_error}", file=sys.stderr)
         return EXIT_FAILED
@@ -124,7 +124,7 @@ def finish(result, out: Path, options: dict[str, Any], report: bool = True, metr
         print(f"ctsim: run stopped: {sanitize.name(result.error, 2000)}", file=sys.stderr)
         return EXIT_FAILED
     if isinstance(result.reason, Ending) and result.reason.signalled:
-        print(f"ctsim: {result.error}; partial results written to {out}", file=sys.stderr)
+        print(f"ctsim: {result.error}; partial results written to {sanitize.name(str(out), 1000)}", file=sys.stderr)
         return EXIT_INTERRUPTED if result.reason is Ending.INTERRUPTED else EXIT_TERMINATED
     return (stop.status() if stop is not None else None) or 0
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from sim import sanitize
 from sim.cli.options import UsageError
 
 
@@ -24,5 +25,5 @@ def cmd_report(args: argparse.Namespace) -> int:
     from sim.web.report import write_run_report
 
     for path in [*report_run_dir(args.run_dir), write_run_report(args.run_dir)]:
-        print(path)
+        print(sanitize.name(str(path), 1000))
     return 0

@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from sim import sanitize
 from sim.analysis.summary import SUMMARY_ROOM, unstarted, write_json
 from sim.cli.observers import Progress, StopOnSignal
 from sim.cli.options import EXIT_INTERRUPTED, EXIT_TERMINATED, UsageError, add_robot_options, add_web_options, load_robot_spec, param, positive, robot_options, robot_setups, whole
@@ -107,5 +108,5 @@ def _stopped_before_start(out: Path, place, args: argparse.Namespace, options: d
     """The summary of a run that a signal stopped before its first step."""
     reason = Ending.TERMINATED if isinstance(signalled, Terminated) else Ending.INTERRUPTED
     write_json(out / "summary.json", unstarted(place, args.seed, args.dt, options, reason, f"{reason} before the first step"))
-    print(f"ctsim: {reason} before the first step; wrote {out / 'summary.json'}", file=sys.stderr)
+    print(f"ctsim: {reason} before the first step; wrote {sanitize.name(str(out / 'summary.json'), 1000)}", file=sys.stderr)
     return EXIT_TERMINATED if reason is Ending.TERMINATED else EXIT_INTERRUPTED

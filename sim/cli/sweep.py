@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from sim import sanitize
 from sim.cli.options import UsageError, whole
 from sim.run.ending import Ending
 
@@ -45,7 +46,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         paths = write_sweep_report(args.folder, by=args.by)
         show(load_results(args.folder))
         for path in paths:
-            print(path)
+            print(sanitize.name(str(path), 1000))
         return 0
     if args.folder is not None:
         raise UsageError(f"unexpected argument {str(args.folder)!r} (the folder goes in --out)")
@@ -60,5 +61,5 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         runner.close()
     failed = int((table["reason"] == Ending.ERROR).sum())
     show(table)
-    print(f"{len(table)} runs, {failed} failed (see the error column); table: {out / 'results.parquet'}")
+    print(f"{len(table)} runs, {failed} failed (see the error column); table: {sanitize.name(str(out / 'results.parquet'), 1000)}")
     return 0

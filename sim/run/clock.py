@@ -21,8 +21,8 @@ class StepClock:
     """A time limit on each controller step, kept by SIGALRM: a timer ticks every quarter of the
     limit and raises StepTimeout inside a controller that the last four ticks found in the same
     step (so a step ends between 1 and 1.25 limits). Only in the main thread of a POSIX process
-    (signals go there); elsewhere steps are not timed. `busy` is the number of the controller call
-    in progress (0: none)."""
+    (signals go there); elsewhere steps are not timed. `busy` is the number of the call of user code
+    in progress (a controller's step or an estimator's update: `begin`; 0: none)."""
 
     active: StepClock | None = None
     """The clock of the run going on in this process, if any."""
@@ -32,6 +32,7 @@ class StepClock:
             raise RunError(f"the step time limit must be more than 0 and at most {MAX_STEP_TIMEOUT:,.0f} s (a day), got {limit!r}")
         self.limit = limit
         self.busy = 0
+        self.calls = 0
         self._seen, self._ticks, self._previous = 0, 0, None
         self.armed = bool(limit) and hasattr(signal, "setitimer") and threading.current_thread() is threading.main_thread()
 
@@ -47,6 +48,11 @@ class StepClock:
             signal.setitimer(signal.ITIMER_REAL, 0)
             signal.signal(signal.SIGALRM, self._previous)
             StepClock.active = None
+
+    def begin(self) -> None:
+        """A call of user code (a controller's step, an estimator's update) starts: timed from now."""
+        self.calls += 1
+        self.busy = self.calls
 
     def _tick(self, signum: int, frame: object) -> None:
         if self.busy and self.busy == self._seen:

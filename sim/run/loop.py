@@ -23,10 +23,10 @@ from bots.controller import Controller, ControllerStopped, Status, reset
 from bots.odometry.base import Estimator
 from bots.odometry.batch import DefaultOdometry, batched
 from bots.odometry.defaults import default_estimators
-from bots.odometry.user import check, name_of
+from bots.odometry.user import has_covariance, name_of, outputs
 from bots.readings import Readings, SensorFrame
 from bots.spec import RobotSpec
-from sim.guards import ControllerBrokeOut, Guard
+from sim.guards import ControllerBrokeOut, Guard, foreign_frame
 from sim.run.clock import StepClock, StepTimeout
 from sim.run.ending import Ending, Quit, RunError, Terminated
 from sim.run.samples import RobotLog, RunResult, Samples
@@ -106,13 +106,15 @@ def run(
         for estimator in chosen:
             try:
                 estimator.reset(setup.spec, robot.pose)
-            except Exception as err:  # a user's estimator that cannot take this robot: the user's choice
+            except (Exception, SystemExit) as err:  # a user's estimator that cannot take this robot (or leaves): the user's
                 raise RunError(f"{robot.name}: estimator {name_of(estimator)!r} could not be reset: {type(err).__name__}: {err}{_last_frame(err)}") from None
         try:
             reset(setup.controller, setup.spec)
         except ValueError as err:  # a controller that cannot drive this robot (too few sensors): the user's choice
             raise RunError(f"{robot.name}: {err}") from None
-        names, uncertain = [estimator.name for estimator in chosen], [e.name for e in chosen if _has_covariance(e)]
+        except SystemExit as err:  # (the user's code leaving: its mistake, not a way out of ctsim)
+            raise RunError(f"{robot.name}: the controller's reset called sys.exit({err.code!r})") from None
+        names, uncertain = [estimator.name for estimator in chosen], [e.name for e in chosen if has_covariance(e)]
         if i in slot:  # the batch logs its rows, the robot's own estimators theirs
             log = RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params), odometry.names[slot[i]], samples, i, world, slot[i],
                            extra=names, extra_uncertain=uncertain)  # fmt: skip
@@ -131,7 +133,6 @@ def run(
     result = RunResult(world_spec, seed, dt, logs, samples)
     commands = np.zeros((len(robots), 2))
     clock = StepClock(step_timeout)
-    call = 0
     guard: Guard | None = None
     try:
         clock.__enter__()
@@ -159,8 +160,7 @@ def run(
             for i, spec, log, controller in drivers:
                 readings = frame[i]
                 try:
-                    call += 1
-                    clock.busy = call
+                    clock.begin()
                     command = controller.step(now, readings)
                     clock.busy = 0
                     if spec.chassis is not None:
@@ -181,10 +181,12 @@ def run(
         result.reason, result.error = Ending.ERROR, f"{_who(logs)} {broke} at step {step} (t = {world.time:.2f} s)"
     except Exception as err:  # ctsim's own code failing: a ctsim bug, unless a controller replaced what it calls
         replaced = guard.replaced() if guard is not None else ""
-        if not replaced:
+        foreign = foreign_frame(err)
+        if not replaced and foreign is None:
             raise
         result.reason = Ending.ERROR
-        result.error = f"{_who(logs)} replaced {replaced}, and the run failed with {type(err).__name__}: {err} at t = {world.time:.2f} s"
+        what = f"replaced {replaced}, and the run" if replaced else f"put its own code into ctsim's ({foreign}), and the run"
+        result.error = f"{_who(logs)} {what} failed with {type(err).__name__}: {err} at t = {world.time:.2f} s"
     except KeyboardInterrupt as stop:
         clock.busy = 0
         result.reason = Ending.QUIT if isinstance(stop, Quit) else Ending.TERMINATED if isinstance(stop, Terminated) else Ending.INTERRUPTED
@@ -277,23 +279,40 @@ def _last_frame(err: BaseException) -> str:
     return f" ({frames[-1].filename}:{frames[-1].lineno})" if frames else ""
 
 
-def _update(estimator: Estimator, readings: Readings, log: RobotLog, step: int) -> None:
-    """Step an estimator; one that raises or leaves a bad pose or covariance ends the run (_Stop),
-    as a controller's error does."""
+def _update(estimator: Estimator, readings: Readings, log: RobotLog, step: int) -> tuple[np.ndarray, np.ndarray | None]:
+    """Step an estimator and read its pose and covariance once (`outputs`), all of it a call
+    under the step clock as a controller's step is (its time limit; a signal acted on at once);
+    one that raises, overruns or leaves a bad pose or covariance ends the run (_Stop), as a
+    controller's error does. The pose and covariance (None without one) as read. The shipped
+    estimators (of `bots`) are not timed: their first update compiles their kernels."""
+    clock = StepClock.active if not type(estimator).__module__.startswith("bots.") else None
     try:
+        if clock is not None:
+            clock.begin()
         estimator.update(readings)
-        problem = check(estimator)
+        pose, covariance, problem = outputs(estimator)
     except KeyboardInterrupt:
         raise
+    except StepTimeout:
+        raise _Stop(f"estimator {name_of(estimator)!r} of {log.name} took longer than the step time limit of {clock.limit:g} s at step {step} (t = {readings.time:.2f} s)") from None
     except BaseException as err:  # the estimator's error (a user's code; sys.exit too)
         raise _Stop(f"estimator {name_of(estimator)!r} of {log.name} raised {type(err).__name__}: {err} at step {step} (t = {readings.time:.2f} s){_last_frame(err)}") from None
+    finally:
+        if clock is not None:
+            clock.busy = 0
     if problem is not None:
         raise _Stop(f"estimator {name_of(estimator)!r} of {log.name} failed at step {step} (t = {readings.time:.2f} s): {problem}")
+    return pose, covariance
 
 
-def _has_covariance(estimator: Estimator) -> bool:
-    """Whether an estimator reports a covariance (the Protocol's optional `covariance`)."""
-    return hasattr(type(estimator), "covariance") or hasattr(estimator, "covariance")
+READINGS = ("tallies", "ir_raw", "ir_distance", "floor", "light")
+"""The arrays of a step's SensorFrame, handed to controllers and estimators as `frozen` copies."""
+
+
+def frozen(array: np.ndarray) -> np.ndarray:
+    """A copy of `array` over immutable bytes: no flag, view or `.base` of it can be made
+    writeable (numpy refuses), and none reaches the run's recorded rows it was copied from."""
+    return np.frombuffer(array.tobytes(), dtype=array.dtype).reshape(array.shape)
 
 
 def _sample(
@@ -307,21 +326,20 @@ def _sample(
     n = samples.count
     time = world.time
     frame = samples.frame = world.read_all((samples.values[n], samples.believed[n], samples.tallies[n]))
-    for array in (frame.tallies, frame.ir_raw, frame.ir_distance, frame.floor, frame.light):
-        array.flags.writeable = False  # (views of the run's recorded rows: a controller must not rewrite them)
+    for name in READINGS:  # (the recorded rows themselves never reach a controller)
+        setattr(frame, name, frozen(getattr(frame, name)))
     samples.time[n] = time
     poses = world.poses()
     if odometry is not None:
         odometry.update_into(frame.tallies, time, poses, samples.poses[n], samples.covariances[n])
     for i, log, chosen, beside_batch in estimators:
         readings = frame[i]
-        for estimator in chosen:
-            _update(estimator, readings, log, n)
-        covariances = [estimator.covariance for estimator in chosen if _has_covariance(estimator)]
+        read = [_update(estimator, readings, log, n) for estimator in chosen]
+        poses_read, covariances = [pose for pose, _ in read], [covariance for _, covariance in read if covariance is not None]
         if beside_batch is None:
-            log.append(poses[i], [estimator.pose for estimator in chosen], covariances)
+            log.append(poses[i], poses_read, covariances)
         else:
-            beside_batch([estimator.pose for estimator in chosen], covariances)
+            beside_batch(poses_read, covariances)
     samples.count = n + 1
     samples.columns.release_written(n + 1)
     goals = world.spec.goals

@@ -22,9 +22,9 @@ TICKS, COUNTS, TALLIES = 0, 2, 4
 # the world's scalars (SCALARS,) float64: floor raster origin (x, y m), cell (m), whether outside
 # it is a hole (0/1), the absorption outside it, IR ray length (m), slide margin (m), dt (s), the
 # wall grid's origin (x, y m) and cell (m) (`build_wall_grid`), whether robots meet each other (0/1), how far
-# the lines stand above the floor (m, `WorldSpec.line_height`), the step's number (c't-Sim's order of its robots)
-ORIGIN, CELL, OUTSIDE_IS_HOLE, OUTSIDE_ABSORPTION, IR_LENGTH, SLIDE_MARGIN, DT, WALL_FRAME, ROBOTS_MEET, LINE_HEIGHT, STEP = 0, 2, 3, 4, 5, 6, 7, 8, 11, 12, 13
-SCALARS = 14
+# the lines stand above the floor (m, `WorldSpec.line_height`)
+ORIGIN, CELL, OUTSIDE_IS_HOLE, OUTSIDE_ABSORPTION, IR_LENGTH, SLIDE_MARGIN, DT, WALL_FRAME, ROBOTS_MEET, LINE_HEIGHT = 0, 2, 3, 4, 5, 6, 7, 8, 11, 12
+SCALARS = 13
 # the wall grid's cells (int64, one array): columns, rows, then the cells' starts (rows x columns
 # + 1, row-major; cell k lists members[starts[k]:starts[k + 1]]), the members, a buffer
 COLUMNS, ROWS, STARTS = 0, 1, 2

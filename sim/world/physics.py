@@ -193,7 +193,7 @@ class World:
         self._lights = np.array([(*light.position, light.height, light.radius) for light in spec.lights], dtype=np.float64).reshape(-1, 4)
         self._scalars = np.array(
             (*self.floor.origin, self.floor.cell, self.floor.outside_is_hole, self.floor.outside_absorption, IR_RAY_LENGTH, SLIDE_MARGIN, dt,
-             *self._walls.frame, float(robots_meet), self.floor.line_height, 0.0),
+             *self._walls.frame, float(robots_meet), self.floor.line_height),
             dtype=np.float64,
         )
         """The world's scalars for the kernels (`kernels.SCALARS`; writeable: numba types read-only
@@ -321,7 +321,7 @@ class World:
         self._floor_and_light_arguments = (*st.floor_and_light_noise.arguments(), st.floor_and_light_top)
         self._settle_arguments = (
             st.params, st.state, self._scalars, walls.vertices, walls.ranges, walls.boxes, walls.cells, st.contacts, st.anchored, self.floor.hole,
-            st.fallen, self._bodies.row_index, self._bodies.motion, self._quiet,
+            st.fallen, self._bodies.row_index, self._bodies.motion, self._quiet, st.circles,
         )  # fmt: skip
         # the kernels each step calls, for the types they get then: C-ordered (n, 2) commands and
         # (n, 3) poses, int64 values and float believed distances (`compiling.compiled_for`; the largest last, see `compile_all`)
@@ -488,6 +488,9 @@ class World:
         # a wall or another robot, so that no speed the motors allow tunnels through anything
         # then hold robots at holes, and give pymunk the motion as forces (see `_apply_motion`)
         self._bodies.refresh()
+        if len(st.stoppers) and self.movables:  # c't-Sim's contact rule meets the cans where they stand
+            for k, body in enumerate(self.movables, start=len(st.circles) - len(self.movables)):
+                st.circles[k, 0], st.circles[k, 1] = body.position
         was_blocked = st.state[st.stoppers, layout.BLOCKED] if len(st.stoppers) else None
         changed, quiet = self._settle(before, *self._settle_arguments)
         if was_blocked is not None:  # a robot newly stopped by c't-Sim's rule has met something

@@ -55,6 +55,7 @@ def settle(
     rows: np.ndarray,
     motion: np.ndarray,
     quiet: np.ndarray,
+    circles: np.ndarray,
 ) -> tuple[bool, bool]:
     """The planned moves and turns (state's MOVE, ALPHA) refused by c't-Sim's contact rule
     (`stop_at_contact`) or cut where walls (`sweep_walls`), other robots (`keep_apart`) or holes
@@ -69,7 +70,7 @@ def settle(
     memory, so that `glide` moves the robots as pymunk's step would."""
     move, alpha = state[:, MOVE : MOVE + 2], state[:, ALPHA]
     wall_grid = (scalars[WALL_FRAME : WALL_FRAME + 3], wall_cells)
-    stop_at_contact(pose, move, params, state, vertices, ranges, boxes, wall_grid)
+    stop_at_contact(pose, move, params, state, vertices, ranges, boxes, wall_grid, circles)
     sweep_walls(pose, move, params[:, SWEEP_RADIUS], scalars[SLIDE_MARGIN], vertices, ranges, boxes, wall_grid)
     if pose.shape[0] > 1 and scalars[ROBOTS_MEET] != 0.0:
         keep_apart(pose, move, params[:, APART_RADIUS])
@@ -93,14 +94,26 @@ def settle(
     return changed, quiet[STREAK] > quiet[QUIET_AFTER]
 
 
+CAN_ACROSS, CAN_SOUTH = math.cos(math.pi / 30), math.cos(math.pi / 15)
+"""c't-Sim's can (Java3D's cylinder of 15 sides, a corner due north) as its contact test sees it,
+in radii: the box round its corners, cos 6° either side across and from cos 12° south to 1 north."""
+@numba.njit(cache=True)
+def _box_gap2(x: float, y: float, xmin: float, ymin: float, xmax: float, ymax: float) -> float:
+    """Squared distance from (x, y) to the box (0 inside)."""
+    dx = max(xmin - x, 0.0, x - xmax)
+    dy = max(ymin - y, 0.0, y - ymax)
+    return dx * dx + dy * dy
+
+
 @numba.njit(cache=True)
 def stop_at_contact(pose: np.ndarray, move: np.ndarray, params: np.ndarray, state: np.ndarray, vertices: np.ndarray, ranges: np.ndarray,
-                    boxes: np.ndarray, wall_grid: tuple) -> None:  # fmt: skip
+                    boxes: np.ndarray, wall_grid: tuple, circles: np.ndarray) -> None:  # fmt: skip
     """c't-Sim's contact rule for the robots that have it (params' STOPS): a move that would put
-    the body within its radius of a wall, or of another robot's body where that stands at the
-    start of the step, is not made at all (MOVE set to 0, BLOCKED 1); the turn still is. So the
-    robot stays at its last position clear of everything and can turn away, as c't-Sim commits
-    the position only when its bounding sphere at the new one meets nothing (MasterSimulator)."""
+    the body within its radius of a wall, of a can (`circles`' rows owned by -1, as c't-Sim's
+    contact test sees them: boxes, `CAN_ACROSS`) or of another robot's body where that stands at
+    the start of the step is not made at all (MOVE set to 0, BLOCKED 1); the turn still is. So the
+    robot stays at its last position clear of everything and can turn away, as c't-Sim commits the
+    position only when its bounding sphere at the new one meets nothing (MasterSimulator)."""
     n = pose.shape[0]
     for i in range(n):
         if params[i, STOPS] == 0.0:
@@ -113,6 +126,10 @@ def stop_at_contact(pose: np.ndarray, move: np.ndarray, params: np.ndarray, stat
         for j in range(n):
             if not blocked and j != i:
                 blocked = math.hypot(pose[j, 0] - x, pose[j, 1] - y) <= radius + params[j, RADIUS]
+        for j in range(circles.shape[0]):
+            if not blocked and circles[j, 3] == -1.0:
+                cx, cy, r = circles[j, 0], circles[j, 1], circles[j, 2]
+                blocked = _box_gap2(x, y, cx - r * CAN_ACROSS, cy - r * CAN_SOUTH, cx + r * CAN_ACROSS, cy + r) <= radius * radius
         if blocked:
             move[i, 0], move[i, 1], state[i, BLOCKED] = 0.0, 0.0, 1.0
 
