@@ -82,5 +82,8 @@ class Belief:
 
 def square(entries: np.ndarray) -> np.ndarray:
     """(..., 3, 3) covariance matrices from their (..., 6) COVARIANCE_FIELDS entries."""
+    if isinstance(entries, np.ndarray) and entries.shape == (6,):  # one estimator's, every step: without numpy's stacking (20 us)
+        xx, xy, xt, yy, yt, tt = entries.tolist()
+        return np.array(((xx, xy, xt), (xy, yy, yt), (xt, yt, tt)))
     xx, xy, xt, yy, yt, tt = np.moveaxis(np.asarray(entries, dtype=np.float64), -1, 0)
     return np.stack([np.stack([xx, xy, xt], -1), np.stack([xy, yy, yt], -1), np.stack([xt, yt, tt], -1)], -2)

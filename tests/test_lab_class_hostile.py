@@ -149,3 +149,16 @@ def test_any_file_as_a_notebook_is_read_or_refused_as_the_students(tmp_path, dat
         assert isinstance(solution_source(path), str)
     except ExerciseError as err:
         assert "\n" not in str(err)
+
+
+def test_a_grades_folder_whose_gradescope_is_a_link_is_refused_before_grading(tmp_path):
+    from sim.out_files import NotAFileOfItsOwn
+
+    folder, out, elsewhere = tmp_path / "subs", tmp_path / "grades", tmp_path / "elsewhere"
+    for path in (folder, out, elsewhere):
+        path.mkdir()
+    shutil.copy(REFERENCE, folder / "alice.py")
+    os.symlink(elsewhere, out / "gradescope")
+    with pytest.raises(NotAFileOfItsOwn, match="gradescope is a symbolic link"):
+        grade(exercise(2), folder, out, seed=SEED, degraded=True)
+    assert not list(elsewhere.iterdir()) and not (out / "grades.csv").exists()

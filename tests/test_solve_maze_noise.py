@@ -1,16 +1,18 @@
-"""solve_maze through the shipped maze at its default speed over seeds 0-19 with each noise preset:
-how many reach the goal, how long they take against the exact-sensor run, and that no run ever
-claims the goal it did not reach (the goal is seen from ten steady readings, never one).
+"""solve_maze through the shipped maze at its default speed, as the main job runs it (300 s), over
+seeds 0-39 with realistic noise and 0-19 with harsh: how many reach the goal, how long they take
+against the exact-sensor run, and that no run ever claims the goal it did not reach (the goal is
+seen from ten steady readings, never one; the run notes the goal from the true pose).
 
-Each preset's 20 runs take about a minute of CPU (a run stops at the goal; the run loop's
-estimators are off)."""
+The 61 runs are simulated once for the whole module, two at a time in a process pool (both of
+CI's cores): about 330 s of CPU, 170 s on a quiet two-core machine (a run stops at the goal; the
+run loop's estimators are off: they do not steer the robot)."""
 
 from __future__ import annotations
 
+from concurrent.futures import ProcessPoolExecutor
 from functools import cache
 
 import numpy as np
-import pytest
 
 from bots.behaviours import make
 from bots.controller import Status
@@ -19,37 +21,54 @@ from bots.noise import with_noise
 from sim.run.loop import RobotSetup, run
 from sim.world.files import load_world
 
-SEEDS = range(20)
-LIMIT_S = 600.0
-"""Simulated time allowed: the slowest run that reaches the goal needs 532 s (realistic, seed 15)."""
+LIMIT_S = 300.0
+"""The main job's duration (`ctsim run`)."""
+SEEDS = {"realistic": range(40), "harsh": range(20), "none": range(1)}
+"""Seeds per noise preset (exact sensors: every seed drives the same run)."""
+
+
+def outcome(preset: str, seed: int) -> tuple[float | None, Status]:
+    """(goal time or None, the controller's status at the end) of one run."""
+    robot = CTBOT if preset == "none" else with_noise(CTBOT, preset)
+    controller = make("solve_maze", {})
+    result = run(load_world("maze"), [RobotSetup(robot, controller, "solve_maze", estimators=[])], LIMIT_S, seed=seed, until_goal=True)
+    assert result.error is None, result.error
+    return result.robots[0].goal_time, controller.status
 
 
 @cache
-def outcomes(preset: str, seeds: range = SEEDS) -> tuple[tuple[float | None, Status], ...]:
-    """(goal time or None, the controller's status at the end) of every seed."""
-    world, robot = load_world("maze"), with_noise(CTBOT, preset)
-    ends = []
-    for seed in seeds:
-        controller = make("solve_maze", {})
-        result = run(world, [RobotSetup(robot, controller, "solve_maze", estimators=[])], LIMIT_S, seed=seed, until_goal=True)
-        assert result.error is None
-        ends.append((result.robots[0].goal_time, controller.status))
-    return tuple(ends)
+def outcomes() -> dict[str, list[tuple[float | None, Status]]]:
+    """Every preset's outcomes by seed, simulated once for all tests here."""
+    jobs = [(preset, seed) for preset, seeds in SEEDS.items() for seed in seeds]
+    with ProcessPoolExecutor(2) as pool:
+        ends = list(pool.map(outcome, *zip(*jobs)))
+    found: dict[str, list[tuple[float | None, Status]]] = {preset: [] for preset in SEEDS}
+    for (preset, _), end in zip(jobs, ends):
+        found[preset].append(end)
+    return found
 
 
-@pytest.mark.parametrize("preset", ["realistic", "harsh"])
-def test_no_noisy_run_claims_a_goal_it_did_not_reach(preset):
+def test_no_noisy_run_claims_a_goal_it_did_not_reach():
     """Harsh line noise (20 raw units) once ended runs with 'success' at 11-111 s, far from the goal."""
-    assert all(goal is not None for goal, status in outcomes(preset) if status is Status.SUCCESS)
+    for preset in ("realistic", "harsh"):
+        assert all(goal is not None for goal, status in outcomes()[preset] if status is Status.SUCCESS), preset
 
 
-def test_realistic_noise_reaches_the_goal_nearly_as_fast_as_exact_sensors():
-    """16 of 20 seeds reach the goal (the aim is 19: the four others go round a way misread closed
-    where a lateral error of 5 cm lets one IR ray see the corridor's side at a slant), the median
-    within 15 % of the exact run's 242 s (seen: +11 %) and the mean within 20 % (seen: +16 %; one
-    seed takes 532 s; the aim is 15 %)."""
-    exact = outcomes("none", range(1))[0][0]  # (exact sensors: every seed drives the same run)
-    times = [goal for goal, _ in outcomes("realistic") if goal is not None]
-    assert exact is not None and len(times) >= 16
-    assert np.median(times) <= 1.15 * exact
-    assert np.mean(times) <= 1.20 * exact
+def test_realistic_noise_reaches_the_goal_about_as_fast_as_exact_sensors():
+    """37 of 40 seeds reach the goal within the main job's 300 s (seed 0, the main job's, among
+    them), on average within 10 % of the exact-sensor run's time (seen: 253.7 s against 241.6 s,
+    +5 %): a look that cannot tell an open way at a slant from a wall touching the sensors looks
+    again from further back, a drive whose wheels turn while the mouse sees the robot stand stops,
+    and looks average longer only at distances a square-up measures by. The aim is 39: seeds 8,
+    17 and 31 end walled in after a square-up on a face read a few millimetres apart by the two
+    sensors turned the belief 4 degrees off."""
+    exact = outcomes()["none"][0][0]
+    goals = [goal for goal, _ in outcomes()["realistic"]]
+    times = [goal for goal in goals if goal is not None]
+    assert exact is not None and goals[0] is not None and len(times) >= 37
+    assert np.mean(times) <= 1.10 * exact
+
+
+def test_harsh_noise_mostly_reaches_the_goal():
+    """15 of 20 seeds with harsh noise (15 mm IR noise, 3 % track error, 1 % wheel diameters); seen: 17."""
+    assert sum(goal is not None for goal, _ in outcomes()["harsh"]) >= 15

@@ -89,16 +89,25 @@ class TickOdometry:
         left_ticks, right_ticks = readings.encoder_ticks.tolist()
         left = self._wheel_arc(0, left_ticks, speeds[0], stepped)
         right = self._wheel_arc(1, right_ticks, speeds[1], stepped)
-        self.pose = advance_floats(self.pose, 0.5 * (left + right), (right - left) / self.robot.track_width)
+        if left or right:
+            self.pose = advance_floats(self.pose, 0.5 * (left + right), (right - left) / self.robot.track_width)
 
     def _wheel_arc(self, wheel: int, ticks: int, speed: float, stepped: bool) -> float:
         """Arc (m) wheel `wheel` is believed to have rolled this step: its turn by the commanded
         `speed`, clamped into the tick interval its count now allows."""
         before = self._turned[wheel]
+        if not (ticks or speed):  # (standing)
+            return 0.0
         guess = before + float(speed) * self.dt / self.metres_per_tick if stepped else before
         counted = self._counted[wheel] = self._counted[wheel] + ticks
         turned = self._turned[wheel] = min(max(guess, counted), counted + 1.0)
         return (turned - before) * self.metres_per_tick
+
+    def move_by(self, distance: float) -> None:
+        """Correct the believed position by `distance` (m) along the heading: for a behaviour that
+        knows from another sensor that the wheels slipped."""
+        x, y, heading = self.pose
+        self.pose = (x + distance * math.cos(heading), y + distance * math.sin(heading), heading)
 
     def turn_by(self, angle: float) -> None:
         """Correct the believed heading by `angle` (rad), the position kept: for a behaviour that
@@ -213,46 +222,55 @@ class Look(Behaviour):
     readings and the IR distances averaged over the steps (noise shrinks by the root of the steps;
     nan for a sensor that saw nothing in any of them). With `max_steps` it keeps looking while the
     readings scatter so much that a mean's standard error exceeds `error_m`: readings that do not
-    change (no noise) end it after `steps` as before, noisy ones are averaged for longer."""
+    change (no noise) end it after `steps` as before, noisy ones are averaged for longer. With
+    `band` (m) only sensors whose mean lies inside it keep it looking: the distances a plan
+    measures by, where the others only need to be told apart (near or far)."""
 
     readings: Readings
     ir_distance: np.ndarray
 
-    def __init__(self, steps: int = 1, max_steps: int | None = None, error_m: float = 0.0):
+    def __init__(self, steps: int = 1, max_steps: int | None = None, error_m: float = 0.0, band: tuple[float, float] = (0.0, math.inf)):
         if steps < 1:
             raise ValueError(f"need at least one step, got {steps}")
         self.steps = steps
         self.max_steps = steps if max_steps is None else max(steps, max_steps)
         self.error = error_m
+        self.band = band
 
     def start(self) -> None:
-        self._sum = np.zeros(len(self.robot.ir))
-        self._squares = np.zeros(len(self.robot.ir))
-        self._seen = np.zeros(len(self.robot.ir))
+        count = len(self.robot.ir)
+        self._sum, self._squares, self._seen = [0.0] * count, [0.0] * count, [0] * count  # per sensor (floats: a step's few sums)
         self._count = 0
 
     def act(self, t: float, readings: Readings) -> Command:
         self.readings = readings
-        seen = ~np.isnan(readings.ir_distance)
-        value = np.where(seen, readings.ir_distance, 0.0)
-        self._sum += value
-        self._squares += value * value
-        self._seen += seen
+        for k, value in enumerate(readings.ir_distance.tolist()):
+            if value == value:  # (nan: nothing in view)
+                self._sum[k] += value
+                self._squares[k] += value * value
+                self._seen[k] += 1
         self._count += 1
         if self._count < self.steps or (self._count < self.max_steps and self._scatter() > self.error):
             return STOP
-        with np.errstate(invalid="ignore", divide="ignore"):
-            self.ir_distance = np.where(self._seen > 0, self._sum / self._seen, np.nan)
+        self.ir_distance = np.array([total / n if n else math.nan for total, n in zip(self._sum, self._seen)])
         return self.finish()
 
     @property
     def ir_error(self) -> np.ndarray:
         """Each IR sensor's standard error (m) of its mean so far (0 for one sample or none, or
         for readings that did not change)."""
-        n = np.maximum(self._seen, 1)
-        mean = self._sum / n
-        return np.sqrt(np.maximum(self._squares / n - mean * mean, 0.0) / np.maximum(n - 1, 1))
+        return np.array([error for _, error in self._means()])
+
+    def _means(self) -> list[tuple[float, float]]:
+        """Each sensor's (mean, its standard error) so far (m; 0, 0 for none)."""
+        out = []
+        for total, squares, seen in zip(self._sum, self._squares, self._seen):
+            n = max(seen, 1)
+            mean = total / n
+            out.append((mean, math.sqrt(max(squares / n - mean * mean, 0.0) / max(n - 1, 1))))
+        return out
 
     def _scatter(self) -> float:
-        """The largest standard error (m) of a sensor's mean so far."""
-        return float(self.ir_error.max(initial=0.0))
+        """The largest standard error (m) of a sensor's mean so far, of those whose mean is in the band."""
+        low, high = self.band
+        return max((error for (mean, error), seen in zip(self._means(), self._seen) if seen and low < mean < high), default=0.0)

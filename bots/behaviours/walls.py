@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import math
-from collections import deque
 from collections.abc import Generator
 
 import numpy as np
@@ -53,18 +52,13 @@ DRIFT_LEARN_M = 1.0
 """Straight distance (m) after which the encoders' drift per metre is taken from the mouse: by then
 the mouse's random error (about 1.3 degrees per root metre) is below the 1.8 degrees a metre of a
 0.3 % wheel diameter mismatch, and it shrinks as the root of the distance from there."""
-TURN_LEARN_RAD = math.pi
-"""Turning (rad) after which the encoders' turns are scaled to the mouse's: two whole turns, over
-which the mouse's 0.24 degree counts average to 0.1 %."""
-TURN_TOLERANCE = 0.001
-"""Relative difference between the encoders' and the mouse's turns below which the encoders' is kept:
-0.4 % is 0.4 degrees a quarter turn, and noise-free the two agree within 0.01 % over a run."""
 MAX_VISITS = 4
 """Visits to one room after which its ways are looked at again (`_visit`)."""
-HEADING_DRIFT = math.radians(1.0) ** 2
+HEADING_DRIFT = math.radians(2.0) ** 2
 """Variance (rad^2) the believed heading gains per metre driven and per radian turned: the
-mouse-corrected encoders drift about a degree a root metre, and a learnt track leaves about a
-degree a radian in the first turns."""
+mouse-corrected encoders drift about a degree a root metre; twice that, because a belief that
+trusts itself too much squares up too little (realistic noise, seed 7: a heading off by 1.55
+degrees rms at the looks with one, 1.25 with two)."""
 MAX_SKEW = math.radians(15)
 """Largest angle to a wall face (rad) a look squares up on; more means the two rays hit two faces."""
 OPEN_FRACTION = 0.9
@@ -72,6 +66,17 @@ OPEN_FRACTION = 0.9
 wall reads at most 0.2 m (0.065 m away, folded back), the wall beyond an open neighbour at least
 0.3 m (cell 0.24 m)."""
 
+RECHECK_M = 0.03
+"""How far (m) a robot backs off to look again at a way it cannot tell open or closed: 6 cm more
+in the sum of both sensors where it is open, less down the fold-back where a wall touches them."""
+STALL_M = 0.02
+"""Wheels' rolling (m) over which a drive compares the mouse's distance with theirs: 13 steps at
+0.15 m/s, seven encoder ticks, 300 mouse counts."""
+STALL_SHARE = 0.5
+"""Share of the wheels' rolling below which the mouse's distance means the robot is stuck."""
+FACE_TOLERANCE = 0.03
+"""Largest distance (m) between where both IR sensors see one face and the believed tile edge for
+a look to count it as the face beyond an open way: the believed pose is good to about 2 cm."""
 FOLD_REACH = 0.42
 """IR distance (m) below which a reading may be a wall touching the sensor: the GP2D12 curves fold
 back below 0.1 m, and at 0-1 cm read 0.41 m (left) and 0.33 m (right)."""
@@ -87,15 +92,25 @@ def clear_ahead(distance: np.ndarray, beyond_m: float) -> bool:
     return all(d > beyond_m or math.isnan(d) for d in distance.tolist())
 
 
+def _receded(before: np.ndarray, after: np.ndarray) -> bool:
+    """Whether IR distances seen from RECHECK_M further back than `before` read farther (nan:
+    nothing within range): what lies ahead does; a wall touching the sensors reads nearer, down
+    the GP2D12's fold-back (0.33-0.41 m at 1 cm, 0.1 m at 10 cm)."""
+    return float(np.sum(np.nan_to_num(after[:2], nan=1.0) - np.nan_to_num(before[:2], nan=1.0))) > 0
+
+
 class DriveToRoom(DriveTo):
     """DriveTo that stops dead and fails where a border sensor sees an abyss (a hole or the edge of
-    the map: the border sensors sit 38 mm ahead of the wheels, which fall)."""
+    the map: the border sensors sit 38 mm ahead of the wheels, which fall), or once `stalled` (set
+    by a plan whose mouse sees the robot stand while its wheels turn: a wall ahead)."""
 
     abyss = False
+    stalled = False
 
     def act(self, t: float, readings: Readings) -> Command:
-        if any(value > BORDER_DANGEROUS for value in readings.border.tolist()):
+        if max(readings.border.tolist(), default=0) > BORDER_DANGEROUS:
             self.abyss = True
+        if self.abyss or self.stalled:
             return self.finish(Status.FAILURE)
         return super().act(t, readings)
 
@@ -137,7 +152,11 @@ class SolveMaze(Plan):
         self.known: dict[tuple[int, int, int], bool] = {}  # (room x, room y, quarter) -> open
         self.looked: tuple[tuple[int, int], int] | None = None  # the way the last look faced
         self.visits: dict[tuple[int, int], int] = {}  # room -> visits since its ways were last seen
-        self.floor_seen: deque[list[float]] = deque(maxlen=GOAL_READINGS)  # the last steps' line readings
+        lines = len(self.robot.line)
+        self.floor_seen = [[0] * lines for _ in range(GOAL_READINGS)]  # the last steps' line readings, a ring
+        self.floor_steps = 0  # steps seen
+        self.floor_sums = [0] * lines  # per line sensor: the sum of the readings in the ring
+        self.floor_squares = [0] * lines  # and of their squares (whole numbers: exact)
         self.frame = self.pose  # the grid's origin in this behaviour's odometry frame
         left, right = self.robot.ir[0].position, self.robot.ir[1].position
         self.ir_ahead = 0.5 * (left[0] + right[0])  # sensors ahead of the axle (m)
@@ -146,35 +165,41 @@ class SolveMaze(Plan):
         self.mouse_turn = None if mouse is None else 0.0254 / mouse.dpi / mouse.mount[0]  # rad per lateral count
         self.mouse_metre = None if mouse is None else 0.0254 / mouse.dpi  # m per count at the nominal dpi
         self.tick_turn = self.odometry.metres_per_tick / self.robot.track_width  # rad per tick of one wheel
+        self.half_track = self.robot.track_width / 2
+        self.drive: DriveToRoom | None = None  # the last drive to a room
+        self.wheels_driven = self.mouse_driven = 0.0  # in the drive's current STALL_M: by the encoders and by the mouse (m)
+        self.spin_gap = 0.0  # turning on the spot: the mouse's turn less the encoders' since the robot last stood (rad)
         self.last_pose: Pose | None = None  # the odometry's pose after the last step
         self.heading_var = 0.0  # the believed heading's variance (rad^2): the start pose is aligned
         self.disagreement = 0.0  # driving straight: encoders' turn less the mouse's (rad)
         self.mouse_straight = 0.0  # driving straight: the mouse's distance at its nominal dpi (m)
         self.encoders_straight = 0.0  # and the encoders' (m)
-        self.turn_products = 0.0  # turning: sum of encoders' x mouse's turn (rad^2)
-        self.turn_squares = 0.0  # sum of encoders' turn squared (rad^2)
-        self.turned_total = 0.0  # sum of |encoders' turn| (rad)
         super().start()
 
     def act(self, t: float, readings: Readings) -> Command:
         self._correct_odometry(readings)
-        self.floor_seen.append(readings.line.tolist())
-        if self.entering is None and self._on_goal():
+        if self._on_goal(readings.line.tolist()) and self.entering is None:
             self.entering = self.run(DriveToRoom(self.cell / 4, 0.0, self.speed))
         if self.entering is None:
             return super().act(t, readings)
         command = self.entering.step(t, readings)
         return command if self.entering.status is Status.RUNNING else self.finish(self.entering.status)
 
-    def _on_goal(self) -> bool:
-        """Whether a line sensor's last GOAL_READINGS readings average to the goal floor's colour
-        and scatter no more than noise does (each sensor by itself, and a steady floor: readings
-        crossing from white to black pass through the goal colour on the way)."""
-        if len(self.floor_seen) < GOAL_READINGS:
-            return False
-        seen = np.asarray(self.floor_seen, dtype=float)
-        means, spreads = seen.mean(axis=0).tolist(), seen.std(axis=0).tolist()
-        return any(abs(m - GROUND_GOAL) <= GOAL_TOLERANCE and s <= GOAL_SPREAD for m, s in zip(means, spreads))
+    def _on_goal(self, line: list[int]) -> bool:
+        """Take this step's line readings; whether a line sensor's last GOAL_READINGS readings
+        average to the goal floor's colour and scatter no more than noise does (each sensor by
+        itself, and a steady floor: readings crossing from white to black pass through the goal
+        colour on the way). Running sums over a ring of the last readings: a few additions a step."""
+        slot = self.floor_steps % GOAL_READINGS
+        gone, self.floor_seen[slot] = self.floor_seen[slot], line
+        self.floor_steps += 1
+        found = False
+        for k, value in enumerate(line):
+            total = self.floor_sums[k] = self.floor_sums[k] + value - gone[k]
+            squares = self.floor_squares[k] = self.floor_squares[k] + value * value - gone[k] * gone[k]
+            if abs(total - GOAL_READINGS * GROUND_GOAL) <= GOAL_READINGS * GOAL_TOLERANCE:  # (the mean, times GOAL_READINGS)
+                found = found or GOAL_READINGS * squares - total * total <= (GOAL_READINGS * GOAL_SPREAD) ** 2  # (the variance, times its square)
+        return found and self.floor_steps >= GOAL_READINGS
 
     def _correct_odometry(self, readings: Readings) -> None:
         """Correct this step's turn of the shared odometry, which the children steer by.
@@ -191,36 +216,62 @@ class SolveMaze(Plan):
         - driving straight, the encoders' turn is corrected by their drift per metre against the
           mouse, learnt over all straight driving so far (the mouse's random error averages
           out as the root of the distance, the wheels' bias does not);
-        - turning, the encoders' turn is scaled by the ratio of the mouse's turn to theirs over all
-          turns so far, once that is more than TURN_TOLERANCE off 1.
+        - turning on the spot, the mouse's turn is taken once the robot stands again (its counts
+          add up without loss, about 0.2 degrees of noise a quarter turn; the encoders' stop up
+          to a tick off, 1.75 degrees; taken step by step, the mouse's counts would end a turn
+          hunting for its last fraction of a count).
         Without a mouse only the square-ups correct the heading."""
-        x, y, heading = self.odometry.pose
-        if self.last_pose is not None:
-            last_x, last_y, last_heading = self.last_pose
-            self.heading_var += HEADING_DRIFT * (math.hypot(x - last_x, y - last_y) + abs(heading - last_heading))
-        if self.last_pose is not None and self.mouse_turn is not None:
-            last_x, last_y, last_heading = self.last_pose
-            turned = heading - last_heading
-            driven = (x - last_x) * math.cos(heading) + (y - last_y) * math.sin(heading)
-            scale = self.mouse_straight / self.encoders_straight if self.encoders_straight > MOUSE_LEARN_M else 1.0
-            forward, lateral = readings.mouse_counts.tolist()
-            mouse = lateral * self.mouse_turn / scale
-            if abs(turned - mouse) > self.tick_turn / 2:
-                self.odometry.turn_by(mouse - turned)
-            elif driven and max(abs(turned), abs(mouse)) < self.tick_turn / 4:  # straight: scale errors are nil
-                self.mouse_straight += forward * self.mouse_metre * math.copysign(1.0, driven)
-                self.encoders_straight += abs(driven)
-                self.disagreement += turned - mouse
-                if self.encoders_straight > DRIFT_LEARN_M:
-                    self.odometry.turn_by(-self.disagreement / self.encoders_straight * abs(driven))
-            else:  # turning on the spot, or standing still
-                self.turn_products += turned * mouse
-                self.turn_squares += turned * turned
-                self.turned_total += abs(turned)
-                track = self.turn_products / self.turn_squares if self.turned_total > TURN_LEARN_RAD else 1.0
-                if abs(track - 1.0) > TURN_TOLERANCE:
-                    self.odometry.turn_by((track - 1.0) * turned)
-        self.last_pose = self.odometry.pose
+        odometry, last = self.odometry, self.last_pose
+        pose = odometry.pose
+        forward, lateral = readings.mouse_counts.tolist()
+        if pose == last and not (forward or lateral):  # standing still
+            if self.spin_gap:  # after a turn
+                odometry.turn_by(self.spin_gap)
+                self.spin_gap = 0.0
+                self.last_pose = odometry.pose
+            return
+        self.last_pose = pose
+        if last is None:
+            return
+        x, y, heading = pose
+        last_x, last_y, last_heading = last
+        turned = heading - last_heading
+        self.heading_var += HEADING_DRIFT * (math.hypot(x - last_x, y - last_y) + abs(turned))
+        if self.mouse_turn is None:
+            return
+        driven = (x - last_x) * math.cos(heading) + (y - last_y) * math.sin(heading)
+        scale = self.mouse_straight / self.encoders_straight if self.encoders_straight > MOUSE_LEARN_M else 1.0
+        mouse = lateral * self.mouse_turn / scale
+        if self.drive is not None and self.drive.status is Status.RUNNING:
+            self._watch_stall(driven, forward * self.mouse_metre / scale)
+        tick_turn = self.tick_turn
+        if abs(turned - mouse) > tick_turn / 2:
+            odometry.turn_by(mouse - turned)
+        elif driven and max(abs(turned), abs(mouse)) < tick_turn / 4:  # straight: scale errors are nil
+            self.mouse_straight += forward * self.mouse_metre * math.copysign(1.0, driven)
+            self.encoders_straight += abs(driven)
+            self.disagreement += turned - mouse
+            if self.encoders_straight > DRIFT_LEARN_M:
+                odometry.turn_by(-self.disagreement / self.encoders_straight * abs(driven))
+        elif abs(driven) < self.half_track * max(abs(turned), abs(mouse)):  # turning on the spot
+            self.spin_gap += mouse - turned
+        elif not (turned or mouse or driven) and self.spin_gap:  # standing still after a turn
+            odometry.turn_by(self.spin_gap)
+            self.spin_gap = 0.0
+        self.last_pose = odometry.pose
+
+    def _watch_stall(self, wheels: float, mouse: float) -> None:
+        """Stop the drive under way where, over STALL_M of the wheels' rolling, the mouse saw the
+        robot move less than STALL_SHARE of it (wheels spinning against a wall ahead), and move
+        the believed position back to where the mouse says the robot is."""
+        self.wheels_driven += wheels
+        self.mouse_driven += mouse
+        if self.wheels_driven < STALL_M:
+            return
+        if self.mouse_driven < STALL_SHARE * self.wheels_driven:
+            self.odometry.move_by(self.mouse_driven - self.wheels_driven)
+            self.drive.stalled = True
+        self.wheels_driven = self.mouse_driven = 0.0
 
     @property
     def grid_pose(self) -> Pose:
@@ -237,30 +288,60 @@ class SolveMaze(Plan):
         self.known[(*room, q)] = self.known[(i, j, (q + 2) % 4)] = is_open
 
     def _is_open(self, room: tuple[int, int], quarter: int) -> Generator[Behaviour, Status, bool]:
-        """Whether the way `quarter` out of `room` is open: remembered, or seen by facing it."""
+        """Whether the way `quarter` out of `room` is open: remembered, or seen by facing it. A look
+        that cannot tell a way open at a slant from a wall touching the sensors (`_open`) is
+        checked again from RECHECK_M further back (`_receded`); an open way squares the robot up
+        on what lies beyond it."""
         key = (*room, quarter % 4)
         if key not in self.known:
             yield self._face(quarter)
-            look = Look(LOOK_STEPS, LOOK_MAX_STEPS, LOOK_ERROR)
-            yield look
-            self._square_up(look.ir_distance, look.ir_error, room, quarter)
+            look = yield from self._look()
+            is_open = self._open(look.ir_distance, room, quarter)
+            if is_open is None:
+                yield DriveDistance(-RECHECK_M, self.speed)
+                again = yield from self._look()
+                is_open = _receded(look.ir_distance, again.ir_distance)
+                look = again
+                if not is_open:
+                    yield DriveDistance(RECHECK_M, self.speed)
+            if is_open:
+                self._square_up(look.ir_distance, look.ir_error, room, quarter)
             self.looked = (room, quarter % 4)
-            self._learn(room, quarter, self._open(look.ir_distance))
+            self._learn(room, quarter, is_open)
         return self.known[key]
 
-    def _open(self, distance: np.ndarray) -> bool:
-        """Whether a look sees a way open: both sensors see nothing nearer than OPEN_FRACTION
-        cells, and where both see something within FOLD_REACH, the same face (their difference
-        within MAX_SKEW): a wall touching the sensors reads as far as 0.41 m on one and 0.33 m on
-        the other, a wall one room further on reads the same on both. One sensor seeing beyond
-        FOLD_REACH sees no wall touching them: the other's nearer reading is the side of the way
-        ahead, seen at a slant by a robot off its line (an open way)."""
-        if not clear_ahead(distance, OPEN_FRACTION * self.cell):
-            return False
+    def _look(self) -> Generator[Behaviour, Status, Look]:
+        """Stand and look ahead, for longer at distances a square-up would measure by."""
+        look = Look(LOOK_STEPS, LOOK_MAX_STEPS, LOOK_ERROR, SQUARE_BAND)
+        yield look
+        return look
+
+    def _along(self, room: tuple[int, int], quarter: int) -> float:
+        """Believed distance (m) of the robot from `room`'s centre along the way `quarter`."""
+        step = STEPS[quarter % 4]
+        x, y, _ = self.grid_pose
+        return (x - room[0] * self.cell) * step[0] + (y - room[1] * self.cell) * step[1]
+
+    def _open(self, distance: np.ndarray, room: tuple[int, int], quarter: int) -> bool | None:
+        """Whether a look along `quarter` from `room` sees the way open (True), closed (False) or
+        cannot tell (None). Closed: both sensors see something nearer than OPEN_FRACTION cells.
+        Open: neither does, and a sensor sees nothing within FOLD_REACH (no wall touches the
+        sensors: the other's nearer reading is the side of the way, seen at a slant by a robot
+        off its line), or both
+        see one face (their difference within MAX_SKEW) where a tile edge beyond the way lies
+        (within FACE_TOLERANCE of the believed pose). Else a wall touching the sensors and a way
+        seen at a slant look alike: a wall touching them reads up to 0.41 m on one sensor and
+        0.33 m on the other, and one a few centimetres off reads anything from there to 0.1 m."""
         left, right = np.nan_to_num(distance[:2], nan=math.inf)
-        if max(left, right) >= FOLD_REACH:
+        near = OPEN_FRACTION * self.cell
+        if max(left, right) < near:
+            return False
+        if min(left, right) >= near and max(left, right) >= FOLD_REACH:
             return True
-        return abs(left - right) <= self.ir_baseline * math.tan(MAX_SKEW)
+        if abs(left - right) > self.ir_baseline * math.tan(MAX_SKEW):
+            return None
+        beyond = (0.5 * (left + right) + self.ir_ahead + self._along(room, quarter)) / self.cell - 0.5  # rooms to the face
+        return True if round(beyond) >= 1 and abs(beyond - round(beyond)) * self.cell <= FACE_TOLERANCE else None
 
     def _square_up(self, distance: np.ndarray, error: np.ndarray, room: tuple[int, int], quarter: int) -> None:
         """Correct the grid pose from one wall face seen by both IR sensors facing `quarter`, their
@@ -277,7 +358,7 @@ class SolveMaze(Plan):
             return
         pose = self.grid_pose
         axis = np.array(STEPS[quarter % 4], dtype=float)
-        along = float(np.dot(pose[:2] - np.asarray(room) * self.cell, axis))  # from the room centre
+        along = self._along(room, quarter)
         wall = (0.5 * (left + right) + self.ir_ahead) * math.cos(skew)  # robot centre to the face
         face = (round((along + wall) / self.cell - 0.5) + 0.5) * self.cell  # the nearest tile edge
         corrected = np.array(pose)
@@ -305,19 +386,19 @@ class SolveMaze(Plan):
         centre and remember that way as closed. Whether the robot got there."""
         yield self._face(quarter)
         if self.looked != (room, quarter % 4):  # a way known from before: square up on what lies ahead
-            look = Look(LOOK_STEPS, LOOK_MAX_STEPS, LOOK_ERROR)
-            yield look
+            look = yield from self._look()
             self._square_up(look.ir_distance, look.ir_error, room, quarter)
         step = STEPS[quarter % 4]
         target = np.array([(room[0] + step[0]) * self.cell, (room[1] + step[1]) * self.cell, 0.0])
         local = relative_increment(self.pose, apply_increment(self.frame, target))
-        drive = DriveToRoom(local[0], local[1], self.speed)
+        drive = self.drive = DriveToRoom(local[0], local[1], self.speed)
+        self.wheels_driven = self.mouse_driven = 0.0
         status = yield drive
         out = float(np.dot(self.grid_pose[:2] - np.asarray(room) * self.cell, step))
         if status is Status.SUCCESS or (not drive.abyss and out > self.cell / 2):
             self._learn(room, quarter, True)  # there, or passed the centre (slip on the last millimetres)
             return True
-        if not drive.abyss:
+        if not (drive.abyss or drive.stalled):
             return False  # passed a target less than half a room out by its own odometry: try the next way from here
         self._learn(room, quarter, False)
         yield DriveDistance(-out, self.speed)

@@ -4,9 +4,13 @@ checked every step as a controller's command is.
 An estimator follows `bots.odometry.base.Estimator`: `reset(robot, pose)`, `update(readings)`, a `pose`
 (3,) and optionally a `covariance` (3, 3). `ctsim run --estimator FILE.py:Class` and
 `simulate(..., estimators=[...])` give every robot a fresh one beside its defaults, which stay in
-their compiled pass (`beside_defaults`); its name is its `name` attribute (else the class's), which
-must be a plain word (it names files) and differ from the others'. A step whose update raises, or leaves a pose or covariance of the wrong shape
-or not finite, ends the run as a controller's error does (`check`).
+their compiled pass (`beside_defaults`; `--estimator localiser`: the shipped Monte Carlo localiser,
+`bots.odometry.localiser`); its name is its `name` attribute (else the class's), which must be a
+plain word (it names files) and differ from the others'. A step whose update raises, or leaves a
+pose or covariance of the wrong shape or not finite, ends the run as a controller's error does
+(`check`). An estimator with a `use_map(scan, rng)` method is handed, before `reset`, the robot's
+map of the world (a `bots.odometry.localiser.MapModel`: the likelihood of an IR scan at any pose,
+never the true pose) and a generator spawned from the run's seed.
 """
 
 from __future__ import annotations
@@ -24,6 +28,7 @@ import numpy as np
 from bots.controller import user_module
 from bots.odometry.base import Estimator
 from bots.odometry.defaults import default_estimators
+from bots.odometry.localiser import MonteCarloLocaliser
 from bots.spec import RobotSpec
 from sim.errors import UserError
 
@@ -35,9 +40,16 @@ class EstimatorError(UserError):
     """A user estimator that cannot be loaded or named (message for the CLI)."""
 
 
+SHIPPED: dict[str, Callable[[], Estimator]] = {"localiser": MonteCarloLocaliser}
+"""Estimators ctsim ships beside the defaults, by the name `--estimator` takes (a file of that
+name, if there is one, comes first)."""
+
+
 def load(source: str) -> Callable[[], Estimator]:
     """The estimator class (or factory) of `FILE.py[:NAME]`: the one named, else the file's only
-    class with `reset` and `update` methods."""
+    class with `reset` and `update` methods; or a shipped one by name (`SHIPPED`)."""
+    if source in SHIPPED and not Path(source).is_file():
+        return SHIPPED[source]
     file, _, name = source.partition(":") if not Path(source).is_file() else (source, "", "")
     path = Path(file)
     module = user_module(path, "estimator", EstimatorError)

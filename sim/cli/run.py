@@ -35,8 +35,9 @@ def add_parser(commands) -> None:  # noqa: ANN001 (argparse's subparsers action)
     add_robot_options(run)
     run.add_argument("--controller", action="append", metavar="NAME|FILE.py[:NAME]",
                      help="controller: a registered name (see `ctsim controllers`) or a Python file; repeat for several robots (default: solve_maze)")
-    run.add_argument("--estimator", action="append", default=[], metavar="FILE.py[:CLASS]",
-                     help="your own odometry estimator (reset(robot, pose), update(readings), pose, optional covariance) beside the shipped ones, in every output (repeatable)")
+    run.add_argument("--estimator", action="append", default=[], metavar="FILE.py[:CLASS]|localiser",
+                     help="your own odometry estimator (reset(robot, pose), update(readings), pose, optional covariance) beside the shipped ones, in every output (repeatable); "
+                          "'localiser': the shipped Monte Carlo localiser, odometry held to the map by the IR sensors")
     run.add_argument("--param", action="append", type=param, default=[], metavar="KEY=VALUE", help="controller parameter, repeatable; applies to every robot's controller")
     run.add_argument("--robots", type=whole, metavar="N", help="number of robots (default: one per --controller); a single controller is used by all")
     run.add_argument("--duration", type=positive(float, MAX_DURATION, "s"), default=DEFAULT_DURATION, metavar="SECONDS", help=f"simulated time to run at most (default: {DEFAULT_DURATION:g})")

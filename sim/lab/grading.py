@@ -132,9 +132,9 @@ def grade(ex: Exercise, folder: str | Path, out: str | Path, lang: str = "en", s
     jobs = jobs or max(1, min(len(files), os.cpu_count() or 1))
     ids = student_ids(files, folder)
     twins = _twins(files, ids)
+    subfolder(out / "gradescope")  # (a link planted there is refused before the grading, not after it)
     with ThreadPoolExecutor(jobs) as pool:
         reports = list(pool.map(lambda f: _check(ex, f, folder, lang, seed, own_folders, degraded, twins), files))
-    out.mkdir(parents=True, exist_ok=True)
     return reports, [write_csv(out / "grades.csv", ids, reports), write_gradescope(out / "gradescope", ids, reports),
                      write_junit(out / "junit.xml", ids, reports, ex.title["en"])]  # fmt: skip
 

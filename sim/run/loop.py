@@ -32,6 +32,8 @@ from sim.run.ending import Ending, Quit, RunError, Terminated
 from sim.run.samples import RobotLog, RunResult, Samples
 from sim.world import World, compiling
 from sim.world.chassis_drive import FaultError
+from sim.world.localising import MapScan
+from sim.world.physics import sensor_rng
 from sim.world.spec import Start, WheelFault, WorldSpec
 from sim.world.step import DEFAULT_DT, StepError, check_dt
 
@@ -105,6 +107,8 @@ def run(
         chosen = list(setup.extra_estimators) if i in slot else [*(setup.estimators if setup.estimators is not None else default_estimators(setup.spec)), *setup.extra_estimators]
         for estimator in chosen:
             try:
+                if hasattr(estimator, "use_map"):  # a localiser: the robot's map of the world (never its pose) and a generator of its own
+                    estimator.use_map(MapScan(world_spec, setup.spec), sensor_rng(seed, i, f"estimator {name_of(estimator)}"))
                 estimator.reset(setup.spec, robot.pose)
             except (Exception, SystemExit) as err:  # a user's estimator that cannot take this robot (or leaves): the user's
                 raise RunError(f"{robot.name}: estimator {name_of(estimator)!r} could not be reset: {type(err).__name__}: {err}{_last_frame(err)}") from None
@@ -122,6 +126,7 @@ def run(
             log = RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params), names, samples, i, world, None, uncertain)
         logs.append(log)
         controllers.append(setup.controller)
+        log.estimators = list(chosen)
         if i not in slot:  # (it logs its truth with its estimates, even with none)
             estimators.append((i, log, chosen, None))
         elif chosen:

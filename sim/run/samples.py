@@ -159,6 +159,9 @@ class RobotLog:
         self.goal_time: float | None = None
         self.notes: dict[str, list] = {}
         """What the run did other than asked (projected infeasible twists): kind -> [first message, count]."""
+        self.estimators: list = []
+        """The robot's estimators stepped in Python (none where the batch steps its defaults), for
+        observers that draw what one holds beyond its pose (a localiser's particles)."""
         self._samples, self._world = samples, world
         uncertain = list(estimators if uncertain is None else uncertain)
         if slot is None:

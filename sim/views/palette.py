@@ -17,6 +17,7 @@ ESTIMATES: dict[str, RGB] = {
     "fused": (20, 160, 160),
     "fused_blend": (200, 40, 60),
     "arc": (140, 100, 40),
+    "localiser": (200, 20, 110),
 }
 SPARE: tuple[RGB, ...] = ((120, 120, 120), (230, 170, 0), (90, 60, 160))
 """Colours of estimates without one of their own, in order of appearance."""

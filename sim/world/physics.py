@@ -173,7 +173,7 @@ class World:
             shape = pymunk.Poly(self.space.static_body, wall.vertices)
             shape.friction = 0.0
             self.space.add(shape)
-        self._walls = _WallArrays.build(spec)
+        self._walls = WallArrays.build(spec)
         """The walls for the kernels; the grid's origin and cell are among `_scalars`."""
         self.movables: list[pymunk.Body] = []
         self._movable_shapes: list[pymunk.Circle] = []
@@ -561,7 +561,7 @@ def wall_cell(boxes: np.ndarray) -> float:
 
 
 @dataclass(frozen=True)
-class _WallArrays:
+class WallArrays:
     """The walls as flat arrays for the kernels: all vertices, each wall's slice of them, its
     bounding box (xmin, ymin, xmax, ymax) and a uniform grid over the boxes (`kernels.grids.build_wall_grid`;
     walls are static, so it is built once): its origin and cell size (`frame`) and its cells."""
@@ -573,7 +573,7 @@ class _WallArrays:
     cells: np.ndarray
 
     @classmethod
-    def build(cls, spec: WorldSpec) -> _WallArrays:
+    def build(cls, spec: WorldSpec) -> WallArrays:
         polygons = [np.asarray(w.vertices, dtype=np.float64) for w in spec.walls]
         ends = np.cumsum([len(p) for p in polygons], dtype=np.int64)
         starts = ends - np.array([len(p) for p in polygons], dtype=np.int64)

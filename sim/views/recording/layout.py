@@ -4,6 +4,7 @@ trails and ellipses are drawn, the map, and the viewer's blueprint."""
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -96,10 +97,11 @@ def log_world(log: Any, spec: WorldSpec) -> None:
         log("world/map/starts", rr.Arrows2D(origins=origins, vectors=vectors, colors=rgb(palette.START), radii=-1.5, draw_order=10.0), static=True)
 
 
-def blueprint(world: WorldSpec, robots: dict[str, list[str]], groups: list[str]) -> Any:
+def blueprint(world: WorldSpec, robots: dict[str, list[str]], groups: list[str], localising: Sequence[str] = ()) -> Any:
     """The map framed on the world with every trail, events and facts below it; per robot
-    its error plots, and one plot per sensor group in `groups`, beside it. `robots` maps each
-    robot's name to its estimates' names."""
+    its error plots (and, for the robots in `localising`, their localisers' scan score and lost
+    flag), and one plot per sensor group in `groups`, beside it. `robots` maps each robot's name
+    to its estimates' names."""
     import rerun.blueprint as rrb
 
     history = rrb.VisibleTimeRanges([rrb.VisibleTimeRange(TIMELINE, start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.cursor_relative())])
@@ -116,6 +118,7 @@ def blueprint(world: WorldSpec, robots: dict[str, list[str]], groups: list[str])
         rrb.Vertical(
             rrb.TimeSeriesView(origin=f"/errors/{name}/position", name=f"{name}: position error (mm)", plot_legend=legend),
             rrb.TimeSeriesView(origin=f"/errors/{name}/heading", name=f"{name}: heading error (deg)", plot_legend=legend),
+            *([rrb.TimeSeriesView(origin=f"/localisation/{name}", name=f"{name}: scan score (0-1), lost (1)", plot_legend=legend)] if name in localising else []),
             name=f"errors: {name}",
         )
         for name, estimates in robots.items()

@@ -46,6 +46,7 @@ import numpy as np
 from sim.kinematics import wrap_angle
 from sim.views import palette
 from sim.views.chassis_view import ChassisLayer, body_outline, fault_text
+from sim.views.particles import ParticleLayer, localisers
 from sim.views.recording.arrow import ArrowOwned, lazy_rerun, strips, turn, xyz
 from sim.views.recording.layout import ELLIPSE_EVERY, ELLIPSE_POINTS, FIELDS, SCALE, SENSOR_GROUPS, TIMELINE, TRAIL_EVERY, blueprint, ellipses, field_channels, log_world, rgb
 from sim.views.recording.live import LiveStream
@@ -132,6 +133,7 @@ class Recorder(LiveStream):
         self._tracks: list[_Track] = []
         self._sent = 0  # samples sent so far (of every robot)
         self._chassis: ChassisLayer | None = None
+        self._particles: ParticleLayer | None = None
         self._messages: _Messages | None = None
         self._now = 0.0
 
@@ -149,7 +151,7 @@ class Recorder(LiveStream):
     def _open(self, world: World, logs: list[RobotLog]) -> None:
         rr = lazy_rerun()
         groups = [g for g, (_, fields) in SENSOR_GROUPS.items() if any(field_channels(log.spec, f)[0] for log in logs for f in fields)]
-        views = blueprint(world.spec, {log.name: list(log.estimate_arrays()) for log in logs}, groups)
+        views = blueprint(world.spec, {log.name: list(log.estimate_arrays()) for log in logs}, groups, [log.name for log in logs if localisers(log.estimators)])
         self.streams = []
         if self.path is not None:
             rec = rr.RecordingStream(self.application_id, send_properties=False)
@@ -163,6 +165,7 @@ class Recorder(LiveStream):
         self._tracks = [self._track(log) for log in logs]
         self.colours = self.colours or palette.robot_colours([log.name for log in logs])
         self._chassis = ChassisLayer.for_world(self._log, self._columns, world, TIMELINE)
+        self._particles = ParticleLayer.for_run(self._columns, self._event, logs, TIMELINE)
         self._style()
         if self._chassis is not None:
             self._chassis.style({i: log.name for i, log in enumerate(logs)})
@@ -186,6 +189,8 @@ class Recorder(LiveStream):
                 self._note_events(robot, log, track)
         if self._chassis is not None:
             self._chassis.on_sample(world, logs)
+        if self._particles is not None:
+            self._particles.on_sample(world, logs)
         count = len(logs[0]) if logs else 0
         if count - self._sent >= CHUNK or (self._live is not None and (self._sent == 0 or time.monotonic() >= self._live_due)):
             self._send_all(count)
@@ -364,6 +369,8 @@ class Recorder(LiveStream):
             self._send_uncertainty(track, times, {label: estimates[label] for label in covariances}, covariances)
         if self._chassis is not None:
             self._chassis.flush(name)
+        if self._particles is not None:
+            self._particles.flush(name)
         if len(track.ir):
             self._send_rays(track, times, truth, readings["ir_distance"])
         for group, (_, fields) in SENSOR_GROUPS.items():

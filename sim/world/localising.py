@@ -1,0 +1,212 @@
+"""What a map-aided localiser may ask of the world's map (a prior the robot carries, never the
+true state): how likely one scan of the robot's IR sensors is at each of many poses, and poses
+drawn at random where the robot could stand.
+
+The expected distances are cast against the map's walls by the world's own compiled kernel
+(`kernels.sensing.sense_ir`, with each sensor's cone and view), so a particle at the true pose expects
+exactly what the world measured before its noise. The likelihood of a raw value r given an
+expected distance d is that of the world's noise model: the reading is d + N(0, sigma²) looked up
+on the sensor's curve and rounded, so P(r | d) is the Gaussian's mass over the distances that
+round to r (`raw_intervals`, found once per curve on a fine grid: the curve folds back below
+9 cm and wiggles near its end, so a raw value may come from several intervals). Nothing within
+the ray's length reads the curve's `beyond` value for sure. Other robots and cans are not on the
+map: a floor `OUTLIER` keeps a reading of one from wiping out every particle.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from bots.spec import RobotSpec
+from sim.world.kernels.contacts import clear_of_walls
+from sim.world.kernels.sensing import sense_ir
+from sim.world.physics import IR_RAY_LENGTH, WallArrays, ir_curve_for
+from sim.world.sensors import IRCurve
+from sim.world.spec import WorldSpec
+
+GRID_STEP = 0.00002
+"""Distance step (m) of the grid on which each raw value's intervals are found: where the curve is
+steepest (8 raw units a millimetre, on its fold-back below 9 cm) a step moves it by a sixth of a unit."""
+GRID_END = 1.0
+"""Where the grid ends (m): beyond every shipped curve's last row, so its last run is `beyond`."""
+MODEL_STD = 0.004
+"""Standard deviation (m) added to a sensor's own noise: the spread of the particles within one
+update (a particle a few millimetres off sees a wall a few millimetres off) and the noise-free
+sensors of `--noise none`, whose exact likelihood is a step no particle would sit on."""
+OUTLIER = 0.01
+"""Probability mass of a reading the map does not explain (another robot, a can), spread evenly
+over the sensor's raw values."""
+INTERVALS = 4
+"""Most distance intervals one raw value comes from on any shipped curve (2 on the GP2D12's)."""
+CLEARANCE = 0.01
+"""How far (m) a particle's body may reach into a wall before the map rules it out: the contact
+solver lets a body sink a millimetre, and the belief is a few millimetres off."""
+FREE_TRIES = 250
+"""Batches of candidates (four per pose still missing) `MapScan.free` draws before it gives up:
+the free floor of a world is rarely below a tenth of its bounds."""
+
+
+def raw_intervals(curve: IRCurve) -> tuple[int, np.ndarray]:
+    """(lowest raw value, (values, INTERVALS, 2) array): for each raw value the intervals (m) of
+    true distance plus noise that read it, nan-padded; a run at the grid's start reaches -inf (the
+    noisy distance is clipped at 0) and one at its end +inf."""
+    x = np.arange(0.0, GRID_END, GRID_STEP)
+    raw = curve.lookup(x)
+    low, high = curve.raw_range()
+    table = np.full((high - low + 1, INTERVALS, 2), np.nan)
+    count = np.zeros(high - low + 1, dtype=np.int64)
+    edges = np.flatnonzero(np.diff(raw)) + 1
+    for start, stop in zip(np.r_[0, edges], np.r_[edges, len(x)]):
+        r = int(raw[start]) - low
+        if count[r] == INTERVALS:
+            raise ValueError(f"curve {curve.name}: raw value {raw[start]} comes from more than {INTERVALS} distance intervals")
+        a = -math.inf if start == 0 else 0.5 * (x[start - 1] + x[start])
+        b = math.inf if stop == len(x) else 0.5 * (x[stop - 1] + x[stop])
+        table[r, count[r]] = a, b
+        count[r] += 1
+    return low, table
+
+
+@numba.njit(cache=True)
+def _normal_cdf(z: float) -> float:
+    return 0.5 * math.erfc(-z * 0.7071067811865476)
+
+
+@numba.njit(cache=True)
+def scan_likelihood(
+    particles: np.ndarray,
+    mounts: np.ndarray,
+    direction: np.ndarray,
+    cone: np.ndarray,
+    pick: np.ndarray,
+    length: float,
+    vertices: np.ndarray,
+    ranges: np.ndarray,
+    boxes: np.ndarray,
+    frame: np.ndarray,
+    cells: np.ndarray,
+    intervals: np.ndarray,
+    sigma: np.ndarray,
+    outlier: np.ndarray,
+    radius: float,
+    out: np.ndarray,
+) -> None:
+    """out[i] = the likelihood of one scan at particles[i] (x, y, heading): the product over the
+    sensors (mounts (m, 2), body-frame direction, cone, 1 for c't-Sim's pick view) of P(raw | expected distance),
+    the raw value's distance `intervals` (m, INTERVALS, 2) under N(0, sigma[k]²), mixed with the
+    `outlier` mass per raw value; 0 for a particle whose body (`radius`) lies in a wall."""
+    n, m = particles.shape[0], mounts.shape[0]
+    origins, look = np.empty((n * m, 2)), np.empty(n * m)
+    cones, views, owner = np.empty(n * m), np.empty(n * m), np.full(n * m, -1, dtype=np.int64)
+    for i in range(n):
+        c, s = math.cos(particles[i, 2]), math.sin(particles[i, 2])
+        for k in range(m):
+            j = i * m + k
+            origins[j, 0] = particles[i, 0] + c * mounts[k, 0] - s * mounts[k, 1]
+            origins[j, 1] = particles[i, 1] + s * mounts[k, 0] + c * mounts[k, 1]
+            look[j], cones[j], views[j] = particles[i, 2] + direction[k], cone[k], pick[k]
+    distance = np.empty(n * m)
+    grid = (frame, cells)
+    sense_ir(origins, look, cones, owner, length, vertices, ranges, boxes, np.empty((0, 4)), distance, 32, grid, views)
+    for i in range(n):
+        if not clear_of_walls(particles[i, 0], particles[i, 1], radius, vertices, ranges, boxes, grid):
+            out[i] = 0.0
+            continue
+        likelihood = 1.0
+        for k in range(m):
+            d = distance[i * m + k]
+            p = 0.0
+            for q in range(intervals.shape[1]):
+                a, b = intervals[k, q, 0], intervals[k, q, 1]
+                if math.isnan(a):
+                    break
+                if d == math.inf:
+                    p += 1.0 if b == math.inf else 0.0
+                else:
+                    p += _normal_cdf((b - d) / sigma[k]) - _normal_cdf((a - d) / sigma[k])
+            likelihood *= p + outlier[k]
+        out[i] = likelihood
+
+
+@numba.njit(cache=True)
+def free_poses(bounds: np.ndarray, radius: float, vertices: np.ndarray, ranges: np.ndarray, boxes: np.ndarray, frame: np.ndarray,
+               cells: np.ndarray, uniform: np.ndarray, out: np.ndarray) -> int:  # fmt: skip
+    """Poses (x, y, heading in [0, 2 pi)) uniform over the places within `bounds` (xmin, ymin,
+    xmax, ymax) where a body of `radius` is clear of every wall, by rejection: each row of
+    `uniform` (k, 3) in [0, 1) is a candidate; the accepted ones fill `out` in order. Returns how
+    many were written."""
+    count = 0
+    grid = (frame, cells)
+    for j in range(uniform.shape[0]):
+        if count == out.shape[0]:
+            break
+        x = bounds[0] + uniform[j, 0] * (bounds[2] - bounds[0])
+        y = bounds[1] + uniform[j, 1] * (bounds[3] - bounds[1])
+        if clear_of_walls(x, y, radius, vertices, ranges, boxes, grid):
+            out[count, 0], out[count, 1], out[count, 2] = x, y, uniform[j, 2] * 2.0 * math.pi
+            count += 1
+    return count
+
+
+class MapScan:
+    """One robot's IR sensors against one world's map: the likelihood of a scan at many poses
+    (`likelihood`) and random poses where the robot fits (`free`). What a localiser gets from the
+    run loop (`bots.odometry.localiser.MapModel`); it holds the map, never the robot's true pose."""
+
+    def __init__(self, world: WorldSpec, robot: RobotSpec):
+        self.walls = WallArrays.build(world)
+        ir = robot.ir
+        self.mounts = np.array([s.position for s in ir], dtype=np.float64).reshape(-1, 2)
+        self.direction = np.array([s.direction for s in ir], dtype=np.float64)
+        self.cone = np.array([s.cone for s in ir], dtype=np.float64)
+        self.pick = np.array([float(s.view == "pick") for s in ir])
+        self.sigma = np.array([math.hypot(s.noise_std, MODEL_STD) for s in ir])
+        tables = [raw_intervals(ir_curve_for(s.curve, s.side)) for s in ir]
+        self._lowest = [low for low, _ in tables]
+        self._tables = [table for _, table in tables]
+        self.outlier = np.array([OUTLIER / len(table) for table in self._tables])
+        self.radius = robot.body_radius - CLEARANCE
+        self.bounds = np.array(world.bounds, dtype=np.float64)
+
+    def _intervals(self, raw: np.ndarray) -> np.ndarray:
+        """(sensors, INTERVALS, 2) the distance intervals of each sensor's raw value (nan: none)."""
+        intervals = np.full((len(raw), INTERVALS, 2), np.nan)
+        for k, value in enumerate(np.asarray(raw).tolist()):
+            row = value - self._lowest[k]
+            if 0 <= row < len(self._tables[k]):
+                intervals[k] = self._tables[k][row]
+        return intervals
+
+    def likelihood(self, particles: np.ndarray, raw: np.ndarray, out: np.ndarray) -> None:
+        """out (n,) = the likelihood of the raw IR values `raw` (one per sensor) at each of the
+        (n, 3) `particles`."""
+        intervals = self._intervals(raw)
+        w = self.walls
+        scan_likelihood(particles, self.mounts, self.direction, self.cone, self.pick, IR_RAY_LENGTH, w.vertices, w.ranges, w.boxes, w.frame,
+                        w.cells, intervals, self.sigma, self.outlier, self.radius, out)  # fmt: skip
+
+    def best(self, raw: np.ndarray) -> float:
+        """The most likelihood any pose could give the raw values `raw` (`likelihood`'s scale): per
+        sensor, the Gaussian's mass over the widest of the raw value's intervals centred on it."""
+        product = 1.0
+        for k, rows in enumerate(self._intervals(raw)):
+            widths = (rows[:, 1] - rows[:, 0])[~np.isnan(rows[:, 0])]
+            mass = max((math.erf(width / (2.0 * math.sqrt(2.0) * self.sigma[k])) for width in widths), default=0.0)
+            product *= mass + self.outlier[k]
+        return product
+
+    def free(self, rng: np.random.Generator, count: int) -> np.ndarray:
+        """(count, 3) poses drawn uniformly where the robot's body is clear of every wall (fewer
+        where FREE_TRIES candidates per pose find no room)."""
+        out = np.empty((count, 3))
+        w = self.walls
+        done = 0
+        for _ in range(FREE_TRIES):
+            if done == count:
+                break
+            done += free_poses(self.bounds, self.radius + CLEARANCE, w.vertices, w.ranges, w.boxes, w.frame, w.cells,
+                               rng.random((4 * (count - done), 3)), out[done:])  # fmt: skip
+        return out[:done]
