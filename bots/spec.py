@@ -29,6 +29,8 @@ Point = tuple[float, float]
 CONTACT_RULES = ("slide", "stop")
 IR_VIEWS = ("cone", "pick")
 """`RobotSpec.contact`: pymunk's contacts, or c't-Sim's rule (the bridge's firmware bots)."""
+START_PHASES = ("zero", "random")
+"""Where a counter stands within a count at the start (`EncoderSpec.start_phase`)."""
 
 
 @dataclass(frozen=True)
@@ -60,6 +62,10 @@ class EncoderSpec:
         of std slip_std * sqrt(d), independent of the step (variance grows with the distance).
     tick_noise: probability that a tick counted is one too many or one too few (an edge of the
         light barrier that bounces or is missed): per tick, so per wheel turn, at any step.
+    start_phase: where each disc stands within a tick at the start: 'zero' (on an edge, as
+        c't-Sim: the count lags the wheel by half a tick on average, a bias) or 'random'
+        (uniform, from the run's seed, as a real wheel stops anywhere: the count's error has
+        zero mean, variance tick²/6, as the estimators believe).
     """
 
     ticks_per_rev: int = declared("integer", default=60, unit="ticks", low=1, high=2**53)  # (2**40 in tests: "no quantisation")
@@ -67,6 +73,7 @@ class EncoderSpec:
     track_error: float = declared(default=0.0, unit="relative", **_RELATIVE)
     slip_std: float = declared(default=0.0, unit="sqrt m", low=0.0, high=1.0)
     tick_noise: float = declared(default=0.0, unit="probability per tick", low=0.0, high=1.0)
+    start_phase: str = declared("text", default="zero", choices=START_PHASES)
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -81,6 +88,7 @@ class MouseSpec:
     after the floor passed d metres under the sensor each axis is off by std noise_std * sqrt(d)
     metres, independent of the step; a sensor at rest reads no noise.
     max_speed: fastest ground speed it tracks (m/s); faster motion reads zero.
+    start_phase: where the floor stands within a count at the start, as `EncoderSpec.start_phase`.
     """
 
     mount: Point = declared(default=(-0.015, 0.0), **_MOUNT)
@@ -88,6 +96,7 @@ class MouseSpec:
     scale_error: float = declared(default=0.0, unit="relative", **_RELATIVE)
     noise_std: float = declared(default=0.0, unit="sqrt m", low=0.0, high=1.0)
     max_speed: float = declared(default=math.inf, unit="m/s", low=0.0, above=True, infinite=True)
+    start_phase: str = declared("text", default="zero", choices=START_PHASES)
 
     def __post_init__(self) -> None:
         check_fields(self)

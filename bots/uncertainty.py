@@ -14,9 +14,13 @@ width grow with the rotation and that of a wheel mismatch with distance squared)
 The kernels of this model (`wheel_terms`, `mouse_terms`, `propagate`, `pose_covariance`) live in
 `bots.odometry.steps`, beside the steps that call them (numba caches a kernel by its own file).
 
-Quantisation is not a random walk here: counts are carried, so each channel lags the truth by
-less than one count at any time (uniform, variance count²/12) and that lag never adds up. It is
-added to the reported pose covariance (`pose_covariance`), never to the propagated one.
+Quantisation is not a random walk here: counts are carried, so each channel's count is off the
+truth by less than one count at any time and that never adds up. Where the counter started within
+a count is unknown (a real wheel stops anywhere: `EncoderSpec.start_phase`), so the count is
+floor(true + phase) with the phase uniform: its error has zero mean and, over where the truth ends
+within a count, variance count²/6 (COUNT_VARIANCE; a counter started on an edge would lag by half
+a count on average instead, a bias). It is added to the reported pose covariance
+(`pose_covariance`), never to the propagated one.
 
 The believed noise (`Belief.of`) is the robot's own belief (`bots.spec.BeliefSpec`): its stated
 tolerances, or what a user or a calibration gave; never the errors the simulation draws, which a
@@ -32,6 +36,9 @@ import numpy as np
 
 from bots.spec import RobotSpec
 
+COUNT_VARIANCE = 1.0 / 6.0
+"""Variance (counts²) of a carried count's error against the truth, its start phase unknown: for a
+truth ending a fraction f into a count the error is -f or 1 - f (variance f (1 - f)), 1/6 over f."""
 ERRORS = 7
 """Entries of an estimator's error state."""
 X, Y, HEADING, LEFT_SCALE, RIGHT_SCALE, TRACK_SCALE, MOUSE_SCALE = range(ERRORS)

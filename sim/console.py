@@ -4,10 +4,8 @@ import's traceback; from then on `sim.cli.entry.main` handles them."""
 
 from __future__ import annotations
 
-import os
 import signal
 import sys
-import threading
 
 STATUS = {signal.SIGINT: 130, signal.SIGTERM: 143}
 """Exit status by signal while loading: the same as `sim.cli.options.EXIT_INTERRUPTED` and `EXIT_TERMINATED`."""
@@ -21,14 +19,9 @@ def _leave(signum: int, frame: object) -> None:
 def main() -> int:
     """Load the command line with signals ending the process cleanly, then run it."""
     previous = {number: signal.signal(number, _leave) for number in STATUS}
+    from sim.cli.entry import leave
     from sim.cli.entry import main as command_line
 
     for number, handler in previous.items():
         signal.signal(number, handler)
-    status = command_line()
-    if any(t.is_alive() and not t.daemon for t in threading.enumerate() if t is not threading.main_thread()):
-        # a controller left a thread running: Python would wait for it; the run is written, so leave
-        sys.stdout.flush()
-        sys.stderr.flush()
-        os._exit(status)
-    return status
+    return leave(command_line())

@@ -54,12 +54,11 @@ def test_the_localiser_follows_the_robot_far_closer_than_dead_reckoning() -> Non
     assert not localiser.lost and np.all(np.linalg.eigvalsh(localiser.covariance) > 0.0)
 
 
-def test_a_robot_moved_by_hand_is_found_again_within_four_seconds() -> None:
+def test_a_robot_moved_by_hand_is_found_again_within_eight_seconds() -> None:
     """Picked up and put down 10 cm further along its corridor and turned by 29 degrees: within
-    1.5 s the localiser says it is lost (the scans stop fitting), and within 8 s of the kidnapping
-    it has found the robot again and stays within 2 cm of it to the end (15 s later). (How soon
-    depends on the noise drawn: 2.5, 4.4 and 7.6 s on seeds 2, 1 and 0 with the noise drawn in
-    the compiled kernels.)"""
+    1.5 s the localiser says it is lost (the scans stop fitting; measured 0.6 s), and within 8 s
+    of the kidnapping (measured 6.9 s: the robot hits a wall on the way) it has found the robot
+    again and stays within 2 cm of it to the end (15 s later; measured 5 mm)."""
     kidnapper = Kidnapper(by=(0.1, 0.0, 0.5))
     simulate("maze", noise="realistic", duration=KIDNAP_AT + 15.0, seed=0, estimators=["localiser"], observers=[kidnapper])
     rows = np.array(kidnapper.rows)

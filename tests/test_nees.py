@@ -30,3 +30,19 @@ def test_the_interval_is_chi_square_over_runs():
     91.573/40 and 152.211/40 (the 2.29-3.81 of the maze table)."""
     assert interval(1) == pytest.approx((0.21580, 9.34840), abs=1e-4)
     assert interval(40) == pytest.approx((91.573 / 40, 152.211 / 40), abs=1e-4)
+
+
+def test_the_run_table_keeps_its_columns_apart_and_says_what_its_nees_is():
+    """Numbers of any size stay apart (once '0.501288956.3'); a degenerate NEES is '-' and the note
+    says what one run's NEES can tell."""
+    from sim.cli.output import table
+
+    estimates = {"huge": {"final_position_error": 0.5012889, "ate_rmse": 123456.789, "final_heading_error": 1.0, "nees_final": 80e6},
+                 "none": {"final_position_error": 0.1, "ate_rmse": 0.1, "final_heading_error": 0.0, "nees_final": math.nan}}  # fmt: skip
+    summary = {"world": {"name": "w"}, "seed": 0, "noise": "none", "time": 1.0, "reason": "duration",
+               "robots": [{"name": "bot", "distance": 1.0, "collisions": 0, "fell": False, "goal_time": None, "estimates": estimates}]}  # fmt: skip
+    lines = table(summary).splitlines()
+    header, huge, none = lines[1], lines[3], lines[4]
+    assert huge.split() == ["huge", "0.5013", "123456.7890", "57.30", "8e+07"]
+    assert none.split()[-1] == "-" and "0.22-9.35" in lines[-1]
+    assert all(len(line) <= len(header) for line in (huge, none))  # right-aligned under their headers

@@ -84,20 +84,29 @@ def reference(spec_file, tmp_path_factory) -> pd.DataFrame:
     return sweep(spec_file, tmp_path_factory.mktemp("processes"), Processes(2), progress=False)
 
 
-def test_200_runs_on_processes(reference):
+@pytest.fixture(scope="module")
+def serial(spec_file, tmp_path_factory) -> pd.DataFrame:
+    """The same 200 runs one after another in this process."""
+    return sweep(spec_file, tmp_path_factory.mktemp("serial"), Serial(), progress=False)
+
+
+def test_200_runs_on_processes(reference, serial):
     assert len(reference) == RUNS and reference["run_id"].is_unique
     assert (reference["reason"] == "duration").all(), reference.loc[reference.reason != "duration", "error"].tolist()
     assert list(reference["run"]) == list(range(RUNS))
     assert {"mouse.ate_rmse", "encoders.final_position_error", "robot.encoders.slip_std"} <= set(reference.columns)
+    pd.testing.assert_frame_equal(measured(reference), measured(serial))
 
 
-def test_dask_local_cluster_gives_the_same_table(spec_file, reference, tmp_path):
-    runner = Dask(workers=2)
+def test_dask_local_cluster_of_three_workers_gives_the_serial_table(spec_file, serial, tmp_path):
+    """Three worker processes (tasks of several runs each) give the serial table bit for bit."""
+    runner = Dask(workers=3)
     try:
+        assert runner.workers == 3 and len({pid for pid in runner.client.run(os.getpid).values()}) == 3
         table = sweep(spec_file, tmp_path, runner, progress=False)
     finally:
         runner.close()
-    pd.testing.assert_frame_equal(measured(table), measured(reference))
+    pd.testing.assert_frame_equal(measured(table), measured(serial))
 
 
 def test_killed_half_way_resumes_with_every_row_once(spec_file, reference, tmp_path):
@@ -135,12 +144,14 @@ def _group_gone(pgid: int) -> bool:
     return False
 
 
+@pytest.mark.parametrize("engine", ["processes", "dask"])
 @pytest.mark.parametrize("signum, status", [(signal.SIGINT, 130), (signal.SIGTERM, 143)], ids=["sigint", "sigterm"])
-def test_a_signal_to_the_whole_group_stops_the_sweep_and_resume_finishes_it(spec_file, reference, tmp_path, signum, status):
+def test_a_signal_to_the_whole_group_stops_the_sweep_and_resume_finishes_it(spec_file, reference, tmp_path, signum, status, engine):
     """As a terminal's Ctrl-C (SIGINT to every process of the foreground group) or a job
-    scheduler's SIGTERM: every process ends, finished rows stay, the rest run on resume."""
+    scheduler's SIGTERM: every process ends (a LocalCluster's workers too), with one line and no
+    traceback; finished rows stay, the rest run on resume."""
     process = subprocess.Popen(
-        [sys.executable, "-m", "sim.cli", "sweep", str(spec_file), "--out", str(tmp_path), "--jobs", "2"],
+        [sys.executable, "-m", "sim.cli", "sweep", str(spec_file), "--out", str(tmp_path), "--jobs", "2", "--engine", engine],
         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, start_new_session=True,
     )
     try:
@@ -151,7 +162,8 @@ def test_a_signal_to_the_whole_group_stops_the_sweep_and_resume_finishes_it(spec
         if process.poll() is None:
             os.killpg(process.pid, signal.SIGKILL)
             process.wait()
-    assert process.returncode == status and err.strip().endswith(("interrupted", "terminated"))
+    assert process.returncode == status and err.strip().splitlines()[-1] in ("ctsim: interrupted", "ctsim: terminated")
+    assert "Traceback" not in err, err
     while not _group_gone(process.pid):  # the workers end with the sweep (else pytest-timeout says so)
         time.sleep(0.05)
     kept = load_results(tmp_path)
@@ -227,7 +239,7 @@ def test_cli_sweep_and_report(tmp_path, capsys):
     assert "8 runs, 0 failed" in out and "pooled over seed (2 values)" in out
     assert main(["sweep", "report", str(tmp_path / "out")]) == 0
     names = {Path(line).name for line in capsys.readouterr().out.splitlines() if line.startswith(str(tmp_path))}
-    assert names == {"summary.csv", "ate_rmse_per_estimator.png", "ate_rmse_vs_robot.mouse.noise_std.png", "success_per_controller.png", "report.html"}
+    assert names == {"summary.csv", "ate_rmse_per_estimator.png", "ate_rmse_vs_robot.mouse.noise_std.png", "outcomes.png", "report.html"}
     page = (tmp_path / "out" / "report.html").read_text()
     assert page.count("src='data:image/png;base64,") == 3 and "<td>runs</td><td class='text'>8</td>" in page  # the figures inside; 8 runs
 
@@ -241,19 +253,19 @@ def _pixels_of(png: Path, rgb: tuple[int, int, int]) -> int:
 
 def test_the_sweep_figures_draw_each_estimator_in_its_colour(tmp_path):
     """Each estimator's box is drawn in its colour of the run figures and the viewer, filled with the
-    pale form of it (areas of those exact colours), the success bars in the neutral colour."""
+    pale form of it (areas of those exact colours), the outcome bars of runs that ran out of time in that outcome's colour."""
     from sim.experiments.report import write_report
     from sim.views import palette
 
     sweep({"base": {"duration": 2.0, "world": "empty", "controller": "wander"}, "axes": {"seed": [0, 1, 2], "robot.encoders.slip_std": [0.0, 0.05]}},
           tmp_path / "out", Serial(), progress=False)  # noise, so that the boxes have a height
-    box, bars = (tmp_path / "out" / "figures" / name for name in ("ate_rmse_per_estimator.png", "success_per_controller.png"))
+    box, bars = (tmp_path / "out" / "figures" / name for name in ("ate_rmse_per_estimator.png", "outcomes.png"))
     write_report(tmp_path / "out")
     for name in ("encoders", "firmware"):  # boxes tall enough to have an inside
         assert _pixels_of(box, palette.pale(palette.estimate_colour(name))) > 100, name
     for name in ("encoders", "firmware", "mouse", "fused"):  # every box's edge and median
         assert _pixels_of(box, palette.estimate_colour(name)) > 20, name
-    assert _pixels_of(bars, palette.NEUTRAL) > 1000
+    assert _pixels_of(bars, palette.OUTCOMES["time limit"]) > 1000
 
 
 def test_report_groups_by_the_named_settings_and_says_what_it_pools(tmp_path, capsys):
@@ -273,7 +285,7 @@ def test_report_groups_by_the_named_settings_and_says_what_it_pools(tmp_path, ca
     assert summary.loc[1, "mouse.nees.mean"] == pytest.approx(ends.mean(), rel=1e-12) and summary.loc[1, "mouse.nees.runs"] == 4
     assert (summary.loc[1, "mouse.nees.low"], summary.loc[1, "mouse.nees.high"]) == pytest.approx(interval(4), rel=1e-12)
     assert summary.loc[1, "mouse.nees.verdict"] in ("consistent", "over-confident", "too cautious")
-    assert "mouse NEES (95 % interval)" in out and f"in {interval(4)[0]:.2f}-{interval(4)[1]:.2f}" in out
+    assert "NEES at the runs' end per estimator" in out and f"its 95 % interval {interval(4)[0]:.2f}–{interval(4)[1]:.2f} for that many runs" in out
     assert main(["sweep", "report", str(tmp_path / "out"), "--by", "robot.wheels"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("ctsim: error: no setting 'robot.wheels' in this sweep") and err.count("\n") == 1

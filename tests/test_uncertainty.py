@@ -3,12 +3,20 @@ noise (each its own generators, spawned from the run's seed as every robot's are
 commands on open floor; the spread of their estimates' errors at the end must be the covariance
 each estimator propagated.
 
-The robot's encoders and mouse are fine enough that quantisation is below a nanometre (its lag,
-a bias shared by all robots, would not show in a spread anyway), so what is compared is the
-random noise: slip on the wheels, count noise on the mouse. Sampling error: whitened by the
-propagated covariance, the errors' sample covariance is the identity within sampling error, its
-diagonal entries with a standard deviation of sqrt(2/N) = 0.045 and the others 1/sqrt(N) = 0.032
-for N = 1,000; the test allows 4 of them (a false alarm once in about 5,000 runs per entry).
+Three robots: one whose encoders and mouse are fine enough that quantisation is below a
+nanometre, so that what is compared is the random noise alone (slip on the wheels, count noise on
+the mouse); the c't-Bot's own 60 ticks and 400 dpi with counters starting anywhere within a count
+(`start_phase`), so that the quantisation is in the spread too (each robot drives 0.3 % faster or
+slower, so that the wheels' turns end at every fraction of a tick); and that robot with systematic
+errors on, each robot's wheels, track and mouse resolution off by its own draw from the belief
+(the spread of many robots built to the stated tolerances, which is what a belief states).
+Every robot believes what it is: the random noise as it is, and the systematic errors by the
+spread they are drawn from (none where they are off).
+
+Sampling error: whitened by the propagated covariance, the errors' sample covariance is the
+identity within sampling error, its diagonal entries with a standard deviation of sqrt(2/N) =
+0.045 and the others 1/sqrt(N) = 0.032 for N = 1,000; the test allows 4 of them (a false alarm
+once in about 5,000 runs per entry).
 """
 
 from __future__ import annotations
@@ -32,18 +40,40 @@ from sim.world.spec import WorldSpec
 
 ROBOTS = 1000
 SPACING = 0.6  # m between robots: a 0.2 m circle and the body fit
-NOISY = with_settings(
-    CTBOT.with_changes(encoders={"ticks_per_rev": 10**9}, mouse={"dpi": 1e9}, ir=(), line=(), border=(), light=()),
-    {"encoders.slip_std": 0.002, "mouse.noise_std": 0.0003},  # 2 mm of slip a metre rolled; 0.3 mm of mouse noise a metre passed
-).with_changes(belief=BeliefSpec(0.0, 0.0, 0.0, slip_std=0.002, tick_noise=0.0, mouse_noise_std=0.0003))  # told the truth: what is tested is the propagation
+RANDOM = {"encoders.slip_std": 0.002, "mouse.noise_std": 0.0003}  # 2 mm of slip a metre rolled; 0.3 mm of mouse noise a metre passed
+BARE = CTBOT.with_changes(ir=(), line=(), border=(), light=())
+TOLERANCES = BeliefSpec(0.003, 0.01, 0.0375, slip_std=0.002, tick_noise=0.0, mouse_noise_std=0.0003)
+ROBOTS_OF = {
+    "fine": with_settings(BARE.with_changes(encoders={"ticks_per_rev": 10**9}, mouse={"dpi": 1e9}), RANDOM)
+    .with_changes(belief=BeliefSpec(0.0, 0.0, 0.0, slip_std=0.002, tick_noise=0.0, mouse_noise_std=0.0003)),
+    "quantised": with_settings(BARE, {**RANDOM, "encoders.start_phase": "random", "mouse.start_phase": "random"})
+    .with_changes(belief=BeliefSpec(0.0, 0.0, 0.0, slip_std=0.002, tick_noise=0.0, mouse_noise_std=0.0003)),
+    "systematic": with_settings(BARE, {**RANDOM, "encoders.start_phase": "random", "mouse.start_phase": "random"}).with_changes(belief=TOLERANCES),
+}
+SPEED_SPREAD = 0.003
+"""Relative speed of each robot about the commanded one (uniform): the wheels of a 5 s run turn some
+400 ticks, so 0.3 % spreads where they end within a tick over all fractions."""
 
 
-def _spread(twist: Twist, duration: float) -> dict[str, tuple[np.ndarray, np.ndarray]]:
+def _robots(kind: str, rng: np.random.Generator) -> list:
+    """ROBOTS descriptions of this kind: with systematic errors, each its own draw of them."""
+    robot = ROBOTS_OF[kind]
+    if kind != "systematic":
+        return [robot] * ROBOTS
+    said = robot.belief
+    return [robot.with_changes(encoders={"diameter_error": tuple(rng.normal(0.0, said.wheel_diameter_std, 2)), "track_error": rng.normal(0.0, said.track_std)},
+                               mouse={"scale_error": rng.normal(0.0, said.mouse_scale_std)}) for _ in range(ROBOTS)]  # fmt: skip
+
+
+def _spread(kind: str, twist: Twist, duration: float) -> dict[str, tuple[np.ndarray, np.ndarray]]:
     """Estimator -> (errors (N, 3) at the end, propagated covariances (N, 3, 3))."""
     side = math.ceil(math.sqrt(ROBOTS))
     world = WorldSpec("open floor", (-1.0, -1.0, side * SPACING + 1.0, side * SPACING + 1.0))
     starts = [((k % side) * SPACING, (k // side) * SPACING, 0.0) for k in range(ROBOTS)]
-    setups = [RobotSetup(NOISY, FunctionController(lambda t, readings: twist), start=start) for start in starts]
+    rng = np.random.default_rng(49)
+    speeds = 1.0 + SPEED_SPREAD * rng.uniform(-1.0, 1.0, ROBOTS) if kind != "fine" else np.ones(ROBOTS)
+    setups = [RobotSetup(robot, FunctionController(lambda t, readings, f=f: Twist(f * twist.v, f * twist.omega)), start=start)
+              for robot, start, f in zip(_robots(kind, rng), starts, speeds)]  # fmt: skip
     result = run(world, setups, duration, seed=3)
     out: dict[str, tuple[list, list]] = {}
     for log in result.robots:
@@ -58,25 +88,39 @@ def _spread(twist: Twist, duration: float) -> dict[str, tuple[np.ndarray, np.nda
     return {label: (np.array(errors), np.array(covs)) for label, (errors, covs) in out.items()}
 
 
-def _whitened_covariance(errors: np.ndarray, cov: np.ndarray) -> np.ndarray:
-    """The sample covariance of the errors whitened by the propagated covariance."""
-    whiten = np.linalg.inv(np.linalg.cholesky(cov))
-    return np.cov((errors - errors.mean(axis=0)) @ whiten.T, rowvar=False)
+def _whitened_covariance(errors: np.ndarray, covs: np.ndarray) -> np.ndarray:
+    """The sample covariance of the errors, each whitened by its own propagated covariance (each
+    robot's, linearised at its own estimate, differs a little; with systematic errors drawn, its
+    estimate saw a path as much longer or shorter as its own errors make it)."""
+    white = np.linalg.solve(np.linalg.cholesky(covs), errors[..., None])[..., 0]
+    return np.cov(white - white.mean(axis=0), rowvar=False)
 
 
-@pytest.fixture(scope="module", params=[("straight", Twist(0.2, 0.0), 5.0), ("circle", Twist(0.2, 1.0), 2 * math.pi)], ids=lambda p: p[0])
+@pytest.fixture(scope="module", params=[("fine", "straight", Twist(0.2, 0.0), 5.0), ("fine", "circle", Twist(0.2, 1.0), 2 * math.pi),
+                                        ("quantised", "circle", Twist(0.2, 1.0), 2 * math.pi), ("systematic", "circle", Twist(0.2, 1.0), 2 * math.pi)],
+                ids=lambda p: f"{p[0]}-{p[1]}")  # fmt: skip
 def spread(request):
-    _, twist, duration = request.param
-    return _spread(twist, duration)
+    kind, _, twist, duration = request.param
+    return _spread(kind, twist, duration)
+
+
+FIRST_ORDER_FAILS = {
+    ("systematic", "mouse"): "a 3.75 % resolution unknown over a full turn is 13.5 degrees of heading: the position error bends "
+                             "away from the first-order covariance's direction (whitened lateral spread 8.5, not 1)",
+    ("systematic", "fused"): "too cautious: its calibration converges faster than its covariance says (x spread a quarter of the "
+                             "believed), as the quantisation taken as white noise in the update keeps it (bots/odometry/steps.py)",
+}
+"""The scenarios whose covariance the Monte Carlo spread refutes, and why (see docs/odometry.md)."""
 
 
 @pytest.mark.parametrize("label", ["encoders", "mouse", "fused"])
-def test_propagated_covariance_is_the_monte_carlo_spread(spread, label):
+def test_propagated_covariance_is_the_monte_carlo_spread(spread, label, request):
+    kind = request.node.callspec.params["spread"][0]
+    if (kind, label) in FIRST_ORDER_FAILS:
+        request.applymarker(pytest.mark.xfail(reason=FIRST_ORDER_FAILS[kind, label], strict=True))
     errors, covs = spread[label]
-    mean = covs.mean(axis=0)  # (each robot's, linearised at its own estimate, differs a little)
-    assert np.linalg.norm(covs - mean, axis=(1, 2)).max() < 0.05 * np.linalg.norm(mean)
-    assert np.linalg.eigvalsh(mean).min() > 0.0
-    white = _whitened_covariance(errors, mean)
+    assert np.linalg.eigvalsh(covs).min() > 0.0
+    white = _whitened_covariance(errors, covs)
     n = len(errors)
     diagonal, off = 4 * math.sqrt(2 / (n - 1)), 4 / math.sqrt(n)
     assert np.abs(np.diag(white) - 1.0).max() < diagonal, np.round(white, 3)
@@ -119,3 +163,27 @@ def test_a_belief_given_changes_the_covariance():
             estimator.update(step)
         spreads.append(estimator.covariance[2, 2])
     assert spreads[1] > 4 * spreads[0]
+
+
+@pytest.mark.parametrize("phase", ["zero", "random"])
+def test_counters_started_anywhere_carry_no_bias(phase):
+    """c't-Sim starts each counter on an edge: the count then lags the wheel by half a tick on
+    average (1.5 mm along the track on the c't-Bot), a bias no seed averages away. Started anywhere
+    within a tick (`start_phase = "random"`, as a real wheel stops), the encoders'
+    mean error along the track over 400 robots (each 0.3 % faster or slower, so that the wheels end
+    at every fraction of a tick) is within 3 standard errors of zero; on an edge, half a tick behind."""
+    robots = 400
+    robot = with_settings(BARE, {"encoders.start_phase": phase})
+    rng = np.random.default_rng(4)
+    speeds = 1.0 + SPEED_SPREAD * rng.uniform(-1.0, 1.0, robots)
+    world = WorldSpec("open floor", (-1.0, -1.0, 21 * SPACING, 21 * SPACING))
+    setups = [RobotSetup(robot, FunctionController(lambda t, readings, f=f: Twist(0.2 * f, 0.0)), start=((k % 20) * SPACING, (k // 20) * SPACING, 0.0))
+              for k, f in enumerate(speeds)]  # fmt: skip
+    result = run(world, setups, 3.0, seed=5)
+    along = np.array([log.estimate_arrays()["encoders"][-1, 0] - log.truth_array()[-1, 0] for log in result.robots])
+    tick = math.pi * BARE.wheel_diameter / BARE.encoders.ticks_per_rev
+    mean, standard_error = along.mean(), along.std(ddof=1) / math.sqrt(robots)
+    if phase == "random":
+        assert abs(mean) < 3 * standard_error, (mean, standard_error)
+    else:
+        assert mean == pytest.approx(-0.5 * tick, abs=3 * standard_error)

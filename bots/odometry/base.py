@@ -41,7 +41,7 @@ from bots.odometry.steps import (
 )
 from bots.readings import Readings
 from bots.spec import RobotSpec
-from bots.uncertainty import COVARIANCE_FIELDS, ERRORS, Belief, square
+from bots.uncertainty import COUNT_VARIANCE, COVARIANCE_FIELDS, ERRORS, Belief, square
 from sim.kinematics import MouseEstimator, advance
 from sim.kinematics.mouse import counts_per_metre
 
@@ -113,13 +113,13 @@ def parameters(robot: RobotSpec, geometry: Geometry | None = None) -> np.ndarray
 
 
 def quantisation_lag(p: np.ndarray, mouse: bool) -> np.ndarray:
-    """(2, 2) covariance of the (s, alpha) lag of carried counts (each uniform over one count):
-    the encoders' or the mouse's."""
+    """(2, 2) covariance of the (s, alpha) error of carried counts (each COUNT_VARIANCE counts²,
+    `bots.uncertainty`): the encoders' or the mouse's."""
     lag, jac = np.zeros((2, 2)), np.zeros((2, ERRORS))
     if mouse:
-        mouse_terms(0.0, 0.0, p[MOUNT_X], p[MOUNT_Y], 1.0 / (12.0 * p[PER_METRE] ** 2), jac, lag)
+        mouse_terms(0.0, 0.0, p[MOUNT_X], p[MOUNT_Y], COUNT_VARIANCE / p[PER_METRE] ** 2, jac, lag)
     else:
-        wheel_terms(0.0, 0.0, 0.0, p[TRACK], p[TICK_LEFT] ** 2 / 12.0, p[TICK_RIGHT] ** 2 / 12.0, jac, lag)
+        wheel_terms(0.0, 0.0, 0.0, p[TRACK], COUNT_VARIANCE * p[TICK_LEFT] ** 2, COUNT_VARIANCE * p[TICK_RIGHT] ** 2, jac, lag)
     return lag
 
 

@@ -57,6 +57,10 @@ class FusedOdometry(ArcOdometry):
     `contact_steps` counts those steps. Limits: a slide under about 1 mm goes unnoticed, and the
     rotation taken back is not in the covariance.
 
+    Too cautious where the calibration is learnt: with systematic errors drawn from its belief,
+    its errors spread a quarter to a half of what its covariance says (the quantisation taken as
+    white noise in the update, see `bots.odometry.steps`, slows the covariance, not the estimate).
+
     rule "blend": the c't-Bot's coupled estimate (MEASURE_COUPLED_AVAILABLE): the encoder and the
     mouse poses, each dead-reckoned on its own, averaged with weight G_POS on the encoders
     (name "fused_blend"), its covariance that of the same average of the two (their errors taken

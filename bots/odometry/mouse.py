@@ -11,7 +11,12 @@ class MouseOdometry(ArcOdometry):
     """The optical mouse through the inverse model (seed 002 §2.1): alpha = lateral/m_x,
     s = forward + alpha*m_y, at the dpi the robot believes (the nominal one). Covariance: each
     axis's reading has the mouse's count variance per step, and the resolution is unknown by its
-    believed size (`bots.uncertainty`). Not modelled: a mouse too fast to track (reads zero)."""
+    believed size (`bots.uncertainty`). Not modelled: a mouse too fast to track (reads zero).
+
+    Not consistent where the resolution's belief turns into large heading errors: 3.75 % of a
+    full turn is 13.5 degrees, and the position error then bends away from the direction the
+    first-order covariance gives it (over-confident across the track; tests/test_uncertainty.py's
+    Monte Carlo with systematic errors drawn, docs/odometry.md)."""
 
     name = "mouse"
     uses_mouse = True

@@ -187,10 +187,13 @@ def umbmark(robot: RobotSpec, side: float = 1.0, runs: int = 5, geometry: Geomet
 def calibrate(robot: RobotSpec, rounds: int = 1, **options) -> list[UMBmarkResult]:
     """UMBmark `rounds` times, each starting from the geometry the previous one corrected (the
     paper does one round; a second one removes what the first-order formulas left); returns
-    every round's result, the last one's `corrected` being the calibration."""
+    every round's result, the last one's `corrected` being the calibration. Each round drives on
+    seeds of its own (`seed` + 2 runs per round before it): a round that drove the first one's
+    seeds again would measure the same noise and correct it as if it were systematic."""
     results: list[UMBmarkResult] = []
     geometry = options.pop("geometry", None)
-    for _ in range(rounds):
-        results.append(umbmark(robot, geometry=geometry, **options))
+    seed, runs = options.pop("seed", 0), options.get("runs", 5)
+    for done in range(rounds):
+        results.append(umbmark(robot, geometry=geometry, seed=seed + 2 * runs * done, **options))
         geometry = results[-1].corrected
     return results

@@ -2,6 +2,6 @@
 
 import sys
 
-from sim.cli.entry import main
+from sim.cli.entry import leave, main
 
-sys.exit(main())
+sys.exit(leave(main()))

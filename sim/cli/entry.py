@@ -10,9 +10,11 @@ line asking for a report, exit 1 (EXIT_STATUSES lists every status).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import signal
 import sys
+import threading
 import traceback
 from pathlib import Path
 
@@ -44,7 +46,7 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return EXIT_USER
     previous = signal.signal(signal.SIGTERM, terminate)
-    # say why the first run takes a while, a line every few seconds (a log file too, off a terminal)
+    said = compiling.PROGRESS  # someone waits, at a terminal or on a log: say why the first run takes a while, and how it goes
     compiling.PROGRESS = lambda line: print(f"ctsim: {line}", file=sys.stderr, flush=True)
     try:
         return args.handler(args)
@@ -68,8 +70,24 @@ def main(argv: list[str] | None = None) -> int:
         return _bug()
     finally:
         signal.signal(signal.SIGTERM, previous)
+        compiling.PROGRESS = said
         while held:
             held.pop().close()
+
+
+def leave(status: int) -> int:
+    """How the process ends after `main` returned `status`: at once (`os._exit`, its output
+    flushed) when Ctrl-C or SIGTERM stopped the command, since everything it wrote is closed by
+    then and Python's teardown of numba, Dask, rerun and pandas keeps whoever stopped it waiting
+    for seconds on a busy machine, or when a controller left a thread running, which Python would
+    wait for; otherwise `status`, for a normal exit."""
+    stray = any(t.is_alive() and not t.daemon for t in threading.enumerate() if t is not threading.main_thread())
+    if stray or status in (EXIT_INTERRUPTED, EXIT_TERMINATED):
+        for stream in (sys.stdout, sys.stderr):
+            with contextlib.suppress(Exception):  # (a closed or replaced stream: nothing left to flush)
+                stream.flush()
+        os._exit(status)
+    return status
 
 
 def _names_user_path(err: OSError, args: argparse.Namespace) -> bool:

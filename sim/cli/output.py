@@ -146,13 +146,28 @@ def write_trajectories(result, out: Path, summary: dict[str, Any], export_rate: 
 
 
 def _nees(errors: dict[str, Any]) -> str:
-    """An estimate's mean NEES for the table ('-' without a covariance; 3 is consistent)."""
-    value = errors.get("nees_mean")
-    return "-" if value is None or not math.isfinite(value) else f"{value:.1f}"
+    """An estimate's NEES at the run's end for the table: '-' without a covariance ('nees_defined'
+    missing) or where it is degenerate."""
+    value = errors.get("nees_final")
+    return "-" if value is None or not math.isfinite(value) else f"{value:.3g}"
+
+
+NEES_NOTE = ("NEES end: the run's normalised error at its end, one draw of chi-square(3) for a consistent estimate (95 % in {low:.2f}-{high:.2f}); "
+             "judge consistency over seeds (`ctsim sweep report`, docs/odometry.md). '-': no covariance, or a degenerate one")
+"""The table's note on its NEES column."""
+
+
+def _columns(rows: list[list[str]], left: int) -> list[str]:
+    """Rows of cells as lines, each column as wide as its widest cell and two spaces apart (no
+    number runs into the next), the first `left` columns left-aligned, the others right-aligned."""
+    widths = [max(len(row[k]) for row in rows if k < len(row)) for k in range(max(map(len, rows)))]
+    return ["  ".join(cell.ljust(widths[k]) if k < left else cell.rjust(widths[k]) for k, cell in enumerate(row)).rstrip() for row in rows]
 
 
 def table(summary: dict[str, Any]) -> str:
     """The short end-of-run table: per robot distance and collisions, per estimate its errors."""
+    from sim.analysis.nees import interval
+
     reached = [sanitize.name(robot["name"], 40) for robot in summary["robots"] if robot["goal_time"] is not None]
     outcome = {
         Ending.GOAL: f"goal reached by {', '.join(reached)}", Ending.DURATION: "time limit reached",
@@ -160,17 +175,19 @@ def table(summary: dict[str, Any]) -> str:
     }.get(summary["reason"], summary["reason"])  # fmt: skip
     if summary["reason"] == Ending.DURATION and reached:
         outcome = f"goal reached by {', '.join(reached)}, ran on to the time limit"
-    lines = [
-        f"{sanitize.name(summary['world']['name'])}, seed {summary['seed']}, noise {summary.get('noise', 'none')}, "
-        f"{summary['time']:.2f} s simulated: {outcome}"
-    ]
-    header = f"{'robot':<12}{'estimate':<12}{'distance m':>11}{'collisions':>11}{'final err m':>12}{'ATE RMS m':>11}{'final hdg °':>12}{'NEES':>7}"
-    lines.append(header)
+    rows = [["robot", "estimate", "distance m", "collisions", "final err m", "ATE RMS m", "final hdg °", "NEES end"]]
+    notes = []
     for robot in summary["robots"]:
-        first = f"{sanitize.name(robot['name'], 40):<12}{'':<12}{robot['distance']:>11.3f}{robot['collisions']:>11d}"
-        notes = [note for note in ("fell into a hole" if robot["fell"] else "", f"goal at {robot['goal_time']:.2f} s" if robot["goal_time"] is not None else "",
-                                   f"controller: {robot['status']}" if robot.get("status") not in (None, "running") else "") if note]  # fmt: skip
-        lines.append(first + ("   " + ", ".join(notes) if notes else ""))
+        said = [note for note in ("fell into a hole" if robot["fell"] else "", f"goal at {robot['goal_time']:.2f} s" if robot["goal_time"] is not None else "",
+                                  f"controller: {robot['status']}" if robot.get("status") not in (None, "running") else "") if note]  # fmt: skip
+        rows.append([sanitize.name(robot["name"], 40), "", f"{robot['distance']:.3f}", f"{robot['collisions']:d}"])
+        notes.append((len(rows) - 1, ", ".join(said)))
         for name, errors in robot["estimates"].items():
-            lines.append(f"{'':<12}{name:<12}{'':>11}{'':>11}{errors['final_position_error']:>12.4f}{errors['ate_rmse']:>11.4f}{math.degrees(errors['final_heading_error']):>12.2f}{_nees(errors):>7}")
-    return "\n".join(lines)
+            rows.append(["", name, "", "", f"{errors['final_position_error']:.4f}", f"{errors['ate_rmse']:.4f}", f"{math.degrees(errors['final_heading_error']):.2f}", _nees(errors)])
+    lines = _columns(rows, left=2)
+    for row, note in notes:
+        if note:
+            lines[row] += "   " + note
+    low, high = interval(1)
+    return "\n".join([f"{sanitize.name(summary['world']['name'])}, seed {summary['seed']}, noise {summary.get('noise', 'none')}, "
+                      f"{summary['time']:.2f} s simulated: {outcome}", *lines, NEES_NOTE.format(low=low, high=high)])

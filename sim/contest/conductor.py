@@ -24,6 +24,7 @@ from sim.contest.game import GameJob, play
 from sim.contest.rules import PRELIM, PrelimResult, level_name
 from sim.contest.store import GameRow, Store
 from sim.experiments.engines import Lost, Processes, Serial
+from sim.experiments.progress import Progress
 from sim.world.step import DEFAULT_DT
 
 GAMES = "games"
@@ -54,10 +55,11 @@ class Settings:
 
 
 def conduct(settings: Settings, entries: list[Entry], out: str | Path, runner: Any = None, record: bool = True,
-            say: Callable[[str], None] = print) -> Store:  # fmt: skip
+            say: Callable[[str], None] = print, progress: bool = True) -> Store:  # fmt: skip
     """Run (or resume) the contest in folder `out` to its end and return its database. `runner`:
     an engine (`sim.experiments.engines`; default local processes, one per core); `record`: write
-    each game's rerun recording; `say`: where a line per finished game goes."""
+    each game's rerun recording; `say`: where a line per finished game goes; `progress`: games
+    done and left, rate and time left on stderr (`sim.experiments.progress`)."""
     out = Path(out)
     if len(entries) < 1:
         raise ValueError("a contest needs at least one entry")
@@ -67,6 +69,25 @@ def conduct(settings: Settings, entries: list[Entry], out: str | Path, runner: A
     ids = list(range(1, len(entries) + 1))
     runner = runner or (Serial() if len(entries) == 1 else Processes(min(len(entries), os.cpu_count() or 1)))
     store.plan([(PRELIM, i, i, None) for i in ids])
+    games = len(ids) + len(rules.plan(len(ids)))  # (every game that will be played)
+    told = Progress(games, len(store.games("state = 'done'")), "game", "contest", bar=False) if progress else None
+    try:
+        _conduct(store, settings, entries, out, runner, record, lambda line: _said(say, told, line))
+    finally:
+        if told is not None:
+            told.close()
+    return store
+
+
+def _said(say: Callable[[str], None], progress: Progress | None, line: str) -> None:
+    """A game's line, and one more game done."""
+    say(line)
+    if progress is not None:
+        progress.update()
+
+
+def _conduct(store: Store, settings: Settings, entries: list[Entry], out: Path, runner: Any, record: bool, say: Callable[[str], None]) -> None:
+    """The preliminary round, the seeding from it, then the knockout rounds as their entries become known."""
     _play(store, store.games("level = -1 AND state = 'planned'"), settings, entries, out, runner, record, say)
     if not store.seeds():
         rows = store.games("level = -1")
@@ -77,7 +98,6 @@ def conduct(settings: Settings, entries: list[Entry], out: str | Path, runner: A
     store.plan([(g.level, g.number, *(None if r is None else by_rank[r] for r in g.sides)) for g in rules.plan(len(entries))])
     while ready := store.games("level >= 0 AND state = 'planned' AND entry1 IS NOT NULL AND entry2 IS NOT NULL"):
         _play(store, ready, settings, entries, out, runner, record, say)
-    return store
 
 
 def _play(store: Store, games: list[GameRow], settings: Settings, entries: list[Entry], out: Path, runner: Any, record: bool,

@@ -16,6 +16,7 @@ import signal
 import threading
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator
+from contextlib import contextmanager, suppress
 from dataclasses import dataclass, field
 from multiprocessing.connection import wait
 from typing import Any
@@ -187,14 +188,44 @@ def _run_batch(fn: Callable[[Any], Any], batch: list[Any]) -> list[Any]:
     return [fn(job) for job in batch]
 
 
+LOCAL_CONFIG = {
+    "distributed.worker.profile.enabled": False,  # a thread sampling each worker's stack every 10 ms, with the GIL
+    "distributed.admin.system-monitor.gil.enabled": False,
+    "distributed.admin.tick.interval": "1s",  # (20 ms: each server wakes 50 times a second to see whether its loop is blocked)
+    "distributed.admin.system-monitor.interval": "5s",
+    "distributed.scheduler.work-stealing": False,  # (tasks of a sweep are alike: nothing to steal, only messages)
+    "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,  # glibc giving memory back after every run: 3x the system time
+}
+"""Dask settings of a LocalCluster the engine starts: the measuring that Dask's dashboard feeds
+costs CPU on a machine whose cores the runs need (`bench/run.py -k sweep_dask`)."""
+
+
+@contextmanager
+def _without_sigint() -> Iterator[None]:
+    """SIGINT blocked in this thread meanwhile, and so in every thread and process started from it:
+    a LocalCluster's scheduler thread and worker processes never see a terminal's Ctrl-C (which
+    reaches the whole process group), so that this process alone handles it, stopping them at once
+    and quietly. A Ctrl-C meanwhile is delivered when it ends. (Off the main thread: unchanged.)"""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, blocked)
+
+
 class Dask:
     """A Dask `distributed` cluster: the scheduler at `address` (`tcp://host:port`, e.g. one started
     by dask-jobqueue or dask-kubernetes), or a LocalCluster of `workers` processes. Dask retries a
     run whose worker died (`distributed.scheduler.allowed-failures`, 3 by default), then reports it
     lost. Workers need ctsim installed and must see the world, robot and controller files by the
-    same paths."""
+    same paths. A LocalCluster's processes ignore Ctrl-C: on Ctrl-C the sweep stops and `close`
+    kills them at once (their runs in flight are not in the table and run again on resume)."""
 
     def __init__(self, address: str | None = None, workers: int | None = None, timeout: float = 30.0, batch: int | None = None):
+        import dask
         from distributed import Client, LocalCluster
 
         self.cluster = None
@@ -202,9 +233,14 @@ class Dask:
         """Jobs per task (default as `Processes`); a batch whose worker died is split into single runs."""
         if address is None:
             n = workers or os.cpu_count() or 1
-            self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address="127.0.0.1:0",
-                                        silence_logs=logging.ERROR, preload=PRELOAD)  # fmt: skip
-            self.client = Client(self.cluster, timeout=timeout)
+            try:
+                with _without_sigint(), dask.config.set(LOCAL_CONFIG):
+                    self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None, memory_limit=0,
+                                                silence_logs=logging.CRITICAL, preload=PRELOAD)  # fmt: skip
+                    self.client = Client(self.cluster, timeout=timeout)
+            except BaseException:  # (a Ctrl-C while it started arrives here, once it has)
+                self._end_cluster()
+                raise
         else:
             self.client = Client(address, timeout=timeout)
             self.client.run(importlib.import_module, PRELOAD[-1])  # warm the workers there are now
@@ -235,9 +271,33 @@ class Dask:
             self.client.cancel(list(futures))
 
     def close(self) -> None:
-        self.client.close()
+        """Leave the cluster; a LocalCluster this engine started ends at once: its worker processes
+        are killed (every finished run is already back), then its scheduler closed."""
+        if self.cluster is None:
+            self.client.close()
+        else:
+            self._end_cluster()
+
+    def _end_cluster(self) -> None:
+        for nanny in list(self.cluster.workers.values()) if self.cluster is not None else ():
+            nanny.close_gracefully("ctsim: the sweep is over")  # (not started again when killed)
+            if nanny.pid:
+                with suppress(ProcessLookupError):
+                    os.kill(nanny.pid, signal.SIGKILL)
+        if getattr(self, "client", None) is not None:
+            self.client.close()
         if self.cluster is not None:
             self.cluster.close()
+            _stop_resource_tracker()
+
+
+def _stop_resource_tracker() -> None:
+    """End the process multiprocessing started to track the LocalCluster's semaphores, and wait
+    for it: left to end with this process, it would linger unreaped until init collects it."""
+    from multiprocessing import resource_tracker
+
+    with suppress(Exception):  # (a private method, present since Python 3.8)
+        resource_tracker._resource_tracker._stop()
 
 
 def engine(name: str = "processes", workers: int | None = None, scheduler: str | None = None) -> Serial | Processes | Dask:

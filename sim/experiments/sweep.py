@@ -12,7 +12,6 @@ again and only the missing runs execute.
 from __future__ import annotations
 
 import math
-import sys
 import time
 from collections.abc import Callable
 from contextlib import closing
@@ -33,6 +32,7 @@ from sim.experiments.plan import (
     load_sweep,
     spec_from_dict,
 )
+from sim.experiments.progress import Progress
 from sim.folder_lock import held
 from sim.run.ending import Terminated
 
@@ -121,15 +121,6 @@ def check(planned: list[Job]) -> None:
                     raise SpecError(f"run {job.index}, {what}: {err}") from None
 
 
-def _progress(total: int, done: int) -> Any:
-    from tqdm import tqdm
-
-    class Bar(tqdm):
-        monitor_interval = 0  # no monitor thread: local workers are forked from this process when it runs one thread
-
-    return Bar(total=total, initial=done, unit="run", file=sys.stderr, disable=not sys.stderr.isatty(), smoothing=0.1, dynamic_ncols=True)
-
-
 def sweep(
     spec: str | Path | SweepSpec | dict,
     out: str | Path,
@@ -140,7 +131,9 @@ def sweep(
     """Run every planned run not yet in `out` on `runner` (default: local processes, all cores),
     keeping each row as it finishes; the whole table. Ctrl-C (KeyboardInterrupt) and SIGTERM
     (`sim.run.ending.Terminated`, where a handler raises it, as `ctsim sweep` does) stop the runs in
-    flight at once and re-raise, with every finished row kept: the same call resumes."""
+    flight at once and re-raise, with every finished row kept: the same call resumes. `progress`:
+    say on stderr how far it has got (`sim.experiments.progress`: a bar on a terminal, else a line
+    every few seconds, and first how many runs a resumed sweep had done)."""
     if isinstance(spec, dict):
         spec = spec_from_dict(spec)
     elif not isinstance(spec, SweepSpec):
@@ -158,7 +151,7 @@ def _sweep(planned: list, out: Path, runner: Serial | Processes | Dask | None, o
     todo = [job for job in planned if job.run_id not in finished]
     owned = runner is None
     runner = runner or Processes()
-    bar = _progress(len(planned), len(planned) - len(todo)) if progress else None
+    bar = Progress(len(planned), len(planned) - len(todo), "run", "sweep") if progress else None
     try:
         with closing(runner.imap(execute, todo)) as outcomes:  # closed at once on Ctrl-C: the engine stops its workers
             for job, result in outcomes:

@@ -22,6 +22,7 @@ from pathlib import Path
 from xml.etree import ElementTree as ET
 
 from sim import sanitize
+from sim.experiments.progress import Progress
 from sim.lab.checking import DEGRADED, CheckReport, Row, check_file, fresh_seed
 from sim.lab.exercise import Exercise, ExerciseError
 from sim.lab.notebook import SUFFIX, submission
@@ -133,8 +134,16 @@ def grade(ex: Exercise, folder: str | Path, out: str | Path, lang: str = "en", s
     ids = student_ids(files, folder)
     twins = _twins(files, ids)
     subfolder(out / "gradescope")  # (a link planted there is refused before the grading, not after it)
+    progress = Progress(len(files), 0, "submission", "lab grade")
+
+    def checked(path: Path) -> CheckReport:
+        report = _check(ex, path, folder, lang, seed, own_folders, degraded, twins)
+        progress.update()
+        return report
+
     with ThreadPoolExecutor(jobs) as pool:
-        reports = list(pool.map(lambda f: _check(ex, f, folder, lang, seed, own_folders, degraded, twins), files))
+        reports = list(pool.map(checked, files))
+    progress.close()
     return reports, [write_csv(out / "grades.csv", ids, reports), write_gradescope(out / "gradescope", ids, reports),
                      write_junit(out / "junit.xml", ids, reports, ex.title["en"])]  # fmt: skip
 

@@ -23,6 +23,10 @@ table.ctsim th, table.ctsim td { padding: 0.25em 0.8em; border-bottom: 1px solid
 table.ctsim th:first-child, table.ctsim td:first-child, table.ctsim td.text { text-align: left; }
 table.ctsim tr.robot td { border-top: 2px solid #999; font-weight: 600; }
 img.ctsim { max-width: 100%; display: block; margin: 0.5em 0 1.5em; }
+div.wide { overflow-x: auto; max-width: 100%; }
+table.nowrap { font-size: 0.85em; }
+table.nowrap td, table.nowrap th { white-space: nowrap; padding: 0.25em 0.55em; }
+table.ctsim th.text { text-align: left; }
 code { background: #f2f2f2; padding: 0.1em 0.3em; border-radius: 3px; }
 .swatch { display: inline-block; width: 0.8em; height: 0.8em; border-radius: 2px; margin-right: 0.35em; }
 """
@@ -73,6 +77,15 @@ def run_facts(summary: dict[str, Any]) -> dict[str, str]:
     if "ctsim_version" in summary:
         facts["ctsim"] = summary["ctsim_version"]
     return facts
+
+
+def frame_table(frame: Any, text_columns: int = 0) -> str:
+    """A DataFrame of text as a table, its first `text_columns` columns (names, settings) flush
+    left like words, the rest flush right like numbers; cells never wrap (a wide table scrolls)."""
+    head = "".join(f"<th class='text'>{escape(str(c))}</th>" if k < text_columns else f"<th>{escape(str(c))}</th>" for k, c in enumerate(frame.columns))
+    rows = ["<tr>" + "".join(f"<td class='text'>{escape(str(v))}</td>" if k < text_columns else f"<td>{escape(str(v))}</td>" for k, v in enumerate(values)) + "</tr>"
+            for values in frame.itertuples(index=False)]  # fmt: skip
+    return f"<div class='wide'><table class='ctsim nowrap'><tr>{head}</tr>{''.join(rows)}</table></div>"
 
 
 def facts_table(facts: dict[str, Any]) -> str:

@@ -54,7 +54,10 @@ ROBOTS: tuple[RGB, ...] = ((214, 48, 49), (240, 200, 20), (250, 250, 250), (255,
 the order they were added: red, yellow, white, pink, brown, light green; none is an estimate's,
 all stand out on a grey floor."""
 NEUTRAL: RGB = (90, 110, 140)
-"""Marks that belong to no estimate or robot (a sweep's success rate per controller)."""
+"""Marks that belong to no estimate or robot."""
+OUTCOMES: dict[str, RGB] = {"goal reached": GOAL_EDGE, "time limit": NEUTRAL, "fell": (70, 70, 70), "error": FAULT, "controller done": START}
+"""How a sweep's runs ended (`sim.experiments.report.OUTCOMES`): the goal's green, grey-blue for
+running out of time, a hole's near black, a fault's red."""
 SCALE_BAR: RGB = (20, 20, 20)
 CHANNELS: tuple[RGB, ...] = ((31, 119, 180), (214, 39, 40), (44, 160, 44), (148, 103, 189), (140, 86, 75), (23, 190, 207))
 """Colours of a sensor's channels (left, right, ...)."""

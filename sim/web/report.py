@@ -12,7 +12,7 @@ from pathlib import Path
 
 from sim.analysis.run_folder import read_summary
 from sim.out_files import write_text
-from sim.views.html import facts_table, image, page, run_facts, summary_table
+from sim.views.html import facts_table, frame_table, image, page, run_facts, summary_table
 from sim.web.serve import DEFAULT_HOST, DEFAULT_PORT, addresses
 
 REPORT = "report.html"
@@ -59,28 +59,25 @@ def _recording_links(run_dir: Path) -> str:
 
 def write_sweep_report(sweep_dir: str | Path, by: list[str] | None = None) -> list[Path]:
     """The summary and figures of a sweep folder grouped `by` settings (`sim.experiments.report`)
-    and its report.html: the summary table, the figures, how many runs finished. The files
+    and its report.html: how the runs ended and each estimator's error per group (tables that
+    fit the page, numbers to their precision), the figures, the sweep's facts. The files
     written, the page last."""
     from sim.experiments import store
-    from sim.experiments.report import METRIC, grouping, pooled_note, success, summary_table, write_report
+    from sim.experiments.report import OUTCOMES, grouping, outcomes, pooled_note, shown_tables, summary_table, write_report
 
     sweep_dir = Path(sweep_dir)
     written = write_report(sweep_dir, by=by)
     figures = [p for p in written if p.suffix == ".png"]
     table = store.load(sweep_dir)
     by, pooled = grouping(table, by)
+    ended = outcomes(table).value_counts()
     facts = {
         "runs": len(table),
-        "failed": int((table["reason"] == "error").sum()),
-        "succeeded": f"{100 * success(table).mean():.0f} % (no error, no fall, the goal where asked)",
-        "table": "results.parquet",
+        "ended": ", ".join(f"{ended[kind]} {kind}" for kind in OUTCOMES if kind in ended),
+        "table": "results.parquet (every run), summary.csv (these tables' numbers in full)",
     }
-    body = [
-        f"<h2>{escape(METRIC)} per estimator (m), per {escape(', '.join(by) or 'sweep')}</h2>",
-        f"<p>{escape(pooled_note(table, pooled))}</p>",
-        summary_table(table, by).to_html(classes="ctsim", float_format=lambda v: f"{v:.4f}", border=0, index=False),
-        *(image(p, p.stem) for p in figures),
-        "<h2>Sweep</h2>",
-        facts_table(facts),
-    ]
+    body = [f"<h2>Per {escape(', '.join(by) or 'sweep')}</h2>", f"<p>{escape(pooled_note(table, pooled))}</p>"]
+    for heading, part in shown_tables(summary_table(table, by)).items():
+        body += [f"<h3>{escape(heading)}</h3>", frame_table(part, text_columns=max(1, len(by)))]
+    body += [*(image(p, p.stem) for p in figures), "<h2>Sweep</h2>", facts_table(facts)]
     return [*written, write_text(sweep_dir / REPORT, page(f"ctsim sweep: {sweep_dir.resolve().name}", "\n".join(body)))]

@@ -69,7 +69,8 @@ class Compiling:
                         helper.kill()
                         helper.wait()
                     elif PROGRESS is not None:
-                        PROGRESS(f"still compiling ({time.perf_counter() - self.started:.0f} s)")
+                        done = sum(_in_cache(kernel, types) for kernel, types in self.missing)
+                        PROGRESS(f"compiling: {done} of {len(self.missing)} kernels done ({time.perf_counter() - self.started:.0f} s)")
         compiled = [kernel.compile(types) for kernel, types in self.typed]
         if self.missing and PROGRESS is not None:
             PROGRESS(f"compiled in {time.perf_counter() - self.started:.0f} s; later runs load them from numba's cache")

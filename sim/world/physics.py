@@ -15,7 +15,7 @@ from __future__ import annotations
 import math
 import os
 import zlib
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -123,6 +123,21 @@ def sensor_rng(seed: int, robot: int, sensor: str) -> np.random.Generator:
     return np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(robot, zlib.crc32(sensor.encode()))))
 
 
+PHASES = "start phases"
+"""The generator key of where a robot's counters stand within a count at the start."""
+
+
+def start_phases(spec: RobotSpec, rng: np.random.Generator) -> np.ndarray:
+    """(4,) the carries a robot's counters start with (encoder left, right; mouse forward, left, in
+    counts): zero where the spec says 'zero' (c't-Sim), else uniform in [0, 1) (`start_phase`)."""
+    phases = np.zeros(4)
+    if spec.encoders.start_phase == "random":
+        phases[:2] = rng.random(2)
+    if spec.mouse is not None and spec.mouse.start_phase == "random":
+        phases[2:] = rng.random(2)
+    return phases
+
+
 @dataclass
 class Robot:
     """One robot in the world: its description, its pymunk body and its bookkeeping."""
@@ -135,6 +150,8 @@ class Robot:
     query_filter: pymunk.ShapeFilter
     ir_curves: tuple[IRCurve, ...]
     rngs: dict[str, np.random.Generator]
+    phases: np.ndarray = field(default_factory=lambda: np.zeros(4))
+    """Carries its encoders and mouse start with (`start_phases`)."""
     slot: int | None = None
     """The start slot it was placed at (None: an explicit pose); its goals are `spec.goals_of(slot)`."""
     fallen: bool = False
@@ -236,6 +253,7 @@ class World:
             rngs=self._sensor_rngs(spec, index, seed),
             slot=slot,
         )
+        robot.phases = start_phases(spec, robot.rngs[PHASES])
 
         shape.collision_type = ROBOT
         self._round_bodies &= isinstance(shape, pymunk.Circle)
@@ -254,7 +272,7 @@ class World:
         return ((start.x, start.y, start.heading), start.slot) if isinstance(start, Start) else (tuple(start), None)
 
     def _sensor_rngs(self, spec: RobotSpec, index: int, seed: int | None) -> dict[str, np.random.Generator]:
-        sensors = ["encoders", "mouse", "mouse2"] + [s.name for s in (*spec.ir, *spec.line, *spec.border, *spec.light)]
+        sensors = ["encoders", "mouse", "mouse2", PHASES] + [s.name for s in (*spec.ir, *spec.line, *spec.border, *spec.light)]
         if seed is None:
             return {n: sensor_rng(self.seed, index, n) for n in sensors}
         return {n: sensor_rng(seed, 0, n) for n in sensors}
@@ -278,6 +296,8 @@ class World:
         robot.fallen, robot.collisions = False, 0
         st.state[index], st.tallies[index], st.fallen[index] = 0.0, 0, False
         robot.rngs = self._sensor_rngs(robot.spec, index, seed)
+        robot.phases = start_phases(robot.spec, robot.rngs[PHASES])
+        st.start_counters(robot)
         st.reseed(robot)
         self._quiet[layout.STREAK] = 0
         return robot
@@ -642,6 +662,8 @@ class _BatchState:
         self.contacts = _padded([_contacts(s)[0] for s in specs], np.float64, (2,))
         self.anchored = _padded([_contacts(s)[1] for s in specs], np.bool_)
         self.state = np.zeros((n, layout.STATE))
+        for robot in robots:
+            self.start_counters(robot)
         self.slip = _columns(self.state, layout.SLIP)
         self.mouse_noise = _columns(self.state, layout.MOUSE_NOISE)
         self.move = _columns(self.state, layout.MOVE)
@@ -695,6 +717,11 @@ class _BatchState:
         """Robots then movable obstacles as circles (x, y, radius, robot index, GHOST for a robot
         no other sees, or -1) for the IR kernel; positions are filled in at each read."""
         self.layout = SensorLayout.of([(len(s.ir), len(s.line), len(s.border), len(s.light)) for s in specs])
+
+    def start_counters(self, robot: Robot) -> None:
+        """`robot`'s counters' carries at their start phases."""
+        self.state[robot.index, layout.TICK_CARRY : layout.TICK_CARRY + 2] = robot.phases[:2]
+        self.state[robot.index, layout.MOUSE_CARRY : layout.MOUSE_CARRY + 2] = robot.phases[2:]
 
     def reseed(self, robot: Robot) -> None:
         """Draw `robot`'s noise from its (new) generators from now on."""
