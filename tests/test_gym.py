@@ -188,9 +188,55 @@ def test_batched_motor_commands_equal_the_run_loops_conversion(action):
     vec = CtsimVectorEnv(50, task="line", action=action)
     spec = vec._task.robot
     top = spec.max_wheel_surface_speed
-    actions = np.random.default_rng(4).uniform(-1.5, 1.5, (50, 2))  # beyond the Box too: clipped
+    actions = np.random.default_rng(4).uniform(-1.0, 1.0, (50, 2))  # (beyond the Box: refused, see below)
     got = vec._copies._motor_commands(actions)
-    for (a0, a1), row in zip(np.clip(actions, -1, 1), got):
+    for (a0, a1), row in zip(actions, got):
         command = WheelSpeeds(a0 * top, a1 * top) if action == "wheels" else Twist(a0 * top, a1 * 2 * top / spec.track_width)
         # the twist's wheel speeds round omega * track / 2 once more than the batched a1 * top: 1e-12 of 255
         np.testing.assert_allclose(row, motor_commands(*wheel_speeds_for(command, spec), spec), rtol=0, atol=1e-9)
+
+
+def test_the_episode_limit_is_in_the_registered_spec_with_timelimit_semantics():
+    """Wrappers and monitors see the limit (`spec.max_episode_steps`); gym.make's TimeLimit
+    truncates at it, a shorter one asked of make included."""
+    import gymnasium as gym
+
+    assert gym.spec("ctsim/MazeNav-v0").max_episode_steps == 1200 and gym.spec("ctsim/LineFollow-v0").max_episode_steps == 1200
+    env = gym.make("ctsim/LineFollow-v0", max_episode_steps=5)
+    env.reset(seed=0)
+    ends = [env.step(np.zeros(2, np.float32))[3] for _ in range(5)]
+    assert ends == [False] * 4 + [True]
+    envs = gym.make_vec("ctsim/LineFollow-v0", num_envs=2, max_episode_steps=3)
+    envs.reset(seed=0)
+    assert [bool(envs.step(np.zeros((2, 2), np.float32))[3].all()) for _ in range(3)] == [False, False, True]
+
+
+@pytest.mark.parametrize("action", [[np.nan, 0.0], [0.0, np.inf], [1.5, 0.0], [0.0, -1.01]])
+def test_an_action_outside_the_action_space_is_refused_with_a_clear_error(action):
+    from sim.experiments.gym import CtsimEnv, CtsimVectorEnv
+
+    env = CtsimEnv("line")
+    env.reset(seed=0)
+    with pytest.raises(ValueError, match=r"two finite numbers in \[-1, 1\]"):
+        env.step(np.array(action, np.float32))
+    envs = CtsimVectorEnv(2, task="line")
+    envs.reset(seed=0)
+    with pytest.raises(ValueError, match=r"\(copy 1\)"):
+        envs.step(np.array([[0.0, 0.0], action], np.float32))
+
+
+def test_gymnasiums_checkers_find_nothing():
+    """check_env, and the passive checker gym.make wraps every env in, without a warning."""
+    import warnings
+
+    import gymnasium as gym
+    from gymnasium.utils.env_checker import check_env
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for name in ("ctsim/MazeNav-v0", "ctsim/LineFollow-v0"):
+            env = gym.make(name)
+            check_env(env.unwrapped)
+            env.reset(seed=1)
+            for _ in range(3):
+                env.step(env.action_space.sample())

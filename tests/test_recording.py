@@ -179,7 +179,7 @@ def test_events_say_start_collision_and_end(tmp_path):
     result = run(load_world("maze"), [RobotSetup(CTBOT, FunctionController(lambda t, r: WheelSpeeds(0.3, 0.3)))], duration=4.0, observers=[Recorder(path)])
     assert result.robots[0].collisions >= 1  # straight ahead from the start meets the wall
     text = [row[0] for row in _columns(path)["/events"]["TextLog:text"]]
-    assert text[0].startswith("start: ctbot") and text[-1] == "end: duration"
+    assert text[0].startswith("start: ctbot") and text[-2:] == ["ctbot: goal not reached in 4 s", "end: duration"]
     assert sum("collision" in line for line in text) == result.robots[0].collisions
 
 

@@ -4,8 +4,8 @@ against the exact-sensor run, and that no run ever claims the goal it did not re
 seen from ten steady readings, never one; the run notes the goal from the true pose).
 
 The 61 runs are simulated once for the whole module, two at a time in a process pool (both of
-CI's cores): about 330 s of CPU, 170 s on a quiet two-core machine (a run stops at the goal; the
-run loop's estimators are off: they do not steer the robot)."""
+CI's cores): 233 s of CPU in all (measured: the runs' process times summed), about two minutes on
+two cores (a run stops at the goal; the run loop's estimators are off: they do not steer it)."""
 
 from __future__ import annotations
 

@@ -33,7 +33,7 @@ TOP: dict[str, Any] = {"world": {"name": _TEXT, "source": _TEXT}, "seed": _COUNT
                        "time": Field("number", "s", 0.0), "reason": _TEXT, "error": _MAYBE_TEXT, "robots": Field("tables")}
 """The top-level keys the report reads."""
 OPTIONAL = {"ctsim_version": _TEXT, "duration": _NUMBER, "noise": _TEXT}
-ROBOT_OPTIONAL = {"robot": _TEXT, "status": _MAYBE_TEXT, "tum": Field("table")}
+ROBOT_OPTIONAL = {"robot": _TEXT, "status": _MAYBE_TEXT, "goal": _MAYBE_TEXT, "tum": Field("table")}
 
 
 class RunFolderError(FileError):

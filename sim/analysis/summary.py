@@ -33,6 +33,14 @@ def _world(world: WorldSpec) -> dict[str, str]:
     return {"name": world.name, "source": str(world.source or world.name)}
 
 
+def goal_note(robot: dict[str, Any]) -> str:
+    """A summary robot's goal outcome as summary.json says it ('' in a world without a goal;
+    summaries written before it said so: from the goal time)."""
+    if robot.get("goal"):
+        return robot["goal"]
+    return f"goal reached at {robot['goal_time']:.1f} s" if robot["goal_time"] is not None else ""
+
+
 def summarize(result: RunResult, options: dict[str, Any], metrics: dict[str, dict[str, dict]] | None = None) -> dict[str, Any]:
     """The figures of the table and what produced them, as plain data for summary.json: the run's
     world, seed, step, `options` (what the caller ran it with: duration, robot, noise, ...), how
@@ -53,8 +61,9 @@ def summarize(result: RunResult, options: dict[str, Any], metrics: dict[str, dic
             "distance": path_length(result, log),
             "collisions": log.collisions,
             "fell": log.fell,
-            "status": log.status,
+            "status": "goal reached" if log.goal_time is not None else log.status,
             "goal_time": log.goal_time,
+            "goal": log.goal_outcome(result.duration) if result.world.goals else None,
             "estimates": metrics.get(log.name, {}),
             "notes": [{"message": message, "steps": count} for message, count in log.notes.values()],
         }

@@ -11,7 +11,7 @@ from typing import Any
 
 from bots.schema import file_stem
 from sim import sanitize
-from sim.analysis.summary import summarize, write_json
+from sim.analysis.summary import goal_note, summarize, write_json
 from sim.cli.observers import StopOnSignal
 from sim.cli.options import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_TERMINATED, UsageError
 from sim.folder_lock import LOCK, hold
@@ -170,16 +170,18 @@ def table(summary: dict[str, Any]) -> str:
 
     reached = [sanitize.name(robot["name"], 40) for robot in summary["robots"] if robot["goal_time"] is not None]
     outcome = {
-        Ending.GOAL: f"goal reached by {', '.join(reached)}", Ending.DURATION: "time limit reached",
+        Ending.GOAL: f"goal reached at {summary['time']:.1f} s by {', '.join(reached)}", Ending.DURATION: "time limit reached",
         Ending.DONE: "done (every controller said it is done)", Ending.QUIT: "quit (window closed)",
     }.get(summary["reason"], summary["reason"])  # fmt: skip
     if summary["reason"] == Ending.DURATION and reached:
         outcome = f"goal reached by {', '.join(reached)}, ran on to the time limit"
+    elif summary["reason"] == Ending.DURATION and any(robot.get("goal") for robot in summary["robots"]):
+        outcome = f"time limit reached, goal not reached in {summary['time']:g} s"
     rows = [["robot", "estimate", "distance m", "collisions", "final err m", "ATE RMS m", "final hdg °", "NEES end"]]
     notes = []
     for robot in summary["robots"]:
-        said = [note for note in ("fell into a hole" if robot["fell"] else "", f"goal at {robot['goal_time']:.2f} s" if robot["goal_time"] is not None else "",
-                                  f"controller: {robot['status']}" if robot.get("status") not in (None, "running") else "") if note]  # fmt: skip
+        said = [note for note in ("fell into a hole" if robot["fell"] else "", goal_note(robot),
+                                  f"controller: {robot['status']}" if robot.get("status") not in (None, "running", "goal reached") else "") if note]  # fmt: skip
         rows.append([sanitize.name(robot["name"], 40), "", f"{robot['distance']:.3f}", f"{robot['collisions']:d}"])
         notes.append((len(rows) - 1, ", ".join(said)))
         for name, errors in robot["estimates"].items():

@@ -11,7 +11,7 @@ nothing in range reads the far limit), each line then border sensor (0 white .. 
 hole), each light sensor (0 bright .. 1 dark), the two wheels' rim speeds the encoders measured
 over the last control step (m/s, left then right); the maze task adds the goal as the robot sees
 it: its distance (m) and the cosine and sine of its bearing from the robot's heading.
-**Action** (float32 Box [-1, 1]^2): wheel rim speeds as fractions of the top rim speed
+**Action** (float32 Box [-1, 1]^2; anything else, NaN included, is refused with a ValueError): wheel rim speeds as fractions of the top rim speed
 (`action="wheels"`, left then right), or a twist (`action="twist"`): forward speed as a fraction of
 the top rim speed and turn rate as a fraction of the top turn rate (2 x top rim speed / track).
 One env step is `control_dt` seconds (default 0.05 s: five physics steps of `dt`); the sensors
@@ -25,7 +25,8 @@ are read once per env step, at its end.
   heading at the step's start) while a line sensor sees the line, else minus TIME_COST per second;
   minus COLLISION_COST per new contact.
 Both give FALL_PENALTY and end (`terminated`) when the robot falls into a hole, and are
-`truncated` after `episode_seconds` of simulated time (default 60 s: 1,200 steps).
+`truncated` after `episode_seconds` of simulated time (default 60 s: 1,200 steps, also the
+registered `max_episode_steps`, which `gym.make`'s TimeLimit keeps).
 
 **Seeds.** `reset(seed=...)` draws, from the env's generator and in this order: the start pose
 (line: a point on the line, heading along it, with a little offset and turn; maze: a free point
@@ -210,7 +211,13 @@ class _Copies:
         actions = np.asarray(actions, dtype=np.float64)
         if actions.size != 2 * self.n:
             raise ValueError(f"expected actions of shape ({self.n}, 2), got {actions.shape}" if self.n > 1 else f"expected an action of shape (2,), got {actions.shape}")
-        commands = self._motor_commands(actions.reshape(self.n, 2))
+        actions = actions.reshape(self.n, 2)
+        wrong = ~(np.isfinite(actions) & (np.abs(actions) <= 1.0))
+        if wrong.any():
+            copy, _ = np.argwhere(wrong)[0]
+            where = f" (copy {copy})" if self.n > 1 else ""
+            raise ValueError(f"an action must be two finite numbers in [-1, 1] (the action space), got {actions[copy].tolist()}{where}")
+        commands = self._motor_commands(actions)
         commands[~moving] = 0.0
         world = self.world
         before = world.poses()
@@ -222,9 +229,9 @@ class _Copies:
         return before, world.poses()
 
     def _motor_commands(self, actions: np.ndarray) -> np.ndarray:
-        """Motor commands (n, 2) for actions in [-1, 1] (NaN: 0), as `bots.commands.wheel_speeds_for`
+        """Motor commands (n, 2) for actions in [-1, 1], as `bots.commands.wheel_speeds_for`
         and `motor_commands` make them: rim speeds scaled into the top speed, curvature kept."""
-        a = np.clip(np.nan_to_num(actions, nan=0.0), -1.0, 1.0)
+        a = actions
         top = self.task.robot.max_wheel_surface_speed
         if self.task.action == "wheels":
             rims = a * top
@@ -356,7 +363,9 @@ class CtsimVectorEnv(VectorEnv):
     metadata = {"render_modes": ["rgb_array"], "render_fps": 20, "autoreset_mode": AutoresetMode.NEXT_STEP}
 
     def __init__(self, num_envs: int = 4, render_mode: str | None = None, render_size: int = 400, **kwargs: Any):
-        kwargs.pop("max_episode_steps", None)  # make_vec passes the spec's; ours is episode_seconds
+        steps = kwargs.pop("max_episode_steps", None)  # make_vec passes the spec's (or the caller's): whichever limit comes first
+        if steps is not None:
+            kwargs["episode_seconds"] = min(kwargs.get("episode_seconds", 60.0), steps * kwargs.get("control_dt", 0.05))
         if not (isinstance(num_envs, int) and num_envs >= 1):
             raise ValueError(f"num_envs must be a positive integer, got {num_envs!r}")
         if render_mode not in (None, "rgb_array"):
@@ -454,7 +463,11 @@ class _Canvas:
 
 ENVIRONMENTS = {"ctsim/MazeNav-v0": {"task": "maze"}, "ctsim/LineFollow-v0": {"task": "line"}}
 """The registered environment ids and their arguments."""
+EPISODE_STEPS = 1200
+"""The registered episode limit (`spec.max_episode_steps`, Gymnasium's TimeLimit): the envs'
+default 60 s of 0.05 s steps, so that wrappers and monitors see it."""
 
 for _id, _kwargs in ENVIRONMENTS.items():
     if _id not in gymnasium.registry:
-        gymnasium.register(_id, entry_point=f"{__name__}:CtsimEnv", vector_entry_point=f"{__name__}:CtsimVectorEnv", kwargs=_kwargs)
+        gymnasium.register(_id, entry_point=f"{__name__}:CtsimEnv", vector_entry_point=f"{__name__}:CtsimVectorEnv", kwargs=_kwargs,
+                           max_episode_steps=EPISODE_STEPS)  # fmt: skip

@@ -184,6 +184,11 @@ class RobotLog:
             self._estimates |= {label: self._extra_poses[:, k] for k, label in enumerate(extra)}
             self._uncertain |= {label: self._extra_covariances[:, k] for k, label in enumerate(extra_uncertain)}
 
+    def goal_outcome(self, duration: float) -> str:
+        """Whether and when the robot reached its goal, in the words the table, report.html and
+        the recording say it in: 'goal reached at 231.4 s' or 'goal not reached in 300 s'."""
+        return f"goal reached at {self.goal_time:.1f} s" if self.goal_time is not None else f"goal not reached in {duration:g} s"
+
     @property
     def latest(self) -> Readings | None:
         """The readings of the current sample (what the controller gets this step)."""

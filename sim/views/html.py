@@ -15,6 +15,7 @@ from html import escape
 from pathlib import Path
 from typing import Any
 
+from sim.analysis.summary import goal_note
 from sim.views import palette
 
 STYLE = """
@@ -40,7 +41,7 @@ def summary_table(robots: list[dict[str, Any]]) -> str:
     head = ("robot / estimate", "distance m", "collisions", "final err m", "ATE RMS m", "final hdg °", "")
     rows = ["<tr>" + "".join(f"<th>{escape(h)}</th>" for h in head) + "</tr>"]
     for robot in robots:
-        notes = ["fell into a hole" if robot["fell"] else "", f"goal at {robot['goal_time']:.2f} s" if robot["goal_time"] is not None else ""]
+        notes = ["fell into a hole" if robot["fell"] else "", goal_note(robot)]
         rows.append(
             f"<tr class='robot'><td>{escape(robot['name'])} <span style='font-weight:normal'>({escape(robot['controller'])})</span></td>"
             f"<td>{robot['distance']:.3f}</td><td>{robot['collisions']}</td><td></td><td></td><td></td>"

@@ -230,6 +230,9 @@ class Recorder(LiveStream):
         """Note how the run ended, flush what is buffered and close (also after an error or Ctrl-C)."""
         if self.streams:
             level = {"error": "ERROR", "interrupted": "WARN", "terminated": "WARN"}.get(result.reason, "INFO")
+            if result.world.goals:  # (whether and when, said plainly, last before the end)
+                for log in result.robots:
+                    self._event(f"{log.name}: {log.goal_outcome(result.duration)}", "INFO" if log.goal_time is not None else "WARN")
             self._event(f"end: {result.reason}" + (f": {result.error}" if result.error else ""), level)
         self.close()
 
