@@ -20,7 +20,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 RUN = ["run", "--duration", "1", "--no-report"]
-ONE_PROCESS = "import sim.world.compiling as c; c.compile_all.__defaults__ = (0,); "
+ONE_PROCESS = "import sim.world.compiling as c; c.WORKERS = 0; "
 
 
 def _timed(cache: str, out: str, prelude: str = "") -> float:

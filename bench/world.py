@@ -8,9 +8,10 @@ from collections.abc import Callable
 import numpy as np
 
 from bots.ctbot import CTBOT
+from bots.noise import DEFAULT_NOISE, with_noise
 from sim.world import World
 from sim.world.files import load_world
-from sim.world.spec import Start, WorldSpec
+from sim.world.spec import Start, Wall, WorldSpec
 
 
 def _steps_per_second(world: World, steps: int, commands: np.ndarray, read: bool = True, repeats: int = 3) -> float:
@@ -54,12 +55,22 @@ def mecanum_4wheel(steps: int) -> float:
     return _steps_per_second(world, steps, np.zeros((1, 2)), read=False)
 
 
-def maze_ctbot(steps: int, repeats: int = 3) -> float:
+def maze_ctbot(steps: int, repeats: int = 3, noise: str = "none") -> float:
     """One c't-Bot reading every sensor each step in the shipped maze, turning gently so that it
-    meets walls (contacts, sliding and ray hits included)."""
+    meets walls (contacts, sliding and ray hits included), with a noise preset (`bots.noise`)."""
     world = World(load_world("maze"))
-    world.add_robot(CTBOT)
+    world.add_robot(with_noise(CTBOT, noise))
     return _steps_per_second(world, steps, np.array([[200.0, 180.0]]), repeats=repeats)
+
+
+def noise_over_exact(steps: int, rounds: int = 5) -> float:
+    """Cost of `maze_ctbot`'s step with the default (realistic) noise over the exact one: the best
+    of `rounds` interleaved runs of each (noise draws in the compiled kernels; bar <= 1.25)."""
+    best = {"none": 0.0, DEFAULT_NOISE: 0.0}
+    for _ in range(rounds):
+        for preset in best:
+            best[preset] = max(best[preset], maze_ctbot(steps, repeats=1, noise=preset))
+    return best["none"] / best[DEFAULT_NOISE]
 
 
 def generated_maze(rooms: int, seed: int = 0) -> WorldSpec:
@@ -93,10 +104,11 @@ def big_maze_ctbot(steps: int, rooms: int = 40) -> float:
     return _steps_per_second(world, steps, np.array([[200.0, 180.0]]))
 
 
-def maze_run(steps: int, record: bool) -> float:
+def maze_run(steps: int, record: bool, noise: str = DEFAULT_NOISE) -> float:
     """Steps per second of a whole run (`sim.run.loop.run`: sensors, odometry, controller, physics) of
-    a c't-Bot solving the maze for `steps` steps, with or without the rerun recorder writing
-    every step to a temporary .rrd (opening and closing the file included)."""
+    a c't-Bot with a noise preset (the main job's, realistic) solving the maze for `steps` steps,
+    with or without the rerun recorder writing every step to a temporary .rrd (opening and
+    closing the file included)."""
     import tempfile
     from pathlib import Path
 
@@ -110,7 +122,7 @@ def maze_run(steps: int, record: bool) -> float:
     with tempfile.TemporaryDirectory() as folder:
         observers = [Recorder(Path(folder) / "bench.rrd")] if record else []
         start = time.perf_counter()
-        result = run(load_world("maze"), [RobotSetup(CTBOT, make("solve_maze", {}))], steps * 0.01, observers=observers)
+        result = run(load_world("maze"), [RobotSetup(with_noise(CTBOT, noise), make("solve_maze", {}))], steps * 0.01, observers=observers)
         return (len(result) - 1) / (time.perf_counter() - start)  # the steps run: solve_maze ends at the goal (~240 s)
 
 
@@ -165,22 +177,141 @@ print(best * 0.1)  # simulated seconds per wall second at the world's step_time
 '''
 
 
+SQUARE_BOXES = ((1.56, 0.0, 3.12, 0.12), (1.56, 3.12, 3.12, 0.12), (0.0, 1.56, 0.12, 3.12), (3.12, 1.56, 0.12, 3.12), (2.5, 1.4, 0.12, 1.2))
+"""The walled square of `_IRSIM_LIDAR` (centre x, y, length along x, width along y; m)."""
+
+
+def _box(x: float, y: float, length: float, width: float) -> Wall:
+    hx, hy = length / 2, width / 2
+    return Wall(((x - hx, y - hy), (x + hx, y - hy), (x + hx, y + hy), (x - hx, y + hy)))
+
+
+def _peer_python(variable: str, default: str) -> str:
+    """The python of a peer simulator's own venv: the one `variable` names, else `default`."""
+    import os
+
+    return os.environ.get(variable, default)
+
+
 def irsim_sim_seconds(steps: int) -> float:
     """Simulated seconds per wall second of IR-SIM's differential-drive robot with a 2-beam lidar
-    (0.8 m) at IR-SIM's default step of 0.1 s, driving a circle in a walled square the size of the
-    maze (best of 3, in a child process); nan where IR-SIM is not installed. IR-SIM is a peer to
-    compare with, not a dependency: `pip install ir-sim` into this venv, or into another one
-    named by CTSIM_IRSIM_PYTHON (its python executable)."""
-    import os
+    (0.8 m) at dt 0.1 s, a constant action, no display or recording, in `SQUARE_BOXES` (best of
+    3, in a child process); nan where IR-SIM is not installed. IR-SIM is a peer to compare with,
+    not a dependency: install it (`pip install ir-sim`) into a venv of its own and name its python
+    in CTSIM_IRSIM_PYTHON (default: this python)."""
     import subprocess
     import sys
 
-    python = os.environ.get("CTSIM_IRSIM_PYTHON", sys.executable)
     try:
-        done = subprocess.run([python, "-c", _IRSIM_LIDAR, str(steps)], capture_output=True, text=True, timeout=600)
+        done = subprocess.run([_peer_python("CTSIM_IRSIM_PYTHON", sys.executable), "-c", _IRSIM_LIDAR, str(steps)], capture_output=True, text=True, timeout=600)
         return float(done.stdout.strip().splitlines()[-1]) if done.returncode == 0 else float("nan")
     except (OSError, ValueError, IndexError, subprocess.TimeoutExpired):
         return float("nan")
+
+
+def two_ir_sim_seconds(steps: int) -> float:
+    """IR-SIM's work in ctsim: one c't-Bot with its two IR range sensors (0.8 m) and nothing else
+    (no mouse, floor or light sensors), read every step, at dt 0.1 s with a constant command in
+    `SQUARE_BOXES`, no recording; simulated seconds per wall second."""
+    ranged = CTBOT.with_changes(name="two_ir", mouse=None, line=(), border=(), light=())
+    world = World(WorldSpec("square", (0.0, 0.0, 3.12, 3.12), walls=tuple(_box(*b) for b in SQUARE_BOXES)), dt=0.1)
+    world.add_robot(ranged, (1.56, 0.9, 0.0))
+    return 0.1 * _steps_per_second(world, steps, np.array([[60.0, 120.0]]))
+
+
+def irsim_like_for_like(steps: int, rounds: int = 3) -> float:
+    """`two_ir_sim_seconds` over `irsim_sim_seconds`, each the best of `rounds` alternating runs."""
+    ours, theirs = 0.0, 0.0
+    for _ in range(rounds):
+        ours = max(ours, two_ir_sim_seconds(steps))
+        theirs = max(theirs, irsim_sim_seconds(steps))
+    return ours / theirs
+
+
+_ENKI = """
+import json, sys, time
+import pyenki
+boxes, rooms, count, steps, dt = json.loads(sys.argv[1])
+side = 100.0 * (0.48 * rooms + 0.24)  # cm
+world = pyenki.World(side, side)
+for x, y, length, width in boxes:
+    wall = pyenki.RectangularObject(100.0 * length, 100.0 * width, 5.0, -1.0, pyenki.Color(0.5, 0.5, 0.5))
+    wall.pos = (100.0 * x, 100.0 * y)
+    world.addObject(wall)
+thymios = []
+for k in range(count):
+    thymio = pyenki.Thymio2()
+    thymio.pos = (100.0 * (0.36 + 0.48 * (k % rooms)), 100.0 * (0.36 + 0.48 * (k // rooms)))
+    thymio.angle = 1.5708
+    thymio.leftSpeed, thymio.rightSpeed = 10.0, 9.0
+    world.addObject(thymio)
+    thymios.append(thymio)
+
+
+def advance(n):
+    for _ in range(n):
+        world.step(dt, 1)
+        for thymio in thymios:
+            thymio.proximitySensorValues, thymio.groundSensorValues
+
+
+advance(min(steps, 200))
+best = 0.0
+for _ in range(3):
+    start = time.perf_counter()
+    advance(steps)
+    best = max(best, steps / (time.perf_counter() - start))
+print(best)
+"""
+
+
+def enki_steps_per_second(count: int, steps: int, dt: float = 0.01) -> float:
+    """Steps per second of `count` Thymio IIs in Enki (Debian's python3-enki2, C++), each reading
+    its 7 proximity and 2 ground sensors every step, in the walls of `generated_maze` (one robot
+    per room, at the rooms' centres, in cm), best of 3 in a child process; nan where Enki is not
+    installed (`apt-get install python3-enki2`; CTSIM_ENKI_PYTHON names its python, default the
+    system's /usr/bin/python3)."""
+    import json
+    import math
+    import subprocess
+
+    rooms = max(2, math.ceil(math.sqrt(count)))
+    boxes = [_bounds_box(wall) for wall in generated_maze(rooms).walls]
+    arguments = json.dumps([boxes, rooms, count, steps, dt])
+    try:
+        done = subprocess.run([_peer_python("CTSIM_ENKI_PYTHON", "/usr/bin/python3"), "-c", _ENKI, arguments], capture_output=True, text=True, timeout=1200)
+        return float(done.stdout.strip().splitlines()[-1]) if done.returncode == 0 else float("nan")
+    except (OSError, ValueError, IndexError, subprocess.TimeoutExpired):
+        return float("nan")
+
+
+def _bounds_box(wall: Wall) -> tuple[float, float, float, float]:
+    """A rectangular wall as (centre x, y, length along x, width along y)."""
+    xs, ys = [v[0] for v in wall.vertices], [v[1] for v in wall.vertices]
+    return ((min(xs) + max(xs)) / 2, (min(ys) + max(ys)) / 2, max(xs) - min(xs), max(ys) - min(ys))
+
+
+def maze_crowd(count: int, steps: int, dt: float = 0.01) -> float:
+    """`enki_steps_per_second`'s work in ctsim: `count` c't-Bots with every sensor (realistic
+    noise), each read every step, one per room of `generated_maze` and driving gently."""
+    import math
+
+    rooms = max(2, math.ceil(math.sqrt(count)))
+    world = World(generated_maze(rooms), dt=dt, floor_cell=0.01)
+    robot = with_noise(CTBOT, DEFAULT_NOISE)
+    for k in range(count):
+        world.add_robot(robot, (0.36 + 0.48 * (k % rooms), 0.36 + 0.48 * (k // rooms), np.pi / 2))
+    return _steps_per_second(world, steps, np.tile([200.0, 180.0], (count, 1)), repeats=1)
+
+
+def maze_over_enki(count: int, steps: int, rounds: int = 3) -> float:
+    """ctsim's `maze_crowd` over Enki's `enki_steps_per_second`, the best of `rounds` alternating
+    runs of each (robot-steps per second alike)."""
+    ours, theirs = 0.0, 0.0
+    for _ in range(rounds):
+        ours = max(ours, maze_crowd(count, steps))
+        theirs = max(theirs, enki_steps_per_second(count, steps))
+    return ours / theirs
 
 
 def rerun_import() -> float:
@@ -241,18 +372,19 @@ def figures(scale: float):
             import rerun  # noqa: F401
 
             for _ in range(5):
-                for key, measure in (("world", lambda: maze_ctbot(steps, repeats=1)), ("run", lambda: maze_run(steps, False)),
+                for key, measure in (("world", lambda: maze_ctbot(steps, repeats=1, noise=DEFAULT_NOISE)), ("run", lambda: maze_run(steps, False)),
                                      ("recording", lambda: maze_run(steps, True))):  # fmt: skip
                     measured[key] = max(measured.get(key, 0.0), measure())
         return measured[kind]
 
     yield "run_maze_solve", "steps/s", lambda: once("run")
     yield "world_maze_ctbot_beside_runs", "steps/s (the bare world step as long as a run, interleaved with the runs)", lambda: once("world")
-    yield "run_maze_solve_over_world_step", "(whole run / bare world step beside it; bar >= 0.5)", lambda: once("run") / once("world")
+    yield "world_maze_noise_over_exact", "(cost of a world step with realistic noise / exact, interleaved; bar <= 1.25)", lambda: noise_over_exact(max(int(5000 * scale), 500))
+    yield "run_maze_solve_over_world_step", "(whole run / bare world step beside it, realistic noise on both; bar >= 0.5)", lambda: once("run") / once("world")
     yield "run_maze_solve_recording", "steps/s", lambda: once("recording")
     yield "run_maze_solve_recording_ratio", "(recording / run, same run; bar >= 0.8)", lambda: once("recording") / once("run")
-    yield "run_over_irsim_sim_seconds", "(simulated s per wall s: the main job at dt 0.01, recording, over IR-SIM's lidar robot at dt 0.1; bar >= 1; nan: IR-SIM not installed)", \
-        lambda: once("recording") * 0.01 / irsim_sim_seconds(max(int(20_000 * scale), 1000))
+    yield "run_over_irsim_like_for_like", "(simulated s per wall s: one robot, two range sensors, dt 0.1, constant command, no recording, ctsim over IR-SIM; nan: IR-SIM not installed)", \
+        lambda: irsim_like_for_like(max(int(20_000 * scale), 1000))
     yield "rerun_import_s", "s (once per process, before the first recording; own process)", rerun_import
     crowds: dict[int, float] = {}
 
@@ -261,6 +393,9 @@ def figures(scale: float):
             crowds[count] = many_ctbots(max(int(30_000 * scale) // count, 10), count)
         return crowds[count]
 
+    for count in (1, 100, 1000):
+        yield (f"world_maze_over_enki_{count}", f"(robot-steps/s: {count} c't-Bot(s) with every sensor over Enki's Thymio II with 7 proximity and 2 ground sensors, "
+               "walled maze, alternating runs; bar >= 2; nan: python3-enki2 not installed)", lambda count=count: maze_over_enki(count, max(int(20_000 * scale) // count, 20)))
     yield "world_100_ctbots", "steps/s", lambda: crowd(100)
     yield "world_1000_ctbots", "steps/s", lambda: crowd(1000)
     yield "world_ctbots_cost_1000_over_10", "(cost per robot-step at 1,000 / at 10 robots, same run; bar <= 1.5)", lambda: 10 * crowd(10) / (1000 * crowd(1000))

@@ -1,8 +1,8 @@
 """Noise presets of the c't-Bot and `section.field=value` overrides of any robot description.
 
-A robot description is noise-free by default (exact ground truth for tests); `ctsim run` applies
-the realistic preset unless `--noise none` says otherwise, and names it in the summary, the
-console table and the figures. Every random error is a process in distance (or in ticks counted),
+A robot description is noise-free by default (exact ground truth for tests); every way of starting
+a run applies DEFAULT_NOISE (realistic) unless told `none` (`--noise none`, `noise="none"`), and
+names it in the summary, the console table and the figures. Every random error is a process in distance (or in ticks counted),
 never in steps, so the same seed-averaged drift comes out at any `--dt` (tests/test_noise_processes.py).
 
 | field | realistic | harsh | source |
@@ -58,6 +58,11 @@ NOISE_PRESETS: dict[str, dict[str, Any]] = {
     },
 }
 """Preset name -> field overrides (see the module's table for the figures and their sources)."""
+
+DEFAULT_NOISE = "realistic"
+"""The preset of every way of starting a run (`ctsim run`, `play`, `simulate`, sweeps, contests, the
+gym envs) unless told otherwise: the same call means the same physics everywhere. The firmware
+bridge alone stays exact, as c't-Sim has no noise."""
 
 
 DIFFERENTIAL_ONLY = ("encoders.diameter_error", "encoders.track_error")

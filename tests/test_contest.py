@@ -61,7 +61,7 @@ def games(path: Path) -> list[tuple]:
 def test_a_contest_from_the_command_line_writes_bracket_ranking_and_database(lanes, tmp_path, capsys):
     out = tmp_path / "contest"
     entries = drivers(tmp_path, 0.1, 0.3, 0.2, 0.15, 0.25)
-    code = main(["contest", str(lanes), *entries, "--time-limit", "6", "--engine", "serial", "--out", str(out)])
+    code = main(["contest", str(lanes), *entries, "--time-limit", "6", "--engine", "serial", "--noise", "none", "--out", str(out)])  # straight drivers in exact lanes
     printed = capsys.readouterr().out
     assert code == 0
     with (out / "ranking.csv").open() as f:
@@ -69,6 +69,8 @@ def test_a_contest_from_the_command_line_writes_bracket_ranking_and_database(lan
     assert [r["entry"] for r in rows] == ["v03", "v025", "v02", "v015", "v01"]  # the fastest wins every race
     assert [r["place"] for r in rows] == ["1", "2", "3", "4", "5"] and rows[0]["out in"] == "-"
     assert "v03" in printed and "bracket.html" in printed
+    with sqlite3.connect(out / "contest.sqlite") as db:  # the contest keeps its noise among its settings
+        assert db.execute("SELECT value FROM settings WHERE key = 'noise'").fetchone() == ("none",)
     page = (out / "bracket.html").read_text()
     recordings = sorted(p.relative_to(out).as_posix() for p in (out / "games").glob("*.rrd"))
     assert len(recordings) == 5 + 5  # five alone, four knockout games and the game for third place
@@ -78,7 +80,7 @@ def test_a_contest_from_the_command_line_writes_bracket_ranking_and_database(lan
     assert store.seeds() == {2: 1, 5: 2, 3: 3, 4: 4, 1: 5}  # by arrival in the preliminary round
     final = store.games("level = 1")[0]
     assert final.reason == "goal" and final.winner == 2 and final.arrival1 == pytest.approx(1.3 / 0.3, abs=0.011)  # one step
-    again = main(["contest", str(lanes), *entries, "--time-limit", "6", "--engine", "serial", "--out", str(out)])
+    again = main(["contest", str(lanes), *entries, "--time-limit", "6", "--engine", "serial", "--noise", "none", "--out", str(out)])
     assert again == 0 and "v03" in capsys.readouterr().out  # a finished contest is only reported again
 
 
@@ -109,6 +111,8 @@ def test_another_contest_in_the_same_folder_is_refused(lanes, tmp_path, capsys):
     capsys.readouterr()
     assert main(["contest", str(lanes), *drivers(tmp_path, 0.3, 0.25), "--time-limit", "5", "--engine", "serial", "--out", str(out)]) == 2
     assert "holds another contest (entries differ)" in capsys.readouterr().err
+    assert main(["contest", str(lanes), *drivers(tmp_path, 0.3, 0.2), "--time-limit", "5", "--engine", "serial", "--noise", "none", "--out", str(out)]) == 2
+    assert "holds another contest (noise differ)" in capsys.readouterr().err  # realistic by default, as every run; --noise is a setting
 
 
 def test_resume_after_a_kill_ends_as_an_uninterrupted_contest(lanes, tmp_path):
@@ -148,8 +152,9 @@ def test_the_same_game_is_the_same_bit_for_bit_in_any_process(lanes, tmp_path):
     (_, there), (_, again) = Processes(2).imap(play, [job, job])
     assert here["digest"] == there["digest"] == again["digest"]
     assert here["sides"] == there["sides"] and here["verdict"] == there["verdict"]
-    other_seed = play(GameJob(2, 1, job.entries, job.world, 4.0, 8, 0.01, None))
-    assert other_seed["sides"] == here["sides"]  # no noise in this world: the seed changes nothing here ...
+    exact = [play(GameJob(2, 1, job.entries, job.world, 4.0, seed, 0.01, None, noise="none")) for seed in (7, 8)]
+    assert exact[0]["sides"] == exact[1]["sides"] and exact[0]["digest"] == exact[1]["digest"]  # no noise: the seed changes nothing ...
+    assert play(GameJob(2, 1, job.entries, job.world, 4.0, 8, 0.01, None))["digest"] != here["digest"]  # ... with the default noise it does
     noisy = [play(GameJob(2, 1, tuple(parse(["a=wander", "b=wander"])), "contest", 3.0, seed, 0.01, None))["digest"] for seed in (1, 1)]
     assert noisy[0] == noisy[1]  # ... and a wanderer among walls is the same run for the same seed
 
@@ -160,7 +165,7 @@ def test_a_firmware_races_python_controllers_through_the_bridge(lanes, tmp_path)
     (c't-Sim's lock-step); it reaches its goal 1.3 m ahead before a driver at 0.1 m/s."""
     fake = ROOT / "tests" / "fake_firmware.py"
     entries = tuple(parse([f"fw=firmware:{fake},rc5=0.1:3", *drivers(tmp_path, 0.1)]))
-    outcome = play(GameJob(2, 1, entries, str(lanes), 14.0, 0, 0.01, str(tmp_path / "race.rrd")))
+    outcome = play(GameJob(2, 1, entries, str(lanes), 14.0, 0, 0.01, str(tmp_path / "race.rrd"), noise="none"))  # (a closed form: exact wheels)
     assert "crash" not in outcome, outcome.get("crash")
     speed = 75 * 151 / 60 * 178.1283 / 255 / 1000  # m/s: ACT_MOT units through c't-Sim's mapping
     assert outcome["verdict"]["winner"] == 0 and outcome["verdict"]["reason"] == "goal"

@@ -45,15 +45,31 @@ def test_robots_as_a_list_and_noise_as_the_command_line_gives_them():
     listed = simulate("maze", [Bot("idle"), Bot("wander")], duration=0.1)
     keyword = simulate("maze", robots=[Bot("idle")] * 3, duration=0.1)
     assert [r.controller for r in listed.robots] == ["idle", "wander"] and len(keyword.robots) == 3
-    quiet = simulate("empty", Bot("wander"), duration=0.5, seed=3)
+    quiet = simulate("empty", Bot("wander"), noise="none", duration=0.5, seed=3)
     noisy = simulate("empty", Bot("wander"), noise="realistic", duration=0.5, seed=3)
     own = simulate("empty", Bot("wander", noise="none"), noise="realistic", duration=0.5, seed=3)
     assert not np.array_equal(quiet.robots[0].truth, noisy.robots[0].truth)  # realistic slip moves the body
     assert np.array_equal(quiet.robots[0].truth, own.robots[0].truth)
+    assert (quiet.summary()["noise"], noisy.summary()["noise"], own.summary()["noise"]) == ("none", "realistic", "none")
+    mixed = simulate("empty", [Bot("idle", noise="harsh"), Bot("idle")], duration=0.1)
+    assert mixed.summary()["noise"] == "harsh, realistic"
     with pytest.raises(TypeError, match="a Bot or a RobotSetup, got str"):
         simulate("empty", "wander")
     with pytest.raises(ValueError, match="unknown noise preset"):
         simulate("empty", Bot("wander"), noise="loud")
+
+
+def test_simulate_runs_with_the_command_lines_noise_by_default():
+    """`simulate` and `ctsim run` mean the same physics: realistic noise unless told otherwise,
+    named in the summary (and so in the notebook's table of facts)."""
+    from bots.noise import DEFAULT_NOISE
+    from sim.views.html import run_facts
+
+    default = simulate("empty", Bot("wander"), duration=0.5, seed=3)
+    named = simulate("empty", Bot("wander"), noise=DEFAULT_NOISE, duration=0.5, seed=3)
+    assert DEFAULT_NOISE == "realistic"
+    assert np.array_equal(default.robots[0].truth, named.robots[0].truth)
+    assert default.summary()["noise"] == "realistic" and run_facts(default.summary())["noise"] == "realistic"
 
 
 def test_failing_controller_is_a_result_not_an_exception():
@@ -100,6 +116,23 @@ def test_grid_plan_and_ids():
     assert len({job.run_id for job in jobs(spec)}) == 6
 
 
+def test_a_noise_axis_runs_each_preset_and_names_it_in_its_row():
+    """`noise` is a sweep setting as `--noise` is an option: realistic unless [base] or [axes] say
+    otherwise; each preset gives the same run as `simulate(noise=...)`."""
+    from sim.experiments.sweep import execute
+
+    assert all(s["noise"] == "realistic" for s in settings(spec_from_dict({"axes": {"seed": [0, 1]}})))
+    spec = spec_from_dict({"base": {"duration": 0.3, "world": "empty", "controller": "wander", "seed": 3}, "axes": {"noise": ["none", "realistic", "harsh"]}})
+    rows = [execute(job) for job in jobs(spec)]
+    assert [row["noise"] for row in rows] == ["none", "realistic", "harsh"] and all(row["error"] is None for row in rows)
+    for row in rows:
+        alone = simulate("empty", Bot("wander"), noise=row["noise"], duration=0.3, seed=3)
+        assert row["distance"] == alone.robots[0].distance
+    assert len({row["distance"] for row in rows}) == 3  # three presets, three different runs
+    with pytest.raises(SpecError, match="noise: must be one of 'none', 'realistic', 'harsh'"):
+        spec_from_dict({"base": {"noise": "loud"}})
+
+
 def test_random_plan_is_reproducible_and_extends():
     axes = {"robot.encoders.slip_std": {"log_uniform": [0.001, 0.1]}, "seed": {"integers": [0, 9]}, "world": ["maze", "empty"]}
     small = settings(spec_from_dict({"sweep": {"mode": "random", "samples": 5, "seed": 3}, "axes": axes}))
@@ -124,12 +157,3 @@ def test_spec_mistakes_name_the_key(data, message):
     with pytest.raises(SpecError, match=message):
         spec_from_dict(data, "spec.toml")
 
-
-def test_the_summary_and_the_notebook_view_name_the_noise_that_ran():
-    """The run's setup carries its noise preset: the API's summary says which ran (as summary.json
-    from `ctsim run` does), the notebook view too, and a Bot's own preset counts for its robot."""
-    harsh = simulate("empty", Bot("wander"), noise="harsh", duration=0.05)
-    assert harsh.summary()["noise"] == "harsh"
-    assert "harsh" in harsh._repr_html_()
-    mixed = simulate("empty", [Bot("wander"), Bot("wander", noise="realistic")], noise="none", duration=0.05)
-    assert mixed.summary()["noise"] == "none, realistic"

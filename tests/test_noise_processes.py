@@ -71,3 +71,26 @@ def test_slip_spurious_ticks_and_mouse_noise_spread_as_their_processes_at_any_st
     }
     for name, (seen, model) in expected.items():
         assert low < seen / model < high, f"{name}: variance {seen:.3g} against the model's {model:.3g} at dt {dt} s"
+
+
+@pytest.mark.parametrize("n, p", [(1, 0.002), (3, 0.02), (5, 0.5), (4, 1.0), (0, 0.3)])
+def test_a_uniform_picks_each_count_of_spurious_ticks_with_its_binomial_probability(n, p):
+    """The compiled kernels draw a step's wrong ticks from one uniform each (`sim.world.kernels.noise`):
+    over an even grid of M uniforms each count k comes out for a share of them within 1/M of the
+    binomial probability C(n, k) p^k (1-p)^(n-k) (the grid's own step; no sampling error)."""
+    from sim.world.kernels.noise import _binomial
+
+    m = 20_000
+    counts = np.bincount([_binomial(n, p, (i + 0.5) / m) for i in range(m)], minlength=n + 1)
+    probability = [math.comb(n, k) * p**k * (1 - p) ** (n - k) for k in range(n + 1)]
+    assert np.allclose(counts / m, probability, atol=1.5 / m)
+
+
+def test_the_normal_a_uniform_is_made_of_is_uniform():
+    """Phi(z) of standard normals is uniform: its deciles of 100,000 draws each hold a tenth of
+    them within five standard errors (sqrt(0.09 / 100,000) = 0.00095)."""
+    from sim.world.kernels.noise import _uniform
+
+    z = np.random.default_rng(5).standard_normal(100_000)
+    shares = np.bincount((np.array([_uniform(v) for v in z]) * 10).astype(int), minlength=10) / len(z)
+    assert np.all(np.abs(shares - 0.1) < 5 * 0.00095)

@@ -109,3 +109,24 @@ def test_a_user_estimator_may_not_take_a_shipped_name(tmp_path, capsys):
     path = _file(tmp_path, EULER.replace('name = "euler"', 'name = "fused"'))
     assert main(["run", "maze", "--duration", "0.1", "--estimator", str(path), "--out", str(tmp_path / "run")]) == 2
     assert "'fused' is taken" in capsys.readouterr().err
+
+
+def test_the_defaults_stay_in_their_compiled_pass_beside_a_user_estimator(tmp_path, monkeypatch):
+    """With an estimator of the user's, the robot's default estimators are still stepped by the
+    compiled batch (the run makes no Python default estimators) and their estimates and
+    covariances are those of the same run without it, bit for bit."""
+    import sim.run.loop
+
+    path = _file(tmp_path, EULER)
+    alone = simulate("maze", duration=1.0, seed=4)
+
+    updated = []
+    stepped = sim.run.loop._update
+    monkeypatch.setattr(sim.run.loop, "_update", lambda estimator, *rest: updated.append(estimator.name) or stepped(estimator, *rest))
+    beside = simulate("maze", duration=1.0, seed=4, estimators=[f"{path}:Euler"])
+    assert updated == ["euler"] * len(beside.time)  # the user's alone is stepped in Python
+    (a,), (b,) = alone.robots, beside.robots
+    assert list(b.estimates) == [*a.estimates, "euler"] and list(b.covariances) == [*a.covariances, "euler"]
+    for label, poses in a.estimates.items():
+        assert np.array_equal(poses, b.estimates[label]) and np.array_equal(a.covariances[label], b.covariances[label])
+    assert np.array_equal(a.truth, b.truth)

@@ -14,7 +14,8 @@ so every formula for them (tolerances, believed geometry) has one home, `bots.od
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -41,8 +42,11 @@ class DefaultOdometry:
     estimator's calibration estimate, `contact_steps` (n,) its steps of wall contact, as
     `FusedOdometry`'s."""
 
-    def __init__(self, robots: Sequence[RobotSpec], poses: np.ndarray, rows: Sequence[int]):
-        """`poses` (n, 3) the start poses; `rows` each robot's row in the tallies `update` gets."""
+    def __init__(self, robots: Sequence[RobotSpec], poses: np.ndarray, rows: Sequence[int], compiling: Callable[[list[tuple]], Any] | None = None):
+        """`poses` (n, 3) the start poses; `rows` each robot's row in the tallies `update` gets.
+        `compiling`: starts compiling [(kernel, arguments)] and answers something whose `wait()`
+        gives them compiled (`sim.world.compiling.start`: in compile processes, beside the
+        world's kernels), waited for at the first update; None: compiled here and now."""
         n = len(robots)
         self.rows = np.array(rows, dtype=np.int64).reshape(n)
         self.params = np.zeros((n, PARAMS))
@@ -70,7 +74,16 @@ class DefaultOdometry:
         # as `sim.world.compiling.compiled_for` does it for the world (bots/ does not import the world)
         arguments = (np.zeros((1, 4), np.int64), self.rows, 0.0, self.params, self.state, self.contact_steps, self.calibration,
                      self.poses, self.errors, self.lags, self._truth, self._out, self._cov_out)  # fmt: skip
-        self._step = batch_step.compile(tuple(batch_step.typeof_pyval(argument) for argument in arguments))
+        if compiling is None:
+            self._step = batch_step.compile(tuple(batch_step.typeof_pyval(argument) for argument in arguments))
+        else:
+            self._compiling = compiling([(batch_step, arguments)])
+            self._step = self._first_step
+
+    def _first_step(self, *arguments: Any) -> None:
+        """The first update: the kernel, once its compile is done, for this and every later one."""
+        (self._step,) = self._compiling.wait()
+        self._step(*arguments)
 
     def rows_of(self, k: int) -> np.ndarray:
         """The `k`-th robot's estimates, (estimates, 3), a view into `poses` in the order of

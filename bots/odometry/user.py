@@ -3,14 +3,14 @@ checked every step as a controller's command is.
 
 An estimator follows `bots.odometry.base.Estimator`: `reset(robot, pose)`, `update(readings)`, a `pose`
 (3,) and optionally a `covariance` (3, 3). `ctsim run --estimator FILE.py:Class` and
-`simulate(..., estimators=[...])` give every robot a fresh one beside its defaults (`--estimator
-localiser`: the shipped Monte Carlo localiser, `bots.odometry.localiser`); its name is
-its `name` attribute (else the class's), which must be a plain word (it names files) and differ
-from the others'. A step whose update raises, or leaves a pose or covariance of the wrong shape
-or not finite, ends the run as a controller's error does (`check`). An estimator with a
-`use_map(scan, rng)` method is handed, before `reset`, the robot's map of the world (a
-`bots.odometry.localiser.MapModel`: the likelihood of an IR scan at any pose, never the true pose) and a
-generator spawned from the run's seed.
+`simulate(..., estimators=[...])` give every robot a fresh one beside its defaults, which stay in
+their compiled pass (`beside_defaults`; `--estimator localiser`: the shipped Monte Carlo localiser,
+`bots.odometry.localiser`); its name is its `name` attribute (else the class's), which must be a
+plain word (it names files) and differ from the others'. A step whose update raises, or leaves a
+pose or covariance of the wrong shape or not finite, ends the run as a controller's error does
+(`check`). An estimator with a `use_map(scan, rng)` method is handed, before `reset`, the robot's
+map of the world (a `bots.odometry.localiser.MapModel`: the likelihood of an IR scan at any pose,
+never the true pose) and a generator spawned from the run's seed.
 """
 
 from __future__ import annotations
@@ -83,10 +83,11 @@ def name_of(estimator: Estimator) -> str:
     return str(getattr(estimator, "name", None) or type(estimator).__name__)
 
 
-def alongside(robot: RobotSpec, extra: Iterable[Any]) -> list[Estimator]:
-    """The robot's default estimators and a fresh one of each `extra`, their names checked."""
-    chosen = [*default_estimators(robot), *(made(given) for given in extra)]
-    seen: set[str] = set()
+def beside_defaults(robot: RobotSpec, extra: Iterable[Any]) -> list[Estimator]:
+    """A fresh one of each `extra`, to run beside the robot's default estimators (which stay in
+    their compiled pass), each named apart from those and from the others."""
+    chosen = [made(given) for given in extra]
+    seen = {name_of(estimator) for estimator in default_estimators(robot)}
     for estimator in chosen:
         label = name_of(estimator)
         if not NAME.fullmatch(label):
@@ -141,6 +142,10 @@ def _covariance(cov: np.ndarray) -> str | None:
 
 def _numbers(value: Any, shape: tuple[int, ...], what: str) -> tuple[np.ndarray | None, str | None]:
     """`value` as a fresh array of `shape`, or None and what is wrong with it."""
+    if type(value) is np.ndarray and value.shape == shape and value.dtype == np.float64:
+        array = value.copy()
+        if math.isfinite(array.sum()):  # every entry finite, told in a microsecond (a sum that overflows goes the long way below)
+            return array, None
     try:
         array = np.array(value, dtype=np.float64)
     except (TypeError, ValueError, OverflowError):

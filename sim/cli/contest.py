@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from sim.cli.options import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_TERMINATED, EXIT_USER, positive, seed, step_size, whole
+from sim.cli.options import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_TERMINATED, EXIT_USER, add_noise_option, positive, seed, step_size, whole
 from sim.run.loop import MAX_DURATION
 from sim.world.step import DEFAULT_DT
 
@@ -32,6 +32,7 @@ def add_parser(commands) -> None:  # noqa: ANN001 (argparse's subparsers action)
     contest.add_argument("--time-limit", type=positive(float, MAX_DURATION, "s"), default=120.0, metavar="SECONDS",
                          help="simulated time of a game; a game without an arrival goes to the bot nearer its goal by path (default: 120)")
     contest.add_argument("--seed", type=seed, default=0, help="seed of every game (default: 0)")
+    add_noise_option(contest)
     contest.add_argument("--dt", type=step_size, default=DEFAULT_DT, metavar="SECONDS", help=f"simulation step (default: {DEFAULT_DT:g})")
     contest.add_argument("--out", type=Path, metavar="DIR", help="contest folder (default: runs/contest-<world>)")
     contest.add_argument("--jobs", type=whole, metavar="N", help="games in parallel (default: one per core)")

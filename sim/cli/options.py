@@ -8,7 +8,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from bots.noise import NOISE_PRESETS, parse_value
+from bots.noise import DEFAULT_NOISE, NOISE_PRESETS, parse_value
 from bots.schema import Field, option, parse_number, shown
 from sim.errors import UserError
 from sim.world.step import DEFAULT_DT, DT_RANGE, StepError, check_dt
@@ -107,15 +107,20 @@ NOISE_HELP = {
     "none": "sensor and odometry noise of the robots: none (exact, as in c't-Sim, whose wheels and sensors have no noise: the firmware "
     "takes c't-Sim's path), realistic (the c't-Bot's figures, see bots/noise.py) or harsh (default: none)",
 }
-"""--noise's help by the command's default: every command is realistic unless it stands in for c't-Sim (`bridge`)."""
+"""--noise's help by the command's default: every command is realistic (`bots.noise.DEFAULT_NOISE`) unless it stands in for c't-Sim (`bridge`)."""
 
 
-def add_robot_options(parser: argparse.ArgumentParser, noise: str = "realistic") -> None:
+def add_noise_option(parser: argparse.ArgumentParser, default: str = DEFAULT_NOISE) -> None:
+    """--noise: a preset of `bots.noise`, by default the one of every way of starting a run."""
+    parser.add_argument("--noise", choices=NOISE_PRESETS, default=default, help=NOISE_HELP[default])
+
+
+def add_robot_options(parser: argparse.ArgumentParser, noise: str = DEFAULT_NOISE) -> None:
     parser.add_argument("world", nargs="?", default=DEFAULT_WORLD, help=f"a shipped world's name (see `ctsim worlds`) or a .toml/.xml world file (default: {DEFAULT_WORLD})")
     parser.add_argument("--robot", default="ctbot", metavar="NAME|FILE.toml",
                         help="robot description: a built-in name (ctbot, omni3, mecanum4, car, ocp_vehicle) or a TOML robot file (default: ctbot)")
     parser.add_argument("--seed", type=seed, default=0, help="seed of every random number in the run (the noise of --noise realistic or harsh); same seed, same run (default: 0)")
-    parser.add_argument("--noise", choices=NOISE_PRESETS, default=noise, help=NOISE_HELP[noise])
+    add_noise_option(parser, noise)
     parser.add_argument("--robot-set", action="append", type=param, default=[], metavar="SECTION.FIELD=VALUE",
                         help="override one field of the robot description after --noise, repeatable: encoders.slip_std=0.02, mouse.dpi=415, ir.noise_std=0")
     parser.add_argument("--dt", type=step_size, default=DEFAULT_DT, metavar="SECONDS", help=f"simulation step (default: {DEFAULT_DT:g})")

@@ -50,7 +50,7 @@ def contest_command(args: argparse.Namespace) -> int:
     if args.jobs is not None and args.jobs < 1:
         raise EntryError(f"--jobs must be at least 1, got {args.jobs}")
     out = args.out or Path("runs") / f"contest-{Path(world).stem}"
-    settings = Settings(world, prelim, args.time_limit, args.seed, args.dt)
+    settings = Settings(world, prelim, args.time_limit, args.seed, args.dt, args.noise)
     runner = engine(args.engine, args.jobs, args.scheduler)
     try:
         with held(out, "contest"):  # (a second contest into `out` would play every game twice)

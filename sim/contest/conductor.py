@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 import sim
+from bots.noise import DEFAULT_NOISE
 from sim.contest import rules
 from sim.contest.entries import Entry
 from sim.contest.game import GameJob, play
@@ -38,17 +39,19 @@ class ContestError(RuntimeError):
 @dataclass(frozen=True)
 class Settings:
     """What decides a contest: the world of the knockout games and of the preliminary round (shipped
-    names or files), the time limit of a game (s), the seed of every game, the step (s)."""
+    names or files), the time limit of a game (s), the seed of every game, the step (s) and the
+    robots' noise preset (`bots.noise`; realistic, as every run by default)."""
 
     world: str
     prelim_world: str
     time_limit: float
     seed: int = 0
     dt: float = DEFAULT_DT
+    noise: str = DEFAULT_NOISE
 
     def as_text(self) -> dict[str, str]:
         return {"world": self.world, "prelim_world": self.prelim_world, "time_limit": repr(self.time_limit), "seed": str(self.seed),
-                "dt": repr(self.dt), "ctsim": sim.__version__}  # fmt: skip
+                "dt": repr(self.dt), "noise": self.noise, "ctsim": sim.__version__}  # fmt: skip
 
 
 def conduct(settings: Settings, entries: list[Entry], out: str | Path, runner: Any = None, record: bool = True,
@@ -109,7 +112,7 @@ def _play(store: Store, games: list[GameRow], settings: Settings, entries: list[
         recording = out / GAMES / _file_name(game, [entries[e - 1].name for e in sides]) if record else None
         world = settings.prelim_world if game.level == PRELIM else settings.world
         jobs.append((game, sides, GameJob(game.level, game.number, tuple(entries[e - 1] for e in sides), world, settings.time_limit,
-                                          settings.seed, settings.dt, None if recording is None else str(recording))))  # fmt: skip
+                                          settings.seed, settings.dt, None if recording is None else str(recording), settings.noise)))  # fmt: skip
     if record:
         (out / GAMES).mkdir(parents=True, exist_ok=True)
     by_job = {id(job): (game, sides) for game, sides, job in jobs}

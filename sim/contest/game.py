@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from bots.ctbot import CTBOT
+from bots.noise import DEFAULT_NOISE, with_noise
 from sim.contest.entries import Entry, Seat, robot_spec
 from sim.contest.judge import Guarded, Judge
 from sim.contest.paths import PathField
@@ -41,7 +42,8 @@ endless loop; a firmware's and a sandbox's own limits, 10 s, speak first)."""
 class GameJob:
     """A game to play: its place in the contest (`level`, `number`), its entries (one in the
     preliminary round, else two, the better preliminary first), the world (a shipped name or a
-    file), the time limit (s), seed, step (s) and where to write its recording (None: nowhere)."""
+    file), the time limit (s), seed, step (s), where to write its recording (None: nowhere) and the
+    robots' noise preset (every side's alike)."""
 
     level: int
     number: int
@@ -51,6 +53,7 @@ class GameJob:
     seed: int
     dt: float
     recording: str | None
+    noise: str = DEFAULT_NOISE
 
     @property
     def title(self) -> str:
@@ -90,7 +93,7 @@ def play(job: GameJob) -> dict[str, Any]:
 def _play(job: GameJob) -> dict[str, Any]:
     world = _world(job.world)
     starts = world.start_order()[: len(job.entries)]
-    specs = [robot_spec(entry, CTBOT) for entry in job.entries]
+    specs = [robot_spec(entry, with_noise(CTBOT, job.noise)) for entry in job.entries]
     clearance = 0.5 * CTBOT.body_radius  # the centre never gets nearer a wall than the body's radius
     fields = [path_field(job.world, start.slot, clearance) for start in starts]
     colours = {entry.name: colour for entry, colour in zip(job.entries, palette.CONTESTANTS)}
@@ -98,7 +101,7 @@ def _play(job: GameJob) -> dict[str, Any]:
     if job.recording is not None:
         from sim.views.recording.recorder import Recorder
 
-        facts = {"contest game": job.title, "time limit": f"{job.time_limit:g} s"}
+        facts = {"contest game": job.title, "time limit": f"{job.time_limit:g} s", "noise": job.noise}
         recorder = Recorder(job.recording, application_id="ctsim contest", facts=facts, colours=colours)
     with ExitStack() as stack:  # a firmware's process, a sandbox: gone when the game is
         seats = [stack.enter_context(Seat(entry, spec, start, job.dt, f"{job.level}.{job.number}")) for entry, spec, start in zip(job.entries, specs, starts)]

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from bots.controller import Controller, FunctionController
+from bots.noise import DEFAULT_NOISE
 from bots.spec import RobotSpec
 from sim.analysis.metrics import compare_run, path_lengths
 from sim.errors import UserError
@@ -38,10 +39,10 @@ def world(source: str | Path | WorldSpec) -> WorldSpec:
     return load_world(source)
 
 
-def robot(source: str | Path | RobotSpec = "ctbot", changes: dict[str, Any] | None = None, noise: str = "none") -> RobotSpec:
+def robot(source: str | Path | RobotSpec = "ctbot", changes: dict[str, Any] | None = None, noise: str = DEFAULT_NOISE) -> RobotSpec:
     """A robot description: a built-in name (`"ctbot"`, a wheeled chassis), a TOML robot file or a
-    RobotSpec, with a `noise` preset ("none", "realistic", "harsh": `bots.noise`, as `--noise`) and
-    then `changes` by dotted field name applied (see `change_robot`; as `--robot-set`)."""
+    RobotSpec, with a `noise` preset ("realistic" by default, "none", "harsh": `bots.noise`, as
+    `--noise`) and then `changes` by dotted field name applied (see `change_robot`; as `--robot-set`)."""
     from bots.noise import with_noise
 
     if isinstance(source, RobotSpec):
@@ -88,24 +89,28 @@ class Bot:
     start: Start | tuple[float, float, float] | None = None
     noise: str | None = None
 
-    def setup(self, noise: str = "none") -> RobotSetup:
+    def setup(self, noise: str = DEFAULT_NOISE) -> RobotSetup:
         """The run loop's description of this robot (controllers by name are built here);
         `noise`: the preset unless the Bot names its own.
 
         >>> setup = Bot("wander", noise="harsh").setup(noise="none")
-        >>> setup.controller_name, setup.noise, setup.spec.name
-        ('wander', 'harsh', 'ctbot')
+        >>> setup.controller_name, setup.spec.name, Bot("wander", noise="harsh").noise_of("none")
+        ('wander', 'ctbot', 'harsh')
         """
-        preset = self.noise or noise
-        spec = robot(self.robot, self.changes, preset)
+        spec = robot(self.robot, self.changes, self.noise_of(noise))
         params = {k: _text(v) for k, v in self.params.items()}
         if isinstance(self.controller, str):
             from bots.behaviours import make
 
-            return RobotSetup(spec, make(self.controller, params), self.controller, params, self.start, noise=preset)
+            return RobotSetup(spec, make(self.controller, params), self.controller, params, self.start)
         made = self.controller if hasattr(self.controller, "step") else FunctionController(self.controller)
         name = getattr(made, "name", type(made).__name__)
-        return RobotSetup(spec, made, name, params, self.start, noise=preset)
+        return RobotSetup(spec, made, name, params, self.start)
+
+
+    def noise_of(self, noise: str = DEFAULT_NOISE) -> str:
+        """The noise preset this Bot runs with where `simulate` is given `noise`."""
+        return self.noise or noise
 
 
 def _text(value: Any) -> str:
@@ -137,9 +142,9 @@ class RobotResult:
 
 @dataclass
 class Result:
-    """A finished run. `reason`: how it ended (`sim.run.ending.Ending`, a str: 'duration', 'goal',
-    'done', 'error', ...); `error`: the one-line message of a failure; `raw`: the run loop's own
-    result (for `ctsim run`'s files)."""
+    """A finished run. `reason`: as `sim.run.samples.RunResult.reason` (an `Ending`, a str: 'duration', 'goal', 'done', 'error',
+    ...); `error`: the one-line message of a failure; `raw`: the run loop's own result (for
+    `ctsim run`'s files)."""
 
     time: np.ndarray
     robots: list[RobotResult]
@@ -149,14 +154,16 @@ class Result:
     raw: RunResult
     recording: Path | None = None
     """The rerun recording written (`simulate(record=...)`), or None."""
+    noise: str = DEFAULT_NOISE
+    """The noise preset the robots ran with, or one per robot, comma-separated, where they differ
+    ("as given": a RobotSetup's own robot, whose noise the API cannot name)."""
 
     def summary(self) -> dict[str, Any]:
         """The run as summary.json describes one (`sim.analysis.summary`: world, seed, dt, time,
         reason, per robot its distance, collisions and each estimate's metrics)."""
         from sim.analysis.summary import summarize
 
-        presets = sorted({log.noise for log in self.raw.robots if log.noise is not None})
-        return summarize(self.raw, {"noise": ", ".join(presets)} if presets else {}, {r.name: r.metrics for r in self.robots})
+        return summarize(self.raw, {"noise": self.noise}, {r.name: r.metrics for r in self.robots})
 
     def _repr_html_(self) -> str:
         """Jupyter shows a result as its summary table, its figures and the run's facts."""
@@ -197,7 +204,7 @@ def simulate(
     world_source: str | Path | WorldSpec = "maze",
     *bots: Bot | RobotSetup | Iterable[Bot | RobotSetup],
     robots: Iterable[Bot | RobotSetup] = (),
-    noise: str = "none",
+    noise: str = DEFAULT_NOISE,
     duration: float = 60.0,
     dt: float = DEFAULT_DT,
     seed: int = 0,
@@ -210,7 +217,7 @@ def simulate(
 ) -> Result:
     """Run `bots` and `robots` (Bots or lists of them; default: one c't-Bot solving the maze) in a
     world for `duration` seconds of simulated time, or until one reaches a goal, every Bot with
-    the `noise` preset unless it names its own; `record` writes a rerun recording there; a
+    the `noise` preset (`bots.noise.DEFAULT_NOISE`, realistic, as `ctsim run`) unless it names its own; `record` writes a rerun recording there; a
     controller step longer than `step_timeout` seconds (wall clock) ends the run as its error.
     `estimators`: your own (classes, factories, estimator objects or "FILE.py:Class", as
     `bots.odometry.user.made` takes them): every robot without estimators of its own gets a fresh
@@ -228,16 +235,19 @@ def simulate(
     for b in given:
         if not isinstance(b, Bot | RobotSetup):
             raise TypeError(f"simulate: a robot is a Bot or a RobotSetup, got {type(b).__name__}: {b!r}")
-    setups = [b.setup(noise) if isinstance(b, Bot) else b for b in (given or [Bot()])]
+    given = given or [Bot()]
+    setups = [b.setup(noise) if isinstance(b, Bot) else b for b in given]
+    noises = [b.noise_of(noise) if isinstance(b, Bot) else "as given" for b in given]
     extra = list(estimators)
     if extra:
-        from bots.odometry.user import alongside
+        from bots.odometry.user import beside_defaults
 
-        setups = [replace(s, estimators=alongside(s.spec, extra)) if s.estimators is None else s for s in setups]
+        setups = [replace(s, extra_estimators=beside_defaults(s.spec, extra)) if s.estimators is None else s for s in setups]
     watchers = list(observers)
     if record is not None or live:
         from sim.views.recording.recorder import Recorder
 
         watchers.insert(0, Recorder(record, live=live))
     raw = run(spec, setups, duration, dt=dt, seed=seed, until_goal=until_goal, observers=tuple(watchers), step_timeout=step_timeout)
-    return replace(result_of(raw), recording=Path(record) if record is not None else None)
+    named = noises[0] if len(set(noises)) == 1 else ", ".join(noises)
+    return replace(result_of(raw), recording=Path(record) if record is not None else None, noise=named)

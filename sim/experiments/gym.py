@@ -31,8 +31,9 @@ registered `max_episode_steps`, which `gym.make`'s TimeLimit keeps).
 **Seeds.** `reset(seed=...)` draws, from the env's generator and in this order: the start pose
 (line: a point on the line, heading along it, with a little offset and turn; maze: a free point
 anywhere in the maze, any heading), the goal (maze: a point in one of the world's goal areas, or
-anywhere free with `goal="anywhere"`) and the seed of the robot's sensor noise (`noise`: default
-"sensors", every sensor's noise at the c't-Bot's figures; see SENSOR_NOISE). Nothing else is random: the same seed gives the same episode, bit for bit.
+anywhere free with `goal="anywhere"`) and the seed of the robot's noise (`noise`: a preset of
+`bots.noise`, realistic by default as for every run). Nothing else is random: the same seed gives
+the same episode, bit for bit.
 `options={"start": (x, y, heading)}` puts the robot there instead (the draws stay the same).
 
 **Vector envs.** `CtsimVectorEnv` (the vector entry point of both ids) puts its N copies into one
@@ -53,7 +54,7 @@ from gymnasium import spaces
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 
-from bots.noise import NOISE_PRESETS, with_noise, with_settings
+from bots.noise import DEFAULT_NOISE
 from bots.readings import SensorFrame
 from bots.spec import RobotSpec
 from sim.experiments.api import robot as load_robot_spec
@@ -81,12 +82,6 @@ CLEARANCE = 0.03
 """Maze task: a drawn start or goal lies at least this far (m) beyond the robot's radius from any wall."""
 DRAWS = 10_000
 """Tries to find a free point before giving up (a world with almost no free floor)."""
-PER_STEP_ENCODER_DRAWS = ("encoders.slip_std", "encoders.tick_noise")
-SENSOR_NOISE = {k: v for k, v in NOISE_PRESETS["realistic"].items() if k not in PER_STEP_ENCODER_DRAWS}
-"""The envs' default noise ("sensors"): the c't-Bot's realistic figures for every sensor and its
-wheels' systematic errors, without random slip and spurious ticks, which draw from each robot's
-generator in Python every physics step (preset "realistic" adds them, at about half the speed
-of a 64-copy vector env)."""
 
 
 def observation_space(spec: RobotSpec, task: str = "line", world: WorldSpec | None = None) -> spaces.Box:
@@ -124,11 +119,7 @@ class _Task:
             raise ValueError(f"the line task needs a world with a line; {self.world.name!r} has none")
         if self.world.movables:
             raise ValueError(f"{self.world.name!r} has movable obstacles, which copies of an environment would share")
-        spec = load_robot_spec(robot)
-        if noise == "sensors":  # (as `with_noise`: sections the robot lacks are skipped)
-            self.robot = with_settings(spec, {k: v for k, v in SENSOR_NOISE.items() if getattr(spec, k.partition(".")[0]) not in (None, ())})
-        else:
-            self.robot = with_noise(spec, noise)
+        self.robot = load_robot_spec(robot, noise=noise)
         if self.robot.chassis is not None:
             raise ValueError("the environments drive a differential-drive robot; a general chassis is not supported")
         self.substeps = max(1, round(control_dt / dt))
@@ -300,7 +291,7 @@ class _Copies:
 
 class CtsimEnv(gymnasium.Env):
     """A c't-Bot in a world with a task (`"maze"` or `"line"`); see the module docstring.
-    `noise`: "sensors" (SENSOR_NOISE) or a preset of `bots.noise` ("none", "realistic", "harsh")."""
+    `noise`: a preset of `bots.noise` ("realistic", as every run by default; "none", "harsh")."""
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 20}
 
@@ -309,7 +300,7 @@ class CtsimEnv(gymnasium.Env):
         task: str = "maze",
         world: str | WorldSpec | None = None,
         robot: str | RobotSpec = "ctbot",
-        noise: str = "sensors",
+        noise: str = DEFAULT_NOISE,
         action: str = "wheels",
         goal: str = "world",
         control_dt: float = 0.05,

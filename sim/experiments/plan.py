@@ -9,8 +9,9 @@
     seed = [0, 1, 2, 3, 4]
     "robot.encoders.slip_std" = [0.0, 0.01, 0.02, 0.05]
     "params.speed" = { uniform = [0.1, 0.3] }     # random mode only
+    noise = ["none", "realistic", "harsh"]        # or one preset in [base] (default: realistic)
 
-Settings: world, controller, robot, seed, duration, dt, until_goal; `params.NAME` for a controller
+Settings: world, controller, robot, noise, seed, duration, dt, until_goal; `params.NAME` for a controller
 parameter; `robot.FIELD[.FIELD]` for a robot field (`sim.experiments.api.change_robot`). A run's
 id is a hash of its settings, so a run is the same run whatever the engine, order or restart.
 """
@@ -27,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from bots.noise import DEFAULT_NOISE, NOISE_PRESETS
 from bots.schema import Field, Problem
 from bots.spec import read_toml
 from sim.errors import UserError
@@ -37,6 +39,7 @@ DEFAULTS: dict[str, Any] = {
     "world": "maze",
     "controller": "solve_maze",
     "robot": "ctbot",
+    "noise": DEFAULT_NOISE,
     "seed": 0,
     "duration": 10.0,
     "dt": DEFAULT_DT,
@@ -53,10 +56,11 @@ MAX_RUNS = 100_000
 
 SEED = Field("integer", "", 0, 2**63 - 1)
 SETTINGS: dict[str, Field] = {
-    "world": Field("text"), "controller": Field("text"), "robot": Field("text"), "seed": SEED,
+    "world": Field("text"), "controller": Field("text"), "robot": Field("text"), "noise": Field("text", choices=tuple(NOISE_PRESETS)), "seed": SEED,
     "duration": Field("number", "s", 0.0, MAX_DURATION), "dt": Field("number", "s", *DT_RANGE), "until_goal": Field("boolean"),
 }
-"""Every run setting but `params.NAME` and `robot.FIELD` (checked by the controller and the robot's own schema)."""
+"""Every run setting but `params.NAME` and `robot.FIELD` (checked by the controller and the robot's own
+schema); `noise` is the preset applied before `robot.FIELD` changes, as `--noise` before `--robot-set`."""
 OPTIONS: dict[str, Field] = {
     "mode": Field("text", choices=("grid", "random"), default="grid"), "samples": Field("integer", "runs", 1, MAX_RUNS, default=0),
     "seed": Field("integer", "", 0, 2**63 - 1, default=0), "artefacts": Field("texts", choices=ARTEFACTS, default=()),

@@ -44,7 +44,7 @@ def bot(settings: dict[str, Any]) -> Bot:
     """The robot a run's settings describe."""
     params = {k.removeprefix("params."): v for k, v in settings.items() if k.startswith("params.")}
     changes = {k.removeprefix("robot."): v for k, v in settings.items() if k.startswith("robot.")}
-    return Bot(settings["controller"], params, settings["robot"], changes)
+    return Bot(settings["controller"], params, settings["robot"], changes, noise=settings["noise"])
 
 
 def outcome(result: Result) -> dict[str, Any]:
@@ -109,7 +109,7 @@ def check(planned: list[Job]) -> None:
     tried: set[str] = set()
     for job in planned:
         s = job.settings
-        robot_part = {k: v for k, v in s.items() if k in ("robot", "controller") or k.startswith(("robot.", "params."))}
+        robot_part = {k: v for k, v in s.items() if k in ("robot", "controller", "noise") or k.startswith(("robot.", "params."))}
         for what, build in ((f"world {s['world']!r}", lambda s=s: world(s["world"])), (f"robot {robot_part}", lambda s=s: bot(s).setup())):
             if what not in tried:
                 tried.add(what)

@@ -30,7 +30,7 @@ from sim.guards import ControllerBrokeOut, Guard, foreign_frame
 from sim.run.clock import StepClock, StepTimeout
 from sim.run.ending import Ending, Quit, RunError, Terminated
 from sim.run.samples import RobotLog, RunResult, Samples
-from sim.world import World
+from sim.world import World, compiling
 from sim.world.chassis_drive import FaultError
 from sim.world.localising import MapScan
 from sim.world.physics import sensor_rng
@@ -48,12 +48,13 @@ class RobotSetup:
     params: dict[str, str] = field(default_factory=dict)
     start: Start | tuple[float, float, float] | None = None
     estimators: list[Estimator] | None = None
+    """Estimators in place of the robot's defaults (None: the defaults)."""
+    extra_estimators: list[Estimator] = field(default_factory=list)
+    """A user's own estimators beside the estimators above (the defaults stay in their compiled pass)."""
     faults: tuple[WheelFault, ...] = ()
     """Wheel faults of this robot (a general chassis) scheduled by its environment; `robot` is ignored."""
     name: str | None = None
     """The robot's name in logs and recordings (default: its spec's name, numbered after the first)."""
-    noise: str | None = None
-    """The noise preset its spec was made with (`bots.noise`), for the run's summary (None: not said)."""
 
 
 class Observer(Protocol):
@@ -96,37 +97,40 @@ def run(
     _refuse_overlaps(placed)
     # the default estimators of all robots that use them are stepped together, in one compiled pass
     members = [i for i, setup in enumerate(robots) if setup.estimators is None and batched(setup.spec)]
-    odometry = DefaultOdometry([robots[i].spec for i in members], np.array([placed[i].pose for i in members]).reshape(-1, 3), members) if members else None
+    # (its kernel compiles, where numba's cache lacks it, beside the world's: `compiling.start`)
+    odometry = DefaultOdometry([robots[i].spec for i in members], np.array([placed[i].pose for i in members]).reshape(-1, 3), members, compiling.start) if members else None
     slot = {i: k for k, i in enumerate(members)}
     samples = Samples(world.sensor_rows(), len(members), steps + 1)
     logs, controllers, estimators = [], [], []
     for i, (setup, robot) in enumerate(zip(robots, placed)):
-        if i in slot:  # no Python estimators: the batch logs its rows
-            names = odometry.names[slot[i]]
-        else:
-            chosen = setup.estimators if setup.estimators is not None else default_estimators(setup.spec)
-            for estimator in chosen:
-                try:
-                    if hasattr(estimator, "use_map"):  # a localiser: the robot's map of the world (never its pose) and a generator of its own
-                        estimator.use_map(MapScan(world_spec, setup.spec), sensor_rng(seed, i, f"estimator {name_of(estimator)}"))
-                    estimator.reset(setup.spec, robot.pose)
-                except (Exception, SystemExit) as err:  # a user's estimator that cannot take this robot (or leaves): the user's
-                    raise RunError(f"{robot.name}: estimator {name_of(estimator)!r} could not be reset: {type(err).__name__}: {err}{_last_frame(err)}") from None
-            names = [estimator.name for estimator in chosen]
+        # Python estimators: a batched robot's own beside the batch's, else all of the robot's
+        chosen = list(setup.extra_estimators) if i in slot else [*(setup.estimators if setup.estimators is not None else default_estimators(setup.spec)), *setup.extra_estimators]
+        for estimator in chosen:
+            try:
+                if hasattr(estimator, "use_map"):  # a localiser: the robot's map of the world (never its pose) and a generator of its own
+                    estimator.use_map(MapScan(world_spec, setup.spec), sensor_rng(seed, i, f"estimator {name_of(estimator)}"))
+                estimator.reset(setup.spec, robot.pose)
+            except (Exception, SystemExit) as err:  # a user's estimator that cannot take this robot (or leaves): the user's
+                raise RunError(f"{robot.name}: estimator {name_of(estimator)!r} could not be reset: {type(err).__name__}: {err}{_last_frame(err)}") from None
         try:
             reset(setup.controller, setup.spec)
         except ValueError as err:  # a controller that cannot drive this robot (too few sensors): the user's choice
             raise RunError(f"{robot.name}: {err}") from None
         except SystemExit as err:  # (the user's code leaving: its mistake, not a way out of ctsim)
             raise RunError(f"{robot.name}: the controller's reset called sys.exit({err.code!r})") from None
-        uncertain = None if i in slot else [e.name for e in chosen if has_covariance(e)]
-        log = RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params), names, samples, i, world, slot.get(i), uncertain)
-        log.noise = setup.noise
+        names, uncertain = [estimator.name for estimator in chosen], [e.name for e in chosen if has_covariance(e)]
+        if i in slot:  # the batch logs its rows, the robot's own estimators theirs
+            log = RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params), odometry.names[slot[i]], samples, i, world, slot[i],
+                           extra=names, extra_uncertain=uncertain)  # fmt: skip
+        else:
+            log = RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params), names, samples, i, world, None, uncertain)
         logs.append(log)
         controllers.append(setup.controller)
-        if i not in slot:
-            estimators.append((i, log, chosen))
-            log.estimators = list(chosen)
+        log.estimators = list(chosen)
+        if i not in slot:  # (it logs its truth with its estimates, even with none)
+            estimators.append((i, log, chosen, None))
+        elif chosen:
+            estimators.append((i, log, chosen, log.append_extra))
     try:
         world.chassis.schedule_faults([*world_spec.faults, *(replace(f, robot=i) for i, setup in enumerate(robots) for f in setup.faults)])
     except FaultError as err:
@@ -317,12 +321,13 @@ def frozen(array: np.ndarray) -> np.ndarray:
 
 
 def _sample(
-    world: World, samples: Samples, logs: list[RobotLog], estimators: list[tuple[int, RobotLog, list[Estimator]]],
+    world: World, samples: Samples, logs: list[RobotLog], estimators: list[tuple[int, RobotLog, list[Estimator], Callable | None]],
     odometry: DefaultOdometry | None,
 ) -> SensorFrame:
     """Read every robot's sensors at the current state into the run's next sample row and log
     truth and estimates: the default odometry of all batched robots updates and logs them in one
-    pass; robots with Python estimators update theirs here. Then note who reached a goal."""
+    pass; Python estimators (a robot's own, or all of a robot outside the batch) update theirs
+    here. Then note who reached a goal."""
     n = samples.count
     time = world.time
     frame = samples.frame = world.read_all((samples.values[n], samples.believed[n], samples.tallies[n]))
@@ -332,10 +337,14 @@ def _sample(
     poses = world.poses()
     if odometry is not None:
         odometry.update_into(frame.tallies, time, poses, samples.poses[n], samples.covariances[n])
-    for i, log, chosen in estimators:
+    for i, log, chosen, beside_batch in estimators:
         readings = frame[i]
         read = [_update(estimator, readings, log, n) for estimator in chosen]
-        log.append(poses[i], [pose for pose, _ in read], [covariance for _, covariance in read if covariance is not None])
+        poses_read, covariances = [pose for pose, _ in read], [covariance for _, covariance in read if covariance is not None]
+        if beside_batch is None:
+            log.append(poses[i], poses_read, covariances)
+        else:
+            beside_batch(poses_read, covariances)
     samples.count = n + 1
     samples.columns.release_written(n + 1)
     goals = world.spec.goals

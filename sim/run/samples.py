@@ -145,10 +145,11 @@ class RobotLog:
 
     def __init__(self, name: str, spec: RobotSpec, controller_name: str, params: dict[str, str],
                  estimators: list[str], samples: Samples, index: int, world: World, slot: int | None = None,
-                 uncertain: Sequence[str] | None = None):  # fmt: skip
+                 uncertain: Sequence[str] | None = None, extra: Sequence[str] = (), extra_uncertain: Sequence[str] = ()):  # fmt: skip
         """`index`: the robot's index in the world; `slot`: its row in the batched odometry (None:
         Python estimators, logged by `append`); `uncertain`: the estimates that have a covariance
-        (None: all)."""
+        (None: all). `extra`: a batched robot's own Python estimators beside the batch's (logged
+        by `append_extra`), `extra_uncertain` those of them with a covariance."""
         self.name, self.spec, self.controller_name, self.params = name, spec, controller_name, params
         self.index = index
         self.collisions = 0
@@ -156,8 +157,6 @@ class RobotLog:
         self.status: str | None = None
         """How its controller ended, where it says ('success', 'failure'; 'running'), else None."""
         self.goal_time: float | None = None
-        self.noise: str | None = None
-        """The noise preset of its robot description, where its setup said (`RobotSetup.noise`)."""
         self.notes: dict[str, list] = {}
         """What the run did other than asked (projected infeasible twists): kind -> [first message, count]."""
         self.estimators: list = []
@@ -178,6 +177,12 @@ class RobotLog:
         self._truth = self._poses[:, 0]
         self._estimates = {label: self._poses[:, 1 + k] for k, label in enumerate(estimators)}
         self._uncertain = {label: self._covariances[:, k] for k, label in enumerate(uncertain)}
+        if extra:  # a batched robot's own estimators: in columns of its own, after the batch's
+            rows = {"poses": row((len(extra), 3)), "covariances": row((len(extra_uncertain), COVARIANCES))}
+            self._columns = _Columns(rows, len(samples.time))
+            self._extra_poses, self._extra_covariances = self._columns.arrays["poses"], self._columns.arrays["covariances"]
+            self._estimates |= {label: self._extra_poses[:, k] for k, label in enumerate(extra)}
+            self._uncertain |= {label: self._extra_covariances[:, k] for k, label in enumerate(extra_uncertain)}
 
     def goal_outcome(self, duration: float) -> str:
         """Whether and when the robot reached its goal, in the words the table, report.html and
@@ -199,6 +204,15 @@ class RobotLog:
             self._poses[n, 1:] = estimates
         for k, cov in enumerate(covariances):
             self._covariances[n, k] = cov[_UPPER]
+        self._columns.release_written(n + 1)
+
+    def append_extra(self, estimates: Sequence[np.ndarray], covariances: Sequence[np.ndarray] = ()) -> None:
+        """Log the current sample of a batched robot's own estimators (`extra`): their poses and
+        the (3, 3) covariances of those with one (the batch logs the rest)."""
+        n = self._samples.count
+        self._extra_poses[n] = estimates
+        for k, cov in enumerate(covariances):
+            self._extra_covariances[n, k] = cov[_UPPER]
         self._columns.release_written(n + 1)
 
     def release(self, rows: slice) -> None:

@@ -177,9 +177,11 @@ def write_figures(
         bottom.set_xlabel("simulated time (s)")
         for axis in (top, bottom):
             axis.grid(True, linewidth=0.3, alpha=0.6)
-        if keys:  # each estimate's key: its pale band of samples under its moving mean
-            top.legend([h for h, _ in keys], [text for _, text in keys], handler_map={tuple: HandlerTuple(ndivide=1)},
-                       fontsize=7 if several else 8, loc="upper left", **({} if several else {"bbox_to_anchor": (1.01, 1.0)}), frameon=False)
+        if keys:  # each estimate's key: its pale band of samples under its moving mean; outside the plots (beside
+            # one robot's, under each of several robots' columns), so that no key covers an error
+            place = {"loc": "upper center", "bbox_to_anchor": (0.5, -0.16)} if several else {"loc": "upper left", "bbox_to_anchor": (1.01, 1.0)}
+            (bottom if several else top).legend([h for h, _ in keys], [text for _, text in keys], handler_map={tuple: HandlerTuple(ndivide=1)},
+                                                fontsize=7 if several else 8, frameon=False, **place)
     axes[0, 0].set_ylabel("position error (mm)")
     axes[1, 0].set_ylabel("heading error (deg, unwrapped)")
     title = f"odometry error against ground truth (pale: every sample; dark: {MEAN_WINDOW_S:g} s moving mean; shaded: 3σ)"

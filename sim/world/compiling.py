@@ -1,30 +1,34 @@
-"""Compile the world's kernels for the types of a world's arrays: on a machine whose numba cache
-does not hold them yet (the first run after an install or a change), in two processes at once.
+"""Compile kernels for the types of their arguments: where numba's cache does not hold them yet
+(the first run after an install or a change), in compile processes, one per core, all at once.
 
-numba compiles in one thread, and the first run's compile is most of its time: half a minute of
-CPU for a c't-Bot in the maze (`bench/run.py -k first_run`). The kernels do not share their
-compile work much, so a second process compiles some of them into numba's cache while this one
-compiles the rest, and this one then loads those from the cache. Where the cache already holds
-them (every later run), nothing is started. `PROGRESS` says what is going on while it lasts.
+numba compiles in one thread, and the first run's compile is most of its time: about a minute
+of CPU for a c't-Bot in the maze (`bench/run.py -k first_run`). The kernels share little of
+their compile work, so the missing ones are dealt out to as many processes as there are cores
+(and kernels), which compile them into numba's cache side by side while this process waits and
+says so (`PROGRESS`, every PROGRESS_EVERY seconds); this process then loads them all from the
+cache. `start` begins it and returns at once, so that the world's kernels and the odometry's
+compile together (`compile_all` is `start(...).wait()`). Where the cache already holds them
+(every later run), nothing is started.
 """
 
 from __future__ import annotations
 
+import os
 import pickle
 import subprocess
 import sys
-import threading
 import time
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable
 from typing import Any
 
 HELPER_TIMEOUT_S = 1800.0
-"""Longest wait for the second process (s), far beyond its minutes on a loaded machine."""
+"""Longest wait for the compile processes (s), far beyond their minutes on a loaded machine."""
 PROGRESS: Callable[[str], None] | None = None
-"""Called with a line of text when kernels are compiled, and every TICK_S seconds while they are
-(the command line prints it), None: silent."""
-TICK_S = 5.0
+"""Called with a line of text while kernels are compiled (the command line prints it), None: silent."""
+PROGRESS_EVERY = 5.0
+"""Seconds between two lines of `PROGRESS` while the compile processes work."""
+WORKERS = os.cpu_count() or 1
+"""Compile processes at most (one per core)."""
 
 
 def compiled_for(kernel: Any, *arguments: Any) -> Callable:
@@ -36,57 +40,55 @@ def compiled_for(kernel: Any, *arguments: Any) -> Callable:
     return kernel.compile(_types(kernel, arguments))
 
 
-def compile_all(jobs: list[tuple[Any, tuple]], elsewhere: int = 1) -> list[Callable]:
-    """`compiled_for(kernel, *arguments)` of every (kernel, arguments) job, in their order. When
-    numba's cache lacks two or more of them, the last `elsewhere` of those missing are compiled
-    by a second process at the same time (put the largest kernels last)."""
-    typed = [(kernel, _types(kernel, arguments)) for kernel, arguments in jobs]
-    missing = [(kernel, types) for kernel, types in typed if not _in_cache(kernel, types)]
-    helper = None
-    if len(missing) >= 2 and elsewhere > 0:
-        helper = _start([(kernel.py_func.__module__, kernel.py_func.__name__, types) for kernel, types in missing[-elsewhere:]])
-    if missing and PROGRESS is not None:
-        PROGRESS(f"compiling the simulator's kernels for this machine (first run only): {', '.join(k.py_func.__name__ for k, _ in missing)}")
-    started = time.perf_counter()
-    own = missing[: len(missing) - elsewhere] if helper is not None else missing
-    done = [0]
-    with _ticking(lambda: f"compiling: {done[0]} of {len(missing)} kernels done, {time.perf_counter() - started:.0f} s so far (first run only)",
-                  bool(missing) and PROGRESS is not None):  # fmt: skip
-        for kernel, types in own:
-            kernel.compile(types)
-            done[0] += 1
-        if helper is not None:  # whatever went wrong there is compiled here below
-            try:
-                helper.wait(timeout=HELPER_TIMEOUT_S)
-            except subprocess.TimeoutExpired:
-                helper.kill()
-                helper.wait()
-        compiled = [kernel.compile(types) for kernel, types in typed]
-    if missing and PROGRESS is not None:
-        PROGRESS(f"compiled in {time.perf_counter() - started:.0f} s; later runs load them from numba's cache")
-    return compiled
+class Compiling:
+    """Kernels being compiled into numba's cache by compile processes (`start`); `wait` gives
+    them compiled for their arguments' types, as `compiled_for` does."""
+
+    def __init__(self, jobs: list[tuple[Any, tuple]], workers: int | None = None):
+        self.typed = [(kernel, _types(kernel, arguments)) for kernel, arguments in jobs]
+        self.missing = [(kernel, types) for kernel, types in self.typed if not _in_cache(kernel, types)]
+        self.started = time.perf_counter()
+        count = min(len(self.missing), WORKERS if workers is None else workers)
+        # the kernels dealt out from the last (the largest, by the callers' order) round the processes
+        shares = [[job for k, job in enumerate(reversed(self.missing)) if k % count == p] for p in range(count)]
+        self.helpers = [helper for share in shares if (helper := _start(share)) is not None]
+        if self.missing and PROGRESS is not None:
+            PROGRESS(f"compiling the simulator's kernels for this machine (first run only) in {len(self.helpers)} processes: "
+                     f"{', '.join(k.py_func.__name__ for k, _ in self.missing)}")  # fmt: skip
+
+    def wait(self) -> list[Callable]:
+        """The kernels, compiled: loaded from the cache the compile processes filled (whatever
+        they could not compile is compiled here)."""
+        deadline = self.started + HELPER_TIMEOUT_S
+        for helper in self.helpers:
+            while helper.poll() is None:
+                try:
+                    helper.wait(timeout=min(PROGRESS_EVERY, max(deadline - time.perf_counter(), 0.0)))
+                except subprocess.TimeoutExpired:
+                    if time.perf_counter() >= deadline:
+                        helper.kill()
+                        helper.wait()
+                    elif PROGRESS is not None:
+                        done = sum(_in_cache(kernel, types) for kernel, types in self.missing)
+                        PROGRESS(f"compiling: {done} of {len(self.missing)} kernels done ({time.perf_counter() - self.started:.0f} s)")
+        compiled = [kernel.compile(types) for kernel, types in self.typed]
+        if self.missing and PROGRESS is not None:
+            PROGRESS(f"compiled in {time.perf_counter() - self.started:.0f} s; later runs load them from numba's cache")
+        self.helpers, self.missing = [], []
+        return compiled
 
 
-@contextmanager
-def _ticking(line: Callable[[], str], on: bool) -> Iterator[None]:
-    """`PROGRESS(line())` every TICK_S seconds meanwhile (if `on`), from a thread that ends with it
-    (a sweep forks its workers only from a process running one thread)."""
-    if not on:
-        yield
-        return
-    stop = threading.Event()
+def start(jobs: list[tuple[Any, tuple]], workers: int | None = None) -> Compiling:
+    """Begin compiling every (kernel, arguments) job that numba's cache lacks, in up to `workers`
+    compile processes (default WORKERS; 0: none, `wait` compiles them here; put the largest kernels
+    last); `.wait()` gives them all in their order."""
+    return Compiling(jobs, workers)
 
-    def tick() -> None:
-        while not stop.wait(TICK_S):
-            PROGRESS(line())
 
-    ticker = threading.Thread(target=tick, name="ctsim compile progress", daemon=True)
-    ticker.start()
-    try:
-        yield
-    finally:
-        stop.set()
-        ticker.join()
+def compile_all(jobs: list[tuple[Any, tuple]], workers: int | None = None) -> list[Callable]:
+    """`compiled_for(kernel, *arguments)` of every (kernel, arguments) job, in their order, those
+    numba's cache lacks compiled in compile processes first (`start`)."""
+    return start(jobs, workers).wait()
 
 
 def _types(kernel: Any, arguments: tuple) -> tuple:
@@ -104,11 +106,11 @@ def _in_cache(kernel: Any, types: tuple) -> bool:
         return True
 
 
-def _start(jobs: list[tuple[str, str, tuple]]) -> subprocess.Popen | None:
-    """A process that compiles `jobs` (module, kernel name, numba types) into numba's cache."""
+def _start(jobs: list[tuple[Any, tuple]]) -> subprocess.Popen | None:
+    """A process that compiles `jobs` (kernel, numba types) into numba's cache."""
     try:
         helper = subprocess.Popen([sys.executable, "-m", __name__], stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-        helper.stdin.write(pickle.dumps(jobs))
+        helper.stdin.write(pickle.dumps([(kernel.py_func.__module__, kernel.py_func.__name__, types) for kernel, types in jobs]))
         helper.stdin.close()
         return helper
     except OSError:
@@ -116,7 +118,7 @@ def _start(jobs: list[tuple[str, str, tuple]]) -> subprocess.Popen | None:
 
 
 def _compile_jobs() -> None:
-    """The second process: compile the pickled jobs on stdin (written by `_start`, trusted)."""
+    """A compile process: compile the pickled jobs on stdin (written by `_start`, trusted)."""
     import importlib
 
     for module, name, types in pickle.load(sys.stdin.buffer):

@@ -32,7 +32,8 @@ from sim.world.compiling import compile_all
 from sim.world.floor import FloorMap, rasterize
 from sim.world.kernels.contacts import settle
 from sim.world.kernels.grids import build_wall_grid
-from sim.world.kernels.motion import first_bad, glide, measure_all, plan
+from sim.world.kernels.motion import glide, measure_all, plan
+from sim.world.kernels.noise import ENCODER_DRAWS, add_rounded, draw_step, spurious_ticks
 from sim.world.kernels.pick import pick_polygon
 from sim.world.kernels.sensing import ir_rays, ir_values, read_sensors
 from sim.world.noise import NormalBlocks
@@ -81,12 +82,9 @@ class _Noisy:
             if index == robot.index:
                 self.normals.restart(k, robot.rngs[name])
 
-    def add_rounded(self, values: np.ndarray, top: int) -> None:
-        """Gaussian noise on the noisy sensors' integer `values`, rounded (half to even, as
-        Python's round) into 0..top."""
-        if len(self.rows):
-            noise = 0.0 + self.std * self.normals.take(1)[:, 0]  # what rng.normal(0.0, std) gives
-            values[self.rows] = np.clip(np.rint(values[self.rows] + noise), 0, top)
+    def arguments(self) -> tuple[np.ndarray, ...]:
+        """Its rows, standard deviations and normals as `kernels.noise` takes them."""
+        return self.rows, self.std, self.normals.values, self.normals.used
 
 
 class CommandError(ValueError):
@@ -220,8 +218,7 @@ class World:
         self._state = _BatchState([], dt, [], robots_meet)
         self._bodies = BodyArrays(self.space, [])
         self._poses = np.zeros((0, 3))
-        self._kernel_arguments()
-        self._stale = False
+        self._stale = True  # the kernels are compiled (or loaded) at the first use, for the robots then in it
         self.chassis = ChassisDrive(dt)
         """The drive of robots on a general chassis (commands, faults; see `sim.world.chassis_drive`)."""
 
@@ -339,6 +336,9 @@ class World:
             walls.ranges, walls.boxes, walls.cells, st.circles, ir.noise.std, ir.noise.normals.values, ir.noise.normals.used, ir.tables,
             ir.curve_ends, ir.beyond, ir.inverse,
         )  # fmt: skip
+        self._step_noise_arguments = (*st.step_noise.arguments(), len(st.tick_noise), st.slip, st.tick_uniforms, st.mouse_noise)
+        self._tick_noise_arguments = (st.step_noise.rows[: len(st.tick_noise)], st.tick_noise, st.tick_uniforms, st.tallies[:, layout.TICKS : layout.TICKS + 2])
+        self._floor_and_light_arguments = (*st.floor_and_light_noise.arguments(), st.floor_and_light_top)
         self._settle_arguments = (
             st.params, st.state, self._scalars, walls.vertices, walls.ranges, walls.boxes, walls.cells, st.contacts, st.anchored, self.floor.hole,
             st.fallen, self._bodies.row_index, self._bodies.motion, self._quiet, st.circles,
@@ -346,7 +346,11 @@ class World:
         # the kernels each step calls, for the types they get then: C-ordered (n, 2) commands and
         # (n, 3) poses, int64 values and float believed distances (`compiling.compiled_for`; the largest last, see `compile_all`)
         pose, commands = self._poses, np.zeros((len(self.robots), 2))
-        self._plan, self._glide, self._measure, self._settle, self._read_sensors = compile_all([
+        (self._draw_step_noise, self._spurious_ticks, self._floor_and_light_noise,
+         self._plan, self._glide, self._measure, self._settle, self._read_sensors) = compile_all([
+            (draw_step, (commands, *self._step_noise_arguments)),
+            (spurious_ticks, self._tick_noise_arguments),
+            (add_rounded, (np.empty(len(st.sensors), np.int64), *self._floor_and_light_arguments)),
             (plan, (commands, st.params, st.state, st.tallies, pose, self.dt)),
             (glide, (pose, st.params, self._bodies.motion, self._bodies.row_index, self.dt)),
             (measure_all, (pose, pose, st.params, st.state, st.tallies, self.floor.hole, self._scalars)),
@@ -406,9 +410,9 @@ class World:
         else:  # without the IR rows: pymunk reads them below
             self._read_sensors(pose, *self._read_arguments, values[:lights], believed[:0])
         floor, light, ir_raw = values[: st.n_floor], values[st.n_floor : lights], values[lights:]
-        if st.noisy_floor_or_light:
-            st.floor_noise.add_rounded(floor, CNY70_MAX)
-            st.light_noise.add_rounded(light, LDR_MAX)
+        if st.floor_and_light_noise.sensors:
+            st.floor_and_light_noise.normals.reserve(1)
+            self._floor_and_light_noise(values, *self._floor_and_light_arguments)
         if not self._round_ir:
             self._read_ir_with_pymunk(pose, ir_raw, believed)
         frame = SensorFrame(self.time, tallies, ir_raw, believed, floor, light, st.layout)
@@ -487,13 +491,14 @@ class World:
             raise CommandError(f"expected motor commands of shape ({len(self.robots)}, 2), got {commands.shape}")
         st = self._batch()
         before = self._poses
-        bad = first_bad(commands) if st.noisy_encoders else -1  # a refused step draws no noise
+        bad = -1
+        if st.step_noise.sensors:  # (a refused step draws no noise)
+            st.step_noise.normals.reserve(ENCODER_DRAWS)
+            bad = self._draw_step_noise(commands, *self._step_noise_arguments)
         if bad < 0:
-            if st.noisy_encoders:
-                st.draw_encoder_noise()
             bad = self._plan(commands, st.params, st.state, st.tallies, before, self.dt)
-            if bad < 0 and st.noisy_encoders:
-                st.add_spurious_ticks()
+            if bad < 0 and st.spurious_ticks:
+                self._spurious_ticks(*self._tick_noise_arguments)
         if bad >= 0:
             names = [self.robots[i].name for i in np.unique(np.nonzero(~np.isfinite(commands))[0])]
             raise CommandError(f"non-finite motor command for {', '.join(names)} at step {self.steps}")
@@ -520,8 +525,6 @@ class World:
         else:
             self._apply_motion()
             after = self._poses = self._bodies.poses()
-        if len(st.noisy_mice.rows):
-            st.draw_mouse_noise()
         self._measure(before, after, st.params, st.state, st.tallies, self.floor.hole, self._scalars)
         if self.chassis.drives:
             self.chassis.after_step(before, after, self.floor)
@@ -668,8 +671,17 @@ class _BatchState:
         self.tallies = np.zeros((n, layout.TALLIES), dtype=np.int64)
         """Encoder ticks then mouse counts of the last step."""
         self.fallen = np.array([r.fallen for r in robots], dtype=np.bool_)
-        self.noisy_encoders = [(r.index, r.rngs["encoders"], r.spec.encoders) for r in robots if r.spec.encoders.slip_std or r.spec.encoders.tick_noise]
-        self.noisy_mice = _Noisy.of([(r.index, r, "mouse", r.spec.mouse.noise_std) for r in robots if r.spec.mouse is not None and r.spec.mouse.noise_std])
+        encoders = [r for r in robots if r.spec.encoders.slip_std or r.spec.encoders.tick_noise]
+        mice = [r for r in robots if r.spec.mouse is not None and r.spec.mouse.noise_std]
+        self.step_noise = _Noisy.of([(r.index, r, "encoders", r.spec.encoders.slip_std) for r in encoders]
+                                    + [(r.index, r, "mouse", r.spec.mouse.noise_std * p[r.index, layout.COUNTS_PER_METRE]) for r in mice])
+        """What a step draws before it moves (`kernels.noise.draw_step`): rows of the robots whose
+        encoders slip or miscount (std: their slip_std), then of those whose mouse has count noise
+        (std: noise_std (sqrt m) at the counts' own scale, counts per sqrt m)."""
+        self.tick_noise = np.array([r.spec.encoders.tick_noise for r in encoders], dtype=np.float64)
+        self.tick_uniforms = np.zeros((len(encoders), 4))
+        """The step's uniforms of each noisy encoder's spurious ticks."""
+        self.spurious_ticks = bool(self.tick_noise.any())
 
         floor = [(r, s) for r in robots for s in (*r.spec.line, *r.spec.border)]
         light = [(r, s) for r in robots for s in r.spec.light]
@@ -688,9 +700,10 @@ class _BatchState:
         def noisy(items):
             return _Noisy.of([(k, robot, s.name, s.noise_std) for k, (robot, s) in enumerate(items) if s.noise_std])
 
-        self.floor_noise = noisy(floor)
-        self.light_noise = noisy(light)
-        self.noisy_floor_or_light = len(self.floor_noise.rows) + len(self.light_noise.rows) > 0
+        self.floor_and_light_noise = noisy(floor + light)
+        """The noisy floor (line, border) and light sensors: their rows in the values of both."""
+        self.floor_and_light_top = np.where(self.floor_and_light_noise.rows < len(floor), CNY70_MAX, LDR_MAX).astype(np.int64)
+        """Each one's highest value (`kernels.noise.add_rounded`)."""
         self.ir = _IRArrays.build(ir, noisy(ir))
         self.index = np.zeros((len(every), layout.INDEX), dtype=np.int64)
         self.index[:, layout.OWNER] = [r.index for r, _ in every]
@@ -712,35 +725,8 @@ class _BatchState:
 
     def reseed(self, robot: Robot) -> None:
         """Draw `robot`'s noise from its (new) generators from now on."""
-        self.noisy_encoders = [(i, robot.rngs["encoders"] if i == robot.index else rng, enc) for i, rng, enc in self.noisy_encoders]
-        for noisy in (self.noisy_mice, self.floor_noise, self.light_noise, self.ir.noise):
+        for noisy in (self.step_noise, self.floor_and_light_noise, self.ir.noise):
             noisy.reseed(robot)
-
-    def draw_encoder_noise(self) -> None:
-        """Random slip for this step of the robots whose encoders have it: each wheel's arc s is
-        off by slip_std * sqrt(|s|) * N(0, 1) (`kernels.motion.drive`), a random walk in the distance rolled."""
-        for i, rng, enc in self.noisy_encoders:
-            if enc.slip_std:
-                self.slip[i] = enc.slip_std * rng.standard_normal(2)
-
-    def add_spurious_ticks(self) -> None:
-        """Each tick counted this step is, with probability tick_noise, one too many or one too few
-        (a light barrier's edge that bounces or is missed): a process in the ticks counted, so
-        the same per wheel turn at any step."""
-        for i, rng, enc in self.noisy_encoders:
-            if enc.tick_noise:
-                ticks = self.tallies[i, layout.TICKS : layout.TICKS + 2]
-                wrong = rng.binomial(np.abs(ticks), enc.tick_noise)
-                if wrong.any():
-                    ticks += 2 * rng.binomial(wrong, 0.5) - wrong
-
-    def draw_mouse_noise(self) -> None:
-        """Count noise for the robots whose mouse has it, in counts per sqrt m of floor passed
-        (`kernels.motion.measure` scales it by the step's distance): noise_std (sqrt m) at the counts'
-        own scale."""
-        mice = self.noisy_mice
-        scale = mice.std * self.params[mice.rows, layout.COUNTS_PER_METRE]
-        self.mouse_noise[mice.rows] = 0.0 + scale[:, None] * mice.normals.take(2)
 
 
 @dataclass(frozen=True)

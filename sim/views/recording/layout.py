@@ -20,7 +20,10 @@ TURNING = (WheelType.STEERED, WheelType.CASTOR, WheelType.SPHERICAL)
 TRAIL_EVERY = 10
 """Samples per trail piece: every pose is in the trail, but in 10x fewer rows for the viewer."""
 ELLIPSE_EVERY = 200
-"""Samples between two uncertainty ellipses along an estimate's trail (2 s at the default step)."""
+"""Samples between two uncertainty ellipses along an estimate's trail (2 s at the default step)..."""
+ELLIPSE_RECENT_S = 4.0
+"""...of which the map shows those of the last this many simulated seconds before the time cursor
+(two per estimate): at 300 s all of them would bury the maze and the truth under rings metres wide."""
 ELLIPSE_SCALE = math.sqrt(-2.0 * math.log(0.05))
 """Radius, in standard deviations, of the ellipse holding 95 % of a 2-D normal (chi2(2) = 5.99)."""
 ELLIPSE_POINTS = 37
@@ -103,7 +106,9 @@ def blueprint(world: WorldSpec, robots: dict[str, list[str]], groups: list[str],
 
     history = rrb.VisibleTimeRanges([rrb.VisibleTimeRange(TIMELINE, start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.cursor_relative())])
     trails = {f"/world/{name}/trail/{label}": history for name, labels in robots.items() for label in ["truth", *labels]}
-    trails |= {f"/world/{name}/ellipse/{label}": history for name, labels in robots.items() for label in labels}
+    recent = rrb.VisibleTimeRanges([rrb.VisibleTimeRange(TIMELINE, start=rrb.TimeRangeBoundary.cursor_relative(seconds=-ELLIPSE_RECENT_S),
+                                                         end=rrb.TimeRangeBoundary.cursor_relative())])  # fmt: skip
+    trails |= {f"/world/{name}/ellipse/{label}": recent for name, labels in robots.items() for label in labels}
     xmin, ymin, xmax, ymax = world.bounds
     margin = 0.03 * max(xmax - xmin, ymax - ymin)
     bounds = rrb.VisualBounds2D(x_range=(xmin - margin, xmax + margin), y_range=(-ymax - margin, -ymin + margin))  # y flipped, see `world`

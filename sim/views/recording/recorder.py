@@ -14,7 +14,8 @@ Layout (all on the timeline "sim_time", seconds of simulated time):
     world/<robot>/trail/<label>        LineStrips2D, one piece per TRAIL_EVERY samples (truth and
                                        each estimate); the blueprint shows all history
     world/<robot>/ellipse/<est>        LineStrips2D, the 95 % ellipse of the estimate's position
-                                       every ELLIPSE_EVERY samples (those with a covariance); all history
+                                       every ELLIPSE_EVERY samples (those with a covariance); the
+                                       blueprint shows the last ELLIPSE_RECENT_S seconds
     errors/<robot>/position            Scalars, |estimate - truth| (mm), one series per estimate
     errors/<robot>/position/band       Scalars, 3 sigma of the position error's major axis (mm)
     errors/<robot>/heading             Scalars, wrapped heading error (deg), one series per estimate
