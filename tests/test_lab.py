@@ -281,3 +281,14 @@ def test_lab_help_lists_the_lab_s_own_exit_statuses(capsys) -> None:
         main(["lab", "--help"])
     printed = capsys.readouterr().out
     assert "every submission graded" in printed and "a scenario failed" in printed and "controller raised" not in printed
+
+
+def test_a_students_whole_exception_message_is_printed_not_cut_to_the_cell():
+    """A long message (the untouched template's NotImplementedError) is said whole under its row."""
+    from sim.lab.checking import CELL, CheckReport, Row, table
+
+    message = "raised NotImplementedError: write forward() here: turn the wheel ticks into metres, then the pose (see the sheet)"
+    report = CheckReport(2, "forward.py", 0, [Row("circle", "(1, 2, 3)", message, "1e-6", False)], 10.0)
+    lines = table(report).splitlines()
+    assert len(message) > CELL and f"    got: {message}" in lines
+    assert "got:" not in table(dataclasses.replace(report, rows=[Row("circle", "1", "2", "1e-6", False)]))

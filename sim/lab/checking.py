@@ -201,16 +201,22 @@ def _at_line(lang: str) -> str:
     return {"en": "at line", "de": "in Zeile"}[lang]
 
 
+CELL = 48
+"""Widest cell of the table (characters); a longer `got` is said whole on a line of its own."""
+
+
 def table(report: CheckReport, lang: str = "en") -> str:
     """The report as a text table with the hints under failing rows (safe for a terminal)."""
     words = {"en": ("scenario", "expected", "got", "tolerance", "result", "pass", "FAIL", "hint", "score"),
              "de": ("Szenario", "erwartet", "erhalten", "Toleranz", "Ergebnis", "ok", "FEHLER", "Hinweis", "Punkte")}[lang]  # fmt: skip
     columns = [[sanitize.name(c) for c in (r.scenario, r.expected, r.got, r.tolerance)] + [words[5] if r.passed else words[6]] for r in report.rows]
-    widths = [max([len(words[i])] + [min(len(c[i]), 48) for c in columns]) for i in range(5)]
-    line = lambda cells: "  ".join(str(c)[:48].ljust(w) for c, w in zip(cells, widths)).rstrip()
+    widths = [max([len(words[i])] + [min(len(c[i]), CELL) for c in columns]) for i in range(5)]
+    line = lambda cells: "  ".join(str(c)[:CELL].ljust(w) for c, w in zip(cells, widths)).rstrip()
     lines = [line(words[:5]), line(["-" * w for w in widths])]
     for row, cells in zip(report.rows, columns):
         lines.append(line(cells))
+        if len(row.got) > CELL:  # (an exception's whole message, not its first 48 characters)
+            lines.append(f"    {words[2]}: {sanitize.name(row.got, 1000)}")
         if row.hint:
             lines.append(f"    {words[7]}: {sanitize.name(row.hint, 1000)}")
     passed = sum(r.passed for r in report.rows)
