@@ -20,6 +20,7 @@ only when the run ends or fails.
 from __future__ import annotations
 
 import importlib
+import inspect
 import os
 import signal
 import sys
@@ -196,15 +197,31 @@ class Guard:
 _MISSING = object()
 _ROOT = Path(__file__).resolve().parents[1]
 _KNOWN = tuple({str(_ROOT / "sim"), str(_ROOT / "bots"), *(sysconfig.get_paths()[key] for key in ("stdlib", "platstdlib", "purelib", "platlib"))})
-"""Where ctsim's and the installed libraries' code lives: any other code is a user's."""
+"""Where ctsim's and the installed libraries' code lives: never the user's."""
 
 
-def foreign_frame(err: BaseException) -> str | None:
-    """Where user code (neither ctsim's nor an installed library's) ran in the traceback of a
+def user_code_folders(objects: list[object]) -> tuple[str, ...]:
+    """The folders of the user's code among `objects` (controllers, estimators): where the files
+    their classes came from lie, unless that is ctsim's or an installed library's."""
+    folders = set()
+    for obj in objects:
+        try:
+            source = inspect.getsourcefile(type(obj))
+        except TypeError:  # a class made at run time, or a builtin
+            continue
+        if source is not None and not str(Path(source).resolve()).startswith(_KNOWN):
+            folders.add(str(Path(source).resolve().parent) + os.sep)
+    return tuple(sorted(folders))
+
+
+def foreign_frame(err: BaseException, user_folders: tuple[str, ...]) -> str | None:
+    """Where the user's code (in `user_folders`, `user_code_folders`) ran in the traceback of a
     failure inside ctsim, innermost first ('file:line'): a method a controller patched into a
     class of ctsim's; None when none did (then the failure is ctsim's)."""
+    if not user_folders:
+        return None
     for frame in reversed(traceback.extract_tb(err.__traceback__)):
-        if not frame.filename.startswith("<") and not str(Path(frame.filename).resolve()).startswith(_KNOWN):
+        if not frame.filename.startswith("<") and str(Path(frame.filename).resolve()).startswith(user_folders):
             return f"{frame.filename}:{frame.lineno}"
     return None
 

@@ -26,7 +26,7 @@ from bots.odometry.defaults import default_estimators
 from bots.odometry.user import has_covariance, name_of, outputs
 from bots.readings import Readings, SensorFrame
 from bots.spec import RobotSpec
-from sim.guards import ControllerBrokeOut, Guard, foreign_frame
+from sim.guards import ControllerBrokeOut, Guard, foreign_frame, user_code_folders
 from sim.run.clock import StepClock, StepTimeout
 from sim.run.ending import Ending, Quit, RunError, Terminated
 from sim.run.samples import RobotLog, RunResult, Samples
@@ -186,7 +186,7 @@ def run(
         result.reason, result.error = Ending.ERROR, f"{_who(logs)} {broke} at step {step} (t = {world.time:.2f} s)"
     except Exception as err:  # ctsim's own code failing: a ctsim bug, unless a controller replaced what it calls
         replaced = guard.replaced() if guard is not None else ""
-        foreign = foreign_frame(err)
+        foreign = foreign_frame(err, user_code_folders([*controllers, *(e for _, _, chosen, _ in estimators for e in chosen)]))
         if not replaced and foreign is None:
             raise
         result.reason = Ending.ERROR
