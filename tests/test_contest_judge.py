@@ -187,7 +187,7 @@ def test_the_shipped_contest_worlds_favour_neither_side(name):
     ways = [PathField(world, world.goals_of(s.slot), clearance).distance(s.x, s.y) for s in (a, b)]
     assert ways[0] == pytest.approx(ways[1], abs=1e-9) and 2.0 < ways[0] < 8.0
     assert np.allclose([a.x + b.x, a.y + b.y], [world.bounds[2], world.bounds[3]])  # turned about the centre
-    outcome = play(GameJob(2, 1, tuple(parse(["a=solve_maze", "b=solve_maze"])), name, 120.0, 0, DT, None))
+    outcome = play(GameJob(2, 1, tuple(parse(["a=solve_maze", "b=solve_maze"])), name, 120.0, 0, DT, None, noise="none"))  # the geometry alone: the same exact sensors on both sides
     first, second = outcome["sides"]
     assert first["arrival"] is not None and first["arrival"] == second["arrival"]  # the same step, to the bit
 
