@@ -224,7 +224,7 @@ def test_the_api_and_the_command_line_describe_a_run_alike(tmp_path, drive):
     out = tmp_path / "o"
     assert main(["run", "empty", "--controller", drive, "--duration", "0.5", "--noise", "none", "--seed", "3", "--out", str(out), "--no-report"]) == 0
     written = json.loads((out / "summary.json").read_text())
-    given = json.loads(json.dumps(json_safe(simulate("empty", Bot(drive), duration=0.5, seed=3).summary())))
+    given = json.loads(json.dumps(json_safe(simulate("empty", Bot(drive), duration=0.5, seed=3, noise="none").summary())))
     assert written["schema_version"] == given["schema_version"] == SCHEMA_VERSION
     for robot in written["robots"]:
         del robot["tum"]  # the files of the run folder, named after they are written

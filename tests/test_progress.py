@@ -5,11 +5,9 @@ left; sweeps, contests, `lab grade` and the first run's compile all say it."""
 from __future__ import annotations
 
 import io
-import threading
 
 from sim.cli.entry import main
 from sim.experiments.progress import Progress, duration
-from sim.world import compiling
 
 
 class Clock:
@@ -59,16 +57,3 @@ def test_a_sweep_off_a_terminal_says_its_progress_and_a_resume_what_was_done(tmp
     assert main(["sweep", str(spec), "--out", str(tmp_path / "out"), "--engine", "serial"]) == 0
     err = capsys.readouterr().err.splitlines()
     assert err[0] == "ctsim: sweep: resuming: 2 of 3 runs already done, 1 to go" and err[-1].startswith("ctsim: sweep: 3/3 runs done, 0 left, ")
-
-
-def test_the_compile_says_how_it_goes_until_it_ends(monkeypatch):
-    """Lines come from a thread while the kernels compile, and the thread ends with them (a sweep
-    forks its workers only from a process running one thread)."""
-    lines: list[str] = []
-    said = threading.Event()
-    monkeypatch.setattr(compiling, "PROGRESS", lambda line: (lines.append(line), said.set()))
-    monkeypatch.setattr(compiling, "TICK_S", 0.001)
-    with compiling._ticking(lambda: "compiling: 0 of 2 kernels done", True):
-        assert said.wait(timeout=600)  # (the ticks come; only a frozen machine takes minutes)
-    assert lines[0] == "compiling: 0 of 2 kernels done"
-    assert not [t for t in threading.enumerate() if t.name == "ctsim compile progress"]
