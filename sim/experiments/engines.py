@@ -201,15 +201,17 @@ costs CPU on a machine whose cores the runs need (`bench/run.py -k sweep_dask`).
 
 
 @contextmanager
-def _without_sigint() -> Iterator[None]:
-    """SIGINT blocked in this thread meanwhile, and so in every thread and process started from it:
-    a LocalCluster's scheduler thread and worker processes never see a terminal's Ctrl-C (which
-    reaches the whole process group), so that this process alone handles it, stopping them at once
-    and quietly. A Ctrl-C meanwhile is delivered when it ends. (Off the main thread: unchanged.)"""
+def _without_stop_signals() -> Iterator[None]:
+    """SIGINT and SIGTERM blocked in this thread meanwhile, and so in every thread and process
+    started from it: a LocalCluster's scheduler thread and worker processes never see a terminal's
+    Ctrl-C or a job scheduler's SIGTERM (each reaches the whole process group), so that this
+    process alone handles them, stopping them at once and quietly (a worker that took SIGTERM
+    itself left its scheduler logging a closed connection with a traceback). A signal meanwhile
+    is delivered when it ends. (Off the main thread: unchanged.)"""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    blocked = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
     try:
         yield
     finally:
@@ -221,8 +223,8 @@ class Dask:
     by dask-jobqueue or dask-kubernetes), or a LocalCluster of `workers` processes. Dask retries a
     run whose worker died (`distributed.scheduler.allowed-failures`, 3 by default), then reports it
     lost. Workers need ctsim installed and must see the world, robot and controller files by the
-    same paths. A LocalCluster's processes ignore Ctrl-C: on Ctrl-C the sweep stops and `close`
-    kills them at once (their runs in flight are not in the table and run again on resume)."""
+    same paths. A LocalCluster's processes ignore Ctrl-C and SIGTERM: on either the sweep stops and
+    `close` kills them at once (their runs in flight are not in the table and run again on resume)."""
 
     def __init__(self, address: str | None = None, workers: int | None = None, timeout: float = 30.0, batch: int | None = None):
         import dask
@@ -234,7 +236,7 @@ class Dask:
         if address is None:
             n = workers or os.cpu_count() or 1
             try:
-                with _without_sigint(), dask.config.set(LOCAL_CONFIG):
+                with _without_stop_signals(), dask.config.set(LOCAL_CONFIG):
                     self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None, memory_limit=0,
                                                 silence_logs=logging.CRITICAL, preload=PRELOAD)  # fmt: skip
                     self.client = Client(self.cluster, timeout=timeout)
