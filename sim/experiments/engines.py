@@ -281,6 +281,16 @@ class Dask:
             self._end_cluster()
 
     def _end_cluster(self) -> None:
+        # the scheduler logs each killed worker's closed connection with a traceback (at INFO): not the user's news
+        dask_log = logging.getLogger("distributed")
+        level = dask_log.level
+        dask_log.setLevel(logging.CRITICAL)
+        try:
+            self._kill_cluster()
+        finally:
+            dask_log.setLevel(level)
+
+    def _kill_cluster(self) -> None:
         for nanny in list(self.cluster.workers.values()) if self.cluster is not None else ():
             nanny.close_gracefully("ctsim: the sweep is over")  # (not started again when killed)
             if nanny.pid:
