@@ -221,7 +221,8 @@ def foreign_frame(err: BaseException, user_folders: tuple[str, ...]) -> str | No
     if not user_folders:
         return None
     for frame in reversed(traceback.extract_tb(err.__traceback__)):
-        if not frame.filename.startswith("<") and str(Path(frame.filename).resolve()).startswith(user_folders):
+        where = str(Path(frame.filename).resolve())
+        if not frame.filename.startswith("<") and where.startswith(user_folders) and not where.startswith(_KNOWN):  # (ctsim inside the user's folder stays ctsim)
             return f"{frame.filename}:{frame.lineno}"
     return None
 

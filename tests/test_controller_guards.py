@@ -213,3 +213,19 @@ def test_a_replaced_json_dumps_is_put_back_before_the_summary_is_written(control
     assert json.dumps is dumps and summary(tmp_path / "out")["reason"] == "duration"
     assert "replaced json.dumps; ctsim put it back" in capsys.readouterr().err
 
+
+
+def test_ctsims_own_frames_are_never_the_users_even_in_the_users_folder():
+    """A controller kept in a folder that holds ctsim too (a clone with the student's files beside
+    it): a failure inside ctsim stays ctsim's, not blamed on the controller."""
+    from pathlib import Path
+
+    from sim.guards import foreign_frame
+    from sim.world.step import check_dt
+
+    try:
+        check_dt(-1.0)
+    except Exception as err:  # noqa: BLE001 (whatever check_dt raises for a negative step)
+        failure = err.with_traceback(err.__traceback__.tb_next)  # (ctsim's frames only, not this test's)
+    root = str(Path(__file__).resolve().parents[1]) + "/"
+    assert foreign_frame(failure, (root,)) is None
