@@ -32,7 +32,7 @@ from sim.world.compiling import compile_all
 from sim.world.floor import FloorMap, rasterize
 from sim.world.kernels.contacts import settle
 from sim.world.kernels.grids import build_wall_grid
-from sim.world.kernels.motion import first_bad, glide, measure_all, plan
+from sim.world.kernels.motion import first_bad, glide, measure, plan
 from sim.world.kernels.sensing import ir_rays, ir_values, read_sensors
 from sim.world.noise import NormalBlocks
 from sim.world.sensors import CNY70_MAX, LDR_MAX, IRCurve, gp2d12, load_ir_curve
@@ -73,6 +73,11 @@ class _Noisy:
             normals=NormalBlocks([robot.rngs[name] for _, robot, name, _ in items]),
             sensors=tuple((robot.index, name) for _, robot, name, _ in items),
         )
+
+    @property
+    def kernel(self) -> layout.Noise:
+        """The standard deviations and normals as the IR kernel takes them."""
+        return layout.Noise(self.std, self.normals.values, self.normals.used)
 
     def reseed(self, robot: Robot) -> None:
         """Draw `robot`'s rows from its (new) generators from now on."""
@@ -174,8 +179,8 @@ class World:
             shape = pymunk.Poly(self.space.static_body, wall.vertices)
             shape.friction = 0.0
             self.space.add(shape)
-        self._walls = _WallArrays.build(spec)
-        """The walls for the kernels; the grid's origin and cell are among `_scalars`."""
+        self._walls = _walls(spec)
+        """The walls for the kernels."""
         self.movables: list[pymunk.Body] = []
         self._movable_shapes: list[pymunk.Circle] = []
         self._round_bodies = True
@@ -191,14 +196,13 @@ class World:
             self.space.add(body, shape)
             self.movables.append(body)
             self._movable_shapes.append(shape)
-        self._lights = np.array([(*light.position, light.height, light.radius) for light in spec.lights], dtype=np.float64).reshape(-1, 4)
-        self._scalars = np.array(
-            (*self.floor.origin, self.floor.cell, self.floor.outside_is_hole, self.floor.outside_absorption, IR_RAY_LENGTH, SLIDE_MARGIN, dt,
-             *self._walls.frame, float(robots_meet)),
-            dtype=np.float64,
-        )
-        """The world's scalars for the kernels (`kernels.SCALARS`; writeable: numba types read-only
+        self._lights = layout.LIGHTS.new(len(spec.lights))
+        for name, values in zip(("x", "y", "height", "radius"), zip(*((*light.position, light.height, light.radius) for light in spec.lights))):
+            self._lights[name] = values
+        self._world = layout.WORLD.new(1)
+        """The world's scalars for the kernels (a WORLD row; writeable: numba types read-only
         arrays on a slow path)."""
+        self._world["dt"], self._world["slide_margin"], self._world["robots_meet"] = dt, SLIDE_MARGIN, robots_meet
         self._state = _BatchState([], dt, [], robots_meet)
         self._bodies = BodyArrays(self.space, [])
         self._poses = np.zeros((0, 3))
@@ -281,7 +285,7 @@ class World:
         st.state[index], st.tallies[index], st.fallen[index] = 0.0, 0, False
         robot.rngs = self._sensor_rngs(robot.spec, index, seed)
         st.reseed(robot)
-        self._quiet[layout.STREAK] = 0
+        self._world["streak"] = 0
         return robot
 
     @property
@@ -304,7 +308,7 @@ class World:
     def _kernel_arguments(self) -> None:
         """The arrays the per-step kernels take besides the poses and the step's outputs, gathered
         once into tuples, and the kernels' compiled entry points for their types."""
-        st, walls, ir = self._state, self._walls, self._state.ir
+        st, walls, ir, floor = self._state, self._walls, self._state.ir, self.floor.kernel
         self._round_ir = self._round_bodies and len(ir.curve) > 0
         read = len(st.sensors) if self._round_ir else st.n_floor + st.n_light  # pymunk reads IR otherwise
         # quiet steps (`kernels.contacts.settle`, `kernels.motion.glide`) for one round robot and nothing else that
@@ -312,25 +316,22 @@ class World:
         # several bodies come in the order of pymunk's tree of moving shapes, which a skipped step
         # would leave unchanged (the same physics, but other roundings later)
         alone = len(self.robots) == 1 and self._round_bodies and not self.movables
-        self._quiet = np.array((0, self.space.collision_persistence if alone else -1), dtype=np.int64)
-        self._read_arguments = (
-            st.sensors[:read], st.index[:read], st.n_floor, self.floor.absorption, self._scalars, self._lights, walls.vertices,
-            walls.ranges, walls.boxes, walls.cells, st.circles, ir.noise.std, ir.noise.normals.values, ir.noise.normals.used, ir.tables,
-            ir.curve_ends, ir.beyond, ir.inverse,
-        )  # fmt: skip
-        self._settle_arguments = (
-            st.params, st.state, self._scalars, walls.vertices, walls.ranges, walls.boxes, walls.cells, st.contacts, st.anchored, self.floor.hole,
-            st.fallen, self._bodies.row_index, self._bodies.motion, self._quiet,
-        )  # fmt: skip
+        self._world["streak"], self._world["quiet_after"] = 0, self.space.collision_persistence if alone else -1
+        self._moved = (st.robots, st.state, st.tally_rows)
+        """The tables `plan` and `measure` change a step's motion and counts in."""
+        bodies = layout.Bodies(self._bodies.row_index, layout.motion_rows(self._bodies.motion))
+        self._read_arguments = (layout.Sensing(st.sensors[:read], st.n_floor, self._lights), floor, walls, st.circles, ir.curves, ir.noise.kernel)
+        self._settle_arguments = (st.robots, st.state, self._world, walls, floor, layout.Ground(st.contacts, st.anchored, st.fallen), bodies)
+        self._glide_arguments = (st.robots, bodies, self._world)
         # the kernels each step calls, for the types they get then: C-ordered (n, 2) commands and
         # (n, 3) poses, int64 values and float believed distances (`compiling.compiled_for`; the largest last, see `compile_all`)
         pose, commands = self._poses, np.zeros((len(self.robots), 2))
         self._plan, self._glide, self._measure, self._settle, self._read_sensors = compile_all([
-            (plan, (commands, st.params, st.state, st.tallies, pose, self.dt)),
-            (glide, (pose, st.params, self._bodies.motion, self._bodies.row_index, self.dt)),
-            (measure_all, (pose, pose, st.params, st.state, st.tallies, self.floor.hole, self._scalars)),
+            (plan, (commands, *self._moved, pose, self._world)),
+            (glide, (pose, *self._glide_arguments)),
+            (measure, (pose, pose, *self._moved, floor)),
             (settle, (pose, *self._settle_arguments)),
-            (read_sensors, (pose, *self._read_arguments, np.empty(0, np.int64), np.empty(0))),
+            (read_sensors, (pose, *self._read_arguments, layout.Readout(np.empty(0, np.int64), np.empty(0)))),
         ])  # fmt: skip
 
     def poses(self) -> np.ndarray:
@@ -380,10 +381,10 @@ class World:
                 st.ir.noise.normals.reserve(1)
             if self.movables:  # (checked first: starting an empty loop costs more than the check)
                 for k, body in enumerate(self.movables, start=len(pose)):
-                    st.circles[k, 0], st.circles[k, 1] = body.position
-            self._read_sensors(pose, *self._read_arguments, values, believed)
+                    st.circles["x"][k], st.circles["y"][k] = body.position
+            self._read_sensors(pose, *self._read_arguments, layout.Readout(values, believed))
         else:  # without the IR rows: pymunk reads them below
-            self._read_sensors(pose, *self._read_arguments, values[:lights], believed[:0])
+            self._read_sensors(pose, *self._read_arguments, layout.Readout(values[:lights], believed[:0]))
         floor, light, ir_raw = values[: st.n_floor], values[st.n_floor : lights], values[lights:]
         if st.noisy_floor_or_light:
             st.floor_noise.add_rounded(floor, CNY70_MAX)
@@ -447,13 +448,12 @@ class World:
             return
         if len(ir.noise.rows):
             ir.noise.normals.reserve(1)
-        first = st.n_floor + st.n_light
-        mounts, owner = st.sensors[first:], st.index[first:, layout.OWNER]
+        sensors = st.sensors[st.n_floor + st.n_light :]
         origins, look, distance = np.empty((n, 2)), np.empty(n), np.empty(n)
-        ir_rays(pose, mounts[:, layout.AT : layout.AT + 2], owner, mounts[:, layout.DIRECTION], origins, look)
+        ir_rays(pose, sensors, origins, look)
         for k, (robot, sensor) in enumerate(st.ir_sensors):
             distance[k] = self.ray_distance(robot, origins[k], look[k], cone=sensor.cone, axis=sensor.view == "axis")
-        ir_values(distance, ir.noise_row, ir.noise.std, ir.noise.normals.values, ir.noise.normals.used, *ir.curves, raw, believed)
+        ir_values(distance, sensors, ir.noise.kernel, ir.curves, raw, believed)
 
     # --- motion -----------------------------------------------------------------------------
 
@@ -469,7 +469,7 @@ class World:
         if bad < 0:
             if st.noisy_encoders:
                 st.draw_encoder_noise()
-            bad = self._plan(commands, st.params, st.state, st.tallies, before, self.dt)
+            bad = self._plan(commands, *self._moved, before, self._world)
             if bad < 0 and st.noisy_encoders:
                 st.add_spurious_ticks()
         if bad >= 0:
@@ -481,23 +481,23 @@ class World:
         # a wall or another robot, so that no speed the motors allow tunnels through anything
         # then hold robots at holes, and give pymunk the motion as forces (see `_apply_motion`)
         self._bodies.refresh()
-        was_blocked = st.state[st.stoppers, layout.BLOCKED] if len(st.stoppers) else None
+        was_blocked = st.state["blocked"][st.stoppers] if len(st.stoppers) else None
         changed, quiet = self._settle(before, *self._settle_arguments)
         if was_blocked is not None:  # a robot newly stopped by c't-Sim's rule has met something
-            for i in st.stoppers[(st.state[st.stoppers, layout.BLOCKED] > 0) & (was_blocked == 0)]:
+            for i in st.stoppers[st.state["blocked"][st.stoppers] & ~was_blocked]:
                 self.robots[i].collisions += 1
         if changed:
             for robot in self.robots:
                 robot.fallen = bool(st.fallen[robot.index])
         if quiet:  # nothing to collide: pymunk's motion without pymunk (a third of a bare robot's step)
-            after = self._poses = self._glide(before, st.params, self._bodies.motion, self._bodies.row_index, self.dt)
+            after = self._poses = self._glide(before, *self._glide_arguments)
             self._bodies.place(after)
         else:
             self._apply_motion()
             after = self._poses = self._bodies.poses()
         if len(st.noisy_mice.rows):
             st.draw_mouse_noise()
-        self._measure(before, after, st.params, st.state, st.tallies, self.floor.hole, self._scalars)
+        self._measure(before, after, *self._moved, self.floor.kernel)
         if self.chassis.drives:
             self.chassis.after_step(before, after, self.floor)
         self.steps += 1
@@ -541,43 +541,29 @@ WALLS_PER_CELL = 2.0
 
 
 def wall_cell(boxes: np.ndarray) -> float:
-    """The side (m) of the wall grid's square cells for walls of bounding boxes `boxes` (n, 4):
+    """The side (m) of the wall grid's square cells for walls of BOXES `boxes`:
     cells of WALLS_PER_CELL walls' share of the walls' extent, so that the grid has about
     n / WALLS_PER_CELL cells whatever the world's size and a query meets the walls near it; at
     least 1/n of the extent's longer side (a thin extent has n cells at most along it)."""
     n = len(boxes)
     if n == 0:
         return 1.0
-    width, height = boxes[:, 2].max() - boxes[:, 0].min(), boxes[:, 3].max() - boxes[:, 1].min()
+    width, height = boxes["xmax"].max() - boxes["xmin"].min(), boxes["ymax"].max() - boxes["ymin"].min()
     return max(math.sqrt(WALLS_PER_CELL * width * height / n), max(width, height) / n, 1e-9)
 
 
-@dataclass(frozen=True)
-class _WallArrays:
-    """The walls as flat arrays for the kernels: all vertices, each wall's slice of them, its
-    bounding box (xmin, ymin, xmax, ymax) and a uniform grid over the boxes (`kernels.grids.build_wall_grid`;
-    walls are static, so it is built once): its origin and cell size (`frame`) and its cells."""
-
-    vertices: np.ndarray
-    ranges: np.ndarray
-    boxes: np.ndarray
-    frame: np.ndarray
-    cells: np.ndarray
-
-    @classmethod
-    def build(cls, spec: WorldSpec) -> _WallArrays:
-        polygons = [np.asarray(w.vertices, dtype=np.float64) for w in spec.walls]
-        ends = np.cumsum([len(p) for p in polygons], dtype=np.int64)
-        starts = ends - np.array([len(p) for p in polygons], dtype=np.int64)
-        boxes = np.array([(*p.min(axis=0), *p.max(axis=0)) for p in polygons]).reshape(-1, 4)
-        frame, cells = build_wall_grid(boxes, wall_cell(boxes) if len(boxes) > WALL_GRID_ABOVE else math.inf)  # one cell: the plain loop
-        return cls(
-            vertices=np.concatenate(polygons).reshape(-1, 2) if polygons else np.zeros((0, 2)),
-            ranges=np.stack((starts, ends), axis=1).reshape(-1, 2),
-            boxes=boxes,
-            frame=frame,
-            cells=cells,
-        )
+def _walls(spec: WorldSpec) -> layout.Walls:
+    """The walls as flat arrays for the kernels: all vertices, each wall's SPANS of them, its BOXES
+    and a uniform grid over the boxes (`kernels.grids.build_wall_grid`; walls are static, so it is
+    built once)."""
+    polygons = [np.asarray(w.vertices, dtype=np.float64) for w in spec.walls]
+    spans, boxes = layout.SPANS.new(len(polygons)), layout.BOXES.new(len(polygons))
+    spans["end"] = np.cumsum([len(p) for p in polygons], dtype=np.int64)
+    spans["start"] = spans["end"] - np.array([len(p) for p in polygons], dtype=np.int64)
+    for name, values in zip(("xmin", "ymin", "xmax", "ymax"), np.array([(*p.min(axis=0), *p.max(axis=0)) for p in polygons]).reshape(-1, 4).T):
+        boxes[name] = values
+    frame, cells = build_wall_grid(boxes, wall_cell(boxes) if len(boxes) > WALL_GRID_ABOVE else math.inf)  # one cell: the plain loop
+    return layout.Walls(np.concatenate(polygons).reshape(-1, 2) if polygons else np.zeros((0, 2)), spans, boxes, frame, cells)
 
 
 def _contacts(spec: RobotSpec) -> tuple[np.ndarray, np.ndarray]:
@@ -597,11 +583,6 @@ def _padded(rows: list[np.ndarray], dtype: type, tail: tuple[int, ...] = ()) -> 
     return np.array([r[np.arange(width) % len(r)] for r in rows], dtype=dtype).reshape(len(rows), width, *tail)
 
 
-def _columns(array: np.ndarray, start: int, width: int = 2) -> np.ndarray:
-    """A named view of a packed array's columns: one column (width 1) or `width` of them."""
-    return array[:, start] if width == 1 else array[:, start : start + width]
-
-
 class _BatchState:
     """Per-robot parameters and state as arrays for the kernels (rebuilt when a robot joins):
     packed into a few 2-D arrays in the column layout of `sim.world.layout` (one argument each
@@ -611,35 +592,33 @@ class _BatchState:
         n = len(robots)
         specs = [r.spec for r in robots]
         motor = [s.motor for s in specs]
-        self.params = np.zeros((n, layout.PARAMS))
-        p = self.params
-        p[:, layout.COMMAND_MAX] = [m.command_max for m in motor]
-        p[:, layout.MAX_SPEED] = [m.max_wheel_speed for m in motor]
-        p[:, layout.LAG] = [1.0 - math.exp(-dt / m.time_constant) if m.time_constant > 0 else 1.0 for m in motor]
-        p[:, layout.MAX_CHANGE] = [m.max_acceleration * dt for m in motor]
-        p[:, layout.TICKS_PER_RAD] = [s.encoders.ticks_per_rev / (2 * math.pi) for s in specs]
-        _columns(p, layout.REAL_RADIUS)[:] = np.array([[s.wheel_radius * (1 + e) for e in s.encoders.diameter_error] for s in specs]).reshape(n, 2)
-        p[:, layout.TRACK] = [s.track_width * (1 + s.encoders.track_error) for s in specs]
-        _columns(p, layout.MOUNT)[:] = np.array([s.mouse.mount if s.mouse else (0.0, 0.0) for s in specs], dtype=np.float64).reshape(n, 2)
-        p[:, layout.COUNTS_PER_METRE] = [counts_per_metre(s.mouse.dpi) * (1 + s.mouse.scale_error) if s.mouse else 0.0 for s in specs]
-        p[:, layout.MAX_STEP] = [s.mouse.max_speed * dt if s.mouse else 0.0 for s in specs]
-        p[:, layout.SWEEP_RADIUS] = [s.body_radius - SWEEP_CLEARANCE for s in specs]
-        p[:, layout.APART_RADIUS] = [s.body_radius - SWEEP_CLEARANCE / 2 for s in specs]
-        p[:, layout.MASS] = [r.body.mass for r in robots]
-        p[:, layout.MOMENT] = [r.body.moment for r in robots]
-        p[:, layout.RADIUS] = [s.body_radius for s in specs]
-        p[:, layout.STOPS] = [s.contact == "stop" for s in specs]
-        self.stoppers = np.flatnonzero(p[:, layout.STOPS])
+        self.robots = p = layout.ROBOTS.new(n)
+        p["command_max"] = [m.command_max for m in motor]
+        p["max_speed"] = [m.max_wheel_speed for m in motor]
+        p["lag"] = [1.0 - math.exp(-dt / m.time_constant) if m.time_constant > 0 else 1.0 for m in motor]
+        p["max_change"] = [m.max_acceleration * dt for m in motor]
+        p["ticks_per_rad"] = [s.encoders.ticks_per_rev / (2 * math.pi) for s in specs]
+        p["real_radius"] = np.array([[s.wheel_radius * (1 + e) for e in s.encoders.diameter_error] for s in specs]).reshape(n, 2)
+        p["track"] = [s.track_width * (1 + s.encoders.track_error) for s in specs]
+        p["mount"] = np.array([s.mouse.mount if s.mouse else (0.0, 0.0) for s in specs], dtype=np.float64).reshape(n, 2)
+        p["counts_per_metre"] = [counts_per_metre(s.mouse.dpi) * (1 + s.mouse.scale_error) if s.mouse else 0.0 for s in specs]
+        p["max_step"] = [s.mouse.max_speed * dt if s.mouse else 0.0 for s in specs]
+        p["sweep_radius"] = [s.body_radius - SWEEP_CLEARANCE for s in specs]
+        p["apart_radius"] = [s.body_radius - SWEEP_CLEARANCE / 2 for s in specs]
+        p["mass"] = [r.body.mass for r in robots]
+        p["moment"] = [r.body.moment for r in robots]
+        p["radius"] = [s.body_radius for s in specs]
+        p["stops"] = [s.contact == "stop" for s in specs]
+        self.stoppers = np.flatnonzero(p["stops"])
         """The robots with c't-Sim's contact rule (a refused move counts as a collision)."""
         self.contacts = _padded([_contacts(s)[0] for s in specs], np.float64, (2,))
         self.anchored = _padded([_contacts(s)[1] for s in specs], np.bool_)
-        self.state = np.zeros((n, layout.STATE))
-        self.slip = _columns(self.state, layout.SLIP)
-        self.mouse_noise = _columns(self.state, layout.MOUSE_NOISE)
-        self.move = _columns(self.state, layout.MOVE)
-        self.alpha = _columns(self.state, layout.ALPHA, 1)
-        self.tallies = np.zeros((n, layout.TALLIES), dtype=np.int64)
-        """Encoder ticks then mouse counts of the last step."""
+        self.state = layout.STATE.new(n)
+        self.slip, self.mouse_noise, self.move, self.alpha = (self.state[name] for name in ("slip", "mouse_noise", "move", "alpha"))
+        self.tallies = np.zeros((n, 4), dtype=np.int64)
+        """Encoder ticks then mouse counts of the last step (what `World.tallies` gives)."""
+        self.tally_rows = layout.tally_rows(self.tallies)
+        """The same as TALLIES rows, for the kernels."""
         self.fallen = np.array([r.fallen for r in robots], dtype=np.bool_)
         self.noisy_encoders = [(r.index, r.rngs["encoders"], r.spec.encoders) for r in robots if r.spec.encoders.slip_std or r.spec.encoders.tick_noise]
         self.noisy_mice = _Noisy.of([(r.index, r, "mouse", r.spec.mouse.noise_std) for r in robots if r.spec.mouse is not None and r.spec.mouse.noise_std])
@@ -650,13 +629,14 @@ class _BatchState:
         self.ir_sensors = ir
         self.n_floor, self.n_light = len(floor), len(light)
         every = floor + light + ir
-        self.sensors = np.zeros((len(every), layout.SENSOR))
-        self.sensors[:, layout.AT : layout.AT + 2] = np.array([s.position for _, s in every], dtype=np.float64).reshape(-1, 2)
-        self.sensors[: len(floor) + len(light), layout.HEIGHT] = [s.height for _, s in floor + light]
-        self.sensors[len(floor) :, layout.DIRECTION] = [s.direction for _, s in light + ir]
-        self.sensors[len(floor) :, layout.OPENING] = [s.opening / 2 for _, s in light] + [s.cone for _, s in ir]
-        self.sensors[len(floor) : len(floor) + len(light), layout.REACH] = [s.reach for _, s in light]
-        self.sensors[len(floor) + len(light) :, layout.AXIS] = [s.view == "axis" for _, s in ir]
+        self.sensors = layout.SENSORS.new(len(every))
+        rows = self.sensors
+        rows["at"] = np.array([s.position for _, s in every], dtype=np.float64).reshape(-1, 2)
+        rows["height"][: len(floor) + len(light)] = [s.height for _, s in floor + light]
+        rows["direction"][len(floor) :] = [s.direction for _, s in light + ir]
+        rows["opening"][len(floor) :] = [s.opening / 2 for _, s in light] + [s.cone for _, s in ir]
+        rows["reach"][len(floor) : len(floor) + len(light)] = [s.reach for _, s in light]
+        rows["axis"][len(floor) + len(light) :] = [s.view == "axis" for _, s in ir]
 
         def noisy(items):
             return _Noisy.of([(k, robot, s.name, s.noise_std) for k, (robot, s) in enumerate(items) if s.noise_std])
@@ -665,17 +645,14 @@ class _BatchState:
         self.light_noise = noisy(light)
         self.noisy_floor_or_light = len(self.floor_noise.rows) + len(self.light_noise.rows) > 0
         self.ir = _IRArrays.build(ir, noisy(ir))
-        self.index = np.zeros((len(every), layout.INDEX), dtype=np.int64)
-        self.index[:, layout.OWNER] = [r.index for r, _ in every]
-        self.index[len(floor) + len(light) :, layout.NOISE_ROW] = self.ir.noise_row
-        self.index[len(floor) + len(light) :, layout.CURVE] = self.ir.curve
-        self.circles = np.array(
-            [(0.0, 0.0, r.shape.radius, r.index if robots_meet else layout.GHOST) for r in robots if isinstance(r.shape, pymunk.Circle)]
-            + [(0.0, 0.0, shape.radius, -1) for shape in movable_shapes],
-            dtype=np.float64,
-        ).reshape(-1, 4)
-        """Robots then movable obstacles as circles (x, y, radius, robot index, GHOST for a robot
-        no other sees, or -1) for the IR kernel; positions are filled in at each read."""
+        rows["owner"] = [r.index for r, _ in every]
+        rows["noise_row"][len(floor) + len(light) :] = self.ir.noise_row
+        rows["curve"][len(floor) + len(light) :] = self.ir.curve
+        owners = [r.index if robots_meet else layout.GHOST for r in robots if isinstance(r.shape, pymunk.Circle)] + [-1] * len(movable_shapes)
+        self.circles = layout.CIRCLES.new(len(owners))
+        self.circles["radius"] = [r.shape.radius for r in robots if isinstance(r.shape, pymunk.Circle)] + [shape.radius for shape in movable_shapes]
+        self.circles["owner"] = owners
+        """Robots then movable obstacles as CIRCLES for the IR kernel; positions are filled in at each read."""
         self.layout = SensorLayout.of([(len(s.ir), len(s.line), len(s.border), len(s.light)) for s in specs])
 
     def reseed(self, robot: Robot) -> None:
@@ -697,7 +674,7 @@ class _BatchState:
         the same per wheel turn at any step."""
         for i, rng, enc in self.noisy_encoders:
             if enc.tick_noise:
-                ticks = self.tallies[i, layout.TICKS : layout.TICKS + 2]
+                ticks = self.tally_rows["ticks"][i]
                 wrong = rng.binomial(np.abs(ticks), enc.tick_noise)
                 if wrong.any():
                     ticks += 2 * rng.binomial(wrong, 0.5) - wrong
@@ -707,7 +684,7 @@ class _BatchState:
         (`kernels.motion.measure` scales it by the step's distance): noise_std (sqrt m) at the counts'
         own scale."""
         mice = self.noisy_mice
-        scale = mice.std * self.params[mice.rows, layout.COUNTS_PER_METRE]
+        scale = mice.std * self.robots["counts_per_metre"][mice.rows]
         self.mouse_noise[mice.rows] = 0.0 + scale[:, None] * mice.normals.take(2)
 
 
@@ -723,14 +700,14 @@ class _IRArrays:
     """Each sensor's index into the tables below."""
     tables: np.ndarray
     curve_ends: np.ndarray
-    """Per curve: the last centimetre of its table and its lowest raw value."""
+    """Per curve: the last centimetre of its table and its lowest raw value (CURVE_ENDS)."""
     beyond: np.ndarray
     inverse: np.ndarray
 
     @property
-    def curves(self) -> tuple[np.ndarray, ...]:
-        """The curve arguments of `kernels.sensing.ir_values` (curve .. lowest)."""
-        return self.curve, self.tables, self.curve_ends[:, 0], self.beyond, self.inverse, self.curve_ends[:, 1]
+    def curves(self) -> layout.Curves:
+        """The curves as `kernels.sensing.ir_values` takes them."""
+        return layout.Curves(IR_RAY_LENGTH, self.tables, self.curve_ends, self.beyond, self.inverse)
 
     @classmethod
     def build(cls, ir: list[tuple[Robot, object]], noise: _Noisy) -> _IRArrays:
@@ -759,7 +736,15 @@ class _IRArrays:
             noise_row=noise_row,
             curve=curve,
             tables=tables,
-            curve_ends=np.array([(len(t) - 1, table.raw_range()[0]) for t, (table, _, _) in zip(per_cm, chosen)], dtype=np.int64).reshape(-1, 2),
+            curve_ends=_curve_ends([(len(t) - 1, table.raw_range()[0]) for t, (table, _, _) in zip(per_cm, chosen)]),
             beyond=np.array([table.beyond for table, _, _ in chosen], dtype=np.float32),
             inverse=inverses,
         )
+
+
+def _curve_ends(ends: list[tuple[int, int]]) -> np.ndarray:
+    """CURVE_ENDS rows of (last, lowest) pairs."""
+    rows = layout.CURVE_ENDS.new(len(ends))
+    if ends:
+        rows["last"], rows["lowest"] = zip(*ends)
+    return rows
