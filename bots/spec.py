@@ -94,6 +94,33 @@ class MouseSpec:
 
 
 @dataclass(frozen=True)
+class BeliefSpec:
+    """What the robot's own estimators believe about its odometry errors: standard deviations of
+    the errors it cannot see, as a data sheet states tolerances. Never read from the simulated
+    errors (`EncoderSpec`, `MouseSpec`): a real robot does not know its own, and a filter tuned
+    for one robot may run on another. A robot file's `[belief]` section sets them.
+
+    The defaults are the c't-Bot's stated figures (`bots.noise` gives each one's source; its
+    realistic preset draws true errors of these sizes): wheel_diameter_std, the relative
+    tolerance of each wheel's diameter (0.3 %: 0.17 mm of a 56.7 mm hand-mounted tyre);
+    track_std, that of the track (1 %: the tyres' 1 mm contact patch on a 97.2 mm track);
+    mouse_scale_std, that of the mouse's resolution (3.75 %: the firmware's bot-local.h states the
+    real ADNS-2610 at 415 cpi against its nominal 400); slip_std (sqrt m), tick_noise (per tick)
+    and mouse_noise_std (sqrt m), the random processes as `EncoderSpec` and `MouseSpec` state them.
+    """
+
+    wheel_diameter_std: float = declared(default=0.003, unit="relative", low=0.0, high=0.5)
+    track_std: float = declared(default=0.01, unit="relative", low=0.0, high=0.5)
+    mouse_scale_std: float = declared(default=0.0375, unit="relative", low=0.0, high=0.5)
+    slip_std: float = declared(default=0.0004, unit="sqrt m", low=0.0, high=1.0)
+    tick_noise: float = declared(default=0.002, unit="probability per tick", low=0.0, high=1.0)
+    mouse_noise_std: float = declared(default=0.00033, unit="sqrt m", low=0.0, high=1.0)
+
+    def __post_init__(self) -> None:
+        check_fields(self)
+
+
+@dataclass(frozen=True)
 class IRSensorSpec:
     """An IR distance sensor looking along `direction` (rad, body frame) from `position`.
 
@@ -157,7 +184,8 @@ class LightSensorSpec:
 
 @dataclass(frozen=True)
 class RobotSpec:
-    """A differential-drive robot: geometry (m, kg), motors and sensors.
+    """A differential-drive robot: geometry (m, kg), motors and sensors, and what its own
+    estimators believe about their errors (`belief`).
 
     With `chassis` set, the robot drives that general chassis instead (built by `wheeled_robot`):
     wheel_diameter and track_width then only describe its first wheel for the shared bookkeeping,
@@ -173,6 +201,7 @@ class RobotSpec:
     motor: MotorSpec = field(default_factory=MotorSpec)
     encoders: EncoderSpec = field(default_factory=EncoderSpec)
     mouse: MouseSpec | None = field(default_factory=MouseSpec)
+    belief: BeliefSpec = field(default_factory=BeliefSpec)
     ir: tuple[IRSensorSpec, ...] = ()
     line: tuple[FloorSensorSpec, ...] = ()
     border: tuple[FloorSensorSpec, ...] = ()
@@ -216,7 +245,7 @@ class RobotSpec:
         return replace(self, **resolved)
 
 
-_NESTED = {"motor": MotorSpec, "encoders": EncoderSpec, "mouse": MouseSpec}
+_NESTED = {"motor": MotorSpec, "encoders": EncoderSpec, "mouse": MouseSpec, "belief": BeliefSpec}
 _LISTS = {"ir": IRSensorSpec, "line": FloorSensorSpec, "border": FloorSensorSpec, "light": LightSensorSpec}
 
 

@@ -18,14 +18,14 @@ Quantisation is not a random walk here: counts are carried, so each channel lags
 less than one count at any time (uniform, variance count²/12) and that lag never adds up. It is
 added to the reported pose covariance (`pose_covariance`), never to the propagated one.
 
-The believed noise (`Belief.of`) is the robot description's own noise figures, read as its data
-sheet: the random spreads as they are, the systematic errors by their size only (a standard
-deviation), never their sign or which wheel.
+The believed noise (`Belief.of`) is the robot's own belief (`bots.spec.BeliefSpec`): its stated
+tolerances, or what a user or a calibration gave; never the errors the simulation draws, which a
+real robot's estimator cannot know (tests/test_uncertainty.py changes them and sees every reported
+covariance stay the same).
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -59,17 +59,16 @@ class Belief:
 
     @classmethod
     def of(cls, robot: RobotSpec) -> Belief:
-        """The robot description's noise as its data sheet: each wheel's diameter error as the RMS
-        of the two (the mismatch's size, not which wheel), the others by their magnitude."""
-        enc, mouse = robot.encoders, robot.mouse
-        left, right = enc.diameter_error
+        """The robot's own belief (`RobotSpec.belief`, its stated tolerances or what a user or a
+        calibration gave), in this model's terms; never the simulated errors."""
+        said = robot.belief
         return cls(
-            slip_var=enc.slip_std**2,
-            tick_rate=enc.tick_noise,
-            wheel_scale_std=math.sqrt(0.5 * (left * left + right * right)),
-            track_std=abs(enc.track_error),
-            mouse_var=0.0 if mouse is None else mouse.noise_std**2,
-            mouse_scale_std=0.0 if mouse is None else abs(mouse.scale_error),
+            slip_var=said.slip_std**2,
+            tick_rate=said.tick_noise,
+            wheel_scale_std=said.wheel_diameter_std,
+            track_std=said.track_std,
+            mouse_var=0.0 if robot.mouse is None else said.mouse_noise_std**2,
+            mouse_scale_std=0.0 if robot.mouse is None else said.mouse_scale_std,
         )
 
     def prior(self) -> np.ndarray:

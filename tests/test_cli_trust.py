@@ -83,7 +83,7 @@ def test_summary_is_strict_json_with_typed_parameters(tmp_path):
     summary = json.loads(text, parse_constant=lambda name: pytest.fail(f"non-standard JSON constant {name}"))
     assert summary["robots"][0]["params"] == {"distance_m": 0.3}
     assert summary["robot_set"] == {"encoders.slip_std": 0.02}
-    assert summary["robots"][0]["estimates"]["encoders"]["rpe_per_metre"] is None  # nan: shorter than 1 m
+    assert summary["robots"][0]["estimates"]["encoders"]["rpe_translation"] is None  # nan: shorter than 2 m
 
 
 def test_a_reused_output_folder_keeps_nothing_stale(tmp_path):

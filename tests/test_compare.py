@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import math
+import os
+import shutil
+import subprocess
 
 import numpy as np
 import pytest
@@ -12,6 +15,7 @@ from hypothesis import strategies as st
 from bots.commands import Twist
 from bots.controller import FunctionController
 from bots.ctbot import CTBOT
+from sim.analysis.export import read_tum, write_tum
 from sim.analysis.metrics import (
     BLOCK,
     Comparison,
@@ -31,12 +35,13 @@ STRAIGHT = np.column_stack((TIMES * 1.0, np.zeros_like(TIMES), np.zeros_like(TIM
 
 def test_a_perfect_estimate_has_zero_error():
     m = compare(TIMES, STRAIGHT, STRAIGHT)
-    assert (m.final_position_error, m.ate_rmse, m.rpe_per_metre, m.heading_drift_per_metre) == (0, 0, 0, 0)
+    assert (m.final_position_error, m.ate_rmse, m.rpe_translation, m.rpe_rotation, m.heading_drift_per_metre) == (0, 0, 0, 0, 0)
     assert m.path_length == 10.0 and m.duration == 10.0
 
 
 def test_scale_error():
-    """Estimate x' = (1 + k) x: error k*x at every sample, k per metre on every stretch."""
+    """Estimate x' = (1 + k) x: error k*x at every sample; RPE pairs 1 m of the estimate's path
+    apart (8 samples of 0.1275 m: 1.02 m) span 1 m of truth: k on every pair, no rotation."""
     k = 0.02
     estimate = STRAIGHT * [1 + k, 1, 1]
     m = compare(TIMES, STRAIGHT, estimate)
@@ -44,7 +49,7 @@ def test_scale_error():
     assert m.max_position_error == pytest.approx(10 * k)
     assert m.ate_rmse == pytest.approx(k * math.sqrt(np.mean(STRAIGHT[:, 0] ** 2)))
     assert m.final_error_per_metre == pytest.approx(k)
-    assert m.rpe_per_metre == pytest.approx(k)
+    assert m.rpe_translation == pytest.approx(k) and m.rpe_rotation == 0.0
     assert m.final_heading_error == 0.0
 
 
@@ -65,15 +70,15 @@ def test_ate_rmse_is_the_root_mean_square_of_the_position_distances():
 
 def test_heading_error_duration_and_segment_on_a_run_that_starts_late_and_turned():
     """A run starting at t = 100 s with heading 1 rad: the heading error is the estimate's minus the
-    truth's (0.2 rad), the duration the time between first and last sample (10 s), and the RPE per
-    metre of 2 m stretches is their error (2k) over 2 m."""
+    truth's (0.2 rad), the duration the time between first and last sample (10 s), and the RPE of
+    pairs 2 m apart 2k."""
     k = 0.02
     truth = STRAIGHT + [0.0, 0.0, 1.0]
     estimate = truth * [1 + k, 1, 1] + [0.0, 0.0, 0.2]
     m = compare(TIMES + 100.0, truth, estimate)
     assert m.final_heading_error == pytest.approx(0.2)
     assert m.duration == 10.0
-    assert compare(TIMES + 100.0, truth, truth * [1 + k, 1, 1], segment=2.0).rpe_per_metre == pytest.approx(k)
+    assert compare(TIMES + 100.0, truth, truth * [1 + k, 1, 1], segment=2.0).rpe_translation == pytest.approx(2 * k)
 
 
 def test_a_run_longer_than_one_block_is_compared_whole():
@@ -100,7 +105,7 @@ def test_heading_drift_and_a_path_turned_about_the_start():
     assert m.heading_drift_per_minute == pytest.approx(phi / 10 * 60)
     assert m.heading_drift_per_metre == pytest.approx(phi / 10)
     # every 1 m stretch of the turned path is a 1 m stretch of the true one: no relative error
-    assert m.rpe_per_metre == pytest.approx(0.0, abs=1e-12)
+    assert m.rpe_translation == pytest.approx(0.0, abs=1e-12) and m.rpe_rotation == pytest.approx(0.0, abs=1e-12)
 
 
 def test_final_heading_error_is_wrapped():
@@ -110,20 +115,22 @@ def test_final_heading_error_is_wrapped():
 
 
 def test_rpe_on_a_circle_with_a_heading_rate_error():
-    """Truth: circle of radius r. Estimate: the same speed, radius r' = r/(1 + e). Every 1 m stretch
-    starts at a pose where both move along x, so the relative error is the distance between the end
-    points of 1 m arcs of radius r and r' from the origin, the same for every stretch."""
+    """Truth: circle of radius r. Estimate: the same speed, radius r' = r/(1 + e). Every pair 1 m
+    apart starts at a pose where both move along x, so the relative error is the distance between
+    the end points of 1 m arcs of radius r and r' from the origin, and the angle between their
+    ends, 1/r' - 1/r = e/r, the same for every pair."""
     r, e = 2.0, 0.05
     d = np.linspace(0, 6.0, 601)
     truth = np.column_stack((r * np.sin(d / r), r * (1 - np.cos(d / r)), d / r))
     r2 = r / (1 + e)
     estimate = np.column_stack((r2 * np.sin(d / r2), r2 * (1 - np.cos(d / r2)), d / r2))
-    errors = relative_pose_errors(truth, estimate, 1.0)
+    errors, angles = relative_pose_errors(truth, estimate, 1.0)
     assert path_lengths(truth)[-1] == pytest.approx(2 * r * 600 * math.sin(0.01 / (2 * r)), rel=1e-12)
     point_true = np.array([r * math.sin(1 / r), r * (1 - math.cos(1 / r))])
     point_est = np.array([r2 * math.sin(1 / r2), r2 * (1 - math.cos(1 / r2))])
-    assert np.allclose(errors, np.hypot(*(point_est - point_true)), rtol=2e-2)  # chords sum to just under 1 m: stretches span 100 or 101 samples
+    assert np.allclose(errors, np.hypot(*(point_est - point_true)), rtol=2e-2)  # chords sum to just under 1 m: pairs span 101 samples
     assert np.ptp(errors) < 0.02 * errors.max()
+    assert np.allclose(angles, e / r, rtol=2e-2)
 
 
 def test_shape_mismatch_is_refused():
@@ -138,7 +145,7 @@ def test_compare_run_gives_metrics_per_robot_and_estimator():
     assert set(metrics[CTBOT.name]) == {"encoders", "firmware", "mouse", "fused"}
     encoders = metrics[CTBOT.name]["encoders"]
     assert encoders.path_length == pytest.approx(0.2, rel=1e-6)
-    assert math.isnan(encoders.rpe_per_metre)  # shorter than one 1 m stretch
+    assert math.isnan(encoders.rpe_translation)  # shorter than one pair 1 m apart
     assert encoders.final_position_error < 0.01
 
 
@@ -168,17 +175,17 @@ def test_a_comparison_read_in_blocks_equals_one_read_at_once(seed, n, cuts):
     assert (split.path_length, split.final_position_error, split.max_position_error, split.duration) == (
         whole.path_length, whole.final_position_error, whole.max_position_error, whole.duration)
     assert split.ate_rmse == pytest.approx(whole.ate_rmse, rel=1e-12)
-    assert split.rpe_per_metre == pytest.approx(whole.rpe_per_metre, rel=1e-12, nan_ok=True)
+    assert (split.rpe_translation, split.rpe_rotation) == pytest.approx((whole.rpe_translation, whole.rpe_rotation), rel=1e-12, nan_ok=True)
 
 
 def test_standing_still_adds_no_stretches():
-    """RPE stretches start every RPE_SPACING metres of true path, not every sample: a robot that
-    waits (here 5000 samples) weighs as much as one that does not."""
+    """RPE pairs are marked by metres of path, not samples: a robot that waits (here 5000
+    samples) has the pairs of one that does not."""
     moving = np.column_stack((np.linspace(0, 3, 301), np.zeros(301), np.zeros(301)))
     waiting = np.concatenate((moving[:150], np.repeat(moving[150:151], 5000, axis=0), moving[151:]))
-    count = len(relative_pose_errors(moving, moving, 1.0))
-    assert len(relative_pose_errors(waiting, waiting, 1.0)) == count
-    assert count in (200, 201)  # 2 m of starts every 1 cm; whether the start at 2 m has its end at 3 m is round-off
+    count = len(relative_pose_errors(moving, moving, 1.0)[0])
+    assert len(relative_pose_errors(waiting, waiting, 1.0)[0]) == count
+    assert count in (2, 3)  # marks at 0, 1, 2 m; whether 100 steps of 1 cm reach 3 m again is round-off
 
 
 def test_a_run_reads_back_whole_after_its_rows_left_memory():
@@ -194,3 +201,24 @@ def test_a_run_reads_back_whole_after_its_rows_left_memory():
     np.testing.assert_array_equal(log.truth_array(), before[1])
     for name, poses in log.estimate_arrays().items():
         np.testing.assert_array_equal(poses, before[2][name])
+
+
+def test_rpe_is_what_evo_rpe_prints(tmp_path):
+    """The same TUM files through `evo_rpe tum TRUTH EST -d 1 -u m` (translation part) and with
+    `-r angle_rad`: the RMSE evo prints equals ours to half its last digit (6 decimals)."""
+    evo = shutil.which("evo_rpe")
+    if evo is None:
+        pytest.skip("evo is not installed (pip install -e '.[evo]' brings evo_rpe)")
+    truth, estimate = _wander(49, 3000)
+    estimate[:, 2] += np.linspace(0.0, 0.3, len(estimate))  # a heading drift for the rotation part
+    times = np.arange(len(truth)) * 0.01
+    write_tum(tmp_path / "truth.tum", times, truth)
+    write_tum(tmp_path / "estimate.tum", times, estimate)
+    _, truth = read_tum(tmp_path / "truth.tum")  # (as written: the files' digits)
+    _, estimate = read_tum(tmp_path / "estimate.tum")
+    ours = compare(times, truth, estimate)
+    for relation, value in (("trans_part", ours.rpe_translation), ("angle_rad", ours.rpe_rotation)):
+        printed = subprocess.run([evo, "tum", str(tmp_path / "truth.tum"), str(tmp_path / "estimate.tum"), "-d", "1", "-u", "m", "-r", relation],
+                                 capture_output=True, text=True, check=True, env={**os.environ, "MPLBACKEND": "Agg"}).stdout  # fmt: skip
+        rmse = float(next(line.split()[1] for line in printed.splitlines() if line.split()[:1] == ["rmse"]))
+        assert value == pytest.approx(rmse, rel=0, abs=5.000001e-7), (relation, printed)

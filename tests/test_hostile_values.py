@@ -76,6 +76,8 @@ def test_forty_digits_are_the_most_an_option_number_has():
         ("[encoders]\nticks_per_rev = " + "9" * 5000 + "\n", 6, "a whole number of 5000 digits"),
         ("[encoders]\nticks_per_rev = " + "9" * 400 + "\n", 6, "not a whole number of about 400 digits"),
         ("[mouse]\ndpi = 1e308\n", 6, "at most 1e+15, not 1e+308"),
+        ("[belief]\ntrack_std = -0.01\n", 6, "[belief]: track_std: must be a number (relative) at least 0 and at most 0.5, not -0.01"),
+        ("[belief]\ntrack_error = 0.01\n", 6, "[belief]: track_error: unknown key"),
     ],
 )
 def test_robot_values_at_the_edges_name_file_line_and_key(tmp_path, extra, line, message):

@@ -14,6 +14,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from sim.analysis.nees import interval
 from sim.cli.entry import main
 from sim.experiments import Dask, Processes, Serial, load_results, sweep
 from sim.experiments.store import PARTS
@@ -268,6 +269,11 @@ def test_report_groups_by_the_named_settings_and_says_what_it_pools(tmp_path, ca
     wander = table[table.controller == "wander"]["mouse.ate_rmse"]
     assert summary.loc[1, "mouse.ate_rmse.mean"] == pytest.approx(wander.mean(), rel=1e-12)  # (CSV round trip of a float)
     assert summary.loc[1, "mouse.ate_rmse.std"] == pytest.approx(wander.std(), rel=1e-12)
+    ends = table[table.controller == "wander"]["mouse.nees_final"]  # NEES over the runs, against the interval of that many
+    assert summary.loc[1, "mouse.nees.mean"] == pytest.approx(ends.mean(), rel=1e-12) and summary.loc[1, "mouse.nees.runs"] == 4
+    assert (summary.loc[1, "mouse.nees.low"], summary.loc[1, "mouse.nees.high"]) == pytest.approx(interval(4), rel=1e-12)
+    assert summary.loc[1, "mouse.nees.verdict"] in ("consistent", "over-confident", "too cautious")
+    assert "mouse NEES (95 % interval)" in out and f"in {interval(4)[0]:.2f}-{interval(4)[1]:.2f}" in out
     assert main(["sweep", "report", str(tmp_path / "out"), "--by", "robot.wheels"]) == 2
     err = capsys.readouterr().err
     assert err.startswith("ctsim: error: no setting 'robot.wheels' in this sweep") and err.count("\n") == 1

@@ -21,7 +21,10 @@ import pytest
 from bots.commands import Twist
 from bots.controller import FunctionController
 from bots.ctbot import CTBOT
-from bots.noise import with_settings
+from bots.noise import NOISE_PRESETS, with_settings
+from bots.odometry.defaults import default_estimators
+from bots.readings import Readings
+from bots.spec import BeliefSpec
 from bots.uncertainty import square
 from sim.kinematics import wrap_angle
 from sim.run.loop import RobotSetup, run
@@ -32,7 +35,7 @@ SPACING = 0.6  # m between robots: a 0.2 m circle and the body fit
 NOISY = with_settings(
     CTBOT.with_changes(encoders={"ticks_per_rev": 10**9}, mouse={"dpi": 1e9}, ir=(), line=(), border=(), light=()),
     {"encoders.slip_std": 0.002, "mouse.noise_std": 0.0003},  # 2 mm of slip a metre rolled; 0.3 mm of mouse noise a metre passed
-)
+).with_changes(belief=BeliefSpec(0.0, 0.0, 0.0, slip_std=0.002, tick_noise=0.0, mouse_noise_std=0.0003))  # told the truth: what is tested is the propagation
 
 
 def _spread(twist: Twist, duration: float) -> dict[str, tuple[np.ndarray, np.ndarray]]:
@@ -78,3 +81,41 @@ def test_propagated_covariance_is_the_monte_carlo_spread(spread, label):
     diagonal, off = 4 * math.sqrt(2 / (n - 1)), 4 / math.sqrt(n)
     assert np.abs(np.diag(white) - 1.0).max() < diagonal, np.round(white, 3)
     assert np.abs(white[~np.eye(3, dtype=bool)]).max() < off, np.round(white, 3)
+
+
+def test_reported_covariances_ignore_the_simulated_errors():
+    """The estimators believe the robot's stated tolerances (`RobotSpec.belief`), not the errors
+    the simulation draws: robots that differ only in those, given the same readings, report the
+    same covariances, bit for bit."""
+    robots = [with_settings(CTBOT, NOISE_PRESETS[preset]) for preset in ("none", "realistic", "harsh")]
+    robots.append(with_settings(CTBOT, {"encoders.track_error": -0.05, "encoders.diameter_error": [0.02, -0.01], "mouse.scale_error": 0.1}))
+    rng = np.random.default_rng(49)
+    readings = [Readings(time=0.01 * k, encoder_ticks=rng.integers(-1, 3, 2), mouse_counts=rng.integers(-3, 9, 2)) for k in range(300)]
+    reported = []
+    for robot in robots:
+        estimators = default_estimators(robot)
+        for estimator in estimators:
+            estimator.reset(robot, np.zeros(3))
+        covariances = []
+        for step in readings:
+            for estimator in estimators:
+                estimator.update(step)
+                covariances.append(estimator.covariance)
+        reported.append(np.array(covariances))
+    assert reported[0].any()
+    for other in reported[1:]:
+        np.testing.assert_array_equal(other, reported[0])
+
+
+def test_a_belief_given_changes_the_covariance():
+    """The belief is the robot's own (`[belief]`, an API change): a wider one reports more."""
+    wide = with_settings(CTBOT, {"belief.track_std": 0.03})
+    steps = [Readings(time=0.01 * k, encoder_ticks=np.array([-1, 1]), mouse_counts=np.array([0, 5])) for k in range(200)]
+    spreads = []
+    for robot in (CTBOT, wide):
+        estimator = default_estimators(robot)[0]
+        estimator.reset(robot, np.zeros(3))
+        for step in steps:
+            estimator.update(step)
+        spreads.append(estimator.covariance[2, 2])
+    assert spreads[1] > 4 * spreads[0]

@@ -79,6 +79,8 @@ def test_simulate_takes_estimators_too(tmp_path):
         ("raise RuntimeError('lost')", "raised RuntimeError: lost"),
         ("self.pose = np.array([np.nan, 0.0, 0.0])", "its pose is not finite (nan)"),
         ("self.pose = np.zeros(2)", "its pose has shape (2,); expected (3,)"),
+        ("self.covariance = -np.eye(3)", "its covariance is not positive semi-definite (an eigenvalue of -1)"),
+        ("self.covariance = np.array([[1.0, 0.1, 0], [0, 1, 0], [0, 0, 1]])", "its covariance is not symmetric ([0, 1] = 0.1, [1, 0] = 0)"),
     ],
 )
 def test_a_failing_user_estimator_ends_the_run_as_a_controller_error(tmp_path, capsys, update, said):
@@ -88,6 +90,7 @@ def test_a_failing_user_estimator_ends_the_run_as_a_controller_error(tmp_path, c
         class Broken:
             def reset(self, robot, pose):
                 self.pose = np.array(pose, dtype=float)
+                self.covariance = np.eye(3)
 
             def update(self, readings):
                 if readings.time > 0.2:

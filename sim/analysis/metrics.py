@@ -16,8 +16,6 @@ import numpy as np
 from sim.analysis.nees import nees
 from sim.kinematics import relative_increment, wrap_angle
 
-RPE_SPACING = 0.01
-"""Metres of true path between the starts of two RPE stretches."""
 BLOCK = 65536
 """Samples compared at a time: bounded temporaries for hour-long runs."""
 
@@ -34,47 +32,51 @@ def path_lengths(poses: np.ndarray) -> np.ndarray:
     return np.cumsum(_steps(np.asarray(poses)))
 
 
-class _Stretches:
-    """Relative pose errors (RPE, Sturm et al. 2012, over distance rather than time as in KITTI)
-    of stretches of `segment` metres of true path, read block by block: a stretch starts at the
-    first sample at or past every RPE_SPACING metres of path (so standing still adds no stretches)
-    and ends at the first sample `segment` metres further on; its error is
-    |trans((Q_i^-1 Q_j)^-1 (P_i^-1 P_j))| for truth Q and estimate P. Only stretches not yet ended
-    are kept: at most segment / RPE_SPACING + 1."""
+class _Pairs:
+    """Relative pose errors as evo computes them (`evo_rpe ... --delta 1 --delta_unit m`, Grupp's
+    evo, its defaults: consecutive pairs, chosen on the estimate's path; Sturm et al. 2012's
+    definition): the first pose is marked, then, walking the estimate's positions, each pose where
+    the path summed since the last mark reaches `delta` (as evo 1.38; evo 1.36 did not mark the
+    first pose, so its first pair started a `delta` later), and each two consecutive marks i, j are a pair, whose error is E = (Q_i^-1 Q_j)^-1 (P_i^-1 P_j) for truth Q
+    and estimate P: its translation part |trans E| (m) and its rotation angle |rot E| (rad).
+    Read block by block: only the last mark and the path since it are kept."""
 
-    def __init__(self, segment: float):
-        self.segment = segment
-        self._marks = 0  # starts placed so far: the next lies at _marks * RPE_SPACING m
-        self._driven = np.empty(0)
-        self._truth = np.empty((0, 3))
-        self._estimate = np.empty((0, 3))
+    def __init__(self, delta: float):
+        self.delta = delta
+        self._path = 0.0  # summed since the last mark, in order, as evo sums it
+        self._previous: np.ndarray | None = None  # the estimate's last position
+        self._mark: tuple[np.ndarray, np.ndarray] | None = None  # (truth, estimate) at the last mark
 
-    def add(self, driven: np.ndarray, truth: np.ndarray, estimate: np.ndarray) -> np.ndarray:
-        """Errors (m) of the stretches that end within this block of samples; `driven` (n,) is the
-        true path length at each sample, continuing from the previous block."""
-        marks = np.arange(self._marks, int(driven[-1] // RPE_SPACING) + 2) * RPE_SPACING
-        marks = marks[marks <= driven[-1]]
-        self._marks += len(marks)
-        starts = np.unique(np.searchsorted(driven, marks))
-        self._driven = np.concatenate((self._driven, driven[starts]))
-        self._truth = np.concatenate((self._truth, truth[starts]))
-        self._estimate = np.concatenate((self._estimate, estimate[starts]))
-        ends = np.searchsorted(driven, self._driven + self.segment)
-        done = int(np.count_nonzero(ends < len(driven)))  # a prefix: the starts are in path order
-        j = ends[:done]
-        true_motion = relative_increment(self._truth[:done], truth[j])
-        estimated_motion = relative_increment(self._estimate[:done], estimate[j])
-        self._driven, self._truth, self._estimate = self._driven[done:], self._truth[done:], self._estimate[done:]
-        return np.hypot(*relative_increment(true_motion, estimated_motion)[:, :2].T)
+    def add(self, truth: np.ndarray, estimate: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(translation errors (m), rotation errors (rad)) of the pairs that end in this block."""
+        steps = _steps(estimate, self._previous)
+        self._previous = estimate[-1:].copy()
+        marks, start = ([], 0) if self._mark is not None else ([0], 1)
+        while start < len(steps):
+            path = np.cumsum(np.concatenate(([self._path], steps[start:])))[1:]  # (added in evo's order, from the last mark on)
+            if path[-1] < self.delta:
+                self._path = float(path[-1])
+                break
+            marks.append(start + int(np.searchsorted(path, self.delta, side="left")))  # (the path never falls: the first at or past delta)
+            self._path, start = 0.0, marks[-1] + 1
+        firsts = [self._mark] if self._mark is not None else []
+        truths = np.array([m[0] for m in firsts] + [truth[i] for i in marks]).reshape(-1, 3)
+        estimates = np.array([m[1] for m in firsts] + [estimate[i] for i in marks]).reshape(-1, 3)
+        if marks:
+            self._mark = (truth[marks[-1]].copy(), estimate[marks[-1]].copy())
+        if len(truths) < 2:
+            return np.empty(0), np.empty(0)
+        error = relative_increment(relative_increment(truths[:-1], truths[1:]), relative_increment(estimates[:-1], estimates[1:]))
+        return np.hypot(error[:, 0], error[:, 1]), np.abs(wrap_angle(error[:, 2]))
 
 
-def relative_pose_errors(truth: np.ndarray, estimate: np.ndarray, segment: float = 1.0) -> np.ndarray:
-    """Translation errors (m) of the relative motion over stretches of `segment` metres of true
-    path, one starting every RPE_SPACING metres (see `_Stretches`)."""
-    truth, estimate = np.asarray(truth), np.asarray(estimate)
+def relative_pose_errors(truth: np.ndarray, estimate: np.ndarray, delta: float = 1.0) -> tuple[np.ndarray, np.ndarray]:
+    """(translation errors (m), rotation errors (rad)) of the relative motion between poses
+    `delta` metres of the estimate's path apart, as `evo_rpe` (see `_Pairs`)."""
+    truth, estimate = np.asarray(truth, dtype=np.float64), np.asarray(estimate, dtype=np.float64)
     if not len(truth):
-        return np.empty(0)
-    return _Stretches(segment).add(path_lengths(truth), truth, estimate)
+        return np.empty(0), np.empty(0)
+    return _Pairs(delta).add(truth, estimate)
 
 
 @dataclass(frozen=True)
@@ -86,13 +88,17 @@ class Metrics:
     ate_rmse: absolute trajectory error, RMS of the position distances over all samples.
     path_length: metres the robot really drove; duration: seconds covered.
     final_error_per_metre: final_position_error / path_length (nan for no motion).
-    rpe_per_metre: RMS relative position error over 1 m stretches of true path, one starting
-        every RPE_SPACING of path, per metre (nan when the path is shorter than 1 m).
+    rpe_translation, rpe_rotation: relative pose error as `evo_rpe -d 1 -u m` computes it (pairs
+        of poses 1 m of the estimate's path apart, `_Pairs`): the RMS of the pairs' translation
+        parts (m) and of their rotation angles (rad); nan with fewer than two marks (under 2 m).
     heading_drift_per_metre, heading_drift_per_minute: |final heading error| over the path length
         (rad/m) and over the duration (rad/min).
     nees_mean, nees_final: the normalised estimation error squared (`sim.analysis.nees`) averaged
-        over all samples and at the last one (nan for an estimate without a covariance); a
-        consistent estimator's is 3 on average over runs.
+        over the samples where it is defined and at the last one (nan for an estimate without a
+        covariance, or where it is degenerate); a consistent estimator's nees_final averages 3
+        over runs (`sim.analysis.nees.interval`); nees_mean, an average over one run's correlated
+        samples, has no such interval.
+    nees_defined: the share of samples whose covariance is not degenerate (nan without one).
     """
 
     final_position_error: float
@@ -102,11 +108,13 @@ class Metrics:
     path_length: float
     duration: float
     final_error_per_metre: float
-    rpe_per_metre: float
+    rpe_translation: float
+    rpe_rotation: float
     heading_drift_per_metre: float
     heading_drift_per_minute: float
     nees_mean: float = math.nan
     nees_final: float = math.nan
+    nees_defined: float = math.nan
 
 
 def _ratio(value: float, scale: float) -> float:
@@ -119,14 +127,14 @@ class Comparison:
 
     def __init__(self, segment: float = 1.0):
         self.segment = segment
-        self._stretches = _Stretches(segment)
+        self._pairs = _Pairs(segment)
         self._first_time = self._last_time = math.nan
         self._last_truth = self._last_estimate = None
         self._driven = 0.0
         self._count = 0
         self._sum_squares = self._max = 0.0
-        self._rpe_squares, self._rpe_count = 0.0, 0
-        self._nees_sum, self._nees_last = 0.0, math.nan
+        self._rpe_squares, self._rpe_angle_squares, self._rpe_count = 0.0, 0.0, 0
+        self._nees_sum, self._nees_last, self._nees_count, self._covariances = 0.0, math.nan, 0, 0
 
     def add(self, times: np.ndarray, truth: np.ndarray, estimate: np.ndarray, covariance: np.ndarray | None = None) -> None:
         """The next samples: (n,) times and (n, 3) poses of both, and the estimate's (n, 6)
@@ -137,19 +145,23 @@ class Comparison:
             return
         driven = np.cumsum(np.concatenate(([self._driven], _steps(truth, self._last_truth))))[1:]  # as one cumsum over the run, however split
         distance = np.hypot(*(estimate[:, :2] - truth[:, :2]).T)
-        rpe = self._stretches.add(driven, truth, estimate)
+        rpe, rpe_angle = self._pairs.add(truth, estimate)
         if self._count == 0:
             self._first_time = float(times[0])
         self._count += len(truth)
         self._sum_squares += float(np.sum(distance**2))
         self._max = max(self._max, float(distance.max()))
         self._rpe_squares += float(np.sum(rpe**2))
+        self._rpe_angle_squares += float(np.sum(rpe_angle**2))
         self._rpe_count += len(rpe)
         self._driven, self._last_time = float(driven[-1]), float(times[-1])
         self._last_truth, self._last_estimate = truth[-1:].copy(), estimate[-1:].copy()
         if covariance is not None:
             normalised = nees(truth, estimate, covariance)
-            self._nees_sum += float(np.sum(normalised))
+            defined = np.isfinite(normalised)
+            self._nees_sum += float(np.sum(normalised[defined]))
+            self._nees_count += int(np.count_nonzero(defined))
+            self._covariances += len(normalised)
             self._nees_last = float(normalised[-1])
 
     def metrics(self) -> Metrics:
@@ -167,11 +179,13 @@ class Comparison:
             path_length=length,
             duration=duration,
             final_error_per_metre=_ratio(final, length),
-            rpe_per_metre=math.sqrt(self._rpe_squares / self._rpe_count) / self.segment if self._rpe_count else math.nan,
+            rpe_translation=math.sqrt(self._rpe_squares / self._rpe_count) if self._rpe_count else math.nan,
+            rpe_rotation=math.sqrt(self._rpe_angle_squares / self._rpe_count) if self._rpe_count else math.nan,
             heading_drift_per_metre=_ratio(abs(heading), length),
             heading_drift_per_minute=_ratio(abs(heading), duration / 60.0),
-            nees_mean=self._nees_sum / self._count if math.isfinite(self._nees_last) else math.nan,
+            nees_mean=self._nees_sum / self._nees_count if self._nees_count else math.nan,
             nees_final=self._nees_last,
+            nees_defined=self._nees_count / self._covariances if self._covariances else math.nan,
         )
 
 

@@ -17,8 +17,11 @@ from bots.noise import parse_value
 from sim.run.samples import RunResult
 from sim.world.spec import WorldSpec
 
-SCHEMA_VERSION = 1
-"""The version of summary.json's keys (readers may check it; files before it have none)."""
+SCHEMA_VERSION = 2
+"""The version of summary.json's keys (readers may check it; files before it have none). 2: each
+estimate's rpe_per_metre (stretches of true path, not evo's) became rpe_translation and
+rpe_rotation (`evo_rpe -d 1 -u m`), nees_mean and nees_final are null where the covariance is
+degenerate, nees_defined added."""
 
 SUMMARY_ROOM = 16384
 """Bytes held for summary.json from a run's start (and 2 KB more per robot), so that a disk that

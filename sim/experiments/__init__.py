@@ -23,11 +23,11 @@ from sim.experiments.api import (
 from sim.experiments.engines import Dask, Processes, Serial, engine
 from sim.experiments.plan import SpecError, SweepSpec, load_sweep, spec_from_dict
 
-_ON_DEMAND = {"sweep": ("sim.experiments.sweep", "sweep"), "load_results": ("sim.experiments.store", "load")}
+_ON_DEMAND = {"sweep": ("sim.experiments.sweep", "sweep"), "load_results": ("sim.experiments.store", "load"), "summary_table": ("sim.experiments.report", "summary_table")}
 
 
 def __getattr__(name: str):
-    """`sweep` and `load_results`, imported when first asked for (PEP 562)."""
+    """`sweep`, `load_results` and `summary_table` (the runs grouped: means, NEES over the runs with its interval), imported when first asked for (PEP 562)."""
     if name not in _ON_DEMAND:
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
     module, attribute = _ON_DEMAND[name]
@@ -52,6 +52,7 @@ __all__ = [
     "robot",
     "simulate",
     "spec_from_dict",
+    "summary_table",
     "sweep",
     "world",
 ]

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from sim.analysis.nees import over_runs
 from sim.errors import UserError
 from sim.experiments import store
 from sim.experiments.plan import DEFAULTS
@@ -73,9 +74,16 @@ def pooled_note(table: pd.DataFrame, pooled: list[str]) -> str:
     return "pooled over " + ", ".join(f"{c} ({table[c].astype(str).nunique()} values)" for c in pooled)
 
 
+NEES = "nees_final"
+"""Each run's NEES at its end: averaged over a group's runs and judged against the chi-square
+interval of that many runs (`sim.analysis.nees.over_runs`)."""
+
+
 def summary_table(table: pd.DataFrame, by: list[str] | None = None, metric: str = METRIC) -> pd.DataFrame:
     """One row per combination of the `by` settings: runs, failed runs, success rate (%), and mean,
-    standard deviation and count of `metric` per estimator over the runs that did not fail."""
+    standard deviation and count of `metric` per estimator over the runs that did not fail; for
+    an estimator with a covariance, the mean NEES at the runs' end, its 95 % interval for that
+    many runs and the verdict (`<estimator>.nees.mean`, `.runs`, `.low`, `.high`, `.verdict`)."""
     by, _ = grouping(table, by)
     names = estimators(table, metric)
     frame = table.assign(_ok=success(table), _failed=table["reason"] == "error", _all="all runs")
@@ -89,6 +97,10 @@ def summary_table(table: pd.DataFrame, by: list[str] | None = None, metric: str 
         for name in names:
             column = finished[f"{name}.{metric}"].dropna()
             row.update({f"{name}.{metric}.mean": column.mean(), f"{name}.{metric}.std": column.std(), f"{name}.{metric}.n": len(column)})
+            if f"{name}.{NEES}" in finished:
+                judged = over_runs(finished[f"{name}.{NEES}"].to_numpy(dtype=float))
+                row.update({f"{name}.nees.mean": judged.mean, f"{name}.nees.runs": judged.runs, f"{name}.nees.low": judged.low,
+                            f"{name}.nees.high": judged.high, f"{name}.nees.verdict": judged.verdict})  # fmt: skip
         rows.append(row)
     return pd.DataFrame(rows)
 
@@ -174,11 +186,18 @@ def _save(fig, path: Path) -> Path:  # noqa: ANN001 (a matplotlib Figure)
 
 
 def terminal_table(summary: pd.DataFrame, metric: str = METRIC) -> str:
-    """`summary_table` for a terminal: each estimator's metric as one 'mean +- std' column."""
-    per_estimator = tuple(f".{metric}.{part}" for part in ("mean", "std", "n"))
+    """`summary_table` for a terminal: each estimator's metric as one 'mean +- std' column, its
+    NEES over the runs as 'mean in low-high' (the 95 % interval of that many runs) and the verdict."""
+    per_estimator = (*(f".{metric}.{part}" for part in ("mean", "std", "n")), *(f".nees.{part}" for part in ("mean", "runs", "low", "high", "verdict")))
     shown = summary[[c for c in summary.columns if not c.endswith(per_estimator)]].copy()
     shown["success_%"] = shown["success_%"].map(lambda v: f"{v:.0f}")
     for column in [c for c in summary.columns if c.endswith(f".{metric}.mean")]:
         name = column.removesuffix(".mean")
         shown[f"{name} (m)"] = [f"{m:.4f} +- {s:.4f}" if np.isfinite(s) else f"{m:.4f}" for m, s in zip(summary[column], summary[f"{name}.std"])]
+    for column in [c for c in summary.columns if c.endswith(".nees.mean")]:
+        name = column.removesuffix(".nees.mean")
+        shown[f"{name} NEES (95 % interval)"] = [
+            "-" if not runs else f"{m:.3g} in {low:.2f}-{high:.2f} {verdict}"
+            for m, runs, low, high, verdict in zip(summary[column], summary[f"{name}.nees.runs"], summary[f"{name}.nees.low"], summary[f"{name}.nees.high"], summary[f"{name}.nees.verdict"])
+        ]
     return shown.to_string(index=False)

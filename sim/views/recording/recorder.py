@@ -1,4 +1,4 @@
-"""Record a run to a rerun `.rrd` file (and live to a viewer): an observer of `sim.run.run`.
+"""Record a run to a rerun `.rrd` file (and live to a viewer): an observer of `sim.run.loop.run`.
 
 Layout (all on the timeline "sim_time", seconds of simulated time):
 
@@ -57,7 +57,7 @@ CHUNK = 8000
 """Samples per `send_columns` batch. Each batch costs rerun's conversions once per entity (8,000
 samples cost a recorded run a quarter less than 4,000), and rerun keeps some 400 bytes per chunk
 sent until the file is closed (its footer): fewer, longer chunks are cheaper and keep a long run's
-memory flat. At most `sim.run.RESIDENT` samples, which the run's logs keep in memory for the
+memory flat. At most `sim.run.samples.RESIDENT` samples, which the run's logs keep in memory for the
 recorder to read."""
 
 
