@@ -31,7 +31,7 @@ from sim.world.chassis_drive import ChassisDrive
 from sim.world.compiling import compile_all
 from sim.world.floor import FloorMap, rasterize
 from sim.world.kernels.contacts import settle
-from sim.world.kernels.grids import build_wall_grid
+from sim.world.kernels.grids import gridded
 from sim.world.kernels.motion import first_bad, glide, measure, plan
 from sim.world.kernels.sensing import ir_rays, ir_values, read_sensors
 from sim.world.noise import NormalBlocks
@@ -562,8 +562,8 @@ def _walls(spec: WorldSpec) -> layout.Walls:
     spans["start"] = spans["end"] - np.array([len(p) for p in polygons], dtype=np.int64)
     for name, values in zip(("xmin", "ymin", "xmax", "ymax"), np.array([(*p.min(axis=0), *p.max(axis=0)) for p in polygons]).reshape(-1, 4).T):
         boxes[name] = values
-    frame, cells = build_wall_grid(boxes, wall_cell(boxes) if len(boxes) > WALL_GRID_ABOVE else math.inf)  # one cell: the plain loop
-    return layout.Walls(np.concatenate(polygons).reshape(-1, 2) if polygons else np.zeros((0, 2)), spans, boxes, frame, cells)
+    vertices = np.concatenate(polygons).reshape(-1, 2) if polygons else np.zeros((0, 2))
+    return gridded(vertices, spans, boxes, wall_cell(boxes) if len(boxes) > WALL_GRID_ABOVE else math.inf)  # one cell: the plain loop
 
 
 def _contacts(spec: RobotSpec) -> tuple[np.ndarray, np.ndarray]:

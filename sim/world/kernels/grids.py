@@ -9,7 +9,7 @@ import math
 import numba
 import numpy as np
 
-from sim.world.layout import GRID
+from sim.world.layout import GRID, Walls
 
 _GRID = GRID.dtype  # (a dtype for the compiled code: it reads globals, not attributes of objects)
 
@@ -204,3 +204,11 @@ def near_pairs(pose: np.ndarray, move: np.ndarray, reach: np.ndarray) -> np.ndar
             pairs[count, 0], pairs[count, 1] = i, found[q]
             count += 1
     return pairs[:count]
+
+
+def gridded(vertices: np.ndarray, spans: np.ndarray, boxes: np.ndarray, cell: float) -> Walls:
+    """Walls (convex polygons vertices[spans[w].start:spans[w].end] with their BOXES) and the grid
+    of `cell`s over them (`build_wall_grid`; an infinite cell: one cell of every wall) as the
+    kernels take them."""
+    frame, cells = build_wall_grid(boxes, cell)
+    return Walls(vertices, spans, boxes, frame, cells)
