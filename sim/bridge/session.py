@@ -205,7 +205,7 @@ class BridgeObserver:
     def on_end(self, result: RunResult) -> None:
         """Send each firmware the block of the last step (c't-Sim waits for that reply too) and
         record what it answered; a run that failed sends nothing more."""
-        if result.reason in ("duration", "goal"):
+        if result.reason.reached_end:
             for bot in self.bridge.bots:
                 log = self.logs.get(id(bot))
                 if log is not None and log.latest is not None:

@@ -25,7 +25,7 @@ from sim.contest.entries import Entry, Seat, robot_spec
 from sim.contest.judge import Guarded, Judge
 from sim.contest.paths import PathField
 from sim.contest.rules import level_name
-from sim.run.ending import Terminated
+from sim.run.ending import Ending, Terminated
 from sim.run.loop import run
 from sim.run.samples import RunResult
 from sim.views import palette
@@ -109,8 +109,8 @@ def _play(job: GameJob) -> dict[str, Any]:
         judge = Judge(tuple(entry.name for entry in job.entries), guards, fields, job.time_limit)
         observers = [o for o in [judge, recorder, *(o for seat in seats for o in seat.observers)] if o is not None]  # the judge first: its verdict goes into the recording
         result = run(world, setups, job.time_limit, dt=job.dt, seed=job.seed, observers=tuple(observers), step_timeout=STEP_TIMEOUT, stop_when=judge.stop_when)
-    if result.reason in ("interrupted", "terminated"):  # not decided: the game is played again on resuming
-        raise (Terminated if result.reason == "terminated" else KeyboardInterrupt)(result.error)
+    if result.reason.signalled:  # not decided: the game is played again on resuming
+        raise (Terminated if result.reason is Ending.TERMINATED else KeyboardInterrupt)(result.error)
     outcome: dict[str, Any] = {"sides": [asdict(side) for side in judge.race], "verdict": asdict(judge.verdict), "reason": result.reason,
                                "error": result.error, "digest": digest(result)}  # fmt: skip
     if job.recording is not None:

@@ -26,6 +26,7 @@ from bots.readings import Readings
 from bots.spec import RobotSpec
 from sim.contest.paths import PathField
 from sim.contest.rules import TIE_M
+from sim.run.ending import Ending
 from sim.run.samples import RobotLog, RunResult
 from sim.world import World
 
@@ -77,18 +78,18 @@ class Judge:
         self.race: list[Side] = []
         self.verdict: Verdict | None = None
 
-    def stop_when(self, world: World, logs: list[RobotLog]) -> str | None:
+    def stop_when(self, world: World, logs: list[RobotLog]) -> Ending | None:
         for i, robot in enumerate(world.robots):
             if robot.fallen and self.fell[i] is None:
                 self.fell[i] = world.time
         if any(log.goal_time is not None for log in logs):
-            return "goal"
+            return Ending.GOAL
         if any(t is not None for t in self.fell):
-            return "fall"
+            return Ending.FALL
         return None
 
     def on_end(self, result: RunResult) -> None:
-        if result.reason in ("interrupted", "terminated"):
+        if result.reason.signalled:
             return  # no verdict: the game is played again
         self.race = []
         for log, guard, fell, field in zip(result.robots, self.guards, self.fell, self.fields):

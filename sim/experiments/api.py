@@ -22,6 +22,7 @@ from bots.controller import Controller, FunctionController
 from bots.spec import RobotSpec
 from sim.analysis.metrics import compare_run, path_lengths
 from sim.errors import UserError
+from sim.run.ending import Ending
 from sim.run.loop import RobotSetup, run
 from sim.run.samples import RunResult
 from sim.world.spec import Start, WorldSpec
@@ -130,13 +131,13 @@ class RobotResult:
 
 @dataclass
 class Result:
-    """A finished run. `reason`: as `sim.run.samples.RunResult.reason` ('duration', 'goal', 'done', 'error',
-    ...); `error`: the one-line message of a failure; `raw`: the run loop's own result (for
-    `ctsim run`'s files)."""
+    """A finished run. `reason`: how it ended (`sim.run.ending.Ending`, a str: 'duration', 'goal',
+    'done', 'error', ...); `error`: the one-line message of a failure; `raw`: the run loop's own
+    result (for `ctsim run`'s files)."""
 
     time: np.ndarray
     robots: list[RobotResult]
-    reason: str
+    reason: Ending
     error: str | None
     seed: int
     raw: RunResult

@@ -17,6 +17,7 @@ from sim.analysis.nees import over_runs
 from sim.errors import UserError
 from sim.experiments import store
 from sim.experiments.plan import DEFAULTS
+from sim.run.ending import Ending
 from sim.views import palette
 
 METRIC = "ate_rmse"
@@ -47,7 +48,7 @@ def mean_band(table: pd.DataFrame, by: str, column: str) -> pd.DataFrame:
 
 def success(table: pd.DataFrame) -> pd.Series:
     """Per run: it ended without error and without falling, and reached a goal where it was asked to."""
-    ok = (table["reason"] != "error") & ~table["fell"].fillna(False).astype(bool)
+    ok = (table["reason"] != Ending.ERROR) & ~table["fell"].fillna(False).astype(bool)
     return ok & (table["reached_goal"].fillna(False).astype(bool) | ~table["until_goal"].astype(bool))
 
 

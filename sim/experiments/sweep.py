@@ -34,10 +34,8 @@ from sim.experiments.plan import (
     spec_from_dict,
 )
 from sim.folder_lock import held
-from sim.run.ending import Terminated
+from sim.run.ending import Ending, Terminated
 
-STOPPED = ("interrupted", "terminated")
-"""How a run ends when Ctrl-C or SIGTERM cut it short (`sim.run.samples.RunResult.reason`)."""
 OUTCOME = ("reason", "error", "sim_time", "reached_goal", "goal_time", "fell", "collisions", "distance")
 """Outcome columns of every row, beside the settings and the metrics."""
 
@@ -79,13 +77,13 @@ def execute(job: Job) -> dict[str, Any]:
             folder.mkdir(parents=True, exist_ok=True)
         record = folder / "run.rrd" if folder is not None and "recording" in job.keep else None
         result = simulate(s["world"], bot(s), duration=s["duration"], dt=s["dt"], seed=s["seed"], until_goal=s["until_goal"], record=record)
-        if result.reason in STOPPED:  # a run cut short is no result: not kept, so a resumed sweep runs it again
-            raise Terminated if result.reason == "terminated" else KeyboardInterrupt
+        if result.reason.signalled:  # a run cut short is no result: not kept, so a resumed sweep runs it again
+            raise Terminated if result.reason is Ending.TERMINATED else KeyboardInterrupt
         row.update(outcome(result))
         if folder is not None and "tum" in job.keep:
             _write_tum(result, folder)
     except Exception as err:  # a failing run is a result of the sweep, not the end of it
-        row.update({name: None for name in OUTCOME}, reason="error", error=f"{type(err).__name__}: {err}")
+        row.update({name: None for name in OUTCOME}, reason=Ending.ERROR, error=f"{type(err).__name__}: {err}")
     row["wall_time_s"] = time.perf_counter() - started
     return row
 
@@ -100,7 +98,7 @@ def _write_tum(result: Result, folder: Path) -> None:
 
 def lost_row(job: Job, lost: Lost) -> dict[str, Any]:
     """The row of a run whose worker kept dying."""
-    return {"run": job.index, "run_id": job.run_id, **job.settings, **{name: None for name in OUTCOME}, "reason": "error", "error": f"run lost: {lost.message}", "wall_time_s": math.nan}
+    return {"run": job.index, "run_id": job.run_id, **job.settings, **{name: None for name in OUTCOME}, "reason": Ending.ERROR, "error": f"run lost: {lost.message}", "wall_time_s": math.nan}
 
 
 def check(planned: list[Job]) -> None:

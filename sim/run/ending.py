@@ -26,11 +26,26 @@ class Ending(StrEnum):
     """Ctrl-C (SIGINT)."""
     TERMINATED = "terminated"
     """SIGTERM (a job scheduler, `timeout`)."""
+    FALL = "fall"
+    """A referee (`run`'s `stop_when`, a contest's judge) stopped the run: a robot fell into a hole."""
 
     @property
     def signalled(self) -> bool:
-        """Whether a signal ended the run (Ctrl-C or SIGTERM): partial results, a status of its own."""
+        """Whether a signal ended the run (Ctrl-C or SIGTERM): partial results, a status of its own;
+        a contest's game or a sweep's run so cut short is no result and is run again."""
         return self in (Ending.INTERRUPTED, Ending.TERMINATED)
+
+    @property
+    def failed(self) -> bool:
+        """Whether a controller failed (`RunResult.error` says how): exit status 1, a sweep's failed row."""
+        return self is Ending.ERROR
+
+    @property
+    def reached_end(self) -> bool:
+        """Whether the run came to its end on its own: its whole duration, or a goal; not a
+        controller's, the user's, a referee's or a signal's doing (a firmware then gets the last
+        step's reply, as from c't-Sim)."""
+        return self in (Ending.DURATION, Ending.GOAL)
 
 
 class RunError(UserError, RuntimeError):

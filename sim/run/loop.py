@@ -80,7 +80,7 @@ def run(
     until_goal: bool = False,
     observers: tuple = (),
     step_timeout: float | None = None,
-    stop_when: Callable[[World, list[RobotLog]], str | None] | None = None,
+    stop_when: Callable[[World, list[RobotLog]], Ending | None] | None = None,
 ) -> RunResult:
     """Simulate `robots` in `world_spec` for `duration` seconds (or until one reaches a goal).
     A controller step that takes longer than `step_timeout` seconds (wall clock; None: no limit)
@@ -144,7 +144,7 @@ def run(
                 result.reason = Ending.DONE
                 break
             if stop_when is not None and (reason := stop_when(world, logs)):
-                result.reason = reason
+                result.reason = Ending(reason)
                 break
             if step == steps:
                 break

@@ -11,6 +11,7 @@ from html import escape
 from pathlib import Path
 
 from sim.analysis.run_folder import read_summary
+from sim.run.ending import Ending
 from sim.views.html import facts_table, image, page, run_facts, summary_table
 from sim.web.serve import DEFAULT_HOST, DEFAULT_PORT, addresses
 
@@ -67,7 +68,7 @@ def write_sweep_report(sweep_dir: str | Path, by: list[str] | None = None) -> li
     by, pooled = grouping(table, by)
     facts = {
         "runs": len(table),
-        "failed": int((table["reason"] == "error").sum()),
+        "failed": int((table["reason"] == Ending.ERROR).sum()),
         "succeeded": f"{100 * success(table).mean():.0f} % (no error, no fall, the goal where asked)",
         "table": "results.parquet",
     }

@@ -223,7 +223,7 @@ class Recorder(LiveStream):
     def on_end(self, result: RunResult) -> None:
         """Note how the run ended, flush what is buffered and close (also after an error or Ctrl-C)."""
         if self.streams:
-            level = {"error": "ERROR", "interrupted": "WARN", "terminated": "WARN"}.get(result.reason, "INFO")
+            level = "ERROR" if result.reason.failed else "WARN" if result.reason.signalled else "INFO"
             self._event(f"end: {result.reason}" + (f": {result.error}" if result.error else ""), level)
         self.close()
 
