@@ -5,16 +5,17 @@ lies in the world."""
 
 from __future__ import annotations
 
+import io
 import math
 import struct
-import zlib
 
 import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
 
-from sim.bridge.firmware_map import CELL_M, CELLS, FirmwareMap, block_origin, png, window
+from sim.bridge.firmware_map import CELL_M, CELLS, FirmwareMap, block_origin, window
 from sim.bridge.protocol import Packet
+from sim.views.map_image import rgba_png
 
 
 def firmware_block(x: int, y: int) -> int:
@@ -74,11 +75,13 @@ def test_the_image_colours_obstacles_and_floor_clear_where_unknown_and_is_a_vali
     assert image.shape == (16, 32, 4)  # rows along y, columns along x
     assert tuple(image[4, 3]) == (40, 150, 255, 210) and tuple(image[6, 5]) == (220, 40, 40, 210) and image[0, 0, 3] == 0
     assert image[8, 7, 3] == 75  # less sure, more clear: 60 + 1.5 |value|
-    data = png(image)
+    data = rgba_png(image)
     width, height, depth, colour = struct.unpack(">IIBB", data[16:26])
-    (length,) = struct.unpack(">I", data[33:37])
-    rows = np.frombuffer(zlib.decompress(data[41 : 41 + length]), dtype=np.uint8).reshape(height, 1 + 4 * width)
-    assert (width, height, depth, colour) == (32, 16, 8, 6) and np.array_equal(rows[:, 1:].reshape(16, 32, 4), image)
+    import pygame  # (reads it back as a viewer would)
+
+    read = pygame.image.load(io.BytesIO(data), "map.png")
+    pixels = np.frombuffer(pygame.image.tobytes(read, "RGBA"), dtype=np.uint8).reshape(16, 32, 4)
+    assert data[:8] == b"\x89PNG\r\n\x1a\n" and (width, height, depth, colour) == (32, 16, 8, 6) and np.array_equal(pixels, image)
 
 
 def test_the_image_lies_in_the_firmware_frame_of_the_start_pose():

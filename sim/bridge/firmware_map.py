@@ -13,8 +13,6 @@ the map three to a row (the firmware's `get_block` in map.c, inverted here).
 from __future__ import annotations
 
 import math
-import struct
-import zlib
 
 import numpy as np
 
@@ -116,16 +114,3 @@ def window(bounds: tuple[float, float, float, float], start: tuple[float, float,
     high = np.clip(np.ceil((local.max(axis=0) + HALF_M) / CELL_M).astype(int), 0, CELLS)
     return int(low[0]), int(low[1]), int(max(high[0], low[0] + 1)), int(max(high[1], low[1] + 1))
 
-
-def png(rgba: np.ndarray) -> bytes:
-    """An RGBA image (rows, columns, 4) uint8 as PNG bytes (zlib, no filter: the map is mostly
-    runs of one value, which deflate packs by itself)."""
-    height, width = rgba.shape[:2]
-    rows = np.zeros((height, 1 + 4 * width), dtype=np.uint8)
-    rows[:, 1:] = rgba.reshape(height, 4 * width)
-
-    def chunk(kind: bytes, data: bytes) -> bytes:
-        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
-
-    header = struct.pack(">IIBBBBB", width, height, 8, 6, 0, 0, 0)
-    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(rows.tobytes(), 6)) + chunk(b"IEND", b"")

@@ -17,11 +17,12 @@ from bots.odometry.defaults import default_estimators
 from bots.spec import EncoderSpec, RobotSpec
 from sim.bridge import protocol as p
 from sim.bridge.firmware import FirmwareController, FirmwareEstimator
-from sim.bridge.firmware_map import png, window
+from sim.bridge.firmware_map import window
 from sim.bridge.server import Listener
 from sim.errors import UserError
 from sim.run.loop import RobotSetup
 from sim.run.samples import RobotLog, RunResult
+from sim.views.map_image import rgba_png
 from sim.views.recording.layout import TIMELINE
 from sim.views.recording.recorder import Recorder
 from sim.world import World
@@ -195,7 +196,7 @@ class BridgeObserver:
             return
         cells = self.windows[id(bot)]
         path = f"world/map/firmware/{self.names[id(bot)]}"
-        entries = [(path, rr.EncodedImage(contents=png(fw_map.image(cells)), media_type="image/png", draw_order=-90.0))]
+        entries = [(path, rr.EncodedImage(contents=rgba_png(fw_map.image(cells)), media_type="image/png", draw_order=-90.0))]
         if not blocks:
             corner, matrix = fw_map.placement(start, cells)
             entries.insert(0, (path, rr.Transform3D(translation=corner, mat3x3=matrix)))

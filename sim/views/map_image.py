@@ -137,6 +137,16 @@ def map_png(world: WorldSpec, max_pixels: int = 2000) -> tuple[bytes, float]:
     xmin, ymin, xmax, ymax = world.bounds
     per_metre = min(500.0, max_pixels / max(xmax - xmin, ymax - ymin))
     surface = map_surface(world, per_metre)
+    return _png(surface), surface.get_width() / (xmax - xmin)
+
+
+def rgba_png(rgba: np.ndarray) -> bytes:
+    """An RGBA image (rows, columns, 4) uint8 as PNG bytes, encoded by pygame as the map is."""
+    height, width = rgba.shape[:2]
+    return _png(_pygame().image.frombuffer(np.ascontiguousarray(rgba, dtype=np.uint8).tobytes(), (width, height), "RGBA"))
+
+
+def _png(surface) -> bytes:  # noqa: ANN001 (a pygame Surface)
     buffer = io.BytesIO()
     _pygame().image.save(surface, buffer, "map.png")
-    return buffer.getvalue(), surface.get_width() / (xmax - xmin)
+    return buffer.getvalue()
