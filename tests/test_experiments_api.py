@@ -123,3 +123,13 @@ def test_random_plan_is_reproducible_and_extends():
 def test_spec_mistakes_name_the_key(data, message):
     with pytest.raises(SpecError, match=message):
         spec_from_dict(data, "spec.toml")
+
+
+def test_the_summary_and_the_notebook_view_name_the_noise_that_ran():
+    """The run's setup carries its noise preset: the API's summary says which ran (as summary.json
+    from `ctsim run` does), the notebook view too, and a Bot's own preset counts for its robot."""
+    harsh = simulate("empty", Bot("wander"), noise="harsh", duration=0.05)
+    assert harsh.summary()["noise"] == "harsh"
+    assert "harsh" in harsh._repr_html_()
+    mixed = simulate("empty", [Bot("wander"), Bot("wander", noise="realistic")], noise="none", duration=0.05)
+    assert mixed.summary()["noise"] == "none, realistic"

@@ -91,15 +91,16 @@ class Bot:
     def setup(self, noise: str = "none") -> RobotSetup:
         """The run loop's description of this robot (controllers by name are built here);
         `noise`: the preset unless the Bot names its own."""
-        spec = robot(self.robot, self.changes, self.noise or noise)
+        preset = self.noise or noise
+        spec = robot(self.robot, self.changes, preset)
         params = {k: _text(v) for k, v in self.params.items()}
         if isinstance(self.controller, str):
             from bots.behaviours import make
 
-            return RobotSetup(spec, make(self.controller, params), self.controller, params, self.start)
+            return RobotSetup(spec, make(self.controller, params), self.controller, params, self.start, noise=preset)
         made = self.controller if hasattr(self.controller, "step") else FunctionController(self.controller)
         name = getattr(made, "name", type(made).__name__)
-        return RobotSetup(spec, made, name, params, self.start)
+        return RobotSetup(spec, made, name, params, self.start, noise=preset)
 
 
 def _text(value: Any) -> str:
@@ -149,7 +150,8 @@ class Result:
         reason, per robot its distance, collisions and each estimate's metrics)."""
         from sim.analysis.summary import summarize
 
-        return summarize(self.raw, {}, {r.name: r.metrics for r in self.robots})
+        presets = sorted({log.noise for log in self.raw.robots if log.noise is not None})
+        return summarize(self.raw, {"noise": ", ".join(presets)} if presets else {}, {r.name: r.metrics for r in self.robots})
 
     def _repr_html_(self) -> str:
         """Jupyter shows a result as its summary table, its figures and the run's facts."""

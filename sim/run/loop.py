@@ -50,6 +50,8 @@ class RobotSetup:
     """Wheel faults of this robot (a general chassis) scheduled by its environment; `robot` is ignored."""
     name: str | None = None
     """The robot's name in logs and recordings (default: its spec's name, numbered after the first)."""
+    noise: str | None = None
+    """The noise preset its spec was made with (`bots.noise`), for the run's summary (None: not said)."""
 
 
 class Observer(Protocol):
@@ -113,6 +115,7 @@ def run(
             raise RunError(f"{robot.name}: {err}") from None
         uncertain = None if i in slot else [e.name for e in chosen if _has_covariance(e)]
         log = RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params), names, samples, i, world, slot.get(i), uncertain)
+        log.noise = setup.noise
         logs.append(log)
         controllers.append(setup.controller)
         if i not in slot:

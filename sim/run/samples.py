@@ -131,6 +131,8 @@ class RobotLog:
         self.status: str | None = None
         """How its controller ended, where it says ('success', 'failure'; 'running'), else None."""
         self.goal_time: float | None = None
+        self.noise: str | None = None
+        """The noise preset of its robot description, where its setup said (`RobotSetup.noise`)."""
         self.notes: dict[str, list] = {}
         """What the run did other than asked (projected infeasible twists): kind -> [first message, count]."""
         self._samples, self._world = samples, world
