@@ -1,8 +1,11 @@
-"""The house rules of pyproject.toml's [tool.ruff] hold for the whole tree: the test command checks
-them, so that a rule broken shows up as a failing test with ruff's own file:line: message."""
+"""The house rules hold for the whole tree: pyproject.toml's [tool.ruff] (ruff's own file:line:
+messages) and the rules of docs/architecture.md that ruff cannot see (module length, compiled
+functions' parameters, how a run's ending is decided, the step's one home, pinned private names)."""
 
 from __future__ import annotations
 
+import ast
+import re
 import shutil
 import subprocess
 import sys
@@ -28,3 +31,109 @@ def test_the_code_keeps_the_house_rules():
         pytest.skip("ruff is not installed (pip install -e '.[test]' brings it)")
     done = subprocess.run([*ruff, "check", "--no-cache", "--output-format", "concise", "."], cwd=ROOT, capture_output=True, text=True)
     assert done.returncode == 0, done.stdout + done.stderr
+
+
+# --- the rules ruff cannot see (issue #46), each a test that names the file and line that breaks it ---
+
+SOURCES = sorted(p for package in ("sim", "bots") for p in (ROOT / package).rglob("*.py"))
+LONGEST = 600
+"""Lines a module of sim/ or bots/ may have: past it, it holds more than one job."""
+LONG_ON_PURPOSE = {
+    "sim/kinematics/chassis.py": "the kinematics of any wheeled chassis, Köb's thesis in one place with its equation numbers "
+    "(constraints, mobility, ICR, inverse and forward kinematics), read beside the thesis",
+}
+MOST_PARAMETERS = 8
+"""Parameters a compiled function may take: more are a table or a group that wants a name (`sim.world.layout`)."""
+NOT_YET_GROUPED = {
+    # the core's batch kernels and the odometry's compiled steps (and a general chassis's wheels)
+    # still take their arrays one by one: left of #46, no new ones
+    "sim/kinematics/batch.py": {"_batch_rows", "_batch_part", "_batch_parallel", "step_batch", "_count_one", "_advance"},
+    "sim/world/chassis_drive.py": {"_wheels"},
+    "bots/odometry/steps.py": {"batch_step", "fused_step"},
+}
+
+
+def _relative(path: Path) -> str:
+    return path.relative_to(ROOT).as_posix()
+
+
+def _trees():
+    for path in SOURCES:
+        yield _relative(path), ast.parse(path.read_text(encoding="utf-8"), str(path))
+
+
+def test_no_module_is_longer_than_its_one_job():
+    long = [f"{_relative(p)}: {n} lines" for p in SOURCES if (n := len(p.read_text(encoding="utf-8").splitlines())) > LONGEST and _relative(p) not in LONG_ON_PURPOSE]
+    assert not long, f"over {LONGEST} lines: " + "; ".join(long)
+
+
+def test_a_compiled_function_takes_a_few_grouped_parameters():
+    wide = []
+    for rel, tree in _trees():
+        for node in ast.walk(tree):
+            if isinstance(node, ast.FunctionDef) and any("njit" in ast.unparse(d) or "numba" in ast.unparse(d) for d in node.decorator_list):
+                count = len(node.args.posonlyargs) + len(node.args.args) + len(node.args.kwonlyargs)
+                if count > MOST_PARAMETERS and node.name not in NOT_YET_GROUPED.get(rel, ()):
+                    wide.append(f"{rel}:{node.lineno}: {node.name} takes {count}")
+    assert not wide, f"more than {MOST_PARAMETERS} parameters: " + "; ".join(wide)
+
+
+def test_how_a_run_ended_is_decided_by_its_ending_not_its_spelling():
+    """`Ending`'s values appear as strings only in sim/run/: elsewhere a comparison with a run's
+    reason (or a mapping looked up by it) uses the enum or asks its properties."""
+    from sim.run.ending import Ending
+
+    values = {e.value for e in Ending}
+    spelled = []
+    for rel, tree in _trees():
+        if rel.startswith("sim/run/"):
+            continue
+        for node in ast.walk(tree):
+            strings = []
+            if isinstance(node, ast.Compare) and "reason" in ast.unparse(node):
+                strings = [n for part in (node.left, *node.comparators) for n in ast.walk(part) if isinstance(n, ast.Constant)]
+            elif isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and isinstance(node.func.value, ast.Dict) and "reason" in ast.unparse(node.args):
+                strings = [k for k in node.func.value.keys if isinstance(k, ast.Constant)]  # {"error": ...}.get(result.reason)
+            spelled += [f"{rel}:{s.lineno}: {s.value!r}" for s in strings if isinstance(s.value, str) and s.value in values]
+    assert not spelled, "an Ending spelled as a string: " + "; ".join(spelled)
+
+
+STEP_ELSEWHERE = {
+    "bots/behaviours/base.py": "the step a behaviour assumes before two readings show it (bots sees no sim.world): left of #46",
+}
+
+
+def test_the_default_step_has_one_home():
+    """0.01 as a step (a name or keyword with dt or step in it) only in sim/world/step.py."""
+    found = []
+    for rel, tree in _trees():
+        if rel in ("sim/world/step.py", *STEP_ELSEWHERE):
+            continue
+        for node in ast.walk(tree):
+            pairs = []
+            if isinstance(node, ast.Assign):
+                pairs = [(ast.unparse(t), node.value) for t in node.targets]
+            elif isinstance(node, ast.keyword) and node.arg:
+                pairs = [(node.arg, node.value)]
+            elif isinstance(node, ast.Call) and len(node.args) == 2 and isinstance(node.args[0], ast.Constant):
+                pairs = [(str(node.args[0].value), node.args[1])]  # .get("dt", 0.01)
+            for name, value in pairs:
+                if isinstance(value, ast.Constant) and value.value == 0.01 and ("dt" in name.lower() or "step" in name.lower()):
+                    found.append(f"{rel}:{node.lineno}: {name} = 0.01")
+    assert not found, "a step of 0.01 outside sim/world/step.py (use DEFAULT_DT): " + "; ".join(found)
+
+
+def test_a_module_reading_a_librarys_private_names_states_the_pinned_version():
+    """An import from a library's private module (`from pymunk._chipmunk import ...`) depends on
+    that version: the module names the version it reads and pyproject.toml pins it."""
+    pyproject = (ROOT / "pyproject.toml").read_text(encoding="utf-8")
+    unpinned = []
+    for rel, tree in _trees():
+        for node in ast.walk(tree):
+            if isinstance(node, ast.ImportFrom) and node.module and any(part.startswith("_") for part in node.module.split(".")[1:]):
+                library = node.module.split(".")[0]
+                pin = re.search(rf'"{library}>=([0-9.]+),<([0-9.]+)"', pyproject)
+                text = (ROOT / rel).read_text(encoding="utf-8")
+                if pin is None or f"{library} {pin.group(1)}" not in text:
+                    unpinned.append(f"{rel}:{node.lineno}: {node.module} (pyproject.toml pins {library} as {pin.group(0) if pin else 'nothing'})")
+    assert not unpinned, "private names of an unpinned library: " + "; ".join(unpinned)

@@ -14,7 +14,7 @@ from sim.world import layout
 from sim.world.kernels.contacts import sweep_walls
 from sim.world.kernels.grids import build_wall_grid, gridded, walls_near
 from sim.world.kernels.sensing import sense_ir
-from sim.world.physics import wall_cell
+from sim.world.tables import wall_cell
 
 
 def random_walls(seed: int, count: int, spread: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

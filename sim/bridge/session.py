@@ -26,9 +26,10 @@ from sim.views.map_image import rgba_png
 from sim.views.recording.layout import TIMELINE
 from sim.views.recording.recorder import Recorder
 from sim.world import World
+from sim.world.step import DEFAULT_DT
 
-CTSIM_STEP = 0.01
-"""c't-Sim's step (s): the firmware's clock advances by it per block."""
+CTSIM_STEP = DEFAULT_DT
+"""c't-Sim's step (s), ctsim's default: the firmware's clock advances by it per block."""
 MAP_IMAGE_EVERY = 1.0
 """Simulated seconds between two drawings of a firmware's map (when it changed): an image of the
 map's known part a second keeps a recording small (its blocks arrive every few steps)."""

@@ -87,7 +87,7 @@ def summary_table(table: pd.DataFrame, by: list[str] | None = None, metric: str 
     many runs and the verdict (`<estimator>.nees.mean`, `.runs`, `.low`, `.high`, `.verdict`)."""
     by, _ = grouping(table, by)
     names = estimators(table, metric)
-    frame = table.assign(_ok=success(table), _failed=table["reason"] == "error", _all="all runs")
+    frame = table.assign(_ok=success(table), _failed=table["reason"] == Ending.ERROR, _all="all runs")
     keys = by or ["_all"]
     rows = []
     for values, group in frame.groupby(keys, sort=True, dropna=False):
@@ -125,7 +125,7 @@ def write_report(out: str | Path, metric: str = METRIC, by: list[str] | None = N
     summary_table(table, by, metric).to_csv(out / "summary.csv", index=False)
     written = [out / "summary.csv"]
     names = estimators(table, metric)
-    finished = table[table["reason"] != "error"]
+    finished = table[table["reason"] != Ending.ERROR]
     groups = [c for c in by if not pd.api.types.is_numeric_dtype(finished[c])] if len(finished) else []
     if names and len(finished):
         labels, data, colours = [], [], []

@@ -25,6 +25,7 @@ from sim.lab.checking import Outcome, differing, fmt
 from sim.lab.student import Student, StudentError, numbers
 from sim.run.loop import RobotSetup, run
 from sim.world.spec import Start, WorldSpec
+from sim.world.step import DEFAULT_DT
 
 
 def estimates(student: Student, name: str, robot: RobotSpec, start: np.ndarray, samples: list[Readings]) -> np.ndarray:
@@ -150,7 +151,7 @@ def _prepare(scenario, spec: RobotSpec, reference, mistakes: dict) -> _Prepared:
                 return _PREPARED[key]
     schedule, collect = Schedule(scenario["segments"]), Collect()
     setup = RobotSetup(spec, schedule, "schedule", estimators=[reference])
-    result = run(open_floor(), [setup], schedule.duration + 0.5, float(scenario.params.get("dt", 0.01)), scenario.seed, observers=(collect, *observers(scenario)))
+    result = run(open_floor(), [setup], schedule.duration + 0.5, float(scenario.params.get("dt", DEFAULT_DT)), scenario.seed, observers=(collect, *observers(scenario)))
     log = result.robots[0]
     truth = log.truth_array()
     wrong = {k: replay(estimator, spec, truth[0], collect.samples) for k, estimator in mistakes.items()}
@@ -165,7 +166,7 @@ def _prepare(scenario, spec: RobotSpec, reference, mistakes: dict) -> _Prepared:
 
 def check_estimator(scenario, spec: RobotSpec, student: Student, reference, mistakes: dict) -> Outcome:
     """An estimator exercise: a run on the scenario's wheel-speed `segments` on an open floor
-    (sampled every `dt` s, default 0.01) with `reference` (an estimator), then the student's
+    (sampled every `dt` s, default DEFAULT_DT) with `reference` (an estimator), then the student's
     `Odometry` fed the same readings, compared over the whole run (the scenario's tolerances
     `position` m and `heading` rad, headings wrapped: a wrapped estimate is as right as a
     continuous one). `mistakes` (hint key -> estimator) are each replayed on the same readings;

@@ -22,75 +22,27 @@ import numpy as np
 import pymunk
 
 import sim
-from bots.readings import SensorFrame, SensorLayout
+from bots.readings import SensorFrame
 from bots.spec import RobotSpec
-from sim.kinematics import counts_per_metre
 from sim.world import layout
 from sim.world.bodies import BodyArrays
 from sim.world.chassis_drive import ChassisDrive
 from sim.world.compiling import compile_all
 from sim.world.floor import FloorMap, rasterize
 from sim.world.kernels.contacts import settle
-from sim.world.kernels.grids import gridded
 from sim.world.kernels.motion import first_bad, glide, measure, plan
 from sim.world.kernels.sensing import ir_rays, ir_values, read_sensors
-from sim.world.noise import NormalBlocks
 from sim.world.sensors import CNY70_MAX, LDR_MAX, IRCurve, gp2d12, load_ir_curve
 from sim.world.spec import Start, WorldSpec
 from sim.world.step import DEFAULT_DT, check_dt
+from sim.world.tables import IR_RAY_LENGTH, SLIDE_MARGIN, SLOP, RobotTables, walls_of
 
-SLOP = 0.0005
-"""pymunk collision slop for a world in metres (its default 0.1 assumes pixels)."""
-SWEEP_CLEARANCE = 1.5 * SLOP
-"""A move is cut where the body would sink deeper than this into another body."""
-SLIDE_MARGIN = 0.2 * SLOP
-"""The sweep of a slide along a surface just touched uses a circle thinner by this (m)."""
-IR_RAY_LENGTH = 0.85
-"""How far an IR ray is cast (m), c't-Sim's pick distance; beyond it nothing is seen."""
 MOVABLE_DAMPING = 0.05
 """Velocity fraction movable obstacles keep after a second: they slide a little and stop."""
+
+
 ROBOT = 1
 """pymunk collision type of robot bodies (to count their contacts)."""
-
-
-@dataclass(frozen=True)
-class _Noisy:
-    """The sensors of one kind that have noise: their rows in the kind's values, their standard
-    deviations and their generators' normals."""
-
-    rows: np.ndarray
-    std: np.ndarray
-    normals: NormalBlocks
-    sensors: tuple[tuple[int, str], ...]
-    """(robot index, sensor name) of each row of `normals`, to seed a robot's rows anew."""
-
-    @classmethod
-    def of(cls, items: list[tuple[int, Robot, str, float]]) -> _Noisy:
-        """From (row, robot, sensor name, std) per noisy sensor."""
-        return cls(
-            rows=np.array([k for k, _, _, _ in items], dtype=np.int64),
-            std=np.array([std for _, _, _, std in items], dtype=np.float64),
-            normals=NormalBlocks([robot.rngs[name] for _, robot, name, _ in items]),
-            sensors=tuple((robot.index, name) for _, robot, name, _ in items),
-        )
-
-    @property
-    def kernel(self) -> layout.Noise:
-        """The standard deviations and normals as the IR kernel takes them."""
-        return layout.Noise(self.std, self.normals.values, self.normals.used)
-
-    def reseed(self, robot: Robot) -> None:
-        """Draw `robot`'s rows from its (new) generators from now on."""
-        for k, (index, name) in enumerate(self.sensors):
-            if index == robot.index:
-                self.normals.restart(k, robot.rngs[name])
-
-    def add_rounded(self, values: np.ndarray, top: int) -> None:
-        """Gaussian noise on the noisy sensors' integer `values`, rounded (half to even, as
-        Python's round) into 0..top."""
-        if len(self.rows):
-            noise = 0.0 + self.std * self.normals.take(1)[:, 0]  # what rng.normal(0.0, std) gives
-            values[self.rows] = np.clip(np.rint(values[self.rows] + noise), 0, top)
 
 
 class CommandError(ValueError):
@@ -179,7 +131,7 @@ class World:
             shape = pymunk.Poly(self.space.static_body, wall.vertices)
             shape.friction = 0.0
             self.space.add(shape)
-        self._walls = _walls(spec)
+        self.walls_of = walls_of(spec)
         """The walls for the kernels."""
         self.movables: list[pymunk.Body] = []
         self._movable_shapes: list[pymunk.Circle] = []
@@ -203,7 +155,7 @@ class World:
         """The world's scalars for the kernels (a WORLD row; writeable: numba types read-only
         arrays on a slow path)."""
         self._world["dt"], self._world["slide_margin"], self._world["robots_meet"] = dt, SLIDE_MARGIN, robots_meet
-        self._state = _BatchState([], dt, [], robots_meet)
+        self._state = RobotTables([], dt, [], robots_meet)
         self._bodies = BodyArrays(self.space, [])
         self._poses = np.zeros((0, 3))
         self._kernel_arguments()
@@ -294,11 +246,11 @@ class World:
         last step, as `read_all` gives them (a view, overwritten by the next step)."""
         return self._batch().tallies
 
-    def _batch(self) -> _BatchState:
+    def _batch(self) -> RobotTables:
         """The kernels' arrays, rebuilt once after robots joined (not once per robot added: a
         thousand robots would cost a million rows)."""
         if self._stale:
-            self._state = _BatchState(self.robots, self.dt, self._movable_shapes, self.robots_meet)
+            self._state = RobotTables(self.robots, self.dt, self._movable_shapes, self.robots_meet)
             self._bodies = BodyArrays(self.space, [r.body for r in self.robots])
             self._poses = self._bodies.poses()
             self._kernel_arguments()
@@ -308,7 +260,7 @@ class World:
     def _kernel_arguments(self) -> None:
         """The arrays the per-step kernels take besides the poses and the step's outputs, gathered
         once into tuples, and the kernels' compiled entry points for their types."""
-        st, walls, ir, floor = self._state, self._walls, self._state.ir, self.floor.kernel
+        st, walls, ir, floor = self._state, self.walls_of, self._state.ir, self.floor.kernel
         self._round_ir = self._round_bodies and len(ir.curve) > 0
         read = len(st.sensors) if self._round_ir else st.n_floor + st.n_light  # pymunk reads IR otherwise
         # quiet steps (`kernels.contacts.settle`, `kernels.motion.glide`) for one round robot and nothing else that
@@ -426,7 +378,7 @@ class World:
 
     def _wall_corner_in_cone(self, origin, c: float, s: float, cos_cone: float) -> float:
         """Distance to the nearest wall corner within the cone from `origin` about (c, s)."""
-        corners = self._walls.vertices - np.asarray(origin, dtype=np.float64)
+        corners = self.walls_of.vertices - np.asarray(origin, dtype=np.float64)
         distance = np.hypot(corners[:, 0], corners[:, 1])
         inside = corners[:, 0] * c + corners[:, 1] * s >= cos_cone * distance
         return float(distance[inside].min()) if inside.any() else math.inf
@@ -528,223 +480,3 @@ class World:
 def _damped(body: pymunk.Body, gravity, damping: float, dt: float) -> None:  # noqa: ANN001 (pymunk callback)
     """Movable obstacles lose speed on the floor; robots are not damped (their velocity is set)."""
     pymunk.Body.update_velocity(body, gravity, MOVABLE_DAMPING**dt, dt)
-
-
-WALL_GRID_ABOVE = 128
-"""Walls a world has before the kernels look them up in a grid: up to this many, one cell holds
-them all, as checking every wall's box (a compiled loop, a fraction of a nanosecond a box) costs
-no more than finding the cells. Measured with one c't-Bot reading every sensor in generated
-mazes: a step costs the same either way at 82 and 133 walls; the grid saves about 5% at 329
-walls, 10-15% at 934 and 40% at 3,780, where its step costs what one among 22 walls does."""
-WALLS_PER_CELL = 2.0
-"""The wall grid's cells hold this many walls on average (`wall_cell`)."""
-
-
-def wall_cell(boxes: np.ndarray) -> float:
-    """The side (m) of the wall grid's square cells for walls of BOXES `boxes`:
-    cells of WALLS_PER_CELL walls' share of the walls' extent, so that the grid has about
-    n / WALLS_PER_CELL cells whatever the world's size and a query meets the walls near it; at
-    least 1/n of the extent's longer side (a thin extent has n cells at most along it)."""
-    n = len(boxes)
-    if n == 0:
-        return 1.0
-    width, height = boxes["xmax"].max() - boxes["xmin"].min(), boxes["ymax"].max() - boxes["ymin"].min()
-    return max(math.sqrt(WALLS_PER_CELL * width * height / n), max(width, height) / n, 1e-9)
-
-
-def _walls(spec: WorldSpec) -> layout.Walls:
-    """The walls as flat arrays for the kernels: all vertices, each wall's SPANS of them, its BOXES
-    and a uniform grid over the boxes (`kernels.grids.build_wall_grid`; walls are static, so it is
-    built once)."""
-    polygons = [np.asarray(w.vertices, dtype=np.float64) for w in spec.walls]
-    spans, boxes = layout.SPANS.new(len(polygons)), layout.BOXES.new(len(polygons))
-    spans["end"] = np.cumsum([len(p) for p in polygons], dtype=np.int64)
-    spans["start"] = spans["end"] - np.array([len(p) for p in polygons], dtype=np.int64)
-    for name, values in zip(("xmin", "ymin", "xmax", "ymax"), np.array([(*p.min(axis=0), *p.max(axis=0)) for p in polygons]).reshape(-1, 4).T):
-        boxes[name] = values
-    vertices = np.concatenate(polygons).reshape(-1, 2) if polygons else np.zeros((0, 2))
-    return gridded(vertices, spans, boxes, wall_cell(boxes) if len(boxes) > WALL_GRID_ABOVE else math.inf)  # one cell: the plain loop
-
-
-def _contacts(spec: RobotSpec) -> tuple[np.ndarray, np.ndarray]:
-    """The ground contacts the hole rule checks (body frame, m) and which of them c't-Sim checks at
-    the robot's old position: the c't-Bot's wheels (old position) and skid (new position); every
-    wheel of a general chassis (new position)."""
-    if spec.chassis is None:
-        points = np.array(((0.0, spec.track_width / 2), (0.0, -spec.track_width / 2), spec.skid))
-        return points, np.array((True, True, False))
-    points = np.asarray(spec.chassis.chassis.positions, dtype=np.float64)
-    return points, np.zeros(len(points), dtype=bool)
-
-
-def _padded(rows: list[np.ndarray], dtype: type, tail: tuple[int, ...] = ()) -> np.ndarray:
-    """Per-robot contact arrays stacked to the longest one, each padded by repeating its own rows."""
-    width = max((len(r) for r in rows), default=1)
-    return np.array([r[np.arange(width) % len(r)] for r in rows], dtype=dtype).reshape(len(rows), width, *tail)
-
-
-class _BatchState:
-    """Per-robot parameters and state as arrays for the kernels (rebuilt when a robot joins):
-    packed into a few 2-D arrays in the column layout of `sim.world.layout` (one argument each
-    per kernel call), with named views of the columns the Python side uses."""
-
-    def __init__(self, robots: list[Robot], dt: float, movable_shapes: list[pymunk.Circle], robots_meet: bool = True):
-        n = len(robots)
-        specs = [r.spec for r in robots]
-        motor = [s.motor for s in specs]
-        self.robots = p = layout.ROBOTS.new(n)
-        p["command_max"] = [m.command_max for m in motor]
-        p["max_speed"] = [m.max_wheel_speed for m in motor]
-        p["lag"] = [1.0 - math.exp(-dt / m.time_constant) if m.time_constant > 0 else 1.0 for m in motor]
-        p["max_change"] = [m.max_acceleration * dt for m in motor]
-        p["ticks_per_rad"] = [s.encoders.ticks_per_rev / (2 * math.pi) for s in specs]
-        p["real_radius"] = np.array([[s.wheel_radius * (1 + e) for e in s.encoders.diameter_error] for s in specs]).reshape(n, 2)
-        p["track"] = [s.track_width * (1 + s.encoders.track_error) for s in specs]
-        p["mount"] = np.array([s.mouse.mount if s.mouse else (0.0, 0.0) for s in specs], dtype=np.float64).reshape(n, 2)
-        p["counts_per_metre"] = [counts_per_metre(s.mouse.dpi) * (1 + s.mouse.scale_error) if s.mouse else 0.0 for s in specs]
-        p["max_step"] = [s.mouse.max_speed * dt if s.mouse else 0.0 for s in specs]
-        p["sweep_radius"] = [s.body_radius - SWEEP_CLEARANCE for s in specs]
-        p["apart_radius"] = [s.body_radius - SWEEP_CLEARANCE / 2 for s in specs]
-        p["mass"] = [r.body.mass for r in robots]
-        p["moment"] = [r.body.moment for r in robots]
-        p["radius"] = [s.body_radius for s in specs]
-        p["stops"] = [s.contact == "stop" for s in specs]
-        self.stoppers = np.flatnonzero(p["stops"])
-        """The robots with c't-Sim's contact rule (a refused move counts as a collision)."""
-        self.contacts = _padded([_contacts(s)[0] for s in specs], np.float64, (2,))
-        self.anchored = _padded([_contacts(s)[1] for s in specs], np.bool_)
-        self.state = layout.STATE.new(n)
-        self.slip, self.mouse_noise, self.move, self.alpha = (self.state[name] for name in ("slip", "mouse_noise", "move", "alpha"))
-        self.tallies = np.zeros((n, 4), dtype=np.int64)
-        """Encoder ticks then mouse counts of the last step (what `World.tallies` gives)."""
-        self.tally_rows = layout.tally_rows(self.tallies)
-        """The same as TALLIES rows, for the kernels."""
-        self.fallen = np.array([r.fallen for r in robots], dtype=np.bool_)
-        self.noisy_encoders = [(r.index, r.rngs["encoders"], r.spec.encoders) for r in robots if r.spec.encoders.slip_std or r.spec.encoders.tick_noise]
-        self.noisy_mice = _Noisy.of([(r.index, r, "mouse", r.spec.mouse.noise_std) for r in robots if r.spec.mouse is not None and r.spec.mouse.noise_std])
-
-        floor = [(r, s) for r in robots for s in (*r.spec.line, *r.spec.border)]
-        light = [(r, s) for r in robots for s in r.spec.light]
-        ir = [(r, s) for r in robots for s in r.spec.ir]
-        self.ir_sensors = ir
-        self.n_floor, self.n_light = len(floor), len(light)
-        every = floor + light + ir
-        self.sensors = layout.SENSORS.new(len(every))
-        rows = self.sensors
-        rows["at"] = np.array([s.position for _, s in every], dtype=np.float64).reshape(-1, 2)
-        rows["height"][: len(floor) + len(light)] = [s.height for _, s in floor + light]
-        rows["direction"][len(floor) :] = [s.direction for _, s in light + ir]
-        rows["opening"][len(floor) :] = [s.opening / 2 for _, s in light] + [s.cone for _, s in ir]
-        rows["reach"][len(floor) : len(floor) + len(light)] = [s.reach for _, s in light]
-        rows["axis"][len(floor) + len(light) :] = [s.view == "axis" for _, s in ir]
-
-        def noisy(items):
-            return _Noisy.of([(k, robot, s.name, s.noise_std) for k, (robot, s) in enumerate(items) if s.noise_std])
-
-        self.floor_noise = noisy(floor)
-        self.light_noise = noisy(light)
-        self.noisy_floor_or_light = len(self.floor_noise.rows) + len(self.light_noise.rows) > 0
-        self.ir = _IRArrays.build(ir, noisy(ir))
-        rows["owner"] = [r.index for r, _ in every]
-        rows["noise_row"][len(floor) + len(light) :] = self.ir.noise_row
-        rows["curve"][len(floor) + len(light) :] = self.ir.curve
-        owners = [r.index if robots_meet else layout.GHOST for r in robots if isinstance(r.shape, pymunk.Circle)] + [-1] * len(movable_shapes)
-        self.circles = layout.CIRCLES.new(len(owners))
-        self.circles["radius"] = [r.shape.radius for r in robots if isinstance(r.shape, pymunk.Circle)] + [shape.radius for shape in movable_shapes]
-        self.circles["owner"] = owners
-        """Robots then movable obstacles as CIRCLES for the IR kernel; positions are filled in at each read."""
-        self.layout = SensorLayout.of([(len(s.ir), len(s.line), len(s.border), len(s.light)) for s in specs])
-
-    def reseed(self, robot: Robot) -> None:
-        """Draw `robot`'s noise from its (new) generators from now on."""
-        self.noisy_encoders = [(i, robot.rngs["encoders"] if i == robot.index else rng, enc) for i, rng, enc in self.noisy_encoders]
-        for noisy in (self.noisy_mice, self.floor_noise, self.light_noise, self.ir.noise):
-            noisy.reseed(robot)
-
-    def draw_encoder_noise(self) -> None:
-        """Random slip for this step of the robots whose encoders have it: each wheel's arc s is
-        off by slip_std * sqrt(|s|) * N(0, 1) (`kernels.motion.drive`), a random walk in the distance rolled."""
-        for i, rng, enc in self.noisy_encoders:
-            if enc.slip_std:
-                self.slip[i] = enc.slip_std * rng.standard_normal(2)
-
-    def add_spurious_ticks(self) -> None:
-        """Each tick counted this step is, with probability tick_noise, one too many or one too few
-        (a light barrier's edge that bounces or is missed): a process in the ticks counted, so
-        the same per wheel turn at any step."""
-        for i, rng, enc in self.noisy_encoders:
-            if enc.tick_noise:
-                ticks = self.tally_rows["ticks"][i]
-                wrong = rng.binomial(np.abs(ticks), enc.tick_noise)
-                if wrong.any():
-                    ticks += 2 * rng.binomial(wrong, 0.5) - wrong
-
-    def draw_mouse_noise(self) -> None:
-        """Count noise for the robots whose mouse has it, in counts per sqrt m of floor passed
-        (`kernels.motion.measure` scales it by the step's distance): noise_std (sqrt m) at the counts'
-        own scale."""
-        mice = self.noisy_mice
-        scale = mice.std * self.robots["counts_per_metre"][mice.rows]
-        self.mouse_noise[mice.rows] = 0.0 + scale[:, None] * mice.normals.take(2)
-
-
-@dataclass(frozen=True)
-class _IRArrays:
-    """The IR sensors' noise and curves as arrays for the kernels: each distinct (curve, range)'s
-    tables padded into one 2-D array per kind (the mounts are in `_BatchState.sensors`)."""
-
-    noise: _Noisy
-    noise_row: np.ndarray
-    """Each sensor's row in `noise` (-1: none)."""
-    curve: np.ndarray
-    """Each sensor's index into the tables below."""
-    tables: np.ndarray
-    curve_ends: np.ndarray
-    """Per curve: the last centimetre of its table and its lowest raw value (CURVE_ENDS)."""
-    beyond: np.ndarray
-    inverse: np.ndarray
-
-    @property
-    def curves(self) -> layout.Curves:
-        """The curves as `kernels.sensing.ir_values` takes them."""
-        return layout.Curves(IR_RAY_LENGTH, self.tables, self.curve_ends, self.beyond, self.inverse)
-
-    @classmethod
-    def build(cls, ir: list[tuple[Robot, object]], noise: _Noisy) -> _IRArrays:
-        n = len(ir)
-        index: dict[tuple, int] = {}
-        chosen: list[tuple[IRCurve, float, float]] = []
-        curve = np.empty(n, dtype=np.int64)
-        for k, (robot, sensor) in enumerate(ir):
-            table = robot.ir_curves[robot.spec.ir.index(sensor)]
-            key = (id(table), sensor.min_range, sensor.max_range)
-            if key not in index:
-                index[key] = len(chosen)
-                chosen.append((table, sensor.min_range, sensor.max_range))
-            curve[k] = index[key]
-        per_cm = [table.per_cm for table, _, _ in chosen]
-        inverse = [table.inverse_table(low, high) for table, low, high in chosen]
-        tables = np.zeros((len(chosen), max((len(t) for t in per_cm), default=1)), dtype=np.float32)
-        inverses = np.zeros((len(chosen), max((len(t) for t in inverse), default=1)))
-        for c, (t, v) in enumerate(zip(per_cm, inverse)):
-            tables[c, : len(t)] = t
-            inverses[c, : len(v)] = v
-        noise_row = np.full(n, -1, dtype=np.int64)
-        noise_row[noise.rows] = np.arange(len(noise.rows))
-        return cls(
-            noise=noise,
-            noise_row=noise_row,
-            curve=curve,
-            tables=tables,
-            curve_ends=_curve_ends([(len(t) - 1, table.raw_range()[0]) for t, (table, _, _) in zip(per_cm, chosen)]),
-            beyond=np.array([table.beyond for table, _, _ in chosen], dtype=np.float32),
-            inverse=inverses,
-        )
-
-
-def _curve_ends(ends: list[tuple[int, int]]) -> np.ndarray:
-    """CURVE_ENDS rows of (last, lowest) pairs."""
-    rows = layout.CURVE_ENDS.new(len(ends))
-    if ends:
-        rows["last"], rows["lowest"] = zip(*ends)
-    return rows

@@ -10,6 +10,7 @@ from bots.ctbot import CTBOT
 from bots.odometry.base import Geometry
 from bots.odometry.encoder import EncoderOdometry
 from sim.lab.runs import check_estimator, robot
+from sim.world.step import DEFAULT_DT
 
 NEARLY = 1e-3
 """Relative difference of the wheel speeds in the nearly straight and nearly in-place segments:
@@ -129,7 +130,7 @@ def mistakes(spec):
         "ticks": Mistaken(Geometry((ticks / math.pi,) * 2, track)),  # one metre of rim per tick
         "no_pi": scaled(1 / math.pi),
         "ticks_per_rev": scaled(ticks / 100),  # 100 ticks a turn taken, not the robot's
-        "dt_scaled": scaled(0.01),  # ticks taken for ticks per second, times the step
+        "dt_scaled": scaled(DEFAULT_DT),  # ticks taken for ticks per second, times the step
     }
 
 
