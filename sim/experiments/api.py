@@ -90,7 +90,12 @@ class Bot:
 
     def setup(self, noise: str = "none") -> RobotSetup:
         """The run loop's description of this robot (controllers by name are built here);
-        `noise`: the preset unless the Bot names its own."""
+        `noise`: the preset unless the Bot names its own.
+
+        >>> setup = Bot("wander", noise="harsh").setup(noise="none")
+        >>> setup.controller_name, setup.noise, setup.spec.name
+        ('wander', 'harsh', 'ctbot')
+        """
         preset = self.noise or noise
         spec = robot(self.robot, self.changes, preset)
         params = {k: _text(v) for k, v in self.params.items()}
@@ -211,7 +216,12 @@ def simulate(
     `bots.odometry.user.made` takes them): every robot without estimators of its own gets a fresh
     one of each beside its defaults, in every output; one that fails a step ends the run as a
     controller's error does.
-    `ctsim run` is this call: `--robots 3` is `robots=[Bot()] * 3`."""
+    `ctsim run` is this call: `--robots 3` is `robots=[Bot()] * 3`.
+
+    >>> result = simulate("empty", Bot("idle"), duration=0.1)
+    >>> str(result.reason), len(result.time), result.robots[0].truth.shape
+    ('duration', 11, (11, 3))
+    """
     check_dt(dt)
     spec = world(world_source)
     given = [b for item in (*bots, *robots) for b in (item if isinstance(item, list | tuple) else (item,))]

@@ -138,7 +138,15 @@ def sweep(
     """Run every planned run not yet in `out` on `runner` (default: local processes, all cores),
     keeping each row as it finishes; the whole table. Ctrl-C (KeyboardInterrupt) and SIGTERM
     (`sim.run.ending.Terminated`, where a handler raises it, as `ctsim sweep` does) stop the runs in
-    flight at once and re-raise, with every finished row kept: the same call resumes."""
+    flight at once and re-raise, with every finished row kept: the same call resumes.
+
+    >>> import tempfile
+    >>> spec = {"base": {"world": "empty", "duration": 0.1}, "axes": {"seed": [0, 1]}}
+    >>> with tempfile.TemporaryDirectory() as out:
+    ...     table = sweep(spec, out, Serial(), progress=False)
+    >>> sorted(table["seed"]), sorted(table["reason"])
+    ([0, 1], ['duration', 'duration'])
+    """
     if isinstance(spec, dict):
         spec = spec_from_dict(spec)
     elif not isinstance(spec, SweepSpec):
