@@ -27,7 +27,7 @@ _RELATIVE = {"low": -0.5, "high": 0.5}
 
 Point = tuple[float, float]
 CONTACT_RULES = ("slide", "stop")
-IR_VIEWS = ("cone", "axis")
+IR_VIEWS = ("cone", "pick")
 """`RobotSpec.contact`: pymunk's contacts, or c't-Sim's rule (the bridge's firmware bots)."""
 
 
@@ -139,9 +139,11 @@ class IRSensorSpec:
     cone: float = declared(default=math.radians(3.0), unit="rad", low=0.0, high=math.pi / 4)
     """Half-angle (rad) of the cone the sensor sees the nearest body in (c't-Sim: 3°); 0 casts one ray."""
     view: str = declared("text", default="cone", choices=IR_VIEWS)
-    """What the cone sees of a wall: 'cone' its nearest point in the cone, or 'axis' what
-    c't-Sim's Java3D pick finds (measured against the real c't-Sim): the wall where the cone's axis
-    meets it, and its corners inside the cone. Other robots and cans are seen in the whole cone."""
+    """What the cone sees of a wall: 'cone' its nearest point in the cone, or 'pick' what
+    c't-Sim's Java3D cone pick finds (`sim.world.kernels.pick`, measured against the real c't-Sim):
+    the wall where the cone's axis meets it, its corners in the whole cone and, near a face's
+    diagonal, that diagonal; from inside a wall the face it looks out through. Other robots and
+    cans are seen in the whole cone."""
 
     def __post_init__(self) -> None:
         check_fields(self)

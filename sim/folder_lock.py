@@ -1,17 +1,22 @@
 """One writer per output folder: a command that writes a folder (run, sweep, contest, lab grade)
 holds `LOCK` in it locked (flock) while it works, so that a second command into the same folder
 is refused in one line instead of interleaving its files with the first's. The lock goes with
-the process: a command that dies, however it dies, leaves the folder free."""
+the process: a command that dies, however it dies, leaves the folder free. The lock file is
+opened without following a link and must be a regular file of its own (`sim.out_files`): a link,
+pipe, device or hard link planted in its place is refused in one line, never truncated."""
 
 from __future__ import annotations
 
 import os
+import stat
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import IO
 
 from sim.errors import UserError
+from sim.out_files import NOFOLLOW, NotAFileOfItsOwn, kind
+from sim.sanitize import name
 
 LOCK = ".ctsim.lock"
 """The lock file in a folder a command writes; it names the process and the command holding it."""
@@ -30,16 +35,17 @@ def hold(folder: Path, command: str) -> IO[str] | None:
     except ImportError:  # not POSIX: folders are not locked
         return None
     folder.mkdir(parents=True, exist_ok=True)
-    handle = open(folder / LOCK, "a+", encoding="utf-8")
+    handle = _open(folder / LOCK, os.O_RDWR | os.O_CREAT)
     try:
         fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except OSError:
         handle.seek(0)
-        owner = handle.read(200).strip() or "unknown"
+        owner = name(handle.read(200).strip(), 200) or "unknown"  # (written by whoever holds it)
         handle.close()
         pid, _, theirs = owner.partition(" ")
-        raise FolderInUse(f"{folder} is in use by another ctsim {theirs or 'command'} (process {pid}); "
+        raise FolderInUse(f"{name(str(folder), 1000)} is in use by another ctsim {theirs or 'command'} (process {pid}); "
                           "wait for it to end or give another --out") from None
+    handle.seek(0)
     handle.truncate(0)
     handle.write(f"{os.getpid()} {command}\n")
     handle.flush()
@@ -64,13 +70,31 @@ def holder(folder: Path) -> str | None:
     except ImportError:
         return None
     try:
-        handle = open(folder / LOCK, encoding="utf-8")
-    except OSError:
+        handle = _open(folder / LOCK, os.O_RDONLY)
+    except (OSError, NotAFileOfItsOwn):
         return None
     with handle:
         try:
             fcntl.flock(handle, fcntl.LOCK_SH | fcntl.LOCK_NB)
         except OSError:
-            pid, _, command = handle.read(200).strip().partition(" ")
+            pid, _, command = name(handle.read(200).strip(), 200).partition(" ")
             return f"process {pid or 'unknown'}, ctsim {command or 'command'}"
         return None
+
+
+def _open(path: Path, flags: int) -> IO[str]:
+    """The lock file, opened without following a link (NotAFileOfItsOwn for anything but a
+    regular file with no other name)."""
+    try:
+        descriptor = os.open(path, flags | NOFOLLOW, 0o644)
+    except OSError:
+        if not os.path.lexists(path):
+            raise
+        info = os.lstat(path)  # (a link, a folder: not opened at all)
+    else:
+        info = os.fstat(descriptor)
+        if stat.S_ISREG(info.st_mode) and info.st_nlink == 1:
+            return os.fdopen(descriptor, "r+" if flags & os.O_RDWR else "r", encoding="utf-8", errors="replace")
+        os.close(descriptor)
+    what = kind(info.st_mode) if not stat.S_ISREG(info.st_mode) else f"a hard link (a file with {info.st_nlink} names)"
+    raise NotAFileOfItsOwn(f"{name(str(path), 1000)} is {what}, not ctsim's lock file: ctsim locks and writes only a file of its own there (remove it)")

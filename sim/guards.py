@@ -1,20 +1,25 @@
 """What a controller may change of the process it runs in, put back after each step of a run,
 so that a mistake in a controller's code cannot take the run's guards with it: its signal
-handlers (Ctrl-C, SIGTERM, the step timer's SIGALRM), blocked signals, the step timer itself,
-the recursion limit, stdout and stderr, `os._exit` from a thread, a fork that returns into the
-run loop, and ctsim's and numpy's module attributes.
+handlers (Ctrl-C, SIGTERM, the step timer's SIGALRM), blocked signals, the step timer itself
+(its interval and its next expiry), the recursion limit, stdout and stderr (the objects and the
+descriptors 1 and 2 under them, redirected with os.dup2 too), `os._exit` (and `posix._exit`) from
+a thread, a fork that returns into the run loop, and the module attributes of ctsim, numpy and
+the standard library modules ctsim writes its files and lines with (json, os, io, csv, builtins).
 
 A controller is the user's own code (or, in a contest, someone else's, which runs sandboxed):
 these guards catch mistakes, not an attacker; code that means harm can still use ctypes. What a
 guard put back is said once per kind at the end of the run (`Guard.notes`).
 
-After every step two attribute reads catch a fork and an exit; every EVERY-th step the full check
-(a handful of calls and two system calls, about 4 µs) puts back the rest, once for all robots;
-the module snapshot is compared only when the run ends or fails.
+After every step two attribute reads catch a fork and an exit and one system call the step
+timer's next expiry (a controller that re-arms it far ahead would switch off the step time limit
+for the steps that follow); every EVERY-th step the full check (a handful of calls and a few
+system calls, about 5 µs) puts back the rest, once for all robots; the module snapshot is compared
+only when the run ends or fails.
 """
 
 from __future__ import annotations
 
+import importlib
 import os
 import signal
 import sys
@@ -22,6 +27,8 @@ import threading
 from types import ModuleType
 from typing import Any
 
+_NATIVE = importlib.import_module(os.name)
+"""posix (or nt): the module os._exit comes from, a second way to call it."""
 RECURSION_LIMIT = sys.getrecursionlimit()
 """The recursion limit ctsim started with: a controller that lowers it gets it back."""
 _REAL_EXIT = os._exit
@@ -29,8 +36,12 @@ _SIGNALS = tuple(s for s in (getattr(signal, "SIGINT", None), getattr(signal, "S
 EVERY = 8
 """Steps between two full checks (`Guard.after_step`): a controller's change stands at most this
 many steps (0.08 s of a run at dt 0.01)."""
-_WATCHED = ("numpy", "sim", "bots")
-"""Modules (and their submodules) whose attributes a controller must not replace."""
+_WATCHED = ("numpy", "sim", "bots", "json", "os", "posix", "io", "csv", "builtins")
+"""Modules (and their submodules) whose attributes a controller must not replace: ctsim's and
+numpy's, and the standard library's that ctsim writes its files and lines with (a replaced
+json.dumps once left summary.json `{}`)."""
+TIMER_SLACK = 1e-3
+"""Seconds the step timer's next expiry may lie beyond its interval (the clock's rounding)."""
 
 
 class _Forks:
@@ -54,8 +65,8 @@ class ControllerBrokeOut(Exception):
     """A controller did what ends a run (`os._exit` from a thread, replacing numpy or ctsim)."""
 
 
-def _snapshot() -> dict[str, dict[str, Any]]:
-    return {name: dict(vars(module)) for name, module in list(sys.modules.items())
+def _snapshot() -> dict[str, tuple[ModuleType, dict[str, Any]]]:
+    return {name: (module, dict(vars(module))) for name, module in list(sys.modules.items())
             if isinstance(module, ModuleType) and name.split(".")[0] in _WATCHED}
 
 
@@ -69,18 +80,20 @@ class Guard:
         self.timer = signal.getitimer(signal.ITIMER_REAL) if self.main and hasattr(signal, "getitimer") else None
         self.streams = [sys.stdout, sys.stderr]
         self.descriptors = {fd: os.dup(fd) for fd in (1, 2) if _open(fd)}
+        self.targets = {fd: _identity(copy) for fd, copy in self.descriptors.items()}
         self.modules = _snapshot()
         self.exited: str | None = None
         self.notes: dict[str, str] = {}
         self._exit = os._exit
+        self._hook = self._guarded_exit  # (one bound method: the run's own replacement, never blamed on a controller)
 
     def __enter__(self) -> Guard:
-        os._exit = self._guarded_exit
+        os._exit = _NATIVE._exit = self._hook
         _Forks.running, _Forks.child = True, False
         return self
 
     def __exit__(self, *exc: object) -> None:
-        os._exit = self._exit
+        os._exit = _NATIVE._exit = self._exit
         _Forks.running = False
         self.exited = None  # (said already, if the run ended by it)
         self.handlers, self.timer = {}, None  # (the run's clock and handlers are put away by their owners now)
@@ -110,6 +123,8 @@ class Guard:
             _REAL_EXIT(1)  # (the run and its files belong to the parent)
         if self.exited is not None:
             raise ControllerBrokeOut(self.exited)
+        if self.timer is not None and self.timer[1] and signal.getitimer(signal.ITIMER_REAL)[0] > self.timer[1] + TIMER_SLACK:
+            self._restart_timer()
         if not step % EVERY:
             self.check()
 
@@ -128,16 +143,23 @@ class Guard:
             if any(number in blocked for number in _SIGNALS):
                 signal.pthread_sigmask(signal.SIG_UNBLOCK, _SIGNALS)
                 self.notes.setdefault("mask", "the controller blocked ctsim's signals; ctsim unblocked them")
-            if self.timer is not None and self.timer[1] and signal.getitimer(signal.ITIMER_REAL)[1] != self.timer[1]:
-                signal.setitimer(signal.ITIMER_REAL, self.timer[1], self.timer[1])
-                self.notes.setdefault("timer", "the controller stopped the step timer; ctsim started it again")
+            if self.timer is not None and self.timer[1]:
+                value, interval = signal.getitimer(signal.ITIMER_REAL)
+                if interval != self.timer[1] or value > interval + TIMER_SLACK:
+                    self._restart_timer()
         if sys.getrecursionlimit() < RECURSION_LIMIT:
             sys.setrecursionlimit(RECURSION_LIMIT)
             self.notes.setdefault("recursion", f"the controller lowered the recursion limit; ctsim put it back to {RECURSION_LIMIT}")
         if sys.stdout is not self.streams[0] or sys.stderr is not self.streams[1] or self.streams[0].closed or self.streams[1].closed:
             self._put_back_streams()
+        else:
+            self._put_back_descriptors()
         if self.exited is not None:
             raise ControllerBrokeOut(self.exited)
+
+    def _restart_timer(self) -> None:
+        signal.setitimer(signal.ITIMER_REAL, self.timer[1], self.timer[1])
+        self.notes.setdefault("timer", "the controller stopped or re-armed the step timer; ctsim started it again")
 
     def _put_back_streams(self) -> None:
         self._put_back_descriptors()
@@ -150,23 +172,21 @@ class Guard:
 
     def _put_back_descriptors(self) -> None:
         for fd, copy in self.descriptors.items():
-            if not _open(fd):
+            if _identity(fd) != self.targets[fd]:
                 os.dup2(copy, fd)
-                self.notes.setdefault("descriptors", "the controller closed file descriptor 1 or 2; ctsim opened it again")
+                self.notes.setdefault("descriptors", "the controller closed or redirected file descriptor 1 or 2; ctsim put it back")
 
     def replaced(self) -> str:
         """The functions, classes and modules in numpy's, ctsim's and bots' modules that a
         controller replaced since the run started (put back), named ('' for none)."""
         changed = []
-        for name, before in self.modules.items():
-            module = sys.modules.get(name)
-            if module is None:
-                continue
-            now = vars(module)
+        for name, (owner, before) in self.modules.items():
+            now = vars(owner)
             for key, value in before.items():
-                if (callable(value) or isinstance(value, ModuleType)) and now.get(key, _MISSING) is not value:
+                current = now.get(key, _MISSING)
+                if (callable(value) or isinstance(value, ModuleType)) and current is not value and current is not self._hook:
                     changed.append(f"{name}.{key}")
-                    setattr(module, key, value)
+                    setattr(owner, key, value)
         return ", ".join(changed[:5]) + (f" and {len(changed) - 5} more" if len(changed) > 5 else "")
 
 
@@ -174,8 +194,13 @@ _MISSING = object()
 
 
 def _open(fd: int) -> bool:
+    return _identity(fd) is not None
+
+
+def _identity(fd: int) -> tuple[int, int] | None:
+    """The file a descriptor stands for (device, inode), or None when it is closed."""
     try:
-        os.fstat(fd)
+        info = os.fstat(fd)
     except OSError:
-        return False
-    return True
+        return None
+    return info.st_dev, info.st_ino

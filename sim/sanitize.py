@@ -63,10 +63,11 @@ def csv_cell(text: str, limit: int = LONG) -> str:
 
 def xml_text(text: str, limit: int = LONG) -> str:
     """`text` for XML 1.0 content or an attribute: the characters XML cannot hold (controls,
-    lone surrogates, U+FFFE/U+FFFF) as visible escapes, tabs and line breaks kept; cut at
-    `limit`. The XML writer escapes < > & and quotes itself."""
+    lone surrogates, U+FFFE/U+FFFF) and those that would act on a reader's screen (bidirectional
+    overrides, zero-width ones: as in a terminal, CSV or JSON) as visible escapes, tabs and line
+    breaks kept; cut at `limit`. The XML writer escapes < > & and quotes itself."""
     def allowed(c: str) -> bool:
-        return c in "\t\n\r" or "\x20" <= c <= "\ud7ff" or "\ue000" <= c <= "\ufffd" or c >= "\U00010000"
+        return c in "\t\n\r" or ("\x20" <= c <= "\ud7ff" or "\ue000" <= c <= "\ufffd" or c >= "\U00010000") and not _unsafe(c, "")
 
     return "".join(c if allowed(c) else _visible(c) for c in truncate(text, limit))
 

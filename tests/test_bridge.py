@@ -401,3 +401,17 @@ def test_a_firmware_silent_on_the_last_block_leaves_a_complete_run():
     result, bridge, (fake,) = bridged(0.5, fakes={"misbehave": (49, "stall")}, step_timeout=0.5)
     assert result.reason == "duration" and len(fake.blocks) == 50
     assert any("no reply to the last block" in e.text for e in bridge.bots[0].events)
+
+
+def test_cli_bridge_is_exact_unless_asked_and_run_keeps_its_noise(capsys):
+    """c't-Sim's wheels and sensors are exact: the bridge's --noise is none by default (said in
+    its --help), every other command keeps realistic noise as its default."""
+    from sim.cli.entry import build_parser
+
+    parser = build_parser()
+    assert parser.parse_args(["bridge"]).noise == "none" and parser.parse_args(["bridge", "--noise", "realistic"]).noise == "realistic"
+    assert parser.parse_args(["run"]).noise == "realistic"
+    with pytest.raises(SystemExit):
+        parser.parse_args(["bridge", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "Exact unless asked" in text and "(default: none)" in text

@@ -18,8 +18,9 @@ from bots.controller import FunctionController
 from bots.ctbot import CTBOT
 from sim.contest.entries import parse
 from sim.contest.game import GameJob, play
-from sim.contest.judge import Side, decide
+from sim.contest.judge import Guarded, OverBudget, Side, decide
 from sim.contest.paths import PathField
+from sim.contest.rules import wall_budget
 from sim.run.loop import RobotSetup, run
 from sim.world.files import load_world, world_warnings
 from sim.world.spec import Goal, Start, WorldFileError
@@ -45,6 +46,13 @@ class Hanger:
     def step(self, t, readings):
         while t >= 0.5:
             pass
+        return Twist(0.2, 0.0)
+
+class Sleeper:
+    def step(self, t, readings):
+        if t >= 0.5:
+            import time
+            time.sleep(0.2)
         return Twist(0.2, 0.0)
 
 class Quitter:
@@ -208,3 +216,39 @@ def test_a_c_t_sim_contest_parcours_gives_both_bots_the_one_goal(tmp_path):
     a, b = outcome["sides"]
     assert a["distance_left"] == pytest.approx(b["distance_left"], abs=1e-9) and 0.5 < a["distance_left"] < 1.5
     assert outcome["verdict"]["winner"] == 0 and "even by path" in outcome["verdict"]["text"]
+
+
+def test_an_entry_that_sleeps_through_its_wall_clock_budget_loses(lanes, tmp_path, monkeypatch):
+    """Each call under the per-call limit, together over the game's budget (here 1 s instead of
+    33 s): the call that overruns it fails the sleeper, at its fifth sleep of 0.2 s or before."""
+    monkeypatch.setattr("sim.contest.game.wall_budget", lambda limit: 1.0)
+    outcome = race(tmp_path, lanes(), "sleepy=bots.py:Sleeper", "steady=bots.py:Straight,speed=0.05", limit=3.0)
+    assert outcome["verdict"]["winner"] == 1 and outcome["verdict"]["reason"] == "failure"
+    assert "more than the game's budget of 1 s" in outcome["error"] and outcome["sides"][0]["failed"] <= 0.54 + 1e-9
+
+
+class Ticking:
+    """A controller that takes `cost` seconds of a fake clock per call and can bound its calls."""
+
+    def __init__(self, clock: list[float], cost: float):
+        self.clock, self.cost, self.limits = clock, cost, []
+        self.time_left = None
+
+    def step(self, t, readings):
+        self.limits.append(self.time_left())
+        self.clock[0] += self.cost
+        return Twist(0.0, 0.0)
+
+
+def test_the_budget_counts_every_call_and_tells_a_controller_what_is_left():
+    clock = [0.0]
+    ticking = Ticking(clock, 1.5)
+    guard = Guarded(ticking, CTBOT, budget=5.0, clock=lambda: clock[0])
+    for k in range(3):
+        guard.step(0.01 * k, None)
+    with pytest.raises(OverBudget, match="6.0 s of wall-clock time, more than the game's budget of 5 s"):
+        guard.step(0.03, None)
+    assert ticking.limits == [5.0, 3.5, 2.0, 0.5] and guard.failed_at == 0.03
+    with pytest.raises(OverBudget):  # (and every call after it)
+        guard.step(0.04, None)
+    assert wall_budget(2.0) == 32.0

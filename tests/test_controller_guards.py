@@ -74,6 +74,40 @@ class Patches:
             sim.run.loop.motor_commands = None
         return Twist(0.1, 0.0)
 
+class RearmsTheTimerFarAhead:
+    """Keeps the step timer's interval, moves its next expiry a day ahead, then blocks the next
+    step (before the guards' next full check: only the check after every step catches it)."""
+    def step(self, t, readings):
+        if 0.085 < t < 0.095:
+            signal.setitimer(signal.ITIMER_REAL, 86400.0, signal.getitimer(signal.ITIMER_REAL)[1])
+        elif t > 0.095:
+            time.sleep(1000)
+        return Twist(0.1, 0.0)
+
+class ExitsThroughPosix:
+    def step(self, t, readings):
+        if t > 0.05 and not hasattr(self, "thread"):
+            import posix
+            self.thread = threading.Thread(target=posix._exit, args=(0,))
+            self.thread.start()
+            self.thread.join()
+        return Twist(0.1, 0.0)
+
+class RedirectsOutput:
+    def step(self, t, readings):
+        if t > 0.05:
+            quiet = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(quiet, 1)
+            os.dup2(quiet, 2)
+            os.close(quiet)
+        return Twist(0.1, 0.0)
+
+class ReplacesJsonDumps:
+    def step(self, t, readings):
+        import json
+        json.dumps = lambda *args, **kwargs: "{}"
+        return Twist(0.1, 0.0)
+
 class LowersTheRecursionLimit:
     def step(self, t, readings):
         if t > 0.05:
@@ -154,3 +188,28 @@ def test_closing_stdout_costs_neither_the_table_nor_the_exit_status(controllers,
     assert done.returncode == 0, done.stderr
     assert "time limit reached" in done.stdout and "wrote:" in done.stdout
     assert summary(tmp_path / "out")["reason"] == "duration"
+
+
+def test_a_timer_rearmed_far_ahead_still_meets_the_step_limit(controllers, tmp_path, capsys):
+    assert run(controllers, "RearmsTheTimerFarAhead", tmp_path / "out") == 1
+    assert "took longer than the step time limit of 0.4 s at step 10" in capsys.readouterr().err
+
+
+def test_posix_exit_from_a_thread_ends_the_run_with_its_data(controllers, tmp_path, capsys):
+    assert run(controllers, "ExitsThroughPosix", tmp_path / "out") == 1
+    assert "called os._exit(0) from the thread" in capsys.readouterr().err
+    assert summary(tmp_path / "out")["reason"] == "error"
+
+
+def test_output_redirected_with_dup2_is_put_back(controllers, tmp_path, capfd):
+    assert run(controllers, "RedirectsOutput", tmp_path / "out") == 0
+    out, err = capfd.readouterr()
+    assert "wrote:" in out and "redirected file descriptor 1 or 2; ctsim put it back" in err
+
+
+def test_a_replaced_json_dumps_is_put_back_before_the_summary_is_written(controllers, tmp_path, capsys):
+    dumps = json.dumps
+    assert run(controllers, "ReplacesJsonDumps", tmp_path / "out") == 0
+    assert json.dumps is dumps and summary(tmp_path / "out")["reason"] == "duration"
+    assert "replaced json.dumps; ctsim put it back" in capsys.readouterr().err
+

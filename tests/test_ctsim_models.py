@@ -13,7 +13,8 @@ from bots.ctbot import CTBOT
 from sim.bridge.firmware import ENCODER_MARKS, CtsimEncoders, revs_per_second
 from sim.bridge.session import CTSIM_LINE_HEIGHT, as_in_ctsim
 from sim.world import World
-from sim.world.files.grid import PILLAR_DIAMETER, PILLAR_SIDES, build_grid
+from sim.world.files import load_world
+from sim.world.files.grid import LINE_HEIGHT, PILLAR_DIAMETER, PILLAR_SIDES, build_grid
 from sim.world.floor import rasterize
 from sim.world.spec import WHITE, FloorLine, WorldSpec
 
@@ -43,11 +44,11 @@ def test_ticks_of_an_exact_boundary_come_a_step_late_in_double_arithmetic():
 LINE_EDGE = 0.100  # m, the right edge of the test line (on the floor raster's 2 mm cells)
 
 
-def line_world(**line) -> WorldSpec:
+def line_world(line_height: float = 0.0, **line) -> WorldSpec:
     """White floor, one black vertical line 24 mm wide from y = 0.2 to 0.8 with its right edge
-    at LINE_EDGE."""
+    at LINE_EDGE, its top `line_height` above the floor."""
     centre = LINE_EDGE - 0.012
-    return WorldSpec("line", (0.0, 0.0, 1.0, 1.0), lines=(FloorLine(((centre, 0.2), (centre, 0.8)), **line),), floor_colour=WHITE)
+    return WorldSpec("line", (0.0, 0.0, 1.0, 1.0), lines=(FloorLine(((centre, 0.2), (centre, 0.8)), **line),), floor_colour=WHITE, line_height=line_height)
 
 
 def line_values(spec, x: float, y: float, heading: float, **line) -> list[int]:
@@ -68,6 +69,26 @@ def test_bridged_line_sensors_average_c_t_sims_cross_of_rays():
     assert CTSIM_LINE_HEIGHT * math.tan(math.radians(40)) == pytest.approx(0.00252, abs=1e-5)
     assert line_values(bridged, x, 0.5, math.pi / 2) == [102, 0]
     assert line_values(CTBOT, x, 0.5, math.pi / 2) == [0, 0]
+
+
+def test_c_t_sims_lines_lie_1_mm_above_its_floor():
+    """c't-Sim's line tiles lie 1 mm above its floor tiles (a parcours' `line_height`), so a line
+    sensor's rays meet a line 2 mm below it (the 40 degree ray 1.68 mm off) and the floor 3 mm
+    below (2.52 mm off). With the left sensor 2.0 mm right of the line's edge, a flat line is met
+    by the 40 degree ray (102, as above), a raised one is missed (that ray passes its edge and
+    goes on to the white floor: 0); 1.5 mm right, both are met. A parcours' lines are raised."""
+    bridged = as_in_ctsim(CTBOT)
+    for off, flat, raised in ((0.0020, 102, 0), (0.0015, 102, 102)):
+        x = LINE_EDGE + off + 0.004
+        assert line_values(bridged, x, 0.5, math.pi / 2)[0] == flat
+        assert line_values(bridged, x, 0.5, math.pi / 2, line_height=LINE_HEIGHT)[0] == raised
+    assert (CTSIM_LINE_HEIGHT - LINE_HEIGHT) * math.tan(math.radians(40)) == pytest.approx(0.00168, abs=1e-5)
+
+
+def test_a_parcours_lines_are_raised(tmp_path):
+    path = tmp_path / "lines.xml"
+    path.write_text("<world><parcours><line>#|#</line><line>#0#</line></parcours></world>")
+    assert load_world(path).line_height == LINE_HEIGHT == 0.001
 
 
 def test_c_t_sims_line_tiles_end_flat_at_their_cell():

@@ -55,3 +55,14 @@ def test_any_text_goes_into_xml_and_strict_json(text: str) -> None:
     encoded = json.dumps(sanitize.json_text(text), ensure_ascii=False)
     encoded.encode("utf-8")  # no lone surrogate: strict readers accept it
     assert "\x1b" not in json.loads(encoded)
+
+
+SCREEN_ACTING = ("Cc", "Cf", "Zl", "Zp", "Cs")
+"""Character classes that act on a reader's screen or are no text: controls, format characters
+(the right-to-left override U+202E among them), line and paragraph separators, lone surrogates."""
+
+
+@given(st.text())
+def test_csv_junit_and_json_texts_are_sanitised_alike(text: str) -> None:
+    for safe in (sanitize.csv_cell(text), sanitize.xml_text(text), sanitize.json_text(text)):
+        assert not any(unicodedata.category(c) in SCREEN_ACTING and c not in "\t\n\r" for c in safe), safe

@@ -42,10 +42,12 @@ RULES = (
     ("sim.errors", ()),
     ("sim.sanitize", ()),
     ("sim.folder_lock", ()),
+    ("sim.out_files", ()),
 )
-# the bare package (its version and location) and three leaves any layer may use: the user-error
-# base, the making safe of text from outside and the lock of an output folder
-EVERYONE = ("sim", "sim.errors", "sim.sanitize", "sim.folder_lock")
+# the bare package (its version and location) and four leaves any layer may use: the user-error
+# base, the making safe of text from outside, the lock of an output folder and the writing of
+# files into it without following links
+EVERYONE = ("sim", "sim.errors", "sim.sanitize", "sim.folder_lock", "sim.out_files")
 
 
 def within(name: str, prefix: str) -> bool:

@@ -16,7 +16,7 @@ from bots.ctbot import CTBOT
 from bots.spec import IRSensorSpec
 from sim.world import World
 from sim.world.sensors import gp2d12, load_ir_curve
-from sim.world.spec import Wall, WorldSpec
+from sim.world.spec import Wall, WorldSpec, box
 
 SENSOR_X, SENSOR_Y = CTBOT.ir[0].position  # 0.0554 forward, 0.036 to the left
 
@@ -239,10 +239,10 @@ def test_compiled_cone_agrees_with_pymunk_queries():
 
 
 @pytest.mark.parametrize("slant", [0.0, 2.0, 30.0, 60.0])
-def test_the_axis_view_reads_a_slanted_wall_where_the_axis_meets_it(slant):
-    """c't-Sim's Java3D pick (view 'axis', measured against the real c't-Sim): the wall of
+def test_the_pick_view_reads_a_slanted_wall_where_the_axis_meets_it(slant):
+    """c't-Sim's Java3D pick (view 'pick', measured against the real c't-Sim): the wall of
     `test_a_slanted_wall_reads_at_the_cone_edge` reads 0.6 m, where the axis meets it, at every
-    slant; its corners lie 2 m off, outside the cone."""
+    slant; its corners lie 2 m off, outside the cone, and so does its face's diagonal."""
     sx, sy = CTBOT.ir[0].position
     phi = math.radians(slant)
     normal, along = np.array((math.cos(phi), math.sin(phi))), np.array((-math.sin(phi), math.cos(phi)))
@@ -250,25 +250,56 @@ def test_the_axis_view_reads_a_slanted_wall_where_the_axis_meets_it(slant):
     face = [hit - 2 * along, hit + 2 * along, hit + 2 * along + 0.05 * normal, hit - 2 * along + 0.05 * normal]
     world = World(WorldSpec("w", (-3, -3, 3, 3), walls=(Wall(tuple(map(tuple, face))),)))
     me = world.add_robot(CTBOT, (0.0, 0.0, 0.0))
-    assert abs(world.ray_distance(me, (sx, sy), 0.0, cone=CTBOT.ir[0].cone, axis=True) - 0.6) < 1e-9
+    assert abs(world.ray_distance(me, (sx, sy), 0.0, cone=CTBOT.ir[0].cone, pick=True) - 0.6) < 1e-9
 
 
-def test_the_axis_view_sees_a_corner_in_the_cone_and_reads_as_the_kernel():
-    """A box whose nearest corner lies 0.4 m ahead, 2 degrees off the axis, the box reaching away
-    from the axis (up and back): the axis view reads that corner, the cone view the box's near
-    face where the cone's edge meets it, 0.4 sin 2 / sin 3 = 0.267 m; 4 degrees off, neither sees
-    the box. The compiled reading of an axis-view robot reads the curve at the same distance."""
-    axis_bot = CTBOT.with_changes(ir=tuple(replace(sensor, view="axis") for sensor in CTBOT.ir))
+PICK_BOT = CTBOT.with_changes(ir=tuple(replace(sensor, view="pick") for sensor in CTBOT.ir))
+
+
+def test_the_pick_view_sees_a_corner_in_the_whole_cone_and_reads_as_the_kernel():
+    """A box whose nearest corner lies 0.4 m ahead, 2.9 degrees off the axis, the box reaching away
+    from the axis (up and back): the pick reads that corner (c't-Sim sees a corner up to the cone's
+    3 degrees: measured), the cone view the box's near face where the cone's edge meets it, 0.4 sin
+    2.9 / sin 3; 4 degrees off, neither sees the box. The compiled reading of a pick-view robot
+    reads the curve at the same distance."""
     sx, sy = CTBOT.ir[0].position
-    for off, expected, in_cone in ((2.0, 0.4, 0.4 * math.sin(math.radians(2)) / math.sin(math.radians(3))), (4.0, math.inf, math.inf)):
+    for off, expected, in_cone in ((2.9, 0.4, 0.4 * math.sin(math.radians(2.9)) / math.sin(math.radians(3))), (4.0, math.inf, math.inf)):
         a = math.radians(off)
         x, y = sx + 0.4 * math.cos(a), sy + 0.4 * math.sin(a)
         wall = Wall(((x, y), (x, y + 0.3), (x - 0.3, y + 0.3), (x - 0.3, y)))
         world = World(WorldSpec("w", (-3, -3, 3, 3), walls=(wall,)))
-        me = world.add_robot(axis_bot, (0.0, 0.0, 0.0))
-        seen = world.ray_distance(me, (sx, sy), 0.0, cone=CTBOT.ir[0].cone, axis=True)
+        me = world.add_robot(PICK_BOT, (0.0, 0.0, 0.0))
+        seen = world.ray_distance(me, (sx, sy), 0.0, cone=CTBOT.ir[0].cone, pick=True)
         assert seen == pytest.approx(expected, abs=1e-12)  # exact geometry, rounding only
         assert world.ray_distance(me, (sx, sy), 0.0, cone=CTBOT.ir[0].cone) == pytest.approx(in_cone, abs=1e-12)
         assert world.read_all()[0].ir_raw[0] == me.ir_curves[0].lookup(seen)  # the kernel's reading of the left sensor
+
+
+def pick_of(box_corners, origin, direction):
+    world = World(WorldSpec("w", (-3, -3, 3, 3), walls=(Wall(box(*box_corners)),)))
+    me = world.add_robot(PICK_BOT, (-2.5, -2.5, 0.0))
+    return world.ray_distance(me, origin, direction, cone=math.radians(3.0), pick=True)
+
+
+def test_the_pick_view_reads_a_face_near_its_diagonal_at_the_diagonal():
+    """c't-Sim's wall faces are two triangles split by a diagonal from the floor to the 0.4 m top,
+    which crosses the sensors' 75 mm at 3/16 of the face from where it starts low; an axis that
+    meets the face 5 mm beside that crossing reads the diagonal's nearest point, sqrt(0.48² +
+    (0.005 sin(atan(0.4 / 0.24)))²) = 0.480019 m (the real c't-Sim, to its 6 printed decimals),
+    and 30 mm beside it the face itself."""
+    crossing = 0.24 * 3 / 16  # from the face's low end (its start, counter-clockwise)
+    beside = 0.005 * math.sin(math.atan2(0.4, 0.24))
+    assert pick_of((0.0, 0.48, 0.24, 0.72), (crossing + 0.005, 0.0), math.pi / 2) == pytest.approx(math.hypot(0.48, beside), abs=1e-12)
+    assert pick_of((0.0, 0.48, 0.24, 0.72), (crossing + 0.03, 0.0), math.pi / 2) == pytest.approx(0.48, abs=1e-12)
+    assert round(math.hypot(0.48, beside), 6) == 0.480019
+
+
+def test_the_pick_view_from_inside_a_wall_reads_the_face_it_looks_out_through():
+    """c't-Sim's sensor inside a wall box picks the face its axis leaves the box by (measured: the
+    cone view reads 0 there)."""
+    assert pick_of((0.0, 0.0, 0.2, 0.2), (0.05, 0.1), 0.0) == pytest.approx(0.15, abs=1e-12)
+
+
+def test_ir_views_are_checked():
     with pytest.raises(ValueError, match="view"):
         IRSensorSpec("x", (0.0, 0.0), view="ray")

@@ -22,6 +22,7 @@ import numpy as np
 from bots.schema import file_stem
 from bots.uncertainty import COVARIANCE_FIELDS
 from sim.errors import UserError
+from sim.out_files import replacing, temporary_beside
 
 FILE_ROWS = 8192
 """Samples written at a time (a Parquet row group, a block of TUM and CSV lines): each block is a
@@ -57,7 +58,7 @@ def _tum_rows(handle: BinaryIO, times: np.ndarray, poses: np.ndarray) -> None:
 def write_tum(path: str | Path, times: np.ndarray, poses: np.ndarray) -> None:
     """Write (T, 3) planar poses at `times` (s) as a TUM trajectory file."""
     times, poses = _checked(times, poses)
-    with open(path, "wb") as handle:
+    with replacing(Path(path)) as handle:
         handle.write(TUM_HEADER.encode())
         _tum_rows(handle, times, poses)
 
@@ -81,7 +82,7 @@ def write_csv(path: str | Path, times: np.ndarray, poses: np.ndarray, extra: dic
     for name, values in extra.items():
         if values.shape != times.shape:
             raise ValueError(f"extra column {name!r} has shape {values.shape}, expected {times.shape}")
-    with open(path, "wb") as handle:
+    with replacing(Path(path)) as handle:
         handle.write(_csv_header(["t", "x", "y", "theta", *extra]))
         _numbers(handle, [times, *poses.T, *extra.values()], ",")
 
@@ -116,8 +117,8 @@ def write_run(result, directory: str | Path, prefix: bool = True, with_csv: bool
     for first in range(0, len(tracks), per_group):  # (a group's files open at once: at most MOST_OPEN handles)
         group = range(first, min(first + per_group, len(tracks)))
         with ExitStack() as stack:
-            tum = [stack.enter_context(open(f"{stems[k]}.tum", "wb")) for k in group]
-            tables = [stack.enter_context(open(f"{stems[k]}.csv", "wb")) for k in group] if with_csv else []
+            tum = [stack.enter_context(replacing(Path(f"{stems[k]}.tum"))) for k in group]
+            tables = [stack.enter_context(replacing(Path(f"{stems[k]}.csv"))) for k in group] if with_csv else []
             for handle in tum:
                 handle.write(TUM_HEADER.encode())
             for table in tables:
@@ -173,29 +174,35 @@ def write_parquet(result, path: str | Path) -> Path:  # noqa: ANN001 (sim.run.sa
     import pyarrow.parquet as pq
 
     path = Path(path)
-    writer = None
-    try:
-        for rows in result.blocks(FILE_ROWS) if len(result) else [slice(0, 0)]:  # (lazily: each block leaves memory as the next is read)
-            columns = {"time": result.time[rows]}
-            for log in result.robots:
-                for label, poses in {"truth": log.truth_array(), **log.estimate_arrays()}.items():
-                    for k, axis in enumerate(("x", "y", "theta")):
-                        columns[f"{log.name}.{label}.{axis}"] = poses[rows, k]
-                for label, entries in log.covariance_arrays().items():
-                    for k, entry in enumerate(COVARIANCE_FIELDS):
-                        columns[f"{log.name}.{label}.{entry}"] = entries[rows, k]
-                if log.spec.chassis is None:
-                    for name, values in log.readings(rows).items():
-                        for channel, column in zip(_channels(log.spec, name), values.T):
-                            columns[f"{log.name}.{name}.{channel}"] = column
-            table = pa.table({name: np.ascontiguousarray(column) for name, column in columns.items()})
-            if writer is None:
-                writer = pq.ParquetWriter(path, table.schema)
-            writer.write_table(table)
-    finally:
-        if writer is not None:
-            writer.close()
+    with temporary_beside(path) as temporary:  # (never through a link planted in the folder)
+        writer = None
+        try:
+            for rows in result.blocks(FILE_ROWS) if len(result) else [slice(0, 0)]:  # (lazily: each block leaves memory as the next is read)
+                table = pa.table({name: np.ascontiguousarray(column) for name, column in _columns(result, rows).items()})
+                if writer is None:
+                    writer = pq.ParquetWriter(temporary, table.schema)
+                writer.write_table(table)
+        finally:
+            if writer is not None:
+                writer.close()
     return path
+
+
+def _columns(result, rows: slice) -> dict[str, np.ndarray]:  # noqa: ANN001 (sim.run.RunResult)
+    """The Parquet columns of the samples `rows` (`write_parquet`)."""
+    columns = {"time": result.time[rows]}
+    for log in result.robots:
+        for label, poses in {"truth": log.truth_array(), **log.estimate_arrays()}.items():
+            for k, axis in enumerate(("x", "y", "theta")):
+                columns[f"{log.name}.{label}.{axis}"] = poses[rows, k]
+        for label, entries in log.covariance_arrays().items():
+            for k, entry in enumerate(COVARIANCE_FIELDS):
+                columns[f"{log.name}.{label}.{entry}"] = entries[rows, k]
+        if log.spec.chassis is None:
+            for name, values in log.readings(rows).items():
+                for channel, column in zip(_channels(log.spec, name), values.T):
+                    columns[f"{log.name}.{name}.{channel}"] = column
+    return columns
 
 
 def _channels(spec, name: str) -> tuple[str, ...]:  # noqa: ANN001 (bots.spec.RobotSpec)

@@ -14,6 +14,7 @@ from typing import Any
 
 import sim
 from bots.noise import parse_value
+from sim.out_files import open_in_place, write_bytes
 from sim.run.samples import RunResult
 from sim.world.spec import WorldSpec
 
@@ -96,11 +97,11 @@ def write_json(path: Path, data: dict[str, Any], reserve: int = 0) -> None:
     else under a temporary name and renamed: whole or absent."""
     text = (json.dumps(json_safe(data), indent=2, allow_nan=False) + "\n").encode()
     text += b" " * (reserve - len(text))
-    if path.is_file() and path.stat().st_size >= len(text):
-        with open(path, "r+b") as file:
-            file.write(text)
-            file.truncate()
-        return
-    temporary = path.with_name(f".{path.name}.tmp")
-    temporary.write_bytes(text)
-    os.replace(temporary, path)
+    file = open_in_place(path)  # (a regular file of its own: never through a link)
+    if file is not None:
+        with file:
+            if os.fstat(file.fileno()).st_size >= len(text):
+                file.write(text)
+                file.truncate()
+                return
+    write_bytes(path, text)

@@ -108,18 +108,19 @@ class Bridge:
 
 CTSIM_LINE_HEIGHT = 0.003
 """m, c't-Sim's line sensors over its floor: 4 mm over the ground plane (the bot's centre 75 mm
-up, the sensors 71 mm below it), the floor's top 1 mm up (its lines lie 1 mm higher still)."""
+up, the sensors 71 mm below it), the floor's top 1 mm up; its lines lie 1 mm higher still, 2 mm
+below the sensors (`WorldSpec.line_height` of a parcours)."""
 
 
 def as_in_ctsim(spec: RobotSpec) -> RobotSpec:
     """`spec` as c't-Sim simulates it where ctsim's own models differ (each measured against the
     real c't-Sim with the same firmware): a step into a wall or robot is not made at all
-    (contact 'stop'); IR sensors see a wall where their axis meets it or at a corner in their
-    cone (view 'axis'), not at its nearest point in the cone; line sensors average c't-Sim's
-    cross of rays over their spot (`CTSIM_LINE_HEIGHT`), not the one point under them."""
+    (contact 'stop'); IR sensors see walls as c't-Sim's Java3D cone pick does (view 'pick'), not
+    at their nearest point in the cone; line sensors average c't-Sim's cross of rays over their
+    spot (`CTSIM_LINE_HEIGHT`), not the one point under them."""
     return spec.with_changes(
         contact="stop",
-        ir=tuple(replace(sensor, view="axis") for sensor in spec.ir),
+        ir=tuple(replace(sensor, view="pick") for sensor in spec.ir),
         line=tuple(replace(sensor, height=CTSIM_LINE_HEIGHT) for sensor in spec.line),
     )
 

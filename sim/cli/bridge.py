@@ -32,11 +32,12 @@ def add_parser(commands) -> None:
         "bridge",
         help="let the real c't-Bot firmware drive robots over c't-Sim's TCP protocol",
         description="Listen for c't-Bot firmwares (their PC build) as c't-Sim does and run them in lock-step with the world, "
-        "10 ms per step, headless and recorded like `run` (the firmware's LCD, LEDs, motors, log and remote calls too).",
+        "10 ms per step, headless and recorded like `run` (the firmware's LCD, LEDs, motors, log and remote calls too). "
+        "Exact unless asked: like c't-Sim, the robots have no noise (--noise none) unless --noise says otherwise.",
         epilog=f"{HOW_TO_START}\n\n{EXIT_STATUSES}",
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    add_robot_options(bridge)
+    add_robot_options(bridge, noise="none")  # c't-Sim's wheels and sensors are exact
     bridge.add_argument("--robots", type=whole, default=1, metavar="N", help="number of firmware bots (default: 1)")
     bridge.add_argument("--controller", action="append", metavar="NAME|FILE.py[:NAME]", help="also add a robot with this Python controller (repeatable)")
     bridge.add_argument("--param", action="append", type=param, default=[], metavar="KEY=VALUE", help="parameter of the Python controllers")

@@ -101,14 +101,21 @@ def folder_name(text: str) -> Path:
     return Path(text)
 
 
-def add_robot_options(parser: argparse.ArgumentParser) -> None:
+NOISE_HELP = {
+    "realistic": "sensor and odometry noise of the robot: realistic (the c't-Bot's figures and their sources, see bots/noise.py), harsh, "
+    "or none (exact sensors, for checks against closed forms) (default: realistic)",
+    "none": "sensor and odometry noise of the robots: none (exact, as in c't-Sim, whose wheels and sensors have no noise: the firmware "
+    "takes c't-Sim's path), realistic (the c't-Bot's figures, see bots/noise.py) or harsh (default: none)",
+}
+"""--noise's help by the command's default: every command is realistic unless it stands in for c't-Sim (`bridge`)."""
+
+
+def add_robot_options(parser: argparse.ArgumentParser, noise: str = "realistic") -> None:
     parser.add_argument("world", nargs="?", default=DEFAULT_WORLD, help=f"a shipped world's name (see `ctsim worlds`) or a .toml/.xml world file (default: {DEFAULT_WORLD})")
     parser.add_argument("--robot", default="ctbot", metavar="NAME|FILE.toml",
                         help="robot description: a built-in name (ctbot, omni3, mecanum4, car, ocp_vehicle) or a TOML robot file (default: ctbot)")
     parser.add_argument("--seed", type=seed, default=0, help="seed of every random number in the run (the noise of --noise realistic or harsh); same seed, same run (default: 0)")
-    parser.add_argument("--noise", choices=NOISE_PRESETS, default="realistic",
-                        help="sensor and odometry noise of the robot: realistic (the c't-Bot's figures and their sources, see bots/noise.py), harsh, "
-                        "or none (exact sensors, for checks against closed forms) (default: realistic)")
+    parser.add_argument("--noise", choices=NOISE_PRESETS, default=noise, help=NOISE_HELP[noise])
     parser.add_argument("--robot-set", action="append", type=param, default=[], metavar="SECTION.FIELD=VALUE",
                         help="override one field of the robot description after --noise, repeatable: encoders.slip_std=0.02, mouse.dpi=415, ir.noise_std=0")
     parser.add_argument("--dt", type=step_size, default=DEFAULT_DT, metavar="SECONDS", help=f"simulation step (default: {DEFAULT_DT:g})")

@@ -12,6 +12,7 @@ from pathlib import Path
 
 from sim.contest.rules import FINAL, PRELIM, THIRD_PLACE, level_name, lowest_level
 from sim.contest.store import GameRow, Store
+from sim.out_files import replacing, write_text
 from sim.views import palette
 
 
@@ -107,7 +108,8 @@ def write_png(store: Store, path: Path) -> Path:
     ax.text(-0.2, 0.75, f"contest: {Path(settings['world']).stem}, {entries} entries, time limit {float(settings['time_limit']):g} s, seed {settings['seed']}",
             fontsize=10, va="top", fontweight="bold")  # fmt: skip
     ax.text(-0.2, 0.42, "(seed) name; bold: winner; red/blue: start slot 1/2; time: when the game was decided", fontsize=7.5, color="0.35", va="top")
-    fig.savefig(path)
+    with replacing(path) as file:
+        fig.savefig(file, format="png")
     plt.close(fig)
     return path
 
@@ -156,8 +158,7 @@ def write_html(store: Store, path: Path, ranking_rows: list[dict]) -> Path:
              f"seed {settings['seed']}, step {float(settings['dt']) * 1000:g} ms, ctsim {settings['ctsim']}")
     page = PAGE.format(title=html.escape(f"Contest: {Path(settings['world']).stem}"), facts=html.escape(facts), rounds="".join(columns),
                        ranking=_table(ranking_rows), prelim=_prelim(store))  # fmt: skip
-    path.write_text(page, encoding="utf-8")
-    return path
+    return write_text(path, page)
 
 
 def _game_html(card: Card) -> str:

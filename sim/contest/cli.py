@@ -6,6 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from sim import sanitize
 from sim.contest.bracket import write_html, write_png
 from sim.contest.conductor import ContestError, Settings, conduct
 from sim.contest.entries import EntryError, parse
@@ -53,7 +54,7 @@ def contest_command(args: argparse.Namespace) -> int:
     runner = engine(args.engine, args.jobs, args.scheduler)
     try:
         with held(out, "contest"):  # (a second contest into `out` would play every game twice)
-            print(f"ctsim contest: {len(entries)} entries in {out} (run the same command again to resume after an interruption)", file=sys.stderr, flush=True)
+            print(f"ctsim contest: {len(entries)} entries in {sanitize.name(str(out))} (run the same command again to resume after an interruption)", file=sys.stderr, flush=True)
             return _play(settings, entries, out, runner, args)
     finally:
         runner.close()
@@ -69,6 +70,6 @@ def _play(settings: Settings, entries: list, out: Path, runner, args: argparse.N
     print(table(rows))
     written = [write_csv(rows, out / "ranking.csv"), write_png(store, out / "bracket.png"), write_html(store, out / "bracket.html", rows)]
     for path in [store.path, *written]:
-        print(f"  wrote {path}")
+        print(f"  wrote {sanitize.name(str(path))}")
     store.close()
     return 0

@@ -27,6 +27,7 @@ from pathlib import Path
 
 from bots.controller import ControllerError, make
 from bots.spec import RobotSpec
+from sim import sanitize
 from sim.errors import UserError
 from sim.run.loop import RobotSetup
 from sim.world.spec import Start
@@ -145,10 +146,17 @@ def _firmware(name: str, path: str, params: tuple[tuple[str, str], ...], text: s
 
 def _students(folder: Path, prefix: str) -> list[Entry]:
     from sim.contest.sandboxed import check_available
-    from sim.lab.grading import student_id, submissions
+    from sim.lab.grading import refusal, student_id, submissions
 
     check_available()
-    files = submissions(folder, STUDENT_FILE)
+    folder = folder.resolve()
+    files = []
+    for file in submissions(folder, STUDENT_FILE):
+        refused = refusal(file, folder, file.parent != folder)
+        if refused is None:
+            files.append(file)
+        else:  # (a link, a pipe, a student without the file: said, never entered)
+            print(f"ctsim contest: not entered: {sanitize.name(str(file))}: {refused[1]}", file=sys.stderr)
     if not files:
         raise EntryError(f"{folder}: no submissions (*.py files, or */{STUDENT_FILE})")
     return [Entry(_safe(f"{prefix}.{student_id(f, folder)}" if prefix else student_id(f, folder)), "student", str(f.resolve())) for f in files]

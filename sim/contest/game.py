@@ -24,7 +24,7 @@ from bots.ctbot import CTBOT
 from sim.contest.entries import Entry, Seat, robot_spec
 from sim.contest.judge import Guarded, Judge
 from sim.contest.paths import PathField
-from sim.contest.rules import level_name
+from sim.contest.rules import level_name, wall_budget
 from sim.run.ending import Ending, Terminated
 from sim.run.loop import run
 from sim.run.samples import RunResult
@@ -103,7 +103,7 @@ def _play(job: GameJob) -> dict[str, Any]:
     with ExitStack() as stack:  # a firmware's process, a sandbox: gone when the game is
         seats = [stack.enter_context(Seat(entry, spec, start, job.dt, f"{job.level}.{job.number}")) for entry, spec, start in zip(job.entries, specs, starts)]
         setups = [seat.setup(recorder) for seat in seats]
-        guards = [Guarded(setup.controller, spec) for setup, spec in zip(setups, specs)]
+        guards = [Guarded(setup.controller, spec, wall_budget(job.time_limit)) for setup, spec in zip(setups, specs)]
         for setup, guard in zip(setups, guards):
             setup.controller = guard
         judge = Judge(tuple(entry.name for entry in job.entries), guards, fields, job.time_limit)

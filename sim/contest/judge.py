@@ -18,7 +18,11 @@ for a preliminary run).
 from __future__ import annotations
 
 import logging
+import math
+import time
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 from bots.commands import Command, wheel_speeds_for
 from bots.controller import Controller, reset
@@ -34,20 +38,33 @@ LOG = logging.getLogger("ctsim.contest")
 LOG.setLevel(logging.INFO)  # the verdict reaches a recorder's handler whatever the root logger's level
 
 
+class OverBudget(Exception):
+    """An entry's calls took more wall-clock time in one game than `rules.wall_budget` allows."""
+
+
 class Guarded:
     """A controller whose failure is noted (time and message) before the run loop hears of it.
     The command is checked here as the run loop would check it, so that a bad command, too, is
     pinned on this robot; a failing `reset` (a sandboxed file that does not load) fails the first
-    step."""
+    step. Its calls together may take `budget` seconds of wall-clock time (`clock`): the call that
+    overruns it fails the entry, and a controller that can bound its own calls (a sandboxed one:
+    `time_left`) is told what is left before each."""
 
-    def __init__(self, controller: Controller, spec: RobotSpec):
-        self.controller, self.spec = controller, spec
+    def __init__(self, controller: Controller, spec: RobotSpec, budget: float = math.inf, clock: Callable[[], float] = time.monotonic):
+        self.controller, self.spec, self.budget, self.clock = controller, spec, budget, clock
         self.failed_at: float | None = None
+        self.spent = 0.0
         self._broken: Exception | None = None
+        if hasattr(controller, "time_left"):
+            controller.time_left = self.time_left
+
+    def time_left(self) -> float:
+        """Wall-clock seconds the entry's calls may still take in this game."""
+        return max(0.0, self.budget - self.spent)
 
     def reset(self, robot: RobotSpec) -> None:
         try:
-            reset(self.controller, robot)
+            self._timed(reset, self.controller, robot)
         except Exception as err:  # the entry's own failure: it loses, the game goes on being judged
             self._broken = err
 
@@ -55,7 +72,7 @@ class Guarded:
         try:
             if self._broken is not None:
                 raise self._broken
-            command = self.controller.step(t, readings)
+            command = self._timed(self.controller.step, t, readings)
             if self.spec.chassis is None:
                 wheel_speeds_for(command, self.spec)
         except KeyboardInterrupt:  # Ctrl-C: the contest stops, no one fails
@@ -64,6 +81,21 @@ class Guarded:
             self.failed_at = t
             raise
         return command
+
+    def _timed(self, call: Callable[..., Any], *args: Any) -> Any:
+        if self.time_left() <= 0.0:
+            raise OverBudget(self._over())
+        started = self.clock()
+        try:
+            answer = call(*args)
+        finally:  # (a call that raised, a sandbox's timeout among them, fails the entry as it is)
+            self.spent += self.clock() - started
+        if self.time_left() <= 0.0:
+            raise OverBudget(self._over())
+        return answer
+
+    def _over(self) -> str:
+        return f"its calls took {self.spent:.1f} s of wall-clock time, more than the game's budget of {self.budget:g} s (see docs/contest.md)"
 
 
 class Judge:

@@ -8,6 +8,7 @@ from pathlib import Path
 from sim.contest.conductor import placings
 from sim.contest.rules import PRELIM, level_name
 from sim.contest.store import Store
+from sim.out_files import replacing
 
 COLUMNS = ("place", "entry", "controller", "kind", "seed", "preliminary", "out in", "won")
 
@@ -45,7 +46,7 @@ def table(rows: list[dict[str, str | int]]) -> str:
 
 def write_csv(rows: list[dict[str, str | int]], path: Path) -> Path:
     """The rows as CSV with a header line."""
-    with path.open("w", newline="", encoding="utf-8") as f:
+    with replacing(path, text=True, newline="") as f:
         writer = csv.DictWriter(f, COLUMNS)
         writer.writeheader()
         writer.writerows(rows)

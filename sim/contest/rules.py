@@ -20,6 +20,17 @@ PRELIM, THIRD_PLACE, FINAL = -1, 0, 1
 TIE_M = 0.001
 """Path distances (m) closer than this count as equal: a point-symmetric world gives both sides the
 same distance up to rounding, and the judge's grid measures no finer."""
+WALL_BUDGET_S = 30.0
+WALL_BUDGET_PER_SIMULATED_S = 1.0
+"""An entry's wall-clock budget in one game (s): its calls (making it, reset, every step)
+together may take `WALL_BUDGET_S + WALL_BUDGET_PER_SIMULATED_S * time_limit`, real time and half
+a minute on top; the call that overruns it fails the entry, which loses that game. A 2 s game is
+over within about a minute, whatever an entry sleeps."""
+
+
+def wall_budget(time_limit: float) -> float:
+    """An entry's wall-clock budget (s) in a game of `time_limit` simulated seconds."""
+    return WALL_BUDGET_S + WALL_BUDGET_PER_SIMULATED_S * time_limit
 
 
 def level_name(level: int) -> str:

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import ast
 import math
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -59,14 +59,20 @@ class SandboxedController:
     def __init__(self, box: Sandbox, name: str, has_reset: bool):
         self.box, self.class_name, self.has_reset = box, name, has_reset
         self.handle: int | None = None
+        self.time_left: Callable[[], float] = lambda: math.inf
+        """Wall-clock seconds the entry may still spend in the game (`judge.Guarded` sets it)."""
+
+    def _timeout(self) -> float:
+        """One call's limit: CALL_TIMEOUT, or less when the game's budget has less left."""
+        return min(CALL_TIMEOUT, self.time_left())
 
     def reset(self, robot: RobotSpec) -> None:
-        self.handle = self.box.new(self.class_name, timeout=CALL_TIMEOUT)
+        self.handle = self.box.new(self.class_name, timeout=self._timeout())
         if self.has_reset:
-            self.box.method(self.handle, "reset", robot, timeout=CALL_TIMEOUT, what=f"{self.class_name}.reset()")
+            self.box.method(self.handle, "reset", robot, timeout=self._timeout(), what=f"{self.class_name}.reset()")
 
     def step(self, t: float, readings: Readings) -> Command:
-        answer = self.box.step(self.handle, t, readings, timeout=CALL_TIMEOUT, what=f"{self.class_name}.step() at t = {t:.2f} s")
+        answer = self.box.step(self.handle, t, readings, timeout=self._timeout(), what=f"{self.class_name}.step() at t = {t:.2f} s")
         return command(answer, self.class_name)
 
 

@@ -20,6 +20,7 @@ from typing import Any
 
 from sim.contest.entries import Entry
 from sim.errors import UserError
+from sim.out_files import own_file
 
 FILE = "contest.sqlite"
 SCHEMA = """
@@ -100,6 +101,8 @@ class Store:
     def __init__(self, folder: str | Path):
         self.path = Path(folder) / FILE
         self.path.parent.mkdir(parents=True, exist_ok=True)
+        for name in (self.path, *(self.path.with_name(self.path.name + end) for end in ("-journal", "-wal", "-shm"))):
+            own_file(name)  # (SQLite opens them by name: never through a link planted in the folder)
         self.db = sqlite3.connect(self.path, isolation_level=None)  # transactions are explicit: `transaction`
         self.db.execute("PRAGMA foreign_keys = ON")
         self.db.executescript(SCHEMA)

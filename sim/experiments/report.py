@@ -17,6 +17,7 @@ from sim.analysis.nees import over_runs
 from sim.errors import UserError
 from sim.experiments import store
 from sim.experiments.plan import DEFAULTS
+from sim.out_files import replacing
 from sim.run.ending import Ending
 from sim.views import palette
 
@@ -181,7 +182,8 @@ def _save(fig, path: Path) -> Path:  # noqa: ANN001 (a matplotlib Figure)
     import matplotlib.pyplot as plt
 
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    with replacing(path) as file:  # (never through a link planted in the folder)
+        fig.savefig(file, format="png", dpi=110)
     plt.close(fig)
     return path
 

@@ -9,11 +9,12 @@ nothing.
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import Any
 
 import pandas as pd
+
+from sim.out_files import subfolder, temporary_beside
 
 RESULTS = "results.parquet"
 PARTS = "parts"
@@ -21,16 +22,13 @@ PARTS = "parts"
 
 def _write(frame: pd.DataFrame, path: Path) -> None:
     """Write a table under a temporary name, then rename it into place."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    frame.to_parquet(tmp, index=False)
-    os.replace(tmp, path)
+    with temporary_beside(path) as temporary:
+        frame.to_parquet(temporary, index=False)
 
 
 def append(out: Path, row: dict[str, Any]) -> None:
     """Keep one finished run's row on disk."""
-    parts = out / PARTS
-    parts.mkdir(parents=True, exist_ok=True)
-    _write(pd.DataFrame([row]), parts / f"{row['run_id']}.parquet")
+    _write(pd.DataFrame([row]), subfolder(out / PARTS) / f"{row['run_id']}.parquet")
 
 
 def _tables(out: Path) -> list[pd.DataFrame]:

@@ -44,7 +44,7 @@ def write_tracks_recording(path: Path, tracks: Tracks) -> Path:
     import rerun as rr
 
     rec = rr.RecordingStream("ctsim-lab", send_properties=False)
-    rec.save(str(path))
+    rec.save(str(path))  # (a folder of the lab's own: see write_artifacts)
     rec.log("world", rr.Transform3D(scale=(1.0, -1.0, 1.0)), static=True)
     times, truth = tracks["truth"]
     estimates = [k for k in tracks if k != "truth"]

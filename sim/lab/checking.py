@@ -193,7 +193,7 @@ def check_and_print(exercise: Exercise, file: Path, shown: str | Path, lang: str
     if report.output:
         print(f"your code printed:\n{sanitize.terminal(report.output)}")
     for path in report.artifacts:
-        print(f"  wrote {path}")
+        print(f"  wrote {sanitize.name(str(path))}")
     return 0 if report.passed else 1
 
 

@@ -3,14 +3,16 @@
 from __future__ import annotations
 
 import argparse
+import os
 from pathlib import Path
 
 from sim import sanitize
 from sim.folder_lock import held
 from sim.lab.checking import DEGRADED, check_and_print
 from sim.lab.exercise import Exercise, ExerciseError, exercise, exercises
-from sim.lab.grading import grade
+from sim.lab.grading import grade, others, submissions
 from sim.lab.notebook import submission, write_notebook
+from sim.out_files import write_text
 from sim.sandbox import SandboxUnavailable
 
 
@@ -51,22 +53,25 @@ def _grade(ex: Exercise, args: argparse.Namespace) -> int:
         print(DEGRADED)
     for report in reports:
         print(f"{report.score_text:>7}  {sanitize.name(report.file)}")
+    folder = args.submissions.resolve()
+    for item, why in others(folder, submissions(folder, ex.file, notebooks=True), out):
+        print(f"{'-':>7}  {sanitize.name(str(item))}: not graded: {why}")
     print(f"{sum(r.passed for r in reports)}/{len(reports)} passed; scenario seed {reports[0].seed}")
     for path in written:
-        print(f"  wrote {path}")
+        print(f"  wrote {sanitize.name(str(path))}")
     return 1 if any(row.problem == "grader" for r in reports for row in r.rows) else 0
 
 
 def _start(ex, folder: Path, lang: str) -> int:
     folder.mkdir(parents=True, exist_ok=True)
     sheet, template = folder / f"exercise{ex.number}.md", folder / ex.file
-    sheet.write_text(ex.sheet(lang), encoding="utf-8")
-    if template.exists():
-        print(f"kept {template} (it exists; delete it for a fresh template)")
+    write_text(sheet, ex.sheet(lang))
+    if os.path.lexists(template):
+        print(f"kept {sanitize.name(str(template))} (it exists; delete it for a fresh template)")
     else:
-        template.write_text(ex.template(), encoding="utf-8")
-        print(f"wrote {template}")
-    print(f"wrote {sheet}\nthen: ctsim lab check {ex.number} {template}")
+        write_text(template, ex.template())
+        print(f"wrote {sanitize.name(str(template))}")
+    print(f"wrote {sanitize.name(str(sheet))}\nthen: ctsim lab check {ex.number} {sanitize.name(str(template))}")
     return 0
 
 
@@ -74,6 +79,7 @@ def _start_notebook(ex, folder: Path, lang: str, extra: list[str]) -> int:
     folder.mkdir(parents=True, exist_ok=True)
     existed = (folder / f"exercise{ex.number}.ipynb").exists()
     path = write_notebook(ex, folder, lang, extra)
-    print(f"kept {path} (it exists; delete it for a fresh notebook)" if existed else f"wrote {path}")
-    print(f"then: open it in Jupyter, or ctsim lab check {ex.number} {path}")
+    shown = sanitize.name(str(path))
+    print(f"kept {shown} (it exists; delete it for a fresh notebook)" if existed else f"wrote {shown}")
+    print(f"then: open it in Jupyter, or ctsim lab check {ex.number} {shown}")
     return 0

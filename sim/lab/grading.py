@@ -14,6 +14,7 @@ from __future__ import annotations
 import csv
 import json
 import os
+import stat
 import sys
 import traceback
 from concurrent.futures import ThreadPoolExecutor
@@ -24,24 +25,78 @@ from sim import sanitize
 from sim.lab.checking import DEGRADED, CheckReport, Row, check_file, fresh_seed
 from sim.lab.exercise import Exercise, ExerciseError
 from sim.lab.notebook import SUFFIX, submission
+from sim.out_files import kind, replacing, subfolder, write_text
 from sim.sandbox import SandboxUnavailable, unavailable
 
 
 def submissions(folder: Path, name: str, notebooks: bool = False) -> list[Path]:
     """The student files in `folder`: every *.py (and notebook, *.ipynb, if `notebooks`) directly
-    in it, or in each sub-folder `name` (else its one notebook)."""
-    def present(p: Path) -> bool:
-        return p.is_file() or p.is_symlink()
-
+    in it, whatever it is (a pipe or a link too: `refusal` says why it is not graded), or else one
+    per sub-folder (a student each, hidden ones aside): its `name`, else its one notebook, else
+    the `name` it lacks (a student who handed in nothing is graded as missing, not left out)."""
     suffixes = (".py", SUFFIX) if notebooks else (".py",)
-    found = sorted(p for p in folder.iterdir() if p.suffix in suffixes and present(p))
+    found = sorted(p for p in folder.iterdir() if p.suffix in suffixes and not _is_folder(p))
     if found:
         return found
     chosen = []
-    for sub in sorted(p for p in folder.iterdir() if p.is_dir()):
-        books = sorted(p for p in sub.glob(f"*{SUFFIX}") if present(p)) if notebooks else []
-        chosen += [sub / name] if present(sub / name) else books if len(books) == 1 else []
+    for sub in sorted(p for p in folder.iterdir() if p.is_dir() and not p.name.startswith(".")):
+        books = sorted(sub.glob(f"*{SUFFIX}")) if notebooks else []
+        chosen.append(sub / name if os.path.lexists(sub / name) or len(books) != 1 else books[0])
     return chosen
+
+
+def others(folder: Path, files: list[Path], out: Path | None = None) -> list[tuple[Path, str]]:
+    """Every item of `folder` that is not a submission (`submissions`: `files`), nor the grades
+    folder `out`, with why it is not graded: the teacher sees everything a class handed in."""
+    own_folders = bool(files) and files[0].parent != folder
+    taken = {f.parent if own_folders else f for f in files} | ({Path(out)} if out is not None else set())
+    listed = []
+    for item in sorted(folder.iterdir()):
+        if item in taken or (out is not None and Path(out).resolve() == item.resolve()):
+            continue
+        kind = "folder" if _is_folder(item) else "file"
+        if item.name.startswith("."):
+            why = f"a hidden {kind}"
+        elif own_folders:
+            why = f"a {kind} beside the students' folders (each student's work goes in a folder of its own)"
+        elif kind == "folder":
+            why = "a folder beside the students' files (a class folder holds either files or one folder per student)"
+        else:
+            why = f"not a .py file{' or notebook' if any(f.suffix == SUFFIX for f in files) or SUFFIX in item.name else ''}"
+        listed.append((item, why))
+    return listed
+
+
+def _is_folder(path: Path) -> bool:
+    return stat.S_ISDIR(os.lstat(path).st_mode)
+
+
+def refusal(path: Path, folder: Path, own_folder: bool, twins: dict[Path, list[str]] | None = None) -> tuple[str, str] | None:
+    """Why a submission is not graded, as (problem, message), or None when it is a regular file
+    of the student's own: missing, a link (symbolic, or a hard link: its content is another's
+    too, `twins` names the classmates sharing it), a pipe, device or folder for a file."""
+    if not os.path.lexists(path):
+        return "missing", f"no {path.name} (nor one notebook) in the student's folder: nothing to grade"
+    if path.is_symlink() or (own_folder and path.parent.is_symlink()) or not path.resolve().is_relative_to(folder):
+        return "link", "the submission is a link, not a file of its own: not graded"
+    info = os.lstat(path)
+    if not stat.S_ISREG(info.st_mode):
+        return "not a file", f"the submission is {kind(info.st_mode)}, not a file: not graded"
+    if info.st_nlink > 1:
+        shared = (twins or {}).get(path, [])
+        whose = f"shared with {', '.join(sanitize.name(s, 80) for s in shared)}" if shared else f"one of {info.st_nlink} names of one file"
+        return "link", f"the submission is a hard link ({whose}), not a file of its own: not graded"
+    return None
+
+
+def _twins(files: list[Path], ids: list[str]) -> dict[Path, list[str]]:
+    """Each file that is one file with others' under several names (hard links): the others' ids."""
+    shared: dict[tuple[int, int], list[tuple[Path, str]]] = {}
+    for path, sid in zip(files, ids):
+        if os.path.lexists(path):
+            info = os.lstat(path)
+            shared.setdefault((info.st_dev, info.st_ino), []).append((path, sid))
+    return {path: [other for _, other in group if other != sid] for group in shared.values() if len(group) > 1 for path, sid in group}
 
 
 def student_id(path: Path, folder: Path) -> str:
@@ -75,19 +130,22 @@ def grade(ex: Exercise, folder: str | Path, out: str | Path, lang: str = "en", s
     seed = fresh_seed() if seed is None else seed
     ex.checker  # noqa: B018 (loaded once, before the threads)
     jobs = jobs or max(1, min(len(files), os.cpu_count() or 1))
-    with ThreadPoolExecutor(jobs) as pool:
-        reports = list(pool.map(lambda f: _check(ex, f, folder, lang, seed, own_folders, degraded), files))
-    out.mkdir(parents=True, exist_ok=True)
     ids = student_ids(files, folder)
+    twins = _twins(files, ids)
+    with ThreadPoolExecutor(jobs) as pool:
+        reports = list(pool.map(lambda f: _check(ex, f, folder, lang, seed, own_folders, degraded, twins), files))
+    out.mkdir(parents=True, exist_ok=True)
     return reports, [write_csv(out / "grades.csv", ids, reports), write_gradescope(out / "gradescope", ids, reports),
                      write_junit(out / "junit.xml", ids, reports, ex.title["en"])]  # fmt: skip
 
 
-def _check(ex: Exercise, path: Path, folder: Path, lang: str, seed: int, own_folder: bool, degraded: bool) -> CheckReport:
-    """One submission's report; a link instead of a file, or a failure of the check itself, is a
+def _check(ex: Exercise, path: Path, folder: Path, lang: str, seed: int, own_folder: bool, degraded: bool,
+           twins: dict[Path, list[str]]) -> CheckReport:  # fmt: skip
+    """One submission's report; one not graded (`refusal`), or a failure of the check itself, is a
     failed report with the reason (the grader's own failure is printed, not blamed on the student)."""
-    if path.is_symlink() or (own_folder and path.parent.is_symlink()) or not path.resolve().is_relative_to(folder):
-        return _failed(ex, path, seed, "link", "the submission is a link, not a file of its own: not graded")
+    refused = refusal(path, folder, own_folder, twins)
+    if refused is not None:
+        return _failed(ex, path, seed, *refused)
     try:
         if path.suffix == SUFFIX:
             return _check_notebook(ex, path, lang, seed, degraded)
@@ -125,7 +183,7 @@ def write_csv(path: Path, ids: list[str], reports: list[CheckReport]) -> Path:
     """One row per student: score (unrounded), maximum, scenarios passed, isolation, the first
     problem and every hidden row's expected and got values (the teacher's file; texts a student
     chose, such as a folder name, never start a formula nor break a line)."""
-    with path.open("w", newline="", encoding="utf-8") as f:
+    with replacing(path, text=True, newline="") as f:
         writer = csv.writer(f)
         writer.writerow(["student", "file", "score", "max_score", "passed", "scenarios", "seed", "isolation", "first_problem", "hidden_values"])
         for sid, report in zip(ids, reports):
@@ -166,9 +224,7 @@ def write_gradescope(folder: Path, ids: list[str], reports: list[CheckReport]) -
         ]  # fmt: skip
         notes = ([DEGRADED] if report.degraded else []) + ([f"Your code printed:\n{sanitize.json_text(report.output)}"] if report.output else [])
         results = {"score": round(report.score, 4), "output": "\n\n".join(notes), "tests": tests}
-        target = folder / sid / "results.json"
-        target.parent.mkdir(parents=True, exist_ok=True)
-        target.write_text(json.dumps(results, indent=2, ensure_ascii=False) + "\n", encoding="utf-8")
+        write_text(subfolder(subfolder(folder) / sid) / "results.json", json.dumps(results, indent=2, ensure_ascii=False) + "\n")
     return folder
 
 
@@ -189,5 +245,6 @@ def write_junit(path: Path, ids: list[str], reports: list[CheckReport], title: s
             if row.output:
                 ET.SubElement(case, "system-out").text = sanitize.xml_text(row.output)
     ET.indent(suites)
-    ET.ElementTree(suites).write(path, encoding="utf-8", xml_declaration=True)
+    with replacing(path) as file:
+        ET.ElementTree(suites).write(file, encoding="utf-8", xml_declaration=True)
     return path

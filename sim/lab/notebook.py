@@ -13,14 +13,18 @@ Notebooks are plain JSON (nbformat 4): writing and reading one needs no Jupyter 
 from __future__ import annotations
 
 import json
+import os
 import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+from bots.schema import read_bytes
 from sim import sanitize
+from sim.errors import UserError
 from sim.lab.exercise import Exercise, ExerciseError
+from sim.out_files import write_text
 
 SOLUTION_TAG = "solution"
 """The tag of the code cell that holds the student's solution."""
@@ -69,20 +73,30 @@ def notebook(exercise: Exercise, lang: str = "en", extra: tuple[str, ...] | list
 def write_notebook(exercise: Exercise, folder: Path, lang: str = "en", extra: tuple[str, ...] | list[str] = ()) -> Path:
     """exerciseN.ipynb in `folder` (kept if it exists: it may hold a student's work)."""
     path = folder / f"exercise{exercise.number}{SUFFIX}"
-    if not path.exists():
+    if not os.path.lexists(path):
         document = notebook(exercise, lang, extra)
         for i, cell in enumerate(document["cells"]):  # nbformat 4.5 wants an id per cell
             cell["id"] = f"ctsim-{exercise.number}-{i}"
-        path.write_text(json.dumps(document, indent=1, ensure_ascii=False) + "\n", encoding="utf-8")
+        write_text(path, json.dumps(document, indent=1, ensure_ascii=False) + "\n")
     return path
 
 
 def solution_source(path: Path) -> str:
-    """The code of the notebook's cell tagged `solution`, its magic lines (`%%writefile`) dropped."""
-    if path.stat().st_size > LARGEST:
-        raise ExerciseError(f"{path}: not a notebook of an exercise ({path.stat().st_size} bytes; at most {LARGEST})")
+    """The code of the notebook's cell tagged `solution`, its magic lines (`%%writefile`) dropped.
+    The one boundary of reading a student's notebook: whatever reading it raises (bad JSON, a
+    number past Python's digit limit, a lone surrogate, a pipe for a file) is an ExerciseError
+    naming the file, that student's failure to load and never the class's."""
     try:
-        document = json.loads(path.read_text(encoding="utf-8"))
+        return _solution(path)
+    except UserError as err:
+        raise ExerciseError(str(err)) from None
+    except Exception as err:  # noqa: BLE001 (every failure of reading the student's own file is that file's)
+        raise ExerciseError(f"{path}: not a notebook ctsim can read ({type(err).__name__}: {sanitize.name(str(err), 200)})") from None
+
+
+def _solution(path: Path) -> str:
+    try:
+        document = json.loads(read_bytes(path, most=LARGEST).decode("utf-8"))
     except (json.JSONDecodeError, UnicodeDecodeError) as err:
         raise ExerciseError(f"{path}: not a notebook (not JSON: {sanitize.name(str(err), 200)})") from None
     except RecursionError:
@@ -96,8 +110,9 @@ def solution_source(path: Path) -> str:
     source = tagged[0].get("source", "")
     if not (isinstance(source, str) or (isinstance(source, list) and all(isinstance(line, str) for line in source))):
         raise ExerciseError(f"{path}: the '{SOLUTION_TAG}' cell's source is not text (nbformat: a string or a list of strings)")
-    text = "".join(source)
-    return "".join(line for line in text.splitlines(keepends=True) if not line.lstrip().startswith("%"))
+    text = "".join(line for line in "".join(source).splitlines(keepends=True) if not line.lstrip().startswith("%"))
+    text.encode("utf-8")  # (a lone surrogate, written as \\ud800 in the JSON, is no text of a file: refused here)
+    return text
 
 
 def _tags(cell: dict[str, Any]) -> list[Any]:

@@ -14,6 +14,7 @@ import numpy as np
 
 from sim.analysis.export import read_tum
 from sim.analysis.run_folder import RunFolderError, read_summary, trajectory_text
+from sim.out_files import replacing
 from sim.views import palette
 from sim.views.map_image import map_shapes
 from sim.world.files.grid import TILE_NAMES
@@ -251,7 +252,8 @@ def _estimates(tracks: dict[str, Trajectory]) -> list[tuple[str, Trajectory]]:
 def _save(fig, path: Path) -> Path:
     import matplotlib.pyplot as plt
 
-    fig.savefig(path, bbox_inches="tight")
+    with replacing(path) as file:  # (never through a link planted in the folder)
+        fig.savefig(file, format="png", bbox_inches="tight")
     plt.close(fig)
     return path
 

@@ -11,6 +11,7 @@ from html import escape
 from pathlib import Path
 
 from sim.analysis.run_folder import read_summary
+from sim.out_files import write_text
 from sim.run.ending import Ending
 from sim.views.html import facts_table, image, page, run_facts, summary_table
 from sim.web.serve import DEFAULT_HOST, DEFAULT_PORT, addresses
@@ -24,8 +25,8 @@ def write_run_report(run_dir: str | Path) -> Path:
     """report.html in a run folder written by `ctsim run` (its summary.json, PNGs and run.rrd)."""
     run_dir = Path(run_dir)
     summary = read_summary(run_dir)
-    pictures = [run_dir / name for name in RUN_FIGURES if (run_dir / name).is_file()]
-    pictures += sorted(p for p in run_dir.glob("*.png") if p not in pictures)
+    pictures = [run_dir / name for name in RUN_FIGURES if _own_file(run_dir / name)]
+    pictures += sorted(p for p in run_dir.glob("*.png") if p not in pictures and _own_file(p))
     body = [
         "<h2>Summary</h2>",
         summary_table(summary["robots"]),
@@ -37,9 +38,12 @@ def write_run_report(run_dir: str | Path) -> Path:
         facts_table(run_facts(summary)),
     ]
     title = f"ctsim run: {summary['world']['name']}, {', '.join(sorted({r['controller'] for r in summary['robots']}))}, seed {summary['seed']}"
-    path = run_dir / REPORT
-    path.write_text(page(title, "\n".join(body)), encoding="utf-8")
-    return path
+    return write_text(run_dir / REPORT, page(title, "\n".join(body)))
+
+
+def _own_file(path: Path) -> bool:
+    """A regular file in the folder itself, not a link (whose target a page must not carry away)."""
+    return not path.is_symlink() and path.is_file()
 
 
 def _recording_links(run_dir: Path) -> str:
@@ -80,6 +84,4 @@ def write_sweep_report(sweep_dir: str | Path, by: list[str] | None = None) -> li
         "<h2>Sweep</h2>",
         facts_table(facts),
     ]
-    path = sweep_dir / REPORT
-    path.write_text(page(f"ctsim sweep: {sweep_dir.resolve().name}", "\n".join(body)), encoding="utf-8")
-    return [*written, path]
+    return [*written, write_text(sweep_dir / REPORT, page(f"ctsim sweep: {sweep_dir.resolve().name}", "\n".join(body)))]

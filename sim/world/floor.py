@@ -21,16 +21,25 @@ MAX_CELLS = 8_000_000
 
 @dataclass(frozen=True)
 class FloorMap:
-    """The floor's absorption (float32, 1 over holes; `sensors.absorption`) and a hole mask on a
-    grid with `origin` (m) and `cell` size (m); sampled by the world's compiled kernels
-    (`sim.world.kernels.floor`, `sim.world.kernels.sensing`)."""
+    """The floor's absorption (float32, 1 over holes; `sensors.absorption`) without its lines
+    (`ground`) and the lines' own (`lines`, NaN where there is none: they may stand
+    `line_height` m above the ground) and a hole mask, on a grid with `origin` (m) and `cell`
+    size (m); sampled by the world's compiled kernels (`sim.world.kernels.floor`,
+    `sim.world.kernels.sensing`)."""
 
-    absorption: np.ndarray
+    ground: np.ndarray
+    lines: np.ndarray
     hole: np.ndarray
     origin: tuple[float, float]
     cell: float
     base_absorption: float
     outside_is_hole: bool
+    line_height: float = 0.0
+
+    @cached_property
+    def absorption(self) -> np.ndarray:
+        """The floor as seen from above: the lines over the ground."""
+        return np.where(np.isnan(self.lines), self.ground, self.lines)
 
     @property
     def outside_absorption(self) -> float:
@@ -45,7 +54,8 @@ class FloorMap:
     @cached_property
     def kernel(self) -> Floor:
         """The raster as the compiled kernels take it."""
-        return Floor(self.absorption, self.hole, np.array(self.origin, dtype=np.float64), float(self.cell), float(self.outside_absorption), bool(self.outside_is_hole))
+        return Floor(self.ground, self.lines, self.hole, np.array(self.origin, dtype=np.float64), float(self.cell), float(self.outside_absorption),
+                     bool(self.outside_is_hole), float(self.line_height))
 
     @cached_property
     def value(self) -> np.ndarray:
@@ -92,7 +102,8 @@ def _segment_mask(xs, ys, a, b, half_width, flat=False):
 
 
 def rasterize(world: WorldSpec, cell: float = 0.002) -> FloorMap:
-    """Draw the floor of `world`: base colour, then regions, lines and holes, in that order."""
+    """Draw the floor of `world`: base colour, then regions, lines and holes, in that order (a hole
+    takes the lines over it away)."""
     xmin, ymin, xmax, ymax = world.bounds
     area = (xmax - xmin) * (ymax - ymin)
     cell = max(cell, float(np.sqrt(area / MAX_CELLS)))
@@ -100,6 +111,7 @@ def rasterize(world: WorldSpec, cell: float = 0.002) -> FloorMap:
     origin = np.array([xmin, ymin])
     base = absorption(world.floor_colour)
     value = np.full(shape, base, dtype=np.float32)
+    painted = np.full(shape, np.nan, dtype=np.float32)
     hole = np.zeros(shape, dtype=bool)
 
     for region in world.floor:
@@ -113,7 +125,7 @@ def rasterize(world: WorldSpec, cell: float = 0.002) -> FloorMap:
             cover = _pixel_centres(shape, origin, cell, (a, b), margin=line.width / 2)
             if cover:
                 window, xs, ys = cover
-                value[window][_segment_mask(xs, ys, a, b, line.width / 2, line.flat)] = colour
+                painted[window][_segment_mask(xs, ys, a, b, line.width / 2, line.flat)] = colour
     for h in world.holes:
         cover = _pixel_centres(shape, origin, cell, h.vertices)
         if cover:
@@ -121,4 +133,5 @@ def rasterize(world: WorldSpec, cell: float = 0.002) -> FloorMap:
             inside = _convex_mask(xs, ys, h.vertices)
             hole[window] |= inside
             value[window][inside] = 1.0
-    return FloorMap(value, hole, (float(xmin), float(ymin)), cell, float(base), world.outside_is_hole)
+            painted[window][inside] = np.nan
+    return FloorMap(value, painted, hole, (float(xmin), float(ymin)), cell, float(base), world.outside_is_hole, world.line_height)

@@ -92,7 +92,7 @@ SENSORS = Table(
     Field("direction", 1, "rad, the view in the body frame (light, IR)"),
     Field("opening", 1, "rad, the half opening (light) or cone (IR)"),
     Field("reach", 1, "m, the distance of full darkness (light)"),
-    Field("axis", 1, "an IR sensor of the 'axis' view", np.bool_),
+    Field("pick", 1, "an IR sensor of the 'pick' view: walls seen as c't-Sim's Java3D cone pick", np.bool_),
     Field("owner", 1, "the robot's index", np.int64),
     Field("noise_row", 1, "the sensor's row of the IR noise (-1: none)", np.int64),
     Field("curve", 1, "the IR curve's index", np.int64),
@@ -151,14 +151,18 @@ class Walls(NamedTuple):
 
 
 class Floor(NamedTuple):
-    """The floor raster for the kernels (`sim.world.floor.FloorMap`)."""
+    """The floor raster for the kernels (`sim.world.floor.FloorMap`): the ground's absorption
+    without its lines, the lines' own (NaN off every line; their top `line_height` m above the
+    ground), the holes."""
 
-    absorption: np.ndarray
+    ground: np.ndarray
+    lines: np.ndarray
     hole: np.ndarray
     origin: np.ndarray
     cell: float
     outside_absorption: float
     outside_is_hole: bool
+    line_height: float
 
 
 class Ground(NamedTuple):
@@ -208,13 +212,13 @@ class Noise(NamedTuple):
 
 class Rays(NamedTuple):
     """IR rays: world origins (m, 2), view directions (m,), cones (half-angle, m,), the robot each
-    belongs to (m,), and whether it sees walls on its axis only (m,)."""
+    belongs to (m,), and whether it sees walls as c't-Sim's cone pick does (m,)."""
 
     origins: np.ndarray
     look: np.ndarray
     cone: np.ndarray
     owner: np.ndarray
-    axis: np.ndarray
+    pick: np.ndarray
 
 
 class Readout(NamedTuple):

@@ -31,6 +31,7 @@ from sim.world.compiling import compile_all
 from sim.world.floor import FloorMap, rasterize
 from sim.world.kernels.contacts import settle
 from sim.world.kernels.motion import first_bad, glide, measure, plan
+from sim.world.kernels.pick import pick_polygon
 from sim.world.kernels.sensing import ir_rays, ir_values, read_sensors
 from sim.world.sensors import CNY70_MAX, LDR_MAX, IRCurve, gp2d12, load_ir_curve
 from sim.world.spec import Start, WorldSpec
@@ -348,11 +349,11 @@ class World:
             self.chassis.fill(frame)
         return frame
 
-    def ray_distance(self, robot: Robot, origin, direction: float, length: float = IR_RAY_LENGTH, cone: float = 0.0, axis: bool = False) -> float:
+    def ray_distance(self, robot: Robot, origin, direction: float, length: float = IR_RAY_LENGTH, cone: float = 0.0, pick: bool = False) -> float:
         """Distance (m) from `origin` to the nearest point of any body other than the robot's own
         within `cone` (rad, half-angle) of world `direction` and within `length`; inf if none.
-        With `axis`, walls are seen only where the axis meets them and at their corners inside
-        the cone (`IRSensorSpec.view`); other bodies in the whole cone.
+        With `pick`, walls are seen as c't-Sim's Java3D pick sees them (`IRSensorSpec.view`,
+        `kernels.pick.pick_polygon`); other bodies in the whole cone.
 
         A cone across a wall at a slant reads the cone's near edge, not the axis. Every body is
         convex, so its nearest point in the cone is its nearest point overall when that lies
@@ -362,32 +363,33 @@ class World:
             return self._cast(robot, origin, direction, length)
         c, s = math.cos(direction), math.sin(direction)
         cos_cone = math.cos(cone)
-        if axis:
-            best = min(self._cast(robot, origin, direction, length), self._wall_corner_in_cone(origin, c, s, cos_cone))
+        if pick:
+            walls = self._walls
+            best = min((pick_polygon(origin[0], origin[1], c, s, length, math.tan(cone), walls.vertices, a, b) for a, b in zip(walls.spans["start"], walls.spans["end"])), default=math.inf)
+            best = min(best, self._cast(robot, origin, direction - cone, length, moving=True), self._cast(robot, origin, direction + cone, length, moving=True))
+            limit = length / cos_cone  # a rim point near the segment's end lies that far
         else:
             best = min(self._cast(robot, origin, direction - cone, length), self._cast(robot, origin, direction + cone, length))
+            limit = length
         for info in self.space.point_query((origin[0], origin[1]), min(best, length), robot.query_filter):
+            if pick and info.shape.body.body_type == pymunk.Body.STATIC:
+                continue  # a wall: seen as the pick sees it
             dx, dy = info.point.x - origin[0], info.point.y - origin[1]
             if info.distance <= 0.0:
                 return 0.0  # the sensor is inside another body
-            if axis and info.shape.body.body_type == pymunk.Body.STATIC:
-                continue  # a wall: seen on the axis and at its corners only
             if dx * c + dy * s >= cos_cone * info.distance:
                 best = min(best, info.distance)
-        return best if best <= length else math.inf
+        return best if best <= limit else math.inf
 
-    def _wall_corner_in_cone(self, origin, c: float, s: float, cos_cone: float) -> float:
-        """Distance to the nearest wall corner within the cone from `origin` about (c, s)."""
-        corners = self.walls_of.vertices - np.asarray(origin, dtype=np.float64)
-        distance = np.hypot(corners[:, 0], corners[:, 1])
-        inside = corners[:, 0] * c + corners[:, 1] * s >= cos_cone * distance
-        return float(distance[inside].min()) if inside.any() else math.inf
-
-    def _cast(self, robot: Robot, origin, direction: float, length: float) -> float:
-        """Distance (m) along one ray to the first body other than the robot's own; inf if none."""
+    def _cast(self, robot: Robot, origin, direction: float, length: float, moving: bool = False) -> float:
+        """Distance (m) along one ray to the first body other than the robot's own (`moving`: the
+        first that is not a wall); inf if none."""
         end = (origin[0] + length * math.cos(direction), origin[1] + length * math.sin(direction))
-        hit = self.space.segment_query_first((origin[0], origin[1]), end, 0.0, robot.query_filter)
-        return hit.alpha * length if hit is not None else math.inf
+        if not moving:
+            hit = self.space.segment_query_first((origin[0], origin[1]), end, 0.0, robot.query_filter)
+            return hit.alpha * length if hit is not None else math.inf
+        hits = self.space.segment_query((origin[0], origin[1]), end, 0.0, robot.query_filter)
+        return min((hit.alpha * length for hit in hits if hit.shape.body.body_type != pymunk.Body.STATIC), default=math.inf)
 
     def _read_ir_with_pymunk(self, pose: np.ndarray, raw: np.ndarray, believed: np.ndarray) -> None:
         """Raw values and believed distances of every IR sensor in a world with a robot of polygon
@@ -404,7 +406,7 @@ class World:
         origins, look, distance = np.empty((n, 2)), np.empty(n), np.empty(n)
         ir_rays(pose, sensors, origins, look)
         for k, (robot, sensor) in enumerate(st.ir_sensors):
-            distance[k] = self.ray_distance(robot, origins[k], look[k], cone=sensor.cone, axis=sensor.view == "axis")
+            distance[k] = self.ray_distance(robot, origins[k], look[k], cone=sensor.cone, pick=sensor.view == "pick")
         ir_values(distance, sensors, ir.noise.kernel, ir.curves, raw, believed)
 
     # --- motion -----------------------------------------------------------------------------

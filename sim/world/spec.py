@@ -156,6 +156,10 @@ class WorldSpec:
     faults: tuple[WheelFault, ...] = ()
     floor_colour: Colour = DEFAULT_FLOOR
     outside_is_hole: bool = False
+    line_height: float = 0.0
+    """How far (m) the painted lines' top stands above the floor: c't-Sim's line tiles lie 1 mm
+    above its floor tiles, so a floor sensor's slanted rays meet a line nearer the mount point
+    than the floor (`kernels.sample_floor`); 0 is paint."""
     source: str | None = None
     description: str = ""
     notes: tuple[str, ...] = ()

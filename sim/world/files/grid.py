@@ -43,6 +43,7 @@ from sim.world.spec import (
 DEFAULT_CELL = 0.24  # m, c't-Sim's blockSizeInM
 LIGHT_HEIGHT = 0.5  # m, c't-Sim's LIGHTZ
 LINE_WIDTH_CELLS = 0.1  # c't-Sim's LINEWIDTH, in cells
+LINE_HEIGHT = 0.001  # m, c't-Sim's lines over its floor (ParcoursLoader: floor tiles' top at z 0.001, line tiles at 0.002)
 PILLAR_STYLES = ("cell", "cylinder")
 PILLAR_DIAMETER = 0.1  # m, c't-Sim's lamp pillar (ParcoursLoader: createPillar(x, y, 0.1f, ...))
 PILLAR_SIDES = 15  # Java3D's Cylinder: 15 divisions round its axis

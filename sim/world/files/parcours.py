@@ -25,7 +25,7 @@ from defusedxml.expatreader import DefusedExpatParser
 from bots.schema import read_bytes
 from sim.world.spec import Colour, WorldFileError, WorldSpec
 
-from .grid import DEFAULT_CELL, DEFAULT_TILE_COLOURS, build_grid
+from .grid import DEFAULT_CELL, DEFAULT_TILE_COLOURS, LINE_HEIGHT, build_grid
 
 MAX_DEPTH = 16
 """Deepest element nesting a parcours may have (c't-Sim's own: 4)."""
@@ -135,6 +135,7 @@ def load_parcours(path: Path, pillars: str = "cell") -> WorldSpec:
         movables=pieces.movables,
         floor_colour=colours.get(" ", DEFAULT_TILE_COLOURS[" "]),
         outside_is_hole=True,
+        line_height=LINE_HEIGHT,
         source=str(path),
         description=re.sub(r"\s+", " ", description.text).strip() if description is not None else "",
         notes=notes,

@@ -30,11 +30,20 @@ def in_hole(x: float, y: float, floor: Floor) -> bool:
 
 @numba.njit(cache=True)
 def absorption_at(x: float, y: float, floor: Floor, outside: np.float32) -> np.float32:
-    """What the floor swallows at the point (x, y) (m) (`outside` off the map)."""
+    """What the ground (without its lines) swallows at the point (x, y) (m) (`outside` off the map)."""
     ix, iy = raster_cell(x, y, floor)
-    if ix < 0 or iy < 0 or iy >= floor.absorption.shape[0] or ix >= floor.absorption.shape[1]:
+    if ix < 0 or iy < 0 or iy >= floor.ground.shape[0] or ix >= floor.ground.shape[1]:
         return outside
-    return floor.absorption[iy, ix]
+    return floor.ground[iy, ix]
+
+
+@numba.njit(cache=True)
+def line_at(x: float, y: float, floor: Floor) -> np.float32:
+    """The absorption of the line at (x, y); NaN off every line (and off the map)."""
+    ix, iy = raster_cell(x, y, floor)
+    if ix < 0 or iy < 0 or iy >= floor.lines.shape[0] or ix >= floor.lines.shape[1]:
+        return np.float32(np.nan)
+    return floor.lines[iy, ix]
 
 
 @numba.njit(cache=True)

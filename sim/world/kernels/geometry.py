@@ -31,19 +31,6 @@ def ray_polygon(ox: float, oy: float, ux: float, uy: float, vertices: np.ndarray
 
 
 @numba.njit(cache=True)
-def corner_in_cone(ox: float, oy: float, cx: float, cy: float, cos_cone: float, vertices: np.ndarray, start: int, end: int) -> float:
-    """Distance to the nearest corner of the polygon vertices[start:end] inside the cone from (ox,
-    oy) around the unit axis (cx, cy); inf if none."""
-    best = math.inf
-    for k in range(start, end):
-        dx, dy = vertices[k, 0] - ox, vertices[k, 1] - oy
-        d = math.hypot(dx, dy)
-        if dx * cx + dy * cy >= cos_cone * d:
-            best = min(best, d)
-    return best
-
-
-@numba.njit(cache=True)
 def ray_circle(ox: float, oy: float, ux: float, uy: float, cx: float, cy: float, r: float) -> float:
     along = (cx - ox) * ux + (cy - oy) * uy
     across2 = (cx - ox) ** 2 + (cy - oy) ** 2 - along * along

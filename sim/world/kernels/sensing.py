@@ -9,9 +9,10 @@ import math
 import numba
 import numpy as np
 
-from sim.world.kernels.floor import absorption_at
-from sim.world.kernels.geometry import corner_in_cone, polygon_distance, ray_circle, ray_polygon
+from sim.world.kernels.floor import absorption_at, line_at
+from sim.world.kernels.geometry import polygon_distance, ray_circle, ray_polygon
 from sim.world.kernels.grids import circle_grid, first_at_least, walls_near
+from sim.world.kernels.pick import pick_polygon
 from sim.world.layout import GHOST, Curves, Floor, Noise, Rays, Readout, Sensing, Walls
 
 
@@ -34,9 +35,10 @@ FAN = np.tan(np.radians(np.array((40.0, 20.0, 0.0, -20.0, -40.0))))
 def sample_floor(pose: np.ndarray, sensors: np.ndarray, floor: Floor, out: np.ndarray) -> None:
     """CNY70 values (0..1023) of floor SENSORS (their mount, owner and height above the floor), as
     c't-Sim's `World.sensGroundReflectionCross`: a fan of rays across the heading (left first) and
-    one along it (back first) meet the floor at height * `FAN`; each fan's absorption is summed in
-    float32 and truncated to 0..1023, and the reading is the two fans' truncated mean. Height 0
-    reads the mount point alone."""
+    one along it (back first); a ray meets a line, whose top stands `floor.line_height` above the
+    floor, at (height - line_height) * `FAN` off the mount point, else the ground (without its
+    lines) at height * `FAN`; each fan's absorption is summed in float32 and truncated to 0..1023,
+    and the reading is the two fans' truncated mean. Height 0 reads the mount point alone."""
     out_absorption = np.float32(floor.outside_absorption)
     owner = sensors.owner
     points = np.empty((sensors.shape[0], 2))
@@ -44,12 +46,17 @@ def sample_floor(pose: np.ndarray, sensors: np.ndarray, floor: Floor, out: np.nd
     for k in range(points.shape[0]):
         c, s = math.cos(pose[owner[k], 2]), math.sin(pose[owner[k], 2])
         height = sensors[k].height
+        above_lines = max(height - floor.line_height, 0.0)
         total = 0
         for ux, uy in ((-s, c), (-c, -s)):
             swallowed = np.float32(0.0)
             for j in range(FAN.shape[0]):
-                r = height * FAN[j]
-                swallowed += absorption_at(points[k, 0] + r * ux, points[k, 1] + r * uy, floor, out_absorption)
+                r = above_lines * FAN[j]
+                value = line_at(points[k, 0] + r * ux, points[k, 1] + r * uy, floor)
+                if math.isnan(value):
+                    r = height * FAN[j]
+                    value = absorption_at(points[k, 0] + r * ux, points[k, 1] + r * uy, floor, out_absorption)
+                swallowed += value
             total += int(swallowed * np.float32(1023.0) / np.float32(FAN.shape[0]))
         out[k] = total // 2
 
@@ -83,8 +90,8 @@ def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: 
     bounding boxes, `Walls`) or a circle (CIRCLES; a sensor skips its own robot's, and every sensor
     a GHOST's) within the ray's cone (half-angle, rad) of its view and within `length`; inf if
     none. As `World.ray_distance`: per convex body the nearest point if it lies in the cone, else
-    the first hit of an edge ray. A ray whose `axis` is set sees a wall where its axis meets it or
-    at a corner inside the cone (c't-Sim's pick).
+    the first hit of an edge ray. A ray whose `pick` is set sees a wall as c't-Sim's Java3D cone
+    pick does (`pick.pick_polygon`).
 
     With more than `grid_above` circles, each sensor checks only the circles in the grid cells
     its cone's bounding box overlaps (a crowd would otherwise cost sensors x robots); the nearest
@@ -93,7 +100,7 @@ def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: 
     loop over every wall would meet them; only a wall whose box meets the cone's can give a
     distance within `length` (every nearest point and edge-ray hit that counts lies in the cone),
     so the others are skipped without changing a bit."""
-    origins, looks, cones, owner, axis = rays.origins, rays.look, rays.cone, rays.owner, rays.axis
+    origins, looks, cones, owner, picks = rays.origins, rays.look, rays.cone, rays.owner, rays.pick
     vertices, spans, boxes = walls.vertices, walls.spans, walls.boxes
     use_grid = circles.shape[0] > grid_above
     cell, x0, y0, cols, rows, order, sorted_key, widest = 1.0, 0.0, 0.0, 1, 1, np.empty(0, np.int64), np.empty(0, np.int64), 0.0
@@ -115,13 +122,13 @@ def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: 
             if box.xmin > hi_x or box.xmax < lo_x or box.ymin > hi_y or box.ymax < lo_y:
                 continue
             start, end = spans[w].start, spans[w].end
+            if picks[k]:
+                best = min(best, pick_polygon(ox, oy, cx, cy, length, math.tan(cone), vertices, start, end))
+                continue
             distance, qx, qy = polygon_distance(ox, oy, vertices, start, end)
             if distance <= 0.0:
                 best = 0.0
                 break
-            if axis[k]:
-                best = min(best, ray_polygon(ox, oy, cx, cy, vertices, start, end), corner_in_cone(ox, oy, cx, cy, cos_cone, vertices, start, end))
-                continue
             if (qx - ox) * cx + (qy - oy) * cy >= cos_cone * distance:
                 best = min(best, distance)
             best = min(best, ray_polygon(ox, oy, l1x, l1y, vertices, start, end), ray_polygon(ox, oy, l2x, l2y, vertices, start, end))
@@ -155,7 +162,7 @@ def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: 
                 if best < 0.0:
                     break
         best = max(best, 0.0)  # -1: inside a circle
-        out[k] = best if best <= length else math.inf
+        out[k] = best if best <= length or picks[k] else math.inf  # a pick's rim reaches past the axis's end
 
 
 @numba.njit(cache=True)
@@ -217,7 +224,7 @@ def read_ir(pose: np.ndarray, sensors: np.ndarray, walls: Walls, circles: np.nda
     ir_rays(pose, sensors, origins, look)
     for i in range(pose.shape[0]):
         circles[i].x, circles[i].y = pose[i, 0], pose[i, 1]
-    sense_ir(Rays(origins, look, sensors.opening, sensors.owner, sensors.axis), walls, circles, curves.length, distance, 32)
+    sense_ir(Rays(origins, look, sensors.opening, sensors.owner, sensors.pick), walls, circles, curves.length, distance, 32)
     ir_values(distance, sensors, noise, curves, raw, believed)
 
 

@@ -1,0 +1,132 @@
+"""What c't-Sim's IR sensors see of a wall: Java3D's cone pick (`PickConeSegment`) on its wall boxes.
+
+c't-Sim (`World.watchObstacle`) picks the closest geometry its obstacle group has in a cone of 3°
+half-angle along a segment of 0.85 m from the sensor. Its walls are Java3D `Box` primitives from
+the floor to 0.4 m up, each vertical face a strip of two triangles split by a diagonal, and
+Java3D tests a triangle against a cone segment this way (its `intersectCone`, read in
+hharrison/java3d-core, and measured against the real c't-Sim with its own `watchObstacle`):
+
+- if the cone's axis pierces the triangle, the triangle's key is the distance to the piercing
+  point, and that point its find;
+- otherwise the first of its edges, in vertex order, whose closest approach to the axis lies
+  within the cone's radius there gives the key (the distance along the axis to that approach)
+  and its find (the edge's point of that approach);
+- of a face's two triangles the smaller key wins, and the face reads the distance from the sensor
+  to that find; the pick reads the nearest face. (Java3D's source keys a piercing by its axis
+  parameter, 0..1; the real c't-Sim's readings fit the distance.)
+
+So a corner is seen within the full cone, a face where the axis meets it or, near the face's
+diagonal, at the diagonal's nearest point, and a sensor inside a wall sees the face it looks out
+through. The IR sensors sit at the bot's centre, 75 mm up. The vertex order of a face follows
+Java3D's Box: for a wall polygon's edge k (counter-clockwise from its lowest-left corner, as
+`sim.world.spec.box` gives it) an even edge's diagonal rises from its start to its end and its
+first triangle tests the start's vertical edge before the diagonal; an odd edge's diagonal falls
+(`FACES`). Not reproduced: Java3D's bounds tree, which skips a face some cones graze (a face whose
+plane the axis runs beside, within the cone but off the face: c't-Sim then sees nothing of it), and
+c't-Sim's lamp pillars and cans, 15-sided cylinders, are taken as polygons of this rule.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+WALL_BOTTOM, WALL_TOP = 0.0, 0.4
+"""m: c't-Sim's wall boxes stand on the floor and are 0.4 m tall (ParcoursLoader's 0.2 m half-height)."""
+SENSOR_HEIGHT = 0.075
+"""m: c't-Sim's IR sensors lie in the plane of the bot's centre, 75 mm over the floor."""
+TIE = 1e-12
+"""m: keys this close are equal, which happens where an axis meets a face square on beside its
+diagonal; the real c't-Sim then reads the diagonal on a face whose diagonal rises and the first
+triangle's find on one whose diagonal falls (measured: Java's roundings decide there)."""
+
+
+@numba.njit(cache=True)
+def _closest(ox, oy, oz, dx, dy, dz, px, py, pz, qx, qy, qz):
+    """Closest points of the segment o + s d (0 <= s <= 1) and the segment p-q: (squared
+    distance, distance from o along d to the first, the second's x, y, z)."""
+    ex, ey, ez = qx - px, qy - py, qz - pz
+    rx, ry, rz = ox - px, oy - py, oz - pz
+    a, c, b = dx * dx + dy * dy + dz * dz, ex * ex + ey * ey + ez * ez, dx * ex + dy * ey + dz * ez
+    f, g = dx * rx + dy * ry + dz * rz, ex * rx + ey * ry + ez * rz
+    den = a * c - b * b
+    s = min(max((b * g - f * c) / den, 0.0), 1.0) if den > 1e-15 * a * c else 0.0
+    t = (b * s + g) / c
+    if t < 0.0:
+        t, s = 0.0, min(max(-f / a, 0.0), 1.0)
+    elif t > 1.0:
+        t, s = 1.0, min(max((b - f) / a, 0.0), 1.0)
+    x, y, z = px + t * ex, py + t * ey, pz + t * ez
+    gx, gy, gz = ox + s * dx - x, oy + s * dy - y, oz + s * dz - z
+    return gx * gx + gy * gy + gz * gz, s * math.sqrt(a), x, y, z
+
+
+@numba.njit(cache=True)
+def _triangle(o: np.ndarray, d: np.ndarray, tan_spread: float, v: np.ndarray, edge_bonus: float) -> tuple[float, float, float, float]:
+    """Java3D's cone test of the triangle v (3, 3) against the segment o + s d: (key, point x, y,
+    z), key inf if missed; an edge's key less `edge_bonus`."""
+    ux, uy, uz = v[1, 0] - v[0, 0], v[1, 1] - v[0, 1], v[1, 2] - v[0, 2]
+    wx, wy, wz = v[2, 0] - v[0, 0], v[2, 1] - v[0, 1], v[2, 2] - v[0, 2]
+    nx, ny, nz = uy * wz - uz * wy, uz * wx - ux * wz, ux * wy - uy * wx
+    across = nx * d[0] + ny * d[1] + nz * d[2]
+    if across != 0.0:
+        s = (nx * (v[0, 0] - o[0]) + ny * (v[0, 1] - o[1]) + nz * (v[0, 2] - o[2])) / across
+        if 0.0 <= s <= 1.0:
+            hx, hy, hz = o[0] + s * d[0], o[1] + s * d[1], o[2] + s * d[2]
+            sides = 0
+            for k in range(3):
+                j = (k + 1) % 3
+                ex, ey, ez = v[j, 0] - v[k, 0], v[j, 1] - v[k, 1], v[j, 2] - v[k, 2]
+                px, py, pz = hx - v[k, 0], hy - v[k, 1], hz - v[k, 2]
+                turn = (ey * pz - ez * py) * nx + (ez * px - ex * pz) * ny + (ex * py - ey * px) * nz
+                sides |= 1 if turn > 0.0 else (2 if turn < 0.0 else 0)
+            if sides != 3:
+                return s * math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), hx, hy, hz
+    for k in range(3):
+        j = (k + 1) % 3
+        squared, along, x, y, z = _closest(o[0], o[1], o[2], d[0], d[1], d[2], v[k, 0], v[k, 1], v[k, 2], v[j, 0], v[j, 1], v[j, 2])
+        if squared <= (tan_spread * along) ** 2:
+            return along - edge_bonus, x, y, z
+    return math.inf, 0.0, 0.0, 0.0
+
+
+@numba.njit(cache=True)
+def pick_polygon(ox: float, oy: float, ux: float, uy: float, length: float, tan_spread: float, vertices: np.ndarray, start: int, end: int) -> float:
+    """Distance (m) c't-Sim's pick reads from a sensor at (ox, oy) looking along the unit (ux, uy)
+    to the wall polygon vertices[start:end] (see the module doc); inf if it sees none of it."""
+    o = np.array((ox, oy, SENSOR_HEIGHT))
+    d = np.array((length * ux, length * uy, 0.0))
+    best = math.inf
+    tri = np.empty((3, 3))
+    for k in range(start, end):
+        nxt = k + 1 if k + 1 < end else start
+        # the face's corners: 0 start bottom, 1 start top, 2 end bottom, 3 end top
+        corner = np.array((
+            (vertices[k, 0], vertices[k, 1], WALL_BOTTOM), (vertices[k, 0], vertices[k, 1], WALL_TOP),
+            (vertices[nxt, 0], vertices[nxt, 1], WALL_BOTTOM), (vertices[nxt, 0], vertices[nxt, 1], WALL_TOP),
+        ))  # fmt: skip
+        side = (k - start) % 4
+        rising = side % 2 == 0
+        order = FACES[side]
+        key, px, py, pz = math.inf, 0.0, 0.0, 0.0
+        for t in range(2):
+            for j in range(3):
+                tri[j] = corner[order[t, j]]
+            found, x, y, z = _triangle(o, d, tan_spread, tri, TIE if rising else 0.0)
+            if found < key - (0.0 if rising else TIE):
+                key, px, py, pz = found, x, y, z
+        if key < math.inf:
+            best = min(best, math.sqrt((px - ox) ** 2 + (py - oy) ** 2 + (pz - SENSOR_HEIGHT) ** 2))
+    return best
+
+
+FACES = np.array((
+    ((1, 0, 3), (0, 3, 2)),  # bottom (y = min): its diagonal rises from the edge's start to its end
+    ((0, 2, 1), (2, 1, 3)),  # right (x = max): falls
+    ((1, 0, 3), (0, 3, 2)),  # top: rises
+    ((3, 1, 2), (1, 2, 0)),  # left: falls
+))
+"""Java3D Box's faces as the two triangles of their strips, in its vertex order (corner indices as
+in `pick_polygon`), by the polygon edge's place counter-clockwise from the lowest-left corner."""
