@@ -132,7 +132,7 @@ class World:
             shape = pymunk.Poly(self.space.static_body, wall.vertices)
             shape.friction = 0.0
             self.space.add(shape)
-        self.walls_of = walls_of(spec)
+        self._walls = walls_of(spec)
         """The walls for the kernels."""
         self.movables: list[pymunk.Body] = []
         self._movable_shapes: list[pymunk.Circle] = []
@@ -261,7 +261,7 @@ class World:
     def _kernel_arguments(self) -> None:
         """The arrays the per-step kernels take besides the poses and the step's outputs, gathered
         once into tuples, and the kernels' compiled entry points for their types."""
-        st, walls, ir, floor = self._state, self.walls_of, self._state.ir, self.floor.kernel
+        st, walls, ir, floor = self._state, self._walls, self._state.ir, self.floor.kernel
         self._round_ir = self._round_bodies and len(ir.curve) > 0
         read = len(st.sensors) if self._round_ir else st.n_floor + st.n_light  # pymunk reads IR otherwise
         # quiet steps (`kernels.contacts.settle`, `kernels.motion.glide`) for one round robot and nothing else that
