@@ -30,7 +30,6 @@ from bots.readings import Readings
 from bots.spec import RobotSpec
 from sim.contest.paths import PathField
 from sim.contest.rules import TIE_M
-from sim.run.ending import Ending
 from sim.run.samples import RobotLog, RunResult
 from sim.world import World
 
@@ -110,14 +109,14 @@ class Judge:
         self.race: list[Side] = []
         self.verdict: Verdict | None = None
 
-    def stop_when(self, world: World, logs: list[RobotLog]) -> Ending | None:
+    def stop_when(self, world: World, logs: list[RobotLog]) -> str | None:
         for i, robot in enumerate(world.robots):
             if robot.fallen and self.fell[i] is None:
                 self.fell[i] = world.time
         if any(log.goal_time is not None for log in logs):
-            return Ending.GOAL
+            return "goal"
         if any(t is not None for t in self.fell):
-            return Ending.FALL
+            return "fall"
         return None
 
     def on_end(self, result: RunResult) -> None:

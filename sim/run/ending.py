@@ -26,8 +26,9 @@ class Ending(StrEnum):
     """Ctrl-C (SIGINT)."""
     TERMINATED = "terminated"
     """SIGTERM (a job scheduler, `timeout`)."""
-    FALL = "fall"
-    """A referee (`run`'s `stop_when`, a contest's judge) stopped the run: a robot fell into a hole."""
+    JUDGED = "judged"
+    """A referee (`run`'s `stop_when`, a contest's judge) ended the run; what it answered is the
+    result's `verdict` (the judge's 'goal' or 'fall')."""
 
     @property
     def signalled(self) -> bool:

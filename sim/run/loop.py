@@ -82,12 +82,12 @@ def run(
     until_goal: bool = False,
     observers: tuple = (),
     step_timeout: float | None = None,
-    stop_when: Callable[[World, list[RobotLog]], Ending | None] | None = None,
+    stop_when: Callable[[World, list[RobotLog]], str | None] | None = None,
 ) -> RunResult:
     """Simulate `robots` in `world_spec` for `duration` seconds (or until one reaches a goal).
     A controller step that takes longer than `step_timeout` seconds (wall clock; None: no limit)
     ends the run as a controller error (`StepClock`). `stop_when(world, logs)`, asked after every
-    sample (a referee), ends the run when it answers a reason (the result's `reason`)."""
+    sample (a referee), ends the run when it answers something: reason JUDGED, its answer the result's `verdict`."""
     steps = step_count(duration, dt)
     world = World(world_spec, dt=dt, seed=seed)
     placed = [world.add_robot(setup.spec, setup.start, setup.name) for setup in robots]
@@ -146,8 +146,8 @@ def run(
             if can_finish and not any(controller.status is Status.RUNNING for controller in controllers):
                 result.reason = Ending.DONE
                 break
-            if stop_when is not None and (reason := stop_when(world, logs)):
-                result.reason = Ending(reason)
+            if stop_when is not None and (verdict := stop_when(world, logs)):
+                result.reason, result.verdict = Ending.JUDGED, str(verdict)
                 break
             if step == steps:
                 break

@@ -208,12 +208,14 @@ class RobotLog:
 
 
 class RunResult:
-    """A finished (or stopped) run. `reason` is how it ended (an `Ending`: also what `run`'s
-    `stop_when` answered, a referee's call); `error` holds the one-line message of a failure."""
+    """A finished (or stopped) run. `reason` is how it ended (an `Ending`); `verdict` what `run`'s
+    referee (`stop_when`) answered when it ended the run (reason JUDGED), else None; `error` holds
+    the one-line message of a failure."""
 
     def __init__(self, world: WorldSpec, seed: int, dt: float, robots: list[RobotLog], samples: Samples):
         self.world, self.seed, self.dt, self.robots = world, seed, dt, robots
         self.reason: Ending = Ending.DURATION
+        self.verdict: str | None = None
         self.error: str | None = None
         self.notes: list[str] = []
         """What the run's guards put back that a controller had changed (`sim.guards`), once each."""
