@@ -73,7 +73,7 @@ def path_field(source: str, slot: int | None, clearance: float) -> PathField:
 def play(job: GameJob) -> dict[str, Any]:
     """Play `job` and return its outcome as plain data: per side `arrival`, `fell`, `failed`,
     `distance_left`, `end_time`; the `verdict` (`winner` 0/1, None alone; `reason`, `text`, `time`);
-    the run's `reason` and `error`; `digest`; `wall_time`. A game that cannot be played (a world that
+    the run's `reason` (the judge's call where it ended the run) and `error`; `digest`; `wall_time`. A game that cannot be played (a world that
     does not load, no free address for a firmware) returns `crash` with the reason instead; a
     Ctrl-C inside the run is raised again."""
     started = time.perf_counter()
@@ -111,7 +111,7 @@ def _play(job: GameJob) -> dict[str, Any]:
         result = run(world, setups, job.time_limit, dt=job.dt, seed=job.seed, observers=tuple(observers), step_timeout=STEP_TIMEOUT, stop_when=judge.stop_when)
     if result.reason.signalled:  # not decided: the game is played again on resuming
         raise (Terminated if result.reason is Ending.TERMINATED else KeyboardInterrupt)(result.error)
-    outcome: dict[str, Any] = {"sides": [asdict(side) for side in judge.race], "verdict": asdict(judge.verdict), "reason": result.reason,
+    outcome: dict[str, Any] = {"sides": [asdict(side) for side in judge.race], "verdict": asdict(judge.verdict), "reason": result.verdict or result.reason,
                                "error": result.error, "digest": digest(result)}  # fmt: skip
     if job.recording is not None:
         outcome["recording"] = str(Path(job.recording))
