@@ -197,7 +197,8 @@ def test_measure_kernel_agrees_with_the_reference_mouse():
     robots, state, tallies = layout.ROBOTS.new(n), layout.STATE.new(n), layout.TALLIES.new(n)
     robots["mount"], robots["counts_per_metre"], robots["max_step"] = mount, cpm, np.inf
     state["mouse_carry"] = carry
-    no_holes = layout.Floor(np.zeros((1, 1), np.float32), np.zeros((1, 1), dtype=bool), np.array((-10.0, -10.0)), 100.0, 0.0, False)
+    no_holes = layout.Floor(np.zeros((1, 1), np.float32), np.full((1, 1), np.nan, np.float32), np.zeros((1, 1), dtype=bool), np.array((-10.0, -10.0)), 100.0, 0.0,
+                            False, 0.0)
     motion.measure(before, after, robots, state, tallies, no_holes)
     counts, mouse_carry = tallies["counts"], state["mouse_carry"]
     displacement = mouse_displacement_from_increment(relative_increment(before, after), mount)
