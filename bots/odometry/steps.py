@@ -210,7 +210,7 @@ def encoder_step(p: np.ndarray, heading: float, cov: np.ndarray, left: float, ri
     (`work`: scratch, `workspace`)."""
     s_left, s_right = left * p[TICK_LEFT], right * p[TICK_RIGHT]
     s, alpha = 0.5 * (s_left + s_right), (s_right - s_left) / p[TRACK]
-    jac, noise = work[PROPAGATE_WORK, :2], work[PROPAGATE_WORK + 1, :2, :2]
+    jac, noise = work[PROPAGATE_WORK, :2, :], work[PROPAGATE_WORK + 1, :2, :2]
     var_left, var_right = wheel_variances(p, s_left, s_right)
     wheel_terms(s_left, s_right, alpha, p[TRACK], var_left, var_right, jac, noise)
     propagate(cov, heading, s, alpha, end_heading, jac, noise, work)
@@ -229,7 +229,7 @@ def mouse_step(p: np.ndarray, heading: float, cov: np.ndarray, forward: float, l
     """Mouse odometry: the increment of these counts; `cov` propagated from `heading` (`work`:
     scratch, `workspace`)."""
     s, alpha = mouse_arc(p, forward, lateral)
-    jac, noise = work[PROPAGATE_WORK, :2], work[PROPAGATE_WORK + 1, :2, :2]
+    jac, noise = work[PROPAGATE_WORK, :2, :], work[PROPAGATE_WORK + 1, :2, :2]
     mouse_terms(s, alpha, p[MOUNT_X], p[MOUNT_Y], mouse_variance(p, s, alpha), jac, noise)
     propagate(cov, heading, s, alpha, False, jac, noise, work)
     return s, alpha
@@ -254,11 +254,12 @@ def fused_step(
     vectors = work[PROPAGATE_WORK]  # rows: the increments and their corrections
     u_enc, u_mouse, corrected_enc, corrected_mouse, d, u = vectors[0, :2], vectors[1, :2], vectors[2, :2], vectors[3, :2], vectors[4, :2], vectors[5, :2]
     applied, correction, updated_enc, updated_mouse = vectors[6, :2], work[PROPAGATE_WORK + 1, 0], work[PROPAGATE_WORK + 1, 1, :2], work[PROPAGATE_WORK + 1, 2, :2]
-    j_enc, r_enc, q_enc, a_enc = work[5, :2], work[6, :2, :2], work[7, :2, :2], work[8, :2, :2]
-    j_mouse, r_mouse, q_mouse, a_mouse = work[9, :2], work[10, :2, :2], work[11, :2, :2], work[12, :2, :2]
-    h, noise_d, ph, gain, keep_cov = work[13, :2], work[14, :2, :2], work[15, :, :2], work[16, :, :2], work[17]
+    j_enc, r_enc, q_enc, a_enc = work[5, :2, :], work[6, :2, :2], work[7, :2, :2], work[8, :2, :2]
+    j_mouse, r_mouse, q_mouse, a_mouse = work[9, :2, :], work[10, :2, :2], work[11, :2, :2], work[12, :2, :2]
+    h, noise_d, ph, gain, keep_cov = work[13, :2, :], work[14, :2, :2], work[15, :, :2], work[16, :, :2], work[17, :, :]
     i_enc, i_mouse, weights, w_enc, w_mouse = work[18, :2, :2], work[19, :2, :2], work[20, :2, :2], work[21, :2, :2], work[22, :2, :2]
-    jac, noise, scratch = work[23, :2], work[24, :2, :2], work[25:]
+    jac, noise, scratch = work[23, :2, :], work[24, :2, :2], work[25:]
+    matrix = cov[:, :]  # (every matrix a view of one type, 'A': one compile of each helper, not one per layout)
     track = p[TRACK]
     s_left, s_right = left * p[TICK_LEFT], right * p[TICK_RIGHT]
     u_enc[0], u_enc[1] = 0.5 * (s_left + s_right), (s_right - s_left) / track
@@ -316,7 +317,7 @@ def fused_step(
         for j in range(ERRORS):
             h[r, j] = j_mouse[r, j] - j_enc[r, j]
     _add(a_enc, a_mouse, noise_d)
-    _mul(cov, h.T, ph)  # (ERRORS, 2)
+    _mul(matrix, h.T, ph)  # (ERRORS, 2)
     _mul(ph, _inverse(_add(_mul(h, ph, scratch[0, :2, :2]), noise_d, scratch[1, :2, :2]), scratch[2, :2, :2]), gain)
     _apply(gain, d, correction)
     _mul(gain, h, keep_cov)
@@ -324,7 +325,7 @@ def fused_step(
         for j in range(ERRORS):
             keep_cov[r, j] = (1.0 if r == j else 0.0) - keep_cov[r, j]
     # (Joseph's form: stays symmetric, positive)
-    _add(_mul(_mul(keep_cov, cov, scratch[0]), keep_cov.T, scratch[1]), _mul(_mul(gain, noise_d, scratch[2, :, :2]), gain.T, scratch[3]), cov)
+    _add(_mul(_mul(keep_cov, matrix, scratch[0, :, :]), keep_cov.T, scratch[1, :, :]), _mul(_mul(gain, noise_d, scratch[2, :, :2]), gain.T, scratch[3, :, :]), matrix)
     for r in range(3):
         pose[r] += correction[r]
     for r in range(3, ERRORS):
@@ -345,9 +346,9 @@ def fused_step(
     _apply(w_mouse, updated_mouse, scratch[0, 1, :2])
     for k in range(2):
         u[k] = scratch[0, 0, k] + scratch[0, 1, k]
-    _add(_mul(w_enc, j_enc, scratch[0, :2]), _mul(w_mouse, j_mouse, scratch[1, :2]), jac)
+    _add(_mul(w_enc, j_enc, scratch[0, :2, :]), _mul(w_mouse, j_mouse, scratch[1, :2, :]), jac)
     _weighed(w_enc, r_enc, w_mouse, r_mouse, noise, scratch)
-    _weighed(w_enc, q_enc, w_mouse, q_mouse, lag, scratch)
+    _weighed(w_enc, q_enc, w_mouse, q_mouse, lag[:, :], scratch)
     propagate(cov, pose[2], u[0], u[1], False, jac, noise, work)
     s, alpha = u[0], u[1]
     if sliding:  # what the mouse's rotation added before the slide was seen is taken back
