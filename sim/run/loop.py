@@ -10,7 +10,6 @@ naming it and the step, and everything up to that step is kept.
 from __future__ import annotations
 
 import math
-import traceback
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Protocol
@@ -19,7 +18,7 @@ import numpy as np
 
 from bots.chassis_commands import chassis_setpoints
 from bots.commands import BadCommand, motor_commands, wheel_speeds_for
-from bots.controller import Controller, ControllerStopped, Status, reset
+from bots.controller import Controller, ControllerStopped, Status, did, reset, where
 from bots.odometry.base import Estimator
 from bots.odometry.batch import DefaultOdometry, batched
 from bots.odometry.defaults import default_estimators
@@ -33,7 +32,7 @@ from sim.run.samples import RobotLog, RunResult, Samples
 from sim.world import World, compiling
 from sim.world.chassis_drive import FaultError
 from sim.world.localising import MapScan
-from sim.world.physics import sensor_rng
+from sim.world.physics import Robot, sensor_rng
 from sim.world.spec import Start, WheelFault, WorldSpec
 from sim.world.step import DEFAULT_DT, StepError, check_dt
 
@@ -102,22 +101,11 @@ def run(
     slot = {i: k for k, i in enumerate(members)}
     samples = Samples(world.sensor_rows(), len(members), steps + 1)
     logs, controllers, estimators = [], [], []
+    failed: str | None = None  # how a reset failed (the user's code raised or left): the run's error at its start
     for i, (setup, robot) in enumerate(zip(robots, placed)):
         # Python estimators: a batched robot's own beside the batch's, else all of the robot's
         chosen = list(setup.extra_estimators) if i in slot else [*(setup.estimators if setup.estimators is not None else default_estimators(setup.spec)), *setup.extra_estimators]
-        for estimator in chosen:
-            try:
-                if hasattr(estimator, "use_map"):  # a localiser: the robot's map of the world (never its pose) and a generator of its own
-                    estimator.use_map(MapScan(world_spec, setup.spec), sensor_rng(seed, i, f"estimator {name_of(estimator)}"))
-                estimator.reset(setup.spec, robot.pose)
-            except (Exception, SystemExit) as err:  # a user's estimator that cannot take this robot (or leaves): the user's
-                raise RunError(f"{robot.name}: estimator {name_of(estimator)!r} could not be reset: {type(err).__name__}: {err}{_last_frame(err)}") from None
-        try:
-            reset(setup.controller, setup.spec)
-        except ValueError as err:  # a controller that cannot drive this robot (too few sensors): the user's choice
-            raise RunError(f"{robot.name}: {err}") from None
-        except SystemExit as err:  # (the user's code leaving: its mistake, not a way out of ctsim)
-            raise RunError(f"{robot.name}: the controller's reset called sys.exit({err.code!r})") from None
+        failed = failed or _reset(setup, robot, chosen, world_spec, seed, i)
         names, uncertain = [estimator.name for estimator in chosen], [e.name for e in chosen if has_covariance(e)]
         if i in slot:  # the batch logs its rows, the robot's own estimators theirs
             log = RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params), odometry.names[slot[i]], samples, i, world, slot[i],
@@ -143,6 +131,8 @@ def run(
         clock.__enter__()
         guard = Guard().__enter__()
         _notify(observers, "on_start", world, logs)  # inside: Ctrl-C while a recorder opens still ends the run
+        if failed is not None:
+            raise _Stop(failed)
         samplers = [observer.on_sample for observer in observers if hasattr(observer, "on_sample")]
         drivers = [(i, robot.spec, log, controller) for i, (robot, log, controller) in enumerate(zip(world.robots, logs, controllers))]
         can_finish = all(hasattr(controller, "status") for controller in controllers)  # a behaviour says when it is done
@@ -212,6 +202,31 @@ class _Stop(Exception):
     pass
 
 
+def _reset(setup: RobotSetup, robot: Robot, chosen: list[Estimator], world_spec: WorldSpec, seed: int, index: int) -> str | None:
+    """Reset a robot's estimators (a localiser first handed its map and a generator of its own)
+    and its controller before the first step. One that raises a ValueError cannot take this
+    robot (a controller with too few sensors): the run is refused (RunError). Anything else it
+    raises, or sys.exit, is the user's code failing: the line that says so (the run's error at
+    its start, every file written), else None."""
+    for estimator in chosen:
+        what = f"estimator {name_of(estimator)!r} of {robot.name}"
+        try:
+            if hasattr(estimator, "use_map"):  # a localiser: the robot's map of the world (never its pose), a generator of its own
+                estimator.use_map(MapScan(world_spec, setup.spec), sensor_rng(seed, index, f"estimator {name_of(estimator)}"))
+            estimator.reset(setup.spec, robot.pose)
+        except ValueError as err:
+            raise RunError(f"{what} cannot take this robot: {err}{where(err)}") from None
+        except (Exception, SystemExit) as err:
+            return f"{what} {did(err)} in its reset at t = 0.00 s{where(err)}"
+    try:
+        reset(setup.controller, setup.spec)
+    except ValueError as err:  # a controller that cannot drive this robot (too few sensors): the user's choice
+        raise RunError(f"{robot.name}: {err}") from None
+    except (Exception, SystemExit) as err:
+        return f"controller {setup.controller_name!r} of {robot.name} {did(err)} in its reset at t = 0.00 s{where(err)}"
+    return None
+
+
 def _who(logs: list[RobotLog]) -> str:
     """The controller(s) of a run, for a line about what one of them did."""
     if len(logs) == 1:
@@ -228,7 +243,7 @@ def _failure(err: BaseException, log: RobotLog, step: int, time: float, step_tim
         return f"{log.name} ({log.controller_name}) stopped {when}: {err}"
     if isinstance(err, StepTimeout):
         return f"controller {log.controller_name!r} of {log.name} took longer than the step time limit of {step_timeout:g} s {when}"
-    return f"controller {log.controller_name!r} of {log.name} raised {type(err).__name__}: {err} {when}{_last_frame(err)}"
+    return f"controller {log.controller_name!r} of {log.name} {did(err)} {when}{where(err)}"
 
 
 def step_count(duration: float, dt: float) -> int:
@@ -279,11 +294,6 @@ def _drive_chassis(world: World, index: int, log: RobotLog, command, readings: R
     world.chassis.command(index, setpoint.phi_dot, setpoint.beta)
 
 
-def _last_frame(err: BaseException) -> str:
-    frames = traceback.extract_tb(err.__traceback__)
-    return f" ({frames[-1].filename}:{frames[-1].lineno})" if frames else ""
-
-
 def _update(estimator: Estimator, readings: Readings, log: RobotLog, step: int) -> tuple[np.ndarray, np.ndarray | None]:
     """Step an estimator and read its pose and covariance once (`outputs`), all of it a call
     under the step clock as a controller's step is (its time limit; a signal acted on at once);
@@ -301,7 +311,7 @@ def _update(estimator: Estimator, readings: Readings, log: RobotLog, step: int) 
     except StepTimeout:
         raise _Stop(f"estimator {name_of(estimator)!r} of {log.name} took longer than the step time limit of {clock.limit:g} s at step {step} (t = {readings.time:.2f} s)") from None
     except BaseException as err:  # the estimator's error (a user's code; sys.exit too)
-        raise _Stop(f"estimator {name_of(estimator)!r} of {log.name} raised {type(err).__name__}: {err} at step {step} (t = {readings.time:.2f} s){_last_frame(err)}") from None
+        raise _Stop(f"estimator {name_of(estimator)!r} of {log.name} {did(err)} at step {step} (t = {readings.time:.2f} s){where(err)}") from None
     finally:
         if clock is not None:
             clock.busy = 0
