@@ -1,6 +1,7 @@
 """User code that reaches for what ctsim keeps: controllers that make the recorded readings
 writeable again, estimators that hang, answer differently each time they are read or leave with
-sys.exit, controllers and estimators that fail or leave while being made or reset. Each ends as the user's error in one
+sys.exit, controllers and estimators that fail or leave while being made or reset, controllers that patch
+methods of ctsim's and numpy's classes. Each ends as the user's error in one
 line, and nothing it did reaches the recorded data."""
 
 from __future__ import annotations
@@ -72,6 +73,29 @@ class PatchesAClassMethod:
         if t > 0.05:
             from sim.world.physics import World
             World.step = lambda self, commands: 1 / 0
+        return Twist(0.1, 0.0)
+
+class PatchesWithABuiltin:
+    """No frame of this file runs when the run fails: only the Guard can tell."""
+    def step(self, t, readings):
+        if t > 0.05:
+            from sim.world.physics import World
+            World.poses = len
+        return Twist(0.1, 0.0)
+
+class PatchesOnReset:
+    def reset(self, robot):
+        from sim.world.physics import World
+        World.step = lambda self, commands: 1 / 0
+    def step(self, t, readings):
+        return Twist(0.1, 0.0)
+
+class PatchesQuietly:
+    """Changes what ctsim does not call in this run: the run goes on, and the change is undone."""
+    def step(self, t, readings):
+        from sim.run.samples import Samples
+        Samples.added = lambda self: 1
+        np.lib.NumpyVersion.__lt__ = lambda self, other: True
         return Twist(0.1, 0.0)
 
 class Hangs:
@@ -185,17 +209,29 @@ def test_sys_exit_in_an_estimator_ends_the_run_as_the_users_error_with_its_files
     assert summary["reason"] == "error" and "sys.exit(3)" in summary["error"] and (out / "truth.tum").is_file()
 
 
-def test_a_patched_class_method_is_the_controllers_error_not_ctsims(code, tmp_path, capsys):
+@pytest.mark.parametrize(("cls", "said"), [
+    ("PatchesAClassMethod", "replaced sim.world.physics.World.step, and the run failed with ZeroDivisionError"),
+    ("PatchesWithABuiltin", "replaced sim.world.physics.World.poses, and the run failed with TypeError"),
+    ("PatchesOnReset", "replaced sim.world.physics.World.step, and the run failed with ZeroDivisionError: division by zero at t = 0.00 s"),
+])  # fmt: skip
+def test_a_patched_class_method_is_the_controllers_error_and_is_put_back(cls, said, code, tmp_path, capsys):
     from sim.world.physics import World
 
-    step = World.step
-    try:
-        assert run("--controller", f"{code}:PatchesAClassMethod", "--out", str(tmp_path / "out")) == 1
-    finally:
-        World.step = step
+    methods = World.step, World.poses
+    assert run("--controller", f"{code}:{cls}", "--out", str(tmp_path / "out")) == 1
     err = capsys.readouterr().err
-    assert f"put its own code into ctsim's ({code}:" in err and "ZeroDivisionError" in err and "Traceback" not in err
+    assert f"controller '{code}:{cls}' of ctbot {said}" in err and "Traceback" not in err, err
     assert json.loads((tmp_path / "out" / "summary.json").read_text())["reason"] == "error"
+    assert (World.step, World.poses) == methods  # (the next run in this process has ctsim's own)
+
+
+def test_methods_a_controller_adds_or_replaces_where_the_run_does_not_call_them_are_put_back(code, tmp_path, capsys):
+    from sim.run.samples import Samples
+
+    before = np.lib.NumpyVersion.__lt__
+    assert run("--controller", f"{code}:PatchesQuietly", "--out", str(tmp_path / "out")) == 0
+    assert "the controller replaced numpy.lib.NumpyVersion.__lt__, sim.run.samples.Samples.added; ctsim put them back" in capsys.readouterr().err
+    assert np.lib.NumpyVersion.__lt__ is before and not hasattr(Samples, "added")
 
 
 @pytest.mark.skipif(not Path("/proc/self/statm").exists(), reason="the address-space check reads /proc (Linux)")
