@@ -25,12 +25,12 @@ from typing import Any
 
 import numpy as np
 
-from bots.controller import user_module
+from bots.controller import did, user_module, where
 from bots.odometry.base import Estimator
 from bots.odometry.defaults import default_estimators
 from bots.odometry.localiser import MonteCarloLocaliser
 from bots.spec import RobotSpec
-from sim.errors import UserError
+from sim.errors import UserCodeFailed, UserError
 
 NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]{0,39}")
 """What an estimator's name may be: it is part of file names (`<name>.tum`) and column names."""
@@ -67,14 +67,20 @@ def made(given: Any) -> Estimator:
     """A fresh estimator from a class, a factory, an estimator object (copied) or `FILE.py:NAME`."""
     if isinstance(given, str | Path):
         given = load(str(given))
+    label = getattr(given, "__name__", given)
     if hasattr(given, "update") and not inspect.isclass(given):
-        return copy.deepcopy(given)
+        try:
+            return copy.deepcopy(given)
+        except Exception as err:  # (a lock, a generator or an open file in it: copying it can raise anything)
+            raise EstimatorError(f"estimator {name_of(given)!r} cannot be copied for each robot ({type(err).__name__}: {err}); give its class instead") from None
     try:
         estimator = given()
-    except Exception as err:  # the user's constructor
-        raise EstimatorError(f"estimator {getattr(given, '__name__', given)!r} could not be made: {type(err).__name__}: {err}") from None
+    except (TypeError, ValueError) as err:  # a constructor that wants what it is not given
+        raise EstimatorError(f"estimator {label!r} could not be made: {type(err).__name__}: {err}") from None
+    except (Exception, SystemExit) as err:  # the user's code failing (or leaving): theirs, not a way out of ctsim
+        raise UserCodeFailed(f"estimator {label!r}: making it {did(err)}{where(err)}") from None
     if not (hasattr(estimator, "reset") and hasattr(estimator, "update")):
-        raise EstimatorError(f"{getattr(given, '__name__', given)!r} is not an estimator: it needs reset(robot, pose) and update(readings) methods")
+        raise EstimatorError(f"{label!r} is not an estimator: it needs reset(robot, pose) and update(readings) methods")
     return estimator
 
 

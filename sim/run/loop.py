@@ -10,8 +10,8 @@ naming it and the step, and everything up to that step is kept.
 from __future__ import annotations
 
 import math
-import traceback
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from typing import Protocol
 
@@ -19,7 +19,7 @@ import numpy as np
 
 from bots.chassis_commands import chassis_setpoints
 from bots.commands import BadCommand, motor_commands, wheel_speeds_for
-from bots.controller import Controller, ControllerStopped, Status, reset
+from bots.controller import Controller, ControllerStopped, Status, did, reset, where
 from bots.odometry.base import Estimator
 from bots.odometry.batch import DefaultOdometry, batched
 from bots.odometry.defaults import default_estimators
@@ -33,7 +33,7 @@ from sim.run.samples import RobotLog, RunResult, Samples
 from sim.world import World, compiling
 from sim.world.chassis_drive import FaultError
 from sim.world.localising import MapScan
-from sim.world.physics import sensor_rng
+from sim.world.physics import Robot, sensor_rng
 from sim.world.spec import Start, WheelFault, WorldSpec
 from sim.world.step import DEFAULT_DT, StepError, check_dt
 
@@ -101,48 +101,26 @@ def run(
     odometry = DefaultOdometry([robots[i].spec for i in members], np.array([placed[i].pose for i in members]).reshape(-1, 3), members, compiling.start) if members else None
     slot = {i: k for k, i in enumerate(members)}
     samples = Samples(world.sensor_rows(), len(members), steps + 1)
-    logs, controllers, estimators = [], [], []
-    for i, (setup, robot) in enumerate(zip(robots, placed)):
-        # Python estimators: a batched robot's own beside the batch's, else all of the robot's
-        chosen = list(setup.extra_estimators) if i in slot else [*(setup.estimators if setup.estimators is not None else default_estimators(setup.spec)), *setup.extra_estimators]
-        for estimator in chosen:
-            try:
-                if hasattr(estimator, "use_map"):  # a localiser: the robot's map of the world (never its pose) and a generator of its own
-                    estimator.use_map(MapScan(world_spec, setup.spec), sensor_rng(seed, i, f"estimator {name_of(estimator)}"))
-                estimator.reset(setup.spec, robot.pose)
-            except (Exception, SystemExit) as err:  # a user's estimator that cannot take this robot (or leaves): the user's
-                raise RunError(f"{robot.name}: estimator {name_of(estimator)!r} could not be reset: {type(err).__name__}: {err}{_last_frame(err)}") from None
-        try:
-            reset(setup.controller, setup.spec)
-        except ValueError as err:  # a controller that cannot drive this robot (too few sensors): the user's choice
-            raise RunError(f"{robot.name}: {err}") from None
-        except SystemExit as err:  # (the user's code leaving: its mistake, not a way out of ctsim)
-            raise RunError(f"{robot.name}: the controller's reset called sys.exit({err.code!r})") from None
-        names, uncertain = [estimator.name for estimator in chosen], [e.name for e in chosen if has_covariance(e)]
-        if i in slot:  # the batch logs its rows, the robot's own estimators theirs
-            log = RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params), odometry.names[slot[i]], samples, i, world, slot[i],
-                           extra=names, extra_uncertain=uncertain)  # fmt: skip
-        else:
-            log = RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params), names, samples, i, world, None, uncertain)
-        logs.append(log)
-        controllers.append(setup.controller)
-        log.estimators = list(chosen)
-        if i not in slot:  # (it logs its truth with its estimates, even with none)
-            estimators.append((i, log, chosen, None))
-        elif chosen:
-            estimators.append((i, log, chosen, log.append_extra))
-    try:
-        world.chassis.schedule_faults([*world_spec.faults, *(replace(f, robot=i) for i, setup in enumerate(robots) for f in setup.faults)])
-    except FaultError as err:
-        raise RunError(str(err)) from None
-    result = RunResult(world_spec, seed, dt, logs, samples)
-    commands = np.zeros((len(robots), 2))
     clock = StepClock(step_timeout)
     guard: Guard | None = None
-    try:
+    try:  # the resets are the run's first user code: timed and guarded as its steps are
         clock.__enter__()
         guard = Guard().__enter__()
+        logs, controllers, estimators, failed = _set_up(world, world_spec, robots, placed, samples, odometry, slot, seed, clock)
+        world.chassis.schedule_faults([*world_spec.faults, *(replace(f, robot=i) for i, setup in enumerate(robots) for f in setup.faults)])
+    except BaseException as err:
+        clock.__exit__()
+        if guard is not None:
+            guard.__exit__()
+        if isinstance(err, FaultError):
+            raise RunError(str(err)) from None
+        raise
+    result = RunResult(world_spec, seed, dt, logs, samples)
+    commands = np.zeros((len(robots), 2))
+    try:
         _notify(observers, "on_start", world, logs)  # inside: Ctrl-C while a recorder opens still ends the run
+        if failed is not None:
+            raise _Stop(failed)
         samplers = [observer.on_sample for observer in observers if hasattr(observer, "on_sample")]
         drivers = [(i, robot.spec, log, controller) for i, (robot, log, controller) in enumerate(zip(world.robots, logs, controllers))]
         can_finish = all(hasattr(controller, "status") for controller in controllers)  # a behaviour says when it is done
@@ -185,7 +163,7 @@ def run(
     except ControllerBrokeOut as broke:
         result.reason, result.error = Ending.ERROR, f"{_who(logs)} {broke} at step {step} (t = {world.time:.2f} s)"
     except Exception as err:  # ctsim's own code failing: a ctsim bug, unless a controller replaced what it calls
-        replaced = guard.replaced() if guard is not None else ""
+        replaced = guard.replaced()
         foreign = foreign_frame(err, user_code_folders([*controllers, *(e for _, _, chosen, _ in estimators for e in chosen)]))
         if not replaced and foreign is None:
             raise
@@ -198,9 +176,8 @@ def run(
         result.error = None if result.reason is Ending.QUIT else f"{result.reason} at t = {world.time:.2f} s"
     finally:
         clock.__exit__()
-        if guard is not None:
-            guard.__exit__()
-            result.notes = list(guard.notes.values())
+        guard.__exit__()
+        result.notes = list(guard.notes.values())
         for robot, log, controller in zip(world.robots, logs, controllers):
             log.collisions, log.fell = robot.collisions, robot.fallen
             log.status = controller.status.value if isinstance(getattr(controller, "status", None), Status) else None
@@ -210,6 +187,81 @@ def run(
 
 class _Stop(Exception):
     pass
+
+
+def _set_up(
+    world: World, world_spec: WorldSpec, robots: list[RobotSetup], placed: list[Robot], samples: Samples, odometry: DefaultOdometry | None,
+    slot: dict[int, int], seed: int, clock: StepClock,
+) -> tuple[list[RobotLog], list[Controller], list[tuple[int, RobotLog, list[Estimator], Callable | None]], str | None]:
+    """Every robot's log, controller and Python estimators (a batched robot's own beside the
+    batch's, else all of the robot's), reset (`_reset`); and how a reset failed, if one did (the
+    run's error at its start; the robots after it are not reset)."""
+    logs, controllers, estimators = [], [], []
+    failed: str | None = None
+    for i, (setup, robot) in enumerate(zip(robots, placed)):
+        chosen = list(setup.extra_estimators) if i in slot else [*(setup.estimators if setup.estimators is not None else default_estimators(setup.spec)), *setup.extra_estimators]
+        failed = failed or _reset(setup, robot, chosen, world_spec, seed, i, clock)
+        names, uncertain = [estimator.name for estimator in chosen], [e.name for e in chosen if has_covariance(e)]
+        if i in slot:  # the batch logs its rows, the robot's own estimators theirs
+            log = RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params), odometry.names[slot[i]], samples, i, world, slot[i],
+                           extra=names, extra_uncertain=uncertain)  # fmt: skip
+        else:
+            log = RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params), names, samples, i, world, None, uncertain)
+        logs.append(log)
+        controllers.append(setup.controller)
+        log.estimators = list(chosen)
+        if i not in slot:  # (it logs its truth with its estimates, even with none)
+            estimators.append((i, log, chosen, None))
+        elif chosen:
+            estimators.append((i, log, chosen, log.append_extra))
+    return logs, controllers, estimators, failed
+
+
+def _reset(setup: RobotSetup, robot: Robot, chosen: list[Estimator], world_spec: WorldSpec, seed: int, index: int, clock: StepClock) -> str | None:
+    """Reset a robot's estimators (a localiser first handed its map and a generator of its own)
+    and its controller, the user's under the step clock (`_timed`). One that raises a ValueError
+    cannot take this robot (a controller with too few sensors): the run is refused (RunError).
+    Anything else it raises, sys.exit or a step timeout, is the user's code failing: the line
+    that says so (the run's error at its start, every file written), else None."""
+    for estimator in chosen:
+        what = f"estimator {name_of(estimator)!r} of {robot.name}"
+        try:
+            with _timed(clock, estimator):
+                if hasattr(estimator, "use_map"):  # a localiser: the robot's map of the world (never its pose), a generator of its own
+                    estimator.use_map(MapScan(world_spec, setup.spec), sensor_rng(seed, index, f"estimator {name_of(estimator)}"))
+                estimator.reset(setup.spec, robot.pose)
+        except ValueError as err:
+            raise RunError(f"{what} cannot take this robot: {err}{where(err)}") from None
+        except (Exception, SystemExit, StepTimeout) as err:
+            return f"{what} {_ended(err, clock)} in its reset at t = 0.00 s{where(err)}"
+    try:
+        with _timed(clock, setup.controller):
+            reset(setup.controller, setup.spec)
+    except ValueError as err:  # a controller that cannot drive this robot (too few sensors): the user's choice
+        raise RunError(f"{robot.name}: {err}") from None
+    except (Exception, SystemExit, StepTimeout) as err:
+        return f"controller {setup.controller_name!r} of {robot.name} {_ended(err, clock)} in its reset at t = 0.00 s{where(err)}"
+    return None
+
+
+@contextmanager
+def _timed(clock: StepClock | None, code: object) -> Iterator[None]:
+    """A call of `code` under the step clock (its time limit; a signal acted on at once), unless
+    it is a shipped estimator's (of `bots.odometry`: its first call compiles its kernels) or no
+    clock runs."""
+    timed = clock is not None and not type(code).__module__.startswith("bots.odometry")
+    if timed:
+        clock.begin()
+    try:
+        yield
+    finally:
+        if timed:
+            clock.busy = 0
+
+
+def _ended(err: BaseException, clock: StepClock | None) -> str:
+    """What user code did that ended the run: overran the step time limit, left or raised."""
+    return f"took longer than the step time limit of {clock.limit:g} s" if isinstance(err, StepTimeout) else did(err)
 
 
 def _who(logs: list[RobotLog]) -> str:
@@ -228,7 +280,7 @@ def _failure(err: BaseException, log: RobotLog, step: int, time: float, step_tim
         return f"{log.name} ({log.controller_name}) stopped {when}: {err}"
     if isinstance(err, StepTimeout):
         return f"controller {log.controller_name!r} of {log.name} took longer than the step time limit of {step_timeout:g} s {when}"
-    return f"controller {log.controller_name!r} of {log.name} raised {type(err).__name__}: {err} {when}{_last_frame(err)}"
+    return f"controller {log.controller_name!r} of {log.name} {did(err)} {when}{where(err)}"
 
 
 def step_count(duration: float, dt: float) -> int:
@@ -279,32 +331,20 @@ def _drive_chassis(world: World, index: int, log: RobotLog, command, readings: R
     world.chassis.command(index, setpoint.phi_dot, setpoint.beta)
 
 
-def _last_frame(err: BaseException) -> str:
-    frames = traceback.extract_tb(err.__traceback__)
-    return f" ({frames[-1].filename}:{frames[-1].lineno})" if frames else ""
-
-
 def _update(estimator: Estimator, readings: Readings, log: RobotLog, step: int) -> tuple[np.ndarray, np.ndarray | None]:
     """Step an estimator and read its pose and covariance once (`outputs`), all of it a call
     under the step clock as a controller's step is (its time limit; a signal acted on at once);
     one that raises, overruns or leaves a bad pose or covariance ends the run (_Stop), as a
-    controller's error does. The pose and covariance (None without one) as read. The shipped
-    estimators (of `bots`) are not timed: their first update compiles their kernels."""
-    clock = StepClock.active if not type(estimator).__module__.startswith("bots.") else None
+    controller's error does. The pose and covariance (None without one) as read."""
+    clock = StepClock.active
     try:
-        if clock is not None:
-            clock.begin()
-        estimator.update(readings)
-        pose, covariance, problem = outputs(estimator)
+        with _timed(clock, estimator):
+            estimator.update(readings)
+            pose, covariance, problem = outputs(estimator)
     except KeyboardInterrupt:
         raise
-    except StepTimeout:
-        raise _Stop(f"estimator {name_of(estimator)!r} of {log.name} took longer than the step time limit of {clock.limit:g} s at step {step} (t = {readings.time:.2f} s)") from None
-    except BaseException as err:  # the estimator's error (a user's code; sys.exit too)
-        raise _Stop(f"estimator {name_of(estimator)!r} of {log.name} raised {type(err).__name__}: {err} at step {step} (t = {readings.time:.2f} s){_last_frame(err)}") from None
-    finally:
-        if clock is not None:
-            clock.busy = 0
+    except BaseException as err:  # the estimator's error (a user's code; sys.exit and a step timeout too)
+        raise _Stop(f"estimator {name_of(estimator)!r} of {log.name} {_ended(err, clock)} at step {step} (t = {readings.time:.2f} s){where(err)}") from None
     if problem is not None:
         raise _Stop(f"estimator {name_of(estimator)!r} of {log.name} failed at step {step} (t = {readings.time:.2f} s): {problem}")
     return pose, covariance
