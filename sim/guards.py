@@ -21,6 +21,7 @@ only when the run ends or fails.
 
 from __future__ import annotations
 
+import _signal
 import importlib
 import inspect
 import operator
@@ -119,7 +120,9 @@ class Guard:
 
     def __init__(self) -> None:
         self.main = threading.main_thread() is threading.current_thread()
-        self.handlers = {s: signal.getsignal(s) for s in _SIGNALS} if self.main else {}
+        # (the handlers as the C module gives them: signal.getsignal turns each into an enum member where it
+        # can, trying and failing with an exception for a function, most of a check's cost)
+        self.handlers = {s: _signal.getsignal(s) for s in _SIGNALS} if self.main else {}
         self.timer = signal.getitimer(signal.ITIMER_REAL) if self.main and hasattr(signal, "getitimer") else None
         self.streams = [sys.stdout, sys.stderr]
         self.descriptors = {fd: os.dup(fd) for fd in (1, 2) if _open(fd)}
@@ -180,7 +183,7 @@ class Guard:
             _REAL_EXIT(1)  # (the run and its files belong to the parent)
         if self.main:
             for number, handler in self.handlers.items():
-                if signal.getsignal(number) is not handler:
+                if _signal.getsignal(number) is not handler:
                     signal.signal(number, handler)
                     self.notes.setdefault(f"signal {number}", f"the controller changed the handler of {signal.Signals(number).name}; ctsim put its own back")
             blocked = signal.pthread_sigmask(signal.SIG_BLOCK, ()) if hasattr(signal, "pthread_sigmask") else ()
