@@ -25,6 +25,7 @@ from typing import Any
 import sim
 from sim.errors import UserError
 from sim.experiments.suite import SUITE_VERSION, Variant
+from sim.run.ending import Ending
 
 FORMAT = "ctsim-evaluation"
 FORMAT_VERSION = 1
@@ -118,7 +119,7 @@ def results_of(variant: Variant, entries: list[Submitted], rows: list[dict[str, 
     order = {(s.name, seed): k for k, (s, seed) in enumerate((s, seed) for s in variant.scenarios for seed in variant.seeds)}
     runs = []
     for row in sorted(rows, key=lambda r: order[(r["scenario"], int(r["seed"]))]):
-        failed = row["reason"] == "error"
+        failed = row["reason"] == Ending.ERROR
         run = {"scenario": row["scenario"], "seed": int(row["seed"]),
                "metrics": {} if failed else {n: {m: _number(row.get(f"{n}.{m}")) for m in METRICS} for n in names if row.get(f"{n}.ate_rmse") is not None}}  # fmt: skip
         if failed:
