@@ -161,3 +161,44 @@ def test_a_results_file_of_another_version_is_one_line_and_exit_2(scored, tmp_pa
     assert main(["evaluate", "--merge", str(out / RESULTS), str(other), "--out", str(tmp_path / "merged")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("ctsim: error:") and "other.json" in err[0]
+
+
+def test_ctrl_c_keeps_the_finished_runs_and_the_same_call_runs_only_the_rest(scored, tmp_path):
+    results, first = scored
+    folder = tmp_path / "stopped"
+
+    def stop(row: dict) -> None:
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        evaluate(SUITE, [EULER], folder, Serial(), progress=False, on_row=stop)
+    ran = []
+    evaluate(SUITE, [EULER], folder, Serial(), progress=False, on_row=ran.append)
+    assert len(ran) == len(results["runs"]) - 1
+    assert (folder / RESULTS).read_bytes() == (first / RESULTS).read_bytes()
+
+
+FAILS_LATER = """
+import numpy as np
+
+class Later:
+    def reset(self, robot, pose):
+        self.pose, self.steps = np.array(pose, dtype=float), 0
+
+    def update(self, readings):
+        self.steps += 1
+        if self.steps > 1000:
+            raise RuntimeError("lost my mind after ten seconds")
+"""
+
+
+def test_an_estimator_that_fails_mid_run_is_a_failed_run_ranked_last_and_exit_1(tmp_path, capsys):
+    path = tmp_path / "later.py"
+    path.write_text(textwrap.dedent(FAILS_LATER))
+    out = tmp_path / "out"
+    assert main(["evaluate", EULER, str(path), "--suite", "test", "--out", str(out), "--engine", "serial"]) == 1
+    results = read_results(out / RESULTS)
+    failed = {run["scenario"]: run.get("failed", {}) for run in results["runs"]}  # (the 4 s maze runs end before step 1000, the 20 s line runs do not)
+    assert not failed["maze_realistic_4s"] and "lost my mind" in failed["line_none_20s"]["Later"]
+    assert "2 of 4 runs failed" in capsys.readouterr().err
+    assert ranking(per_scenario(results))["estimator"].iloc[-1] == "Later"

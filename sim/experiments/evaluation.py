@@ -114,7 +114,7 @@ def _number(value: Any) -> float | None:
 def results_of(variant: Variant, entries: list[Submitted], rows: list[dict[str, Any]]) -> dict[str, Any]:
     """The results file's content from a suite's finished rows (`sim.experiments.sweep` rows):
     runs in the suite's order, each estimator's metrics, and for a run that failed its error
-    against the submitted estimators (the shipped ones do not fail)."""
+    against whoever failed it (`_blamed`)."""
     names = sorted({c.rpartition(".")[0] for row in rows for c in row if c.endswith(".ate_rmse")})
     order = {(s.name, seed): k for k, (s, seed) in enumerate((s, seed) for s in variant.scenarios for seed in variant.seeds)}
     runs = []
@@ -123,7 +123,7 @@ def results_of(variant: Variant, entries: list[Submitted], rows: list[dict[str, 
         run = {"scenario": row["scenario"], "seed": int(row["seed"]),
                "metrics": {} if failed else {n: {m: _number(row.get(f"{n}.{m}")) for m in METRICS} for n in names if row.get(f"{n}.ate_rmse") is not None}}  # fmt: skip
         if failed:
-            run["failed"] = {e.name: str(row["error"]) for e in entries} or {"run": str(row["error"])}
+            run["failed"] = _blamed(entries, str(row["error"]))
         runs.append(run)
     return {
         "format": FORMAT,
@@ -138,6 +138,13 @@ def results_of(variant: Variant, entries: list[Submitted], rows: list[dict[str, 
                                 "identity": e.identity} for e in entries},  # fmt: skip
         "runs": runs,
     }
+
+
+def _blamed(entries: list[Submitted], error: str) -> dict[str, str]:
+    """Who failed a run: the submitted estimator its error names (the run loop's `estimator 'NAME'`),
+    else every submitted one (the shipped ones do not fail), else the run itself."""
+    named = [e for e in entries if f"estimator {e.name!r}" in error]
+    return {e.name: error for e in named or entries} or {"run": error}
 
 
 def write_results(results: dict[str, Any], path: Path) -> Path:

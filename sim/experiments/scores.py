@@ -17,6 +17,7 @@ import numpy as np
 import pandas as pd
 
 from sim.analysis.nees import over_runs
+from sim.experiments.evaluation import METRICS
 
 SCALE = {"ate_rmse": ("ATE", "mm", 1e3), "rpe_translation": ("RPE", "mm", 1e3), "rpe_rotation": ("RPE rot", "°", 180.0 / math.pi),
          "final_position_error": ("final error", "mm", 1e3)}  # fmt: skip
@@ -35,7 +36,8 @@ def runs_frame(results: dict[str, Any]) -> pd.DataFrame:
             if values is not None or failed is not None:
                 rows.append({"scenario": run["scenario"], "seed": run["seed"], "estimator": name, "failed": failed,
                              **{k: (np.nan if v is None else v) for k, v in (values or {}).items()}})  # fmt: skip
-    return pd.DataFrame(rows)
+    columns = ["scenario", "seed", "estimator", "failed", *METRICS]
+    return pd.DataFrame(rows).reindex(columns=columns) if rows else pd.DataFrame(columns=columns)
 
 
 def results_estimators(results: dict[str, Any]) -> list[str]:
@@ -126,12 +128,12 @@ def nees_text(scores: pd.DataFrame) -> pd.DataFrame:
 def terminal(results: dict[str, Any]) -> str:
     """The ranking, the ATE per scenario and the NEES verdicts, as text under their headings."""
     scores = per_scenario(results)
-    runs = scores["nees.runs"].max()
-    low, high = (over_runs(np.full(int(runs), 3.0)).low, over_runs(np.full(int(runs), 3.0)).high) if runs else (np.nan, np.nan)
+    runs = int(scores["nees.runs"].max()) if len(scores) else 0
+    interval = f"{over_runs(np.full(runs, 3.0)).low:.2f}-{over_runs(np.full(runs, 3.0)).high:.2f} for {runs} runs" if runs else "no runs scored"
     parts = {
         f"Ranking on suite {results['suite']} v{results['suite_version']} ({len(results['scenarios'])} scenarios x {len(results['seeds'])} seeds), "
         "geometric means over the scenarios of the means over the seeds": ranking_text(ranking(scores)),
         "ATE (mm) per scenario, mean over the seeds": scenario_text(scores),
-        f"NEES at the runs' end, mean over the seeds (ok: in its 95 % interval, {low:.2f}-{high:.2f} for {int(runs)} runs; over: over-confident; under: too cautious)": nees_text(scores),
+        f"NEES at the runs' end, mean over the seeds (ok: in its 95 % interval, {interval}; over: over-confident; under: too cautious)": nees_text(scores),
     }
     return "\n\n".join(f"{heading}:\n{part.to_string(index=False)}" for heading, part in parts.items())

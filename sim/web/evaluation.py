@@ -105,7 +105,8 @@ def nees_figure(scores: Any) -> bytes:
     ax.set_xticks(np.arange(len(scenarios)), scenarios, rotation=20, ha="right", fontsize=8)
     ax.set_ylabel("mean NEES at the runs' end")
     ax.set_title("NEES over the seeds; grey: its 95 % interval for a consistent estimator (3 dashed)", fontsize=10)
-    ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, title="estimator", title_fontsize=8)
+    if names:
+        ax.legend(loc="upper left", bbox_to_anchor=(1.01, 1.0), fontsize=8, title="estimator", title_fontsize=8)
     return _png(fig)
 
 
@@ -119,10 +120,11 @@ def ranking_figure(table: Any) -> bytes:
     for where, value in zip(y, values):
         ax.text(value, where, f" {value:.3g} mm", va="center", fontsize=8)
     ax.set_yticks(y, [f"{r}. {n}" for r, n in zip(table["rank"], names)], fontsize=9)
-    ax.set_xscale("log")
-    _plain_log(ax.xaxis)
     ax.set_xlabel("geometric mean over the scenarios of the mean ATE (mm), log scale")
-    ax.set_xlim(right=float(np.nanmax(values)) * 3 if np.isfinite(values).any() else None)
+    if np.isfinite(values).any():  # (else every run failed: no bars to scale)
+        ax.set_xscale("log")
+        _plain_log(ax.xaxis)
+        ax.set_xlim(right=float(np.nanmax(values)) * 3)
     return _png(fig)
 
 
