@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import textwrap
 from pathlib import Path
 
 from sim import sanitize
@@ -17,12 +18,12 @@ def add_parser(commands) -> None:  # noqa: ANN001 (argparse's subparsers action)
     evaluate = commands.add_parser(
         "evaluate",
         help="score odometry estimators on the fixed evaluation suite beside the shipped ones (ATE, RPE, final error, NEES), ranked",
-        description=f"Run the evaluation suite (version {SUITE_VERSION}; docs/odometry.md, 'Evaluation') with your estimators (FILE.py[:CLASS], "
+        description=textwrap.fill(f"Run the evaluation suite (version {SUITE_VERSION}; docs/odometry.md, 'Evaluation') with your estimators (FILE.py[:CLASS], "
         "as `ctsim run --estimator`) beside the shipped ones, on local processes (default, all cores) or Dask, and rank them. "
         "Writes results.json (every run's metrics, the suite's version and scenario hashes: to check, share and merge), "
         "scores.csv, ranking.csv and report.html into DIR; a finished run is kept as it ends, so Ctrl-C and the same command again resume. "
-        "`ctsim evaluate --merge A.json B.json ...` joins results files of the same suite into one table. Suites: "
-        + "; ".join(f"{name}: {v.about}" for name, v in VARIANTS.items()),
+        "`ctsim evaluate --merge A.json B.json ...` joins results files of the same suite into one table.", 100)
+        + "\n\nsuites:\n" + "\n".join(f"  {name:6} {v.about}" for name, v in VARIANTS.items()),
     )
     evaluate.add_argument("estimators", nargs="*", metavar="FILE.py[:CLASS]", help="your estimators (none: the shipped ones alone)")
     evaluate.add_argument("--suite", choices=tuple(VARIANTS), default="short", help="which variant of the suite (default: short)")
