@@ -124,8 +124,9 @@ def run(
         samplers = [observer.on_sample for observer in observers if hasattr(observer, "on_sample")]
         drivers = [(i, robot.spec, log, controller) for i, (robot, log, controller) in enumerate(zip(world.robots, logs, controllers))]
         can_finish = all(hasattr(controller, "status") for controller in controllers)  # a behaviour says when it is done
+        awaited = [(log, robot.slot, k) for k, (log, robot) in enumerate(zip(logs, world.robots))] if world_spec.goals else []
         for step in range(steps + 1):
-            frame = _sample(world, samples, logs, estimators, odometry)
+            frame = _sample(world, samples, logs, estimators, odometry, awaited)
             for on_sample in samplers:
                 on_sample(world, logs)
             if until_goal and any(log.goal_time is not None for log in logs):
@@ -164,7 +165,7 @@ def run(
         result.reason, result.error = Ending.ERROR, f"{_who(logs)} {broke} at step {step} (t = {world.time:.2f} s)"
     except Exception as err:  # ctsim's own code failing: a ctsim bug, unless a controller replaced what it calls
         replaced = guard.replaced()
-        foreign = foreign_frame(err, user_code_folders([*controllers, *(e for _, _, chosen, _ in estimators for e in chosen)]))
+        foreign = foreign_frame(err, user_code_folders([*controllers, *(e for _, _, checked, _ in estimators for e, _, _ in checked)]))
         if not replaced and foreign is None:
             raise
         result.reason = Ending.ERROR
@@ -189,10 +190,16 @@ class _Stop(Exception):
     pass
 
 
+_Estimators = tuple[int, RobotLog, list[tuple[Estimator, bool, bool]], Callable | None]
+"""A robot's Python estimators in a run: its index, its log, each estimator with whether it has a
+covariance and whether it is timed (`_is_timed`), and how the log takes a sample of them beside
+the batch's (None: `RobotLog.append`, the robot's own rows)."""
+
+
 def _set_up(
     world: World, world_spec: WorldSpec, robots: list[RobotSetup], placed: list[Robot], samples: Samples, odometry: DefaultOdometry | None,
     slot: dict[int, int], seed: int, clock: StepClock,
-) -> tuple[list[RobotLog], list[Controller], list[tuple[int, RobotLog, list[Estimator], Callable | None]], str | None]:
+) -> tuple[list[RobotLog], list[Controller], list[_Estimators], str | None]:
     """Every robot's log, controller and Python estimators (a batched robot's own beside the
     batch's, else all of the robot's), reset (`_reset`); and how a reset failed, if one did (the
     run's error at its start; the robots after it are not reset)."""
@@ -210,10 +217,12 @@ def _set_up(
         logs.append(log)
         controllers.append(setup.controller)
         log.estimators = list(chosen)
+        # each estimator with what its steps ask of it every time: whether it has a covariance, whether it is timed
+        checked = [(e, has_covariance(e), _is_timed(clock, e)) for e in chosen]
         if i not in slot:  # (it logs its truth with its estimates, even with none)
-            estimators.append((i, log, chosen, None))
+            estimators.append((i, log, checked, None))
         elif chosen:
-            estimators.append((i, log, chosen, log.append_extra))
+            estimators.append((i, log, checked, log.append_extra))
     return logs, controllers, estimators, failed
 
 
@@ -249,7 +258,7 @@ def _timed(clock: StepClock | None, code: object) -> Iterator[None]:
     """A call of `code` under the step clock (its time limit; a signal acted on at once), unless
     it is a shipped estimator's (of `bots.odometry`: its first call compiles its kernels) or no
     clock runs."""
-    timed = clock is not None and not type(code).__module__.startswith("bots.odometry")
+    timed = _is_timed(clock, code)
     if timed:
         clock.begin()
     try:
@@ -257,6 +266,11 @@ def _timed(clock: StepClock | None, code: object) -> Iterator[None]:
     finally:
         if timed:
             clock.busy = 0
+
+
+def _is_timed(clock: StepClock | None, code: object) -> bool:
+    """Whether calls of `code` run under the step clock (`_timed`)."""
+    return clock is not None and not type(code).__module__.startswith("bots.odometry")
 
 
 def _ended(err: BaseException, clock: StepClock | None) -> str:
@@ -331,65 +345,79 @@ def _drive_chassis(world: World, index: int, log: RobotLog, command, readings: R
     world.chassis.command(index, setpoint.phi_dot, setpoint.beta)
 
 
-def _update(estimator: Estimator, readings: Readings, log: RobotLog, step: int) -> tuple[np.ndarray, np.ndarray | None]:
-    """Step an estimator and read its pose and covariance once (`outputs`), all of it a call
-    under the step clock as a controller's step is (its time limit; a signal acted on at once);
-    one that raises, overruns or leaves a bad pose or covariance ends the run (_Stop), as a
-    controller's error does. The pose and covariance (None without one) as read."""
+def _update(estimator: Estimator, uncertain: bool, timed: bool, readings: Readings, log: RobotLog, step: int) -> tuple[np.ndarray, np.ndarray | None]:
+    """Step an estimator and read its pose and covariance once (`outputs`; `uncertain`: it has
+    one), all of it a call under the step clock as a controller's step is where `timed` (its time
+    limit; a signal acted on at once: `_timed`, inline here, as it runs every step); one that
+    raises, overruns or leaves a bad pose or covariance ends the run (_Stop), as a controller's
+    error does. The pose and covariance (None without one) as read."""
     clock = StepClock.active
+    timed = timed and clock is not None
     try:
-        with _timed(clock, estimator):
-            estimator.update(readings)
-            pose, covariance, problem = outputs(estimator)
+        if timed:
+            clock.begin()
+        estimator.update(readings)
+        pose, covariance, problem = outputs(estimator, uncertain)
     except KeyboardInterrupt:
         raise
     except BaseException as err:  # the estimator's error (a user's code; sys.exit and a step timeout too)
         raise _Stop(f"estimator {name_of(estimator)!r} of {log.name} {_ended(err, clock)} at step {step} (t = {readings.time:.2f} s){where(err)}") from None
+    finally:
+        if timed:
+            clock.busy = 0
     if problem is not None:
         raise _Stop(f"estimator {name_of(estimator)!r} of {log.name} failed at step {step} (t = {readings.time:.2f} s): {problem}")
     return pose, covariance
 
 
-READINGS = ("tallies", "ir_raw", "ir_distance", "floor", "light")
-"""The arrays of a step's SensorFrame, handed to controllers and estimators as `frozen` copies."""
-
-
 def frozen(array: np.ndarray) -> np.ndarray:
     """A copy of `array` over immutable bytes: no flag, view or `.base` of it can be made
     writeable (numpy refuses), and none reaches the run's recorded rows it was copied from."""
-    return np.frombuffer(array.tobytes(), dtype=array.dtype).reshape(array.shape)
+    copy = np.frombuffer(array.tobytes(), dtype=array.dtype)
+    return copy if array.ndim == 1 else copy.reshape(array.shape)
 
 
 def _sample(
-    world: World, samples: Samples, logs: list[RobotLog], estimators: list[tuple[int, RobotLog, list[Estimator], Callable | None]],
-    odometry: DefaultOdometry | None,
+    world: World, samples: Samples, logs: list[RobotLog], estimators: list[_Estimators],
+    odometry: DefaultOdometry | None, awaited: list[tuple[RobotLog, int | None, int]],
 ) -> SensorFrame:
     """Read every robot's sensors at the current state into the run's next sample row and log
     truth and estimates: the default odometry of all batched robots updates and logs them in one
     pass; Python estimators (a robot's own, or all of a robot outside the batch) update theirs
-    here. Then note who reached a goal."""
+    here. Then note who of `awaited` (log, start slot, index: the robots yet to reach a goal)
+    reached one, and take them out of it."""
     n = samples.count
     time = world.time
-    frame = samples.frame = world.read_all((samples.values[n], samples.believed[n], samples.tallies[n]))
-    for name in READINGS:  # (the recorded rows themselves never reach a controller)
-        setattr(frame, name, frozen(getattr(frame, name)))
+    rows = samples.values[n], samples.believed[n], samples.tallies[n]
+    frame = samples.frame = world.read_all(rows)
+    # the frame's arrays as frozen copies (the recorded rows themselves never reach a controller):
+    # one of each row, the floor, light and raw IR values slices of the first
+    values, floors, lights = frozen(rows[0]), len(frame.floor), len(frame.floor) + len(frame.light)
+    frame.floor, frame.light, frame.ir_raw = values[:floors], values[floors:lights], values[lights:]
+    frame.ir_distance, frame.tallies = frozen(rows[1]), frozen(rows[2])
     samples.time[n] = time
     poses = world.poses()
     if odometry is not None:
-        odometry.update_into(frame.tallies, time, poses, samples.poses[n], samples.covariances[n])
-    for i, log, chosen, beside_batch in estimators:
+        odometry.update_into(rows[2], time, poses, samples.poses[n], samples.covariances[n])
+    for i, log, checked, beside_batch in estimators:
         readings = frame[i]
-        read = [_update(estimator, readings, log, n) for estimator in chosen]
-        poses_read, covariances = [pose for pose, _ in read], [covariance for _, covariance in read if covariance is not None]
+        poses_read, covariances = [], []
+        for estimator, uncertain, timed in checked:
+            pose, covariance = _update(estimator, uncertain, timed, readings, log, n)
+            poses_read.append(pose)
+            if covariance is not None:
+                covariances.append(covariance)
         if beside_batch is None:
             log.append(poses[i], poses_read, covariances)
         else:
             beside_batch(poses_read, covariances)
     samples.count = n + 1
     samples.columns.release_written(n + 1)
-    goals = world.spec.goals
-    if goals:
-        for (x, y), log, robot in zip(poses[:, :2].tolist(), logs, world.robots):
-            if log.goal_time is None and world.spec.in_goal(x, y, robot.slot):
+    if awaited:
+        in_goal = world.spec.in_goal
+        for entry in list(awaited):
+            log, slot, k = entry
+            if in_goal(float(poses[k, 0]), float(poses[k, 1]), slot):
                 log.goal_time = time
+                awaited.remove(entry)
     return frame
