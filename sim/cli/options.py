@@ -166,10 +166,11 @@ def load_robot_spec(args: argparse.Namespace):
     return robot(args.robot, {key: parse_value(value) for key, value in args.robot_set}, args.noise)
 
 
-def robot_setups(args: argparse.Namespace, spec, room: int) -> list:
+def robot_setups(args: argparse.Namespace, spec, room: int, make: Callable[[str, dict[str, str]], Any] | None = None) -> list:
     """One RobotSetup per robot from --controller/--robots/--param; the world has start slots for
-    `room` robots (one slot each)."""
-    from bots.behaviours import make
+    `room` robots (one slot each). `make(name, params)`: the controller (default: made here)."""
+    if make is None:
+        from bots.behaviours import make
     from sim.run.loop import RobotSetup
 
     names = args.controller or [DEFAULT_CONTROLLER]
