@@ -42,8 +42,9 @@ class Controller(Protocol):
 
 
 class ControllerStopped(RuntimeError):
-    """Raised by a controller that cannot go on for a reason outside its own code (a firmware
-    peer that hung or vanished): the run ends with this message, naming the robot and step."""
+    """Raised by a controller (or estimator) that cannot go on for a reason outside its own code
+    in this process (a firmware peer that hung or vanished, code in a process of its own that
+    failed): the run ends with this message, naming the robot and step."""
 
 
 class ControllerError(UserError):
@@ -169,12 +170,15 @@ def did(err: BaseException) -> str:
     """What user code did that ended it, for a line: 'called sys.exit(3)' or 'raised T: message'."""
     if isinstance(err, SystemExit):
         return f"called sys.exit({err.code!r})"
+    if isinstance(err, ControllerStopped):
+        return f"stopped: {err}"
     return f"raised {type(err).__name__}: {err}"
 
 
 def where(err: BaseException) -> str:
-    """' (file:line)' of the innermost frame `err` was raised in ('' with no traceback)."""
-    frames = traceback.extract_tb(err.__traceback__)
+    """' (file:line)' of the innermost frame `err` was raised in ('' with no traceback, or for
+    ControllerStopped, whose message says where)."""
+    frames = traceback.extract_tb(err.__traceback__) if not isinstance(err, ControllerStopped) else ()
     return f" ({frames[-1].filename}:{frames[-1].lineno})" if frames else ""
 
 

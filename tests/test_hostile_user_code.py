@@ -53,6 +53,12 @@ class FailsOnReset:
     def step(self, t, readings):
         return Twist(0.0, 0.0)
 
+class HangsOnReset:
+    def reset(self, robot):
+        time.sleep(1000)
+    def step(self, t, readings):
+        return Twist(0.0, 0.0)
+
 class EstimatorLeavesWhenMade:
     def __init__(self):
         sys.exit(5)
@@ -174,6 +180,7 @@ def test_user_code_that_leaves_while_it_is_made_fails_in_one_line_before_the_fol
     (("--controller", "{code}:LeavesOnReset"), "controller '{code}:LeavesOnReset' of ctbot called sys.exit(4) in its reset at t = 0.00 s ({code}:"),
     (("--controller", "{code}:FailsOnReset"), "of ctbot raised RuntimeError: no wheels today in its reset at t = 0.00 s ({code}:"),
     (("--controller", "idle", "--estimator", "{code}:EstimatorLeavesOnReset"), "estimator 'leaves_on_reset' of ctbot called sys.exit(6) in its reset"),
+    (("--controller", "{code}:HangsOnReset", "--step-timeout", "0.4"), "of ctbot took longer than the step time limit of 0.4 s in its reset"),
 ])  # fmt: skip
 def test_user_code_that_fails_in_its_reset_ends_the_run_as_its_error_with_every_file(argv, said, code, tmp_path, capsys):
     """The run had started (its folder and a summary saying 'running'): it ends at t = 0 as the
