@@ -10,6 +10,7 @@ from pathlib import Path
 from typing import Any
 
 from sim import sanitize
+from sim.analysis.run_folder import RunFolder
 from sim.analysis.summary import SUMMARY_ROOM, unstarted, write_json
 from sim.cli.observers import Progress, StopOnSignal
 from sim.cli.options import EXIT_INTERRUPTED, EXIT_TERMINATED, UsageError, add_robot_options, add_web_options, load_robot_spec, param, positive, robot_options, robot_setups, whole
@@ -108,10 +109,10 @@ def _run(args: argparse.Namespace, place, setups: list) -> int:  # noqa: ANN001 
                  "duration": f"{args.duration:g} s" + (" or until a goal" if until_goal else "")}
         options = {"duration": args.duration, "until_goal": until_goal, **robot_options(args)}
         keep_pandas_out_of_arrow()
-        write_json(out / "summary.json", unstarted(place, args.seed, args.dt, options, "running", "the run has not ended"), reserve=SUMMARY_ROOM + 2048 * len(setups))
+        write_json(RunFolder(out).summary, unstarted(place, args.seed, args.dt, options, "running", "the run has not ended"), reserve=SUMMARY_ROOM + 2048 * len(setups))
         if web:
             print(f"ctsim: the run streams into {web.url}", file=sys.stderr, flush=True)
-        recorder = Recorder(out / "run.rrd", live=args.live, connect=web.grpc_url if web else args.connect, facts=facts)
+        recorder = Recorder(RunFolder(out).recording, live=args.live, connect=web.grpc_url if web else args.connect, facts=facts)
         with StopOnSignal() as stop:
             try:
                 result = simulate(place, *setups, duration=args.duration, dt=args.dt, seed=args.seed, until_goal=until_goal,
@@ -119,7 +120,7 @@ def _run(args: argparse.Namespace, place, setups: list) -> int:  # noqa: ANN001 
             except KeyboardInterrupt as signalled:  # before the run started: nothing simulated, said so in the summary
                 return _stopped_before_start(out, place, args, options, signalled)
             except RunError:  # refused before it started (no room for its trajectories): no run, no summary
-                (out / "summary.json").unlink(missing_ok=True)
+                RunFolder(out).summary.unlink(missing_ok=True)
                 raise
             status = finish(result.raw, out, options, report=not args.no_report, export_rate=args.export_rate, metrics={robot.name: robot.metrics for robot in result.robots},
                             stop=stop, recording_error=recorder.write_error)
@@ -147,6 +148,7 @@ def _web_viewer(args: argparse.Namespace):
 def _stopped_before_start(out: Path, place, args: argparse.Namespace, options: dict[str, Any], signalled: KeyboardInterrupt) -> int:
     """The summary of a run that a signal stopped before its first step."""
     reason = Ending.TERMINATED if isinstance(signalled, Terminated) else Ending.INTERRUPTED
-    write_json(out / "summary.json", unstarted(place, args.seed, args.dt, options, reason, f"{reason} before the first step"))
-    print(f"ctsim: {reason} before the first step; wrote {sanitize.name(str(out / 'summary.json'), 1000)}", file=sys.stderr)
+    summary = RunFolder(out).summary
+    write_json(summary, unstarted(place, args.seed, args.dt, options, reason, f"{reason} before the first step"))
+    print(f"ctsim: {reason} before the first step; wrote {sanitize.name(str(summary), 1000)}", file=sys.stderr)
     return EXIT_TERMINATED if reason is Ending.TERMINATED else EXIT_INTERRUPTED

@@ -20,6 +20,7 @@ from typing import Any
 
 import pandas as pd
 
+from sim.analysis.run_folder import RunFolder
 from sim.errors import UserError
 from sim.experiments import store
 from sim.experiments.api import Bot, Result, simulate
@@ -75,7 +76,7 @@ def execute(job: Job) -> dict[str, Any]:
         folder = Path(job.folder) if job.folder else None
         if folder is not None:
             folder.mkdir(parents=True, exist_ok=True)
-        record = folder / "run.rrd" if folder is not None and "recording" in job.keep else None
+        record = RunFolder(folder).recording if folder is not None and "recording" in job.keep else None
         result = simulate(s["world"], bot(s), duration=s["duration"], dt=s["dt"], seed=s["seed"], until_goal=s["until_goal"], record=record,
                           estimators=job.estimators)
         if result.reason.signalled:  # a run cut short is no result: not kept, so a resumed sweep runs it again

@@ -12,13 +12,12 @@ from typing import Any
 
 import numpy as np
 
+from sim.analysis.run_folder import REPORT  # (the page of every folder ctsim writes: a run's, a sweep's, an evaluation's)
 from sim.experiments.scores import SCALE, nees_text, per_scenario, ranking, ranking_text, results_estimators, runs_frame, scenario_text
 from sim.experiments.scores import scenarios as suite_order
 from sim.out_files import replacing, write_text
 from sim.views import palette
 from sim.views.html import facts_table, frame_table, image, page
-
-REPORT = "report.html"
 
 
 def write_tables(results: dict[str, Any], out: Path) -> list[Path]:
