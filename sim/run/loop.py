@@ -125,7 +125,7 @@ def run(
             raise _Stop(failed)
         samplers = [observer.on_sample for observer in observers if hasattr(observer, "on_sample")]
         drivers = [(i, robot.spec, log, controller) for i, (robot, log, controller) in enumerate(zip(world.robots, logs, controllers))]
-        can_finish = all(hasattr(controller, "status") for controller in controllers)  # a behaviour says when it is done
+        can_finish = all(isinstance(getattr(controller, "status", None), Status) for controller in controllers)  # a behaviour says when it is done
         awaited = [(log, robot.slot, k) for k, (log, robot) in enumerate(zip(logs, world.robots))] if world_spec.goals else []
         for step in range(steps + 1):
             frame = _sample(world, samples, logs, estimators, odometry, awaited)
@@ -210,7 +210,7 @@ def _set_up(
     for i, (setup, robot) in enumerate(zip(robots, placed)):
         chosen = list(setup.extra_estimators) if i in slot else [*(setup.estimators if setup.estimators is not None else default_estimators(setup.spec)), *setup.extra_estimators]
         failed = failed or _reset(setup, robot, chosen, world_spec, seed, i, clock)
-        names, uncertain = [estimator.name for estimator in chosen], [e.name for e in chosen if has_covariance(e)]
+        names, uncertain = [name_of(estimator) for estimator in chosen], [name_of(e) for e in chosen if has_covariance(e)]
         if i in slot:  # the batch logs its rows, the robot's own estimators theirs
             log = RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params), odometry.names[slot[i]], samples, i, world, slot[i],
                            extra=names, extra_uncertain=uncertain)  # fmt: skip
