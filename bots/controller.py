@@ -13,6 +13,7 @@ import enum
 import importlib.util
 import inspect
 import sys
+import traceback
 import types
 from collections.abc import Callable
 from pathlib import Path
@@ -22,7 +23,7 @@ from bots.commands import Command
 from bots.readings import Readings
 from bots.schema import parse_number
 from bots.spec import RobotSpec
-from sim.errors import UserError
+from sim.errors import UserCodeFailed, UserError
 
 
 class Status(enum.Enum):
@@ -116,10 +117,10 @@ def build(factory: Callable[..., Controller], params: dict[str, str], label: str
             raise ControllerError(f"controller {label!r}, parameter {key}: {err}") from None
     try:
         made = factory(**kwargs)
-    except (TypeError, ValueError) as err:
+    except (TypeError, ValueError) as err:  # a parameter it cannot take
         raise ControllerError(f"controller {label!r}: {err}") from None
-    except SystemExit as err:  # (the user's code leaving: its mistake, not a way out of ctsim)
-        raise ControllerError(f"controller {label!r}: making it called sys.exit({err.code!r})") from None
+    except (Exception, SystemExit) as err:  # the user's code failing (or leaving): theirs, not a way out of ctsim
+        raise UserCodeFailed(f"controller {label!r}: making it {did(err)}{where(err)}") from None
     return made if hasattr(made, "step") else FunctionController(made)
 
 
@@ -162,6 +163,19 @@ def user_module(path: Path, kind: str, error: type[UserError]) -> types.ModuleTy
         line = _user_line(err, path)
         raise error(f"{path}:{line}: {type(err).__name__}: {err}") from None
     return module
+
+
+def did(err: BaseException) -> str:
+    """What user code did that ended it, for a line: 'called sys.exit(3)' or 'raised T: message'."""
+    if isinstance(err, SystemExit):
+        return f"called sys.exit({err.code!r})"
+    return f"raised {type(err).__name__}: {err}"
+
+
+def where(err: BaseException) -> str:
+    """' (file:line)' of the innermost frame `err` was raised in ('' with no traceback)."""
+    frames = traceback.extract_tb(err.__traceback__)
+    return f" ({frames[-1].filename}:{frames[-1].lineno})" if frames else ""
 
 
 def _takes_readings(function: Callable) -> bool:

@@ -1,6 +1,7 @@
 """User code that reaches for what ctsim keeps: controllers that make the recorded readings
 writeable again, estimators that hang, answer differently each time they are read or leave with
-sys.exit, controllers that leave while being made or reset. Each ends as the user's error in one
+sys.exit, controllers and estimators that fail or leave while being made or reset, controllers that patch
+methods of ctsim's and numpy's classes. Each ends as the user's error in one
 line, and nothing it did reaches the recorded data."""
 
 from __future__ import annotations
@@ -46,11 +47,61 @@ class LeavesOnReset:
     def step(self, t, readings):
         return Twist(0.0, 0.0)
 
+class FailsOnReset:
+    def reset(self, robot):
+        raise RuntimeError("no wheels today")
+    def step(self, t, readings):
+        return Twist(0.0, 0.0)
+
+class HangsOnReset:
+    def reset(self, robot):
+        time.sleep(1000)
+    def step(self, t, readings):
+        return Twist(0.0, 0.0)
+
+class EstimatorLeavesWhenMade:
+    def __init__(self):
+        sys.exit(5)
+    def reset(self, robot, pose):
+        pass
+    def update(self, readings):
+        pass
+
+class EstimatorLeavesOnReset:
+    name = "leaves_on_reset"
+    def reset(self, robot, pose):
+        sys.exit(6)
+    def update(self, readings):
+        pass
+
 class PatchesAClassMethod:
     def step(self, t, readings):
         if t > 0.05:
             from sim.world.physics import World
             World.step = lambda self, commands: 1 / 0
+        return Twist(0.1, 0.0)
+
+class PatchesWithABuiltin:
+    """No frame of this file runs when the run fails: only the Guard can tell."""
+    def step(self, t, readings):
+        if t > 0.05:
+            from sim.world.physics import World
+            World.poses = len
+        return Twist(0.1, 0.0)
+
+class PatchesOnReset:
+    def reset(self, robot):
+        from sim.world.physics import World
+        World.step = lambda self, commands: 1 / 0
+    def step(self, t, readings):
+        return Twist(0.1, 0.0)
+
+class PatchesQuietly:
+    """Changes what ctsim does not call in this run: the run goes on, and the change is undone."""
+    def step(self, t, readings):
+        from sim.run.samples import Samples
+        Samples.added = lambda self: 1
+        np.lib.NumpyVersion.__lt__ = lambda self, other: True
         return Twist(0.1, 0.0)
 
 class Hangs:
@@ -113,11 +164,33 @@ def test_no_flag_or_base_makes_the_recorded_readings_writeable(code, tmp_path):
     assert len(readings.columns) and not (readings == 99).any().any()
 
 
-def test_sys_exit_while_a_controller_is_made_or_reset_is_the_users_error_in_one_line(code, tmp_path, capsys):
-    for name, said in (("LeavesWhenMade", "making it called sys.exit(3)"), ("LeavesOnReset", "the controller's reset called sys.exit(4)")):
-        assert run("--controller", f"{code}:{name}", "--out", str(tmp_path / name)) == 2
-        err = capsys.readouterr().err
-        assert err.startswith("ctsim: error: ") and err.count("\n") == 1 and said in err, err
+@pytest.mark.parametrize(("option", "name", "said"), [
+    ("--controller", "LeavesWhenMade", "making it called sys.exit(3) ({code}:"),
+    ("--estimator", "EstimatorLeavesWhenMade", "making it called sys.exit(5) ({code}:"),
+])  # fmt: skip
+def test_user_code_that_leaves_while_it_is_made_fails_in_one_line_before_the_folder_is(option, name, said, code, tmp_path, capsys):
+    """exit 1 (the user's code failed, not their options); nothing ran, so no folder."""
+    assert run(option, f"{code}:{name}", "--out", str(tmp_path / "out")) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("ctsim: error: ") and err.count("\n") == 1 and said.format(code=code) in err, err
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize(("argv", "said"), [
+    (("--controller", "{code}:LeavesOnReset"), "controller '{code}:LeavesOnReset' of ctbot called sys.exit(4) in its reset at t = 0.00 s ({code}:"),
+    (("--controller", "{code}:FailsOnReset"), "of ctbot raised RuntimeError: no wheels today in its reset at t = 0.00 s ({code}:"),
+    (("--controller", "idle", "--estimator", "{code}:EstimatorLeavesOnReset"), "estimator 'leaves_on_reset' of ctbot called sys.exit(6) in its reset"),
+    (("--controller", "{code}:HangsOnReset", "--step-timeout", "0.4"), "of ctbot took longer than the step time limit of 0.4 s in its reset"),
+])  # fmt: skip
+def test_user_code_that_fails_in_its_reset_ends_the_run_as_its_error_with_every_file(argv, said, code, tmp_path, capsys):
+    """The run had started (its folder and a summary saying 'running'): it ends at t = 0 as the
+    user's error, exit 1, its files written and the summary saying how it ended."""
+    out = tmp_path / "out"
+    assert run(*(a.format(code=code) for a in argv), "--out", str(out)) == 1
+    assert said.format(code=code) in capsys.readouterr().err
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["reason"] == "error" and said.format(code=code) in summary["error"]
+    assert {"run.rrd", "run.parquet", "truth.tum", "encoders.tum", "report.html"} <= {p.name for p in out.iterdir()}
 
 
 @pytest.mark.skipif(not hasattr(signal, "setitimer"), reason="the step timer is POSIX")
@@ -138,22 +211,34 @@ def test_an_estimator_value_is_read_once_so_what_is_checked_is_what_is_logged(co
 def test_sys_exit_in_an_estimator_ends_the_run_as_the_users_error_with_its_files(code, tmp_path, capsys):
     out = tmp_path / "out"
     assert run("--controller", "idle", "--estimator", f"{code}:Leaves", "--out", str(out)) == 1
-    assert "estimator 'leaves' of ctbot raised SystemExit: 3 at step 0" in capsys.readouterr().err
+    assert "estimator 'leaves' of ctbot called sys.exit(3) at step 0" in capsys.readouterr().err
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["reason"] == "error" and "SystemExit" in summary["error"] and (out / "truth.tum").is_file()
+    assert summary["reason"] == "error" and "sys.exit(3)" in summary["error"] and (out / "truth.tum").is_file()
 
 
-def test_a_patched_class_method_is_the_controllers_error_not_ctsims(code, tmp_path, capsys):
+@pytest.mark.parametrize(("cls", "said"), [
+    ("PatchesAClassMethod", "replaced sim.world.physics.World.step, and the run failed with ZeroDivisionError"),
+    ("PatchesWithABuiltin", "replaced sim.world.physics.World.poses, and the run failed with TypeError"),
+    ("PatchesOnReset", "replaced sim.world.physics.World.step, and the run failed with ZeroDivisionError: division by zero at t = 0.00 s"),
+])  # fmt: skip
+def test_a_patched_class_method_is_the_controllers_error_and_is_put_back(cls, said, code, tmp_path, capsys):
     from sim.world.physics import World
 
-    step = World.step
-    try:
-        assert run("--controller", f"{code}:PatchesAClassMethod", "--out", str(tmp_path / "out")) == 1
-    finally:
-        World.step = step
+    methods = World.step, World.poses
+    assert run("--controller", f"{code}:{cls}", "--out", str(tmp_path / "out")) == 1
     err = capsys.readouterr().err
-    assert f"put its own code into ctsim's ({code}:" in err and "ZeroDivisionError" in err and "Traceback" not in err
+    assert f"controller '{code}:{cls}' of ctbot {said}" in err and "Traceback" not in err, err
     assert json.loads((tmp_path / "out" / "summary.json").read_text())["reason"] == "error"
+    assert (World.step, World.poses) == methods  # (the next run in this process has ctsim's own)
+
+
+def test_methods_a_controller_adds_or_replaces_where_the_run_does_not_call_them_are_put_back(code, tmp_path, capsys):
+    from sim.run.samples import Samples
+
+    before = np.lib.NumpyVersion.__lt__
+    assert run("--controller", f"{code}:PatchesQuietly", "--out", str(tmp_path / "out")) == 0
+    assert "the controller replaced numpy.lib.NumpyVersion.__lt__, sim.run.samples.Samples.added; ctsim put them back" in capsys.readouterr().err
+    assert np.lib.NumpyVersion.__lt__ is before and not hasattr(Samples, "added")
 
 
 @pytest.mark.skipif(not Path("/proc/self/statm").exists(), reason="the address-space check reads /proc (Linux)")

@@ -210,6 +210,7 @@ def test_compiled_cone_agrees_with_pymunk_queries():
     """The world reads IR with a compiled kernel (`kernels.sensing.sense_ir`: walls, robots, cans); at 300
     random poses in the maze beside another robot and a can it gives the distances of
     `World.ray_distance`'s pymunk queries (to 1e-9 m: two exact computations of one geometry)."""
+    from sim.world import layout
     from sim.world.files import load_world
     from sim.world.kernels.sensing import sense_ir
     from sim.world.spec import Movable
@@ -223,10 +224,12 @@ def test_compiled_cone_agrees_with_pymunk_queries():
     looks = rng.uniform(-math.pi, math.pi, 300)
     cones = np.full(300, CTBOT.ir[0].cone)
     out = np.empty(300)
-    circles = np.array([(r.body.position.x, r.body.position.y, r.shape.radius, r.index) for r in world.robots]
-                       + [(world.movables[0].position.x, world.movables[0].position.y, 0.015, -1)])
-    walls = world._walls
-    sense_ir(points, looks, cones, np.zeros(300, dtype=np.int64), 0.85, walls.vertices, walls.ranges, walls.boxes, circles, out)
+    circles = layout.CIRCLES.new(3)
+    for k, (x, y, radius, owner) in enumerate([(r.body.position.x, r.body.position.y, r.shape.radius, r.index) for r in world.robots]
+                                              + [(world.movables[0].position.x, world.movables[0].position.y, 0.015, -1)]):
+        circles[k] = (x, y, radius, owner)
+    rays = layout.Rays(points, looks, cones, np.zeros(300, dtype=np.int64), np.zeros(300, dtype=np.bool_))
+    sense_ir(rays, world._walls, circles, 0.85, out)
     expected = [world.ray_distance(me, p, a, cone=c) for p, a, c in zip(points, looks, cones)]
     expected = np.asarray(expected)
     finite = np.isfinite(expected)

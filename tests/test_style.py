@@ -1,6 +1,6 @@
 """The house rules hold for the whole tree: pyproject.toml's [tool.ruff] (ruff's own file:line:
-messages) and the rules of docs/architecture.md that ruff cannot see (how a run's ending is
-decided, the step's one home, pinned private names)."""
+messages) and the rules of docs/architecture.md that ruff cannot see (module length, compiled
+functions' parameters, how a run's ending is decided, the step's one home, pinned private names)."""
 
 from __future__ import annotations
 
@@ -36,6 +36,24 @@ def test_the_code_keeps_the_house_rules():
 # --- the rules ruff cannot see (issue #46), each a test that names the file and line that breaks it ---
 
 SOURCES = sorted(p for package in ("sim", "bots") for p in (ROOT / package).rglob("*.py"))
+LONGEST = 600
+"""Lines a module of sim/ or bots/ may have: past it, it holds more than one job."""
+LONG_ON_PURPOSE = {
+    "sim/kinematics/chassis.py": "the kinematics of any wheeled chassis, Köb's thesis in one place with its equation numbers "
+    "(constraints, mobility, ICR, inverse and forward kinematics), read beside the thesis",
+}
+MOST_PARAMETERS = 8
+"""Parameters a compiled function may take: more are a table or a group that wants a name (`sim.world.layout`)."""
+NOT_YET_GROUPED = {
+    # the core's batch kernels and the odometry's compiled steps (and a general chassis's wheels)
+    # still take their arrays one by one: left of #46, no new ones
+    "sim/kinematics/batch.py": {"_batch_rows", "_batch_part", "_batch_parallel", "step_batch", "_count_one", "_advance"},
+    "sim/world/chassis_drive.py": {"_wheels"},
+    "bots/odometry/steps.py": {"batch_step", "fused_step"},
+    "sim/world/kernels/pick.py": {"_closest", "pick_polygon"},  # c't-Sim's cone pick, landed (#45) beside this rule
+}
+
+
 def _relative(path: Path) -> str:
     return path.relative_to(ROOT).as_posix()
 
@@ -43,6 +61,22 @@ def _relative(path: Path) -> str:
 def _trees():
     for path in SOURCES:
         yield _relative(path), ast.parse(path.read_text(encoding="utf-8"), str(path))
+
+
+def test_no_module_is_longer_than_its_one_job():
+    long = [f"{_relative(p)}: {n} lines" for p in SOURCES if (n := len(p.read_text(encoding="utf-8").splitlines())) > LONGEST and _relative(p) not in LONG_ON_PURPOSE]
+    assert not long, f"over {LONGEST} lines: " + "; ".join(long)
+
+
+def test_a_compiled_function_takes_a_few_grouped_parameters():
+    wide = []
+    for rel, tree in _trees():
+        for node in ast.walk(tree):
+            if isinstance(node, ast.FunctionDef) and any("njit" in ast.unparse(d) or "numba" in ast.unparse(d) for d in node.decorator_list):
+                count = len(node.args.posonlyargs) + len(node.args.args) + len(node.args.kwonlyargs)
+                if count > MOST_PARAMETERS and node.name not in NOT_YET_GROUPED.get(rel, ()):
+                    wide.append(f"{rel}:{node.lineno}: {node.name} takes {count}")
+    assert not wide, f"more than {MOST_PARAMETERS} parameters: " + "; ".join(wide)
 
 
 def test_how_a_run_ended_is_decided_by_its_ending_not_its_spelling():

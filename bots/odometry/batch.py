@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from bots.odometry.defaults import default_estimators
-from bots.odometry.steps import ENCODERS, ESTIMATES, FUSED, MOUSE, PARAMS, STATE, TIME, batch_step
+from bots.odometry.steps import ENCODERS, ESTIMATES, FUSED, MOUSE, PARAMS, STATE, TIME, batch_step, workspace
 from bots.spec import RobotSpec
 from bots.uncertainty import COVARIANCE_FIELDS, ERRORS
 
@@ -70,10 +70,11 @@ class DefaultOdometry:
         self._out = np.zeros((n, 1 + ESTIMATES, 3))  # (where `update` is not given a run's row)
         self._cov_out = np.zeros((n, ESTIMATES, COVARIANCES))
         self._truth = np.zeros((max(self.rows.max(initial=-1) + 1, 0), 3))
+        self._work = workspace()
         # the kernel for these arrays' types, called without numba's dispatch (a third of its cost),
         # as `sim.world.compiling.compiled_for` does it for the world (bots/ does not import the world)
         arguments = (np.zeros((1, 4), np.int64), self.rows, 0.0, self.params, self.state, self.contact_steps, self.calibration,
-                     self.poses, self.errors, self.lags, self._truth, self._out, self._cov_out)  # fmt: skip
+                     self.poses, self.errors, self.lags, self._truth, self._out, self._cov_out, self._work)  # fmt: skip
         if compiling is None:
             self._step = batch_step.compile(tuple(batch_step.typeof_pyval(argument) for argument in arguments))
         else:
@@ -110,6 +111,6 @@ class DefaultOdometry:
         kernel was compiled for (C-ordered: int64 tallies, float64 truth and outputs; a float time),
         as a run's columns do: no conversions, which would cost as much as the kernel's work."""
         self._step(tallies, self.rows, time, self.params, self.state, self.contact_steps, self.calibration,
-                   self.poses, self.errors, self.lags, truth, out, cov_out)  # fmt: skip
+                   self.poses, self.errors, self.lags, truth, out, cov_out, self._work)  # fmt: skip
 
 

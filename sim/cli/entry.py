@@ -3,7 +3,8 @@
 User mistakes (bad world files, robot files, controller names or parameters, unwritable folders)
 (`sim.errors.UserError`, or an OSError on a path the command line named) end in one line
 `ctsim: error: ...` and exit status 2, never a traceback; a run that fails mid-way exits 1 after
-everything up to then has been written; any other exception is a bug in ctsim: its traceback, a
+everything up to then has been written, as does the user's controller or estimator failing while
+it is made (`UserCodeFailed`, one line); any other exception is a bug in ctsim: its traceback, a
 line asking for a report, exit 1 (EXIT_STATUSES lists every status).
 """
 
@@ -55,7 +56,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     except UserError as err:
         print(f"ctsim: error: {sanitize.name(str(err), 2000)}", file=sys.stderr)
-        return EXIT_USER
+        return err.exit_status
     except OSError as err:
         if not _names_user_path(err, args):
             return _bug()

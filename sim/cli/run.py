@@ -51,14 +51,15 @@ def add_parser(commands) -> None:  # noqa: ANN001 (argparse's subparsers action)
 def cmd_run(args: argparse.Namespace) -> int:
     from bots.odometry.user import load
     from sim.experiments import simulate, world
+    from sim.experiments.api import with_estimators
     from sim.views.recording.arrow import keep_pandas_out_of_arrow
     from sim.views.recording.recorder import Recorder
     from sim.world.files import world_warnings
 
     step_count(args.duration, args.dt)
     place = world(args.world)
-    setups = robot_setups(args, load_robot_spec(args), len(place.start_order()))
-    extra = [load(source) for source in args.estimator]  # (before the folder is made: a bad file is refused first)
+    # the controllers and estimators made before the folder is: a bad file, or one whose constructor fails, is refused first
+    setups = with_estimators(robot_setups(args, load_robot_spec(args), len(place.start_order())), [load(source) for source in args.estimator])
     for warning in world_warnings(place):
         print(f"ctsim: warning: {args.world}: {warning}", file=sys.stderr)
     until_goal = bool(place.goals) if args.until_goal is None else args.until_goal
@@ -75,8 +76,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         with StopOnSignal() as stop:
             try:
                 result = simulate(place, *setups, duration=args.duration, dt=args.dt, seed=args.seed, until_goal=until_goal,
-                                  observers=(stop.starting, recorder, Progress(args.duration, args.dt), stop), step_timeout=args.step_timeout,
-                                  estimators=extra)
+                                  observers=(stop.starting, recorder, Progress(args.duration, args.dt), stop), step_timeout=args.step_timeout)
             except KeyboardInterrupt as signalled:  # before the run started: nothing simulated, said so in the summary
                 return _stopped_before_start(out, place, args, options, signalled)
             except RunError:  # refused before it started (no room for its trajectories): no run, no summary
