@@ -138,6 +138,22 @@ def add_robot_description(parser: argparse.ArgumentParser, noise: str = DEFAULT_
     parser.add_argument("--dt", type=step_size, default=DEFAULT_DT, metavar="SECONDS", help=f"simulation step (default: {DEFAULT_DT:g})")
 
 
+def add_engine_options(parser: argparse.ArgumentParser) -> None:
+    """Where many runs execute (`sim.experiments.engines`): `ctsim sweep` and `ctsim evaluate`."""
+    parser.add_argument("--engine", choices=("processes", "dask", "serial"), default="processes", help="local processes (default), a Dask LocalCluster, or one run after another here")
+    parser.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="run on the Dask cluster whose scheduler is there (implies --engine dask)")
+    parser.add_argument("--jobs", type=whole, metavar="N", help="worker processes (default: one per core)")
+
+
+def engine_of(args: argparse.Namespace):  # noqa: ANN201 (an engine of sim.experiments.engines; imported on demand)
+    """The engine the options of `add_engine_options` name."""
+    from sim.experiments import engine
+
+    if args.jobs is not None and args.jobs < 1:
+        raise UsageError(f"--jobs must be at least 1, got {args.jobs}")
+    return engine(args.engine, args.jobs, args.scheduler)
+
+
 def add_web_options(parser: argparse.ArgumentParser, flag: str | None = None, flag_help: str = "") -> None:
     from sim.web.serve import DEFAULT_HOST, DEFAULT_PORT
 
@@ -155,10 +171,11 @@ def load_robot_spec(args: argparse.Namespace):
     return robot(args.robot, {key: parse_value(value) for key, value in args.robot_set}, args.noise)
 
 
-def robot_setups(args: argparse.Namespace, spec, room: int) -> list:
+def robot_setups(args: argparse.Namespace, spec, room: int, make: Callable[[str, dict[str, str]], Any] | None = None) -> list:
     """One RobotSetup per robot from --controller/--robots/--param; the world has start slots for
-    `room` robots (one slot each)."""
-    from bots.behaviours import make
+    `room` robots (one slot each). `make(name, params)`: the controller (default: made here)."""
+    if make is None:
+        from bots.behaviours import make
     from sim.run.loop import RobotSetup
 
     names = args.controller or [DEFAULT_CONTROLLER]
