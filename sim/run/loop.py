@@ -21,7 +21,7 @@ from bots.chassis_commands import chassis_setpoints
 from bots.commands import BadCommand, motor_commands, wheel_speeds_for
 from bots.controller import Controller, ControllerStopped, Status, did, reset, where
 from bots.odometry.base import Estimator
-from bots.odometry.batch import DefaultOdometry, batched
+from bots.odometry.batch import DefaultOdometry, batched, kernel_jobs
 from bots.odometry.defaults import default_estimators
 from bots.odometry.user import has_covariance, name_of, outputs
 from bots.readings import Readings, SensorFrame
@@ -92,6 +92,8 @@ def run(
     ends the run as a controller error (`StepClock`). `stop_when(world, logs)`, asked after every
     sample (a referee), ends the run when it answers something: reason JUDGED, its answer the result's `verdict`."""
     steps = step_count(duration, dt)
+    if any(setup.estimators is None and batched(setup.spec) for setup in robots):  # the odometry's compile, where the cache lacks
+        compiling.start(kernel_jobs())  # it, beside the world's making (its first kernel compiles here); `DefaultOdometry` waits for it
     world = World(world_spec, dt=dt, seed=seed)
     placed = [world.add_robot(setup.spec, setup.start, setup.name) for setup in robots]
     _refuse_overlaps(placed)
