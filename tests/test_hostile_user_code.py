@@ -358,6 +358,6 @@ def test_a_step_time_limit_too_short_for_its_timer_is_refused(tmp_path, capsys):
 
     with pytest.raises(SystemExit) as refused:  # (argparse's refusal)
         run("--controller", "idle", "--step-timeout", "1e-9", "--out", str(tmp_path / "out"))
-    assert refused.value.code == 2 and "argument --step-timeout: must be a number (s) at least 0.01" in capsys.readouterr().err
-    with pytest.raises(RunError, match="at least 0.01 s"):
+    assert refused.value.code == 2 and "argument --step-timeout: must be a number (s) at least 0.05" in capsys.readouterr().err
+    with pytest.raises(RunError, match="at least 0.05 s"):
         simulate("empty", duration=0.1, step_timeout=1e-9)

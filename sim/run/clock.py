@@ -10,7 +10,7 @@ from sim.run.ending import RunError
 MAX_STEP_TIMEOUT = 86_400.0
 """Longest wall-clock time limit on a controller step (s): a day; the operating system's timer
 holds no more than about 10^8 s."""
-MIN_STEP_TIMEOUT = 0.01
+MIN_STEP_TIMEOUT = 0.05
 """Shortest (s): its timer ticks every quarter of it, and a tick runs a Python handler; at 1e-9 s
 the ticks came faster than the handler ran, and the run never ended."""
 
