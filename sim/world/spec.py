@@ -28,10 +28,13 @@ class WorldFileError(FileError):
 
 @dataclass(frozen=True)
 class Wall:
-    """A static obstacle: a convex polygon (counter-clockwise vertices, m)."""
+    """A static obstacle: a convex polygon (counter-clockwise vertices, m). `boxed`: c't-Sim's
+    contact test meets it at the box round its corners (Java3D's bounds of a cylinder: its lamp
+    pillars), not at the polygon."""
 
     vertices: tuple[Point, ...]
     colour: Colour = (0.6, 0.6, 0.6)
+    boxed: bool = False
 
 
 @dataclass(frozen=True)

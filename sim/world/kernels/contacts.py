@@ -72,8 +72,8 @@ def _box_gap2(x: float, y: float, xmin: float, ymin: float, xmax: float, ymax: f
 @numba.njit(cache=True)
 def stop_at_contact(pose: np.ndarray, robots: np.ndarray, state: np.ndarray, walls: Walls, circles: np.ndarray) -> None:
     """c't-Sim's contact rule for the robots that have it (ROBOTS' stops): a move that would put
-    the body within its radius of a wall, of a can (the CIRCLES owned by -1, as c't-Sim's contact
-    test sees them: boxes, `CAN_ACROSS`) or of another robot's body where that stands at the start
+    the body within its radius of a wall (a lamp pillar's box: `clear_of_walls`), of a can (the
+    CIRCLES owned by -1, as c't-Sim's contact test sees them: boxes, `CAN_ACROSS`) or of another robot's body where that stands at the start
     of the step is not made at all (move set to 0, blocked set); the turn still is. So the robot
     stays at its last position clear of everything and can turn away, as c't-Sim commits the
     position only when its bounding sphere at the new one meets nothing (MasterSimulator)."""
@@ -87,7 +87,7 @@ def stop_at_contact(pose: np.ndarray, robots: np.ndarray, state: np.ndarray, wal
         if move[0] == 0.0 and move[1] == 0.0:
             continue
         x, y, radius = pose[i, 0] + move[0], pose[i, 1] + move[1], robots[i].radius
-        blocked = not clear_of_walls(x, y, radius, walls)
+        blocked = not clear_of_walls(x, y, radius, walls, True)
         for j in range(n):
             if not blocked and j != i:
                 blocked = math.hypot(pose[j, 0] - x, pose[j, 1] - y) <= radius + robots[j].radius
@@ -101,15 +101,20 @@ def stop_at_contact(pose: np.ndarray, robots: np.ndarray, state: np.ndarray, wal
 
 
 @numba.njit(cache=True)
-def clear_of_walls(x: float, y: float, radius: float, walls: Walls) -> bool:
-    """Whether a circle of `radius` at (x, y) is clear of every wall (farther than `radius`)."""
+def clear_of_walls(x: float, y: float, radius: float, walls: Walls, as_ctsim: bool = False) -> bool:
+    """Whether a circle of `radius` at (x, y) is clear of every wall (farther than `radius`);
+    `as_ctsim`: a boxed wall (c't-Sim's lamp pillar) counts by its box, as c't-Sim's contact test
+    meets it."""
     lo_x, lo_y, hi_x, hi_y = x - radius, y - radius, x + radius, y + radius
     boxes, spans = walls.boxes, walls.spans
     for w in walls_near(lo_x, lo_y, hi_x, hi_y, walls.frame, walls.cells):
         box = boxes[w]
         if box.xmin > hi_x or box.xmax < lo_x or box.ymin > hi_y or box.ymax < lo_y:
             continue
-        if polygon_distance(x, y, walls.vertices, spans[w].start, spans[w].end)[0] <= radius:
+        if as_ctsim and box.boxed:
+            if _box_gap2(x, y, box.xmin, box.ymin, box.xmax, box.ymax) <= radius * radius:
+                return False
+        elif polygon_distance(x, y, walls.vertices, spans[w].start, spans[w].end)[0] <= radius:
             return False
     return True
 
