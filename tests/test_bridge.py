@@ -442,4 +442,4 @@ def test_a_lamp_pillar_stops_a_firmware_bot_at_the_box_round_it():
     result, _, _ = bridged(8.0, rc5=[(0.5, rc5_code("3"))], world=world)
     y = result.robots[0].truth_array()[-1, 1]
     contact = 0.8 - 0.05 * math.cos(math.pi / 15) - 0.06
-    assert pillar[0].boxed and contact - wheel_speed(75) * 0.01 < y < contact
+    assert pillar[0].cylinder and contact - wheel_speed(75) * 0.01 < y < contact

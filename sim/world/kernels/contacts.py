@@ -103,7 +103,7 @@ def stop_at_contact(pose: np.ndarray, robots: np.ndarray, state: np.ndarray, wal
 @numba.njit(cache=True)
 def clear_of_walls(x: float, y: float, radius: float, walls: Walls, as_ctsim: bool = False) -> bool:
     """Whether a circle of `radius` at (x, y) is clear of every wall (farther than `radius`);
-    `as_ctsim`: a boxed wall (c't-Sim's lamp pillar) counts by its box, as c't-Sim's contact test
+    `as_ctsim`: a cylinder (c't-Sim's lamp pillar, `Wall.cylinder`) counts by its box, as c't-Sim's contact test
     meets it."""
     lo_x, lo_y, hi_x, hi_y = x - radius, y - radius, x + radius, y + radius
     boxes, spans = walls.boxes, walls.spans
@@ -111,7 +111,7 @@ def clear_of_walls(x: float, y: float, radius: float, walls: Walls, as_ctsim: bo
         box = boxes[w]
         if box.xmin > hi_x or box.xmax < lo_x or box.ymin > hi_y or box.ymax < lo_y:
             continue
-        if as_ctsim and box.boxed:
+        if as_ctsim and box.cylinder:
             if _box_gap2(x, y, box.xmin, box.ymin, box.xmax, box.ymax) <= radius * radius:
                 return False
         elif polygon_distance(x, y, walls.vertices, spans[w].start, spans[w].end)[0] <= radius:
