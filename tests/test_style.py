@@ -138,3 +138,19 @@ def test_a_module_reading_a_librarys_private_names_states_the_pinned_version():
                 if pin is None or f"{library} {pin.group(1)}" not in text:
                     unpinned.append(f"{rel}:{node.lineno}: {node.module} (pyproject.toml pins {library} as {pin.group(0) if pin else 'nothing'})")
     assert not unpinned, "private names of an unpinned library: " + "; ".join(unpinned)
+
+
+def test_a_run_folder_s_file_names_have_one_home():
+    """summary.json, run.rrd and the other files of a run folder are named (as strings, docstrings
+    aside) only in sim/analysis/run_folder.py; writers and readers ask `RunFolder` for the paths."""
+    from sim.analysis import run_folder
+
+    names = {path.name for path in run_folder.RunFolder(Path(".")).fixed}
+    found = []
+    for rel, tree in _trees():
+        if rel == "sim/analysis/run_folder.py":
+            continue
+        docstrings = {id(body[0].value) for node in ast.walk(tree) if isinstance(node, ast.Module | ast.ClassDef | ast.FunctionDef)
+                      for body in [node.body] if body and isinstance(body[0], ast.Expr)}  # fmt: skip
+        found += [f"{rel}:{n.lineno}: {n.value!r}" for n in ast.walk(tree) if isinstance(n, ast.Constant) and n.value in names and id(n) not in docstrings]
+    assert not found, "a run folder's file named outside run_folder.py (use RunFolder): " + "; ".join(found)

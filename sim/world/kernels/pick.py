@@ -122,7 +122,8 @@ def pick_polygon(ox: float, oy: float, ux: float, uy: float, length: float, tan_
         key, px, py, pz = math.inf, 0.0, 0.0, 0.0
         for t in range(2):
             for j in range(3):
-                tri[j] = corner[order[t, j]]
+                for c in range(3):  # (element by element: a row assignment compiles numba's whole shape-mismatch message)
+                    tri[j, c] = corner[order[t, j], c]
             found, x, y, z = _triangle(o, d, tan_spread, tri, TIE if rising else 0.0)
             if found < key - (0.0 if rising else TIE):
                 key, px, py, pz = found, x, y, z
