@@ -349,3 +349,15 @@ def test_a_controller_or_estimator_file_that_is_not_a_regular_file_is_refused_wi
     for option in ("--controller", "--estimator"):
         assert run(option, str(path), "--out", str(tmp_path / "out")) == 2
         assert f"{path}: not a regular file (a pipe, device or folder)" in capsys.readouterr().err
+
+
+def test_a_step_time_limit_too_short_for_its_timer_is_refused(tmp_path, capsys):
+    """At 1e-9 s the step timer's ticks came faster than their handler ran: the run never ended."""
+    from sim.experiments import simulate
+    from sim.run.ending import RunError
+
+    with pytest.raises(SystemExit) as refused:  # (argparse's refusal)
+        run("--controller", "idle", "--step-timeout", "1e-9", "--out", str(tmp_path / "out"))
+    assert refused.value.code == 2 and "argument --step-timeout: must be a number (s) at least 0.05" in capsys.readouterr().err
+    with pytest.raises(RunError, match="at least 0.05 s"):
+        simulate("empty", duration=0.1, step_timeout=1e-9)
