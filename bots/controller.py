@@ -12,7 +12,9 @@ from __future__ import annotations
 import enum
 import importlib.util
 import inspect
+import os
 import sys
+import sysconfig
 import traceback
 import types
 from collections.abc import Callable
@@ -122,7 +124,10 @@ def build(factory: Callable[..., Controller], params: dict[str, str], label: str
         raise ControllerError(f"controller {label!r}: {err}") from None
     except (Exception, SystemExit) as err:  # the user's code failing (or leaving): theirs, not a way out of ctsim
         raise UserCodeFailed(f"controller {label!r}: making it {did(err)}{where(err)}") from None
-    return made if hasattr(made, "step") else FunctionController(made)
+    try:
+        return made if hasattr(made, "step") else FunctionController(made)
+    except (Exception, SystemExit) as err:  # (a `step` property that raises)
+        raise UserCodeFailed(f"controller {label!r}: asking it for its step {did(err)}{where(err)}") from None
 
 
 def load_file(path: str | Path, name: str | None = None) -> Callable[..., Controller]:
@@ -154,7 +159,7 @@ def user_module(path: Path, kind: str, error: type[UserError]) -> types.ModuleTy
     """A user's Python file run as a module (a controller's, an estimator's); `error` names the
     file and line where it failed to load, with no traceback of ours."""
     if not path.is_file():
-        raise error(f"{path}: no such {kind} file")
+        raise error(f"{path}: not a regular file (a pipe, device or folder); give the {kind}'s .py file" if path.exists() else f"{path}: no such {kind} file")
     spec = importlib.util.spec_from_file_location(f"ctsim_user_{path.stem}", path)
     module = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = module
@@ -175,10 +180,18 @@ def did(err: BaseException) -> str:
     return f"raised {type(err).__name__}: {err}"
 
 
+_MACHINERY = (str(Path(__file__).resolve().parents[1] / "sim") + os.sep, str(Path(__file__).resolve()), str(Path(__file__).resolve().parent / "odometry" / "user.py"),
+              *(sysconfig.get_paths()[key] + os.sep for key in ("stdlib", "platstdlib", "purelib", "platlib")))  # fmt: skip
+"""Where ctsim's code that calls a controller or estimator lies, and the installed libraries':
+never the place to point a user at."""
+
+
 def where(err: BaseException) -> str:
-    """' (file:line)' of the innermost frame `err` was raised in ('' with no traceback, or for
+    """' (file:line)' of the innermost frame `err` passed through in the user's code (or a shipped
+    controller's), not in the machinery that called it or a library ('' where none did, and for
     ControllerStopped, whose message says where)."""
     frames = traceback.extract_tb(err.__traceback__) if not isinstance(err, ControllerStopped) else ()
+    frames = [f for f in frames if not f.filename.startswith("<") and not str(Path(f.filename).resolve()).startswith(_MACHINERY)]
     return f" ({frames[-1].filename}:{frames[-1].lineno})" if frames else ""
 
 

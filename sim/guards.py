@@ -197,7 +197,8 @@ class Guard:
         if sys.getrecursionlimit() < RECURSION_LIMIT:
             sys.setrecursionlimit(RECURSION_LIMIT)
             self.notes.setdefault("recursion", f"the controller lowered the recursion limit; ctsim put it back to {RECURSION_LIMIT}")
-        if sys.stdout is not self.streams[0] or sys.stderr is not self.streams[1] or self.streams[0].closed or self.streams[1].closed:
+        if sys.stdout is not self.streams[0] or sys.stderr is not self.streams[1] or self.streams[0].closed or self.streams[1].closed \
+                or any(_shadowed(stream) for stream in self.streams):
             self._put_back_streams()
         else:
             self._put_back_descriptors()
@@ -212,10 +213,12 @@ class Guard:
         self._put_back_descriptors()
         for k, name in enumerate(("stdout", "stderr")):
             stream = self.streams[k]
+            for key in _shadowed(stream):  # (sys.stdout.write = None: the method back)
+                delattr(stream, key)
             if stream.closed:
                 stream = self.streams[k] = os.fdopen(os.dup(k + 1), "w", buffering=1, encoding=getattr(stream, "encoding", None) or "utf-8", errors="backslashreplace")
             setattr(sys, name, stream)
-        self.notes.setdefault("streams", "the controller closed or replaced stdout or stderr; ctsim put them back")
+        self.notes.setdefault("streams", "the controller closed or replaced stdout or stderr (or a method of theirs); ctsim put them back")
 
     def _put_back_descriptors(self) -> None:
         for fd, copy in self.descriptors.items():
@@ -283,6 +286,11 @@ def foreign_frame(err: BaseException, user_folders: tuple[str, ...]) -> str | No
         if not frame.filename.startswith("<") and where.startswith(user_folders) and not where.startswith(_KNOWN):  # (ctsim inside the user's folder stays ctsim)
             return f"{frame.filename}:{frame.lineno}"
     return None
+
+
+def _shadowed(stream: object) -> list[str]:
+    """The methods of a stream that an attribute of the object itself hides (set by a controller)."""
+    return [key for key in getattr(stream, "__dict__", {}) if callable(getattr(type(stream), key, None))]
 
 
 def _open(fd: int) -> bool:

@@ -119,7 +119,9 @@ def test_merge_on_the_command_line_writes_the_joined_table(scored, tmp_path, cap
     assert main(["evaluate", "--merge", str(out / RESULTS), str(theirs), "--out", str(tmp_path / "merged")]) == 0
     printed = capsys.readouterr().out
     assert "theirs" in printed and "euler" in printed
-    assert set(read_results(tmp_path / "merged" / RESULTS)["estimators"]) == {"euler", "theirs"}
+    merged = read_results(tmp_path / "merged" / RESULTS)
+    assert set(merged["estimators"]) == {"euler", "theirs"}
+    assert list(per_scenario(merged)["scenario"].unique()) == [s.name for s in SUITE.scenarios]  # (the suite's order, not the file's sorted keys)
     assert {p.name for p in (tmp_path / "merged").iterdir()} >= {RESULTS, "scores.csv", "ranking.csv", "report.html"}
 
 
@@ -153,11 +155,21 @@ def test_a_bad_estimator_is_one_line_and_exit_2_before_anything_runs(tmp_path, c
     assert not (out / RESULTS).exists()
 
 
-@pytest.mark.parametrize("change", ["suite_version", "format", "not json"])
-def test_a_results_file_of_another_version_is_one_line_and_exit_2(scored, tmp_path, capsys, change):
+def _broken_run(results: dict) -> dict:
+    broken = json.loads(json.dumps(results))
+    broken["runs"][1]["metrics"]["encoders"]["ate_rmse"] = "small"
+    return broken
+
+
+CHANGES = {"suite_version": lambda r: {**r, "suite_version": "0"}, "format": lambda r: {**r, "format": "0"}, "runs missing": lambda r: {**r, "runs": r["runs"][1:]},
+           "a metric not a number": _broken_run, "a name not a word": lambda r: {**r, "estimators": {"\x1b[31mred": r["estimators"]["euler"]}}}  # fmt: skip
+
+
+@pytest.mark.parametrize("change", [*CHANGES, "not json"])
+def test_a_results_file_of_another_version_or_shape_is_one_line_and_exit_2(scored, tmp_path, capsys, change):
     results, out = scored
     other = tmp_path / "other.json"
-    other.write_text("{" if change == "not json" else json.dumps({**results, change: "0"}))
+    other.write_text("{" if change == "not json" else json.dumps(CHANGES[change](results)))
     assert main(["evaluate", "--merge", str(out / RESULTS), str(other), "--out", str(tmp_path / "merged")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("ctsim: error:") and "other.json" in err[0]

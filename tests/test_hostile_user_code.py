@@ -104,6 +104,48 @@ class PatchesQuietly:
         np.lib.NumpyVersion.__lt__ = lambda self, other: True
         return Twist(0.1, 0.0)
 
+class StepProperty:
+    @property
+    def step(self):
+        raise RuntimeError("no step today")
+
+class StatusOfItsOwn:
+    """A `status` that is not a behaviour's Status: not a way to say the robot is done."""
+    status = "running"
+    def step(self, t, readings):
+        return Twist(0.1, 0.0)
+
+class ShadowsStdoutWrite:
+    def step(self, t, readings):
+        sys.stdout.write = None
+        return Twist(0.1, 0.0)
+
+class NameRaises:
+    @property
+    def name(self):
+        raise RuntimeError("no name")
+    def reset(self, robot, pose):
+        self.pose = np.array(pose, dtype=float)
+    def update(self, readings):
+        pass
+
+class SlowCovariance:
+    name = "slow"
+    def reset(self, robot, pose):
+        self.pose = np.array(pose, dtype=float)
+    def update(self, readings):
+        pass
+    @property
+    def covariance(self):
+        time.sleep(1000)
+
+class PlantsAFolder:
+    """Makes a folder where the run will write truth.tum (its folder named in CTSIM_TEST_OUT)."""
+    def step(self, t, readings):
+        import os, pathlib
+        (pathlib.Path(os.environ["CTSIM_TEST_OUT"]) / "truth.tum").mkdir(exist_ok=True)
+        return Twist(0.1, 0.0)
+
 class Hangs:
     name = "hangs"
     def reset(self, robot, pose):
@@ -266,3 +308,72 @@ def test_the_first_sigterm_inside_an_estimator_ends_the_run_at_once(code, tmp_pa
     assert run("--controller", "idle", "--estimator", f"{code}:Terminated", "--out", str(out)) == 143
     summary = json.loads((out / "summary.json").read_text())
     assert summary["reason"] == "terminated" and (out / "truth.tum").is_file()
+
+
+def test_a_step_property_that_raises_is_the_users_error_in_one_line(code, tmp_path, capsys):
+    assert run("--controller", f"{code}:StepProperty", "--out", str(tmp_path / "out")) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"asking it for its step raised RuntimeError: no step today ({code}:" in err
+
+
+def test_a_status_that_is_not_a_behaviours_does_not_end_the_run(code, tmp_path):
+    out = tmp_path / "out"
+    assert run("--controller", f"{code}:StatusOfItsOwn", "--out", str(out)) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["reason"] == "duration" and summary["time"] == pytest.approx(0.2)
+
+
+def test_a_method_of_stdout_shadowed_by_a_controller_is_put_back(code, tmp_path, capsys):
+    assert run("--controller", f"{code}:ShadowsStdoutWrite", "--out", str(tmp_path / "out")) == 0
+    out, err = capsys.readouterr()
+    assert "wrote:" in out and "Traceback" not in err and "(or a method of theirs); ctsim put them back" in err
+
+
+def test_an_estimator_whose_name_cannot_be_read_is_named_by_its_class(code, tmp_path):
+    out = tmp_path / "out"
+    assert run("--controller", "idle", "--estimator", f"{code}:NameRaises", "--out", str(out)) == 0
+    assert (out / "NameRaises.tum").is_file()
+
+
+@pytest.mark.skipif(not hasattr(signal, "setitimer"), reason="the step timer is POSIX")
+def test_a_timeout_names_the_line_of_the_users_code_it_ended_not_ctsims(code, tmp_path, capsys):
+    assert run("--controller", "idle", "--estimator", f"{code}:SlowCovariance", "--step-timeout", "0.4", "--out", str(tmp_path / "out")) == 1
+    err = capsys.readouterr().err
+    assert f"estimator 'slow' of ctbot took longer than the step time limit of 0.4 s at step 0 (t = 0.00 s) ({code}:" in err
+
+
+@pytest.mark.parametrize("kind", ["pipe", "device", "folder"])
+def test_a_controller_or_estimator_file_that_is_not_a_regular_file_is_refused_without_reading_it(kind, tmp_path, capsys):
+    import os
+
+    path = tmp_path / "mine.py"
+    if kind == "pipe":
+        os.mkfifo(path)
+    elif kind == "device":
+        path.symlink_to("/dev/zero")
+    else:
+        path.mkdir()
+    for option in ("--controller", "--estimator"):
+        assert run(option, str(path), "--out", str(tmp_path / "out")) == 2
+        assert f"{path}: not a regular file (a pipe, device or folder)" in capsys.readouterr().err
+
+
+def test_a_step_time_limit_too_short_for_its_timer_is_refused(tmp_path, capsys):
+    """At 1e-9 s the step timer's ticks came faster than their handler ran: the run never ended."""
+    from sim.experiments import simulate
+    from sim.run.ending import RunError
+
+    with pytest.raises(SystemExit) as refused:  # (argparse's refusal)
+        run("--controller", "idle", "--step-timeout", "1e-9", "--out", str(tmp_path / "out"))
+    assert refused.value.code == 2 and "argument --step-timeout: must be a number (s) at least 0.05" in capsys.readouterr().err
+    with pytest.raises(RunError, match="at least 0.05 s"):
+        simulate("empty", duration=0.1, step_timeout=1e-9)
+
+
+def test_a_folder_planted_at_a_files_name_during_the_run_fails_the_writing_not_the_options(code, tmp_path, monkeypatch, capsys):
+    """exit 1 (the run ran; its writing failed), one line naming the folder, the summary kept."""
+    out = tmp_path / "out"
+    monkeypatch.setenv("CTSIM_TEST_OUT", str(out))
+    assert run("--controller", f"{code}:PlantsAFolder", "--out", str(out)) == 1
+    assert f"{out}/truth.tum is a folder: ctsim cannot write its file there" in capsys.readouterr().err
+    assert json.loads((out / "summary.json").read_text())["reason"] == "duration"

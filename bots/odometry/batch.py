@@ -33,6 +33,16 @@ def batched(robot: RobotSpec) -> bool:
     return robot.chassis is None
 
 
+def kernel_jobs() -> list[tuple[Any, tuple]]:
+    """The kernel `DefaultOdometry` steps with and arguments of the types it is called with (of a
+    batch of no robots: types are kinds, not sizes), for a caller that starts its compile before
+    any robot is placed (`sim.world.compiling.start`: a run, first thing); a `DefaultOdometry`
+    made later asks for the same job."""
+    jobs: list[tuple[Any, tuple]] = []
+    DefaultOdometry([], np.zeros((0, 3)), [], jobs.extend)
+    return jobs
+
+
 class DefaultOdometry:
     """The default estimators of several robots (each `batched`), reset at their start poses.
 

@@ -48,6 +48,9 @@ from sim.kinematics.batch import advance_one
 # the estimates of one robot in the batch (n, ESTIMATES, 3): the order of `default_estimators`
 ENCODERS, FIRMWARE, MOUSE, FUSED, ESTIMATES = 0, 1, 2, 3, 4
 IGNORED = 1e6
+MID_ANGLE, END_HEADING = 0.5, 1.0
+"""Where an arc's chord is laid (`propagate`'s share of the heading change): along the mid-angle
+(exact, seed 002 eqs 1.7, 1.12) or along the end heading (the c't-Bot firmware)."""
 PROPAGATE_WORK = 3
 """Scratch planes (`workspace`) `propagate` uses; the steps that call it use those after."""
 WORK = 29
@@ -96,15 +99,17 @@ def mouse_terms(s: float, alpha: float, mount_x: float, mount_y: float, var: flo
 
 
 @numba.njit(cache=True)
-def propagate(cov: np.ndarray, heading: float, s: float, alpha: float, end_heading: bool, jac: np.ndarray, noise: np.ndarray,
+def propagate(cov: np.ndarray, heading: float, s: float, alpha: float, share: float, jac: np.ndarray, noise: np.ndarray,
               work: np.ndarray) -> None:  # fmt: skip
     """`cov` (ERRORS, ERRORS) after laying the increment (s, alpha) from `heading` (rad, before
-    the step) whose error is jac @ errors + n, n ~ noise: cov <- A cov A^T + G noise G^T, with A
+    the step) along `heading + share * alpha` (`MID_ANGLE`, exact, or `END_HEADING`, the
+    firmware), whose error is jac @ errors + n, n ~ noise: cov <- A cov A^T + G noise G^T, with A
     the identity but for the pose rows (d pose'/d pose and G @ jac, G = d pose'/d (s, alpha)).
-    `work` (WORK, ERRORS, ERRORS): scratch planes (`workspace`), its first PROPAGATE_WORK used."""
-    angle = heading + (alpha if end_heading else 0.5 * alpha)
+    `work` (WORK, ERRORS, ERRORS): scratch planes (`workspace`), its first PROPAGATE_WORK used.
+    (A float, not a bool: numba compiles a function once for each constant bool it is called with.)"""
+    angle = heading + share * alpha
     c, sn = math.cos(angle), math.sin(angle)
-    lever = s if end_heading else 0.5 * s
+    lever = share * s
     g = ((c, -lever * sn), (sn, lever * c), (0.0, 1.0))
     a, rows, pose = work[0, :3], work[1, :3], work[2, :3, :3]  # rows: a @ cov; pose: a @ cov @ a^T, + G noise G^T
     a[:, :] = 0.0
@@ -213,7 +218,7 @@ def encoder_step(p: np.ndarray, heading: float, cov: np.ndarray, left: float, ri
     jac, noise = work[PROPAGATE_WORK, :2, :], work[PROPAGATE_WORK + 1, :2, :2]
     var_left, var_right = wheel_variances(p, s_left, s_right)
     wheel_terms(s_left, s_right, alpha, p[TRACK], var_left, var_right, jac, noise)
-    propagate(cov, heading, s, alpha, end_heading, jac, noise, work)
+    propagate(cov, heading, s, alpha, END_HEADING if end_heading else MID_ANGLE, jac, noise, work)
     return s, alpha
 
 
@@ -231,7 +236,7 @@ def mouse_step(p: np.ndarray, heading: float, cov: np.ndarray, forward: float, l
     s, alpha = mouse_arc(p, forward, lateral)
     jac, noise = work[PROPAGATE_WORK, :2, :], work[PROPAGATE_WORK + 1, :2, :2]
     mouse_terms(s, alpha, p[MOUNT_X], p[MOUNT_Y], mouse_variance(p, s, alpha), jac, noise)
-    propagate(cov, heading, s, alpha, False, jac, noise, work)
+    propagate(cov, heading, s, alpha, MID_ANGLE, jac, noise, work)
     return s, alpha
 
 
@@ -349,7 +354,7 @@ def fused_step(
     _add(_mul(w_enc, j_enc, scratch[0, :2, :]), _mul(w_mouse, j_mouse, scratch[1, :2, :]), jac)
     _weighed(w_enc, r_enc, w_mouse, r_mouse, noise, scratch)
     _weighed(w_enc, q_enc, w_mouse, q_mouse, lag[:, :], scratch)
-    propagate(cov, pose[2], u[0], u[1], False, jac, noise, work)
+    propagate(cov, pose[2], u[0], u[1], MID_ANGLE, jac, noise, work)
     s, alpha = u[0], u[1]
     if sliding:  # what the mouse's rotation added before the slide was seen is taken back
         alpha -= st[TAKEN]
@@ -382,10 +387,10 @@ def batch_step(
         if r >= tallies.shape[0] or tallies.shape[1] != 4:  # a kernel reads past an array's end without a word
             raise ValueError("DefaultOdometry.update: tallies must be (robots, 4) with a row for every robot of the batch")
         left, right = float(tallies[r, 0]), float(tallies[r, 1])
-        s, alpha = encoder_step(p, pose[ENCODERS, 2], cov[ENCODERS], left, right, False, work)
-        _lay(pose[ENCODERS], s, alpha, False)
-        s, alpha = encoder_step(p, pose[FIRMWARE, 2], cov[FIRMWARE], left, right, True, work)
-        _lay(pose[FIRMWARE], s, alpha, True)
+        for estimate in range(ENCODERS, FIRMWARE + 1):  # the encoders' arc along the mid-angle, then the firmware's along the end heading
+            end_heading = estimate == FIRMWARE  # (a bool numba does not take for a constant: the step compiles once for both)
+            s, alpha = encoder_step(p, pose[estimate, 2], cov[estimate], left, right, end_heading, work)
+            _lay(pose[estimate], s, alpha, end_heading)
         if p[HAS_MOUSE] == 0.0:
             continue
         forward, lateral = float(tallies[r, 2]), float(tallies[r, 3])
@@ -397,8 +402,10 @@ def batch_step(
     for i in range(out.shape[0]):
         if rows[i] >= truth.shape[0]:
             raise ValueError("DefaultOdometry.update: truth must have a row for every robot of the batch")
-        out[i, 0] = truth[rows[i]]
-        out[i, 1:] = poses[i]
+        for c in range(3):  # (element by element: an array assignment compiles numba's whole shape-mismatch message)
+            out[i, 0, c] = truth[rows[i], c]
+            for j in range(ESTIMATES):
+                out[i, 1 + j, c] = poses[i, j, c]
         estimates = ESTIMATES if params[i, HAS_MOUSE] != 0.0 else FIRMWARE + 1
         for j in range(estimates):
             pose_covariance(errors[i, j], poses[i, j, 2], lags[i, j], cov_out[i, j])

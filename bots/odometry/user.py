@@ -85,8 +85,11 @@ def made(given: Any) -> Estimator:
 
 
 def name_of(estimator: Estimator) -> str:
-    """An estimator's label: its `name`, else its class's name."""
-    return str(getattr(estimator, "name", None) or type(estimator).__name__)
+    """An estimator's label: its `name`, else (none, or one that cannot be read) its class's name."""
+    try:
+        return str(getattr(estimator, "name", None) or type(estimator).__name__)
+    except Exception:  # (a `name` property that raises, a name whose str raises)
+        return type(estimator).__name__
 
 
 def beside_defaults(robot: RobotSpec, extra: Iterable[Any]) -> list[Estimator]:
@@ -101,11 +104,11 @@ def beside_defaults(robot: RobotSpec, extra: Iterable[Any]) -> list[Estimator]:
         if label in seen or label == "truth":
             raise EstimatorError(f"estimator name {label!r} is taken; give yours another `name`")
         seen.add(label)
-        if getattr(estimator, "name", None) != label:
-            try:
+        try:
+            if getattr(estimator, "name", None) != label:
                 estimator.name = label
-            except AttributeError:
-                pass
+        except Exception:  # (a read-only `name`, or one that raises: its label stays the one above)
+            pass
     return chosen
 
 
@@ -132,8 +135,12 @@ def outputs(estimator: Estimator, uncertain: bool) -> tuple[np.ndarray | None, n
 
 
 def has_covariance(estimator: Estimator) -> bool:
-    """Whether an estimator reports a covariance (the Protocol's optional `covariance`)."""
-    return hasattr(type(estimator), "covariance") or hasattr(estimator, "covariance")
+    """Whether an estimator reports a covariance (the Protocol's optional `covariance`; one whose
+    asking raises is taken to have one, and fails where it is read, in the guarded update)."""
+    try:
+        return hasattr(type(estimator), "covariance") or hasattr(estimator, "covariance")
+    except Exception:  # (a __getattr__ that raises something else than AttributeError)
+        return True
 
 
 def _covariance(cov: np.ndarray) -> str | None:

@@ -168,7 +168,45 @@ def read_results(path: str | Path) -> dict[str, Any]:
     if results["format_version"] != FORMAT_VERSION or results["suite_version"] != SUITE_VERSION:
         raise EvaluationError(f"{path}: suite version {results['suite_version']!r} (file format {results['format_version']!r}); "
                               f"this ctsim scores suite version {SUITE_VERSION!r} (format {FORMAT_VERSION}): run the estimator again with this ctsim")  # fmt: skip
+    problem = _shape_problem(results)
+    if problem:
+        raise EvaluationError(f"{path}: not a results file of ctsim evaluate: {problem}")
     return results
+
+
+def _shape_problem(results: dict[str, Any]) -> str | None:
+    """What in a results file of the right version is not as `results_of` writes one (None: nothing):
+    a file edited by hand or by another program is refused in one line, never half read."""
+    from bots.odometry.user import NAME
+
+    def number(value: Any) -> bool:
+        return value is None or (isinstance(value, int | float) and not isinstance(value, bool))
+
+    scenarios, seeds, runs = results["scenarios"], results["seeds"], results["runs"]
+    if not (isinstance(scenarios, dict) and all(isinstance(v, dict) and isinstance(v.get("hash"), str) for v in scenarios.values())):
+        return "'scenarios' must map each scenario to its settings and hash"
+    if not (isinstance(seeds, list) and all(isinstance(seed, int) for seed in seeds)):
+        return "'seeds' must be a list of whole numbers"
+    if not (isinstance(results["estimators"], dict) and all(isinstance(v, dict) and isinstance(v.get("identity"), str) and isinstance(v.get("source"), str)
+                                                             for v in results["estimators"].values())):  # fmt: skip
+        return "'estimators' must map each estimator to its source and identity"
+    if not (isinstance(runs, list) and all(isinstance(run, dict) for run in runs)):
+        return "'runs' must be a list of runs"
+    order = list(dict.fromkeys(run.get("scenario") for run in runs))  # (the suite's order: the file's keys are sorted)
+    if set(order) != set(scenarios) or [(r.get("scenario"), r.get("seed")) for r in runs] != [(scenario, seed) for scenario in order for seed in seeds]:
+        return "'runs' must hold every scenario's runs, seed by seed, in order"
+    for run in runs:
+        metrics, failed = run.get("metrics"), run.get("failed", {})
+        if not (isinstance(metrics, dict) and isinstance(failed, dict)):
+            return f"run {run['scenario']} seed {run['seed']}: 'metrics' and 'failed' must be tables"
+        names = [*metrics, *results["estimators"], *failed]
+        if not all(isinstance(name, str) and NAME.fullmatch(name) for name in names):
+            return f"run {run['scenario']} seed {run['seed']}: an estimator name that is not a plain word"
+        if not all(isinstance(values, dict) and set(values) == set(METRICS) and all(map(number, values.values())) for values in metrics.values()):
+            return f"run {run['scenario']} seed {run['seed']}: each estimator's metrics must be {', '.join(METRICS)} (numbers or null)"
+        if not all(isinstance(message, str) for message in failed.values()):
+            return f"run {run['scenario']} seed {run['seed']}: 'failed' must give each estimator's error as text"
+    return None
 
 
 def merge(results: list[dict[str, Any]], names: list[str] | None = None) -> dict[str, Any]:

@@ -40,6 +40,11 @@ def runs_frame(results: dict[str, Any]) -> pd.DataFrame:
     return pd.DataFrame(rows).reindex(columns=columns) if rows else pd.DataFrame(columns=columns)
 
 
+def scenarios(results: dict[str, Any]) -> list[str]:
+    """The scenarios in the suite's order, as the runs come (a results file's keys are sorted)."""
+    return list(dict.fromkeys(run["scenario"] for run in results["runs"]))
+
+
 def results_estimators(results: dict[str, Any]) -> list[str]:
     """Every estimator of a results file, the shipped ones first in a run's order, then the submitted ones by name."""
     seen: dict[str, None] = {}
@@ -56,7 +61,7 @@ def per_scenario(results: dict[str, Any]) -> pd.DataFrame:
     interval for that many runs and the verdict (`sim.analysis.nees.over_runs`)."""
     frame = runs_frame(results)
     rows = []
-    for scenario in results["scenarios"]:
+    for scenario in scenarios(results):
         for name in results_estimators(results):
             part = frame[(frame["scenario"] == scenario) & (frame["estimator"] == name)]
             scored = part[part["failed"].isna()]
@@ -131,7 +136,7 @@ def terminal(results: dict[str, Any]) -> str:
     runs = int(scores["nees.runs"].max()) if len(scores) else 0
     interval = f"{over_runs(np.full(runs, 3.0)).low:.2f}-{over_runs(np.full(runs, 3.0)).high:.2f} for {runs} runs" if runs else "no runs scored"
     parts = {
-        f"Ranking on suite {results['suite']} v{results['suite_version']} ({len(results['scenarios'])} scenarios x {len(results['seeds'])} seeds), "
+        f"Ranking on suite {results['suite']} v{results['suite_version']} ({len(scenarios(results))} scenarios x {len(results['seeds'])} seeds), "
         "geometric means over the scenarios of the means over the seeds": ranking_text(ranking(scores)),
         "ATE (mm) per scenario, mean over the seeds": scenario_text(scores),
         f"NEES at the runs' end, mean over the seeds (ok: in its 95 % interval, {interval}; over: over-confident; under: too cautious)": nees_text(scores),

@@ -21,7 +21,7 @@ from bots.chassis_commands import chassis_setpoints
 from bots.commands import BadCommand, motor_commands, wheel_speeds_for
 from bots.controller import Controller, ControllerStopped, Status, did, reset, where
 from bots.odometry.base import Estimator
-from bots.odometry.batch import DefaultOdometry, batched
+from bots.odometry.batch import DefaultOdometry, batched, kernel_jobs
 from bots.odometry.defaults import default_estimators
 from bots.odometry.user import has_covariance, name_of, outputs
 from bots.readings import Readings, SensorFrame
@@ -92,6 +92,8 @@ def run(
     ends the run as a controller error (`StepClock`). `stop_when(world, logs)`, asked after every
     sample (a referee), ends the run when it answers something: reason JUDGED, its answer the result's `verdict`."""
     steps = step_count(duration, dt)
+    if any(setup.estimators is None and batched(setup.spec) for setup in robots):  # the odometry's compile, where the cache lacks
+        compiling.start(kernel_jobs())  # it, beside the world's making (its first kernel compiles here); `DefaultOdometry` waits for it
     world = World(world_spec, dt=dt, seed=seed)
     placed = [world.add_robot(setup.spec, setup.start, setup.name) for setup in robots]
     _refuse_overlaps(placed)
@@ -123,7 +125,7 @@ def run(
             raise _Stop(failed)
         samplers = [observer.on_sample for observer in observers if hasattr(observer, "on_sample")]
         drivers = [(i, robot.spec, log, controller) for i, (robot, log, controller) in enumerate(zip(world.robots, logs, controllers))]
-        can_finish = all(hasattr(controller, "status") for controller in controllers)  # a behaviour says when it is done
+        can_finish = all(isinstance(getattr(controller, "status", None), Status) for controller in controllers)  # a behaviour says when it is done
         awaited = [(log, robot.slot, k) for k, (log, robot) in enumerate(zip(logs, world.robots))] if world_spec.goals else []
         for step in range(steps + 1):
             frame = _sample(world, samples, logs, estimators, odometry, awaited)
@@ -208,7 +210,7 @@ def _set_up(
     for i, (setup, robot) in enumerate(zip(robots, placed)):
         chosen = list(setup.extra_estimators) if i in slot else [*(setup.estimators if setup.estimators is not None else default_estimators(setup.spec)), *setup.extra_estimators]
         failed = failed or _reset(setup, robot, chosen, world_spec, seed, i, clock)
-        names, uncertain = [estimator.name for estimator in chosen], [e.name for e in chosen if has_covariance(e)]
+        names, uncertain = [name_of(estimator) for estimator in chosen], [name_of(e) for e in chosen if has_covariance(e)]
         if i in slot:  # the batch logs its rows, the robot's own estimators theirs
             log = RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params), odometry.names[slot[i]], samples, i, world, slot[i],
                            extra=names, extra_uncertain=uncertain)  # fmt: skip

@@ -14,6 +14,7 @@ import numpy as np
 
 from sim.analysis.run_folder import REPORT  # (the page of every folder ctsim writes: a run's, a sweep's, an evaluation's)
 from sim.experiments.scores import SCALE, nees_text, per_scenario, ranking, ranking_text, results_estimators, runs_frame, scenario_text
+from sim.experiments.scores import scenarios as suite_order
 from sim.out_files import replacing, write_text
 from sim.views import palette
 from sim.views.html import facts_table, frame_table, image, page
@@ -64,7 +65,7 @@ def ate_figure(results: dict[str, Any]) -> bytes:
     """Per scenario a bar per estimator, its mean ATE over the seeds, each seed's run a dot on it (log scale)."""
     frame = runs_frame(results)
     frame = frame[frame["failed"].isna()] if len(frame) else frame
-    names, scenarios = results_estimators(results), list(results["scenarios"])
+    names, scenarios = results_estimators(results), suite_order(results)
     fig, ax = _figure(max(8.0, 0.22 * len(names) * len(scenarios) + 3.0), 4.8)
     width = 0.8 / max(1, len(names))
     for k, name in enumerate(names):
@@ -140,7 +141,7 @@ def write_page(results: dict[str, Any], out: Path) -> Path:
     }
     scenarios = [{"scenario": name, "world": s["world"], "controller": s["controller"] + "".join(f" {k}={v}" for k, v in s["params"].items()),
                   "noise": s["noise"], "duration": f"{s['duration_s']:g} s" + (" or until the goal" if s["until_goal"] else ""), "hash": s["hash"][:12]}
-                 for name, s in results["scenarios"].items()]  # fmt: skip
+                 for name, s in ((name, results["scenarios"][name]) for name in suite_order(results))]  # fmt: skip
     import pandas as pd
 
     body = [

@@ -12,7 +12,7 @@ import numpy as np
 from sim.world.kernels.floor import raster_at
 from sim.world.kernels.geometry import polygon_distance, ray_circle, ray_polygon
 from sim.world.kernels.grids import circle_grid, first_at_least, walls_near
-from sim.world.kernels.pick import pick_polygon
+from sim.world.kernels.pick import pick_wall
 from sim.world.layout import GHOST, Curves, Floor, Noise, Rays, Readout, Sensing, Walls
 
 
@@ -92,7 +92,7 @@ def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: 
     a GHOST's) within the ray's cone (half-angle, rad) of its view and within `length`; inf if
     none. As `World.ray_distance`: per convex body the nearest point if it lies in the cone, else
     the first hit of an edge ray. A ray whose `pick` is set sees a wall as c't-Sim's Java3D cone
-    pick does (`pick.pick_polygon`).
+    pick does (`pick.pick_wall`).
 
     With more than `grid_above` circles, each sensor checks only the circles in the grid cells
     its cone's bounding box overlaps (a crowd would otherwise cost sensors x robots); the nearest
@@ -124,7 +124,7 @@ def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: 
                 continue
             start, end = spans[w].start, spans[w].end
             if picks[k]:
-                best = min(best, pick_polygon(ox, oy, cx, cy, length, math.tan(cone), vertices, start, end))
+                best = min(best, pick_wall((ox, oy, cx, cy, length), math.tan(cone), vertices, start, end, box.cylinder))
                 continue
             distance, qx, qy = polygon_distance(ox, oy, vertices, start, end)
             if distance <= 0.0:
