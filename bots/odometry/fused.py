@@ -3,7 +3,6 @@ c't-Bot's blend."""
 
 from __future__ import annotations
 
-import math
 from typing import Literal
 
 import numpy as np
@@ -12,8 +11,6 @@ from bots.odometry.base import ArcOdometry, Geometry
 from bots.odometry.encoder import EncoderOdometry
 from bots.odometry.mouse import MouseOdometry
 from bots.odometry.steps import (
-    STATE,
-    TIME,
     TOLERANCE,
     TURN_TOLERANCE,
     fused_step,
@@ -84,8 +81,6 @@ class FusedOdometry(ArcOdometry):
         self.encoders.reset(robot, pose)
         self.mouse.reset(robot, pose)
         self.tolerance, self.turn_tolerance = float(self.params[TOLERANCE]), float(self.params[TURN_TOLERANCE])
-        self.state = np.zeros(STATE)
-        self.state[TIME] = math.nan
         self.calibration = np.zeros(ERRORS)
         """The estimated calibration errors (entries LEFT_SCALE on of `bots.uncertainty`; relative)."""
         self.contact_steps = 0

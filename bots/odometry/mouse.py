@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from bots.odometry.base import ArcOdometry
-from bots.odometry.steps import mouse_step
+from bots.odometry.steps import MOUSE, mouse_step, sigma_mouse, slide_block, turn_check, watch_slides
 from bots.readings import Readings
 
 
@@ -20,10 +20,16 @@ class MouseOdometry(ArcOdometry):
 
     name = "mouse"
     uses_mouse = True
+    sigma_count = 2
 
     def __init__(self) -> None:
         super().__init__()
 
     def step(self, readings: Readings) -> tuple[float, float]:
         forward, lateral = readings.mouse_counts.tolist()
-        return mouse_step(self.params, float(self.pose[2]), self.errors, float(forward), float(lateral), self.work)
+        left, right = readings.encoder_ticks.tolist()
+        sigma_mouse(self.params, self.sigmas, float(forward), float(lateral))
+        s, alpha = mouse_step(self.params, float(self.pose[2]), self.errors, float(forward), float(lateral), self.work)
+        s_enc, alpha_enc, var = turn_check(self.params, float(left), float(right), s, alpha)
+        watch_slides(self.params, slide_block(self.state, MOUSE), self.errors, alpha - alpha_enc, var, alpha_enc, s_enc, float(readings.time))
+        return s, alpha
