@@ -70,10 +70,11 @@ def seed(text: str) -> int:
     return value
 
 
-def positive(kind: Callable[[str], Any], high: float = 1e9, unit: str = "") -> Callable[[str], Any]:
-    """A positive option of `kind` (float or int) up to `high`, checked as a file's value is
-    (`bots.schema.option`: NaN, infinities, subnormals and 40+ digit numbers refused)."""
-    checked = option(Field("integer" if kind is int else "number", unit, 0, high, above=True), kind)
+def positive(kind: Callable[[str], Any], high: float = 1e9, unit: str = "", low: float = 0.0) -> Callable[[str], Any]:
+    """A positive option of `kind` (float or int) up to `high` (and at least `low`, if given),
+    checked as a file's value is (`bots.schema.option`: NaN, infinities, subnormals and 40+ digit
+    numbers refused)."""
+    checked = option(Field("integer" if kind is int else "number", unit, low, high, above=not low), kind)
 
     def parse(text: str) -> Any:
         try:
