@@ -13,10 +13,12 @@ class MouseOdometry(ArcOdometry):
     axis's reading has the mouse's count variance per step, and the resolution is unknown by its
     believed size (`bots.uncertainty`). Not modelled: a mouse too fast to track (reads zero).
 
-    Not consistent where the resolution's belief turns into large heading errors: 3.75 % of a
-    full turn is 13.5 degrees, and the position error then bends away from the direction the
-    first-order covariance gives it (over-confident across the track; tests/test_uncertainty.py's
-    Monte Carlo with systematic errors drawn, docs/odometry.md)."""
+    The resolution's error is carried by two sigma points (`ArcOdometry`); a slide along a wall,
+    which the mouse reads as rotation, by the slide watch (`bots.odometry.steps.watch_slides`,
+    which looks at the encoders' ticks only to widen the heading's variance, never to move the
+    estimate). Not consistent once slides have turned its heading by more than about a quarter
+    turn: no Gaussian then describes where it is (in the maze 3 of 40 runs end 88-138 degrees off
+    and lift the mean NEES at the end to 25, docs/odometry.md)."""
 
     name = "mouse"
     uses_mouse = True
