@@ -139,6 +139,13 @@ class SlowCovariance:
     def covariance(self):
         time.sleep(1000)
 
+class PlantsAFolder:
+    """Makes a folder where the run will write truth.tum (its folder named in CTSIM_TEST_OUT)."""
+    def step(self, t, readings):
+        import os, pathlib
+        (pathlib.Path(os.environ["CTSIM_TEST_OUT"]) / "truth.tum").mkdir(exist_ok=True)
+        return Twist(0.1, 0.0)
+
 class Hangs:
     name = "hangs"
     def reset(self, robot, pose):
@@ -349,3 +356,24 @@ def test_a_controller_or_estimator_file_that_is_not_a_regular_file_is_refused_wi
     for option in ("--controller", "--estimator"):
         assert run(option, str(path), "--out", str(tmp_path / "out")) == 2
         assert f"{path}: not a regular file (a pipe, device or folder)" in capsys.readouterr().err
+
+
+def test_a_step_time_limit_too_short_for_its_timer_is_refused(tmp_path, capsys):
+    """At 1e-9 s the step timer's ticks came faster than their handler ran: the run never ended."""
+    from sim.experiments import simulate
+    from sim.run.ending import RunError
+
+    with pytest.raises(SystemExit) as refused:  # (argparse's refusal)
+        run("--controller", "idle", "--step-timeout", "1e-9", "--out", str(tmp_path / "out"))
+    assert refused.value.code == 2 and "argument --step-timeout: must be a number (s) at least 0.05" in capsys.readouterr().err
+    with pytest.raises(RunError, match="at least 0.05 s"):
+        simulate("empty", duration=0.1, step_timeout=1e-9)
+
+
+def test_a_folder_planted_at_a_files_name_during_the_run_fails_the_writing_not_the_options(code, tmp_path, monkeypatch, capsys):
+    """exit 1 (the run ran; its writing failed), one line naming the folder, the summary kept."""
+    out = tmp_path / "out"
+    monkeypatch.setenv("CTSIM_TEST_OUT", str(out))
+    assert run("--controller", f"{code}:PlantsAFolder", "--out", str(out)) == 1
+    assert f"{out}/truth.tum is a folder: ctsim cannot write its file there" in capsys.readouterr().err
+    assert json.loads((out / "summary.json").read_text())["reason"] == "duration"

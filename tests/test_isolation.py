@@ -120,3 +120,17 @@ def test_an_isolated_estimators_failure_ends_the_run_as_its_error_in_one_line(co
 def test_isolate_passes_no_parameters_to_a_controller_file(code, tmp_path, capsys):
     assert run("--controller", f"{code}:Turns", "--isolate", "--param", "speed=1", "--out", str(tmp_path / "out")) == 2
     assert "--isolate passes no --param" in capsys.readouterr().err and not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize(("argv", "status", "said"), [
+    (("--controller", "{code}:Nope"), 2, "mine.py: defines no 'Nope'"),
+    (("--controller", "idle", "--estimator", "{code}:Nope"), 2, "mine.py: defines no 'Nope'"),
+    (("--controller", "{broken}"), 1, "(in its own process): loading your file raised SyntaxError at line 1"),
+])  # fmt: skip
+def test_an_isolated_file_that_cannot_be_used_is_one_line_before_the_folder_is_made(argv, status, said, code, tmp_path, capsys):
+    broken = code.parent / "broken.py"
+    broken.write_text("class X(:\n")
+    assert run(*(a.format(code=code, broken=broken) for a in argv), "--isolate", "--out", str(tmp_path / "out")) == status
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and said in err, err
+    assert not (tmp_path / "out").exists()

@@ -15,6 +15,7 @@ from shared_data import needs_curves as needs_shared
 from bots.ctbot import CTBOT
 from bots.spec import IRSensorSpec
 from sim.world import World
+from sim.world.files.grid import build_grid
 from sim.world.sensors import gp2d12, load_ir_curve
 from sim.world.spec import Wall, WorldSpec, box
 
@@ -303,3 +304,17 @@ def test_the_pick_view_from_inside_a_wall_reads_the_face_it_looks_out_through():
 def test_ir_views_are_checked():
     with pytest.raises(ValueError, match="view"):
         IRSensorSpec("x", (0.0, 0.0), view="ray")
+
+
+def test_the_pick_view_sees_a_lamp_pillar_as_java3d_s_triangle_strip():
+    """c't-Sim's lamp pillar is a Java3D cylinder, its side one triangle strip round the corners
+    from due north: a sensor 0.9046 m south of the pillar's centre and 36 mm west of it, looking
+    north, reads 0.879630 m, and its mirror image 36 mm east 0.856784 m (the real c't-Sim at
+    poses of a solve_maze run in testparcours2.xml, 6 decimals): the pillar lies beyond the
+    segment's 0.85 m, the edges within the cone at its end key alike, and the strip's first of
+    them wins. The same 15 corners as a polygon of the box rule read 0.856076 and 0.856744."""
+    pillar = build_grid(["*"], pillars="cylinder", origin=(0.84 - 0.12, 1.32 - 0.12)).walls
+    world = World(WorldSpec("w", (0.0, 0.0, 2.0, 2.0), walls=pillar))
+    me = world.add_robot(PICK_BOT, (1.8, 0.2, 0.0))
+    for x, read in ((0.804, 0.879630), (0.876, 0.856784)):
+        assert round(world.ray_distance(me, (x, 0.4154), math.pi / 2, cone=math.radians(3.0), pick=True), 6) == read

@@ -1,4 +1,4 @@
-"""The `ctsim` command line: run, view, play, report, sweep, evaluate, contest, worlds, check, controllers, lab.
+"""The `ctsim` command line: run, view, play, report, sweep, evaluate, umbmark, contest, worlds, check, controllers, lab.
 
 User mistakes (bad world files, robot files, controller names or parameters, unwritable folders)
 (`sim.errors.UserError`, or an OSError on a path the command line named) end in one line
@@ -21,7 +21,7 @@ from pathlib import Path
 
 import sim
 from sim import sanitize
-from sim.cli import bridge, check, contest, controllers, evaluate, lab, play, report, run, sweep, view, worlds
+from sim.cli import bridge, check, contest, controllers, evaluate, lab, play, report, run, sweep, umbmark, view, worlds
 from sim.cli.observers import terminate
 from sim.cli.options import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_TERMINATED, EXIT_USER, Parser
 from sim.cli.output import held
@@ -34,7 +34,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = Parser(prog="ctsim", description="A 2D simulator of c't-Bot style differential-drive robots.")
     parser.add_argument("--version", action="version", version=f"ctsim {sim.__version__}")
     commands = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for command in (run, view, play, report, worlds, check, bridge, sweep, evaluate, controllers, lab, contest):  # the order of --help
+    for command in (run, view, play, report, worlds, check, bridge, sweep, evaluate, umbmark, controllers, lab, contest):  # the order of --help
         command.add_parser(commands)
     return parser
 

@@ -70,10 +70,11 @@ def seed(text: str) -> int:
     return value
 
 
-def positive(kind: Callable[[str], Any], high: float = 1e9, unit: str = "") -> Callable[[str], Any]:
-    """A positive option of `kind` (float or int) up to `high`, checked as a file's value is
-    (`bots.schema.option`: NaN, infinities, subnormals and 40+ digit numbers refused)."""
-    checked = option(Field("integer" if kind is int else "number", unit, 0, high, above=True), kind)
+def positive(kind: Callable[[str], Any], high: float = 1e9, unit: str = "", low: float = 0.0) -> Callable[[str], Any]:
+    """A positive option of `kind` (float or int) up to `high` (and at least `low`, if given),
+    checked as a file's value is (`bots.schema.option`: NaN, infinities, subnormals and 40+ digit
+    numbers refused)."""
+    checked = option(Field("integer" if kind is int else "number", unit, low, high, above=not low), kind)
 
     def parse(text: str) -> Any:
         try:
@@ -118,6 +119,17 @@ def add_noise_option(parser: argparse.ArgumentParser, default: str = DEFAULT_NOI
 
 def add_robot_options(parser: argparse.ArgumentParser, noise: str = DEFAULT_NOISE) -> None:
     parser.add_argument("world", nargs="?", default=DEFAULT_WORLD, help=f"a shipped world's name (see `ctsim worlds`) or a .toml/.xml world file (default: {DEFAULT_WORLD})")
+    add_robot_description(parser, noise)
+    parser.add_argument("--out", type=folder_name, metavar="DIR", help="folder for run.rrd, summary.json, TUM/CSV trajectories and figures (default: runs/<world>-<controller>-<time>)")
+    parser.add_argument("--live", action="store_true", help="also stream the recording to a rerun viewer it starts; without one the run goes on, recorded to the file")
+    parser.add_argument("--connect", metavar="URL", help="also stream the recording to the rerun viewer at URL (e.g. rerun+http://127.0.0.1:9876/proxy)")
+    parser.add_argument("--no-report", action="store_true", help="skip the PNG figures")
+    parser.add_argument("--export-rate", type=positive(float, 1e6, "Hz"), metavar="HZ",
+                        help="samples per second in the TUM and CSV files (default: every step; run.parquet always holds every sample)")
+
+
+def add_robot_description(parser: argparse.ArgumentParser, noise: str = DEFAULT_NOISE) -> None:
+    """--robot, --seed, --noise, --robot-set and --dt: the robot and how it is simulated (`load_robot_spec`)."""
     parser.add_argument("--robot", default="ctbot", metavar="NAME|FILE.toml",
                         help="robot description: a built-in name (ctbot, omni3, mecanum4, car, ocp_vehicle) or a TOML robot file (default: ctbot)")
     parser.add_argument("--seed", type=seed, default=0, help="seed of every random number in the run (the noise of --noise realistic or harsh); same seed, same run (default: 0)")
@@ -125,12 +137,6 @@ def add_robot_options(parser: argparse.ArgumentParser, noise: str = DEFAULT_NOIS
     parser.add_argument("--robot-set", action="append", type=param, default=[], metavar="SECTION.FIELD=VALUE",
                         help="override one field of the robot description after --noise, repeatable: encoders.slip_std=0.02, mouse.dpi=415, ir.noise_std=0")
     parser.add_argument("--dt", type=step_size, default=DEFAULT_DT, metavar="SECONDS", help=f"simulation step (default: {DEFAULT_DT:g})")
-    parser.add_argument("--out", type=folder_name, metavar="DIR", help="folder for run.rrd, summary.json, TUM/CSV trajectories and figures (default: runs/<world>-<controller>-<time>)")
-    parser.add_argument("--live", action="store_true", help="also stream the recording to a rerun viewer it starts; without one the run goes on, recorded to the file")
-    parser.add_argument("--connect", metavar="URL", help="also stream the recording to the rerun viewer at URL (e.g. rerun+http://127.0.0.1:9876/proxy)")
-    parser.add_argument("--no-report", action="store_true", help="skip the PNG figures")
-    parser.add_argument("--export-rate", type=positive(float, 1e6, "Hz"), metavar="HZ",
-                        help="samples per second in the TUM and CSV files (default: every step; run.parquet always holds every sample)")
 
 
 def add_engine_options(parser: argparse.ArgumentParser) -> None:

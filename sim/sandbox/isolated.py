@@ -20,10 +20,11 @@ from typing import Any
 import numpy as np
 
 from bots.commands import Command
-from bots.controller import ControllerStopped
+from bots.controller import ControllerError, ControllerStopped
+from bots.odometry.user import EstimatorError
 from bots.readings import Readings
 from bots.spec import RobotSpec
-from sim.errors import UserCodeFailed
+from sim.errors import UserCodeFailed, UserError
 from sim.sandbox.box import Limits, Sandbox, StudentError
 from sim.sandbox.controller import MODULES, SandboxedController, controller_class
 
@@ -109,6 +110,7 @@ def isolated_controller(source: str, timeout: float) -> Iterator[IsolatedControl
     """The controller of `FILE.py[:NAME]` in a process of its own, each call limited to `timeout`
     seconds; the process ended with every process it started when the block ends."""
     path, _, name = source.partition(".py")
+    _refuse_missing(Path(path + ".py"), name.lstrip(":"), ControllerError)
     found, has_reset = controller_class(Path(path + ".py"))
     with _started(path + ".py", source) as box:
         yield IsolatedController(box, name.lstrip(":") or found, has_reset, timeout)
@@ -119,6 +121,7 @@ def isolated_estimator(source: str, timeout: float) -> Iterator[Any]:
     """A factory of the estimator of `FILE.py[:NAME]`, each made in a process of its own (each
     call limited to `timeout` seconds), every process ended when the block ends."""
     path, _, name = source.partition(".py")
+    _refuse_missing(Path(path + ".py"), name.lstrip(":"), EstimatorError)
     class_name, label, uncertain = estimator_class(Path(path + ".py"), name.lstrip(":") or None)
     with ExitStack() as stack:  # (a process per robot)
 
@@ -127,6 +130,21 @@ def isolated_estimator(source: str, timeout: float) -> Iterator[Any]:
 
         make.__name__ = label
         yield make
+
+
+def _refuse_missing(path: Path, name: str, error: type[UserError]) -> None:
+    """`error` (exit 2, as without --isolate) when the file plainly defines no `name` at its top
+    level, read from its syntax; a file that does not parse is left to its loading to say."""
+    try:
+        tree = ast.parse(path.read_text(encoding="utf-8", errors="replace"), str(path))
+    except SyntaxError:
+        return
+    defined = {node.name for node in tree.body if isinstance(node, ast.ClassDef | ast.FunctionDef)}
+    defined |= {target.id for node in tree.body if isinstance(node, ast.Assign) for target in node.targets if isinstance(target, ast.Name)}
+    imported = [alias for node in tree.body if isinstance(node, ast.Import | ast.ImportFrom) for alias in node.names]
+    defined |= {(alias.asname or alias.name).split(".")[0] for alias in imported}
+    if name and name not in defined and not any(alias.name == "*" for alias in imported):
+        raise error(f"{path}: defines no {name!r}")
 
 
 @contextmanager

@@ -107,7 +107,8 @@ CIRCLES = Table(
 GHOST = -2
 """The owner of a robot's circle that no sensor sees (a world of robots that do not meet, `sense_ir`)."""
 LIGHTS = Table("lamps", Field("x", 1, "m"), Field("y", 1, "m"), Field("height", 1, "m"), Field("radius", 1, "m"))
-BOXES = Table("the walls' bounding boxes", Field("xmin", 1, "m"), Field("ymin", 1, "m"), Field("xmax", 1, "m"), Field("ymax", 1, "m"))
+BOXES = Table("the walls' bounding boxes", Field("xmin", 1, "m"), Field("ymin", 1, "m"), Field("xmax", 1, "m"), Field("ymax", 1, "m"),
+              Field("cylinder", 1, "the wall is a Java3D cylinder (`Wall.cylinder`)", np.bool_))
 SPANS = Table("each wall's vertices", Field("start", 1, "the first vertex", np.int64), Field("end", 1, "one past the last", np.int64))
 CURVE_ENDS = Table("each IR curve's table", Field("last", 1, "cm, its last entry", np.int64), Field("lowest", 1, "its lowest raw value", np.int64))
 MOTION = Table(

@@ -32,7 +32,7 @@ from sim.world.floor import FloorMap, rasterize
 from sim.world.kernels.contacts import settle
 from sim.world.kernels.motion import glide, measure, plan
 from sim.world.kernels.noise import ENCODER_DRAWS, add_rounded, draw_step, spurious_ticks
-from sim.world.kernels.pick import pick_polygon
+from sim.world.kernels.pick import pick_wall
 from sim.world.kernels.sensing import ir_rays, ir_values, read_sensors
 from sim.world.sensors import IRCurve, gp2d12, load_ir_curve
 from sim.world.spec import Start, WorldSpec
@@ -380,7 +380,7 @@ class World:
         """Distance (m) from `origin` to the nearest point of any body other than the robot's own
         within `cone` (rad, half-angle) of world `direction` and within `length`; inf if none.
         With `pick`, walls are seen as c't-Sim's Java3D pick sees them (`IRSensorSpec.view`,
-        `kernels.pick.pick_polygon`); other bodies in the whole cone.
+        `kernels.pick.pick_wall`); other bodies in the whole cone.
 
         A cone across a wall at a slant reads the cone's near edge, not the axis. Every body is
         convex, so its nearest point in the cone is its nearest point overall when that lies
@@ -392,9 +392,10 @@ class World:
         cos_cone = math.cos(cone)
         if pick:
             walls = self._walls
-            best = min((pick_polygon(origin[0], origin[1], c, s, length, math.tan(cone), walls.vertices, a, b) for a, b in zip(walls.spans["start"], walls.spans["end"])), default=math.inf)
+            spans = zip(walls.spans["start"], walls.spans["end"], walls.boxes["cylinder"])
+            best = min((pick_wall((origin[0], origin[1], c, s, length), math.tan(cone), walls.vertices, a, b, round_) for a, b, round_ in spans), default=math.inf)
             best = min(best, self._cast(robot, origin, direction - cone, length, moving=True), self._cast(robot, origin, direction + cone, length, moving=True))
-            limit = length / cos_cone  # a rim point near the segment's end lies that far
+            limit = math.inf  # a find past the segment's end (a rim point, a pillar's far side) counts, as in the kernel
         else:
             best = min(self._cast(robot, origin, direction - cone, length), self._cast(robot, origin, direction + cone, length))
             limit = length

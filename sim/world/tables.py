@@ -105,6 +105,7 @@ def walls_of(spec: WorldSpec) -> layout.Walls:
     spans["start"] = spans["end"] - np.array([len(p) for p in polygons], dtype=np.int64)
     for name, values in zip(("xmin", "ymin", "xmax", "ymax"), np.array([(*p.min(axis=0), *p.max(axis=0)) for p in polygons]).reshape(-1, 4).T):
         boxes[name] = values
+    boxes["cylinder"] = [w.cylinder for w in spec.walls]
     vertices = np.concatenate(polygons).reshape(-1, 2) if polygons else np.zeros((0, 2))
     return gridded(vertices, spans, boxes, wall_cell(boxes) if len(boxes) > WALL_GRID_ABOVE else math.inf)  # one cell: the plain loop
 

@@ -61,6 +61,42 @@ CAN_ACROSS, CAN_SOUTH = math.cos(math.pi / 30), math.cos(math.pi / 15)
 in radii: the box round its corners, cos 6° either side across and from cos 12° south to 1 north."""
 
 
+def _ctbot_parts() -> np.ndarray:
+    """c't-Sim's c't-Bot as its contact test sees another bot (`CtBotShape`): three Java3D shapes,
+    each met at the box round its corners in the bot's frame (forward, left; m): the two cheeks
+    beside the mouth and the middle behind it. Their outlines are the body's circle of 60 mm in
+    corners every 10° from the mouth's edge (asin(25 / 54.55) either side of straight ahead) and
+    the mouth's floor 39.55 mm behind that edge; the corner nearest the side and the one nearest
+    the back lie 2.72° off, 59.93 mm out."""
+    radius, mouth = 0.06, math.asin(25 / 54.55)
+    corners = mouth + np.radians(np.arange(0.0, 180.0, 10.0))
+    out = radius * np.abs(np.sin(corners[corners < math.pi - mouth])).max()
+    edge_forward, edge_side = radius * math.cos(mouth), radius * math.sin(mouth)
+    cheek = (-edge_forward, edge_side, edge_forward, out)
+    return np.array((cheek, (cheek[0], -cheek[3], cheek[2], -cheek[1]), (-out, -edge_side, edge_forward - 0.05455 + 0.015, edge_side)))
+
+
+CTBOT_PARTS = _ctbot_parts()
+"""Rows (forward min, left min, forward max, left max), m: left cheek, right cheek, middle (`_ctbot_parts`)."""
+
+
+@numba.njit(cache=True)
+def _meets_ctbot(x: float, y: float, radius: float, other: np.ndarray) -> bool:
+    """Whether a sphere of `radius` at (x, y) meets the c't-Bot at the pose OTHER (x, y, heading)
+    as c't-Sim's contact test has it: the box round each of its parts (`CTBOT_PARTS`) turned with
+    the bot, then the box round that in world axes (Java3D's bounds)."""
+    c, s = math.cos(other[2]), math.sin(other[2])
+    for part in CTBOT_PARTS:
+        lo_x, lo_y, hi_x, hi_y = math.inf, math.inf, -math.inf, -math.inf
+        for forward in (part[0], part[2]):
+            for left in (part[1], part[3]):
+                cx, cy = other[0] + forward * c - left * s, other[1] + forward * s + left * c
+                lo_x, lo_y, hi_x, hi_y = min(lo_x, cx), min(lo_y, cy), max(hi_x, cx), max(hi_y, cy)
+        if _box_gap2(x, y, lo_x, lo_y, hi_x, hi_y) <= radius * radius:
+            return True
+    return False
+
+
 @numba.njit(cache=True)
 def _box_gap2(x: float, y: float, xmin: float, ymin: float, xmax: float, ymax: float) -> float:
     """Squared distance from (x, y) to the box (0 inside)."""
@@ -72,11 +108,13 @@ def _box_gap2(x: float, y: float, xmin: float, ymin: float, xmax: float, ymax: f
 @numba.njit(cache=True)
 def stop_at_contact(pose: np.ndarray, robots: np.ndarray, state: np.ndarray, walls: Walls, circles: np.ndarray) -> None:
     """c't-Sim's contact rule for the robots that have it (ROBOTS' stops): a move that would put
-    the body within its radius of a wall, of a can (the CIRCLES owned by -1, as c't-Sim's contact
-    test sees them: boxes, `CAN_ACROSS`) or of another robot's body where that stands at the start
-    of the step is not made at all (move set to 0, blocked set); the turn still is. So the robot
-    stays at its last position clear of everything and can turn away, as c't-Sim commits the
-    position only when its bounding sphere at the new one meets nothing (MasterSimulator)."""
+    the body within its radius of a wall (a lamp pillar's box: `clear_of_walls`), of a can (the
+    CIRCLES owned by -1, as c't-Sim's contact test sees them: boxes, `CAN_ACROSS`) or of another
+    robot's body where that stands at the start of the step (another robot with this rule is a
+    c't-Bot of c't-Sim's and met at its parts' boxes, `_meets_ctbot`) is not made at all (move set
+    to 0, blocked set); the turn still is. So the robot stays at its last position clear of
+    everything and can turn away, as c't-Sim commits the position only when its bounding sphere at
+    the new one meets nothing (MasterSimulator)."""
     n = pose.shape[0]
     for i in range(n):
         if not robots[i].stops:
@@ -87,10 +125,13 @@ def stop_at_contact(pose: np.ndarray, robots: np.ndarray, state: np.ndarray, wal
         if move[0] == 0.0 and move[1] == 0.0:
             continue
         x, y, radius = pose[i, 0] + move[0], pose[i, 1] + move[1], robots[i].radius
-        blocked = not clear_of_walls(x, y, radius, walls)
+        blocked = not clear_of_walls(x, y, radius, walls, True)
         for j in range(n):
             if not blocked and j != i:
-                blocked = math.hypot(pose[j, 0] - x, pose[j, 1] - y) <= radius + robots[j].radius
+                if robots[j].stops:
+                    blocked = _meets_ctbot(x, y, radius, pose[j])
+                else:
+                    blocked = math.hypot(pose[j, 0] - x, pose[j, 1] - y) <= radius + robots[j].radius
         for j in range(circles.shape[0]):
             can = circles[j]
             if not blocked and can.owner == -1:
@@ -101,15 +142,20 @@ def stop_at_contact(pose: np.ndarray, robots: np.ndarray, state: np.ndarray, wal
 
 
 @numba.njit(cache=True)
-def clear_of_walls(x: float, y: float, radius: float, walls: Walls) -> bool:
-    """Whether a circle of `radius` at (x, y) is clear of every wall (farther than `radius`)."""
+def clear_of_walls(x: float, y: float, radius: float, walls: Walls, as_ctsim: bool = False) -> bool:
+    """Whether a circle of `radius` at (x, y) is clear of every wall (farther than `radius`);
+    `as_ctsim`: a cylinder (c't-Sim's lamp pillar, `Wall.cylinder`) counts by its box, as c't-Sim's contact test
+    meets it."""
     lo_x, lo_y, hi_x, hi_y = x - radius, y - radius, x + radius, y + radius
     boxes, spans = walls.boxes, walls.spans
     for w in walls_near(lo_x, lo_y, hi_x, hi_y, walls.frame, walls.cells):
         box = boxes[w]
         if box.xmin > hi_x or box.xmax < lo_x or box.ymin > hi_y or box.ymax < lo_y:
             continue
-        if polygon_distance(x, y, walls.vertices, spans[w].start, spans[w].end)[0] <= radius:
+        if as_ctsim and box.cylinder:
+            if _box_gap2(x, y, box.xmin, box.ymin, box.xmax, box.ymax) <= radius * radius:
+                return False
+        elif polygon_distance(x, y, walls.vertices, spans[w].start, spans[w].end)[0] <= radius:
             return False
     return True
 

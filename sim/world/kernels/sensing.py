@@ -9,10 +9,10 @@ import math
 import numba
 import numpy as np
 
-from sim.world.kernels.floor import absorption_at, line_at
+from sim.world.kernels.floor import raster_at
 from sim.world.kernels.geometry import polygon_distance, ray_circle, ray_polygon
 from sim.world.kernels.grids import circle_grid, first_at_least, walls_near
-from sim.world.kernels.pick import pick_polygon
+from sim.world.kernels.pick import pick_wall
 from sim.world.layout import GHOST, Curves, Floor, Noise, Rays, Readout, Sensing, Walls
 
 
@@ -39,7 +39,8 @@ def sample_floor(pose: np.ndarray, sensors: np.ndarray, floor: Floor, out: np.nd
     floor, at (height - line_height) * `FAN` off the mount point, else the ground (without its
     lines) at height * `FAN`; each fan's absorption is summed in float32 and truncated to 0..1023,
     and the reading is the two fans' truncated mean. Height 0 reads the mount point alone."""
-    out_absorption = np.float32(floor.outside_absorption)
+    out_absorption, off_lines = np.float32(floor.outside_absorption), np.float32(np.nan)
+    ground, lines, ox, oy, cell = floor.ground, floor.lines, floor.origin[0], floor.origin[1], floor.cell
     owner = sensors.owner
     points = np.empty((sensors.shape[0], 2))
     to_world(pose, sensors.at, owner, points)
@@ -52,10 +53,10 @@ def sample_floor(pose: np.ndarray, sensors: np.ndarray, floor: Floor, out: np.nd
             swallowed = np.float32(0.0)
             for j in range(FAN.shape[0]):
                 r = above_lines * FAN[j]
-                value = line_at(points[k, 0] + r * ux, points[k, 1] + r * uy, floor)
+                value = raster_at(points[k, 0] + r * ux, points[k, 1] + r * uy, lines, ox, oy, cell, off_lines)
                 if math.isnan(value):
                     r = height * FAN[j]
-                    value = absorption_at(points[k, 0] + r * ux, points[k, 1] + r * uy, floor, out_absorption)
+                    value = raster_at(points[k, 0] + r * ux, points[k, 1] + r * uy, ground, ox, oy, cell, out_absorption)
                 swallowed += value
             total += int(swallowed * np.float32(1023.0) / np.float32(FAN.shape[0]))
         out[k] = total // 2
@@ -91,7 +92,7 @@ def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: 
     a GHOST's) within the ray's cone (half-angle, rad) of its view and within `length`; inf if
     none. As `World.ray_distance`: per convex body the nearest point if it lies in the cone, else
     the first hit of an edge ray. A ray whose `pick` is set sees a wall as c't-Sim's Java3D cone
-    pick does (`pick.pick_polygon`).
+    pick does (`pick.pick_wall`).
 
     With more than `grid_above` circles, each sensor checks only the circles in the grid cells
     its cone's bounding box overlaps (a crowd would otherwise cost sensors x robots); the nearest
@@ -123,7 +124,7 @@ def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: 
                 continue
             start, end = spans[w].start, spans[w].end
             if picks[k]:
-                best = min(best, pick_polygon(ox, oy, cx, cy, length, math.tan(cone), vertices, start, end))
+                best = min(best, pick_wall((ox, oy, cx, cy, length), math.tan(cone), vertices, start, end, box.cylinder))
                 continue
             distance, qx, qy = polygon_distance(ox, oy, vertices, start, end)
             if distance <= 0.0:
