@@ -8,9 +8,9 @@ import os
 
 import pytest
 
+import sim.folder_lock
 from sim.cli.entry import main
 from sim.experiments import sweep
-import sim.folder_lock
 from sim.folder_lock import LOCK, FolderInUse, hold, holder
 
 fcntl = pytest.importorskip("fcntl", reason="folders are locked on POSIX only")
