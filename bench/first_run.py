@@ -1,9 +1,10 @@
-"""What a new user waits for: `ctsim run` (the main job's world, a c't-Bot solving the maze) in a
-clean process with an empty numba cache, beside the same command once the cache holds the kernels.
+"""What a new user waits for: `ctsim run` (the main job, as the README gives it: a c't-Bot with
+realistic noise solving the maze to its goal, its recording, figures and report.html) in a clean
+process with an empty numba cache, beside the same command once the cache holds the kernels.
 
-`first_run_s` is the wall time of `ctsim run --duration 1 --no-report` with a fresh
-NUMBA_CACHE_DIR: start-up, compiling every kernel the run needs, one simulated second and the
-files. `first_run_one_process_s` is the same with every kernel compiled in the one process (no
+`first_run_s` is the wall time of `ctsim run` with a fresh NUMBA_CACHE_DIR (numba then keeps
+every kernel there, never in the tree's __pycache__): start-up, compiling every kernel the run
+needs, the whole run and its files. `first_run_one_process_s` is the same with every kernel compiled in the one process (no
 helper process, `sim.world.compiling.compile_all`), `first_run_warm_s` the command with the cache filled
 by the first: what every later run pays. The machine is shared: read them as ratios.
 `suite_s` is the README's test command as a whole (bar: 5 minutes on a quiet machine).
@@ -19,7 +20,7 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-RUN = ["run", "--duration", "1", "--no-report"]
+RUN = ["run"]
 ONE_PROCESS = "import sim.world.compiling as c; c.WORKERS = 0; "
 
 
@@ -52,7 +53,7 @@ def figures(scale: float):  # noqa: ARG001 (a first run is as long as it is)
                 results["warm"] = _timed(cache, out)
         return results
 
-    yield "first_run_s", "s (empty numba cache, maze, 1 s simulated)", lambda: measure()["first"]
+    yield "first_run_s", "s (`ctsim run`, the whole main job, empty numba cache; bar <= 20 on a quiet machine)", lambda: measure()["first"]
     yield "first_run_one_process_s", "s (the same, every kernel compiled in one process)", lambda: measure()["one"]
     yield "first_run_warm_s", "s (the same command again, kernels from the cache)", lambda: measure()["warm"]
     yield "first_run_over_warm", "(first / warm, same bench run)", lambda: measure()["first"] / measure()["warm"]

@@ -12,7 +12,10 @@ from __future__ import annotations
 import enum
 import importlib.util
 import inspect
+import os
 import sys
+import sysconfig
+import traceback
 import types
 from collections.abc import Callable
 from pathlib import Path
@@ -22,7 +25,7 @@ from bots.commands import Command
 from bots.readings import Readings
 from bots.schema import parse_number
 from bots.spec import RobotSpec
-from sim.errors import UserError
+from sim.errors import UserCodeFailed, UserError
 
 
 class Status(enum.Enum):
@@ -41,8 +44,9 @@ class Controller(Protocol):
 
 
 class ControllerStopped(RuntimeError):
-    """Raised by a controller that cannot go on for a reason outside its own code (a firmware
-    peer that hung or vanished): the run ends with this message, naming the robot and step."""
+    """Raised by a controller (or estimator) that cannot go on for a reason outside its own code
+    in this process (a firmware peer that hung or vanished, code in a process of its own that
+    failed): the run ends with this message, naming the robot and step."""
 
 
 class ControllerError(UserError):
@@ -116,11 +120,14 @@ def build(factory: Callable[..., Controller], params: dict[str, str], label: str
             raise ControllerError(f"controller {label!r}, parameter {key}: {err}") from None
     try:
         made = factory(**kwargs)
-    except (TypeError, ValueError) as err:
+    except (TypeError, ValueError) as err:  # a parameter it cannot take
         raise ControllerError(f"controller {label!r}: {err}") from None
-    except SystemExit as err:  # (the user's code leaving: its mistake, not a way out of ctsim)
-        raise ControllerError(f"controller {label!r}: making it called sys.exit({err.code!r})") from None
-    return made if hasattr(made, "step") else FunctionController(made)
+    except (Exception, SystemExit) as err:  # the user's code failing (or leaving): theirs, not a way out of ctsim
+        raise UserCodeFailed(f"controller {label!r}: making it {did(err)}{where(err)}") from None
+    try:
+        return made if hasattr(made, "step") else FunctionController(made)
+    except (Exception, SystemExit) as err:  # (a `step` property that raises)
+        raise UserCodeFailed(f"controller {label!r}: asking it for its step {did(err)}{where(err)}") from None
 
 
 def load_file(path: str | Path, name: str | None = None) -> Callable[..., Controller]:
@@ -152,7 +159,7 @@ def user_module(path: Path, kind: str, error: type[UserError]) -> types.ModuleTy
     """A user's Python file run as a module (a controller's, an estimator's); `error` names the
     file and line where it failed to load, with no traceback of ours."""
     if not path.is_file():
-        raise error(f"{path}: no such {kind} file")
+        raise error(f"{path}: not a regular file (a pipe, device or folder); give the {kind}'s .py file" if path.exists() else f"{path}: no such {kind} file")
     spec = importlib.util.spec_from_file_location(f"ctsim_user_{path.stem}", path)
     module = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = module
@@ -162,6 +169,30 @@ def user_module(path: Path, kind: str, error: type[UserError]) -> types.ModuleTy
         line = _user_line(err, path)
         raise error(f"{path}:{line}: {type(err).__name__}: {err}") from None
     return module
+
+
+def did(err: BaseException) -> str:
+    """What user code did that ended it, for a line: 'called sys.exit(3)' or 'raised T: message'."""
+    if isinstance(err, SystemExit):
+        return f"called sys.exit({err.code!r})"
+    if isinstance(err, ControllerStopped):
+        return f"stopped: {err}"
+    return f"raised {type(err).__name__}: {err}"
+
+
+_MACHINERY = (str(Path(__file__).resolve().parents[1] / "sim") + os.sep, str(Path(__file__).resolve()), str(Path(__file__).resolve().parent / "odometry" / "user.py"),
+              *(sysconfig.get_paths()[key] + os.sep for key in ("stdlib", "platstdlib", "purelib", "platlib")))  # fmt: skip
+"""Where ctsim's code that calls a controller or estimator lies, and the installed libraries':
+never the place to point a user at."""
+
+
+def where(err: BaseException) -> str:
+    """' (file:line)' of the innermost frame `err` passed through in the user's code (or a shipped
+    controller's), not in the machinery that called it or a library ('' where none did, and for
+    ControllerStopped, whose message says where)."""
+    frames = traceback.extract_tb(err.__traceback__) if not isinstance(err, ControllerStopped) else ()
+    frames = [f for f in frames if not f.filename.startswith("<") and not str(Path(f.filename).resolve()).startswith(_MACHINERY)]
+    return f" ({frames[-1].filename}:{frames[-1].lineno})" if frames else ""
 
 
 def _takes_readings(function: Callable) -> bool:

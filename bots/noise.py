@@ -11,6 +11,7 @@ never in steps, so the same seed-averaged drift comes out at any `--dt` (tests/t
 | encoders.track_error | +1 % | +3 % | the same paper's other dominant error; size assumed: the tyres' contact patch is about 1 mm wide on a 97.2 mm track |
 | encoders.slip_std | 0.0004 | 0.002 sqrt m | model: variance growing with the distance rolled (Chong and Kleeman 1997); figure assumed: the 1 % per 10 ms step the earlier per-step model used, at the c't-Bot's normal 0.15 m/s (0.33 degrees of heading spread per root metre) |
 | encoders.tick_noise | 0.002 | 0.02 per tick | assumed: the c't-Bot counts 60 edges a turn with CNY70 reflex sensors on a striped disc (30 black, 30 white), whose edges bounce in ambient light; the CNY70 data sheet gives no figure; 0.2 % is one wrong tick in 1.5 m |
+| encoders.start_phase, mouse.start_phase | random | random | a real wheel and floor stop anywhere within a count: each counter starts at a phase drawn from the run's seed, so the count's error has zero mean (c't-Sim's counters, and a robot without a preset, start on an edge and lag by half a count on average) |
 | mouse.scale_error | +3.75 % | +3.75 % | a stated measurement of the c't-Bot: the firmware's bot-local.h calibrates the real bot's ADNS-2610 at 415 cpi against its nominal 400 (`MOUSE_CPI`) |
 | mouse.noise_std | 0.00033 | 0.0008 sqrt m | model: count error growing with the floor passed; figure assumed: the 0.2 counts per 10 ms step the earlier model used at 0.15 m/s (0.33 mm per root metre, 1.3 degrees of heading per root metre from a sensor 15 mm behind the axle); two-mice odometry measured 114 mm E_max,syst on UMBmark (Bonarini, Matteucci, Restelli 2004), comparable with wheel odometry |
 | mouse.max_speed | - | 0.305 m/s | the ADNS-2610's 12 inch/s tracking limit (data sheet) |
@@ -36,8 +37,10 @@ NOISE_PRESETS: dict[str, dict[str, Any]] = {
         "encoders.track_error": 0.01,
         "encoders.slip_std": 0.0004,
         "encoders.tick_noise": 0.002,
+        "encoders.start_phase": "random",
         "mouse.scale_error": 0.0375,
         "mouse.noise_std": 0.00033,
+        "mouse.start_phase": "random",
         "ir.noise_std": 0.005,
         "line.noise_std": 5.0,
         "border.noise_std": 5.0,
@@ -48,9 +51,11 @@ NOISE_PRESETS: dict[str, dict[str, Any]] = {
         "encoders.track_error": 0.03,
         "encoders.slip_std": 0.002,
         "encoders.tick_noise": 0.02,
+        "encoders.start_phase": "random",
         "mouse.scale_error": 0.0375,
         "mouse.noise_std": 0.0008,
         "mouse.max_speed": 0.305,
+        "mouse.start_phase": "random",
         "ir.noise_std": 0.015,
         "line.noise_std": 20.0,
         "border.noise_std": 20.0,

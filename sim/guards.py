@@ -4,7 +4,9 @@ handlers (Ctrl-C, SIGTERM, the step timer's SIGALRM), blocked signals, the step 
 (its interval and its next expiry), the recursion limit, stdout and stderr (the objects and the
 descriptors 1 and 2 under them, redirected with os.dup2 too), `os._exit` (and `posix._exit`) from
 a thread, a fork that returns into the run loop, and the module attributes of ctsim, numpy and
-the standard library modules ctsim writes its files and lines with (json, os, io, csv, builtins).
+the standard library modules ctsim writes its files and lines with (json, os, io, csv, builtins),
+and the methods of their classes. The guard holds from the run's first user code (the resets)
+to its end; what a controller changes while it is made, before the run, it keeps.
 
 A controller is the user's own code (or, in a contest, someone else's, which runs sandboxed):
 these guards catch mistakes, not an attacker; code that means harm can still use ctypes. What a
@@ -19,14 +21,17 @@ only when the run ends or fails.
 
 from __future__ import annotations
 
+import _signal
 import importlib
 import inspect
+import operator
 import os
 import signal
 import sys
 import sysconfig
 import threading
 import traceback
+from collections.abc import Mapping
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -70,8 +75,43 @@ class ControllerBrokeOut(Exception):
 
 
 def _snapshot() -> dict[str, tuple[ModuleType, dict[str, Any]]]:
-    return {name: (module, dict(vars(module))) for name, module in list(sys.modules.items())
+    return {name: (module, vars(module).copy()) for name, module in list(sys.modules.items())
             if isinstance(module, ModuleType) and name.split(".")[0] in _WATCHED}
+
+
+def _same(before: dict[str, Any], now: Mapping[str, Any]) -> bool:
+    """Whether a namespace holds the very objects it held, told in C (no `__eq__` of theirs runs):
+    most of a few hundred modules and classes, in well under a millisecond."""
+    return len(before) == len(now) and all(map(operator.is_, before.values(), now.values())) and before.keys() == now.keys()
+
+
+_MUTABLE = 1 << 9, 1 << 8
+"""Py_TPFLAGS_HEAPTYPE and Py_TPFLAGS_IMMUTABLETYPE: a class whose attributes can be set is a heap
+type that is not immutable (numpy's ndarray and Generator, builtins' int, cannot be patched)."""
+_CLASSES: dict[str, tuple[ModuleType, tuple[type, ...]]] = {}
+"""The patchable classes each watched module defines, found once per module (a few ms in all)."""
+
+
+def _classes(modules: dict[str, tuple[ModuleType, dict[str, Any]]]) -> dict[type, dict[str, Any]]:
+    """The attributes of every patchable class the watched modules define (a method of World
+    or of a numpy class a controller replaces is a replaced function too)."""
+    found = {}
+    for name, (module, attributes) in modules.items():
+        known = _CLASSES.get(name)
+        if known is None or known[0] is not module:
+            heap, immutable = _MUTABLE
+            mine = tuple(value for value in attributes.values() if isinstance(value, type) and value.__module__ == name
+                         and value.__flags__ & heap and not value.__flags__ & immutable)  # fmt: skip
+            known = _CLASSES[name] = (module, mine)
+        for cls in known[1]:
+            found[cls] = vars(cls).copy()
+    return found
+
+
+def _code(value: Any) -> bool:
+    """Whether a module's or class's attribute is code (a function, class, method, descriptor or
+    module), what a controller must not replace; data (a class's counters, a cache) may change."""
+    return callable(value) or isinstance(value, ModuleType | classmethod | staticmethod | property)
 
 
 class Guard:
@@ -80,12 +120,15 @@ class Guard:
 
     def __init__(self) -> None:
         self.main = threading.main_thread() is threading.current_thread()
-        self.handlers = {s: signal.getsignal(s) for s in _SIGNALS} if self.main else {}
+        # (the handlers as the C module gives them: signal.getsignal turns each into an enum member where it
+        # can, trying and failing with an exception for a function, most of a check's cost)
+        self.handlers = {s: _signal.getsignal(s) for s in _SIGNALS} if self.main else {}
         self.timer = signal.getitimer(signal.ITIMER_REAL) if self.main and hasattr(signal, "getitimer") else None
         self.streams = [sys.stdout, sys.stderr]
         self.descriptors = {fd: os.dup(fd) for fd in (1, 2) if _open(fd)}
         self.targets = {fd: _identity(copy) for fd, copy in self.descriptors.items()}
         self.modules = _snapshot()
+        self.classes = _classes(self.modules)
         self.exited: str | None = None
         self.notes: dict[str, str] = {}
         self._exit = os._exit
@@ -105,7 +148,7 @@ class Guard:
         self._put_back_descriptors()
         replaced = self.replaced()
         if replaced:
-            self.notes["modules"] = f"the controller replaced {replaced}; ctsim put it back"
+            self.notes["modules"] = f"the controller replaced {replaced}; ctsim put {'them' if ', ' in replaced or ' and ' in replaced else 'it'} back"
         for descriptor in self.descriptors.values():
             os.close(descriptor)
 
@@ -140,7 +183,7 @@ class Guard:
             _REAL_EXIT(1)  # (the run and its files belong to the parent)
         if self.main:
             for number, handler in self.handlers.items():
-                if signal.getsignal(number) is not handler:
+                if _signal.getsignal(number) is not handler:
                     signal.signal(number, handler)
                     self.notes.setdefault(f"signal {number}", f"the controller changed the handler of {signal.Signals(number).name}; ctsim put its own back")
             blocked = signal.pthread_sigmask(signal.SIG_BLOCK, ()) if hasattr(signal, "pthread_sigmask") else ()
@@ -154,7 +197,8 @@ class Guard:
         if sys.getrecursionlimit() < RECURSION_LIMIT:
             sys.setrecursionlimit(RECURSION_LIMIT)
             self.notes.setdefault("recursion", f"the controller lowered the recursion limit; ctsim put it back to {RECURSION_LIMIT}")
-        if sys.stdout is not self.streams[0] or sys.stderr is not self.streams[1] or self.streams[0].closed or self.streams[1].closed:
+        if sys.stdout is not self.streams[0] or sys.stderr is not self.streams[1] or self.streams[0].closed or self.streams[1].closed \
+                or any(_shadowed(stream) for stream in self.streams):
             self._put_back_streams()
         else:
             self._put_back_descriptors()
@@ -169,10 +213,12 @@ class Guard:
         self._put_back_descriptors()
         for k, name in enumerate(("stdout", "stderr")):
             stream = self.streams[k]
+            for key in _shadowed(stream):  # (sys.stdout.write = None: the method back)
+                delattr(stream, key)
             if stream.closed:
                 stream = self.streams[k] = os.fdopen(os.dup(k + 1), "w", buffering=1, encoding=getattr(stream, "encoding", None) or "utf-8", errors="backslashreplace")
             setattr(sys, name, stream)
-        self.notes.setdefault("streams", "the controller closed or replaced stdout or stderr; ctsim put them back")
+        self.notes.setdefault("streams", "the controller closed or replaced stdout or stderr (or a method of theirs); ctsim put them back")
 
     def _put_back_descriptors(self) -> None:
         for fd, copy in self.descriptors.items():
@@ -181,16 +227,31 @@ class Guard:
                 self.notes.setdefault("descriptors", "the controller closed or redirected file descriptor 1 or 2; ctsim put it back")
 
     def replaced(self) -> str:
-        """The functions, classes and modules in numpy's, ctsim's and bots' modules that a
-        controller replaced since the run started (put back), named ('' for none)."""
+        """The functions, classes and modules in the watched modules, and the methods of their
+        classes, that a controller replaced, deleted or (on a class) added since the run started,
+        put back; named ('' for none)."""
         changed = []
         for name, (owner, before) in self.modules.items():
             now = vars(owner)
+            if _same(before, now):
+                continue
             for key, value in before.items():
                 current = now.get(key, _MISSING)
-                if (callable(value) or isinstance(value, ModuleType)) and current is not value and current is not self._hook:
+                if current is not value and current is not self._hook and _code(value):
                     changed.append(f"{name}.{key}")
                     setattr(owner, key, value)
+        for cls, before in self.classes.items():
+            now = vars(cls)
+            if _same(before, now):
+                continue
+            for key in before.keys() | now.keys():
+                value, current = before.get(key, _MISSING), now.get(key, _MISSING)
+                if current is not value and (_code(value) or _code(current)):
+                    changed.append(f"{cls.__module__}.{cls.__qualname__}.{key}")
+                    if value is _MISSING:
+                        delattr(cls, key)
+                    else:
+                        setattr(cls, key, value)
         return ", ".join(changed[:5]) + (f" and {len(changed) - 5} more" if len(changed) > 5 else "")
 
 
@@ -225,6 +286,11 @@ def foreign_frame(err: BaseException, user_folders: tuple[str, ...]) -> str | No
         if not frame.filename.startswith("<") and where.startswith(user_folders) and not where.startswith(_KNOWN):  # (ctsim inside the user's folder stays ctsim)
             return f"{frame.filename}:{frame.lineno}"
     return None
+
+
+def _shadowed(stream: object) -> list[str]:
+    """The methods of a stream that an attribute of the object itself hides (set by a controller)."""
+    return [key for key in getattr(stream, "__dict__", {}) if callable(getattr(type(stream), key, None))]
 
 
 def _open(fd: int) -> bool:

@@ -7,7 +7,8 @@ import numpy as np
 import pymunk
 import pymunk.batch as batch
 
-from sim.world.bodies import _MOTION, _POSE, BodyArrays, _Walk
+from sim.world import layout
+from sim.world.bodies import _POSE, BodyArrays, _Walk
 
 
 def space_with_everything(robots: int, cans: int) -> tuple[pymunk.Space, list[pymunk.Body], list[pymunk.Body]]:
@@ -59,10 +60,15 @@ def test_the_private_walk_reads_what_pymunk_batch_reads():
     """`_Walk` reads pymunk's private names (pinned to pymunk 7.3.x): it gives the floats of
     `pymunk.batch.get_space_bodies` for the same fields, in the same order."""
     space, _, _ = space_with_everything(4, 3)
-    for fields, width in ((_POSE, 3), (_MOTION, 6)):
+    for fields, width in ((_POSE, 3), (layout.MOTION_FIELDS, 6)):
         walk = _Walk(space, fields, batch.Buffer(), write=False, width=width)
         walk()
         public = batch.Buffer()
         batch.get_space_bodies(space, fields, public)
         assert np.array_equal(walk.floats(), np.frombuffer(public.float_buf()).reshape(-1, width))
 
+
+def test_the_motion_rows_are_named_after_pymunk_batch_fields():
+    """MOTION's fields are pymunk's BodyFields of MOTION_FIELDS, in the order pymunk walks them (its flags' order)."""
+    names = [field.name.lower() for field in batch.BodyFields if field in layout.MOTION_FIELDS and field is not layout.MOTION_FIELDS]
+    assert names == [field.name for field in layout.MOTION.fields]

@@ -36,6 +36,7 @@ from sim.bridge.firmware_map import window  # noqa: E402
 from sim.bridge.protocol import remote_call_payload  # noqa: E402
 from sim.run.loop import RobotSetup, run  # noqa: E402
 from sim.views.recording.recorder import Recorder  # noqa: E402
+from sim.world.files.grid import build_grid  # noqa: E402
 from sim.world.spec import Movable, Start, Wall, WorldSpec, box  # noqa: E402
 
 EMPTY = WorldSpec("empty", (-5.0, -5.0, 5.0, 5.0), starts=(Start(0.0, 0.0, 0.0, 1), Start(0.0, 1.0, 0.0, 2), Start(0.0, -1.0, 0.0, 0)))
@@ -429,3 +430,16 @@ def test_a_can_stops_a_firmware_bot_where_c_t_sims_contact_test_does():
     contact = 0.8 - 0.015 * math.cos(math.pi / 15) - 0.06
     assert contact - wheel_speed(75) * 0.01 < y < contact  # within the last step of 1.318 mm before it
 
+
+
+def test_a_lamp_pillar_stops_a_firmware_bot_at_the_box_round_it():
+    """RC5 3 past a lamp pillar as the bridge loads it (c't-Sim's 0.1 m, 15-sided cylinder) 40 mm
+    to the side of the bot's path: c't-Sim's contact test meets the box round the pillar, whose
+    south face lies 50 cos 12° = 48.9 mm south of its centre over the whole path's width, so the bot
+    stops within a step before y + 0.06 reaches it; the polygon itself comes 7.5 mm later."""
+    pillar = build_grid(["*"], pillars="cylinder", origin=(0.40 - 0.12, 0.8 - 0.12)).walls
+    world = WorldSpec("pillar", (0.0, 0.0, 1.2, 1.68), walls=pillar, starts=(Start(0.36, 0.36, math.pi / 2, 1),))
+    result, _, _ = bridged(8.0, rc5=[(0.5, rc5_code("3"))], world=world)
+    y = result.robots[0].truth_array()[-1, 1]
+    contact = 0.8 - 0.05 * math.cos(math.pi / 15) - 0.06
+    assert pillar[0].cylinder and contact - wheel_speed(75) * 0.01 < y < contact

@@ -17,6 +17,7 @@ from shared_data import PARCOURS
 from shared_data import needs_parcours as needs_shared
 
 from bots.ctbot import CTBOT
+from sim.bridge.session import as_in_ctsim
 from sim.cli.entry import main
 from sim.world import World
 from sim.world.files import load_world, room_warning
@@ -158,3 +159,26 @@ def test_check_says_how_many_robots_a_world_takes(capsys):
     out = capsys.readouterr().out
     assert "warning" not in out and out.rstrip().endswith("room for 2 robot(s)")
     assert room_warning(load_world(PARCOURS / "maze.xml"), robots=1) is None
+
+
+def test_a_c_t_bot_stops_behind_another_at_the_box_round_its_back_part():
+    """c't-Sim meets another bot at the boxes round its three Java3D parts (`CtBotShape`), each
+    turned with the bot and boxed again in world axes: the middle part behind the mouth reaches
+    59.93 mm back, 27.5 mm to either side, so a bot turned 1.19° reaches 59.93 cos 1.19° + 27.5 sin
+    1.19° = 60.49 mm back, 0.49 mm past its circle, and the bot driving up behind stops within a
+    step before its own 60 mm meet that (c't-Sim stopped two bots driving one behind the other in
+    winzig.xml a step apart from the sum of their radii)."""
+    turn = math.radians(1.19)
+    front_y, bot = 0.3, as_in_ctsim(CTBOT)
+    world = World(WorldSpec("open", (-1, -1, 1, 1)))
+    world.add_robot(bot, (0.0, front_y, math.pi / 2 + turn))
+    world.add_robot(bot, (0.0, 0.0, math.pi / 2))
+    for _ in range(400):
+        before = world.poses()[1, 1]
+        world.step(np.array([(0.0, 0.0), (30.0, 30.0)]))
+        step = world.poses()[1, 1] - before
+    reach = 0.059932 * math.cos(turn) + 0.0275 * math.sin(turn)
+    contact = front_y - reach - 0.06
+    y = world.poses()[1, 1]
+    assert step == 0.0 and round(reach, 5) == 0.06049
+    assert contact - 0.0005 < y < contact  # within the last step (0.3 mm at 30 units) before it, 0.49 mm short of the circles' contact

@@ -137,7 +137,7 @@ def test_a_blocking_controller_ends_the_run_at_its_step_time_limit(controllers, 
 
 def test_sys_exit_in_a_controller_is_the_controllers_error(controllers, tmp_path, capsys):
     assert run_cli("--controller", f"{controllers}:Exits", "--out", str(tmp_path / "out")) == 1
-    assert "raised SystemExit: 3 at step 6" in capsys.readouterr().err
+    assert "called sys.exit(3) at step 6" in capsys.readouterr().err
     assert summary_of(tmp_path / "out")["reason"] == "error"
 
 

@@ -1,6 +1,7 @@
 """User code that reaches for what ctsim keeps: controllers that make the recorded readings
 writeable again, estimators that hang, answer differently each time they are read or leave with
-sys.exit, controllers that leave while being made or reset. Each ends as the user's error in one
+sys.exit, controllers and estimators that fail or leave while being made or reset, controllers that patch
+methods of ctsim's and numpy's classes. Each ends as the user's error in one
 line, and nothing it did reaches the recorded data."""
 
 from __future__ import annotations
@@ -46,11 +47,103 @@ class LeavesOnReset:
     def step(self, t, readings):
         return Twist(0.0, 0.0)
 
+class FailsOnReset:
+    def reset(self, robot):
+        raise RuntimeError("no wheels today")
+    def step(self, t, readings):
+        return Twist(0.0, 0.0)
+
+class HangsOnReset:
+    def reset(self, robot):
+        time.sleep(1000)
+    def step(self, t, readings):
+        return Twist(0.0, 0.0)
+
+class EstimatorLeavesWhenMade:
+    def __init__(self):
+        sys.exit(5)
+    def reset(self, robot, pose):
+        pass
+    def update(self, readings):
+        pass
+
+class EstimatorLeavesOnReset:
+    name = "leaves_on_reset"
+    def reset(self, robot, pose):
+        sys.exit(6)
+    def update(self, readings):
+        pass
+
 class PatchesAClassMethod:
     def step(self, t, readings):
         if t > 0.05:
             from sim.world.physics import World
             World.step = lambda self, commands: 1 / 0
+        return Twist(0.1, 0.0)
+
+class PatchesWithABuiltin:
+    """No frame of this file runs when the run fails: only the Guard can tell."""
+    def step(self, t, readings):
+        if t > 0.05:
+            from sim.world.physics import World
+            World.poses = len
+        return Twist(0.1, 0.0)
+
+class PatchesOnReset:
+    def reset(self, robot):
+        from sim.world.physics import World
+        World.step = lambda self, commands: 1 / 0
+    def step(self, t, readings):
+        return Twist(0.1, 0.0)
+
+class PatchesQuietly:
+    """Changes what ctsim does not call in this run: the run goes on, and the change is undone."""
+    def step(self, t, readings):
+        from sim.run.samples import Samples
+        Samples.added = lambda self: 1
+        np.lib.NumpyVersion.__lt__ = lambda self, other: True
+        return Twist(0.1, 0.0)
+
+class StepProperty:
+    @property
+    def step(self):
+        raise RuntimeError("no step today")
+
+class StatusOfItsOwn:
+    """A `status` that is not a behaviour's Status: not a way to say the robot is done."""
+    status = "running"
+    def step(self, t, readings):
+        return Twist(0.1, 0.0)
+
+class ShadowsStdoutWrite:
+    def step(self, t, readings):
+        sys.stdout.write = None
+        return Twist(0.1, 0.0)
+
+class NameRaises:
+    @property
+    def name(self):
+        raise RuntimeError("no name")
+    def reset(self, robot, pose):
+        self.pose = np.array(pose, dtype=float)
+    def update(self, readings):
+        pass
+
+class SlowCovariance:
+    name = "slow"
+    def reset(self, robot, pose):
+        self.pose = np.array(pose, dtype=float)
+    def update(self, readings):
+        pass
+    @property
+    def covariance(self):
+        time.sleep(1000)
+
+class PlantsAFolder:
+    """Makes a folder where the run will write truth.tum (its folder named in CTSIM_TEST_OUT)."""
+    def step(self, t, readings):
+        import os, pathlib
+        (pathlib.Path(os.environ["CTSIM_TEST_OUT"]) / "truth.tum").mkdir(exist_ok=True)
         return Twist(0.1, 0.0)
 
 class Hangs:
@@ -113,11 +206,33 @@ def test_no_flag_or_base_makes_the_recorded_readings_writeable(code, tmp_path):
     assert len(readings.columns) and not (readings == 99).any().any()
 
 
-def test_sys_exit_while_a_controller_is_made_or_reset_is_the_users_error_in_one_line(code, tmp_path, capsys):
-    for name, said in (("LeavesWhenMade", "making it called sys.exit(3)"), ("LeavesOnReset", "the controller's reset called sys.exit(4)")):
-        assert run("--controller", f"{code}:{name}", "--out", str(tmp_path / name)) == 2
-        err = capsys.readouterr().err
-        assert err.startswith("ctsim: error: ") and err.count("\n") == 1 and said in err, err
+@pytest.mark.parametrize(("option", "name", "said"), [
+    ("--controller", "LeavesWhenMade", "making it called sys.exit(3) ({code}:"),
+    ("--estimator", "EstimatorLeavesWhenMade", "making it called sys.exit(5) ({code}:"),
+])  # fmt: skip
+def test_user_code_that_leaves_while_it_is_made_fails_in_one_line_before_the_folder_is(option, name, said, code, tmp_path, capsys):
+    """exit 1 (the user's code failed, not their options); nothing ran, so no folder."""
+    assert run(option, f"{code}:{name}", "--out", str(tmp_path / "out")) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("ctsim: error: ") and err.count("\n") == 1 and said.format(code=code) in err, err
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize(("argv", "said"), [
+    (("--controller", "{code}:LeavesOnReset"), "controller '{code}:LeavesOnReset' of ctbot called sys.exit(4) in its reset at t = 0.00 s ({code}:"),
+    (("--controller", "{code}:FailsOnReset"), "of ctbot raised RuntimeError: no wheels today in its reset at t = 0.00 s ({code}:"),
+    (("--controller", "idle", "--estimator", "{code}:EstimatorLeavesOnReset"), "estimator 'leaves_on_reset' of ctbot called sys.exit(6) in its reset"),
+    (("--controller", "{code}:HangsOnReset", "--step-timeout", "0.4"), "of ctbot took longer than the step time limit of 0.4 s in its reset"),
+])  # fmt: skip
+def test_user_code_that_fails_in_its_reset_ends_the_run_as_its_error_with_every_file(argv, said, code, tmp_path, capsys):
+    """The run had started (its folder and a summary saying 'running'): it ends at t = 0 as the
+    user's error, exit 1, its files written and the summary saying how it ended."""
+    out = tmp_path / "out"
+    assert run(*(a.format(code=code) for a in argv), "--out", str(out)) == 1
+    assert said.format(code=code) in capsys.readouterr().err
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["reason"] == "error" and said.format(code=code) in summary["error"]
+    assert {"run.rrd", "run.parquet", "truth.tum", "encoders.tum", "report.html"} <= {p.name for p in out.iterdir()}
 
 
 @pytest.mark.skipif(not hasattr(signal, "setitimer"), reason="the step timer is POSIX")
@@ -138,22 +253,34 @@ def test_an_estimator_value_is_read_once_so_what_is_checked_is_what_is_logged(co
 def test_sys_exit_in_an_estimator_ends_the_run_as_the_users_error_with_its_files(code, tmp_path, capsys):
     out = tmp_path / "out"
     assert run("--controller", "idle", "--estimator", f"{code}:Leaves", "--out", str(out)) == 1
-    assert "estimator 'leaves' of ctbot raised SystemExit: 3 at step 0" in capsys.readouterr().err
+    assert "estimator 'leaves' of ctbot called sys.exit(3) at step 0" in capsys.readouterr().err
     summary = json.loads((out / "summary.json").read_text())
-    assert summary["reason"] == "error" and "SystemExit" in summary["error"] and (out / "truth.tum").is_file()
+    assert summary["reason"] == "error" and "sys.exit(3)" in summary["error"] and (out / "truth.tum").is_file()
 
 
-def test_a_patched_class_method_is_the_controllers_error_not_ctsims(code, tmp_path, capsys):
+@pytest.mark.parametrize(("cls", "said"), [
+    ("PatchesAClassMethod", "replaced sim.world.physics.World.step, and the run failed with ZeroDivisionError"),
+    ("PatchesWithABuiltin", "replaced sim.world.physics.World.poses, and the run failed with TypeError"),
+    ("PatchesOnReset", "replaced sim.world.physics.World.step, and the run failed with ZeroDivisionError: division by zero at t = 0.00 s"),
+])  # fmt: skip
+def test_a_patched_class_method_is_the_controllers_error_and_is_put_back(cls, said, code, tmp_path, capsys):
     from sim.world.physics import World
 
-    step = World.step
-    try:
-        assert run("--controller", f"{code}:PatchesAClassMethod", "--out", str(tmp_path / "out")) == 1
-    finally:
-        World.step = step
+    methods = World.step, World.poses
+    assert run("--controller", f"{code}:{cls}", "--out", str(tmp_path / "out")) == 1
     err = capsys.readouterr().err
-    assert f"put its own code into ctsim's ({code}:" in err and "ZeroDivisionError" in err and "Traceback" not in err
+    assert f"controller '{code}:{cls}' of ctbot {said}" in err and "Traceback" not in err, err
     assert json.loads((tmp_path / "out" / "summary.json").read_text())["reason"] == "error"
+    assert (World.step, World.poses) == methods  # (the next run in this process has ctsim's own)
+
+
+def test_methods_a_controller_adds_or_replaces_where_the_run_does_not_call_them_are_put_back(code, tmp_path, capsys):
+    from sim.run.samples import Samples
+
+    before = np.lib.NumpyVersion.__lt__
+    assert run("--controller", f"{code}:PatchesQuietly", "--out", str(tmp_path / "out")) == 0
+    assert "the controller replaced numpy.lib.NumpyVersion.__lt__, sim.run.samples.Samples.added; ctsim put them back" in capsys.readouterr().err
+    assert np.lib.NumpyVersion.__lt__ is before and not hasattr(Samples, "added")
 
 
 @pytest.mark.skipif(not Path("/proc/self/statm").exists(), reason="the address-space check reads /proc (Linux)")
@@ -181,3 +308,72 @@ def test_the_first_sigterm_inside_an_estimator_ends_the_run_at_once(code, tmp_pa
     assert run("--controller", "idle", "--estimator", f"{code}:Terminated", "--out", str(out)) == 143
     summary = json.loads((out / "summary.json").read_text())
     assert summary["reason"] == "terminated" and (out / "truth.tum").is_file()
+
+
+def test_a_step_property_that_raises_is_the_users_error_in_one_line(code, tmp_path, capsys):
+    assert run("--controller", f"{code}:StepProperty", "--out", str(tmp_path / "out")) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"asking it for its step raised RuntimeError: no step today ({code}:" in err
+
+
+def test_a_status_that_is_not_a_behaviours_does_not_end_the_run(code, tmp_path):
+    out = tmp_path / "out"
+    assert run("--controller", f"{code}:StatusOfItsOwn", "--out", str(out)) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["reason"] == "duration" and summary["time"] == pytest.approx(0.2)
+
+
+def test_a_method_of_stdout_shadowed_by_a_controller_is_put_back(code, tmp_path, capsys):
+    assert run("--controller", f"{code}:ShadowsStdoutWrite", "--out", str(tmp_path / "out")) == 0
+    out, err = capsys.readouterr()
+    assert "wrote:" in out and "Traceback" not in err and "(or a method of theirs); ctsim put them back" in err
+
+
+def test_an_estimator_whose_name_cannot_be_read_is_named_by_its_class(code, tmp_path):
+    out = tmp_path / "out"
+    assert run("--controller", "idle", "--estimator", f"{code}:NameRaises", "--out", str(out)) == 0
+    assert (out / "NameRaises.tum").is_file()
+
+
+@pytest.mark.skipif(not hasattr(signal, "setitimer"), reason="the step timer is POSIX")
+def test_a_timeout_names_the_line_of_the_users_code_it_ended_not_ctsims(code, tmp_path, capsys):
+    assert run("--controller", "idle", "--estimator", f"{code}:SlowCovariance", "--step-timeout", "0.4", "--out", str(tmp_path / "out")) == 1
+    err = capsys.readouterr().err
+    assert f"estimator 'slow' of ctbot took longer than the step time limit of 0.4 s at step 0 (t = 0.00 s) ({code}:" in err
+
+
+@pytest.mark.parametrize("kind", ["pipe", "device", "folder"])
+def test_a_controller_or_estimator_file_that_is_not_a_regular_file_is_refused_without_reading_it(kind, tmp_path, capsys):
+    import os
+
+    path = tmp_path / "mine.py"
+    if kind == "pipe":
+        os.mkfifo(path)
+    elif kind == "device":
+        path.symlink_to("/dev/zero")
+    else:
+        path.mkdir()
+    for option in ("--controller", "--estimator"):
+        assert run(option, str(path), "--out", str(tmp_path / "out")) == 2
+        assert f"{path}: not a regular file (a pipe, device or folder)" in capsys.readouterr().err
+
+
+def test_a_step_time_limit_too_short_for_its_timer_is_refused(tmp_path, capsys):
+    """At 1e-9 s the step timer's ticks came faster than their handler ran: the run never ended."""
+    from sim.experiments import simulate
+    from sim.run.ending import RunError
+
+    with pytest.raises(SystemExit) as refused:  # (argparse's refusal)
+        run("--controller", "idle", "--step-timeout", "1e-9", "--out", str(tmp_path / "out"))
+    assert refused.value.code == 2 and "argument --step-timeout: must be a number (s) at least 0.05" in capsys.readouterr().err
+    with pytest.raises(RunError, match="at least 0.05 s"):
+        simulate("empty", duration=0.1, step_timeout=1e-9)
+
+
+def test_a_folder_planted_at_a_files_name_during_the_run_fails_the_writing_not_the_options(code, tmp_path, monkeypatch, capsys):
+    """exit 1 (the run ran; its writing failed), one line naming the folder, the summary kept."""
+    out = tmp_path / "out"
+    monkeypatch.setenv("CTSIM_TEST_OUT", str(out))
+    assert run("--controller", f"{code}:PlantsAFolder", "--out", str(out)) == 1
+    assert f"{out}/truth.tum is a folder: ctsim cannot write its file there" in capsys.readouterr().err
+    assert json.loads((out / "summary.json").read_text())["reason"] == "duration"

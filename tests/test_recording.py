@@ -183,6 +183,17 @@ def test_events_say_start_collision_and_end(tmp_path):
     assert sum("collision" in line for line in text) == result.robots[0].collisions
 
 
+def test_a_goal_reached_is_one_event_when_it_happens(tmp_path):
+    """The goal said once, at its time, in the words of the table ('goal reached at 0.0 s'); the
+    end's outcome line is for a robot that did not reach it (the test above)."""
+    path = tmp_path / "run.rrd"
+    goal_tile = (3.0, 2.76, 0.0)  # the shipped maze's goal ('Z', as tests/test_goal_report.py)
+    run(load_world("maze"), [RobotSetup(CTBOT, FunctionController(lambda t, r: WheelSpeeds(0.0, 0.0)), start=goal_tile)], duration=0.5, observers=[Recorder(path)])
+    events = _columns(path)["/events"]
+    said = [(t * 1e-9, row[0]) for t, row in zip(events["sim_time"], events["TextLog:text"]) if "goal" in row[0]]
+    assert said == [(0.0, "ctbot: goal reached at 0.0 s")]
+
+
 def test_controller_messages_reach_the_events(tmp_path):
     import logging
 

@@ -11,6 +11,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from sim.world import layout
+from sim.world.kernels.grids import gridded
 from sim.world.kernels.sensing import ir_values, sense_ir
 from sim.world.noise import NormalBlocks
 from sim.world.sensors import IRCurve, gp2d12
@@ -18,16 +20,26 @@ from sim.world.sensors import IRCurve, gp2d12
 RANGES = [(0.1, 0.8), (0.05, 0.5)]
 
 
+def curves(curve: IRCurve, inverse: np.ndarray) -> layout.Curves:
+    """One curve with one range's inverse, as the IR kernels take it."""
+    ends = layout.CURVE_ENDS.new(1)
+    ends["last"], ends["lowest"] = len(curve.per_cm) - 1, curve.raw_range()[0]
+    return layout.Curves(0.85, curve.per_cm[None], ends, np.array([curve.beyond], dtype=np.float32), inverse[None])
+
+
+def ir_sensors(n: int, noise_row: int) -> np.ndarray:
+    """SENSORS rows of `n` IR sensors on curve 0 with this noise row (-1: none)."""
+    sensors = layout.SENSORS.new(n)
+    sensors["noise_row"] = noise_row
+    return sensors
+
+
 def compiled(curve: IRCurve, low: float, high: float, distance: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """`kernels.sensing.ir_values` for one curve and range, without noise."""
     n = len(distance)
     raw, believed = np.empty(n, dtype=np.int64), np.empty(n)
-    inverse = curve.inverse_table(low, high)
-    ir_values(
-        distance, np.full(n, -1, dtype=np.int64), np.zeros(0), np.zeros((0, 1)), np.zeros(0, dtype=np.int64),
-        np.zeros(n, dtype=np.int64), curve.per_cm[None], np.array([len(curve.per_cm) - 1]), np.array([curve.beyond], dtype=np.float32),
-        inverse[None], np.array([curve.raw_range()[0]]), raw, believed,
-    )  # fmt: skip
+    no_noise = layout.Noise(np.zeros(0, dtype=np.int64), np.zeros(0), np.zeros((0, 1)), np.zeros(0, dtype=np.int64))
+    ir_values(distance, ir_sensors(n, -1), no_noise, curves(curve, curve.inverse_table(low, high)), raw, believed)
     return raw, believed
 
 
@@ -62,18 +74,16 @@ def test_ir_noise_consumes_one_normal_per_sensor_that_sees_something():
     used = np.zeros(1, dtype=np.int64)
     raw, believed = np.empty(1, dtype=np.int64), np.empty(1)
     for distance, expected_used in ((math.inf, 0), (0.3, 1), (math.inf, 1), (0.3, 2)):
-        ir_values(
-            np.array([distance]), np.zeros(1, dtype=np.int64), np.array([0.01]), normals, used, np.zeros(1, dtype=np.int64),
-            curve.per_cm[None], np.array([len(curve.per_cm) - 1]), np.array([curve.beyond], dtype=np.float32),
-            curve.inverse_table()[None], np.array([curve.raw_range()[0]]), raw, believed,
-        )  # fmt: skip
+        ir_values(np.array([distance]), ir_sensors(1, 0), layout.Noise(np.zeros(1, dtype=np.int64), np.array([0.01]), normals, used), curves(curve, curve.inverse_table()), raw, believed)
         assert used[0] == expected_used
     assert raw[0] == curve.lookup(np.array([0.3 + 0.01 * -1.0]))[0]
 
 
 def crowd(seed: int, count: int, spread: float, sensors: int) -> tuple:
     rng = np.random.default_rng(seed)
-    circles = np.column_stack((rng.uniform(-spread, spread, (count, 2)), rng.uniform(0.01, 0.08, count), rng.integers(-1, count, count)))
+    circles = layout.CIRCLES.new(count)
+    centres = rng.uniform(-spread, spread, (count, 2))
+    circles["x"], circles["y"], circles["radius"], circles["owner"] = centres[:, 0], centres[:, 1], rng.uniform(0.01, 0.08, count), rng.integers(-1, count, count)
     origins = rng.uniform(-spread, spread, (sensors, 2))
     look = rng.uniform(-math.pi, math.pi, sensors)
     cone = rng.choice([0.0, math.radians(3.0), 0.5, 1.2], sensors)
@@ -87,10 +97,11 @@ def test_ir_grid_gives_the_distances_of_every_circle(seed, count, spread):
     """Crowds from overlapping to sparse, cones from a ray to wider than 45 degrees, sensors
     inside circles: the grid broad phase returns the bits of checking every circle."""
     origins, look, cone, owner, circles = crowd(seed, count, spread, 40)
-    no_walls = (np.zeros((0, 2)), np.zeros((0, 2), dtype=np.int64), np.zeros((0, 4)))
+    rays = layout.Rays(origins, look, cone, owner, np.zeros(40, dtype=np.bool_))
+    no_walls = gridded(np.zeros((0, 2)), layout.SPANS.new(0), layout.BOXES.new(0), math.inf)
     every, grid = np.empty(40), np.empty(40)
-    sense_ir(origins, look, cone, owner, 0.85, *no_walls, circles, every, 1 << 30)
-    sense_ir(origins, look, cone, owner, 0.85, *no_walls, circles, grid, 0)
+    sense_ir(rays, no_walls, circles, 0.85, every, 1 << 30)
+    sense_ir(rays, no_walls, circles, 0.85, grid, 0)
     assert every.tobytes() == grid.tobytes()
 
 

@@ -1,6 +1,6 @@
 """The house rules hold for the whole tree: pyproject.toml's [tool.ruff] (ruff's own file:line:
-messages) and the rules of docs/architecture.md that ruff cannot see (how a run's ending is
-decided, the step's one home, pinned private names)."""
+messages) and the rules of docs/architecture.md that ruff cannot see (module length, compiled
+functions' parameters, how a run's ending is decided, the step's one home, pinned private names)."""
 
 from __future__ import annotations
 
@@ -36,6 +36,24 @@ def test_the_code_keeps_the_house_rules():
 # --- the rules ruff cannot see (issue #46), each a test that names the file and line that breaks it ---
 
 SOURCES = sorted(p for package in ("sim", "bots") for p in (ROOT / package).rglob("*.py"))
+LONGEST = 600
+"""Lines a module of sim/ or bots/ may have: past it, it holds more than one job."""
+LONG_ON_PURPOSE = {
+    "sim/kinematics/chassis.py": "the kinematics of any wheeled chassis, Köb's thesis in one place with its equation numbers "
+    "(constraints, mobility, ICR, inverse and forward kinematics), read beside the thesis",
+}
+MOST_PARAMETERS = 8
+"""Parameters a compiled function may take: more are a table or a group that wants a name (`sim.world.layout`)."""
+NOT_YET_GROUPED = {
+    # the core's batch kernels and the odometry's compiled steps (and a general chassis's wheels)
+    # still take their arrays one by one: left of #46, no new ones
+    "sim/kinematics/batch.py": {"_batch_rows", "_batch_part", "_batch_parallel", "step_batch", "_count_one", "_advance"},
+    "sim/world/chassis_drive.py": {"_wheels"},
+    "bots/odometry/steps.py": {"batch_step", "fused_step"},
+    "sim/world/kernels/pick.py": {"_closest", "pick_polygon"},  # c't-Sim's cone pick, landed (#45) beside this rule
+}
+
+
 def _relative(path: Path) -> str:
     return path.relative_to(ROOT).as_posix()
 
@@ -43,6 +61,22 @@ def _relative(path: Path) -> str:
 def _trees():
     for path in SOURCES:
         yield _relative(path), ast.parse(path.read_text(encoding="utf-8"), str(path))
+
+
+def test_no_module_is_longer_than_its_one_job():
+    long = [f"{_relative(p)}: {n} lines" for p in SOURCES if (n := len(p.read_text(encoding="utf-8").splitlines())) > LONGEST and _relative(p) not in LONG_ON_PURPOSE]
+    assert not long, f"over {LONGEST} lines: " + "; ".join(long)
+
+
+def test_a_compiled_function_takes_a_few_grouped_parameters():
+    wide = []
+    for rel, tree in _trees():
+        for node in ast.walk(tree):
+            if isinstance(node, ast.FunctionDef) and any("njit" in ast.unparse(d) or "numba" in ast.unparse(d) for d in node.decorator_list):
+                count = len(node.args.posonlyargs) + len(node.args.args) + len(node.args.kwonlyargs)
+                if count > MOST_PARAMETERS and node.name not in NOT_YET_GROUPED.get(rel, ()):
+                    wide.append(f"{rel}:{node.lineno}: {node.name} takes {count}")
+    assert not wide, f"more than {MOST_PARAMETERS} parameters: " + "; ".join(wide)
 
 
 def test_how_a_run_ended_is_decided_by_its_ending_not_its_spelling():
@@ -104,3 +138,19 @@ def test_a_module_reading_a_librarys_private_names_states_the_pinned_version():
                 if pin is None or f"{library} {pin.group(1)}" not in text:
                     unpinned.append(f"{rel}:{node.lineno}: {node.module} (pyproject.toml pins {library} as {pin.group(0) if pin else 'nothing'})")
     assert not unpinned, "private names of an unpinned library: " + "; ".join(unpinned)
+
+
+def test_a_run_folder_s_file_names_have_one_home():
+    """summary.json, run.rrd and the other files of a run folder are named (as strings, docstrings
+    aside) only in sim/analysis/run_folder.py; writers and readers ask `RunFolder` for the paths."""
+    from sim.analysis import run_folder
+
+    names = {path.name for path in run_folder.RunFolder(Path(".")).fixed}
+    found = []
+    for rel, tree in _trees():
+        if rel == "sim/analysis/run_folder.py":
+            continue
+        docstrings = {id(body[0].value) for node in ast.walk(tree) if isinstance(node, ast.Module | ast.ClassDef | ast.FunctionDef)
+                      for body in [node.body] if body and isinstance(body[0], ast.Expr)}  # fmt: skip
+        found += [f"{rel}:{n.lineno}: {n.value!r}" for n in ast.walk(tree) if isinstance(n, ast.Constant) and n.value in names and id(n) not in docstrings]
+    assert not found, "a run folder's file named outside run_folder.py (use RunFolder): " + "; ".join(found)

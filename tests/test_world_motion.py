@@ -194,13 +194,13 @@ def test_measure_kernel_agrees_with_the_reference_mouse():
     mount = rng.uniform(-0.05, 0.05, (n, 2))
     cpm = np.full(n, 400 / 0.0254)
     carry = rng.uniform(0, 1, (n, 2))
-    counts = np.zeros((n, 2), dtype=np.int64)
-    mouse_carry = carry.copy()
-    hole = np.zeros((1, 1), dtype=bool)
-    motion.measure(
-        before, after, mount, cpm, np.full(n, np.inf), np.zeros((n, 2)),
-        mouse_carry, counts, hole, np.array((-10.0, -10.0)), 100.0, False,
-    )  # fmt: skip
+    robots, state, tallies = layout.ROBOTS.new(n), layout.STATE.new(n), layout.TALLIES.new(n)
+    robots["mount"], robots["counts_per_metre"], robots["max_step"] = mount, cpm, np.inf
+    state["mouse_carry"] = carry
+    no_holes = layout.Floor(np.zeros((1, 1), np.float32), np.full((1, 1), np.nan, np.float32), np.zeros((1, 1), dtype=bool), np.array((-10.0, -10.0)), 100.0, 0.0,
+                            False, 0.0)
+    motion.measure(before, after, robots, state, tallies, no_holes)
+    counts, mouse_carry = tallies["counts"], state["mouse_carry"]
     displacement = mouse_displacement_from_increment(relative_increment(before, after), mount)
     ref_counts, ref_carry = quantize(displacement * cpm[:, None], carry)
     assert np.array_equal(counts, ref_counts)
@@ -217,12 +217,12 @@ def test_drive_kernel_agrees_with_the_reference_arc():
     pose = np.column_stack((rng.uniform(-1, 1, (n, 2)), rng.uniform(-4, 4, n)))
     dt, radius, track, wmax = 0.01, CTBOT.wheel_radius, CTBOT.track_width, CTBOT.motor.max_wheel_speed
     carry = rng.uniform(0, 1, (n, 2))
-    move, alpha, ticks, tick_carry = np.zeros((n, 2)), np.zeros(n), np.zeros((n, 2), dtype=np.int64), carry.copy()
-    motion.drive(
-        commands, np.zeros((n, 2)), np.full(n, 255.0), np.full(n, wmax), np.ones(n), np.full(n, np.inf), dt,
-        np.full(n, 60 / (2 * math.pi)), tick_carry, ticks, np.full((n, 2), radius), np.zeros((n, 2)),
-        np.full(n, track), pose, move, alpha,
-    )  # fmt: skip
+    robots, state, tallies, world = layout.ROBOTS.new(n), layout.STATE.new(n), layout.TALLIES.new(n), layout.WORLD.new(1)
+    robots["command_max"], robots["max_speed"], robots["lag"], robots["max_change"] = 255.0, wmax, 1.0, np.inf
+    robots["ticks_per_rad"], robots["real_radius"], robots["track"] = 60 / (2 * math.pi), radius, track
+    state["tick_carry"], world["dt"] = carry, dt
+    motion.drive(commands, robots, state, tallies, pose, world)
+    move, alpha, ticks = state["move"], state["alpha"], tallies["ticks"]
     speed = np.clip(commands, -255, 255) / 255 * wmax
     s, a = wheel_arcs_to_arc(speed[:, 0] * dt * radius, speed[:, 1] * dt * radius, track)
     end = integrate_arcs(pose, s[None], a[None])[0]
@@ -240,14 +240,14 @@ def _quiet_trace(quiet: bool, steps: int = 3000) -> tuple[np.ndarray, np.ndarray
     world.add_robot(CTBOT)
     world.poses()  # (builds the step's arrays)
     if not quiet:
-        world._quiet[layout.QUIET_AFTER] = -1
+        world._world["quiet_after"] = -1
     poses, tallies, ir, quiet_steps = [], [], [], 0
     for k in range(steps):
         frame = world.read_all()
         tallies.append(frame.tallies.copy())
         ir.append(frame.ir_raw.copy())
         world.step(np.array([[200.0, 200.0]]) if (k // 300) % 2 == 0 else np.array([[-150.0, 120.0]]))
-        quiet_steps += world._quiet[layout.STREAK] > world._quiet[layout.QUIET_AFTER] >= 0
+        quiet_steps += world._world[0]["streak"] > world._world[0]["quiet_after"] >= 0
         poses.append(world.poses())
     return np.array(poses), np.array(tallies), np.array(ir), world.robots[0].collisions, quiet_steps
 
@@ -275,9 +275,9 @@ def test_quiet_steps_only_for_one_round_robot_and_nothing_else_that_moves():
     with_can.add_robot(CTBOT, (0.0, 0.0, 0.0))
     for world in (crowded, with_can):
         world.step(np.zeros((len(world.robots), 2)))
-        assert world._quiet[layout.QUIET_AFTER] == -1
+        assert world._world[0]["quiet_after"] == -1
     walled = World(WorldSpec("walled", (-1, -1, 1, 1), walls=(Wall(box(0.1, -0.5, 0.2, 0.5)),)))
     walled.add_robot(CTBOT, (0.1 - CTBOT.body_radius - 0.5 * CLEAR, 0.0, 0.0))
     for _ in range(10):
         walled.step(np.zeros((1, 2)))
-    assert walled._quiet[layout.QUIET_AFTER] == walled.space.collision_persistence and walled._quiet[layout.STREAK] == 0
+    assert walled._world[0]["quiet_after"] == walled.space.collision_persistence and walled._world[0]["streak"] == 0

@@ -38,6 +38,7 @@ from bots.odometry.steps import (
     mouse_terms,
     pose_covariance,
     wheel_terms,
+    workspace,
 )
 from bots.readings import Readings
 from bots.spec import RobotSpec
@@ -144,6 +145,7 @@ class ArcOdometry:
         self.errors = Belief.of(robot).prior()
         self.lag = quantisation_lag(self.params, self.uses_mouse)
         self._entries = np.zeros(len(COVARIANCE_FIELDS))
+        self.work = workspace()  # (the compiled steps' scratch)
 
     def step(self, readings: Readings) -> tuple[float, float]:
         raise NotImplementedError

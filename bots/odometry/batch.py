@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from bots.odometry.defaults import default_estimators
-from bots.odometry.steps import ENCODERS, ESTIMATES, FUSED, MOUSE, PARAMS, STATE, TIME, batch_step
+from bots.odometry.steps import ENCODERS, ESTIMATES, FUSED, MOUSE, PARAMS, STATE, TIME, batch_step, workspace
 from bots.spec import RobotSpec
 from bots.uncertainty import COVARIANCE_FIELDS, ERRORS
 
@@ -31,6 +31,16 @@ def batched(robot: RobotSpec) -> bool:
     """Whether `DefaultOdometry` steps this robot's default estimators (a general chassis's are
     `bots.odometry.chassis`'s, stepped in Python)."""
     return robot.chassis is None
+
+
+def kernel_jobs() -> list[tuple[Any, tuple]]:
+    """The kernel `DefaultOdometry` steps with and arguments of the types it is called with (of a
+    batch of no robots: types are kinds, not sizes), for a caller that starts its compile before
+    any robot is placed (`sim.world.compiling.start`: a run, first thing); a `DefaultOdometry`
+    made later asks for the same job."""
+    jobs: list[tuple[Any, tuple]] = []
+    DefaultOdometry([], np.zeros((0, 3)), [], jobs.extend)
+    return jobs
 
 
 class DefaultOdometry:
@@ -70,10 +80,11 @@ class DefaultOdometry:
         self._out = np.zeros((n, 1 + ESTIMATES, 3))  # (where `update` is not given a run's row)
         self._cov_out = np.zeros((n, ESTIMATES, COVARIANCES))
         self._truth = np.zeros((max(self.rows.max(initial=-1) + 1, 0), 3))
+        self._work = workspace()
         # the kernel for these arrays' types, called without numba's dispatch (a third of its cost),
         # as `sim.world.compiling.compiled_for` does it for the world (bots/ does not import the world)
         arguments = (np.zeros((1, 4), np.int64), self.rows, 0.0, self.params, self.state, self.contact_steps, self.calibration,
-                     self.poses, self.errors, self.lags, self._truth, self._out, self._cov_out)  # fmt: skip
+                     self.poses, self.errors, self.lags, self._truth, self._out, self._cov_out, self._work)  # fmt: skip
         if compiling is None:
             self._step = batch_step.compile(tuple(batch_step.typeof_pyval(argument) for argument in arguments))
         else:
@@ -110,6 +121,6 @@ class DefaultOdometry:
         kernel was compiled for (C-ordered: int64 tallies, float64 truth and outputs; a float time),
         as a run's columns do: no conversions, which would cost as much as the kernel's work."""
         self._step(tallies, self.rows, time, self.params, self.state, self.contact_steps, self.calibration,
-                   self.poses, self.errors, self.lags, truth, out, cov_out)  # fmt: skip
+                   self.poses, self.errors, self.lags, truth, out, cov_out, self._work)  # fmt: skip
 
 

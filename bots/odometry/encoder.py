@@ -18,4 +18,4 @@ class EncoderOdometry(ArcOdometry):
 
     def step(self, readings: Readings) -> tuple[float, float]:
         left, right = readings.encoder_ticks.tolist()
-        return encoder_step(self.params, float(self.pose[2]), self.errors, float(left), float(right), self.end_heading)
+        return encoder_step(self.params, float(self.pose[2]), self.errors, float(left), float(right), self.end_heading, self.work)

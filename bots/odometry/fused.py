@@ -99,7 +99,7 @@ class FusedOdometry(ArcOdometry):
         left, right = readings.encoder_ticks.tolist()
         forward, lateral = readings.mouse_counts.tolist()
         s, alpha, sliding = fused_step(self.params, self.state, self.pose, self.calibration, self.errors, self.lag,
-                                       float(left), float(right), float(forward), float(lateral), float(readings.time))  # fmt: skip
+                                       float(left), float(right), float(forward), float(lateral), float(readings.time), self.work)  # fmt: skip
         self.contact_steps += sliding
         self.pose = advance(self.pose, s, alpha, False)
 

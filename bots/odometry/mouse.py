@@ -26,4 +26,4 @@ class MouseOdometry(ArcOdometry):
 
     def step(self, readings: Readings) -> tuple[float, float]:
         forward, lateral = readings.mouse_counts.tolist()
-        return mouse_step(self.params, float(self.pose[2]), self.errors, float(forward), float(lateral))
+        return mouse_step(self.params, float(self.pose[2]), self.errors, float(forward), float(lateral), self.work)

@@ -48,6 +48,13 @@ from sim.kinematics.batch import advance_one
 # the estimates of one robot in the batch (n, ESTIMATES, 3): the order of `default_estimators`
 ENCODERS, FIRMWARE, MOUSE, FUSED, ESTIMATES = 0, 1, 2, 3, 4
 IGNORED = 1e6
+MID_ANGLE, END_HEADING = 0.5, 1.0
+"""Where an arc's chord is laid (`propagate`'s share of the heading change): along the mid-angle
+(exact, seed 002 eqs 1.7, 1.12) or along the end heading (the c't-Bot firmware)."""
+PROPAGATE_WORK = 3
+"""Scratch planes (`workspace`) `propagate` uses; the steps that call it use those after."""
+WORK = 29
+"""Scratch planes of (ERRORS, ERRORS) a step uses at most (`fused_step`)."""
 """Variance (m², rad²) of a channel left out for a step: a million times any real one."""
 
 # a robot's parameters (PARAMS,) float64: metres of rim per tick (left, right), believed track
@@ -92,29 +99,32 @@ def mouse_terms(s: float, alpha: float, mount_x: float, mount_y: float, var: flo
 
 
 @numba.njit(cache=True)
-def propagate(cov: np.ndarray, heading: float, s: float, alpha: float, end_heading: bool, jac: np.ndarray, noise: np.ndarray) -> None:
+def propagate(cov: np.ndarray, heading: float, s: float, alpha: float, share: float, jac: np.ndarray, noise: np.ndarray,
+              work: np.ndarray) -> None:  # fmt: skip
     """`cov` (ERRORS, ERRORS) after laying the increment (s, alpha) from `heading` (rad, before
-    the step) whose error is jac @ errors + n, n ~ noise: cov <- A cov A^T + G noise G^T, with A
-    the identity but for the pose rows (d pose'/d pose and G @ jac, G = d pose'/d (s, alpha))."""
-    angle = heading + (alpha if end_heading else 0.5 * alpha)
+    the step) along `heading + share * alpha` (`MID_ANGLE`, exact, or `END_HEADING`, the
+    firmware), whose error is jac @ errors + n, n ~ noise: cov <- A cov A^T + G noise G^T, with A
+    the identity but for the pose rows (d pose'/d pose and G @ jac, G = d pose'/d (s, alpha)).
+    `work` (WORK, ERRORS, ERRORS): scratch planes (`workspace`), its first PROPAGATE_WORK used.
+    (A float, not a bool: numba compiles a function once for each constant bool it is called with.)"""
+    angle = heading + share * alpha
     c, sn = math.cos(angle), math.sin(angle)
-    lever = s if end_heading else 0.5 * s
+    lever = share * s
     g = ((c, -lever * sn), (sn, lever * c), (0.0, 1.0))
-    a = np.zeros((3, ERRORS))
+    a, rows, pose = work[0, :3], work[1, :3], work[2, :3, :3]  # rows: a @ cov; pose: a @ cov @ a^T, + G noise G^T
+    a[:, :] = 0.0
     for r in range(3):
         a[r, r] = 1.0
         for j in range(ERRORS):
             a[r, j] += g[r][0] * jac[0, j] + g[r][1] * jac[1, j]
     a[0, HEADING] -= s * sn
     a[1, HEADING] += s * c
-    rows = np.zeros((3, ERRORS))  # a @ cov
     for r in range(3):
         for j in range(ERRORS):
             total = 0.0
             for k in range(ERRORS):
                 total += a[r, k] * cov[k, j]
             rows[r, j] = total
-    pose = np.zeros((3, 3))  # a @ cov @ a^T, + G noise G^T
     for r in range(3):
         for q in range(3):
             total = 0.0
@@ -141,10 +151,16 @@ def pose_covariance(cov: np.ndarray, heading: float, lag: np.ndarray, out: np.nd
     out[5] = cov[2, 2] + lag[1, 1]
 
 
+def workspace() -> np.ndarray:
+    """Scratch for the steps (WORK planes of (ERRORS, ERRORS)): their intermediates live there,
+    not in arrays allocated every step (which cost more than the arithmetic)."""
+    return np.zeros((WORK, ERRORS, ERRORS))
+
+
 @numba.njit(cache=True)
-def _mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a @ b for 2-D arrays (numba's own needs SciPy's BLAS)."""
-    out = np.zeros((a.shape[0], b.shape[1]))
+def _mul(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """out <- a @ b for 2-D arrays (numba's own needs SciPy's BLAS); `out` (a view of scratch)."""
+    out[:, :] = 0.0
     for i in range(a.shape[0]):
         for k in range(a.shape[1]):
             for j in range(b.shape[1]):
@@ -153,9 +169,9 @@ def _mul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 @numba.njit(cache=True)
-def _apply(a: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """a @ v for a 2-D a and a 1-D v."""
-    out = np.zeros(a.shape[0])
+def _apply(a: np.ndarray, v: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """out <- a @ v for a 2-D a and a 1-D v."""
+    out[:] = 0.0
     for i in range(a.shape[0]):
         for k in range(a.shape[1]):
             out[i] += a[i, k] * v[k]
@@ -163,10 +179,19 @@ def _apply(a: np.ndarray, v: np.ndarray) -> np.ndarray:
 
 
 @numba.njit(cache=True)
-def _inverse(m: np.ndarray) -> np.ndarray:
+def _inverse(m: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """out <- the inverse of the 2 x 2 `m`."""
     det = m[0, 0] * m[1, 1] - m[0, 1] * m[1, 0]
-    out = np.empty((2, 2))
     out[0, 0], out[0, 1], out[1, 0], out[1, 1] = m[1, 1] / det, -m[0, 1] / det, -m[1, 0] / det, m[0, 0] / det
+    return out
+
+
+@numba.njit(cache=True)
+def _add(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """out <- a + b, element by element (2-D)."""
+    for i in range(a.shape[0]):
+        for j in range(a.shape[1]):
+            out[i, j] = a[i, j] + b[i, j]
     return out
 
 
@@ -185,14 +210,15 @@ def mouse_variance(p: np.ndarray, s: float, alpha: float) -> float:
 
 
 @numba.njit(cache=True)
-def encoder_step(p: np.ndarray, heading: float, cov: np.ndarray, left: float, right: float, end_heading: bool) -> tuple[float, float]:
-    """Encoder odometry: the increment of `left`, `right` ticks; `cov` propagated from `heading`."""
+def encoder_step(p: np.ndarray, heading: float, cov: np.ndarray, left: float, right: float, end_heading: bool, work: np.ndarray) -> tuple[float, float]:
+    """Encoder odometry: the increment of `left`, `right` ticks; `cov` propagated from `heading`
+    (`work`: scratch, `workspace`)."""
     s_left, s_right = left * p[TICK_LEFT], right * p[TICK_RIGHT]
     s, alpha = 0.5 * (s_left + s_right), (s_right - s_left) / p[TRACK]
-    jac, noise = np.zeros((2, ERRORS)), np.zeros((2, 2))
+    jac, noise = work[PROPAGATE_WORK, :2, :], work[PROPAGATE_WORK + 1, :2, :2]
     var_left, var_right = wheel_variances(p, s_left, s_right)
     wheel_terms(s_left, s_right, alpha, p[TRACK], var_left, var_right, jac, noise)
-    propagate(cov, heading, s, alpha, end_heading, jac, noise)
+    propagate(cov, heading, s, alpha, END_HEADING if end_heading else MID_ANGLE, jac, noise, work)
     return s, alpha
 
 
@@ -204,42 +230,61 @@ def mouse_arc(p: np.ndarray, forward: float, lateral: float) -> tuple[float, flo
 
 
 @numba.njit(cache=True)
-def mouse_step(p: np.ndarray, heading: float, cov: np.ndarray, forward: float, lateral: float) -> tuple[float, float]:
-    """Mouse odometry: the increment of these counts; `cov` propagated from `heading`."""
+def mouse_step(p: np.ndarray, heading: float, cov: np.ndarray, forward: float, lateral: float, work: np.ndarray) -> tuple[float, float]:
+    """Mouse odometry: the increment of these counts; `cov` propagated from `heading` (`work`:
+    scratch, `workspace`)."""
     s, alpha = mouse_arc(p, forward, lateral)
-    jac, noise = np.zeros((2, ERRORS)), np.zeros((2, 2))
+    jac, noise = work[PROPAGATE_WORK, :2, :], work[PROPAGATE_WORK + 1, :2, :2]
     mouse_terms(s, alpha, p[MOUNT_X], p[MOUNT_Y], mouse_variance(p, s, alpha), jac, noise)
-    propagate(cov, heading, s, alpha, False, jac, noise)
+    propagate(cov, heading, s, alpha, MID_ANGLE, jac, noise, work)
     return s, alpha
+
+
+@numba.njit(cache=True)
+def _weighed(w_enc: np.ndarray, m_enc: np.ndarray, w_mouse: np.ndarray, m_mouse: np.ndarray, out: np.ndarray, work: np.ndarray) -> None:
+    """out <- w_enc m_enc w_enc^T + w_mouse m_mouse w_mouse^T (2 x 2; `work`: four scratch planes)."""
+    _add(_mul(_mul(w_enc, m_enc, work[0, :2, :2]), w_enc.T, work[1, :2, :2]), _mul(_mul(w_mouse, m_mouse, work[2, :2, :2]), w_mouse.T, work[3, :2, :2]), out)
 
 
 @numba.njit(cache=True)
 def fused_step(
     p: np.ndarray, st: np.ndarray, pose: np.ndarray, calibration: np.ndarray, cov: np.ndarray, lag: np.ndarray,
-    left: float, right: float, forward: float, lateral: float, time: float,
+    left: float, right: float, forward: float, lateral: float, time: float, work: np.ndarray,
 ) -> tuple[float, float, bool]:
     """The fused filter's step, in place: `pose` (3,) corrected by the update (not yet advanced),
     `calibration` (ERRORS,) the estimated errors (entries 3 on), `cov` (ERRORS, ERRORS), `lag`
-    (2, 2) the increment's quantisation lag, `st` (STATE,) the detectors. Returns the increment
-    (s, alpha) to lay from the corrected pose and whether the mouse slid (wall contact)."""
+    (2, 2) the increment's quantisation lag, `st` (STATE,) the detectors; every intermediate in
+    `work` (`workspace`: no allocation a step). Returns the increment (s, alpha) to lay from the
+    corrected pose and whether the mouse slid (wall contact)."""
+    vectors = work[PROPAGATE_WORK]  # rows: the increments and their corrections
+    u_enc, u_mouse, corrected_enc, corrected_mouse, d, u = vectors[0, :2], vectors[1, :2], vectors[2, :2], vectors[3, :2], vectors[4, :2], vectors[5, :2]
+    applied, correction, updated_enc, updated_mouse = vectors[6, :2], work[PROPAGATE_WORK + 1, 0], work[PROPAGATE_WORK + 1, 1, :2], work[PROPAGATE_WORK + 1, 2, :2]
+    j_enc, r_enc, q_enc, a_enc = work[5, :2, :], work[6, :2, :2], work[7, :2, :2], work[8, :2, :2]
+    j_mouse, r_mouse, q_mouse, a_mouse = work[9, :2, :], work[10, :2, :2], work[11, :2, :2], work[12, :2, :2]
+    h, noise_d, ph, gain, keep_cov = work[13, :2, :], work[14, :2, :2], work[15, :, :2], work[16, :, :2], work[17, :, :]
+    i_enc, i_mouse, weights, w_enc, w_mouse = work[18, :2, :2], work[19, :2, :2], work[20, :2, :2], work[21, :2, :2], work[22, :2, :2]
+    jac, noise, scratch = work[23, :2, :], work[24, :2, :2], work[25:]
+    matrix = cov[:, :]  # (every matrix a view of one type, 'A': one compile of each helper, not one per layout)
     track = p[TRACK]
     s_left, s_right = left * p[TICK_LEFT], right * p[TICK_RIGHT]
-    u_enc = np.array([0.5 * (s_left + s_right), (s_right - s_left) / track])
-    u_mouse = np.array(mouse_arc(p, forward, lateral))
+    u_enc[0], u_enc[1] = 0.5 * (s_left + s_right), (s_right - s_left) / track
+    u_mouse[0], u_mouse[1] = mouse_arc(p, forward, lateral)
     # the error models, the encoders' at the arcs of the mouse's increment (see the module)
-    j_enc, r_enc, q_enc = np.zeros((2, ERRORS)), np.zeros((2, 2)), np.zeros((2, 2))
-    j_mouse, r_mouse, q_mouse = np.zeros((2, ERRORS)), np.zeros((2, 2)), np.zeros((2, 2))
     count = 1.0 / p[PER_METRE]
     mouse_terms(u_mouse[0], u_mouse[1], p[MOUNT_X], p[MOUNT_Y], mouse_variance(p, u_mouse[0], u_mouse[1]), j_mouse, r_mouse)
     mouse_terms(u_mouse[0], u_mouse[1], p[MOUNT_X], p[MOUNT_Y], count * count / 12.0, j_mouse, q_mouse)
-    corrected_mouse = u_mouse + _apply(j_mouse, calibration)
+    _apply(j_mouse, calibration, applied)
+    for k in range(2):
+        corrected_mouse[k] = u_mouse[k] + applied[k]
     # the detectors, on the corrected increments
     at_left = corrected_mouse[0] - 0.5 * corrected_mouse[1] * track
     at_right = corrected_mouse[0] + 0.5 * corrected_mouse[1] * track
     var_left, var_right = wheel_variances(p, at_left, at_right)
     wheel_terms(at_left, at_right, corrected_mouse[1], track, var_left, var_right, j_enc, r_enc)
     wheel_terms(at_left, at_right, corrected_mouse[1], track, p[TICK_LEFT] ** 2 / 12.0, p[TICK_RIGHT] ** 2 / 12.0, j_enc, q_enc)
-    corrected_enc = u_enc + _apply(j_enc, calibration)
+    _apply(j_enc, calibration, applied)
+    for k in range(2):
+        corrected_enc[k] = u_enc[k] + applied[k]
     # slip: the encoders' distance beyond the mouse's, over the last DISTANCE_MEMORY of the mouse's
     # path, against its quantisation band, GATE sigmas of its random noise summed as it is, and of
     # the calibration still unknown over that path
@@ -265,33 +310,51 @@ def fused_step(
     mismatch = math.sqrt(max(cov[LEFT_SCALE, LEFT_SCALE] + cov[RIGHT_SCALE, RIGHT_SCALE] - 2.0 * cov[LEFT_SCALE, RIGHT_SCALE], 0.0))
     band = p[TURN_TOLERANCE] + p[GATE] * (math.sqrt(st[TURN_VAR]) + turn_scale * st[TURNING] + mismatch * st[TURN_TRAVEL] / track)
     sliding = abs(st[TURN_DISAGREEMENT]) > band
-    a_enc, a_mouse = r_enc + q_enc, r_mouse + q_mouse
+    _add(r_enc, q_enc, a_enc)
+    _add(r_mouse, q_mouse, a_mouse)
     if slipped:
         a_enc[0, 0], a_enc[0, 1], a_enc[1, 0] = IGNORED, 0.0, 0.0
     if sliding:
         a_mouse[1, 1], a_mouse[0, 1], a_mouse[1, 0] = IGNORED, 0.0, 0.0
     # the update: d = corrected_enc - corrected_mouse = h e + v, e = truth - estimate
-    h = j_mouse - j_enc
-    d = corrected_enc - corrected_mouse
-    noise_d = a_enc + a_mouse
-    ph = _mul(cov, h.T)  # (ERRORS, 2)
-    gain = _mul(ph, _inverse(_mul(h, ph) + noise_d))
-    correction = _apply(gain, d)
-    keep_cov = np.eye(ERRORS) - _mul(gain, h)
-    cov[:, :] = _mul(_mul(keep_cov, cov), keep_cov.T) + _mul(_mul(gain, noise_d), gain.T)  # (Joseph's form: stays symmetric, positive)
+    for r in range(2):
+        d[r] = corrected_enc[r] - corrected_mouse[r]
+        for j in range(ERRORS):
+            h[r, j] = j_mouse[r, j] - j_enc[r, j]
+    _add(a_enc, a_mouse, noise_d)
+    _mul(matrix, h.T, ph)  # (ERRORS, 2)
+    _mul(ph, _inverse(_add(_mul(h, ph, scratch[0, :2, :2]), noise_d, scratch[1, :2, :2]), scratch[2, :2, :2]), gain)
+    _apply(gain, d, correction)
+    _mul(gain, h, keep_cov)
+    for r in range(ERRORS):
+        for j in range(ERRORS):
+            keep_cov[r, j] = (1.0 if r == j else 0.0) - keep_cov[r, j]
+    # (Joseph's form: stays symmetric, positive)
+    _add(_mul(_mul(keep_cov, matrix, scratch[0, :, :]), keep_cov.T, scratch[1, :, :]), _mul(_mul(gain, noise_d, scratch[2, :, :2]), gain.T, scratch[3, :, :]), matrix)
     for r in range(3):
         pose[r] += correction[r]
     for r in range(3, ERRORS):
         calibration[r] += correction[r]
     # the increment: both, corrected by the updated calibration, by their information
-    i_enc, i_mouse = _inverse(a_enc), _inverse(a_mouse)
-    weights = _inverse(i_enc + i_mouse)
-    w_enc, w_mouse = _mul(weights, i_enc), _mul(weights, i_mouse)
-    u = _apply(w_enc, u_enc + _apply(j_enc, calibration)) + _apply(w_mouse, u_mouse + _apply(j_mouse, calibration))
-    jac = _mul(w_enc, j_enc) + _mul(w_mouse, j_mouse)
-    noise = _mul(_mul(w_enc, r_enc), w_enc.T) + _mul(_mul(w_mouse, r_mouse), w_mouse.T)
-    lag[:, :] = _mul(_mul(w_enc, q_enc), w_enc.T) + _mul(_mul(w_mouse, q_mouse), w_mouse.T)
-    propagate(cov, pose[2], u[0], u[1], False, jac, noise)
+    _inverse(a_enc, i_enc)
+    _inverse(a_mouse, i_mouse)
+    _inverse(_add(i_enc, i_mouse, scratch[0, :2, :2]), weights)
+    _mul(weights, i_enc, w_enc)
+    _mul(weights, i_mouse, w_mouse)
+    _apply(j_enc, calibration, applied)
+    for k in range(2):
+        updated_enc[k] = u_enc[k] + applied[k]
+    _apply(j_mouse, calibration, applied)
+    for k in range(2):
+        updated_mouse[k] = u_mouse[k] + applied[k]
+    _apply(w_enc, updated_enc, scratch[0, 0, :2])
+    _apply(w_mouse, updated_mouse, scratch[0, 1, :2])
+    for k in range(2):
+        u[k] = scratch[0, 0, k] + scratch[0, 1, k]
+    _add(_mul(w_enc, j_enc, scratch[0, :2, :]), _mul(w_mouse, j_mouse, scratch[1, :2, :]), jac)
+    _weighed(w_enc, r_enc, w_mouse, r_mouse, noise, scratch)
+    _weighed(w_enc, q_enc, w_mouse, q_mouse, lag[:, :], scratch)
+    propagate(cov, pose[2], u[0], u[1], MID_ANGLE, jac, noise, work)
     s, alpha = u[0], u[1]
     if sliding:  # what the mouse's rotation added before the slide was seen is taken back
         alpha -= st[TAKEN]
@@ -311,12 +374,12 @@ def _lay(pose: np.ndarray, s: float, alpha: float, end_heading: bool) -> None:
 def batch_step(
     tallies: np.ndarray, rows: np.ndarray, time: float, params: np.ndarray, state: np.ndarray, contact_steps: np.ndarray,
     calibration: np.ndarray, poses: np.ndarray, errors: np.ndarray, lags: np.ndarray, truth: np.ndarray, out: np.ndarray,
-    cov_out: np.ndarray,
+    cov_out: np.ndarray, work: np.ndarray,
 ) -> None:
     """One step of every robot's default estimators, in place: the compiled steps the Python
     estimators call (`bots.odometry.steps`), laid down as `ArcOdometry.update` lays them
     (`advance_one`). Where `out` has rows: out[i] = the true pose, then the estimates, and
-    cov_out[i] their covariances (a run's log, one pass)."""
+    cov_out[i] their covariances (a run's log, one pass). `work`: scratch (`workspace`)."""
     if out.shape[0] != rows.shape[0] or cov_out.shape[0] != rows.shape[0]:
         raise ValueError("DefaultOdometry.update: out and cov_out must have a row for every robot of the batch")
     for i in range(rows.shape[0]):
@@ -324,23 +387,25 @@ def batch_step(
         if r >= tallies.shape[0] or tallies.shape[1] != 4:  # a kernel reads past an array's end without a word
             raise ValueError("DefaultOdometry.update: tallies must be (robots, 4) with a row for every robot of the batch")
         left, right = float(tallies[r, 0]), float(tallies[r, 1])
-        s, alpha = encoder_step(p, pose[ENCODERS, 2], cov[ENCODERS], left, right, False)
-        _lay(pose[ENCODERS], s, alpha, False)
-        s, alpha = encoder_step(p, pose[FIRMWARE, 2], cov[FIRMWARE], left, right, True)
-        _lay(pose[FIRMWARE], s, alpha, True)
+        for estimate in range(ENCODERS, FIRMWARE + 1):  # the encoders' arc along the mid-angle, then the firmware's along the end heading
+            end_heading = estimate == FIRMWARE  # (a bool numba does not take for a constant: the step compiles once for both)
+            s, alpha = encoder_step(p, pose[estimate, 2], cov[estimate], left, right, end_heading, work)
+            _lay(pose[estimate], s, alpha, end_heading)
         if p[HAS_MOUSE] == 0.0:
             continue
         forward, lateral = float(tallies[r, 2]), float(tallies[r, 3])
-        s, alpha = mouse_step(p, pose[MOUSE, 2], cov[MOUSE], forward, lateral)
+        s, alpha = mouse_step(p, pose[MOUSE, 2], cov[MOUSE], forward, lateral, work)
         _lay(pose[MOUSE], s, alpha, False)
-        s, alpha, sliding = fused_step(p, state[i], pose[FUSED], calibration[i], cov[FUSED], lags[i, FUSED], left, right, forward, lateral, time)
+        s, alpha, sliding = fused_step(p, state[i], pose[FUSED], calibration[i], cov[FUSED], lags[i, FUSED], left, right, forward, lateral, time, work)
         contact_steps[i] += sliding
         _lay(pose[FUSED], s, alpha, False)
     for i in range(out.shape[0]):
         if rows[i] >= truth.shape[0]:
             raise ValueError("DefaultOdometry.update: truth must have a row for every robot of the batch")
-        out[i, 0] = truth[rows[i]]
-        out[i, 1:] = poses[i]
+        for c in range(3):  # (element by element: an array assignment compiles numba's whole shape-mismatch message)
+            out[i, 0, c] = truth[rows[i], c]
+            for j in range(ESTIMATES):
+                out[i, 1 + j, c] = poses[i, j, c]
         estimates = ESTIMATES if params[i, HAS_MOUSE] != 0.0 else FIRMWARE + 1
         for j in range(estimates):
             pose_covariance(errors[i, j], poses[i, j, 2], lags[i, j], cov_out[i, j])

@@ -25,12 +25,12 @@ from typing import Any
 
 import numpy as np
 
-from bots.controller import user_module
+from bots.controller import did, user_module, where
 from bots.odometry.base import Estimator
 from bots.odometry.defaults import default_estimators
 from bots.odometry.localiser import MonteCarloLocaliser
 from bots.spec import RobotSpec
-from sim.errors import UserError
+from sim.errors import UserCodeFailed, UserError
 
 NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]{0,39}")
 """What an estimator's name may be: it is part of file names (`<name>.tum`) and column names."""
@@ -67,20 +67,29 @@ def made(given: Any) -> Estimator:
     """A fresh estimator from a class, a factory, an estimator object (copied) or `FILE.py:NAME`."""
     if isinstance(given, str | Path):
         given = load(str(given))
+    label = getattr(given, "__name__", given)
     if hasattr(given, "update") and not inspect.isclass(given):
-        return copy.deepcopy(given)
+        try:
+            return copy.deepcopy(given)
+        except Exception as err:  # (a lock, a generator or an open file in it: copying it can raise anything)
+            raise EstimatorError(f"estimator {name_of(given)!r} cannot be copied for each robot ({type(err).__name__}: {err}); give its class instead") from None
     try:
         estimator = given()
-    except Exception as err:  # the user's constructor
-        raise EstimatorError(f"estimator {getattr(given, '__name__', given)!r} could not be made: {type(err).__name__}: {err}") from None
+    except (TypeError, ValueError) as err:  # a constructor that wants what it is not given
+        raise EstimatorError(f"estimator {label!r} could not be made: {type(err).__name__}: {err}") from None
+    except (Exception, SystemExit) as err:  # the user's code failing (or leaving): theirs, not a way out of ctsim
+        raise UserCodeFailed(f"estimator {label!r}: making it {did(err)}{where(err)}") from None
     if not (hasattr(estimator, "reset") and hasattr(estimator, "update")):
-        raise EstimatorError(f"{getattr(given, '__name__', given)!r} is not an estimator: it needs reset(robot, pose) and update(readings) methods")
+        raise EstimatorError(f"{label!r} is not an estimator: it needs reset(robot, pose) and update(readings) methods")
     return estimator
 
 
 def name_of(estimator: Estimator) -> str:
-    """An estimator's label: its `name`, else its class's name."""
-    return str(getattr(estimator, "name", None) or type(estimator).__name__)
+    """An estimator's label: its `name`, else (none, or one that cannot be read) its class's name."""
+    try:
+        return str(getattr(estimator, "name", None) or type(estimator).__name__)
+    except Exception:  # (a `name` property that raises, a name whose str raises)
+        return type(estimator).__name__
 
 
 def beside_defaults(robot: RobotSpec, extra: Iterable[Any]) -> list[Estimator]:
@@ -95,11 +104,11 @@ def beside_defaults(robot: RobotSpec, extra: Iterable[Any]) -> list[Estimator]:
         if label in seen or label == "truth":
             raise EstimatorError(f"estimator name {label!r} is taken; give yours another `name`")
         seen.add(label)
-        if getattr(estimator, "name", None) != label:
-            try:
+        try:
+            if getattr(estimator, "name", None) != label:
                 estimator.name = label
-            except AttributeError:
-                pass
+        except Exception:  # (a read-only `name`, or one that raises: its label stays the one above)
+            pass
     return chosen
 
 
@@ -109,24 +118,29 @@ have from floating-point rounding: products of doubles differ in the 16th digit,
 covariance after hours of steps in the 10th at most."""
 
 
-def outputs(estimator: Estimator) -> tuple[np.ndarray | None, np.ndarray | None, str | None]:
+def outputs(estimator: Estimator, uncertain: bool) -> tuple[np.ndarray | None, np.ndarray | None, str | None]:
     """An estimator's pose and covariance (None where it has none) after an update, each read once
     and copied, so that what is checked is what is logged (a property that answers differently
     when read again, or an array another estimator changes later, cannot slip past the check);
     and what is wrong with them (None: nothing): a pose that is not 3 finite numbers, a
     covariance that is not a finite, symmetric, positive semi-definite (3, 3) matrix (a
-    covariance that is none would make its NEES nonsense)."""
+    covariance that is none would make its NEES nonsense). `uncertain`: whether it reports a
+    covariance (`has_covariance`, asked once when the run starts: its logged columns)."""
     pose, problem = _numbers(getattr(estimator, "pose", None), (3,), "pose")
     covariance = None
-    if problem is None and has_covariance(estimator):
+    if problem is None and uncertain:
         covariance, problem = _numbers(estimator.covariance, (3, 3), "covariance")
         problem = problem or _covariance(covariance)
     return pose, covariance, problem
 
 
 def has_covariance(estimator: Estimator) -> bool:
-    """Whether an estimator reports a covariance (the Protocol's optional `covariance`)."""
-    return hasattr(type(estimator), "covariance") or hasattr(estimator, "covariance")
+    """Whether an estimator reports a covariance (the Protocol's optional `covariance`; one whose
+    asking raises is taken to have one, and fails where it is read, in the guarded update)."""
+    try:
+        return hasattr(type(estimator), "covariance") or hasattr(estimator, "covariance")
+    except Exception:  # (a __getattr__ that raises something else than AttributeError)
+        return True
 
 
 def _covariance(cov: np.ndarray) -> str | None:
@@ -140,8 +154,17 @@ def _covariance(cov: np.ndarray) -> str | None:
     return None
 
 
+_SEQUENCES = (list, tuple)
+_FLOATS = (float, np.float64)
+"""A pose's containers and numbers that `_numbers` takes the short way (others: numpy's)."""
+
+
 def _numbers(value: Any, shape: tuple[int, ...], what: str) -> tuple[np.ndarray | None, str | None]:
     """`value` as a fresh array of `shape`, or None and what is wrong with it."""
+    if type(value) in _SEQUENCES and len(value) == 3 and shape == (3,):  # a pose of three floats, told without numpy's calls
+        x, y, heading = value
+        if type(x) in _FLOATS and type(y) in _FLOATS and type(heading) in _FLOATS and math.isfinite(x) and math.isfinite(y) and math.isfinite(heading):
+            return np.array((float(x), float(y), float(heading))), None
     if type(value) is np.ndarray and value.shape == shape and value.dtype == np.float64:
         array = value.copy()
         if math.isfinite(array.sum()):  # every entry finite, told in a microsecond (a sum that overflows goes the long way below)

@@ -20,6 +20,7 @@ from typing import BinaryIO
 import numpy as np
 
 from bots.schema import file_stem
+from bots.sensor_kinds import BY_FIELD
 from bots.uncertainty import COVARIANCE_FIELDS
 from sim.errors import UserError
 from sim.out_files import replacing, temporary_beside
@@ -208,11 +209,7 @@ def _columns(result, rows: slice) -> dict[str, np.ndarray]:  # noqa: ANN001 (sim
 def _channels(spec, name: str) -> tuple[str, ...]:  # noqa: ANN001 (bots.spec.RobotSpec)
     """Names of the channels of readings field `name` of a robot on a differential drive (none:
     the robot lacks that sensor)."""
-    if name == "encoder_ticks":
-        return ("left", "right")
-    if name == "mouse_counts":
-        return ("forward", "left") if spec.mouse is not None else ()
-    return tuple(sensor.name for sensor in getattr(spec, "ir" if name.startswith("ir_") else name))
+    return BY_FIELD[name].channels_of(spec)
 
 
 def read_parquet(path: str | Path) -> dict[str, np.ndarray]:

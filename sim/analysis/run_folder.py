@@ -11,6 +11,7 @@ not a trajectory is named, never quoted (an error once showed /etc/passwd's firs
 from __future__ import annotations
 
 import json
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -18,6 +19,47 @@ from bots.schema import MAX_DEPTH, Field, FileError, Problem, read_bytes
 from sim.folder_lock import holder
 
 SUMMARY = "summary.json"
+RECORDING, SAMPLES, REPORT, TRAJECTORIES_FIGURE, ERRORS_FIGURE = "run.rrd", "run.parquet", "report.html", "trajectories.png", "errors.png"
+
+
+@dataclass(frozen=True)
+class RunFolder:
+    """Every path of a run folder, named here once for every writer and reader (`ctsim run`,
+    `bridge`, `play`, `report`, the web server, the lab, a sweep's kept runs): the recording, the
+    samples table, summary.json, the report page and its figures, and the trajectories
+    summary.json names (`trajectory_path`)."""
+
+    root: Path
+
+    @property
+    def recording(self) -> Path:
+        """The rerun recording (`sim.views.recording`)."""
+        return self.root / RECORDING
+
+    @property
+    def samples(self) -> Path:
+        """Every sample of the run as a table (`sim.analysis.export.write_parquet`)."""
+        return self.root / SAMPLES
+
+    @property
+    def summary(self) -> Path:
+        """summary.json (`sim.analysis.summary`), read back by `read_summary`."""
+        return self.root / SUMMARY
+
+    @property
+    def report(self) -> Path:
+        """The report page (`sim.web.report`)."""
+        return self.root / REPORT
+
+    @property
+    def figures(self) -> tuple[Path, Path]:
+        """The trajectories' and the errors' figures (`sim.views.figures`)."""
+        return self.root / TRAJECTORIES_FIGURE, self.root / ERRORS_FIGURE
+
+    @property
+    def fixed(self) -> tuple[Path, ...]:
+        """The files a run writes whatever its robots: recording, samples, summary, report, figures."""
+        return self.recording, self.samples, self.summary, self.report, *self.figures
 MOST_SUMMARY_BYTES = 64 * 2**20
 """Largest summary.json read (bytes): a 1,000-robot run writes about 2 MB."""
 MOST_TRAJECTORY_BYTES = 2**30
@@ -43,7 +85,7 @@ class RunFolderError(FileError):
 def read_summary(run_dir: str | Path) -> dict[str, Any]:
     """summary.json of a run folder, checked (see the module); RunFolderError naming file and key,
     or saying that the run is still going (or ended without writing its summary)."""
-    path = Path(run_dir) / SUMMARY
+    path = RunFolder(Path(run_dir)).summary
     if not path.exists():
         raise RunFolderError(run_dir, None, f"not a run folder (no {SUMMARY})")
     data = read_bytes(path, RunFolderError, MOST_SUMMARY_BYTES)
@@ -72,7 +114,7 @@ def written_by_ctsim(run_dir: str | Path) -> bool:
     ctsim's version and how the run ended, a run cut short included): only then may a new run
     replace its files; someone else's summary.json is theirs."""
     try:
-        summary = json.loads(read_bytes(Path(run_dir) / SUMMARY, RunFolderError, MOST_SUMMARY_BYTES).decode("utf-8"))
+        summary = json.loads(read_bytes(RunFolder(Path(run_dir)).summary, RunFolderError, MOST_SUMMARY_BYTES).decode("utf-8"))
     except (RunFolderError, ValueError, RecursionError):  # (not readable, not UTF-8, not JSON, too deep)
         return False
     return isinstance(summary, dict) and isinstance(summary.get("ctsim_version"), str) and isinstance(summary.get("reason"), str)
@@ -127,7 +169,7 @@ def trajectory_path(run_dir: Path, name: str, key: str = "tum") -> Path:
     """The path of a trajectory file named in summary.json: a plain file name inside the folder
     (RunFolderError for a name with a folder in it, `..`, or an absolute path)."""
     if not name or name in (".", "..") or "/" in name or "\\" in name or "\0" in name:
-        raise RunFolderError(run_dir / SUMMARY, None, f"{key}: {name[:80]!r} is not a file name in the run folder")
+        raise RunFolderError(RunFolder(run_dir).summary, None, f"{key}: {name[:80]!r} is not a file name in the run folder")
     return run_dir / name
 
 

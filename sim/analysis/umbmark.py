@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from statistics import NormalDist
 
 import numpy as np
 
@@ -44,7 +45,6 @@ from bots.odometry.encoder import EncoderOdometry
 from bots.readings import Readings
 from bots.spec import RobotSpec
 from sim.run.loop import RobotSetup, run
-from sim.world.files import load_world
 from sim.world.spec import WorldSpec
 from sim.world.step import DEFAULT_DT
 
@@ -121,6 +121,8 @@ class UMBmarkResult:
     e_b: float
     believed: Geometry
     corrected: Geometry
+    seeds: tuple[int, ...] = ()
+    """The run seeds its squares were driven with (`return_errors`)."""
 
     @property
     def max_error(self) -> float:
@@ -145,55 +147,123 @@ def corrected_geometry(believed: Geometry, e_d: float, e_b: float) -> Geometry:
     return Geometry((left * 2 / (e_d + 1), right * 2 / (1 / e_d + 1)), believed.track_width * e_b)
 
 
-def square_world() -> WorldSpec:
-    """worlds/square.toml: 4 m x 4 m, start at (0.5, 1.5) facing +x."""
-    return load_world("square")
+SQUARES_PER_WORLD = 64
+"""Squares driven at once in one world (each by a robot of its own, on a floor cell of its own):
+a run's fixed cost shared, 40 squares take some 6 s where one takes 1 s."""
+BOOTSTRAP_KEY = 0x0B5
+"""Spawn key of the bootstrap's generator beside a seed's run generators."""
+CONFIDENCE = 0.95
+"""Level of the intervals UMBmark reports."""
+BOOTSTRAP_DRAWS = 2000
+"""Resamples of the return errors behind each interval (its end points then move by under a tenth
+of its width from one set of draws to another)."""
 
 
-def return_error(robot: RobotSpec, clockwise: bool, side: float, geometry: Geometry, world: WorldSpec,
-                 start: tuple[float, float, float], seed: int, dt: float = DEFAULT_DT) -> np.ndarray:
-    """One square by odometry: (x, y) true end minus odometry end, in the start frame (m)."""
-    driver = OdometrySquare(side, clockwise, geometry=geometry)
-    setup = RobotSetup(robot, driver, "umbmark-square", start=start, estimators=[EncoderOdometry(geometry)])
-    result = run(world, [setup], driver.duration(), dt=dt, seed=seed)
-    if driver.status is not Status.SUCCESS:
-        raise RuntimeError(f"the {'cw' if clockwise else 'ccw'} square did not finish ({result.reason}: {result.error})")
-    log = result.robots[0]
-    gap = log.truth_array()[-1, :2] - log.estimate_arrays()["encoders"][-1, :2]
-    c, s = math.cos(start[2]), math.sin(start[2])
-    return np.array([c * gap[0] + s * gap[1], -s * gap[0] + c * gap[1]])
+def squares_floor(count: int, side: float) -> tuple[WorldSpec, list[tuple[float, float, float]]]:
+    """Open floor for `count` squares of `side` m, one floor cell of 2 x `side` each in rows of
+    eight, and their start poses facing +x: a ccw square (even index) starts at its cell's lower
+    quarter, a cw one (odd) at its upper, so that either covers the cell's middle, `side` / 2 clear
+    of its neighbours' (far beyond what a robot strays)."""
+    per_row = min(count, 8)
+    rows = -(-count // per_row)
+    cell = 2.0 * side
+    starts = []
+    for k in range(count):
+        x0, y0 = cell * (k % per_row), cell * (k // per_row)
+        starts.append((x0 + side / 2, y0 + (1.5 if k % 2 else 0.5) * side, 0.0))
+    return WorldSpec("umbmark floor", (0.0, 0.0, cell * per_row, cell * rows)), starts
+
+
+def return_errors(robot: RobotSpec, runs: int, side: float, geometry: Geometry, seed: int,
+                  dt: float = DEFAULT_DT) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]]:
+    """`runs` squares each way by odometry believing `geometry`: the (runs, 2) return errors of
+    the cw and of the ccw squares, (x, y) true end minus odometry end in the start frame (m), and
+    the run seeds used (`seed`, `seed` + 1, ...: SQUARES_PER_WORLD squares a run, each robot with
+    generators of its own spawned from its run's seed, so no two squares share noise)."""
+    errors: list[np.ndarray] = []
+    total, chunk = 2 * runs, 0
+    while len(errors) < total:
+        count = min(SQUARES_PER_WORLD, total - len(errors))
+        world, starts = squares_floor(count, side)
+        drivers = [OdometrySquare(side, bool(k % 2), geometry=geometry) for k in range(count)]
+        setups = [RobotSetup(robot, d, "umbmark-square", start=s, estimators=[EncoderOdometry(geometry)]) for d, s in zip(drivers, starts)]
+        result = run(world, setups, drivers[0].duration(), dt=dt, seed=seed + chunk)
+        for driver, log in zip(drivers, result.robots):
+            if driver.status is not Status.SUCCESS:
+                raise RuntimeError(f"a {'cw' if driver.turn < 0 else 'ccw'} square did not finish ({result.reason}: {result.error})")
+            errors.append(log.truth_array()[-1, :2] - log.estimate_arrays()["encoders"][-1, :2])
+        chunk += 1
+    both = np.array(errors)
+    return both[1::2], both[0::2], tuple(range(seed, seed + chunk))
+
+
+def evaluate(errors_cw: np.ndarray, errors_ccw: np.ndarray, side: float, believed: Geometry,
+             seeds: tuple[int, ...] = ()) -> UMBmarkResult:
+    """The UMBmark of these return errors (n, 2) each way (m) of squares of `side` m driven by
+    odometry believing `believed`."""
+    cg_cw, cg_ccw = errors_cw.mean(axis=0), errors_ccw.mean(axis=0)
+    alpha, beta, e_d, e_b = systematic_errors(cg_cw, cg_ccw, side, believed.track_width)
+    return UMBmarkResult(side, errors_cw, errors_ccw, cg_cw, cg_ccw, alpha, beta, e_d, e_b, believed,
+                         corrected_geometry(believed, e_d, e_b), seeds)
 
 
 def umbmark(robot: RobotSpec, side: float = 1.0, runs: int = 5, geometry: Geometry | None = None,
-            world: WorldSpec | None = None, seed: int = 0) -> UMBmarkResult:
-    """Run `runs` squares each way with the odometry believing `geometry` (default: nominal) and
-    evaluate them. Default world: worlds/square.toml; the ccw square starts at the world's start
-    pose, the cw one `side` to its left, so that both squares cover the same floor."""
-    world = world or square_world()
+            seed: int = 0, dt: float = DEFAULT_DT) -> UMBmarkResult:
+    """Drive `runs` squares each way with the odometry believing `geometry` (default: nominal),
+    on fresh noise (`return_errors`), and evaluate them."""
+    if runs < 1:
+        raise ValueError(f"UMBmark needs at least one run each way, got {runs!r}")
     believed = geometry or Geometry.nominal(robot)
-    home = world.start_for(0)
-    x, y, h = home.x, home.y, home.heading
-    starts = {False: (x, y, h), True: (x - side * math.sin(h), y + side * math.cos(h), h)}
-    errors = {
-        cw: np.array([return_error(robot, cw, side, believed, world, starts[cw], seed + 2 * i + cw) for i in range(runs)])
-        for cw in (True, False)
-    }
-    cg_cw, cg_ccw = errors[True].mean(axis=0), errors[False].mean(axis=0)
-    alpha, beta, e_d, e_b = systematic_errors(cg_cw, cg_ccw, side, believed.track_width)
-    return UMBmarkResult(side, errors[True], errors[False], cg_cw, cg_ccw, alpha, beta, e_d, e_b, believed,
-                         corrected_geometry(believed, e_d, e_b))
+    cw, ccw, seeds = return_errors(robot, runs, side, believed, seed, dt)
+    return evaluate(cw, ccw, side, believed, seeds)
+
+
+def confidence(result: UMBmarkResult, seed: int = 0, draws: int = BOOTSTRAP_DRAWS) -> dict[str, tuple[float, float]]:
+    """CONFIDENCE intervals of "max_error", "e_d", "e_b", "alpha" and "beta" by the bootstrap:
+    the runs of each direction resampled with replacement (`draws` times, from a generator of
+    `seed`), each resample evaluated as the result was, the percentiles of what comes out. With
+    one run a direction the intervals are a single point: there is no spread to resample."""
+    rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(BOOTSTRAP_KEY,)))
+    n_cw, n_ccw = len(result.errors_cw), len(result.errors_ccw)
+    values = {name: np.empty(draws) for name in ("max_error", "e_d", "e_b", "alpha", "beta")}
+    for k in range(draws):
+        cw = result.errors_cw[rng.integers(0, n_cw, n_cw)].mean(axis=0)
+        ccw = result.errors_ccw[rng.integers(0, n_ccw, n_ccw)].mean(axis=0)
+        alpha, beta, e_d, e_b = systematic_errors(cw, ccw, result.side, result.believed.track_width)
+        for name, value in (("max_error", max(np.hypot(*cw), np.hypot(*ccw))), ("e_d", e_d), ("e_b", e_b), ("alpha", alpha), ("beta", beta)):
+            values[name][k] = value
+    tail = 100 * (1 - CONFIDENCE) / 2
+    return {name: (float(np.percentile(v, tail)), float(np.percentile(v, 100 - tail))) for name, v in values.items()}
+
+
+def recommended_runs(result: UMBmarkResult, tolerance: float = 0.002) -> int:
+    """Runs each way after which the CONFIDENCE interval of both corrections, E_d and E_b, is at
+    most +-`tolerance` wide (relative), from the spread of this result's return errors: the
+    corrections depend on the x of the two centres of gravity alone, each the mean of n runs, so
+    (delta method) var(E) = (dE/dx_cw² var(x_cw) + dE/dx_ccw² var(x_ccw)) / n, the slopes of
+    `systematic_errors` taken numerically. ValueError with fewer than two runs a direction (no spread)."""
+    if min(len(result.errors_cw), len(result.errors_ccw)) < 2:
+        raise ValueError("a recommendation needs the spread of at least two runs each way")
+    var_cw, var_ccw = result.errors_cw[:, 0].var(ddof=1), result.errors_ccw[:, 0].var(ddof=1)
+    step, track = 1e-6, result.believed.track_width
+    at = np.array(systematic_errors(result.cg_cw, result.cg_ccw, result.side, track)[2:])
+    slope_cw = (np.array(systematic_errors(result.cg_cw + (step, 0.0), result.cg_ccw, result.side, track)[2:]) - at) / step
+    slope_ccw = (np.array(systematic_errors(result.cg_cw, result.cg_ccw + (step, 0.0), result.side, track)[2:]) - at) / step
+    per_run = slope_cw**2 * var_cw + slope_ccw**2 * var_ccw  # (E_d, E_b) variance of one run each way
+    z = float(NormalDist().inv_cdf(0.5 + CONFIDENCE / 2))
+    return max(2, math.ceil(z * z * float(per_run.max()) / tolerance**2))
 
 
 def calibrate(robot: RobotSpec, rounds: int = 1, **options) -> list[UMBmarkResult]:
     """UMBmark `rounds` times, each starting from the geometry the previous one corrected (the
     paper does one round; a second one removes what the first-order formulas left); returns
     every round's result, the last one's `corrected` being the calibration. Each round drives on
-    seeds of its own (`seed` + 2 runs per round before it): a round that drove the first one's
+    seeds of its own (those after the previous round's): a round that drove the first one's
     seeds again would measure the same noise and correct it as if it were systematic."""
     results: list[UMBmarkResult] = []
     geometry = options.pop("geometry", None)
-    seed, runs = options.pop("seed", 0), options.get("runs", 5)
-    for done in range(rounds):
-        results.append(umbmark(robot, geometry=geometry, seed=seed + 2 * runs * done, **options))
-        geometry = results[-1].corrected
+    seed = options.pop("seed", 0)
+    for _ in range(rounds):
+        results.append(umbmark(robot, geometry=geometry, seed=seed, **options))
+        geometry, seed = results[-1].corrected, results[-1].seeds[-1] + 1
     return results

@@ -23,6 +23,7 @@ import numpy as np
 from bots.commands import WheelSpeeds
 from bots.controller import ControllerStopped, Status
 from bots.readings import Readings
+from bots.sensor_kinds import KINDS
 from bots.spec import RobotSpec
 from sim.bridge import protocol as p
 from sim.bridge.firmware_map import FirmwareMap
@@ -377,7 +378,7 @@ class FirmwareController:
 def _block_sensors(readings: Readings) -> Readings:
     """The readings a block sends besides ticks and dots, copied: they go out a step later, and a
     run may reuse the arrays behind a sample's readings."""
-    return Readings(readings.time, ir_raw=readings.ir_raw.copy(), line=readings.line.copy(), border=readings.border.copy(), light=readings.light.copy())
+    return Readings(readings.time, **{kind.field: getattr(readings, kind.field).copy() for kind in KINDS if kind.section and kind.packet})
 
 
 def _pair(values: np.ndarray, default: tuple[int, int]) -> tuple[int, int]:

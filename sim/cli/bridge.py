@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 
+from sim.analysis.run_folder import RunFolder
 from sim.cli.observers import Progress, StopOnSignal
 from sim.cli.options import EXIT_STATUSES, UsageError, add_robot_options, load_robot_spec, param, positive, robot_options, robot_setups, whole
 from sim.cli.output import finish, out_dir
@@ -81,7 +82,7 @@ def cmd_bridge(args: argparse.Namespace) -> int:
         setups = [bridge.setup(spec, rc5=args.rc5, calls=calls, like_ctsim=not args.own_physics) for _ in range(args.robots)] + python
         print(f"ctsim bridge: listening on {bridge.address} for {args.robots} firmware bot(s); start the firmware now", file=sys.stderr, flush=True)
         keep_pandas_out_of_arrow()
-        recorder = Recorder(out / "run.rrd", live=args.live)
+        recorder = Recorder(RunFolder(out).recording, live=args.live)
         with StopOnSignal() as stop:
             observers = (stop.starting, bridge.observer(recorder, realtime=args.realtime), recorder, Progress(args.duration, args.dt), stop)
             result = run(world, setups, args.duration, dt=args.dt, seed=args.seed, observers=observers)

@@ -1,9 +1,10 @@
-"""The `ctsim` command line: run, view, play, report, sweep, contest, worlds, check, controllers, lab.
+"""The `ctsim` command line: run, view, play, report, sweep, evaluate, umbmark, contest, worlds, check, controllers, lab.
 
 User mistakes (bad world files, robot files, controller names or parameters, unwritable folders)
 (`sim.errors.UserError`, or an OSError on a path the command line named) end in one line
 `ctsim: error: ...` and exit status 2, never a traceback; a run that fails mid-way exits 1 after
-everything up to then has been written; any other exception is a bug in ctsim: its traceback, a
+everything up to then has been written, as does the user's controller or estimator failing while
+it is made (`UserCodeFailed`, one line); any other exception is a bug in ctsim: its traceback, a
 line asking for a report, exit 1 (EXIT_STATUSES lists every status).
 """
 
@@ -20,7 +21,7 @@ from pathlib import Path
 
 import sim
 from sim import sanitize
-from sim.cli import bridge, check, contest, controllers, lab, play, report, run, sweep, view, worlds
+from sim.cli import bridge, check, contest, controllers, evaluate, lab, play, report, run, sweep, umbmark, view, worlds
 from sim.cli.observers import terminate
 from sim.cli.options import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_TERMINATED, EXIT_USER, Parser
 from sim.cli.output import held
@@ -33,7 +34,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser = Parser(prog="ctsim", description="A 2D simulator of c't-Bot style differential-drive robots.")
     parser.add_argument("--version", action="version", version=f"ctsim {sim.__version__}")
     commands = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for command in (run, view, play, report, worlds, check, bridge, sweep, controllers, lab, contest):  # the order of --help
+    for command in (run, view, play, report, worlds, check, bridge, sweep, evaluate, umbmark, controllers, lab, contest):  # the order of --help
         command.add_parser(commands)
     return parser
 
@@ -55,7 +56,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     except UserError as err:
         print(f"ctsim: error: {sanitize.name(str(err), 2000)}", file=sys.stderr)
-        return EXIT_USER
+        return err.exit_status
     except OSError as err:
         if not _names_user_path(err, args):
             return _bug()

@@ -18,9 +18,10 @@ DEFAULT_CONTROLLER = "solve_maze"
 EXIT_FAILED, EXIT_USER, EXIT_INTERRUPTED, EXIT_TERMINATED = 1, 2, 130, 143
 EXIT_STATUSES = f"""exit status:
   0    success
-  {EXIT_FAILED}    a run that started failed (a controller raised, called sys.exit, returned a bad command
-       or overran --step-timeout; or the disk filled up); what was recorded up to then is written;
-       or ctsim has a bug: its traceback and a request to report it are printed
+  {EXIT_FAILED}    a run that started failed (a controller or estimator raised, called sys.exit, returned
+       a bad command or overran --step-timeout, in its reset or a step; or the disk filled up);
+       what was recorded up to then is written; or your controller's or estimator's constructor
+       failed (one line); or ctsim has a bug: its traceback and a request to report it are printed
   {EXIT_USER}    a user error found before anything ran (bad option, world, robot or controller)
   {EXIT_INTERRUPTED}  interrupted by Ctrl-C; partial results written
   {EXIT_TERMINATED}  terminated by SIGTERM (a job scheduler, `timeout`); partial results written"""
@@ -69,10 +70,11 @@ def seed(text: str) -> int:
     return value
 
 
-def positive(kind: Callable[[str], Any], high: float = 1e9, unit: str = "") -> Callable[[str], Any]:
-    """A positive option of `kind` (float or int) up to `high`, checked as a file's value is
-    (`bots.schema.option`: NaN, infinities, subnormals and 40+ digit numbers refused)."""
-    checked = option(Field("integer" if kind is int else "number", unit, 0, high, above=True), kind)
+def positive(kind: Callable[[str], Any], high: float = 1e9, unit: str = "", low: float = 0.0) -> Callable[[str], Any]:
+    """A positive option of `kind` (float or int) up to `high` (and at least `low`, if given),
+    checked as a file's value is (`bots.schema.option`: NaN, infinities, subnormals and 40+ digit
+    numbers refused)."""
+    checked = option(Field("integer" if kind is int else "number", unit, low, high, above=not low), kind)
 
     def parse(text: str) -> Any:
         try:
@@ -117,6 +119,17 @@ def add_noise_option(parser: argparse.ArgumentParser, default: str = DEFAULT_NOI
 
 def add_robot_options(parser: argparse.ArgumentParser, noise: str = DEFAULT_NOISE) -> None:
     parser.add_argument("world", nargs="?", default=DEFAULT_WORLD, help=f"a shipped world's name (see `ctsim worlds`) or a .toml/.xml world file (default: {DEFAULT_WORLD})")
+    add_robot_description(parser, noise)
+    parser.add_argument("--out", type=folder_name, metavar="DIR", help="folder for run.rrd, summary.json, TUM/CSV trajectories and figures (default: runs/<world>-<controller>-<time>)")
+    parser.add_argument("--live", action="store_true", help="also stream the recording to a rerun viewer it starts; without one the run goes on, recorded to the file")
+    parser.add_argument("--connect", metavar="URL", help="also stream the recording to the rerun viewer at URL (e.g. rerun+http://127.0.0.1:9876/proxy)")
+    parser.add_argument("--no-report", action="store_true", help="skip the PNG figures")
+    parser.add_argument("--export-rate", type=positive(float, 1e6, "Hz"), metavar="HZ",
+                        help="samples per second in the TUM and CSV files (default: every step; run.parquet always holds every sample)")
+
+
+def add_robot_description(parser: argparse.ArgumentParser, noise: str = DEFAULT_NOISE) -> None:
+    """--robot, --seed, --noise, --robot-set and --dt: the robot and how it is simulated (`load_robot_spec`)."""
     parser.add_argument("--robot", default="ctbot", metavar="NAME|FILE.toml",
                         help="robot description: a built-in name (ctbot, omni3, mecanum4, car, ocp_vehicle) or a TOML robot file (default: ctbot)")
     parser.add_argument("--seed", type=seed, default=0, help="seed of every random number in the run (the noise of --noise realistic or harsh); same seed, same run (default: 0)")
@@ -124,12 +137,22 @@ def add_robot_options(parser: argparse.ArgumentParser, noise: str = DEFAULT_NOIS
     parser.add_argument("--robot-set", action="append", type=param, default=[], metavar="SECTION.FIELD=VALUE",
                         help="override one field of the robot description after --noise, repeatable: encoders.slip_std=0.02, mouse.dpi=415, ir.noise_std=0")
     parser.add_argument("--dt", type=step_size, default=DEFAULT_DT, metavar="SECONDS", help=f"simulation step (default: {DEFAULT_DT:g})")
-    parser.add_argument("--out", type=folder_name, metavar="DIR", help="folder for run.rrd, summary.json, TUM/CSV trajectories and figures (default: runs/<world>-<controller>-<time>)")
-    parser.add_argument("--live", action="store_true", help="also stream the recording to a rerun viewer it starts; without one the run goes on, recorded to the file")
-    parser.add_argument("--connect", metavar="URL", help="also stream the recording to the rerun viewer at URL (e.g. rerun+http://127.0.0.1:9876/proxy)")
-    parser.add_argument("--no-report", action="store_true", help="skip the PNG figures")
-    parser.add_argument("--export-rate", type=positive(float, 1e6, "Hz"), metavar="HZ",
-                        help="samples per second in the TUM and CSV files (default: every step; run.parquet always holds every sample)")
+
+
+def add_engine_options(parser: argparse.ArgumentParser) -> None:
+    """Where many runs execute (`sim.experiments.engines`): `ctsim sweep` and `ctsim evaluate`."""
+    parser.add_argument("--engine", choices=("processes", "dask", "serial"), default="processes", help="local processes (default), a Dask LocalCluster, or one run after another here")
+    parser.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="run on the Dask cluster whose scheduler is there (implies --engine dask)")
+    parser.add_argument("--jobs", type=whole, metavar="N", help="worker processes (default: one per core)")
+
+
+def engine_of(args: argparse.Namespace):  # noqa: ANN201 (an engine of sim.experiments.engines; imported on demand)
+    """The engine the options of `add_engine_options` name."""
+    from sim.experiments import engine
+
+    if args.jobs is not None and args.jobs < 1:
+        raise UsageError(f"--jobs must be at least 1, got {args.jobs}")
+    return engine(args.engine, args.jobs, args.scheduler)
 
 
 def add_web_options(parser: argparse.ArgumentParser, flag: str | None = None, flag_help: str = "") -> None:
@@ -149,10 +172,11 @@ def load_robot_spec(args: argparse.Namespace):
     return robot(args.robot, {key: parse_value(value) for key, value in args.robot_set}, args.noise)
 
 
-def robot_setups(args: argparse.Namespace, spec, room: int) -> list:
+def robot_setups(args: argparse.Namespace, spec, room: int, make: Callable[[str, dict[str, str]], Any] | None = None) -> list:
     """One RobotSetup per robot from --controller/--robots/--param; the world has start slots for
-    `room` robots (one slot each)."""
-    from bots.behaviours import make
+    `room` robots (one slot each). `make(name, params)`: the controller (default: made here)."""
+    if make is None:
+        from bots.behaviours import make
     from sim.run.loop import RobotSetup
 
     names = args.controller or [DEFAULT_CONTROLLER]

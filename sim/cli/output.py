@@ -11,16 +11,14 @@ from typing import Any
 
 from bots.schema import file_stem
 from sim import sanitize
+from sim.analysis.run_folder import RunFolder
 from sim.analysis.summary import goal_note, summarize, write_json
 from sim.cli.observers import StopOnSignal
 from sim.cli.options import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_TERMINATED, UsageError
 from sim.folder_lock import LOCK, hold
+from sim.out_files import NotAFileOfItsOwn
 from sim.run.ending import Ending
 
-RUN_FILES = ("run.rrd", "run.parquet", "summary.json", "report.html", "trajectories.png", "errors.png")
-"""The files every run writes into its folder by these names (its trajectories are named in its
-summary.json): when a folder of an earlier run is reused, these and the trajectories its summary
-names are removed first, so that nothing stale is left beside the new results; nothing else."""
 START = Path.cwd()
 """The folder ctsim started in: a relative --out is taken from here, so that a controller that
 changes the current folder when it loads cannot move the run's folder."""
@@ -42,8 +40,9 @@ def out_dir(out: Path | None, world: str, controller: str) -> Path:
 
 
 def _earlier_run(out: Path) -> list[Path]:
-    """The files an earlier run wrote into `out` (what its summary.json names, and RUN_FILES);
-    UsageError for a folder of other files, which ctsim leaves alone."""
+    """The files an earlier run wrote into `out` (what its summary.json names, and the files every
+    run writes, `RunFolder.fixed`), removed before a new run writes there so that nothing stale is
+    left beside its results; UsageError for a folder of other files, which ctsim leaves alone."""
     from sim.analysis.run_folder import RunFolderError, read_summary, written_by_ctsim
 
     present = [p for p in out.iterdir() if p.name != LOCK]
@@ -58,9 +57,9 @@ def _earlier_run(out: Path) -> list[Path]:
             names = ", ".join(sorted(sanitize.name(p.name) for p in present)[:3])
             raise UsageError(f"--out {out} holds files that no ctsim run wrote ({names}{', ...' if len(present) > 3 else ''}): "
                              "give a new or empty folder, or the folder of an earlier run")
-        return [out / name for name in RUN_FILES]  # (an earlier run cut short: its fixed files only)
+        return list(RunFolder(out).fixed)  # (an earlier run cut short: its fixed files only)
     named = [out / name for robot in summary["robots"] for name in robot.get("tum", {}).values()]
-    return [out / name for name in RUN_FILES] + named + [p.with_suffix(".csv") for p in named]
+    return [*RunFolder(out).fixed, *named, *(p.with_suffix(".csv") for p in named)]
 
 
 held: list[Any] = []  # the folders this command holds (`sim.folder_lock.Hold`), freed when it ends
@@ -83,13 +82,14 @@ def finish(result, out: Path, options: dict[str, Any], report: bool = True, metr
     they are drawn stops them, and either sets the status. `recording_error`: why the recording
     is incomplete (an I/O error too). `export_rate`: samples per second in the TUM and CSV files
     (None: every sample)."""
-    written = [out / "run.rrd"]
+    folder = RunFolder(out)
+    written = [folder.recording]
     summary = summarize(result, options, metrics)
     try:
-        write_json(out / "summary.json", summary)
-        written.append(out / "summary.json")
+        write_json(folder.summary, summary)
+        written.append(folder.summary)
         written += write_trajectories(result, out, summary, export_rate)
-        write_json(out / "summary.json", summary)  # again, now naming the TUM files
+        write_json(folder.summary, summary)  # again, now naming the TUM files
         if report and len(result) and stop is not None and stop.received is not None:
             print(f"ctsim: figures skipped after the signal; `ctsim report {sanitize.name(str(out), 1000)}` draws them", file=sys.stderr)
         elif report and len(result):
@@ -104,9 +104,10 @@ def finish(result, out: Path, options: dict[str, Any], report: bool = True, metr
         from sim.web.report import write_run_report
 
         written.append(write_run_report(out))
-    except OSError as err:
+    except (OSError, NotAFileOfItsOwn) as err:  # (a full disk; a folder or link planted at a file's name while it ran)
         kept = ", ".join(p.name for p in written[1:]) or "nothing"
-        print(f"ctsim: error: writing the run's results into {sanitize.name(str(out), 1000)}: {err.strerror or err} (written: {kept})", file=sys.stderr)
+        said = err.strerror if isinstance(err, OSError) and err.strerror else sanitize.name(str(err), 1000)
+        print(f"ctsim: error: writing the run's results into {sanitize.name(str(out), 1000)}: {said} (written: {kept})", file=sys.stderr)
         return EXIT_FAILED
     print(table(summary))
     for note in getattr(result, "notes", ()):  # what the run's guards put back (`sim.guards`)
@@ -136,7 +137,7 @@ def write_trajectories(result, out: Path, summary: dict[str, Any], export_rate: 
     from sim.analysis.export import write_parquet, write_run
 
     every = max(1, round(1 / (export_rate * result.dt))) if export_rate else 1
-    written = [write_parquet(result, out / "run.parquet")]
+    written = [write_parquet(result, RunFolder(out).samples)]
     summary["parquet"], summary["export_every"] = written[0].name, every
     tums = write_run(result, out, prefix=len(result.robots) > 1, with_csv=True, every=every)
     for entry in summary["robots"]:

@@ -6,6 +6,7 @@ import argparse
 import os
 import sys
 
+from sim.analysis.run_folder import RunFolder
 from sim.cli.options import UsageError, add_robot_options, load_robot_spec, positive, robot_options, whole
 from sim.cli.output import finish, out_dir
 
@@ -44,5 +45,5 @@ def cmd_play(args: argparse.Namespace) -> int:
     world = load_world(args.world)
     spec = load_robot_spec(args)
     out = out_dir(args.out, args.world, "teleop")
-    result = play(world, spec, out / "run.rrd", seed=args.seed, dt=args.dt, fps=args.fps, speed=args.speed, frames=args.frames, scale=args.scale, live=args.live, connect=args.connect)
+    result = play(world, spec, RunFolder(out).recording, seed=args.seed, dt=args.dt, fps=args.fps, speed=args.speed, frames=args.frames, scale=args.scale, live=args.live, connect=args.connect)
     return finish(result, out, {"duration": result.duration, "until_goal": False, **robot_options(args)}, report=not args.no_report, export_rate=args.export_rate)

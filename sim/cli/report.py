@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 
 from sim import sanitize
+from sim.analysis.run_folder import SUMMARY, RunFolder
 from sim.cli.options import UsageError
 
 
@@ -20,8 +21,8 @@ def add_parser(commands) -> None:  # noqa: ANN001 (argparse's subparsers action)
 def cmd_report(args: argparse.Namespace) -> int:
     from sim.views.figures import report_run_dir
 
-    if not (args.run_dir / "summary.json").is_file():
-        raise UsageError(f"{args.run_dir}: not a run folder (no summary.json)")
+    if not RunFolder(args.run_dir).summary.is_file():
+        raise UsageError(f"{args.run_dir}: not a run folder (no {SUMMARY})")
     from sim.web.report import write_run_report
 
     for path in [*report_run_dir(args.run_dir), write_run_report(args.run_dir)]:

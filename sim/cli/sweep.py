@@ -6,7 +6,7 @@ import argparse
 from pathlib import Path
 
 from sim import sanitize
-from sim.cli.options import UsageError, whole
+from sim.cli.options import UsageError, add_engine_options, engine_of
 from sim.run.ending import Ending
 
 
@@ -21,16 +21,14 @@ def add_parser(commands) -> None:  # noqa: ANN001 (argparse's subparsers action)
     sweep.add_argument("spec", metavar="SPEC.toml|report", help="the sweep spec, or `report` followed by a sweep folder")
     sweep.add_argument("folder", nargs="?", type=Path, metavar="DIR", help="(with report) the sweep folder")
     sweep.add_argument("--out", type=Path, metavar="DIR", help="sweep folder (default: runs/sweep-<spec name>)")
-    sweep.add_argument("--engine", choices=("processes", "dask", "serial"), default="processes", help="local processes (default), a Dask LocalCluster, or one run after another here")
-    sweep.add_argument("--scheduler", metavar="tcp://HOST:PORT", help="run on the Dask cluster whose scheduler is there (implies --engine dask)")
-    sweep.add_argument("--jobs", type=whole, metavar="N", help="worker processes (default: one per core)")
+    add_engine_options(sweep)
     sweep.add_argument("--by", action="append", metavar="SETTING",
                        help="group the summary and figures by this setting, repeatable (default: every swept one but seed); the others are pooled, and each table and figure says so")
     sweep.set_defaults(handler=cmd_sweep)
 
 
 def cmd_sweep(args: argparse.Namespace) -> int:
-    from sim.experiments import engine, load_results, load_sweep, sweep
+    from sim.experiments import load_results, load_sweep, sweep
     from sim.experiments.report import grouping, pooled_note, summary_table, terminal_table
 
     def show(table) -> None:  # noqa: ANN001 (a DataFrame)
@@ -50,11 +48,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         return 0
     if args.folder is not None:
         raise UsageError(f"unexpected argument {str(args.folder)!r} (the folder goes in --out)")
-    if args.jobs is not None and args.jobs < 1:
-        raise UsageError(f"--jobs must be at least 1, got {args.jobs}")
     spec = load_sweep(args.spec)
     out = args.out or Path("runs") / f"sweep-{Path(args.spec).stem}"
-    runner = engine(args.engine, args.jobs, args.scheduler)
+    runner = engine_of(args)
     try:
         table = sweep(spec, out, runner)
     finally:

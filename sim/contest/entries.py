@@ -7,7 +7,7 @@ An entry is `[NAME=]SOURCE[,KEY=VALUE...]`:
 - `firmware:PATH`: a c't-Bot firmware's PC build (or a Python script that speaks its protocol),
   driven through the bridge; parameters `rc5=T:KEY` and `call=T:NAME(ARGS)` as `ctsim bridge`'s;
 - a folder of student submissions (every *.py in it, or `<student>/controller.py`): one entry
-  each, named after the student, run in the sandbox of `ctsim lab grade` (`sim.contest.sandboxed`,
+  each, named after the student, run in the sandbox of `ctsim lab grade` (`sim.sandbox.controller`,
   `sim.sandbox`).
 
 Names are unique and safe in file names and recordings (letters, digits, `_ . -`).
@@ -145,8 +145,8 @@ def _firmware(name: str, path: str, params: tuple[tuple[str, str], ...], text: s
 
 
 def _students(folder: Path, prefix: str) -> list[Entry]:
-    from sim.contest.sandboxed import check_available
     from sim.lab.grading import refusal, student_id, submissions
+    from sim.sandbox.controller import check_available
 
     check_available()
     folder = folder.resolve()
@@ -195,7 +195,7 @@ class Seat:
         elif entry.kind == "firmware":
             controller = self._firmware(recorder)
         else:
-            from sim.contest.sandboxed import sandboxed_controller
+            from sim.sandbox.controller import sandboxed_controller
 
             controller = self._stack.enter_context(sandboxed_controller(Path(entry.source)))
         return RobotSetup(self.spec, controller, entry.label, dict(entry.params), self.start, estimators=[], name=entry.name)

@@ -200,6 +200,18 @@ def result_of(raw: RunResult) -> Result:
     return Result(raw.time, robots, raw.reason, raw.error, raw.seed, raw)
 
 
+def with_estimators(setups: list[RobotSetup], estimators: Iterable[Any]) -> list[RobotSetup]:
+    """`setups` with a fresh one of each of `estimators` (as `simulate` takes them) beside the
+    defaults of every robot without estimators of its own; made here, so a constructor that
+    fails does before anything runs (`bots.odometry.user.made`)."""
+    extra = list(estimators)
+    if not extra:
+        return setups
+    from bots.odometry.user import beside_defaults
+
+    return [replace(s, extra_estimators=beside_defaults(s.spec, extra)) if s.estimators is None else s for s in setups]
+
+
 def simulate(
     world_source: str | Path | WorldSpec = "maze",
     *bots: Bot | RobotSetup | Iterable[Bot | RobotSetup],
@@ -238,11 +250,7 @@ def simulate(
     given = given or [Bot()]
     setups = [b.setup(noise) if isinstance(b, Bot) else b for b in given]
     noises = [b.noise_of(noise) if isinstance(b, Bot) else "as given" for b in given]
-    extra = list(estimators)
-    if extra:
-        from bots.odometry.user import beside_defaults
-
-        setups = [replace(s, extra_estimators=beside_defaults(s.spec, extra)) if s.estimators is None else s for s in setups]
+    setups = with_estimators(setups, estimators)
     watchers = list(observers)
     if record is not None or live:
         from sim.views.recording.recorder import Recorder

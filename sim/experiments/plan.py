@@ -95,6 +95,8 @@ class Job:
     keep: tuple[str, ...] = ()
     """Artefacts to write (`ARTEFACTS`) into `folder`."""
     folder: str | None = None
+    estimators: tuple[str, ...] = ()
+    """Estimators to run beside the shipped ones (`bots.odometry.user.load`'s sources: `ctsim evaluate`)."""
 
 
 def _check_key(key: str, where: str) -> None:

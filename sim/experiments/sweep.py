@@ -20,6 +20,7 @@ from typing import Any
 
 import pandas as pd
 
+from sim.analysis.run_folder import RunFolder
 from sim.errors import UserError
 from sim.experiments import store
 from sim.experiments.api import Bot, Result, simulate
@@ -75,8 +76,9 @@ def execute(job: Job) -> dict[str, Any]:
         folder = Path(job.folder) if job.folder else None
         if folder is not None:
             folder.mkdir(parents=True, exist_ok=True)
-        record = folder / "run.rrd" if folder is not None and "recording" in job.keep else None
-        result = simulate(s["world"], bot(s), duration=s["duration"], dt=s["dt"], seed=s["seed"], until_goal=s["until_goal"], record=record)
+        record = RunFolder(folder).recording if folder is not None and "recording" in job.keep else None
+        result = simulate(s["world"], bot(s), duration=s["duration"], dt=s["dt"], seed=s["seed"], until_goal=s["until_goal"], record=record,
+                          estimators=job.estimators)
         if result.reason.signalled:  # a run cut short is no result: not kept, so a resumed sweep runs it again
             raise Terminated if result.reason is Ending.TERMINATED else KeyboardInterrupt
         row.update(outcome(result))
@@ -148,16 +150,18 @@ def sweep(
     planned = jobs(spec, out)
     check(planned)
     with held(out, "sweep"):  # (a second sweep into `out` is refused: it would run every run twice)
-        return _sweep(planned, out, runner, on_row, progress)
+        return run_jobs(planned, out, runner, on_row, progress)
 
 
-def _sweep(planned: list, out: Path, runner: Serial | Processes | Dask | None, on_row: Callable[[dict[str, Any]], None] | None,
-           progress: bool) -> pd.DataFrame:
+def run_jobs(planned: list[Job], out: Path, runner: Serial | Processes | Dask | None = None, on_row: Callable[[dict[str, Any]], None] | None = None,
+             progress: bool = True, what: str = "sweep") -> pd.DataFrame:
+    """The planned jobs not yet in `out` run on `runner` as `sweep` runs them (its caller holds
+    the folder; `what` names the work in the progress lines): `sweep`'s and `ctsim evaluate`'s."""
     finished = store.done(out)
     todo = [job for job in planned if job.run_id not in finished]
     owned = runner is None
     runner = runner or Processes()
-    bar = Progress(len(planned), len(planned) - len(todo), "run", "sweep") if progress else None
+    bar = Progress(len(planned), len(planned) - len(todo), "run", what) if progress else None
     try:
         with closing(runner.imap(execute, todo)) as outcomes:  # closed at once on Ctrl-C: the engine stops its workers
             for job, result in outcomes:

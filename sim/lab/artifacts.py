@@ -12,6 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
+from sim.analysis.run_folder import RunFolder
 from sim.views import palette
 from sim.views.figures import write_figures
 from sim.views.recording.layout import TIMELINE
@@ -29,7 +30,7 @@ def observers(scenario) -> tuple:
     if scenario.out is None:
         return ()
     scenario.out.mkdir(parents=True, exist_ok=True)
-    return (Recorder(scenario.out / "run.rrd", application_id="ctsim-lab"),)
+    return (Recorder(RunFolder(scenario.out).recording, application_id="ctsim-lab"),)
 
 
 def around(tracks: Tracks, margin: float = 0.1) -> WorldSpec:
@@ -66,7 +67,7 @@ def write(out: Path, tracks: Tracks, world: WorldSpec | None) -> list[Path]:
     """PNG figures (and, where the checker recorded no run, a recording) into `out`."""
     out.mkdir(parents=True, exist_ok=True)
     written = write_figures(world or around(tracks), {"robot": tracks}, out)
-    recording = out / "run.rrd"
+    recording = RunFolder(out).recording
     if not recording.exists():
         write_tracks_recording(recording, tracks)
     return [recording, *written]

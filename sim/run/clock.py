@@ -10,6 +10,9 @@ from sim.run.ending import RunError
 MAX_STEP_TIMEOUT = 86_400.0
 """Longest wall-clock time limit on a controller step (s): a day; the operating system's timer
 holds no more than about 10^8 s."""
+MIN_STEP_TIMEOUT = 0.05
+"""Shortest (s): its timer ticks every quarter of it, and a tick runs a Python handler; at 1e-9 s
+the ticks came faster than the handler ran, and the run never ended."""
 
 
 class StepTimeout(BaseException):
@@ -28,8 +31,8 @@ class StepClock:
     """The clock of the run going on in this process, if any."""
 
     def __init__(self, limit: float | None):
-        if limit is not None and not (isinstance(limit, (int, float)) and 0 < limit <= MAX_STEP_TIMEOUT):
-            raise RunError(f"the step time limit must be more than 0 and at most {MAX_STEP_TIMEOUT:,.0f} s (a day), got {limit!r}")
+        if limit is not None and not (isinstance(limit, (int, float)) and MIN_STEP_TIMEOUT <= limit <= MAX_STEP_TIMEOUT):
+            raise RunError(f"the step time limit must be at least {MIN_STEP_TIMEOUT:g} s and at most {MAX_STEP_TIMEOUT:,.0f} s (a day), got {limit!r}")
         self.limit = limit
         self.busy = 0
         self.calls = 0

@@ -10,8 +10,8 @@ naming it and the step, and everything up to that step is kept.
 from __future__ import annotations
 
 import math
-import traceback
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from typing import Protocol
 
@@ -19,9 +19,9 @@ import numpy as np
 
 from bots.chassis_commands import chassis_setpoints
 from bots.commands import BadCommand, motor_commands, wheel_speeds_for
-from bots.controller import Controller, ControllerStopped, Status, reset
+from bots.controller import Controller, ControllerStopped, Status, did, reset, where
 from bots.odometry.base import Estimator
-from bots.odometry.batch import DefaultOdometry, batched
+from bots.odometry.batch import DefaultOdometry, batched, kernel_jobs
 from bots.odometry.defaults import default_estimators
 from bots.odometry.user import has_covariance, name_of, outputs
 from bots.readings import Readings, SensorFrame
@@ -33,7 +33,7 @@ from sim.run.samples import RobotLog, RunResult, Samples
 from sim.world import World, compiling
 from sim.world.chassis_drive import FaultError
 from sim.world.localising import MapScan
-from sim.world.physics import sensor_rng
+from sim.world.physics import Robot, sensor_rng
 from sim.world.spec import Start, WheelFault, WorldSpec
 from sim.world.step import DEFAULT_DT, StepError, check_dt
 
@@ -92,6 +92,8 @@ def run(
     ends the run as a controller error (`StepClock`). `stop_when(world, logs)`, asked after every
     sample (a referee), ends the run when it answers something: reason JUDGED, its answer the result's `verdict`."""
     steps = step_count(duration, dt)
+    if any(setup.estimators is None and batched(setup.spec) for setup in robots):  # the odometry's compile, where the cache lacks
+        compiling.start(kernel_jobs())  # it, beside the world's making (its first kernel compiles here); `DefaultOdometry` waits for it
     world = World(world_spec, dt=dt, seed=seed)
     placed = [world.add_robot(setup.spec, setup.start, setup.name) for setup in robots]
     _refuse_overlaps(placed)
@@ -101,53 +103,32 @@ def run(
     odometry = DefaultOdometry([robots[i].spec for i in members], np.array([placed[i].pose for i in members]).reshape(-1, 3), members, compiling.start) if members else None
     slot = {i: k for k, i in enumerate(members)}
     samples = Samples(world.sensor_rows(), len(members), steps + 1)
-    logs, controllers, estimators = [], [], []
-    for i, (setup, robot) in enumerate(zip(robots, placed)):
-        # Python estimators: a batched robot's own beside the batch's, else all of the robot's
-        chosen = list(setup.extra_estimators) if i in slot else [*(setup.estimators if setup.estimators is not None else default_estimators(setup.spec)), *setup.extra_estimators]
-        for estimator in chosen:
-            try:
-                if hasattr(estimator, "use_map"):  # a localiser: the robot's map of the world (never its pose) and a generator of its own
-                    estimator.use_map(MapScan(world_spec, setup.spec), sensor_rng(seed, i, f"estimator {name_of(estimator)}"))
-                estimator.reset(setup.spec, robot.pose)
-            except (Exception, SystemExit) as err:  # a user's estimator that cannot take this robot (or leaves): the user's
-                raise RunError(f"{robot.name}: estimator {name_of(estimator)!r} could not be reset: {type(err).__name__}: {err}{_last_frame(err)}") from None
-        try:
-            reset(setup.controller, setup.spec)
-        except ValueError as err:  # a controller that cannot drive this robot (too few sensors): the user's choice
-            raise RunError(f"{robot.name}: {err}") from None
-        except SystemExit as err:  # (the user's code leaving: its mistake, not a way out of ctsim)
-            raise RunError(f"{robot.name}: the controller's reset called sys.exit({err.code!r})") from None
-        names, uncertain = [estimator.name for estimator in chosen], [e.name for e in chosen if has_covariance(e)]
-        if i in slot:  # the batch logs its rows, the robot's own estimators theirs
-            log = RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params), odometry.names[slot[i]], samples, i, world, slot[i],
-                           extra=names, extra_uncertain=uncertain)  # fmt: skip
-        else:
-            log = RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params), names, samples, i, world, None, uncertain)
-        logs.append(log)
-        controllers.append(setup.controller)
-        log.estimators = list(chosen)
-        if i not in slot:  # (it logs its truth with its estimates, even with none)
-            estimators.append((i, log, chosen, None))
-        elif chosen:
-            estimators.append((i, log, chosen, log.append_extra))
-    try:
-        world.chassis.schedule_faults([*world_spec.faults, *(replace(f, robot=i) for i, setup in enumerate(robots) for f in setup.faults)])
-    except FaultError as err:
-        raise RunError(str(err)) from None
-    result = RunResult(world_spec, seed, dt, logs, samples)
-    commands = np.zeros((len(robots), 2))
     clock = StepClock(step_timeout)
     guard: Guard | None = None
-    try:
+    try:  # the resets are the run's first user code: timed and guarded as its steps are
         clock.__enter__()
         guard = Guard().__enter__()
+        logs, controllers, estimators, failed = _set_up(world, world_spec, robots, placed, samples, odometry, slot, seed, clock)
+        world.chassis.schedule_faults([*world_spec.faults, *(replace(f, robot=i) for i, setup in enumerate(robots) for f in setup.faults)])
+    except BaseException as err:
+        clock.__exit__()
+        if guard is not None:
+            guard.__exit__()
+        if isinstance(err, FaultError):
+            raise RunError(str(err)) from None
+        raise
+    result = RunResult(world_spec, seed, dt, logs, samples)
+    commands = np.zeros((len(robots), 2))
+    try:
         _notify(observers, "on_start", world, logs)  # inside: Ctrl-C while a recorder opens still ends the run
+        if failed is not None:
+            raise _Stop(failed)
         samplers = [observer.on_sample for observer in observers if hasattr(observer, "on_sample")]
         drivers = [(i, robot.spec, log, controller) for i, (robot, log, controller) in enumerate(zip(world.robots, logs, controllers))]
-        can_finish = all(hasattr(controller, "status") for controller in controllers)  # a behaviour says when it is done
+        can_finish = all(isinstance(getattr(controller, "status", None), Status) for controller in controllers)  # a behaviour says when it is done
+        awaited = [(log, robot.slot, k) for k, (log, robot) in enumerate(zip(logs, world.robots))] if world_spec.goals else []
         for step in range(steps + 1):
-            frame = _sample(world, samples, logs, estimators, odometry)
+            frame = _sample(world, samples, logs, estimators, odometry, awaited)
             for on_sample in samplers:
                 on_sample(world, logs)
             if until_goal and any(log.goal_time is not None for log in logs):
@@ -185,8 +166,8 @@ def run(
     except ControllerBrokeOut as broke:
         result.reason, result.error = Ending.ERROR, f"{_who(logs)} {broke} at step {step} (t = {world.time:.2f} s)"
     except Exception as err:  # ctsim's own code failing: a ctsim bug, unless a controller replaced what it calls
-        replaced = guard.replaced() if guard is not None else ""
-        foreign = foreign_frame(err, user_code_folders([*controllers, *(e for _, _, chosen, _ in estimators for e in chosen)]))
+        replaced = guard.replaced()
+        foreign = foreign_frame(err, user_code_folders([*controllers, *(e for _, _, checked, _ in estimators for e, _, _ in checked)]))
         if not replaced and foreign is None:
             raise
         result.reason = Ending.ERROR
@@ -198,9 +179,8 @@ def run(
         result.error = None if result.reason is Ending.QUIT else f"{result.reason} at t = {world.time:.2f} s"
     finally:
         clock.__exit__()
-        if guard is not None:
-            guard.__exit__()
-            result.notes = list(guard.notes.values())
+        guard.__exit__()
+        result.notes = list(guard.notes.values())
         for robot, log, controller in zip(world.robots, logs, controllers):
             log.collisions, log.fell = robot.collisions, robot.fallen
             log.status = controller.status.value if isinstance(getattr(controller, "status", None), Status) else None
@@ -210,6 +190,94 @@ def run(
 
 class _Stop(Exception):
     pass
+
+
+_Estimators = tuple[int, RobotLog, list[tuple[Estimator, bool, bool]], Callable | None]
+"""A robot's Python estimators in a run: its index, its log, each estimator with whether it has a
+covariance and whether it is timed (`_is_timed`), and how the log takes a sample of them beside
+the batch's (None: `RobotLog.append`, the robot's own rows)."""
+
+
+def _set_up(
+    world: World, world_spec: WorldSpec, robots: list[RobotSetup], placed: list[Robot], samples: Samples, odometry: DefaultOdometry | None,
+    slot: dict[int, int], seed: int, clock: StepClock,
+) -> tuple[list[RobotLog], list[Controller], list[_Estimators], str | None]:
+    """Every robot's log, controller and Python estimators (a batched robot's own beside the
+    batch's, else all of the robot's), reset (`_reset`); and how a reset failed, if one did (the
+    run's error at its start; the robots after it are not reset)."""
+    logs, controllers, estimators = [], [], []
+    failed: str | None = None
+    for i, (setup, robot) in enumerate(zip(robots, placed)):
+        chosen = list(setup.extra_estimators) if i in slot else [*(setup.estimators if setup.estimators is not None else default_estimators(setup.spec)), *setup.extra_estimators]
+        failed = failed or _reset(setup, robot, chosen, world_spec, seed, i, clock)
+        names, uncertain = [name_of(estimator) for estimator in chosen], [name_of(e) for e in chosen if has_covariance(e)]
+        if i in slot:  # the batch logs its rows, the robot's own estimators theirs
+            log = RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params), odometry.names[slot[i]], samples, i, world, slot[i],
+                           extra=names, extra_uncertain=uncertain)  # fmt: skip
+        else:
+            log = RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params), names, samples, i, world, None, uncertain)
+        logs.append(log)
+        controllers.append(setup.controller)
+        log.estimators = list(chosen)
+        # each estimator with what its steps ask of it every time: whether it has a covariance, whether it is timed
+        checked = [(e, has_covariance(e), _is_timed(clock, e)) for e in chosen]
+        if i not in slot:  # (it logs its truth with its estimates, even with none)
+            estimators.append((i, log, checked, None))
+        elif chosen:
+            estimators.append((i, log, checked, log.append_extra))
+    return logs, controllers, estimators, failed
+
+
+def _reset(setup: RobotSetup, robot: Robot, chosen: list[Estimator], world_spec: WorldSpec, seed: int, index: int, clock: StepClock) -> str | None:
+    """Reset a robot's estimators (a localiser first handed its map and a generator of its own)
+    and its controller, the user's under the step clock (`_timed`). One that raises a ValueError
+    cannot take this robot (a controller with too few sensors): the run is refused (RunError).
+    Anything else it raises, sys.exit or a step timeout, is the user's code failing: the line
+    that says so (the run's error at its start, every file written), else None."""
+    for estimator in chosen:
+        what = f"estimator {name_of(estimator)!r} of {robot.name}"
+        try:
+            with _timed(clock, estimator):
+                if hasattr(estimator, "use_map"):  # a localiser: the robot's map of the world (never its pose), a generator of its own
+                    estimator.use_map(MapScan(world_spec, setup.spec), sensor_rng(seed, index, f"estimator {name_of(estimator)}"))
+                estimator.reset(setup.spec, robot.pose)
+        except ValueError as err:
+            raise RunError(f"{what} cannot take this robot: {err}{where(err)}") from None
+        except (Exception, SystemExit, StepTimeout) as err:
+            return f"{what} {_ended(err, clock)} in its reset at t = 0.00 s{where(err)}"
+    try:
+        with _timed(clock, setup.controller):
+            reset(setup.controller, setup.spec)
+    except ValueError as err:  # a controller that cannot drive this robot (too few sensors): the user's choice
+        raise RunError(f"{robot.name}: {err}") from None
+    except (Exception, SystemExit, StepTimeout) as err:
+        return f"controller {setup.controller_name!r} of {robot.name} {_ended(err, clock)} in its reset at t = 0.00 s{where(err)}"
+    return None
+
+
+@contextmanager
+def _timed(clock: StepClock | None, code: object) -> Iterator[None]:
+    """A call of `code` under the step clock (its time limit; a signal acted on at once), unless
+    it is a shipped estimator's (of `bots.odometry`: its first call compiles its kernels) or no
+    clock runs."""
+    timed = _is_timed(clock, code)
+    if timed:
+        clock.begin()
+    try:
+        yield
+    finally:
+        if timed:
+            clock.busy = 0
+
+
+def _is_timed(clock: StepClock | None, code: object) -> bool:
+    """Whether calls of `code` run under the step clock (`_timed`)."""
+    return clock is not None and not type(code).__module__.startswith("bots.odometry")
+
+
+def _ended(err: BaseException, clock: StepClock | None) -> str:
+    """What user code did that ended the run: overran the step time limit, left or raised."""
+    return f"took longer than the step time limit of {clock.limit:g} s" if isinstance(err, StepTimeout) else did(err)
 
 
 def _who(logs: list[RobotLog]) -> str:
@@ -228,7 +296,7 @@ def _failure(err: BaseException, log: RobotLog, step: int, time: float, step_tim
         return f"{log.name} ({log.controller_name}) stopped {when}: {err}"
     if isinstance(err, StepTimeout):
         return f"controller {log.controller_name!r} of {log.name} took longer than the step time limit of {step_timeout:g} s {when}"
-    return f"controller {log.controller_name!r} of {log.name} raised {type(err).__name__}: {err} {when}{_last_frame(err)}"
+    return f"controller {log.controller_name!r} of {log.name} {did(err)} {when}{where(err)}"
 
 
 def step_count(duration: float, dt: float) -> int:
@@ -279,77 +347,79 @@ def _drive_chassis(world: World, index: int, log: RobotLog, command, readings: R
     world.chassis.command(index, setpoint.phi_dot, setpoint.beta)
 
 
-def _last_frame(err: BaseException) -> str:
-    frames = traceback.extract_tb(err.__traceback__)
-    return f" ({frames[-1].filename}:{frames[-1].lineno})" if frames else ""
-
-
-def _update(estimator: Estimator, readings: Readings, log: RobotLog, step: int) -> tuple[np.ndarray, np.ndarray | None]:
-    """Step an estimator and read its pose and covariance once (`outputs`), all of it a call
-    under the step clock as a controller's step is (its time limit; a signal acted on at once);
-    one that raises, overruns or leaves a bad pose or covariance ends the run (_Stop), as a
-    controller's error does. The pose and covariance (None without one) as read. The shipped
-    estimators (of `bots`) are not timed: their first update compiles their kernels."""
-    clock = StepClock.active if not type(estimator).__module__.startswith("bots.") else None
+def _update(estimator: Estimator, uncertain: bool, timed: bool, readings: Readings, log: RobotLog, step: int) -> tuple[np.ndarray, np.ndarray | None]:
+    """Step an estimator and read its pose and covariance once (`outputs`; `uncertain`: it has
+    one), all of it a call under the step clock as a controller's step is where `timed` (its time
+    limit; a signal acted on at once: `_timed`, inline here, as it runs every step); one that
+    raises, overruns or leaves a bad pose or covariance ends the run (_Stop), as a controller's
+    error does. The pose and covariance (None without one) as read."""
+    clock = StepClock.active
+    timed = timed and clock is not None
     try:
-        if clock is not None:
+        if timed:
             clock.begin()
         estimator.update(readings)
-        pose, covariance, problem = outputs(estimator)
+        pose, covariance, problem = outputs(estimator, uncertain)
     except KeyboardInterrupt:
         raise
-    except StepTimeout:
-        raise _Stop(f"estimator {name_of(estimator)!r} of {log.name} took longer than the step time limit of {clock.limit:g} s at step {step} (t = {readings.time:.2f} s)") from None
-    except BaseException as err:  # the estimator's error (a user's code; sys.exit too)
-        raise _Stop(f"estimator {name_of(estimator)!r} of {log.name} raised {type(err).__name__}: {err} at step {step} (t = {readings.time:.2f} s){_last_frame(err)}") from None
+    except BaseException as err:  # the estimator's error (a user's code; sys.exit and a step timeout too)
+        raise _Stop(f"estimator {name_of(estimator)!r} of {log.name} {_ended(err, clock)} at step {step} (t = {readings.time:.2f} s){where(err)}") from None
     finally:
-        if clock is not None:
+        if timed:
             clock.busy = 0
     if problem is not None:
         raise _Stop(f"estimator {name_of(estimator)!r} of {log.name} failed at step {step} (t = {readings.time:.2f} s): {problem}")
     return pose, covariance
 
 
-READINGS = ("tallies", "ir_raw", "ir_distance", "floor", "light")
-"""The arrays of a step's SensorFrame, handed to controllers and estimators as `frozen` copies."""
-
-
 def frozen(array: np.ndarray) -> np.ndarray:
     """A copy of `array` over immutable bytes: no flag, view or `.base` of it can be made
     writeable (numpy refuses), and none reaches the run's recorded rows it was copied from."""
-    return np.frombuffer(array.tobytes(), dtype=array.dtype).reshape(array.shape)
+    copy = np.frombuffer(array.tobytes(), dtype=array.dtype)
+    return copy if array.ndim == 1 else copy.reshape(array.shape)
 
 
 def _sample(
-    world: World, samples: Samples, logs: list[RobotLog], estimators: list[tuple[int, RobotLog, list[Estimator], Callable | None]],
-    odometry: DefaultOdometry | None,
+    world: World, samples: Samples, logs: list[RobotLog], estimators: list[_Estimators],
+    odometry: DefaultOdometry | None, awaited: list[tuple[RobotLog, int | None, int]],
 ) -> SensorFrame:
     """Read every robot's sensors at the current state into the run's next sample row and log
     truth and estimates: the default odometry of all batched robots updates and logs them in one
     pass; Python estimators (a robot's own, or all of a robot outside the batch) update theirs
-    here. Then note who reached a goal."""
+    here. Then note who of `awaited` (log, start slot, index: the robots yet to reach a goal)
+    reached one, and take them out of it."""
     n = samples.count
     time = world.time
-    frame = samples.frame = world.read_all((samples.values[n], samples.believed[n], samples.tallies[n]))
-    for name in READINGS:  # (the recorded rows themselves never reach a controller)
-        setattr(frame, name, frozen(getattr(frame, name)))
+    rows = samples.values[n], samples.believed[n], samples.tallies[n]
+    frame = samples.frame = world.read_all(rows)
+    # the frame's arrays as frozen copies (the recorded rows themselves never reach a controller):
+    # one of each row, the floor, light and raw IR values slices of the first
+    values, floors, lights = frozen(rows[0]), len(frame.floor), len(frame.floor) + len(frame.light)
+    frame.floor, frame.light, frame.ir_raw = values[:floors], values[floors:lights], values[lights:]
+    frame.ir_distance, frame.tallies = frozen(rows[1]), frozen(rows[2])
     samples.time[n] = time
     poses = world.poses()
     if odometry is not None:
-        odometry.update_into(frame.tallies, time, poses, samples.poses[n], samples.covariances[n])
-    for i, log, chosen, beside_batch in estimators:
+        odometry.update_into(rows[2], time, poses, samples.poses[n], samples.covariances[n])
+    for i, log, checked, beside_batch in estimators:
         readings = frame[i]
-        read = [_update(estimator, readings, log, n) for estimator in chosen]
-        poses_read, covariances = [pose for pose, _ in read], [covariance for _, covariance in read if covariance is not None]
+        poses_read, covariances = [], []
+        for estimator, uncertain, timed in checked:
+            pose, covariance = _update(estimator, uncertain, timed, readings, log, n)
+            poses_read.append(pose)
+            if covariance is not None:
+                covariances.append(covariance)
         if beside_batch is None:
             log.append(poses[i], poses_read, covariances)
         else:
             beside_batch(poses_read, covariances)
     samples.count = n + 1
     samples.columns.release_written(n + 1)
-    goals = world.spec.goals
-    if goals:
-        for (x, y), log, robot in zip(poses[:, :2].tolist(), logs, world.robots):
-            if log.goal_time is None and world.spec.in_goal(x, y, robot.slot):
+    if awaited:
+        in_goal = world.spec.in_goal
+        for entry in list(awaited):
+            log, slot, k = entry
+            if in_goal(float(poses[k, 0]), float(poses[k, 1]), slot):
                 log.goal_time = time
+                awaited.remove(entry)
     return frame

@@ -210,7 +210,9 @@ class RobotLog:
         """Log the current sample of a batched robot's own estimators (`extra`): their poses and
         the (3, 3) covariances of those with one (the batch logs the rest)."""
         n = self._samples.count
-        self._extra_poses[n] = estimates
+        row = self._extra_poses[n]
+        for k, pose in enumerate(estimates):  # (pose by pose: numpy makes an array of a list of them first)
+            row[k] = pose
         for k, cov in enumerate(covariances):
             self._extra_covariances[n, k] = cov[_UPPER]
         self._columns.release_written(n + 1)

@@ -10,9 +10,11 @@ filter against new processes and threads (`confine`), then loads the file as the
 
     {"op": "call", "name": f, "args": [...]}                          -> f(*args)
     {"op": "new", "handle": h, "name": C, "kwargs": {...}}             -> objects[h] = C(**kwargs)
-    {"op": "method", "handle": h, "name": m, "args": [...], "attribute": a or null}
+    {"op": "method", "handle": h, "name": m, "args": [...], "attribute": a or [a, b] or null}
                                                                        -> objects[h].m(*args), or
                                                                           objects[h].a after it
+                                                                          (a list: each, None where
+                                                                          it has none)
     {"op": "step", "handle": h, "t": t, "readings": R}                 -> objects[h].step(t, R) as a
                                                                           command list (below)
     {"op": "feed", "handle": h, "name": m, "series": [[args], ...], "attribute": a}
@@ -108,7 +110,10 @@ def answer(module: Any, objects: dict[int, Any], request: dict[str, Any]) -> Any
     if op == "method":
         target = objects[request["handle"]]
         result = getattr(target, request["name"])(*request["args"])
-        return plain(getattr(target, request["attribute"]) if request["attribute"] else result)
+        attribute = request["attribute"]
+        if isinstance(attribute, list):  # several, read once each after the call
+            return [plain(getattr(target, name, None)) for name in attribute]
+        return plain(getattr(target, attribute) if attribute else result)
     if op == "step":
         return command(objects[request["handle"]].step(request["t"], request["readings"]))
     if op == "feed":

@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from sim.analysis.export import read_tum
-from sim.analysis.run_folder import RunFolderError, read_summary, trajectory_text
+from sim.analysis.run_folder import RunFolder, RunFolderError, read_summary, trajectory_text
 from sim.out_files import replacing
 from sim.views import palette
 from sim.views.map_image import map_shapes
@@ -108,6 +108,7 @@ def write_figures(
     from matplotlib.lines import Line2D
 
     out, ate = Path(out), ate or {}
+    trajectories_png, errors_png = RunFolder(out).figures
     xmin, ymin, xmax, ymax = world.bounds
     aspect = (ymax - ymin) / max(xmax - xmin, 1e-9)
     several = len(robots) > 1
@@ -145,7 +146,7 @@ def write_figures(
     if subtitle:
         fig.suptitle(subtitle, fontsize=9, color="0.3", y=0.995)
     fig.tight_layout()
-    written = [_save(fig, out / "trajectories.png")]
+    written = [_save(fig, trajectories_png)]
 
     columns = len(robots)  # one column of plots per robot: no plot mixes robots
     fig, axes = plt.subplots(2, columns, figsize=(10.0 if columns == 1 else 4.2 * columns + 2.0, 6.5), dpi=120, sharex=True, sharey="row", squeeze=False)
@@ -192,7 +193,7 @@ def write_figures(
     if subtitle:
         fig.suptitle(subtitle, fontsize=9, color="0.3", y=0.995)
     fig.tight_layout()
-    written.append(_save(fig, out / "errors.png"))
+    written.append(_save(fig, errors_png))
     return written
 
 
@@ -286,7 +287,7 @@ def report_run_dir(run_dir: str | Path) -> list[Path]:
         for robot in summary["robots"]
     }
     if not any(robots.values()):
-        raise RunFolderError(run_dir / "summary.json", None, "no trajectories named (robots[].tum): the run wrote none to draw")
+        raise RunFolderError(RunFolder(run_dir).summary, None, "no trajectories named (robots[].tum): the run wrote none to draw")
     return write_figures(world, robots, run_dir, subtitle=describe(summary), ate=ate_of(summary), bands=bands_of(run_dir, summary))
 
 
@@ -305,7 +306,7 @@ def bands_of(run_dir: Path, summary: dict) -> dict[str, dict[str, Trajectory]]:
     bands are an addition to the figures, never a reason to refuse them)."""
     import pyarrow as pa
 
-    path = run_dir / "run.parquet"
+    path = RunFolder(run_dir).samples
     if path.is_symlink() or not path.is_file():
         return {}
     try:

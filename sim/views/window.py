@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from bots.behaviours.motion import Teleop
+from bots.sensor_kinds import KINDS
 from bots.spec import RobotSpec
 from sim.run.ending import Quit
 from sim.run.loop import RobotSetup, run
@@ -170,15 +171,11 @@ class Window:
         for name, poses in estimates.items():
             error = 1000 * math.hypot(*(poses[-1, :2] - pose[:2]))
             lines.append((f"{name:<9} error {error:6.1f} mm", palette.estimate_colour(name, list(estimates))))
-        lines += [
-            (f"IR distance mm   {mm(readings.ir_distance)}", palette.ROBOT_EDGE),
-            (f"IR raw           {ints(readings.ir_raw)}", palette.ROBOT_EDGE),
-            (f"line   (0-1023)  {ints(readings.line)}", palette.ROBOT_EDGE),
-            (f"border (0-1023)  {ints(readings.border)}", palette.ROBOT_EDGE),
-            (f"light  (0-1023)  {ints(readings.light)}", palette.ROBOT_EDGE),
-            (f"encoders ticks   {ints(readings.encoder_ticks)}", palette.ROBOT_EDGE),
-            (f"mouse counts     {ints(readings.mouse_counts)}", palette.ROBOT_EDGE),
-        ]
+        for kind in KINDS:  # (the sensor registry's; a chassis's own below)
+            if not kind.chassis_only:
+                values = getattr(readings, kind.field)
+                shown = mm(values) if kind.dtype is np.float64 else ints(values)
+                lines.append((f"{kind.window:<17}{shown}", palette.ROBOT_EDGE))
         if robot.spec.chassis is not None:
             degrees = "  ".join(f"{math.degrees(b):5.0f}" for b in steering_deflection(robot.spec.chassis.chassis, readings.steering))
             lines.append((f"steered deg      {degrees}", palette.ROBOT_EDGE))

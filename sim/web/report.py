@@ -10,21 +10,17 @@ from __future__ import annotations
 from html import escape
 from pathlib import Path
 
-from sim.analysis.run_folder import read_summary
+from sim.analysis.run_folder import REPORT, RunFolder, read_summary
 from sim.out_files import write_text
 from sim.views.html import facts_table, frame_table, image, page, run_facts, summary_table
 from sim.web.serve import DEFAULT_HOST, DEFAULT_PORT, addresses
-
-REPORT = "report.html"
-RUN_FIGURES = ("trajectories.png", "errors.png")
-"""The figures of `ctsim run`, first and in this order; any other PNG of the folder follows."""
 
 
 def write_run_report(run_dir: str | Path) -> Path:
     """report.html in a run folder written by `ctsim run` (its summary.json, PNGs and run.rrd)."""
     run_dir = Path(run_dir)
     summary = read_summary(run_dir)
-    pictures = [run_dir / name for name in RUN_FIGURES if _own_file(run_dir / name)]
+    pictures = [path for path in RunFolder(run_dir).figures if _own_file(path)]  # (first and in this order; any other PNG follows)
     pictures += sorted(p for p in run_dir.glob("*.png") if p not in pictures and _own_file(p))
     body = [
         "<h2>Summary</h2>",
@@ -37,7 +33,7 @@ def write_run_report(run_dir: str | Path) -> Path:
         facts_table(run_facts(summary)),
     ]
     title = f"ctsim run: {summary['world']['name']}, {', '.join(sorted({r['controller'] for r in summary['robots']}))}, seed {summary['seed']}"
-    return write_text(run_dir / REPORT, page(title, "\n".join(body)))
+    return write_text(RunFolder(run_dir).report, page(title, "\n".join(body)))
 
 
 def _own_file(path: Path) -> bool:
@@ -46,13 +42,14 @@ def _own_file(path: Path) -> bool:
 
 
 def _recording_links(run_dir: Path) -> str:
-    if not (run_dir / "run.rrd").is_file():
+    recording = RunFolder(run_dir).recording
+    if not recording.is_file():
         return "<p>No recording in this folder.</p>"
     command = f"ctsim view {run_dir}"
     return (
         f"<p>In a browser: run <code>{escape(command)}</code>, then "
         f"<a href='{escape(addresses(DEFAULT_HOST, DEFAULT_PORT, DEFAULT_PORT + 1)[0], quote=True)}'>open the recording in rerun's web viewer</a> "
-        f"(the address <code>ctsim view</code> prints). With rerun installed: <code>rerun {escape(str(run_dir / 'run.rrd'))}</code> "
+        f"(the address <code>ctsim view</code> prints). With rerun installed: <code>rerun {escape(str(recording))}</code> "
         f"(<a href='run.rrd'>run.rrd</a>).</p>"
     )
 

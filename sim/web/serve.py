@@ -23,6 +23,7 @@ import time
 from pathlib import Path
 from urllib.parse import quote
 
+from sim.analysis.run_folder import RunFolder
 from sim.errors import UserError
 
 DEFAULT_HOST = "127.0.0.1"
@@ -45,9 +46,10 @@ def recording_of(target: str | Path) -> Path:
     refused with the reason."""
     path = Path(target)
     if path.is_dir():
-        if not (path / "run.rrd").is_file():
-            raise ViewError(f"{path}: no run.rrd in this folder (give a folder written by `ctsim run`, or a .rrd file)")
-        path = path / "run.rrd"
+        recording = RunFolder(path).recording
+        if not recording.is_file():
+            raise ViewError(f"{path}: no {recording.name} in this folder (give a folder written by `ctsim run`, or a .rrd file)")
+        path = recording
     elif not path.is_file():
         raise ViewError(f"{path}: no such run (give a folder written by `ctsim run`, or a .rrd file)")
     check_version(path)

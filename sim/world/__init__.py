@@ -7,7 +7,8 @@ TOML, c't-Sim parcours, grid). It may import the kinematics core, the robots' de
 (`bots.spec`) and the readings it fills (`bots.readings`), nothing above.
 """
 
-from sim.world.physics import IR_RAY_LENGTH, CommandError, World
+from sim.world.physics import CommandError, World
 from sim.world.spec import Start, WorldFileError, WorldSpec
+from sim.world.tables import IR_RAY_LENGTH
 
 __all__ = ["IR_RAY_LENGTH", "CommandError", "Start", "World", "WorldFileError", "WorldSpec"]

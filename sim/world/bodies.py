@@ -18,8 +18,9 @@ import pymunk
 import pymunk.batch as batch
 from pymunk._chipmunk import ffi, lib  # the C layer under pymunk.batch (see _Walk): pymunk 7.3.x, pinned
 
+from sim.world.layout import MOTION, MOTION_FIELDS, motion_rows
+
 _POSE = batch.BodyFields.POSITION | batch.BodyFields.ANGLE
-_MOTION = batch.BodyFields.VELOCITY | batch.BodyFields.ANGULAR_VELOCITY | batch.BodyFields.FORCE | batch.BodyFields.TORQUE
 
 
 class _Walk:
@@ -77,14 +78,21 @@ class BodyArrays:
         self._robot_bodies = bodies  # (the C bodies below live as long as these)
         self._c_bodies = [body._body for body in bodies]
         self._read_pose = _Walk(space, _POSE, batch.Buffer(), write=False, width=3)
-        self._read_motion = _Walk(space, _MOTION, batch.Buffer(), write=False, width=6)
+        self._read_motion = _Walk(space, MOTION_FIELDS, batch.Buffer(), write=False, width=MOTION.dtype.itemsize // 8)
         self._read_motion()
         self.motion = self._read_motion.floats().copy()
-        """vx, vy, w, fx, fy, torque per body, as `send` writes them: the robots' rows at rest."""
-        self.motion[self.rows, :3] = 0.0
+        """MOTION rows (velocity, angular velocity, force, torque) per body as floats, as `send` writes
+        them: the robots' rows at rest."""
+        self._at_rest()
         written = batch.Buffer()
         written.set_float_buf(self.motion)  # pymunk reads this array in place
-        self._write_motion = _Walk(space, _MOTION, written, write=True)
+        self._write_motion = _Walk(space, MOTION_FIELDS, written, write=True)
+
+    def _at_rest(self) -> None:
+        """The robots' velocities in `motion` zero: they enter pymunk's step at rest (`World._apply_motion`)."""
+        rows = motion_rows(self.motion)
+        rows["velocity"][self.rows] = 0.0
+        rows["angular_velocity"][self.rows] = 0.0
 
     def poses(self) -> np.ndarray:
         """(n, 3) robot poses (x, y m; heading rad), a new array."""
@@ -98,7 +106,7 @@ class BodyArrays:
         if self._others:
             self._read_motion()
             self.motion[:] = self._read_motion.floats()
-            self.motion[self.rows, :3] = 0.0  # (without them, the robots' velocities stay the zeros set above)
+            self._at_rest()  # (without them, the robots' velocities stay the zeros set above)
 
     def move(self, dt: float) -> None:
         """pymunk's position update (`Body.update_position`) of every robot body, by its C function

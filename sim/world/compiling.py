@@ -29,6 +29,10 @@ PROGRESS_EVERY = 5.0
 """Seconds between two lines of `PROGRESS` while the compile processes work."""
 WORKERS = os.cpu_count() or 1
 """Compile processes at most (one per core)."""
+_IN_FLIGHT: dict[tuple[Any, tuple], subprocess.Popen] = {}
+"""(kernel, numba types) -> the compile process of this process compiling it: a later `start`
+for the same job waits for that process instead of starting another (a run starts its odometry's
+compile first thing, and the odometry asks for it again once made)."""
 
 
 def compiled_for(kernel: Any, *arguments: Any) -> Callable:
@@ -48,13 +52,19 @@ class Compiling:
         self.typed = [(kernel, _types(kernel, arguments)) for kernel, arguments in jobs]
         self.missing = [(kernel, types) for kernel, types in self.typed if not _in_cache(kernel, types)]
         self.started = time.perf_counter()
-        count = min(len(self.missing), WORKERS if workers is None else workers)
+        running = {job: helper for job in self.missing if (helper := _IN_FLIGHT.get(job)) is not None and helper.poll() is None}
+        new = [job for job in self.missing if job not in running]
+        count = min(len(new), WORKERS if workers is None else workers)
         # the kernels dealt out from the last (the largest, by the callers' order) round the processes
-        shares = [[job for k, job in enumerate(reversed(self.missing)) if k % count == p] for p in range(count)]
-        self.helpers = [helper for share in shares if (helper := _start(share)) is not None]
-        if self.missing and PROGRESS is not None:
-            PROGRESS(f"compiling the simulator's kernels for this machine (first run only) in {len(self.helpers)} processes: "
-                     f"{', '.join(k.py_func.__name__ for k, _ in self.missing)}")  # fmt: skip
+        shares = [[job for k, job in enumerate(reversed(new)) if k % count == p] for p in range(count)]
+        self.helpers = list({id(helper): helper for helper in running.values()}.values())
+        for share in shares:
+            if (helper := _start(share)) is not None:
+                self.helpers.append(helper)
+                _IN_FLIGHT.update(dict.fromkeys(share, helper))
+        if new and PROGRESS is not None:
+            PROGRESS(f"compiling the simulator's kernels for this machine (first run only) in {len(shares)} processes: "
+                     f"{', '.join(k.py_func.__name__ for k, _ in new)}")  # fmt: skip
 
     def wait(self) -> list[Callable]:
         """The kernels, compiled: loaded from the cache the compile processes filled (whatever

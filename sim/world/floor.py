@@ -12,6 +12,7 @@ from functools import cached_property
 import numpy as np
 
 from sim.world.kernels.floor import in_hole
+from sim.world.layout import Floor
 from sim.world.sensors import CNY70_MAX, absorption
 from sim.world.spec import WorldSpec
 
@@ -48,7 +49,13 @@ class FloorMap:
     def hole_at(self, x: float, y: float) -> bool:
         """Whether the point (x, y) (m) is over a hole (off the map: where that is a hole), as
         the world's kernels test it (`kernels.floor.in_hole`)."""
-        return bool(in_hole(x, y, self.hole, np.asarray(self.origin), self.cell, self.outside_is_hole))
+        return bool(in_hole(x, y, self.kernel))
+
+    @cached_property
+    def kernel(self) -> Floor:
+        """The raster as the compiled kernels take it."""
+        return Floor(self.ground, self.lines, self.hole, np.array(self.origin, dtype=np.float64), float(self.cell), float(self.outside_absorption),
+                     bool(self.outside_is_hole), float(self.line_height))
 
     @cached_property
     def value(self) -> np.ndarray:

@@ -23,9 +23,11 @@ import numpy as np
 from bots.spec import RobotSpec
 from sim.world.kernels.contacts import clear_of_walls
 from sim.world.kernels.sensing import sense_ir
-from sim.world.physics import IR_RAY_LENGTH, WallArrays, ir_curve_for
+from sim.world.layout import CIRCLES, SENSORS, Rays, ScanModel, Walls
+from sim.world.physics import ir_curve_for
 from sim.world.sensors import IRCurve
 from sim.world.spec import WorldSpec
+from sim.world.tables import IR_RAY_LENGTH, walls_of
 
 GRID_STEP = 0.00002
 """Distance step (m) of the grid on which each raw value's intervals are found: where the curve is
@@ -76,43 +78,27 @@ def _normal_cdf(z: float) -> float:
 
 
 @numba.njit(cache=True)
-def scan_likelihood(
-    particles: np.ndarray,
-    mounts: np.ndarray,
-    direction: np.ndarray,
-    cone: np.ndarray,
-    pick: np.ndarray,
-    length: float,
-    vertices: np.ndarray,
-    ranges: np.ndarray,
-    boxes: np.ndarray,
-    frame: np.ndarray,
-    cells: np.ndarray,
-    intervals: np.ndarray,
-    sigma: np.ndarray,
-    outlier: np.ndarray,
-    radius: float,
-    out: np.ndarray,
-) -> None:
+def scan_likelihood(particles: np.ndarray, sensors: np.ndarray, walls: Walls, nothing: np.ndarray, model: ScanModel, out: np.ndarray) -> None:
     """out[i] = the likelihood of one scan at particles[i] (x, y, heading): the product over the
-    sensors (mounts (m, 2), body-frame direction, cone, 1 for c't-Sim's pick view) of P(raw | expected distance),
-    the raw value's distance `intervals` (m, INTERVALS, 2) under N(0, sigma[k]²), mixed with the
-    `outlier` mass per raw value; 0 for a particle whose body (`radius`) lies in a wall."""
-    n, m = particles.shape[0], mounts.shape[0]
+    IR sensors (SENSORS rows: mount, body-frame direction, cone, pick view) of P(raw | expected
+    distance), the raw value's distance intervals (`ScanModel`) under N(0, sigma[k]²), mixed with
+    the outlier mass per raw value; 0 for a particle whose body (the model's radius) lies in a
+    wall. `nothing`: no CIRCLES (the map has no robots or cans)."""
+    n, m = particles.shape[0], sensors.shape[0]
     origins, look = np.empty((n * m, 2)), np.empty(n * m)
-    cones, views, owner = np.empty(n * m), np.empty(n * m), np.full(n * m, -1, dtype=np.int64)
+    cones, views, owner = np.empty(n * m), np.empty(n * m, dtype=np.bool_), np.full(n * m, -1, dtype=np.int64)
     for i in range(n):
         c, s = math.cos(particles[i, 2]), math.sin(particles[i, 2])
         for k in range(m):
-            j = i * m + k
-            origins[j, 0] = particles[i, 0] + c * mounts[k, 0] - s * mounts[k, 1]
-            origins[j, 1] = particles[i, 1] + s * mounts[k, 0] + c * mounts[k, 1]
-            look[j], cones[j], views[j] = particles[i, 2] + direction[k], cone[k], pick[k]
+            j, at = i * m + k, sensors[k].at
+            origins[j, 0] = particles[i, 0] + c * at[0] - s * at[1]
+            origins[j, 1] = particles[i, 1] + s * at[0] + c * at[1]
+            look[j], cones[j], views[j] = particles[i, 2] + sensors[k].direction, sensors[k].opening, sensors[k].pick
     distance = np.empty(n * m)
-    grid = (frame, cells)
-    sense_ir(origins, look, cones, owner, length, vertices, ranges, boxes, np.empty((0, 4)), distance, 32, grid, views)
+    sense_ir(Rays(origins, look, cones, owner, views), walls, nothing, model.length, distance)
+    intervals, sigma, outlier = model.intervals, model.sigma, model.outlier
     for i in range(n):
-        if not clear_of_walls(particles[i, 0], particles[i, 1], radius, vertices, ranges, boxes, grid):
+        if not clear_of_walls(particles[i, 0], particles[i, 1], model.radius, walls):
             out[i] = 0.0
             continue
         likelihood = 1.0
@@ -132,20 +118,18 @@ def scan_likelihood(
 
 
 @numba.njit(cache=True)
-def free_poses(bounds: np.ndarray, radius: float, vertices: np.ndarray, ranges: np.ndarray, boxes: np.ndarray, frame: np.ndarray,
-               cells: np.ndarray, uniform: np.ndarray, out: np.ndarray) -> int:  # fmt: skip
+def free_poses(bounds: np.ndarray, radius: float, walls: Walls, uniform: np.ndarray, out: np.ndarray) -> int:
     """Poses (x, y, heading in [0, 2 pi)) uniform over the places within `bounds` (xmin, ymin,
     xmax, ymax) where a body of `radius` is clear of every wall, by rejection: each row of
     `uniform` (k, 3) in [0, 1) is a candidate; the accepted ones fill `out` in order. Returns how
     many were written."""
     count = 0
-    grid = (frame, cells)
     for j in range(uniform.shape[0]):
         if count == out.shape[0]:
             break
         x = bounds[0] + uniform[j, 0] * (bounds[2] - bounds[0])
         y = bounds[1] + uniform[j, 1] * (bounds[3] - bounds[1])
-        if clear_of_walls(x, y, radius, vertices, ranges, boxes, grid):
+        if clear_of_walls(x, y, radius, walls):
             out[count, 0], out[count, 1], out[count, 2] = x, y, uniform[j, 2] * 2.0 * math.pi
             count += 1
     return count
@@ -157,12 +141,15 @@ class MapScan:
     run loop (`bots.odometry.localiser.MapModel`); it holds the map, never the robot's true pose."""
 
     def __init__(self, world: WorldSpec, robot: RobotSpec):
-        self.walls = WallArrays.build(world)
+        self.walls = walls_of(world)
         ir = robot.ir
-        self.mounts = np.array([s.position for s in ir], dtype=np.float64).reshape(-1, 2)
-        self.direction = np.array([s.direction for s in ir], dtype=np.float64)
-        self.cone = np.array([s.cone for s in ir], dtype=np.float64)
-        self.pick = np.array([float(s.view == "pick") for s in ir])
+        self.sensors = SENSORS.new(len(ir))
+        """The IR sensors as the world's kernels see them (mount, direction, cone, pick view)."""
+        self.sensors["at"] = np.array([s.position for s in ir], dtype=np.float64).reshape(-1, 2)
+        self.sensors["direction"] = [s.direction for s in ir]
+        self.sensors["opening"] = [s.cone for s in ir]
+        self.sensors["pick"] = [s.view == "pick" for s in ir]
+        self._nothing = CIRCLES.new(0)
         self.sigma = np.array([math.hypot(s.noise_std, MODEL_STD) for s in ir])
         tables = [raw_intervals(ir_curve_for(s.curve, s.side)) for s in ir]
         self._lowest = [low for low, _ in tables]
@@ -183,10 +170,8 @@ class MapScan:
     def likelihood(self, particles: np.ndarray, raw: np.ndarray, out: np.ndarray) -> None:
         """out (n,) = the likelihood of the raw IR values `raw` (one per sensor) at each of the
         (n, 3) `particles`."""
-        intervals = self._intervals(raw)
-        w = self.walls
-        scan_likelihood(particles, self.mounts, self.direction, self.cone, self.pick, IR_RAY_LENGTH, w.vertices, w.ranges, w.boxes, w.frame,
-                        w.cells, intervals, self.sigma, self.outlier, self.radius, out)  # fmt: skip
+        model = ScanModel(IR_RAY_LENGTH, self._intervals(raw), self.sigma, self.outlier, self.radius)
+        scan_likelihood(particles, self.sensors, self.walls, self._nothing, model, out)
 
     def best(self, raw: np.ndarray) -> float:
         """The most likelihood any pose could give the raw values `raw` (`likelihood`'s scale): per
@@ -202,11 +187,9 @@ class MapScan:
         """(count, 3) poses drawn uniformly where the robot's body is clear of every wall (fewer
         where FREE_TRIES candidates per pose find no room)."""
         out = np.empty((count, 3))
-        w = self.walls
         done = 0
         for _ in range(FREE_TRIES):
             if done == count:
                 break
-            done += free_poses(self.bounds, self.radius + CLEARANCE, w.vertices, w.ranges, w.boxes, w.frame, w.cells,
-                               rng.random((4 * (count - done), 3)), out[done:])  # fmt: skip
+            done += free_poses(self.bounds, self.radius + CLEARANCE, self.walls, rng.random((4 * (count - done), 3)), out[done:])
         return out[:done]

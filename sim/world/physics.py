@@ -22,69 +22,29 @@ import numpy as np
 import pymunk
 
 import sim
-from bots.readings import SensorFrame, SensorLayout
+from bots.readings import SensorFrame
 from bots.spec import RobotSpec
-from sim.kinematics import counts_per_metre
 from sim.world import layout
 from sim.world.bodies import BodyArrays
 from sim.world.chassis_drive import ChassisDrive
 from sim.world.compiling import compile_all
 from sim.world.floor import FloorMap, rasterize
 from sim.world.kernels.contacts import settle
-from sim.world.kernels.grids import build_wall_grid
-from sim.world.kernels.motion import glide, measure_all, plan
+from sim.world.kernels.motion import glide, measure, plan
 from sim.world.kernels.noise import ENCODER_DRAWS, add_rounded, draw_step, spurious_ticks
-from sim.world.kernels.pick import pick_polygon
+from sim.world.kernels.pick import pick_wall
 from sim.world.kernels.sensing import ir_rays, ir_values, read_sensors
-from sim.world.noise import NormalBlocks
-from sim.world.sensors import CNY70_MAX, LDR_MAX, IRCurve, gp2d12, load_ir_curve
+from sim.world.sensors import IRCurve, gp2d12, load_ir_curve
 from sim.world.spec import Start, WorldSpec
 from sim.world.step import DEFAULT_DT, check_dt
+from sim.world.tables import IR_RAY_LENGTH, SLIDE_MARGIN, SLOP, RobotTables, walls_of
 
-SLOP = 0.0005
-"""pymunk collision slop for a world in metres (its default 0.1 assumes pixels)."""
-SWEEP_CLEARANCE = 1.5 * SLOP
-"""A move is cut where the body would sink deeper than this into another body."""
-SLIDE_MARGIN = 0.2 * SLOP
-"""The sweep of a slide along a surface just touched uses a circle thinner by this (m)."""
-IR_RAY_LENGTH = 0.85
-"""How far an IR ray is cast (m), c't-Sim's pick distance; beyond it nothing is seen."""
 MOVABLE_DAMPING = 0.05
 """Velocity fraction movable obstacles keep after a second: they slide a little and stop."""
+
+
 ROBOT = 1
 """pymunk collision type of robot bodies (to count their contacts)."""
-
-
-@dataclass(frozen=True)
-class _Noisy:
-    """The sensors of one kind that have noise: their rows in the kind's values, their standard
-    deviations and their generators' normals."""
-
-    rows: np.ndarray
-    std: np.ndarray
-    normals: NormalBlocks
-    sensors: tuple[tuple[int, str], ...]
-    """(robot index, sensor name) of each row of `normals`, to seed a robot's rows anew."""
-
-    @classmethod
-    def of(cls, items: list[tuple[int, Robot, str, float]]) -> _Noisy:
-        """From (row, robot, sensor name, std) per noisy sensor."""
-        return cls(
-            rows=np.array([k for k, _, _, _ in items], dtype=np.int64),
-            std=np.array([std for _, _, _, std in items], dtype=np.float64),
-            normals=NormalBlocks([robot.rngs[name] for _, robot, name, _ in items]),
-            sensors=tuple((robot.index, name) for _, robot, name, _ in items),
-        )
-
-    def reseed(self, robot: Robot) -> None:
-        """Draw `robot`'s rows from its (new) generators from now on."""
-        for k, (index, name) in enumerate(self.sensors):
-            if index == robot.index:
-                self.normals.restart(k, robot.rngs[name])
-
-    def arguments(self) -> tuple[np.ndarray, ...]:
-        """Its rows, standard deviations and normals as `kernels.noise` takes them."""
-        return self.rows, self.std, self.normals.values, self.normals.used
 
 
 class CommandError(ValueError):
@@ -190,8 +150,8 @@ class World:
             shape = pymunk.Poly(self.space.static_body, wall.vertices)
             shape.friction = 0.0
             self.space.add(shape)
-        self._walls = WallArrays.build(spec)
-        """The walls for the kernels; the grid's origin and cell are among `_scalars`."""
+        self._walls = walls_of(spec)
+        """The walls for the kernels."""
         self.movables: list[pymunk.Body] = []
         self._movable_shapes: list[pymunk.Circle] = []
         self._round_bodies = True
@@ -207,15 +167,14 @@ class World:
             self.space.add(body, shape)
             self.movables.append(body)
             self._movable_shapes.append(shape)
-        self._lights = np.array([(*light.position, light.height, light.radius) for light in spec.lights], dtype=np.float64).reshape(-1, 4)
-        self._scalars = np.array(
-            (*self.floor.origin, self.floor.cell, self.floor.outside_is_hole, self.floor.outside_absorption, IR_RAY_LENGTH, SLIDE_MARGIN, dt,
-             *self._walls.frame, float(robots_meet), self.floor.line_height),
-            dtype=np.float64,
-        )
-        """The world's scalars for the kernels (`kernels.SCALARS`; writeable: numba types read-only
+        self._lights = layout.LIGHTS.new(len(spec.lights))
+        for name, values in zip(("x", "y", "height", "radius"), zip(*((*light.position, light.height, light.radius) for light in spec.lights))):
+            self._lights[name] = values
+        self._world = layout.WORLD.new(1)
+        """The world's scalars for the kernels (a WORLD row; writeable: numba types read-only
         arrays on a slow path)."""
-        self._state = _BatchState([], dt, [], robots_meet)
+        self._world["dt"], self._world["slide_margin"], self._world["robots_meet"] = dt, SLIDE_MARGIN, robots_meet
+        self._state = RobotTables([], dt, [], robots_meet)
         self._bodies = BodyArrays(self.space, [])
         self._poses = np.zeros((0, 3))
         self._stale = True  # the kernels are compiled (or loaded) at the first use, for the robots then in it
@@ -299,7 +258,7 @@ class World:
         robot.phases = start_phases(robot.spec, robot.rngs[PHASES])
         st.start_counters(robot)
         st.reseed(robot)
-        self._quiet[layout.STREAK] = 0
+        self._world["streak"] = 0
         return robot
 
     @property
@@ -308,11 +267,11 @@ class World:
         last step, as `read_all` gives them (a view, overwritten by the next step)."""
         return self._batch().tallies
 
-    def _batch(self) -> _BatchState:
+    def _batch(self) -> RobotTables:
         """The kernels' arrays, rebuilt once after robots joined (not once per robot added: a
         thousand robots would cost a million rows)."""
         if self._stale:
-            self._state = _BatchState(self.robots, self.dt, self._movable_shapes, self.robots_meet)
+            self._state = RobotTables(self.robots, self.dt, self._movable_shapes, self.robots_meet)
             self._bodies = BodyArrays(self.space, [r.body for r in self.robots])
             self._poses = self._bodies.poses()
             self._kernel_arguments()
@@ -322,7 +281,7 @@ class World:
     def _kernel_arguments(self) -> None:
         """The arrays the per-step kernels take besides the poses and the step's outputs, gathered
         once into tuples, and the kernels' compiled entry points for their types."""
-        st, walls, ir = self._state, self._walls, self._state.ir
+        st, walls, ir, floor = self._state, self._walls, self._state.ir, self.floor.kernel
         self._round_ir = self._round_bodies and len(ir.curve) > 0
         read = len(st.sensors) if self._round_ir else st.n_floor + st.n_light  # pymunk reads IR otherwise
         # quiet steps (`kernels.contacts.settle`, `kernels.motion.glide`) for one round robot and nothing else that
@@ -330,19 +289,16 @@ class World:
         # several bodies come in the order of pymunk's tree of moving shapes, which a skipped step
         # would leave unchanged (the same physics, but other roundings later)
         alone = len(self.robots) == 1 and self._round_bodies and not self.movables
-        self._quiet = np.array((0, self.space.collision_persistence if alone else -1), dtype=np.int64)
-        self._read_arguments = (
-            st.sensors[:read], st.index[:read], st.n_floor, self.floor.ground, self.floor.lines, self._scalars, self._lights, walls.vertices,
-            walls.ranges, walls.boxes, walls.cells, st.circles, ir.noise.std, ir.noise.normals.values, ir.noise.normals.used, ir.tables,
-            ir.curve_ends, ir.beyond, ir.inverse,
-        )  # fmt: skip
-        self._step_noise_arguments = (*st.step_noise.arguments(), len(st.tick_noise), st.slip, st.tick_uniforms, st.mouse_noise)
-        self._tick_noise_arguments = (st.step_noise.rows[: len(st.tick_noise)], st.tick_noise, st.tick_uniforms, st.tallies[:, layout.TICKS : layout.TICKS + 2])
-        self._floor_and_light_arguments = (*st.floor_and_light_noise.arguments(), st.floor_and_light_top)
-        self._settle_arguments = (
-            st.params, st.state, self._scalars, walls.vertices, walls.ranges, walls.boxes, walls.cells, st.contacts, st.anchored, self.floor.hole,
-            st.fallen, self._bodies.row_index, self._bodies.motion, self._quiet, st.circles,
-        )  # fmt: skip
+        self._world["streak"], self._world["quiet_after"] = 0, self.space.collision_persistence if alone else -1
+        self._moved = (st.robots, st.state, st.tally_rows)
+        """The tables `plan` and `measure` change a step's motion and counts in."""
+        bodies = layout.Bodies(self._bodies.row_index, layout.motion_rows(self._bodies.motion), st.circles)
+        self._read_arguments = (layout.Sensing(st.sensors[:read], st.n_floor, self._lights), floor, walls, st.circles, ir.curves, ir.noise.kernel)
+        self._settle_arguments = (st.robots, st.state, self._world, walls, floor, layout.Ground(st.contacts, st.anchored, st.fallen), bodies)
+        self._glide_arguments = (st.robots, bodies, self._world)
+        self._step_noise_arguments = (st.step_noise.kernel, st.encoders, st.state, st.tick_uniforms)
+        self._tick_noise_arguments = (st.step_noise.rows[: st.encoders], st.tick_noise, st.tick_uniforms, st.tally_rows)
+        self._floor_and_light_arguments = (st.floor_and_light_noise.kernel, st.floor_and_light_top)
         # the kernels each step calls, for the types they get then: C-ordered (n, 2) commands and
         # (n, 3) poses, int64 values and float believed distances (`compiling.compiled_for`; the largest last, see `compile_all`)
         pose, commands = self._poses, np.zeros((len(self.robots), 2))
@@ -351,11 +307,11 @@ class World:
             (draw_step, (commands, *self._step_noise_arguments)),
             (spurious_ticks, self._tick_noise_arguments),
             (add_rounded, (np.empty(len(st.sensors), np.int64), *self._floor_and_light_arguments)),
-            (plan, (commands, st.params, st.state, st.tallies, pose, self.dt)),
-            (glide, (pose, st.params, self._bodies.motion, self._bodies.row_index, self.dt)),
-            (measure_all, (pose, pose, st.params, st.state, st.tallies, self.floor.hole, self._scalars)),
+            (plan, (commands, *self._moved, pose, self._world)),
+            (glide, (pose, *self._glide_arguments)),
+            (measure, (pose, pose, *self._moved, floor)),
             (settle, (pose, *self._settle_arguments)),
-            (read_sensors, (pose, *self._read_arguments, np.empty(0, np.int64), np.empty(0))),
+            (read_sensors, (pose, *self._read_arguments, layout.Readout(np.empty(0, np.int64), np.empty(0)))),
         ])  # fmt: skip
 
     def poses(self) -> np.ndarray:
@@ -405,10 +361,10 @@ class World:
                 st.ir.noise.normals.reserve(1)
             if self.movables:  # (checked first: starting an empty loop costs more than the check)
                 for k, body in enumerate(self.movables, start=len(pose)):
-                    st.circles[k, 0], st.circles[k, 1] = body.position
-            self._read_sensors(pose, *self._read_arguments, values, believed)
+                    st.circles["x"][k], st.circles["y"][k] = body.position
+            self._read_sensors(pose, *self._read_arguments, layout.Readout(values, believed))
         else:  # without the IR rows: pymunk reads them below
-            self._read_sensors(pose, *self._read_arguments, values[:lights], believed[:0])
+            self._read_sensors(pose, *self._read_arguments, layout.Readout(values[:lights], believed[:0]))
         floor, light, ir_raw = values[: st.n_floor], values[st.n_floor : lights], values[lights:]
         if st.floor_and_light_noise.sensors:
             st.floor_and_light_noise.normals.reserve(1)
@@ -424,7 +380,7 @@ class World:
         """Distance (m) from `origin` to the nearest point of any body other than the robot's own
         within `cone` (rad, half-angle) of world `direction` and within `length`; inf if none.
         With `pick`, walls are seen as c't-Sim's Java3D pick sees them (`IRSensorSpec.view`,
-        `kernels.pick.pick_polygon`); other bodies in the whole cone.
+        `kernels.pick.pick_wall`); other bodies in the whole cone.
 
         A cone across a wall at a slant reads the cone's near edge, not the axis. Every body is
         convex, so its nearest point in the cone is its nearest point overall when that lies
@@ -436,9 +392,10 @@ class World:
         cos_cone = math.cos(cone)
         if pick:
             walls = self._walls
-            best = min((pick_polygon(origin[0], origin[1], c, s, length, math.tan(cone), walls.vertices, a, b) for a, b in walls.ranges), default=math.inf)
+            spans = zip(walls.spans["start"], walls.spans["end"], walls.boxes["cylinder"])
+            best = min((pick_wall((origin[0], origin[1], c, s, length), math.tan(cone), walls.vertices, a, b, round_) for a, b, round_ in spans), default=math.inf)
             best = min(best, self._cast(robot, origin, direction - cone, length, moving=True), self._cast(robot, origin, direction + cone, length, moving=True))
-            limit = length / cos_cone  # a rim point near the segment's end lies that far
+            limit = math.inf  # a find past the segment's end (a rim point, a pillar's far side) counts, as in the kernel
         else:
             best = min(self._cast(robot, origin, direction - cone, length), self._cast(robot, origin, direction + cone, length))
             limit = length
@@ -473,13 +430,12 @@ class World:
             return
         if len(ir.noise.rows):
             ir.noise.normals.reserve(1)
-        first = st.n_floor + st.n_light
-        mounts, owner = st.sensors[first:], st.index[first:, layout.OWNER]
+        sensors = st.sensors[st.n_floor + st.n_light :]
         origins, look, distance = np.empty((n, 2)), np.empty(n), np.empty(n)
-        ir_rays(pose, mounts[:, layout.AT : layout.AT + 2], owner, mounts[:, layout.DIRECTION], origins, look)
+        ir_rays(pose, sensors, origins, look)
         for k, (robot, sensor) in enumerate(st.ir_sensors):
             distance[k] = self.ray_distance(robot, origins[k], look[k], cone=sensor.cone, pick=sensor.view == "pick")
-        ir_values(distance, ir.noise_row, ir.noise.std, ir.noise.normals.values, ir.noise.normals.used, *ir.curves, raw, believed)
+        ir_values(distance, sensors, ir.noise.kernel, ir.curves, raw, believed)
 
     # --- motion -----------------------------------------------------------------------------
 
@@ -496,7 +452,7 @@ class World:
             st.step_noise.normals.reserve(ENCODER_DRAWS)
             bad = self._draw_step_noise(commands, *self._step_noise_arguments)
         if bad < 0:
-            bad = self._plan(commands, st.params, st.state, st.tallies, before, self.dt)
+            bad = self._plan(commands, *self._moved, before, self._world)
             if bad < 0 and st.spurious_ticks:
                 self._spurious_ticks(*self._tick_noise_arguments)
         if bad >= 0:
@@ -510,22 +466,22 @@ class World:
         self._bodies.refresh()
         if len(st.stoppers) and self.movables:  # c't-Sim's contact rule meets the cans where they stand
             for k, body in enumerate(self.movables, start=len(st.circles) - len(self.movables)):
-                st.circles[k, 0], st.circles[k, 1] = body.position
-        was_blocked = st.state[st.stoppers, layout.BLOCKED] if len(st.stoppers) else None
+                st.circles["x"][k], st.circles["y"][k] = body.position
+        was_blocked = st.state["blocked"][st.stoppers] if len(st.stoppers) else None
         changed, quiet = self._settle(before, *self._settle_arguments)
         if was_blocked is not None:  # a robot newly stopped by c't-Sim's rule has met something
-            for i in st.stoppers[(st.state[st.stoppers, layout.BLOCKED] > 0) & (was_blocked == 0)]:
+            for i in st.stoppers[st.state["blocked"][st.stoppers] & ~was_blocked]:
                 self.robots[i].collisions += 1
         if changed:
             for robot in self.robots:
                 robot.fallen = bool(st.fallen[robot.index])
         if quiet:  # nothing to collide: pymunk's motion without pymunk (a third of a bare robot's step)
-            after = self._poses = self._glide(before, st.params, self._bodies.motion, self._bodies.row_index, self.dt)
+            after = self._poses = self._glide(before, *self._glide_arguments)
             self._bodies.place(after)
         else:
             self._apply_motion()
             after = self._poses = self._bodies.poses()
-        self._measure(before, after, st.params, st.state, st.tallies, self.floor.hole, self._scalars)
+        self._measure(before, after, *self._moved, self.floor.kernel)
         if self.chassis.drives:
             self.chassis.after_step(before, after, self.floor)
         self.steps += 1
@@ -556,228 +512,3 @@ class World:
 def _damped(body: pymunk.Body, gravity, damping: float, dt: float) -> None:  # noqa: ANN001 (pymunk callback)
     """Movable obstacles lose speed on the floor; robots are not damped (their velocity is set)."""
     pymunk.Body.update_velocity(body, gravity, MOVABLE_DAMPING**dt, dt)
-
-
-WALL_GRID_ABOVE = 128
-"""Walls a world has before the kernels look them up in a grid: up to this many, one cell holds
-them all, as checking every wall's box (a compiled loop, a fraction of a nanosecond a box) costs
-no more than finding the cells. Measured with one c't-Bot reading every sensor in generated
-mazes: a step costs the same either way at 82 and 133 walls; the grid saves about 5% at 329
-walls, 10-15% at 934 and 40% at 3,780, where its step costs what one among 22 walls does."""
-WALLS_PER_CELL = 2.0
-"""The wall grid's cells hold this many walls on average (`wall_cell`)."""
-
-
-def wall_cell(boxes: np.ndarray) -> float:
-    """The side (m) of the wall grid's square cells for walls of bounding boxes `boxes` (n, 4):
-    cells of WALLS_PER_CELL walls' share of the walls' extent, so that the grid has about
-    n / WALLS_PER_CELL cells whatever the world's size and a query meets the walls near it; at
-    least 1/n of the extent's longer side (a thin extent has n cells at most along it)."""
-    n = len(boxes)
-    if n == 0:
-        return 1.0
-    width, height = boxes[:, 2].max() - boxes[:, 0].min(), boxes[:, 3].max() - boxes[:, 1].min()
-    return max(math.sqrt(WALLS_PER_CELL * width * height / n), max(width, height) / n, 1e-9)
-
-
-@dataclass(frozen=True)
-class WallArrays:
-    """The walls as flat arrays for the kernels: all vertices, each wall's slice of them, its
-    bounding box (xmin, ymin, xmax, ymax) and a uniform grid over the boxes (`kernels.grids.build_wall_grid`;
-    walls are static, so it is built once): its origin and cell size (`frame`) and its cells."""
-
-    vertices: np.ndarray
-    ranges: np.ndarray
-    boxes: np.ndarray
-    frame: np.ndarray
-    cells: np.ndarray
-
-    @classmethod
-    def build(cls, spec: WorldSpec) -> WallArrays:
-        polygons = [np.asarray(w.vertices, dtype=np.float64) for w in spec.walls]
-        ends = np.cumsum([len(p) for p in polygons], dtype=np.int64)
-        starts = ends - np.array([len(p) for p in polygons], dtype=np.int64)
-        boxes = np.array([(*p.min(axis=0), *p.max(axis=0)) for p in polygons]).reshape(-1, 4)
-        frame, cells = build_wall_grid(boxes, wall_cell(boxes) if len(boxes) > WALL_GRID_ABOVE else math.inf)  # one cell: the plain loop
-        return cls(
-            vertices=np.concatenate(polygons).reshape(-1, 2) if polygons else np.zeros((0, 2)),
-            ranges=np.stack((starts, ends), axis=1).reshape(-1, 2),
-            boxes=boxes,
-            frame=frame,
-            cells=cells,
-        )
-
-
-def _contacts(spec: RobotSpec) -> tuple[np.ndarray, np.ndarray]:
-    """The ground contacts the hole rule checks (body frame, m) and which of them c't-Sim checks at
-    the robot's old position: the c't-Bot's wheels (old position) and skid (new position); every
-    wheel of a general chassis (new position)."""
-    if spec.chassis is None:
-        points = np.array(((0.0, spec.track_width / 2), (0.0, -spec.track_width / 2), spec.skid))
-        return points, np.array((True, True, False))
-    points = np.asarray(spec.chassis.chassis.positions, dtype=np.float64)
-    return points, np.zeros(len(points), dtype=bool)
-
-
-def _padded(rows: list[np.ndarray], dtype: type, tail: tuple[int, ...] = ()) -> np.ndarray:
-    """Per-robot contact arrays stacked to the longest one, each padded by repeating its own rows."""
-    width = max((len(r) for r in rows), default=1)
-    return np.array([r[np.arange(width) % len(r)] for r in rows], dtype=dtype).reshape(len(rows), width, *tail)
-
-
-def _columns(array: np.ndarray, start: int, width: int = 2) -> np.ndarray:
-    """A named view of a packed array's columns: one column (width 1) or `width` of them."""
-    return array[:, start] if width == 1 else array[:, start : start + width]
-
-
-class _BatchState:
-    """Per-robot parameters and state as arrays for the kernels (rebuilt when a robot joins):
-    packed into a few 2-D arrays in the column layout of `sim.world.layout` (one argument each
-    per kernel call), with named views of the columns the Python side uses."""
-
-    def __init__(self, robots: list[Robot], dt: float, movable_shapes: list[pymunk.Circle], robots_meet: bool = True):
-        n = len(robots)
-        specs = [r.spec for r in robots]
-        motor = [s.motor for s in specs]
-        self.params = np.zeros((n, layout.PARAMS))
-        p = self.params
-        p[:, layout.COMMAND_MAX] = [m.command_max for m in motor]
-        p[:, layout.MAX_SPEED] = [m.max_wheel_speed for m in motor]
-        p[:, layout.LAG] = [1.0 - math.exp(-dt / m.time_constant) if m.time_constant > 0 else 1.0 for m in motor]
-        p[:, layout.MAX_CHANGE] = [m.max_acceleration * dt for m in motor]
-        p[:, layout.TICKS_PER_RAD] = [s.encoders.ticks_per_rev / (2 * math.pi) for s in specs]
-        _columns(p, layout.REAL_RADIUS)[:] = np.array([[s.wheel_radius * (1 + e) for e in s.encoders.diameter_error] for s in specs]).reshape(n, 2)
-        p[:, layout.TRACK] = [s.track_width * (1 + s.encoders.track_error) for s in specs]
-        _columns(p, layout.MOUNT)[:] = np.array([s.mouse.mount if s.mouse else (0.0, 0.0) for s in specs], dtype=np.float64).reshape(n, 2)
-        p[:, layout.COUNTS_PER_METRE] = [counts_per_metre(s.mouse.dpi) * (1 + s.mouse.scale_error) if s.mouse else 0.0 for s in specs]
-        p[:, layout.MAX_STEP] = [s.mouse.max_speed * dt if s.mouse else 0.0 for s in specs]
-        p[:, layout.SWEEP_RADIUS] = [s.body_radius - SWEEP_CLEARANCE for s in specs]
-        p[:, layout.APART_RADIUS] = [s.body_radius - SWEEP_CLEARANCE / 2 for s in specs]
-        p[:, layout.MASS] = [r.body.mass for r in robots]
-        p[:, layout.MOMENT] = [r.body.moment for r in robots]
-        p[:, layout.RADIUS] = [s.body_radius for s in specs]
-        p[:, layout.STOPS] = [s.contact == "stop" for s in specs]
-        self.stoppers = np.flatnonzero(p[:, layout.STOPS])
-        """The robots with c't-Sim's contact rule (a refused move counts as a collision)."""
-        self.contacts = _padded([_contacts(s)[0] for s in specs], np.float64, (2,))
-        self.anchored = _padded([_contacts(s)[1] for s in specs], np.bool_)
-        self.state = np.zeros((n, layout.STATE))
-        for robot in robots:
-            self.start_counters(robot)
-        self.slip = _columns(self.state, layout.SLIP)
-        self.mouse_noise = _columns(self.state, layout.MOUSE_NOISE)
-        self.move = _columns(self.state, layout.MOVE)
-        self.alpha = _columns(self.state, layout.ALPHA, 1)
-        self.tallies = np.zeros((n, layout.TALLIES), dtype=np.int64)
-        """Encoder ticks then mouse counts of the last step."""
-        self.fallen = np.array([r.fallen for r in robots], dtype=np.bool_)
-        encoders = [r for r in robots if r.spec.encoders.slip_std or r.spec.encoders.tick_noise]
-        mice = [r for r in robots if r.spec.mouse is not None and r.spec.mouse.noise_std]
-        self.step_noise = _Noisy.of([(r.index, r, "encoders", r.spec.encoders.slip_std) for r in encoders]
-                                    + [(r.index, r, "mouse", r.spec.mouse.noise_std * p[r.index, layout.COUNTS_PER_METRE]) for r in mice])
-        """What a step draws before it moves (`kernels.noise.draw_step`): rows of the robots whose
-        encoders slip or miscount (std: their slip_std), then of those whose mouse has count noise
-        (std: noise_std (sqrt m) at the counts' own scale, counts per sqrt m)."""
-        self.tick_noise = np.array([r.spec.encoders.tick_noise for r in encoders], dtype=np.float64)
-        self.tick_uniforms = np.zeros((len(encoders), 4))
-        """The step's uniforms of each noisy encoder's spurious ticks."""
-        self.spurious_ticks = bool(self.tick_noise.any())
-
-        floor = [(r, s) for r in robots for s in (*r.spec.line, *r.spec.border)]
-        light = [(r, s) for r in robots for s in r.spec.light]
-        ir = [(r, s) for r in robots for s in r.spec.ir]
-        self.ir_sensors = ir
-        self.n_floor, self.n_light = len(floor), len(light)
-        every = floor + light + ir
-        self.sensors = np.zeros((len(every), layout.SENSOR))
-        self.sensors[:, layout.AT : layout.AT + 2] = np.array([s.position for _, s in every], dtype=np.float64).reshape(-1, 2)
-        self.sensors[: len(floor) + len(light), layout.HEIGHT] = [s.height for _, s in floor + light]
-        self.sensors[len(floor) :, layout.DIRECTION] = [s.direction for _, s in light + ir]
-        self.sensors[len(floor) :, layout.OPENING] = [s.opening / 2 for _, s in light] + [s.cone for _, s in ir]
-        self.sensors[len(floor) : len(floor) + len(light), layout.REACH] = [s.reach for _, s in light]
-        self.sensors[len(floor) + len(light) :, layout.PICK] = [s.view == "pick" for _, s in ir]
-
-        def noisy(items):
-            return _Noisy.of([(k, robot, s.name, s.noise_std) for k, (robot, s) in enumerate(items) if s.noise_std])
-
-        self.floor_and_light_noise = noisy(floor + light)
-        """The noisy floor (line, border) and light sensors: their rows in the values of both."""
-        self.floor_and_light_top = np.where(self.floor_and_light_noise.rows < len(floor), CNY70_MAX, LDR_MAX).astype(np.int64)
-        """Each one's highest value (`kernels.noise.add_rounded`)."""
-        self.ir = _IRArrays.build(ir, noisy(ir))
-        self.index = np.zeros((len(every), layout.INDEX), dtype=np.int64)
-        self.index[:, layout.OWNER] = [r.index for r, _ in every]
-        self.index[len(floor) + len(light) :, layout.NOISE_ROW] = self.ir.noise_row
-        self.index[len(floor) + len(light) :, layout.CURVE] = self.ir.curve
-        self.circles = np.array(
-            [(0.0, 0.0, r.shape.radius, r.index if robots_meet else layout.GHOST) for r in robots if isinstance(r.shape, pymunk.Circle)]
-            + [(0.0, 0.0, shape.radius, -1) for shape in movable_shapes],
-            dtype=np.float64,
-        ).reshape(-1, 4)
-        """Robots then movable obstacles as circles (x, y, radius, robot index, GHOST for a robot
-        no other sees, or -1) for the IR kernel; positions are filled in at each read."""
-        self.layout = SensorLayout.of([(len(s.ir), len(s.line), len(s.border), len(s.light)) for s in specs])
-
-    def start_counters(self, robot: Robot) -> None:
-        """`robot`'s counters' carries at their start phases."""
-        self.state[robot.index, layout.TICK_CARRY : layout.TICK_CARRY + 2] = robot.phases[:2]
-        self.state[robot.index, layout.MOUSE_CARRY : layout.MOUSE_CARRY + 2] = robot.phases[2:]
-
-    def reseed(self, robot: Robot) -> None:
-        """Draw `robot`'s noise from its (new) generators from now on."""
-        for noisy in (self.step_noise, self.floor_and_light_noise, self.ir.noise):
-            noisy.reseed(robot)
-
-
-@dataclass(frozen=True)
-class _IRArrays:
-    """The IR sensors' noise and curves as arrays for the kernels: each distinct (curve, range)'s
-    tables padded into one 2-D array per kind (the mounts are in `_BatchState.sensors`)."""
-
-    noise: _Noisy
-    noise_row: np.ndarray
-    """Each sensor's row in `noise` (-1: none)."""
-    curve: np.ndarray
-    """Each sensor's index into the tables below."""
-    tables: np.ndarray
-    curve_ends: np.ndarray
-    """Per curve: the last centimetre of its table and its lowest raw value."""
-    beyond: np.ndarray
-    inverse: np.ndarray
-
-    @property
-    def curves(self) -> tuple[np.ndarray, ...]:
-        """The curve arguments of `kernels.sensing.ir_values` (curve .. lowest)."""
-        return self.curve, self.tables, self.curve_ends[:, 0], self.beyond, self.inverse, self.curve_ends[:, 1]
-
-    @classmethod
-    def build(cls, ir: list[tuple[Robot, object]], noise: _Noisy) -> _IRArrays:
-        n = len(ir)
-        index: dict[tuple, int] = {}
-        chosen: list[tuple[IRCurve, float, float]] = []
-        curve = np.empty(n, dtype=np.int64)
-        for k, (robot, sensor) in enumerate(ir):
-            table = robot.ir_curves[robot.spec.ir.index(sensor)]
-            key = (id(table), sensor.min_range, sensor.max_range)
-            if key not in index:
-                index[key] = len(chosen)
-                chosen.append((table, sensor.min_range, sensor.max_range))
-            curve[k] = index[key]
-        per_cm = [table.per_cm for table, _, _ in chosen]
-        inverse = [table.inverse_table(low, high) for table, low, high in chosen]
-        tables = np.zeros((len(chosen), max((len(t) for t in per_cm), default=1)), dtype=np.float32)
-        inverses = np.zeros((len(chosen), max((len(t) for t in inverse), default=1)))
-        for c, (t, v) in enumerate(zip(per_cm, inverse)):
-            tables[c, : len(t)] = t
-            inverses[c, : len(v)] = v
-        noise_row = np.full(n, -1, dtype=np.int64)
-        noise_row[noise.rows] = np.arange(len(noise.rows))
-        return cls(
-            noise=noise,
-            noise_row=noise_row,
-            curve=curve,
-            tables=tables,
-            curve_ends=np.array([(len(t) - 1, table.raw_range()[0]) for t, (table, _, _) in zip(per_cm, chosen)], dtype=np.int64).reshape(-1, 2),
-            beyond=np.array([table.beyond for table, _, _ in chosen], dtype=np.float32),
-            inverse=inverses,
-        )

@@ -28,10 +28,14 @@ class WorldFileError(FileError):
 
 @dataclass(frozen=True)
 class Wall:
-    """A static obstacle: a convex polygon (counter-clockwise vertices, m)."""
+    """A static obstacle: a convex polygon (counter-clockwise vertices, m). `cylinder`: the
+    polygon is a Java3D cylinder's cross-section (c't-Sim's lamp pillar, `sim.world.files.grid`),
+    which c't-Sim's contact test meets at the box round its corners and its IR sensors see as the
+    triangle strip of its side (`sim.world.kernels.pick`)."""
 
     vertices: tuple[Point, ...]
     colour: Colour = (0.6, 0.6, 0.6)
+    cylinder: bool = False
 
 
 @dataclass(frozen=True)

@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from bots.sensor_kinds import BY_FIELD, KINDS, groups
 from sim.kinematics.chassis import WheelType
 from sim.views import palette
 from sim.views.recording.arrow import lazy_rerun
@@ -27,19 +28,11 @@ ELLIPSE_RECENT_S = 4.0
 ELLIPSE_SCALE = math.sqrt(-2.0 * math.log(0.05))
 """Radius, in standard deviations, of the ellipse holding 95 % of a 2-D normal (chi2(2) = 5.99)."""
 ELLIPSE_POINTS = 37
-FIELDS = ("ir_raw", "ir_distance", "line", "border", "light", "encoder_ticks", "mouse_counts", "mouse2_counts", "steering")
-"""Readings fields recorded as time series, in buffer column order."""
-SENSOR_GROUPS = {
-    "ir_raw": ("IR raw (ADC)", ("ir_raw",)),
-    "ir_distance": ("IR distance (mm)", ("ir_distance",)),
-    "floor": ("floor: line and border (0 white, 1023 black)", ("line", "border")),
-    "light": ("light (0 bright, 1023 dark)", ("light",)),
-    "encoders": ("encoders (ticks per step)", ("encoder_ticks",)),
-    "mouse": ("mouse (counts per step: forward, left)", ("mouse_counts", "mouse2_counts")),
-    "steering": ("steered from straight (deg)", ("steering",)),
-}
+FIELDS = tuple(kind.field for kind in KINDS)
+"""Readings fields recorded as time series, in buffer column order (the sensor registry's)."""
+SENSOR_GROUPS = groups()
 """Sensor plot -> (title, readings fields); each field is logged under sensors/<group>/<robot>/<field>."""
-SCALE = {"ir_distance": 1000.0, "steering": 180.0 / math.pi}
+SCALE = {kind.field: kind.scale for kind in KINDS if kind.scale != 1.0}
 """Recorded unit per SI unit where a field is shown in other units (m -> mm, rad -> deg)."""
 
 
@@ -53,20 +46,15 @@ def field_channels(spec: Any, name: str) -> tuple[tuple[str, ...], np.ndarray | 
     chassis has an encoder per wheel, may have a second mouse, and records the steering of the
     wheels that turn (steered, castors, balls); the c't-Bot has two of each pair."""
     chassis = spec.chassis.chassis if spec.chassis is not None else None
-    mouse = ("forward", "left")
+    kind = BY_FIELD[name]
+    if chassis is None or not (kind.chassis_only or name == "encoder_ticks"):
+        return kind.channels_of(spec), None
     if name == "encoder_ticks":
-        return (chassis.names if chassis is not None else ("left", "right")), None
-    if name == "mouse_counts":
-        return (mouse if spec.mouse is not None else ()), None
+        return chassis.names, None
     if name == "mouse2_counts":
-        return (tuple(f"mouse 2 {side}" for side in mouse) if chassis is not None and spec.chassis.mouse2 is not None else ()), None
-    if name == "steering":
-        if chassis is None:
-            return (), None
-        turning = np.flatnonzero(np.isin(chassis.kind, TURNING))
-        return tuple(chassis.names[i] for i in turning), turning
-    sensors = getattr(spec, {"ir_raw": "ir", "ir_distance": "ir"}.get(name, name))
-    return tuple(s.name for s in sensors), None
+        return (kind.channels if spec.chassis.mouse2 is not None else ()), None
+    turning = np.flatnonzero(np.isin(chassis.kind, TURNING))  # (the steering)
+    return tuple(chassis.names[i] for i in turning), turning
 
 
 def ellipses(centres: np.ndarray, entries: np.ndarray) -> np.ndarray:

@@ -215,9 +215,9 @@ class Recorder(LiveStream):
         if robot.fallen and not track.fell:
             track.fell = True
             self._event(f"{log.name}: fell into a hole at ({robot.pose[0]:.3f}, {robot.pose[1]:.3f}) m", "ERROR")
-        if log.goal_time is not None and not track.goal:
+        if log.goal_time is not None and not track.goal:  # (said once, when it happens, in the words of the end's outcome)
             track.goal = True
-            self._event(f"{log.name}: reached the goal at {log.goal_time:.2f} s", "INFO")
+            self._event(f"{log.name}: {log.goal_outcome(log.goal_time)}", "INFO")
 
     def _send_all(self, count: int) -> None:
         """Send every robot's samples up to `count` (what the run has logged completely)."""
@@ -230,9 +230,10 @@ class Recorder(LiveStream):
         """Note how the run ended, flush what is buffered and close (also after an error or Ctrl-C)."""
         if self.streams:
             level = "ERROR" if result.reason.failed else "WARN" if result.reason.signalled else "INFO"
-            if result.world.goals:  # (whether and when, said plainly, last before the end)
-                for log in result.robots:
-                    self._event(f"{log.name}: {log.goal_outcome(result.duration)}", "INFO" if log.goal_time is not None else "WARN")
+            if result.world.goals:  # (whether, said plainly, last before the end: a goal reached was said when it was)
+                for log, track in zip(result.robots, self._tracks):
+                    if not track.goal:
+                        self._event(f"{log.name}: {log.goal_outcome(result.duration)}", "INFO" if log.goal_time is not None else "WARN")
             self._event(f"end: {result.reason}" + (f": {result.error}" if result.error else ""), level)
         self.close()
 

@@ -154,7 +154,7 @@ def build_grid(
     return GridPieces(
         bounds=(origin[0], origin[1], origin[0] + width * cell, origin[1] + tiles.height * cell),
         walls=tuple(Wall(cells.box(*span)) for span in _wall_spans(tiles, pillars == "cell"))
-        + tuple(Wall(_pillar(*cells.centre(c, r))) for c, r, _ in tiles.cells("*") if pillars == "cylinder"),
+        + tuple(Wall(_pillar(*cells.centre(c, r)), cylinder=True) for c, r, _ in tiles.cells("*") if pillars == "cylinder"),
         floor=tuple(_floor(tiles, cells, colour)),
         lines=tuple(line for c, r, ch in tiles.cells(LINE_ARMS) for line in _line(ch, c, r, cells, colour[ch])),
         holes=tuple(Hole(cells.box(*span)) for span in _runs(tiles, lambda ch: ch == HOLE_TILE)),

@@ -12,26 +12,7 @@ import numpy as np
 from sim.world.kernels.floor import hold_at_holes
 from sim.world.kernels.geometry import polygon_distance
 from sim.world.kernels.grids import near_pairs, walls_near
-from sim.world.layout import (
-    ALPHA,
-    APART_RADIUS,
-    BLOCKED,
-    CELL,
-    DT,
-    MASS,
-    MOMENT,
-    MOVE,
-    ORIGIN,
-    OUTSIDE_IS_HOLE,
-    QUIET_AFTER,
-    RADIUS,
-    ROBOTS_MEET,
-    SLIDE_MARGIN,
-    STOPS,
-    STREAK,
-    SWEEP_RADIUS,
-    WALL_FRAME,
-)
+from sim.world.layout import Bodies, Floor, Ground, Walls
 
 CLEAR = 1e-3
 """A robot nearer than this (m) to a wall counts as touching it (`settle`): far beyond rounding, so
@@ -39,64 +20,83 @@ that pymunk, which finds a contact at distance <= 0, finds none where this finds
 
 
 @numba.njit(cache=True)
-def settle(
-    pose: np.ndarray,
-    params: np.ndarray,
-    state: np.ndarray,
-    scalars: np.ndarray,
-    vertices: np.ndarray,
-    ranges: np.ndarray,
-    boxes: np.ndarray,
-    wall_cells: np.ndarray,
-    contacts: np.ndarray,
-    anchored: np.ndarray,
-    hole: np.ndarray,
-    in_hole: np.ndarray,
-    rows: np.ndarray,
-    motion: np.ndarray,
-    quiet: np.ndarray,
-    circles: np.ndarray,
-) -> tuple[bool, bool]:
-    """The planned moves and turns (state's MOVE, ALPHA) refused by c't-Sim's contact rule
+def settle(pose: np.ndarray, robots: np.ndarray, state: np.ndarray, world: np.ndarray, walls: Walls, floor: Floor, ground: Ground,
+           bodies: Bodies) -> tuple[bool, bool]:  # fmt: skip
+    """The planned moves and turns (STATE's move, alpha) refused by c't-Sim's contact rule
     (`stop_at_contact`) or cut where walls (`sweep_walls`), other robots (`keep_apart`) or holes
-    (`hold_at_holes`) stop them, and the force and torque that give
-    each robot that motion in pymunk's velocity phase (m move / dt^2, I alpha / dt^2) written into
-    its row of pymunk's body data (motion[rows[i], 3:6]): the world step's arithmetic between the
-    drive and pymunk in one call.
+    (`hold_at_holes`) stop them, and the force and torque that give each robot that motion in
+    pymunk's velocity phase (m move / dt^2, I alpha / dt^2) written into its MOTION row of
+    pymunk's body data: the world step's arithmetic between the drive and pymunk in one call.
 
-    Returns whether any robot's `in_hole` changed, and whether the step is quiet: it began with no
-    robot touching a wall (`CLEAR`), as did the quiet[QUIET_AFTER] steps before it (`quiet` counts
-    them; a negative QUIET_AFTER: never quiet). Then pymunk has no contact to solve and none in its
-    memory, so that `glide` moves the robots as pymunk's step would."""
-    move, alpha = state[:, MOVE : MOVE + 2], state[:, ALPHA]
-    wall_grid = (scalars[WALL_FRAME : WALL_FRAME + 3], wall_cells)
-    stop_at_contact(pose, move, params, state, vertices, ranges, boxes, wall_grid, circles)
-    sweep_walls(pose, move, params[:, SWEEP_RADIUS], scalars[SLIDE_MARGIN], vertices, ranges, boxes, wall_grid)
-    if pose.shape[0] > 1 and scalars[ROBOTS_MEET] != 0.0:
-        keep_apart(pose, move, params[:, APART_RADIUS])
-    changed = hold_at_holes(
-        pose, move, alpha, contacts, anchored, hole, scalars[ORIGIN : ORIGIN + 2], scalars[CELL], scalars[OUTSIDE_IS_HOLE] != 0.0,
-        in_hole,
-    )  # fmt: skip
-    dt = scalars[DT]
+    Returns whether any robot's `fallen` changed, and whether the step is quiet: it began with no
+    robot touching a wall (`CLEAR`), as did the WORLD's quiet_after steps before it (its streak
+    counts them; a negative quiet_after: never quiet). Then pymunk has no contact to solve and
+    none in its memory, so that `glide` moves the robots as pymunk's step would."""
+    here = world[0]
+    move, alpha = state.move, state.alpha
+    stop_at_contact(pose, robots, state, walls, bodies.circles)
+    sweep_walls(pose, move, robots.sweep_radius, here.slide_margin, walls)
+    if pose.shape[0] > 1 and here.robots_meet:
+        keep_apart(pose, move, robots.apart_radius)
+    changed = hold_at_holes(pose, state, ground, floor)
+    dt = here.dt
     dt2 = dt * dt
     for i in range(pose.shape[0]):
-        scale = params[i, MASS] / dt2
-        motion[rows[i], 3] = move[i, 0] * scale
-        motion[rows[i], 4] = move[i, 1] * scale
-        motion[rows[i], 5] = alpha[i] * params[i, MOMENT] / dt2
-    if quiet[QUIET_AFTER] < 0:
+        body = bodies.motion[bodies.rows[i]]
+        scale = robots[i].mass / dt2
+        body.force[0] = move[i, 0] * scale
+        body.force[1] = move[i, 1] * scale
+        body.torque = alpha[i] * robots[i].moment / dt2
+    if here.quiet_after < 0:
         return changed, False
     clear = True
     for i in range(pose.shape[0]):
-        clear = clear and clear_of_walls(pose[i, 0], pose[i, 1], params[i, RADIUS] + CLEAR, vertices, ranges, boxes, wall_grid)
-    quiet[STREAK] = quiet[STREAK] + 1 if clear else 0
-    return changed, quiet[STREAK] > quiet[QUIET_AFTER]
+        clear = clear and clear_of_walls(pose[i, 0], pose[i, 1], robots[i].radius + CLEAR, walls)
+    here.streak = here.streak + 1 if clear else 0
+    return changed, here.streak > here.quiet_after
 
 
 CAN_ACROSS, CAN_SOUTH = math.cos(math.pi / 30), math.cos(math.pi / 15)
 """c't-Sim's can (Java3D's cylinder of 15 sides, a corner due north) as its contact test sees it,
 in radii: the box round its corners, cos 6° either side across and from cos 12° south to 1 north."""
+
+
+def _ctbot_parts() -> np.ndarray:
+    """c't-Sim's c't-Bot as its contact test sees another bot (`CtBotShape`): three Java3D shapes,
+    each met at the box round its corners in the bot's frame (forward, left; m): the two cheeks
+    beside the mouth and the middle behind it. Their outlines are the body's circle of 60 mm in
+    corners every 10° from the mouth's edge (asin(25 / 54.55) either side of straight ahead) and
+    the mouth's floor 39.55 mm behind that edge; the corner nearest the side and the one nearest
+    the back lie 2.72° off, 59.93 mm out."""
+    radius, mouth = 0.06, math.asin(25 / 54.55)
+    corners = mouth + np.radians(np.arange(0.0, 180.0, 10.0))
+    out = radius * np.abs(np.sin(corners[corners < math.pi - mouth])).max()
+    edge_forward, edge_side = radius * math.cos(mouth), radius * math.sin(mouth)
+    cheek = (-edge_forward, edge_side, edge_forward, out)
+    return np.array((cheek, (cheek[0], -cheek[3], cheek[2], -cheek[1]), (-out, -edge_side, edge_forward - 0.05455 + 0.015, edge_side)))
+
+
+CTBOT_PARTS = _ctbot_parts()
+"""Rows (forward min, left min, forward max, left max), m: left cheek, right cheek, middle (`_ctbot_parts`)."""
+
+
+@numba.njit(cache=True)
+def _meets_ctbot(x: float, y: float, radius: float, other: np.ndarray) -> bool:
+    """Whether a sphere of `radius` at (x, y) meets the c't-Bot at the pose OTHER (x, y, heading)
+    as c't-Sim's contact test has it: the box round each of its parts (`CTBOT_PARTS`) turned with
+    the bot, then the box round that in world axes (Java3D's bounds)."""
+    c, s = math.cos(other[2]), math.sin(other[2])
+    for part in CTBOT_PARTS:
+        lo_x, lo_y, hi_x, hi_y = math.inf, math.inf, -math.inf, -math.inf
+        for forward in (part[0], part[2]):
+            for left in (part[1], part[3]):
+                cx, cy = other[0] + forward * c - left * s, other[1] + forward * s + left * c
+                lo_x, lo_y, hi_x, hi_y = min(lo_x, cx), min(lo_y, cy), max(hi_x, cx), max(hi_y, cy)
+        if _box_gap2(x, y, lo_x, lo_y, hi_x, hi_y) <= radius * radius:
+            return True
+    return False
+
+
 @numba.njit(cache=True)
 def _box_gap2(x: float, y: float, xmin: float, ymin: float, xmax: float, ymax: float) -> float:
     """Squared distance from (x, y) to the box (0 inside)."""
@@ -106,51 +106,62 @@ def _box_gap2(x: float, y: float, xmin: float, ymin: float, xmax: float, ymax: f
 
 
 @numba.njit(cache=True)
-def stop_at_contact(pose: np.ndarray, move: np.ndarray, params: np.ndarray, state: np.ndarray, vertices: np.ndarray, ranges: np.ndarray,
-                    boxes: np.ndarray, wall_grid: tuple, circles: np.ndarray) -> None:  # fmt: skip
-    """c't-Sim's contact rule for the robots that have it (params' STOPS): a move that would put
-    the body within its radius of a wall, of a can (`circles`' rows owned by -1, as c't-Sim's
-    contact test sees them: boxes, `CAN_ACROSS`) or of another robot's body where that stands at
-    the start of the step is not made at all (MOVE set to 0, BLOCKED 1); the turn still is. So the
-    robot stays at its last position clear of everything and can turn away, as c't-Sim commits the
-    position only when its bounding sphere at the new one meets nothing (MasterSimulator)."""
+def stop_at_contact(pose: np.ndarray, robots: np.ndarray, state: np.ndarray, walls: Walls, circles: np.ndarray) -> None:
+    """c't-Sim's contact rule for the robots that have it (ROBOTS' stops): a move that would put
+    the body within its radius of a wall (a lamp pillar's box: `clear_of_walls`), of a can (the
+    CIRCLES owned by -1, as c't-Sim's contact test sees them: boxes, `CAN_ACROSS`) or of another
+    robot's body where that stands at the start of the step (another robot with this rule is a
+    c't-Bot of c't-Sim's and met at its parts' boxes, `_meets_ctbot`) is not made at all (move set
+    to 0, blocked set); the turn still is. So the robot stays at its last position clear of
+    everything and can turn away, as c't-Sim commits the position only when its bounding sphere at
+    the new one meets nothing (MasterSimulator)."""
     n = pose.shape[0]
     for i in range(n):
-        if params[i, STOPS] == 0.0:
+        if not robots[i].stops:
             continue
-        state[i, BLOCKED] = 0.0
-        if move[i, 0] == 0.0 and move[i, 1] == 0.0:
+        now = state[i]
+        now.blocked = False
+        move = now.move
+        if move[0] == 0.0 and move[1] == 0.0:
             continue
-        x, y, radius = pose[i, 0] + move[i, 0], pose[i, 1] + move[i, 1], params[i, RADIUS]
-        blocked = not clear_of_walls(x, y, radius, vertices, ranges, boxes, wall_grid)
+        x, y, radius = pose[i, 0] + move[0], pose[i, 1] + move[1], robots[i].radius
+        blocked = not clear_of_walls(x, y, radius, walls, True)
         for j in range(n):
             if not blocked and j != i:
-                blocked = math.hypot(pose[j, 0] - x, pose[j, 1] - y) <= radius + params[j, RADIUS]
+                if robots[j].stops:
+                    blocked = _meets_ctbot(x, y, radius, pose[j])
+                else:
+                    blocked = math.hypot(pose[j, 0] - x, pose[j, 1] - y) <= radius + robots[j].radius
         for j in range(circles.shape[0]):
-            if not blocked and circles[j, 3] == -1.0:
-                cx, cy, r = circles[j, 0], circles[j, 1], circles[j, 2]
-                blocked = _box_gap2(x, y, cx - r * CAN_ACROSS, cy - r * CAN_SOUTH, cx + r * CAN_ACROSS, cy + r) <= radius * radius
+            can = circles[j]
+            if not blocked and can.owner == -1:
+                r = can.radius
+                blocked = _box_gap2(x, y, can.x - r * CAN_ACROSS, can.y - r * CAN_SOUTH, can.x + r * CAN_ACROSS, can.y + r) <= radius * radius
         if blocked:
-            move[i, 0], move[i, 1], state[i, BLOCKED] = 0.0, 0.0, 1.0
+            move[0], move[1], now.blocked = 0.0, 0.0, True
 
 
 @numba.njit(cache=True)
-def clear_of_walls(x: float, y: float, radius: float, vertices: np.ndarray, ranges: np.ndarray, boxes: np.ndarray, wall_grid: tuple) -> bool:
-    """Whether a circle of `radius` at (x, y) is clear of every wall (farther than `radius`)."""
+def clear_of_walls(x: float, y: float, radius: float, walls: Walls, as_ctsim: bool = False) -> bool:
+    """Whether a circle of `radius` at (x, y) is clear of every wall (farther than `radius`);
+    `as_ctsim`: a cylinder (c't-Sim's lamp pillar, `Wall.cylinder`) counts by its box, as c't-Sim's contact test
+    meets it."""
     lo_x, lo_y, hi_x, hi_y = x - radius, y - radius, x + radius, y + radius
-    for w in walls_near(lo_x, lo_y, hi_x, hi_y, wall_grid[0], wall_grid[1]):
-        if boxes[w, 0] > hi_x or boxes[w, 2] < lo_x or boxes[w, 1] > hi_y or boxes[w, 3] < lo_y:
+    boxes, spans = walls.boxes, walls.spans
+    for w in walls_near(lo_x, lo_y, hi_x, hi_y, walls.frame, walls.cells):
+        box = boxes[w]
+        if box.xmin > hi_x or box.xmax < lo_x or box.ymin > hi_y or box.ymax < lo_y:
             continue
-        if polygon_distance(x, y, vertices, ranges[w, 0], ranges[w, 1])[0] <= radius:
+        if as_ctsim and box.cylinder:
+            if _box_gap2(x, y, box.xmin, box.ymin, box.xmax, box.ymax) <= radius * radius:
+                return False
+        elif polygon_distance(x, y, walls.vertices, spans[w].start, spans[w].end)[0] <= radius:
             return False
     return True
 
 
 @numba.njit(cache=True)
-def _sweep(
-    px: float, py: float, mx: float, my: float, radius: float, vertices: np.ndarray, ranges: np.ndarray, boxes: np.ndarray,
-    wall_grid: tuple,
-) -> tuple[float, float, float]:
+def _sweep(px: float, py: float, mx: float, my: float, radius: float, walls: Walls) -> tuple[float, float, float]:
     """First contact of a circle of `radius` moved from (px, py) by (mx, my) with any wall:
     (fraction of the move, contact normal x, y); fraction 1 when free. Conservative advancement
     (advance by the distance to the wall, which can never overshoot a convex shape). A wall the
@@ -163,13 +174,15 @@ def _sweep(
         return first, nx, ny
     lo_x, hi_x = min(px, px + mx) - radius, max(px, px + mx) + radius
     lo_y, hi_y = min(py, py + my) - radius, max(py, py + my) + radius
-    for w in walls_near(lo_x, lo_y, hi_x, hi_y, wall_grid[0], wall_grid[1]):
-        if boxes[w, 0] > hi_x or boxes[w, 2] < lo_x or boxes[w, 1] > hi_y or boxes[w, 3] < lo_y:
+    boxes, spans = walls.boxes, walls.spans
+    for w in walls_near(lo_x, lo_y, hi_x, hi_y, walls.frame, walls.cells):
+        box = boxes[w]
+        if box.xmin > hi_x or box.xmax < lo_x or box.ymin > hi_y or box.ymax < lo_y:
             continue
         t = 0.0
         for _ in range(64):
             x, y = px + t * mx, py + t * my
-            distance, cx, cy = polygon_distance(x, y, vertices, ranges[w, 0], ranges[w, 1])
+            distance, cx, cy = polygon_distance(x, y, walls.vertices, spans[w].start, spans[w].end)
             gap = distance - radius
             if gap <= 1e-9:
                 ox, oy = x - cx, y - cy
@@ -190,25 +203,15 @@ def _sweep(
 
 
 @numba.njit(cache=True)
-def sweep_walls(
-    pose: np.ndarray,
-    move: np.ndarray,
-    radius: np.ndarray,
-    slide_margin: float,
-    vertices: np.ndarray,
-    ranges: np.ndarray,
-    boxes: np.ndarray,
-    wall_grid: tuple,
-) -> None:
+def sweep_walls(pose: np.ndarray, move: np.ndarray, radius: np.ndarray, slide_margin: float, walls: Walls) -> None:
     """Cut every robot's planned move (n, 2), in place, where its body would first sink deeper
     than allowed into a wall, and let the rest slide: the remainder without its part into the
     surface is swept again with a slightly thinner circle (so the surface just touched does not
     stop it, another one does). `radius` is each robot's sweep radius (body radius minus the
-    allowed depth); walls are convex polygons vertices[ranges[w, 0]:ranges[w, 1]] with boxes, found
-    through `wall_grid` (`build_wall_grid`)."""
+    allowed depth); walls are convex polygons found through their grid (`build_wall_grid`)."""
     for i in range(pose.shape[0]):
         px, py, mx, my = pose[i, 0], pose[i, 1], move[i, 0], move[i, 1]
-        t, nx, ny = _sweep(px, py, mx, my, radius[i], vertices, ranges, boxes, wall_grid)
+        t, nx, ny = _sweep(px, py, mx, my, radius[i], walls)
         if t >= 1.0:
             continue
         ax, ay = mx * t, my * t
@@ -216,7 +219,7 @@ def sweep_walls(
         into = rx * nx + ry * ny
         if into < 0.0:
             rx, ry = rx - into * nx, ry - into * ny
-        t2, _, _ = _sweep(px + ax, py + ay, rx, ry, radius[i] - slide_margin, vertices, ranges, boxes, wall_grid)
+        t2, _, _ = _sweep(px + ax, py + ay, rx, ry, radius[i] - slide_margin, walls)
         move[i, 0], move[i, 1] = ax + rx * t2, ay + ry * t2
 
 

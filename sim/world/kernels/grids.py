@@ -9,42 +9,48 @@ import math
 import numba
 import numpy as np
 
-from sim.world.layout import COLUMNS, ROWS, STARTS
+from sim.world.layout import GRID, Walls
+
+_GRID = GRID.dtype  # (a dtype for the compiled code: it reads globals, not attributes of objects)
 
 
 @numba.njit(cache=True)
 def build_wall_grid(boxes: np.ndarray, cell: float) -> tuple[np.ndarray, np.ndarray]:
-    """A uniform grid of square `cell`s over the walls' bounding boxes (xmin, ymin, xmax, ymax), for
-    `walls_near`: (frame: origin x, y and cell size; cells: one int64 array, layout above, the
-    buffer one wall long per wall). A wall is listed, in ascending order, in every cell its box
-    overlaps. The grid spans the walls' boxes only (a query beyond it meets its edge cells, whose
-    walls' boxes it misses). An infinite `cell` gives one cell of every wall: the plain loop."""
+    """A uniform grid of square `cell`s over the walls' BOXES, for `walls_near`: (frame: one GRID
+    row; cells: one int64 array, the starts of each cell's list (rows x columns + 1, row-major;
+    cell k lists members[starts[k]:starts[k + 1]]), then the members, then a buffer one wall long
+    per wall). A wall is listed, in ascending order, in every cell its box overlaps. The grid
+    spans the walls' boxes only (a query beyond it meets its edge cells, whose walls' boxes it
+    misses). An infinite `cell` gives one cell of every wall: the plain loop."""
     n = boxes.shape[0]
-    x0 = boxes[:, 0].min() if n else 0.0
-    y0 = boxes[:, 1].min() if n else 0.0
-    cols = 1 + max(_cell_index(boxes[:, 2].max(), x0, cell, 1 << 30), 0) if n else 1
-    rows = 1 + max(_cell_index(boxes[:, 3].max(), y0, cell, 1 << 30), 0) if n else 1
-    span = np.empty((n, 4), dtype=np.int64)  # per wall: its first and last column, first and last row
+    x0 = boxes.xmin.min() if n else 0.0
+    y0 = boxes.ymin.min() if n else 0.0
+    cols = 1 + max(_cell_index(boxes.xmax.max(), x0, cell, 1 << 30), 0) if n else 1
+    rows = 1 + max(_cell_index(boxes.ymax.max(), y0, cell, 1 << 30), 0) if n else 1
+    # per wall: its first and last column, first and last row
+    col_lo, col_hi, row_lo, row_hi = np.empty(n, np.int64), np.empty(n, np.int64), np.empty(n, np.int64), np.empty(n, np.int64)
     count = np.zeros(rows * cols + 1, dtype=np.int64)  # count[k + 1]: walls in cell k
     for w in range(n):
-        span[w, 0], span[w, 1] = _cell_index(boxes[w, 0], x0, cell, cols - 1), _cell_index(boxes[w, 2], x0, cell, cols - 1)
-        span[w, 2], span[w, 3] = _cell_index(boxes[w, 1], y0, cell, rows - 1), _cell_index(boxes[w, 3], y0, cell, rows - 1)
-        for r in range(span[w, 2], span[w, 3] + 1):
-            for k in range(r * cols + span[w, 0] + 1, r * cols + span[w, 1] + 2):  # (a loop: as below)
+        box = boxes[w]
+        col_lo[w], col_hi[w] = _cell_index(box.xmin, x0, cell, cols - 1), _cell_index(box.xmax, x0, cell, cols - 1)
+        row_lo[w], row_hi[w] = _cell_index(box.ymin, y0, cell, rows - 1), _cell_index(box.ymax, y0, cell, rows - 1)
+        for r in range(row_lo[w], row_hi[w] + 1):
+            for k in range(r * cols + col_lo[w] + 1, r * cols + col_hi[w] + 2):  # (a loop: as below)
                 count[k] += 1
     starts = np.cumsum(count)
-    first = STARTS + starts.shape[0]  # where the members begin
+    first = starts.shape[0]  # where the members begin
     cells = np.empty(first + starts[-1] + max(n, 1), dtype=np.int64)
-    cells[COLUMNS], cells[ROWS] = cols, rows
     for k in range(starts.shape[0]):  # (loops: numba's slice assignment compiles the formatting of its error message, seconds)
-        cells[STARTS + k] = starts[k]
+        cells[k] = starts[k]
     fill = first + starts[:-1]
     for w in range(n):  # walls in ascending order: each cell's list ascends
-        for r in range(span[w, 2], span[w, 3] + 1):
-            for k in range(r * cols + span[w, 0], r * cols + span[w, 1] + 1):
+        for r in range(row_lo[w], row_hi[w] + 1):
+            for k in range(r * cols + col_lo[w], r * cols + col_hi[w] + 1):
                 cells[fill[k]] = w
                 fill[k] += 1
-    return np.array((x0, y0, cell)), cells
+    frame = np.zeros(1, _GRID)
+    frame[0].x, frame[0].y, frame[0].cell, frame[0].columns, frame[0].rows = x0, y0, cell, cols, rows
+    return frame, cells
 
 
 @numba.njit(cache=True, inline="always")
@@ -62,16 +68,17 @@ def walls_near(lo_x: float, lo_y: float, hi_x: float, hi_y: float, frame: np.nda
     ties and early exits fall on the same wall. The caller still tests each one's box. One cell's
     list is returned as it is; the lists of several are merged into the buffer (insertion into a
     sorted run: a query meets a handful of walls)."""
-    cols, rows = cells[COLUMNS], cells[ROWS]
-    first = STARTS + rows * cols + 1
-    c0, c1 = _cell_index(lo_x, frame[0], frame[2], cols - 1), _cell_index(hi_x, frame[0], frame[2], cols - 1)
-    r0, r1 = _cell_index(lo_y, frame[1], frame[2], rows - 1), _cell_index(hi_y, frame[1], frame[2], rows - 1)
+    grid = frame[0]
+    cols, rows = grid.columns, grid.rows
+    first = rows * cols + 1
+    c0, c1 = _cell_index(lo_x, grid.x, grid.cell, cols - 1), _cell_index(hi_x, grid.x, grid.cell, cols - 1)
+    r0, r1 = _cell_index(lo_y, grid.y, grid.cell, rows - 1), _cell_index(hi_y, grid.y, grid.cell, rows - 1)
     if r0 == r1 and c0 == c1:
-        return cells[first + cells[STARTS + r0 * cols + c0] : first + cells[STARTS + r0 * cols + c0 + 1]]
+        return cells[first + cells[r0 * cols + c0] : first + cells[r0 * cols + c0 + 1]]
     buffer = cells[first + cells[first - 1] :]
     count = 0
     for r in range(r0, r1 + 1):
-        for p in range(first + cells[STARTS + r * cols + c0], first + cells[STARTS + r * cols + c1 + 1]):
+        for p in range(first + cells[r * cols + c0], first + cells[r * cols + c1 + 1]):
             w, q = cells[p], count
             while q > 0 and buffer[q - 1] > w:
                 q -= 1
@@ -86,19 +93,19 @@ def walls_near(lo_x: float, lo_y: float, hi_x: float, hi_y: float, frame: np.nda
 
 @numba.njit(cache=True)
 def circle_grid(circles: np.ndarray, length: float):
-    """A uniform grid over the circles' centres: (cell size, origin x, y, columns, rows, circle
+    """A uniform grid over the CIRCLES' centres: (cell size, origin x, y, columns, rows, circle
     order by cell, sorted cell keys, largest radius); key = row * columns + column, so a row's run
     of cells is one run of keys. Cells are a quarter of the ray length (at least two diameters), so
     a cone's bounding box spans a handful of cells."""
     n = circles.shape[0]
-    widest = circles[:, 2].max()
+    widest = circles.radius.max()
     cell = max(0.25 * length, 4.0 * widest)
-    x0, y0 = circles[:, 0].min(), circles[:, 1].min()
+    x0, y0 = circles.x.min(), circles.y.min()
     cx = np.empty(n, dtype=np.int64)
     cy = np.empty(n, dtype=np.int64)
     for j in range(n):
-        cx[j] = int(math.floor((circles[j, 0] - x0) / cell))
-        cy[j] = int(math.floor((circles[j, 1] - y0) / cell))
+        cx[j] = int(math.floor((circles[j].x - x0) / cell))
+        cy[j] = int(math.floor((circles[j].y - y0) / cell))
     cols, rows = cx.max() + 1, cy.max() + 1
     order, sorted_key = stable_order(cy * cols + cx)
     return cell, x0, y0, cols, rows, order, sorted_key, widest
@@ -197,3 +204,11 @@ def near_pairs(pose: np.ndarray, move: np.ndarray, reach: np.ndarray) -> np.ndar
             pairs[count, 0], pairs[count, 1] = i, found[q]
             count += 1
     return pairs[:count]
+
+
+def gridded(vertices: np.ndarray, spans: np.ndarray, boxes: np.ndarray, cell: float) -> Walls:
+    """Walls (convex polygons vertices[spans[w].start:spans[w].end] with their BOXES) and the grid
+    of `cell`s over them (`build_wall_grid`; an infinite cell: one cell of every wall) as the
+    kernels take them."""
+    frame, cells = build_wall_grid(boxes, cell)
+    return Walls(vertices, spans, boxes, frame, cells)

@@ -19,6 +19,7 @@ import numba
 import numpy as np
 
 from sim.world.kernels.motion import first_bad
+from sim.world.layout import Noise
 
 ENCODER_DRAWS = 6
 """Normals an encoder's row gives each step: the two wheels' slip, then per wheel two uniforms
@@ -53,58 +54,52 @@ def _binomial(n: int, p: float, u: float) -> int:
 
 
 @numba.njit(cache=True)
-def draw_step(
-    commands: np.ndarray,
-    robot: np.ndarray,
-    scale: np.ndarray,
-    normals: np.ndarray,
-    used: np.ndarray,
-    encoders: int,
-    slip: np.ndarray,
-    tick_uniforms: np.ndarray,
-    mouse_noise: np.ndarray,
-) -> int:
+def draw_step(commands: np.ndarray, draws: Noise, encoders: int, state: np.ndarray, tick_uniforms: np.ndarray) -> int:
     """A step's draws before it moves, where every command (n, 2) is finite (else nothing is
     drawn, and the first robot with a non-finite one is returned; -1: drawn). Rows k < `encoders`
-    are encoders': robot `robot[k]`'s slip (n, 2), `scale[k]` (its slip_std) times two normals,
-    and the uniforms `tick_uniforms[k]` of its spurious ticks; the rest are mice: robot
-    `robot[k]`'s mouse noise (n, 2), `scale[k]` (counts per sqrt m) times two normals."""
+    of `draws` are encoders': robot `draws.rows[k]`'s STATE slip, `draws.std[k]` (its slip_std)
+    times two normals, and the uniforms `tick_uniforms[k]` of its spurious ticks; the rest are
+    mice: the robot's STATE mouse_noise, `draws.std[k]` (counts per sqrt m) times two normals."""
     bad = first_bad(commands)
     if bad >= 0:
         return bad
-    for k in range(len(robot)):
-        i, j = robot[k], used[k]
+    scale, normals, used = draws.std, draws.normals, draws.used
+    for k in range(len(draws.rows)):
+        now, j = state[draws.rows[k]], used[k]
         if k < encoders:
-            slip[i, 0] = scale[k] * normals[k, j]
-            slip[i, 1] = scale[k] * normals[k, j + 1]
+            slip = now.slip
+            slip[0] = scale[k] * normals[k, j]
+            slip[1] = scale[k] * normals[k, j + 1]
             for c in range(4):
                 tick_uniforms[k, c] = _uniform(normals[k, j + 2 + c])
             used[k] = j + ENCODER_DRAWS
         else:
-            mouse_noise[i, 0] = 0.0 + scale[k] * normals[k, j]
-            mouse_noise[i, 1] = 0.0 + scale[k] * normals[k, j + 1]
+            noise = now.mouse_noise
+            noise[0] = 0.0 + scale[k] * normals[k, j]
+            noise[1] = 0.0 + scale[k] * normals[k, j + 1]
             used[k] = j + MOUSE_DRAWS
     return -1
 
 
 @numba.njit(cache=True)
-def spurious_ticks(encoder_robot: np.ndarray, tick_noise: np.ndarray, tick_uniforms: np.ndarray, ticks: np.ndarray) -> None:
-    """Each of the step's ticks `ticks` (n, 2) of robot `encoder_robot[k]` one too many or one too
-    few with probability `tick_noise[k]`, each way alike (a light barrier's edge that bounces or
-    is missed: a process in the ticks counted, the same per wheel turn at any step)."""
+def spurious_ticks(encoder_robot: np.ndarray, tick_noise: np.ndarray, tick_uniforms: np.ndarray, tallies: np.ndarray) -> None:
+    """Each of the step's TALLIES ticks of robot `encoder_robot[k]` one too many or one too few
+    with probability `tick_noise[k]`, each way alike (a light barrier's edge that bounces or is
+    missed: a process in the ticks counted, the same per wheel turn at any step)."""
     for k in range(len(encoder_robot)):
-        i = encoder_robot[k]
+        ticks = tallies[encoder_robot[k]].ticks
         for wheel in range(2):
-            wrong = _binomial(abs(ticks[i, wheel]), tick_noise[k], tick_uniforms[k, 2 * wheel])
+            wrong = _binomial(abs(ticks[wheel]), tick_noise[k], tick_uniforms[k, 2 * wheel])
             if wrong:
-                ticks[i, wheel] += 2 * _binomial(wrong, 0.5, tick_uniforms[k, 2 * wheel + 1]) - wrong
+                ticks[wheel] += 2 * _binomial(wrong, 0.5, tick_uniforms[k, 2 * wheel + 1]) - wrong
 
 
 @numba.njit(cache=True)
-def add_rounded(values: np.ndarray, rows: np.ndarray, std: np.ndarray, normals: np.ndarray, used: np.ndarray, top: np.ndarray) -> None:
+def add_rounded(values: np.ndarray, draws: Noise, top: np.ndarray) -> None:
     """Gaussian noise on noisy sensors' integer `values` (the floor and light sensors'): value
-    `rows[k]` gets N(0, std[k]) from normals row k, rounded (half to even, as Python's round)
-    into 0..top[k]."""
+    `draws.rows[k]` gets N(0, draws.std[k]) from normals row k, rounded (half to even, as Python's
+    round) into 0..top[k]."""
+    rows, std, normals, used = draws.rows, draws.std, draws.normals, draws.used
     for k in range(len(rows)):
         noisy = np.rint(values[rows[k]] + (0.0 + std[k] * normals[k, used[k]]))
         values[rows[k]] = int(min(max(noisy, 0.0), float(top[k])))

@@ -21,9 +21,16 @@ through. The IR sensors sit at the bot's centre, 75 mm up. The vertex order of a
 Java3D's Box: for a wall polygon's edge k (counter-clockwise from its lowest-left corner, as
 `sim.world.spec.box` gives it) an even edge's diagonal rises from its start to its end and its
 first triangle tests the start's vertical edge before the diagonal; an odd edge's diagonal falls
-(`FACES`). Not reproduced: Java3D's bounds tree, which skips a face some cones graze (a face whose
-plane the axis runs beside, within the cone but off the face: c't-Sim then sees nothing of it), and
-c't-Sim's lamp pillars and cans, 15-sided cylinders, are taken as polygons of this rule.
+(`FACES`).
+
+c't-Sim's lamp pillars are Java3D cylinders (`pick_cylinder`): one shape whose side is a single
+triangle strip round the 15 corners, top and bottom corner of each in turn from due north counter-
+clockwise back to north (Java3D's `Quadrics.cylinder` and `GeomBuffer`, read in
+hharrison/java3d-utils), each triangle tested as above and the strip's smallest key, the first of
+equal ones, giving its find; 0.5 m tall, so the cone never reaches its caps. Not reproduced:
+Java3D's bounds tree, which skips a face some cones graze (a face whose plane the axis runs beside,
+within the cone but off the face: c't-Sim then sees nothing of it); cans (movable, not walls) are
+seen by ctsim's own cone rule.
 """
 
 from __future__ import annotations
@@ -37,6 +44,8 @@ WALL_BOTTOM, WALL_TOP = 0.0, 0.4
 """m: c't-Sim's wall boxes stand on the floor and are 0.4 m tall (ParcoursLoader's 0.2 m half-height)."""
 SENSOR_HEIGHT = 0.075
 """m: c't-Sim's IR sensors lie in the plane of the bot's centre, 75 mm over the floor."""
+CYLINDER_TOP = 0.5
+"""m: c't-Sim's lamp pillar stands 0.5 m tall on the floor (ParcoursLoader's LIGHTZ)."""
 TIE = 1e-12
 """m: keys this close are equal, which happens where an axis meets a face square on beside its
 diagonal; the real c't-Sim then reads the diagonal on a face whose diagonal rises and the first
@@ -113,13 +122,50 @@ def pick_polygon(ox: float, oy: float, ux: float, uy: float, length: float, tan_
         key, px, py, pz = math.inf, 0.0, 0.0, 0.0
         for t in range(2):
             for j in range(3):
-                tri[j] = corner[order[t, j]]
+                for c in range(3):  # (element by element: a row assignment compiles numba's whole shape-mismatch message)
+                    tri[j, c] = corner[order[t, j], c]
             found, x, y, z = _triangle(o, d, tan_spread, tri, TIE if rising else 0.0)
             if found < key - (0.0 if rising else TIE):
                 key, px, py, pz = found, x, y, z
         if key < math.inf:
             best = min(best, math.sqrt((px - ox) ** 2 + (py - oy) ** 2 + (pz - SENSOR_HEIGHT) ** 2))
     return best
+
+
+@numba.njit(cache=True)
+def pick_cylinder(ray: tuple[float, float, float, float, float], tan_spread: float, vertices: np.ndarray, start: int, end: int) -> float:
+    """Distance (m) c't-Sim's pick reads along RAY (sensor x, y, unit look x, y, length) of the
+    Java3D cylinder whose corners are vertices[start:end], counter-clockwise with due north last
+    (`sim.world.files.grid`): its side's triangle strip from north round to north (see the module
+    doc); inf if it sees none of it."""
+    ox, oy, ux, uy, length = ray
+    o = np.array((ox, oy, SENSOR_HEIGHT))
+    d = np.array((length * ux, length * uy, 0.0))
+    corners = end - start
+    strip = np.empty((2 * corners + 2, 3))
+    for i in range(corners + 1):
+        k = end - 1 if i == 0 else start + i - 1
+        strip[2 * i] = (vertices[k, 0], vertices[k, 1], CYLINDER_TOP)
+        strip[2 * i + 1] = (vertices[k, 0], vertices[k, 1], 0.0)
+    key, px, py, pz = math.inf, 0.0, 0.0, 0.0
+    for t in range(strip.shape[0] - 2):
+        found, x, y, z = _triangle(o, d, tan_spread, strip[t : t + 3], 0.0)
+        if found < key:
+            key, px, py, pz = found, x, y, z
+    if key == math.inf:
+        return math.inf
+    return math.sqrt((px - ox) ** 2 + (py - oy) ** 2 + (pz - SENSOR_HEIGHT) ** 2)
+
+
+@numba.njit(cache=True)
+def pick_wall(ray: tuple[float, float, float, float, float], tan_spread: float, vertices: np.ndarray, start: int, end: int, cylinder: bool) -> float:
+    """Distance (m) c't-Sim's pick reads along RAY (sensor x, y, unit look x, y, length) of the
+    wall vertices[start:end]: a Java3D cylinder's (`pick_cylinder`) or a box's (`pick_polygon`);
+    inf if it sees none of it."""
+    if cylinder:
+        return pick_cylinder(ray, tan_spread, vertices, start, end)
+    ox, oy, ux, uy, length = ray
+    return pick_polygon(ox, oy, ux, uy, length, tan_spread, vertices, start, end)
 
 
 FACES = np.array((

@@ -1,8 +1,9 @@
-"""A student's controller in a contest game, run in the sandbox that `ctsim lab grade` uses
-(`sim.sandbox`: bubblewrap, no pickle): its own process that sees none of the host's files (not the
-contest's database or recordings, not another submission), fed each step's readings as plain data
-and answering a plain command list. Whatever it does (raise, hang, exit, flood its output, answer
-nonsense) fails its robot's step, and the judge gives the game to the other bot.
+"""A student's controller in a contest game (or a user's under `ctsim run --isolate`), run in the
+sandbox that `ctsim lab grade` uses (`sim.sandbox`: bubblewrap, no pickle): its own process that
+sees none of the host's files (not the contest's database or recordings, not another submission),
+fed each step's readings as plain data and answering a plain command list. Whatever it does
+(raise, hang, exit, flood its output, answer nonsense) fails its robot's step, and the judge gives
+the game to the other bot.
 
 The controller is the file's one class with a `step` method (else its class or function named
 `controller`), found by reading the file's syntax, not by running it here. It may import numpy,
@@ -56,15 +57,15 @@ def controller_class(path: Path) -> tuple[str, bool]:
 class SandboxedController:
     """The run loop's controller for a student's class in `box` (made at `reset`)."""
 
-    def __init__(self, box: Sandbox, name: str, has_reset: bool):
-        self.box, self.class_name, self.has_reset = box, name, has_reset
+    def __init__(self, box: Sandbox, name: str, has_reset: bool, call_timeout: float = CALL_TIMEOUT):
+        self.box, self.class_name, self.has_reset, self.call_timeout = box, name, has_reset, call_timeout
         self.handle: int | None = None
         self.time_left: Callable[[], float] = lambda: math.inf
         """Wall-clock seconds the entry may still spend in the game (`judge.Guarded` sets it)."""
 
     def _timeout(self) -> float:
-        """One call's limit: CALL_TIMEOUT, or less when the game's budget has less left."""
-        return min(CALL_TIMEOUT, self.time_left())
+        """One call's limit: `call_timeout`, or less when the game's budget has less left."""
+        return min(self.call_timeout, self.time_left())
 
     def reset(self, robot: RobotSpec) -> None:
         self.handle = self.box.new(self.class_name, timeout=self._timeout())

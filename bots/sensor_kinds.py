@@ -1,0 +1,99 @@
+"""The sensor registry: one row per kind of reading a robot gets, saying everything the simulator's
+parts need to know of it, so that they iterate over the rows instead of spelling each kind.
+
+A row names its `Readings` field, the robot-file section whose sensors give one value each (or
+the fixed channels of a kind that is not a list of sensors), its dtype, the array of a step's
+`SensorFrame` it is packed into (kinds that share an array lie in it in the registry's order,
+robot after robot), the world kernel that computes it and the noise stage that perturbs it, the
+recording's plot group and title, the viewer window's label and the c't-Sim packet the bridge
+sends it in. The recorder, the export, the window and the bridge read the rows; a test holds
+the registry equal to `Readings`' fields and the packets to `sim.bridge.protocol`'s.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class SensorKind:
+    """One kind of reading (see the module)."""
+
+    field: str
+    """The `Readings` field (and the recording's and export's column name)."""
+    section: str | None
+    """The robot-file section (`RobotSpec` list) with one value per sensor; None: `channels`."""
+    channels: tuple[str, ...]
+    """The fixed channels of a kind that is no list of sensors (a c't-Bot's)."""
+    dtype: type
+    frame: str | None
+    """The `SensorFrame` array it is packed into; None: a general chassis's (`ChassisDrive.fill`)."""
+    kernel: str
+    """Where the world computes it (a dotted name under `sim.world`)."""
+    noise: str | None
+    """Where its noise enters (a dotted name under `sim.world`; None: it has none)."""
+    group: str
+    """The recording's plot it is drawn in (sensors/<group>/<robot>/<field>)."""
+    title: str
+    """That plot's title (the same for every kind of the group)."""
+    window: str
+    """Its line's label in the viewer window."""
+    packet: str | None = None
+    """The name of its c't-Sim packet in `sim.bridge.protocol` (None: not sent)."""
+    scale: float = 1.0
+    """Recorded and shown unit per SI unit (m -> mm, rad -> deg)."""
+    needs: str | None = None
+    """A `RobotSpec` attribute that must not be None for it to have channels (the mouse)."""
+    chassis_only: bool = False
+    """Only a general chassis reads it."""
+
+    def channels_of(self, spec: Any) -> tuple[str, ...]:
+        """The channel names of a c't-Bot-like robot (`bots.spec.RobotSpec`): its section's sensor
+        names, or the fixed channels (none where it lacks the device or only a chassis has it)."""
+        if self.chassis_only or (self.needs is not None and getattr(spec, self.needs) is None):
+            return ()
+        if self.section is not None:
+            return tuple(sensor.name for sensor in getattr(spec, self.section))
+        return self.channels
+
+
+KINDS: tuple[SensorKind, ...] = (
+    SensorKind("ir_raw", "ir", (), np.int64, "ir_raw", "kernels.sensing.read_ir", "kernels.sensing.ir_values", "ir_raw", "IR raw (ADC)", "IR raw",
+               packet="SENS_IR"),
+    SensorKind("ir_distance", "ir", (), np.float64, "ir_distance", "kernels.sensing.read_ir", "kernels.sensing.ir_values", "ir_distance",
+               "IR distance (mm)", "IR distance mm", scale=1000.0),
+    SensorKind("line", "line", (), np.int64, "floor", "kernels.sensing.sample_floor", "kernels.noise.add_rounded", "floor",
+               "floor: line and border (0 white, 1023 black)", "line   (0-1023)", packet="SENS_LINE"),
+    SensorKind("border", "border", (), np.int64, "floor", "kernels.sensing.sample_floor", "kernels.noise.add_rounded", "floor",
+               "floor: line and border (0 white, 1023 black)", "border (0-1023)", packet="SENS_BORDER"),
+    SensorKind("light", "light", (), np.int64, "light", "kernels.sensing.sense_light", "kernels.noise.add_rounded", "light",
+               "light (0 bright, 1023 dark)", "light  (0-1023)", packet="SENS_LDR"),
+    SensorKind("encoder_ticks", None, ("left", "right"), np.int64, "tallies", "kernels.motion.plan", "kernels.noise.spurious_ticks",
+               "encoders", "encoders (ticks per step)", "encoders ticks", packet="SENS_ENC"),
+    SensorKind("mouse_counts", None, ("forward", "left"), np.int64, "tallies", "kernels.motion.measure", "kernels.noise.draw_step", "mouse",
+               "mouse (counts per step: forward, left)", "mouse counts", packet="SENS_MOUSE", needs="mouse"),
+    SensorKind("mouse2_counts", None, ("mouse 2 forward", "mouse 2 left"), np.int64, None, "chassis_drive.ChassisDrive.fill", "chassis_drive.ChassisDrive.fill", "mouse",
+               "mouse (counts per step: forward, left)", "mouse 2 counts", chassis_only=True),
+    SensorKind("steering", None, (), np.float64, None, "chassis_drive.ChassisDrive.fill", None, "steering", "steered from straight (deg)", "steered deg",
+               scale=180.0 / math.pi, chassis_only=True),
+)
+"""Every kind, in the recording's column order (and, within a shared `frame` array, the packing order)."""
+BY_FIELD = {kind.field: kind for kind in KINDS}
+
+
+def groups() -> dict[str, tuple[str, tuple[str, ...]]]:
+    """Recording plot -> (title, its kinds' fields), in the registry's order."""
+    found: dict[str, tuple[str, tuple[str, ...]]] = {}
+    for kind in KINDS:
+        title, fields = found.get(kind.group, (kind.title, ()))
+        found[kind.group] = (title, (*fields, kind.field))
+    return found
+
+
+def sections() -> tuple[str, ...]:
+    """The robot-file sections of sensors, in the registry's order, each once."""
+    return tuple(dict.fromkeys(kind.section for kind in KINDS if kind.section is not None))

@@ -1,0 +1,63 @@
+"""`ctsim evaluate`: your estimators scored on the evaluation suite beside the shipped ones, and
+results files of several people merged into one table."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import textwrap
+from pathlib import Path
+
+from sim import sanitize
+from sim.cli.options import UsageError, add_engine_options, engine_of
+
+
+def add_parser(commands) -> None:  # noqa: ANN001 (argparse's subparsers action)
+    from sim.experiments.suite import SUITE_VERSION, VARIANTS
+
+    evaluate = commands.add_parser(
+        "evaluate",
+        help="score odometry estimators on the fixed evaluation suite beside the shipped ones (ATE, RPE, final error, NEES), ranked",
+        description=textwrap.fill(f"Run the evaluation suite (version {SUITE_VERSION}; docs/odometry.md, 'Evaluation') with your estimators (FILE.py[:CLASS], "
+        "as `ctsim run --estimator`) beside the shipped ones, on local processes (default, all cores) or Dask, and rank them. "
+        "Writes results.json (every run's metrics, the suite's version and scenario hashes: to check, share and merge), "
+        "scores.csv, ranking.csv and report.html into DIR; a finished run is kept as it ends, so Ctrl-C and the same command again resume. "
+        "`ctsim evaluate --merge A.json B.json ...` joins results files of the same suite into one table.", 100)
+        + "\n\nsuites:\n" + "\n".join(f"  {name:6} {v.about}" for name, v in VARIANTS.items()),
+    )
+    evaluate.add_argument("estimators", nargs="*", metavar="FILE.py[:CLASS]", help="your estimators (none: the shipped ones alone)")
+    evaluate.add_argument("--suite", choices=tuple(VARIANTS), default="short", help="which variant of the suite (default: short)")
+    evaluate.add_argument("--merge", nargs="+", type=Path, metavar="RESULTS.json", help="join these results files instead of running anything")
+    evaluate.add_argument("--out", type=Path, metavar="DIR", help="folder of the results (default: runs/evaluate-<suite>, runs/evaluate-merged with --merge)")
+    add_engine_options(evaluate)
+    evaluate.set_defaults(handler=cmd_evaluate)
+
+
+def cmd_evaluate(args: argparse.Namespace) -> int:
+    from sim.experiments.evaluation import RESULTS, evaluate, merge, read_results, write_results
+    from sim.experiments.scores import terminal
+    from sim.experiments.suite import variant
+    from sim.web.evaluation import write_all
+
+    if args.merge:
+        if args.estimators:
+            raise UsageError("--merge joins results files; run the estimators without it first")
+        out = args.out or Path("runs") / "evaluate-merged"
+        results = merge([read_results(path) for path in args.merge], [str(path) for path in args.merge])
+        out.mkdir(parents=True, exist_ok=True)
+        written = [write_results(results, out / RESULTS)]
+    else:
+        out = args.out or Path("runs") / f"evaluate-{args.suite}"
+        runner = engine_of(args)
+        try:
+            results = evaluate(variant(args.suite), args.estimators, out, runner)
+        finally:
+            runner.close()
+        written = [out / RESULTS]
+    written += write_all(results, out)
+    print(terminal(results))
+    failed = sum(1 for run in results["runs"] if run.get("failed"))
+    if failed:
+        print(f"ctsim: {failed} of {len(results['runs'])} runs failed: see 'failed' in {sanitize.name(str(out / RESULTS), 1000)}", file=sys.stderr)
+    print("wrote:\n" + "\n".join(f"  {sanitize.name(str(path), 1000)}" for path in written))
+    return 1 if failed else 0

@@ -1,0 +1,242 @@
+"""`ctsim evaluate`: estimators scored on the evaluation suite (`sim.experiments.suite`) beside
+the shipped ones, into a results file others can check and merge.
+
+The runs go through the sweep's machinery (`sim.experiments.sweep.run_jobs`: local processes or
+Dask, a row kept on disk as each run finishes, Ctrl-C keeps them and the same call resumes). The
+results file (`results.json`) holds the suite's name and version, ctsim's version, each
+scenario's hash, each estimator's source and the sha256 of its file, and every run's metrics; it
+holds nothing of the machine or the hour, so the same suite, seeds and estimators give the same
+file, byte for byte. `merge` joins files of the same suite version and scenario hashes, and
+refuses any other.
+
+    results = evaluate(VARIANTS["short"], ["my_filter.py:Filter"], "runs/evaluate-short")
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import sim
+from sim.errors import UserError
+from sim.experiments.suite import SUITE_VERSION, Variant
+from sim.run.ending import Ending
+
+FORMAT = "ctsim-evaluation"
+FORMAT_VERSION = 1
+"""What a results file is, and the version of its layout (not of the suite: `SUITE_VERSION`)."""
+RESULTS = "results.json"
+METRICS = ("ate_rmse", "rpe_translation", "rpe_rotation", "final_position_error", "final_heading_error", "nees_final", "path_length")
+"""Per run and estimator, what the results file keeps (`sim.analysis.metrics.Metrics`)."""
+SHIPPED = ("localiser",)
+"""Shipped estimators scored beside the run's defaults (encoders, firmware, mouse, fused) in every run."""
+TRIAL_S = 0.3
+"""Simulated seconds of the trial run each submitted estimator passes before the suite starts: a
+constructor, `reset` or first `update` that raises is one line then, not a column of failed runs."""
+
+
+class EvaluationError(UserError):
+    """An estimator that cannot be scored, or a results file that cannot be read or merged."""
+
+
+@dataclass(frozen=True)
+class Submitted:
+    """An estimator to score: its source as `ctsim evaluate` was given it, that source with the
+    file's absolute path (for worker processes), its name and what it is (`sha256:` of its file)."""
+
+    source: str
+    located: str
+    name: str
+    identity: str
+
+
+def submitted(sources: list[str]) -> list[Submitted]:
+    """Each source loaded, built, named and tried on a short run; EvaluationError (one line) for a
+    missing file, a class that cannot be made or raises on its first steps, or a taken name."""
+    from bots.odometry.user import SHIPPED as BY_NAME
+    from bots.odometry.user import beside_defaults, load, name_of
+    from sim.experiments.api import Bot, robot, simulate
+
+    found = []
+    for source in sources:
+        if source in BY_NAME and not Path(source).is_file():
+            found.append(Submitted(source, source, source, "shipped"))
+            continue
+        load(source)  # (a missing file or class: one line of its own)
+        file, _, cls = source.partition(":") if not Path(source).is_file() else (source, "", "")
+        located = str(Path(file).resolve()) + (f":{cls}" if cls else "")
+        identity = "sha256:" + hashlib.sha256(Path(file).read_bytes()).hexdigest()
+        found.append(Submitted(source, located, "", identity))
+    shipped = [s for s in SHIPPED if s not in sources]
+    made = beside_defaults(robot("ctbot"), [*shipped, *(s.located for s in found)])  # (names taken or not words: refused here)
+    found = [Submitted(s.source, s.located, name_of(e), s.identity) for s, e in zip(found, made[len(shipped):])]
+    for entry in found:
+        trial = simulate("maze", Bot("solve_maze"), duration=TRIAL_S, seed=0, estimators=[entry.located])
+        if trial.error:
+            raise EvaluationError(f"estimator {entry.source}: {trial.error}")
+    return found
+
+
+def evaluate(variant: Variant, sources: list[str], out: str | Path, runner: Any = None, progress: bool = True,
+             on_row: Callable[[dict[str, Any]], None] | None = None) -> dict[str, Any]:  # fmt: skip
+    """Score the estimators of `sources` (`FILE.py[:CLASS]`, or a shipped one by name) beside the
+    shipped ones on every run of `variant`, on `runner` (an engine of `sim.experiments.engines`;
+    default local processes), resuming what `out` holds; the results (`results_of`), also
+    written to `out/results.json`."""
+    from sim.experiments.sweep import run_jobs
+    from sim.folder_lock import held
+
+    entries = submitted(sources)
+    out = Path(out)
+    planned = variant.jobs([*(s for s in SHIPPED if s not in sources), *(e.located for e in entries)],
+                           [*(s for s in SHIPPED if s not in sources), *(e.identity for e in entries)])  # fmt: skip
+    with held(out, "evaluate"):
+        table = run_jobs(planned, out, runner, on_row, progress, what="evaluate")
+        ours = table[table["run_id"].isin({job.run_id for job in planned})]  # (not the rows of an estimator's file as it was before)
+        results = results_of(variant, entries, ours.to_dict("records"))
+        write_results(results, out / RESULTS)
+    return results
+
+
+def _number(value: Any) -> float | None:
+    """A metric for JSON: a float, or None where it is undefined (nan) or missing."""
+    if value is None:
+        return None
+    value = float(value)
+    return value if math.isfinite(value) else None
+
+
+def results_of(variant: Variant, entries: list[Submitted], rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """The results file's content from a suite's finished rows (`sim.experiments.sweep` rows):
+    runs in the suite's order, each estimator's metrics, and for a run that failed its error
+    against whoever failed it (`_blamed`)."""
+    names = sorted({c.rpartition(".")[0] for row in rows for c in row if c.endswith(".ate_rmse")})
+    order = {(s.name, seed): k for k, (s, seed) in enumerate((s, seed) for s in variant.scenarios for seed in variant.seeds)}
+    runs = []
+    for row in sorted(rows, key=lambda r: order[(r["scenario"], int(r["seed"]))]):
+        failed = row["reason"] == Ending.ERROR
+        run = {"scenario": row["scenario"], "seed": int(row["seed"]),
+               "metrics": {} if failed else {n: {m: _number(row.get(f"{n}.{m}")) for m in METRICS} for n in names if row.get(f"{n}.ate_rmse") is not None}}  # fmt: skip
+        if failed:
+            run["failed"] = _blamed(entries, str(row["error"]))
+        runs.append(run)
+    return {
+        "format": FORMAT,
+        "format_version": FORMAT_VERSION,
+        "suite": variant.name,
+        "suite_version": SUITE_VERSION,
+        "ctsim_version": sim.__version__,
+        "seeds": list(variant.seeds),
+        "scenarios": {s.name: {"hash": digest, "world": s.world, "controller": s.controller, "params": dict(s.params), "noise": s.noise,
+                               "duration_s": s.duration, "until_goal": s.until_goal} for s, digest in zip(variant.scenarios, variant.hashes().values())},  # fmt: skip
+        "estimators": {e.name: {"source": Path(e.source.partition(":")[0]).name + (":" + e.source.partition(":")[2] if ":" in e.source else ""),
+                                "identity": e.identity} for e in entries},  # fmt: skip
+        "runs": runs,
+    }
+
+
+def _blamed(entries: list[Submitted], error: str) -> dict[str, str]:
+    """Who failed a run: the submitted estimator its error names (the run loop's `estimator 'NAME'`),
+    else every submitted one (the shipped ones do not fail), else the run itself."""
+    named = [e for e in entries if f"estimator {e.name!r}" in error]
+    return {e.name: error for e in named or entries} or {"run": error}
+
+
+def write_results(results: dict[str, Any], path: Path) -> Path:
+    """The results as JSON, keys sorted, two-space indents, floats as Python writes them back
+    exactly: the same results are the same bytes."""
+    from sim.out_files import write_text
+
+    return write_text(path, json.dumps(results, indent=2, sort_keys=True, allow_nan=False) + "\n")
+
+
+def read_results(path: str | Path) -> dict[str, Any]:
+    """A results file, checked to be one of this format and of this ctsim's suite version."""
+    path = Path(path)
+    try:
+        results = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
+        raise EvaluationError(f"{path}: not a results file of ctsim evaluate ({type(err).__name__}: {err})") from None
+    keys = ("format", "format_version", "suite", "suite_version", "ctsim_version", "seeds", "scenarios", "estimators", "runs")
+    if not isinstance(results, dict) or results.get("format") != FORMAT or any(k not in results for k in keys):
+        raise EvaluationError(f"{path}: not a results file of ctsim evaluate")
+    if results["format_version"] != FORMAT_VERSION or results["suite_version"] != SUITE_VERSION:
+        raise EvaluationError(f"{path}: suite version {results['suite_version']!r} (file format {results['format_version']!r}); "
+                              f"this ctsim scores suite version {SUITE_VERSION!r} (format {FORMAT_VERSION}): run the estimator again with this ctsim")  # fmt: skip
+    problem = _shape_problem(results)
+    if problem:
+        raise EvaluationError(f"{path}: not a results file of ctsim evaluate: {problem}")
+    return results
+
+
+def _shape_problem(results: dict[str, Any]) -> str | None:
+    """What in a results file of the right version is not as `results_of` writes one (None: nothing):
+    a file edited by hand or by another program is refused in one line, never half read."""
+    from bots.odometry.user import NAME
+
+    def number(value: Any) -> bool:
+        return value is None or (isinstance(value, int | float) and not isinstance(value, bool))
+
+    scenarios, seeds, runs = results["scenarios"], results["seeds"], results["runs"]
+    if not (isinstance(scenarios, dict) and all(isinstance(v, dict) and isinstance(v.get("hash"), str) for v in scenarios.values())):
+        return "'scenarios' must map each scenario to its settings and hash"
+    if not (isinstance(seeds, list) and all(isinstance(seed, int) for seed in seeds)):
+        return "'seeds' must be a list of whole numbers"
+    if not (isinstance(results["estimators"], dict) and all(isinstance(v, dict) and isinstance(v.get("identity"), str) and isinstance(v.get("source"), str)
+                                                             for v in results["estimators"].values())):  # fmt: skip
+        return "'estimators' must map each estimator to its source and identity"
+    if not (isinstance(runs, list) and all(isinstance(run, dict) for run in runs)):
+        return "'runs' must be a list of runs"
+    order = list(dict.fromkeys(run.get("scenario") for run in runs))  # (the suite's order: the file's keys are sorted)
+    if set(order) != set(scenarios) or [(r.get("scenario"), r.get("seed")) for r in runs] != [(scenario, seed) for scenario in order for seed in seeds]:
+        return "'runs' must hold every scenario's runs, seed by seed, in order"
+    for run in runs:
+        metrics, failed = run.get("metrics"), run.get("failed", {})
+        if not (isinstance(metrics, dict) and isinstance(failed, dict)):
+            return f"run {run['scenario']} seed {run['seed']}: 'metrics' and 'failed' must be tables"
+        names = [*metrics, *results["estimators"], *failed]
+        if not all(isinstance(name, str) and NAME.fullmatch(name) for name in names):
+            return f"run {run['scenario']} seed {run['seed']}: an estimator name that is not a plain word"
+        if not all(isinstance(values, dict) and set(values) == set(METRICS) and all(map(number, values.values())) for values in metrics.values()):
+            return f"run {run['scenario']} seed {run['seed']}: each estimator's metrics must be {', '.join(METRICS)} (numbers or null)"
+        if not all(isinstance(message, str) for message in failed.values()):
+            return f"run {run['scenario']} seed {run['seed']}: 'failed' must give each estimator's error as text"
+    return None
+
+
+def merge(results: list[dict[str, Any]], names: list[str] | None = None) -> dict[str, Any]:
+    """Results files of the same suite, version, seeds and scenario hashes joined into one table:
+    every estimator of each, every run's metrics side by side. EvaluationError where they differ,
+    where two files give the same estimator different metrics (another ctsim version, or two
+    estimators of one name), or where one estimator name stands for two different files."""
+    names = names or [f"file {k + 1}" for k in range(len(results))]
+    first, merged = results[0], json.loads(json.dumps(results[0]))
+    for other, name in zip(results[1:], names[1:]):
+        for key in ("suite", "suite_version", "seeds"):
+            if other[key] != first[key]:
+                raise EvaluationError(f"{name}: {key} {other[key]!r}, {names[0]}: {first[key]!r}: only results of the same suite merge")
+        hashes = {s: v["hash"] for s, v in other["scenarios"].items()}
+        if hashes != {s: v["hash"] for s, v in first["scenarios"].items()}:
+            differ = sorted(s for s in {*hashes, *first["scenarios"]} if hashes.get(s) != first["scenarios"].get(s, {}).get("hash"))
+            raise EvaluationError(f"{name}: scenario hashes differ from {names[0]}'s ({', '.join(differ)}): the runs are not the same runs")
+        for estimator, about in other["estimators"].items():
+            if merged["estimators"].setdefault(estimator, about)["identity"] != about["identity"]:
+                raise EvaluationError(f"{name}: estimator {estimator!r} is another file than in an earlier results file; rename one")
+        for run, theirs in zip(merged["runs"], other["runs"]):
+            if (run["scenario"], run["seed"]) != (theirs["scenario"], theirs["seed"]):
+                raise EvaluationError(f"{name}: its runs are not the suite's runs in order")
+            for estimator, values in theirs["metrics"].items():
+                if run["metrics"].setdefault(estimator, values) != values:
+                    raise EvaluationError(f"{name}: {estimator} scored differently in {run['scenario']} seed {run['seed']} "
+                                          f"(ctsim {other['ctsim_version']} there, {first['ctsim_version']} in {names[0]}): merge results of one ctsim version")  # fmt: skip
+            if theirs.get("failed"):
+                run.setdefault("failed", {}).update(theirs["failed"])
+    if len({r["ctsim_version"] for r in results}) == 1:
+        return merged
+    merged["ctsim_version"] = ", ".join(sorted({r["ctsim_version"] for r in results}))
+    return merged
