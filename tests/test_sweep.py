@@ -4,11 +4,14 @@ a run that raises is a row with its error; spec mistakes stop the CLI before any
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
+import socket
 import subprocess
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import pandas as pd
@@ -107,6 +110,22 @@ def test_dask_local_cluster_of_three_workers_gives_the_serial_table(spec_file, s
     finally:
         runner.close()
     pd.testing.assert_frame_equal(measured(table), measured(serial))
+
+
+def test_a_local_cluster_warns_nothing_where_port_8787_is_taken():
+    """Another program on Dask's dashboard port (a notebook's cluster, a second sweep): the sweep's
+    LocalCluster warned on stderr; its scheduler's few HTTP routes now take a free loopback port."""
+    holder = socket.socket()
+    try:
+        with contextlib.suppress(OSError):  # (taken already: as good)
+            holder.bind(("127.0.0.1", 8787))
+            holder.listen()
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            Dask(workers=1).close()
+    finally:
+        holder.close()
+    assert not [w for w in caught if "already in use" in str(w.message)]
 
 
 def test_killed_half_way_resumes_with_every_row_once(spec_file, reference, tmp_path):

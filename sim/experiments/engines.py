@@ -251,6 +251,12 @@ LOCAL_CONFIG = {
 costs CPU on a machine whose cores the runs need (`bench/run.py -k sweep_dask`)."""
 
 
+QUIET_SCHEDULER = {"dashboard": False, "dashboard_address": "127.0.0.1:0"}
+"""A LocalCluster's scheduler without the dashboard still serves a few HTTP routes, on port 8787
+unless told otherwise: where another program holds that port, Dask warned on stderr ("Port 8787 is
+already in use"). A free port on this machine's loopback instead."""
+
+
 @contextmanager
 def _without_stop_signals() -> Iterator[None]:
     """SIGINT and SIGTERM blocked in this thread meanwhile, and so in every thread and process
@@ -289,7 +295,7 @@ class Dask:
             try:
                 with _without_stop_signals(), dask.config.set(LOCAL_CONFIG):
                     self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None, memory_limit=0,
-                                                silence_logs=logging.CRITICAL, preload=PRELOAD)  # fmt: skip
+                                                silence_logs=logging.CRITICAL, preload=PRELOAD, scheduler_kwargs=QUIET_SCHEDULER)  # fmt: skip
                     self.client = Client(self.cluster, timeout=timeout)
             except BaseException:  # (a Ctrl-C while it started arrives here, once it has)
                 self._end_cluster()
