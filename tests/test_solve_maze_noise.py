@@ -55,7 +55,7 @@ def test_no_noisy_run_claims_a_goal_it_did_not_reach():
 
 
 def test_realistic_noise_reaches_the_goal_about_as_fast_as_exact_sensors():
-    """37 of 40 seeds reach the goal within the main job's 300 s (seed 0, the main job's, among
+    """39 of 40 seeds reach the goal within the main job's 300 s (seed 0, the main job's, among
     them), on average within 10 % of the exact-sensor run's time (seen, with the presets'
     counters started anywhere within a count: 39 of 40 in 252.5 s on average against 241.6 s,
     +4.5 %; seed 15 does not reach it): a look that cannot tell an open way at a slant from a wall
@@ -64,7 +64,7 @@ def test_realistic_noise_reaches_the_goal_about_as_fast_as_exact_sensors():
     exact = outcomes()["none"][0][0]
     goals = [goal for goal, _ in outcomes()["realistic"]]
     times = [goal for goal in goals if goal is not None]
-    assert exact is not None and goals[0] is not None and len(times) >= 37
+    assert exact is not None and goals[0] is not None and len(times) >= 39
     assert np.mean(times) <= 1.10 * exact
 
 

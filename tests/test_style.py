@@ -99,16 +99,11 @@ def test_how_a_run_ended_is_decided_by_its_ending_not_its_spelling():
     assert not spelled, "an Ending spelled as a string: " + "; ".join(spelled)
 
 
-STEP_ELSEWHERE = {
-    "bots/behaviours/base.py": "the step a behaviour assumes before two readings show it (bots sees no sim.world): left of #46",
-}
-
-
 def test_the_default_step_has_one_home():
-    """0.01 as a step (a name or keyword with dt or step in it) only in sim/world/step.py."""
+    """0.01 as a step (a name or keyword with dt or step in it) only in sim/kinematics/step.py."""
     found = []
     for rel, tree in _trees():
-        if rel in ("sim/world/step.py", *STEP_ELSEWHERE):
+        if rel == "sim/kinematics/step.py":
             continue
         for node in ast.walk(tree):
             pairs = []
@@ -121,7 +116,7 @@ def test_the_default_step_has_one_home():
             for name, value in pairs:
                 if isinstance(value, ast.Constant) and value.value == 0.01 and ("dt" in name.lower() or "step" in name.lower()):
                     found.append(f"{rel}:{node.lineno}: {name} = 0.01")
-    assert not found, "a step of 0.01 outside sim/world/step.py (use DEFAULT_DT): " + "; ".join(found)
+    assert not found, "a step of 0.01 outside sim/kinematics/step.py (use DEFAULT_DT): " + "; ".join(found)
 
 
 def test_a_module_reading_a_librarys_private_names_states_the_pinned_version():

@@ -175,6 +175,30 @@ def test_a_signal_to_the_whole_group_stops_the_sweep_and_resume_finishes_it(spec
     pd.testing.assert_frame_equal(measured(table), measured(reference))
 
 
+@pytest.mark.parametrize("make_runner", [lambda: Processes(2), lambda: Dask(workers=2)], ids=["processes", "dask"])
+def test_a_signal_whose_exception_code_in_between_dropped_still_stops_the_engine(make_runner):
+    """A handler's exception is raised wherever the main thread is; code that clears every error
+    (pyarrow probing a pandas column's attributes while a sweep writes its row; a finalizer the
+    garbage collector runs) dropped it, and the sweep ran to its end (exit 0 after SIGTERM). Here
+    the caller's code drops it on purpose: the engine still stops when asked for the next outcome,
+    and puts the handler back."""
+    runner = make_runner()
+    got = []
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            for _, outcome in runner.imap(abs, range(-40, 0)):
+                got.append(outcome)
+                if len(got) == 3:
+                    try:
+                        signal.raise_signal(signal.SIGINT)  # (its handler runs before this returns)
+                    except KeyboardInterrupt:  # as such code does
+                        pass
+    finally:
+        runner.close()
+    assert len(got) == 3
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
 def test_ctrl_c_in_a_serial_sweep_records_no_cut_run(crash, tmp_path):
     """In-process runs see Ctrl-C themselves (the run loop ends the run early): that run is no
     row, and the sweep stops with the runs before it kept."""

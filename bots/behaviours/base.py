@@ -19,6 +19,7 @@ from bots.controller import Status
 from bots.readings import Readings
 from bots.spec import RobotSpec
 from sim.kinematics import Pose, advance_floats, arcs_from_ticks, relative_pose
+from sim.kinematics.step import DEFAULT_DT
 
 # The firmware's speeds (BOT_SPEED_* in mm/s) as rim speeds in m/s.
 SPEED_SLOW = 0.05
@@ -38,8 +39,6 @@ DECELERATION = 0.5
 """Braking ramp for rim speeds (m/s^2): 0.15 m/s comes to rest over 22 mm."""
 MIN_SPEED = 0.01
 """Slowest rim speed of a ramp (m/s) until the last step, which lands on the target exactly."""
-DEFAULT_DT = 0.01
-"""Step assumed until two readings have shown the real one (s)."""
 
 
 def ramp(remaining: float, top: float, dt: float) -> float:

@@ -24,9 +24,13 @@ from bots.odometry.steps import (
     MEMORY,
     MOUNT_X,
     MOUNT_Y,
+    MOUSE_SCALE_STD,
     MOUSE_VAR,
     PARAMS,
     PER_METRE,
+    SIGMAS,
+    SLIDE_GATE,
+    SLIDE_MEMORY,
     SLIP_VAR,
     TICK_LEFT,
     TICK_RIGHT,
@@ -34,7 +38,11 @@ from bots.odometry.steps import (
     TICK_VAR_RIGHT,
     TOLERANCE,
     TRACK,
+    TRACK_STD,
     TURN_TOLERANCE,
+    WHEEL_STD,
+    add_spread,
+    fresh_state,
     mouse_terms,
     pose_covariance,
     wheel_terms,
@@ -59,6 +67,13 @@ GATE_SIGMAS = 5.0
 unknown (per metre driven, per radian turned), that the two sensors may disagree by before the
 fused estimator calls it slip or a slide: at 3 the detectors, whose sums are correlated from step
 to step, fired often enough on noise alone to make the fused heading worse than the mouse's."""
+SLIDE_WATCH_MEMORY = 2.0
+"""Time constant (s) over which the mouse and fused estimates' slide watch
+(`bots.odometry.steps.watch_slides`) sums the mouse's rotation beyond the encoders': a slide of
+a few millimetres a second along a wall lasts a second or two."""
+SLIDE_WATCH_GATE = 2.0
+"""Standard deviations of the believed calibration errors of the recent turning the slide watch
+allows before it widens the heading's variance (a wrong alarm only widens it a little)."""
 NOISE_COUNTS = 3.0
 """Mouse noise (counts) allowed over the memory: 0.2-0.5 counts per step add up to 1-2.5 counts."""
 
@@ -98,6 +113,7 @@ def parameters(robot: RobotSpec, geometry: Geometry | None = None) -> np.ndarray
     p[TRACK] = believed.track_width
     belief = Belief.of(robot)
     p[SLIP_VAR] = belief.slip_var
+    p[WHEEL_STD], p[TRACK_STD], p[MOUSE_SCALE_STD] = belief.wheel_scale_std, belief.track_std, belief.mouse_scale_std
     # a metre rolled is 1/tick ticks, each one off by a tick with probability tick_rate: m² per metre
     p[TICK_VAR_LEFT], p[TICK_VAR_RIGHT] = belief.tick_rate * p[TICK_LEFT], belief.tick_rate * p[TICK_RIGHT]
     if mouse_applies(robot):
@@ -108,6 +124,7 @@ def parameters(robot: RobotSpec, geometry: Geometry | None = None) -> np.ndarray
         p[TOLERANCE] = max(p[TICK_LEFT], p[TICK_RIGHT]) + count * (1.0 + abs(mount_y) / abs(mount_x))
         p[TURN_TOLERANCE] = 2.0 * (max(p[TICK_LEFT], p[TICK_RIGHT]) / p[TRACK] + count / abs(mount_x)) + NOISE_COUNTS * count / abs(mount_x)
         p[MEMORY], p[GATE], p[DISTANCE_MEMORY] = TURN_MEMORY, GATE_SIGMAS, SLIP_MEMORY
+        p[SLIDE_MEMORY], p[SLIDE_GATE] = SLIDE_WATCH_MEMORY, SLIDE_WATCH_GATE
         p[MOUSE_VAR] = belief.mouse_var
         p[HAS_MOUSE] = 1.0
     return p
@@ -127,11 +144,20 @@ def quantisation_lag(p: np.ndarray, mouse: bool) -> np.ndarray:
 class ArcOdometry:
     """Shared dead reckoning: `step(readings)` gives (s, alpha) for the step, laid by `advance`,
     and propagates the error covariance `errors` (`bots.uncertainty`) in the same compiled step
-    (`bots.odometry.steps`); `lag` is the quantisation lag reported beside it."""
+    (`bots.odometry.steps`); `lag` is the quantisation lag reported beside it.
+
+    An estimator with `sigma_count` sigma points (`bots.odometry.steps.sigma_encoders`,
+    `sigma_mouse`) carries its calibration's part of the error there instead: each point
+    dead-reckons the same readings with one calibration error a few standard deviations off, and
+    the covariance adds their spread about the estimate. A wrong track turns the heading by tens
+    of degrees over a maze, and the position error then bends away from where a first-order
+    covariance puts it (it has no variance along the track from a heading error); the points
+    follow the bend exactly. `errors` then holds the random noise alone."""
 
     name = "arc"
     end_heading = False
     uses_mouse = False
+    sigma_count = 0
 
     def __init__(self, geometry: Geometry | None = None):
         self.geometry = geometry
@@ -142,7 +168,11 @@ class ArcOdometry:
         self.robot = robot
         self.pose = np.asarray(pose, dtype=np.float64).copy()
         self.params = parameters(robot, self.geometry)
-        self.errors = Belief.of(robot).prior()
+        self.errors = Belief.of(robot).prior() if not self.sigma_count else np.zeros((ERRORS, ERRORS))
+        self.sigmas = np.repeat(self.pose[None], SIGMAS, axis=0)
+        self.state = fresh_state()
+        """The compiled steps' state (`bots.odometry.steps`: the fused detectors, the slide watches)."""
+        """(SIGMAS, 3) the sigma points' poses (the first `sigma_count` used)."""
         self.lag = quantisation_lag(self.params, self.uses_mouse)
         self._entries = np.zeros(len(COVARIANCE_FIELDS))
         self.work = workspace()  # (the compiled steps' scratch)
@@ -156,8 +186,10 @@ class ArcOdometry:
 
     @property
     def covariance(self) -> np.ndarray:
-        """(3, 3) covariance of the pose's error (m², m·rad, rad²): propagated plus the lag."""
+        """(3, 3) covariance of the pose's error (m², m·rad, rad²): propagated plus the lag, plus
+        the sigma points' spread."""
         pose_covariance(self.errors, float(self.pose[2]), self.lag, self._entries)
+        add_spread(self.sigmas, self.sigma_count, self.pose, self._entries)
         return square(self._entries)
 
 

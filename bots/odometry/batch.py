@@ -13,14 +13,13 @@ so every formula for them (tolerances, believed geometry) has one home, `bots.od
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
 
 from bots.odometry.defaults import default_estimators
-from bots.odometry.steps import ENCODERS, ESTIMATES, FUSED, MOUSE, PARAMS, STATE, TIME, batch_step, workspace
+from bots.odometry.steps import ENCODERS, ESTIMATES, FUSED, MOUSE, PARAMS, SIGMA_POSES, SIGMAS, batch_step, fresh_state, workspace
 from bots.spec import RobotSpec
 from bots.uncertainty import COVARIANCE_FIELDS, ERRORS
 
@@ -60,8 +59,7 @@ class DefaultOdometry:
         n = len(robots)
         self.rows = np.array(rows, dtype=np.int64).reshape(n)
         self.params = np.zeros((n, PARAMS))
-        self.state = np.zeros((n, STATE))
-        self.state[:, TIME] = math.nan
+        self.state = np.repeat(fresh_state()[None], n, axis=0)
         self.contact_steps = np.zeros(n, dtype=np.int64)
         self.calibration = np.zeros((n, ERRORS))
         self.poses = np.repeat(np.asarray(poses, dtype=np.float64).reshape(n, 1, 3), ESTIMATES, axis=1)
@@ -77,6 +75,9 @@ class DefaultOdometry:
             self.params[k] = chosen[ENCODERS].params
             if len(chosen) > MOUSE:
                 self.state[k] = chosen[FUSED].state
+            for j in range(min(len(chosen), FUSED)):  # the dead reckoners' sigma points (`bots.odometry.steps.sigma_block`)
+                start = SIGMA_POSES + j * SIGMAS * 3
+                self.state[k, start : start + SIGMAS * 3] = chosen[j].sigmas.ravel()
         self._out = np.zeros((n, 1 + ESTIMATES, 3))  # (where `update` is not given a run's row)
         self._cov_out = np.zeros((n, ESTIMATES, COVARIANCES))
         self._truth = np.zeros((max(self.rows.max(initial=-1) + 1, 0), 3))

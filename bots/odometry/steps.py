@@ -65,10 +65,28 @@ WORK = 29
 # slip variance, spurious-tick variance per wheel (m²), mouse reading variance (m²); and the
 # fused estimator's DISTANCE_MEMORY (m)
 TICK_LEFT, TICK_RIGHT, TRACK, PER_METRE, MOUNT_X, MOUNT_Y, TOLERANCE, TURN_TOLERANCE, MEMORY, GATE, HAS_MOUSE = range(11)
-SLIP_VAR, TICK_VAR_LEFT, TICK_VAR_RIGHT, MOUSE_VAR, DISTANCE_MEMORY, PARAMS = range(11, 17)
+SLIP_VAR, TICK_VAR_LEFT, TICK_VAR_RIGHT, MOUSE_VAR, DISTANCE_MEMORY = range(11, 16)
+# and the believed standard deviations of the calibration errors (`bots.uncertainty.Belief`:
+# each wheel's scale, the track's, the mouse resolution's), the sigma points' offsets
+WHEEL_STD, TRACK_STD, MOUSE_SCALE_STD = range(16, 19)
+# and the slide watch's memory (s) and gate (standard deviations of the calibration), `watch_slides`
+SLIDE_MEMORY, SLIDE_GATE, PARAMS = range(19, 22)
 # the fused estimator's detector state (STATE,) float64, as `FusedOdometry`'s attributes of those
 # names; TIME is nan before the first step
-DISAGREEMENT, TURN_DISAGREEMENT, TAKEN, TURNING, TIME, TRAVEL, TURN_TRAVEL, DISAGREEMENT_VAR, TURN_VAR, STATE = range(10)
+DISAGREEMENT, TURN_DISAGREEMENT, TAKEN, TURNING, TIME, TRAVEL, TURN_TRAVEL, DISAGREEMENT_VAR, TURN_VAR = range(9)
+SIGMAS = 6
+"""Sigma points of a dead-reckoning estimator (`sigma_poses`): two per calibration error it has
+(encoders: left wheel, right wheel, track; mouse: resolution, its other four unused)."""
+SIGMA_POSES = 9
+"""Where a robot's state row holds the sigma points' poses (SIGMAS, 3) of its encoders, firmware
+and mouse estimates, one block after another (`sigma_block`)."""
+SLIDE_STATE = SIGMA_POSES + 3 * SIGMAS * 3
+"""Where the state row holds the slide watch (`watch_slides`) of the mouse estimate, then the fused one's."""
+SLIDE_DISAGREEMENT, SLIDE_TURNING, SLIDE_TRAVEL, SLIDE_PEAK, SLIDE_TIME, SLIDE_VAR, SLIDES = range(7)
+STATE = SLIDE_STATE + 2 * SLIDES
+SIGMA_SPREAD = math.sqrt(3.0)
+"""Standard deviations from the estimate to each sigma point: sqrt(n + kappa) with n + kappa = 3,
+Julier and Uhlmann's choice for Gaussian errors; each point then weighs 1 / (2 * 3)."""
 
 
 @numba.njit(cache=True)
@@ -157,6 +175,14 @@ def workspace() -> np.ndarray:
     return np.zeros((WORK, ERRORS, ERRORS))
 
 
+def fresh_state() -> np.ndarray:
+    """A robot's state row (STATE,) before its first step: no time seen yet (nan), all else zero
+    (the sigma points are set to the start pose by their estimators)."""
+    state = np.zeros(STATE)
+    state[TIME] = state[SLIDE_STATE + SLIDE_TIME] = state[SLIDE_STATE + SLIDES + SLIDE_TIME] = math.nan
+    return state
+
+
 @numba.njit(cache=True)
 def _mul(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> np.ndarray:
     """out <- a @ b for 2-D arrays (numba's own needs SciPy's BLAS); `out` (a view of scratch)."""
@@ -241,6 +267,103 @@ def mouse_step(p: np.ndarray, heading: float, cov: np.ndarray, forward: float, l
 
 
 @numba.njit(cache=True)
+def sigma_block(state: np.ndarray, estimate: int) -> np.ndarray:
+    """The (SIGMAS, 3) sigma-point poses of estimate ENCODERS, FIRMWARE or MOUSE in a robot's state row (a view)."""
+    start = SIGMA_POSES + estimate * SIGMAS * 3
+    return state[start : start + SIGMAS * 3].reshape((SIGMAS, 3))
+
+
+@numba.njit(cache=True)
+def sigma_encoders(p: np.ndarray, sigmas: np.ndarray, left: float, right: float, end_heading: bool) -> None:
+    """Lay these ticks on every sigma point of the encoders' calibration, in place: point 2j
+    (2j + 1) believes error j (left wheel, right wheel, track) SIGMA_SPREAD standard deviations
+    above (below) the estimate, so its wheels roll (1 + k) times the believed arc and it turns
+    over (1 + k) times the believed track, exactly, however far its heading strays."""
+    for i in range(SIGMAS):
+        offset = (SIGMA_SPREAD if i % 2 == 0 else -SIGMA_SPREAD) * (p[WHEEL_STD] if i < 4 else p[TRACK_STD])
+        s_left = left * p[TICK_LEFT] * (1.0 + (offset if i // 2 == 0 else 0.0))
+        s_right = right * p[TICK_RIGHT] * (1.0 + (offset if i // 2 == 1 else 0.0))
+        track = p[TRACK] * (1.0 + (offset if i // 2 == 2 else 0.0))
+        _lay(sigmas[i], 0.5 * (s_left + s_right), (s_right - s_left) / track, end_heading)
+
+
+@numba.njit(cache=True)
+def sigma_mouse(p: np.ndarray, sigmas: np.ndarray, forward: float, lateral: float) -> None:
+    """Lay these counts on the two sigma points of the mouse's resolution (SIGMA_SPREAD standard
+    deviations above and below the estimate: a finer mouse counts (1 + k) times the floor)."""
+    s, alpha = mouse_arc(p, forward, lateral)
+    for i in range(2):
+        scale = 1.0 + (SIGMA_SPREAD if i == 0 else -SIGMA_SPREAD) * p[MOUSE_SCALE_STD]
+        _lay(sigmas[i], s / scale, alpha / scale, False)
+
+
+@numba.njit(cache=True)
+def add_spread(sigmas: np.ndarray, count: int, pose: np.ndarray, out: np.ndarray) -> None:
+    """Add the spread of the first `count` sigma points about `pose` to the covariance entries
+    `out` (COVARIANCE_FIELDS): the calibration's part of the error, unscented (each point weighs
+    1 / (2 SIGMA_SPREAD²), the estimate itself the rest)."""
+    weight = 0.5 / (SIGMA_SPREAD * SIGMA_SPREAD)
+    for i in range(count):
+        dx, dy, dt = sigmas[i, 0] - pose[0], sigmas[i, 1] - pose[1], sigmas[i, 2] - pose[2]
+        out[0] += weight * dx * dx
+        out[1] += weight * dx * dy
+        out[2] += weight * dx * dt
+        out[3] += weight * dy * dy
+        out[4] += weight * dy * dt
+        out[5] += weight * dt * dt
+
+
+@numba.njit(cache=True)
+def slide_block(state: np.ndarray, estimate: int) -> np.ndarray:
+    """The (SLIDES,) slide watch of estimate MOUSE or FUSED in a robot's state row (a view)."""
+    start = SLIDE_STATE + (0 if estimate == MOUSE else SLIDES)
+    return state[start : start + SLIDES]
+
+
+@numba.njit(cache=True)
+def watch_slides(p: np.ndarray, watch: np.ndarray, cov: np.ndarray, disagreement: float, var: float, turned: float, travelled: float,
+                 time: float) -> None:  # fmt: skip
+    """Widen the heading's variance by what a slide may have added, in place. A robot sliding
+    along a wall moves its mouse sideways, which the mouse reads as rotation, while the encoders
+    turn as the wheels do: the mouse's rotation beyond the encoders' (`disagreement`, rad, this
+    step), summed with a memory of SLIDE_MEMORY seconds, stays within the quantisation band
+    (`TURN_TOLERANCE`), GATE standard deviations of its random noise (`var`, rad² this step,
+    summed as it is) and SLIDE_GATE believed calibration errors of the recent net turning and
+    driving (`turned` rad, signed, `travelled` m this step: a scale error's disagreement follows
+    the net turn, the quantisation's ticks back and forth cancel) unless the robot slid. Beyond
+    it the whole sum is what the slide may have turned the mouse's heading by: while it grows,
+    the variance grows with its square (an episode adds its peak squared; the watch starts again
+    once the sum is back within the band). Slower slides than about the band over SLIDE_MEMORY
+    go unseen."""
+    last = watch[SLIDE_TIME]
+    keep = 1.0 if math.isnan(last) else math.exp(-max(time - last, 0.0) / p[SLIDE_MEMORY])
+    watch[SLIDE_TIME] = time
+    watch[SLIDE_DISAGREEMENT] = watch[SLIDE_DISAGREEMENT] * keep + disagreement
+    watch[SLIDE_TURNING] = watch[SLIDE_TURNING] * keep + turned
+    watch[SLIDE_TRAVEL] = watch[SLIDE_TRAVEL] * keep + abs(travelled)
+    watch[SLIDE_VAR] = watch[SLIDE_VAR] * keep * keep + var
+    turn_scale = math.sqrt(p[TRACK_STD] * p[TRACK_STD] + p[MOUSE_SCALE_STD] * p[MOUSE_SCALE_STD])
+    band = p[TURN_TOLERANCE] + p[GATE] * math.sqrt(watch[SLIDE_VAR]) + p[SLIDE_GATE] * (turn_scale * abs(watch[SLIDE_TURNING]) + math.sqrt(2.0) * p[WHEEL_STD] * watch[SLIDE_TRAVEL] / p[TRACK])
+    level = abs(watch[SLIDE_DISAGREEMENT])
+    if level <= band:
+        watch[SLIDE_PEAK] = 0.0
+    elif level > watch[SLIDE_PEAK]:
+        cov[HEADING, HEADING] += level * level - watch[SLIDE_PEAK] * watch[SLIDE_PEAK]
+        watch[SLIDE_PEAK] = level
+
+
+@numba.njit(cache=True)
+def turn_check(p: np.ndarray, left: float, right: float, s: float, alpha: float) -> tuple[float, float, float]:
+    """What the mouse estimate's slide watch compares (`watch_slides`): the encoders' increment
+    (s m, alpha rad) of these ticks by the believed geometry, and the random variance (rad²) of
+    the difference of the two rotations, the mouse's increment being (s, alpha)."""
+    s_left, s_right = left * p[TICK_LEFT], right * p[TICK_RIGHT]
+    var_left, var_right = wheel_variances(p, s_left, s_right)
+    var = (var_left + var_right) / (p[TRACK] * p[TRACK]) + mouse_variance(p, s, alpha) / (p[MOUNT_X] * p[MOUNT_X])
+    return 0.5 * (s_left + s_right), (s_right - s_left) / p[TRACK], var
+
+
+@numba.njit(cache=True)
 def _weighed(w_enc: np.ndarray, m_enc: np.ndarray, w_mouse: np.ndarray, m_mouse: np.ndarray, out: np.ndarray, work: np.ndarray) -> None:
     """out <- w_enc m_enc w_enc^T + w_mouse m_mouse w_mouse^T (2 x 2; `work`: four scratch planes)."""
     _add(_mul(_mul(w_enc, m_enc, work[0, :2, :2]), w_enc.T, work[1, :2, :2]), _mul(_mul(w_mouse, m_mouse, work[2, :2, :2]), w_mouse.T, work[3, :2, :2]), out)
@@ -310,6 +433,7 @@ def fused_step(
     mismatch = math.sqrt(max(cov[LEFT_SCALE, LEFT_SCALE] + cov[RIGHT_SCALE, RIGHT_SCALE] - 2.0 * cov[LEFT_SCALE, RIGHT_SCALE], 0.0))
     band = p[TURN_TOLERANCE] + p[GATE] * (math.sqrt(st[TURN_VAR]) + turn_scale * st[TURNING] + mismatch * st[TURN_TRAVEL] / track)
     sliding = abs(st[TURN_DISAGREEMENT]) > band
+    watch_slides(p, slide_block(st, FUSED), cov, corrected_mouse[1] - corrected_enc[1], r_enc[1, 1] + r_mouse[1, 1], corrected_enc[1], corrected_enc[0], time)
     _add(r_enc, q_enc, a_enc)
     _add(r_mouse, q_mouse, a_mouse)
     if slipped:
@@ -391,11 +515,15 @@ def batch_step(
             end_heading = estimate == FIRMWARE  # (a bool numba does not take for a constant: the step compiles once for both)
             s, alpha = encoder_step(p, pose[estimate, 2], cov[estimate], left, right, end_heading, work)
             _lay(pose[estimate], s, alpha, end_heading)
+            sigma_encoders(p, sigma_block(state[i], estimate), left, right, end_heading)
         if p[HAS_MOUSE] == 0.0:
             continue
         forward, lateral = float(tallies[r, 2]), float(tallies[r, 3])
         s, alpha = mouse_step(p, pose[MOUSE, 2], cov[MOUSE], forward, lateral, work)
         _lay(pose[MOUSE], s, alpha, False)
+        sigma_mouse(p, sigma_block(state[i], MOUSE), forward, lateral)
+        s_enc, alpha_enc, var = turn_check(p, left, right, s, alpha)
+        watch_slides(p, slide_block(state[i], MOUSE), cov[MOUSE], alpha - alpha_enc, var, alpha_enc, s_enc, time)
         s, alpha, sliding = fused_step(p, state[i], pose[FUSED], calibration[i], cov[FUSED], lags[i, FUSED], left, right, forward, lateral, time, work)
         contact_steps[i] += sliding
         _lay(pose[FUSED], s, alpha, False)
@@ -409,3 +537,5 @@ def batch_step(
         estimates = ESTIMATES if params[i, HAS_MOUSE] != 0.0 else FIRMWARE + 1
         for j in range(estimates):
             pose_covariance(errors[i, j], poses[i, j, 2], lags[i, j], cov_out[i, j])
+            if j != FUSED:
+                add_spread(sigma_block(state[i], j), SIGMAS if j != MOUSE else 2, poses[i, j], cov_out[i, j])

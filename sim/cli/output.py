@@ -16,6 +16,7 @@ from sim.analysis.summary import goal_note, summarize, write_json
 from sim.cli.observers import StopOnSignal
 from sim.cli.options import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_TERMINATED, UsageError
 from sim.folder_lock import LOCK, hold
+from sim.out_files import NotAFileOfItsOwn
 from sim.run.ending import Ending
 
 START = Path.cwd()
@@ -61,7 +62,7 @@ def _earlier_run(out: Path) -> list[Path]:
     return [*RunFolder(out).fixed, *named, *(p.with_suffix(".csv") for p in named)]
 
 
-held: list[Any] = []  # the open lock files of this command, closed (released) when it ends
+held: list[Any] = []  # the folders this command holds (`sim.folder_lock.Hold`), freed when it ends
 
 
 def _lock(out: Path) -> None:
@@ -103,9 +104,10 @@ def finish(result, out: Path, options: dict[str, Any], report: bool = True, metr
         from sim.web.report import write_run_report
 
         written.append(write_run_report(out))
-    except OSError as err:
+    except (OSError, NotAFileOfItsOwn) as err:  # (a full disk; a folder or link planted at a file's name while it ran)
         kept = ", ".join(p.name for p in written[1:]) or "nothing"
-        print(f"ctsim: error: writing the run's results into {sanitize.name(str(out), 1000)}: {err.strerror or err} (written: {kept})", file=sys.stderr)
+        said = err.strerror if isinstance(err, OSError) and err.strerror else sanitize.name(str(err), 1000)
+        print(f"ctsim: error: writing the run's results into {sanitize.name(str(out), 1000)}: {said} (written: {kept})", file=sys.stderr)
         return EXIT_FAILED
     print(table(summary))
     for note in getattr(result, "notes", ()):  # what the run's guards put back (`sim.guards`)

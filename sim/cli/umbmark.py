@@ -27,7 +27,7 @@ def add_parser(commands) -> None:  # noqa: ANN001 (argparse's subparsers action)
         description="Borenstein and Feng's UMBmark: drive squares clockwise and counter-clockwise by the robot's own encoder odometry, "
         "compute the wheel diameter ratio (E_d) and track (E_b) corrections from where they really end, correct, measure again "
         "(--rounds), and drive fresh squares with the calibrated geometry. Every square has noise of its own (no two share a seed). "
-        "Prints E_max before and after and the corrections with 95 %% confidence intervals (bootstrap over the squares), and how many "
+        "Prints E_max before and after and the corrections with 95 % confidence intervals (bootstrap over the squares), and how many "
         "runs each way this robot's noise needs; writes umbmark.png and umbmark.json.",
     )
     add_robot_description(umbmark)

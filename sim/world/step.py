@@ -1,6 +1,5 @@
-"""The simulation step: its default and the range the physics holds, in one place.
-
-c't-Sim steps every 10 ms, and so does every ctsim run unless told otherwise. Below 0.1 ms a run
+"""The simulation step: the range the physics holds and its one check (the default, c't-Sim's 10 ms,
+is the core's `sim.kinematics.step.DEFAULT_DT`, shared with a robot's own code). Below 0.1 ms a run
 of minutes needs more steps than its arrays should hold; above 1 s a robot at full speed crosses a
 wall's thickness in one step, which the contacts no longer catch.
 """
@@ -10,9 +9,10 @@ from __future__ import annotations
 import math
 
 from sim.errors import UserError
+from sim.kinematics.step import DEFAULT_DT
 
-DEFAULT_DT = 0.01
-"""The step (s) of a run, a world and the command line when none is given: c't-Sim's 10 ms."""
+__all__ = ["DEFAULT_DT", "DT_RANGE", "StepError", "check_dt"]
+
 DT_RANGE = (1e-4, 1.0)
 """The steps (s) a run may take, both ends included."""
 

@@ -12,13 +12,13 @@ import numpy as np
 from sim.world.layout import Floor, Ground
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def raster_cell(x: float, y: float, floor: Floor) -> tuple[int, int]:
     """The raster's column and row of the point (x, y) (m), unclamped: off the map beyond its shape."""
     return int(math.floor((x - floor.origin[0]) / floor.cell)), int(math.floor((y - floor.origin[1]) / floor.cell))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def in_hole(x: float, y: float, floor: Floor) -> bool:
     """Whether the point (x, y) (m) is over a hole (off the map: `outside_is_hole`): the one hole
     test of the world, its kernels and its Python code alike."""
@@ -28,22 +28,16 @@ def in_hole(x: float, y: float, floor: Floor) -> bool:
     return floor.hole[iy, ix]
 
 
-@numba.njit(cache=True)
-def absorption_at(x: float, y: float, floor: Floor, outside: np.float32) -> np.float32:
-    """What the ground (without its lines) swallows at the point (x, y) (m) (`outside` off the map)."""
-    ix, iy = raster_cell(x, y, floor)
-    if ix < 0 or iy < 0 or iy >= floor.ground.shape[0] or ix >= floor.ground.shape[1]:
+@numba.njit(cache=True, inline="always")
+def raster_at(x: float, y: float, raster: np.ndarray, origin_x: float, origin_y: float, cell: float, outside: np.float32) -> np.float32:
+    """One of the floor's float32 rasters (`Floor.ground`, `Floor.lines`) at the point (x, y) (m),
+    `outside` off the map: the sensors' lookup, given the one raster and the frame as plain values
+    (a call that passes the whole Floor group counts a reference for each of its arrays, which cost
+    the floor sensors half their time)."""
+    ix, iy = int(math.floor((x - origin_x) / cell)), int(math.floor((y - origin_y) / cell))
+    if ix < 0 or iy < 0 or iy >= raster.shape[0] or ix >= raster.shape[1]:
         return outside
-    return floor.ground[iy, ix]
-
-
-@numba.njit(cache=True)
-def line_at(x: float, y: float, floor: Floor) -> np.float32:
-    """The absorption of the line at (x, y); NaN off every line (and off the map)."""
-    ix, iy = raster_cell(x, y, floor)
-    if ix < 0 or iy < 0 or iy >= floor.lines.shape[0] or ix >= floor.lines.shape[1]:
-        return np.float32(np.nan)
-    return floor.lines[iy, ix]
+    return raster[iy, ix]
 
 
 @numba.njit(cache=True)

@@ -9,7 +9,7 @@ import math
 import numba
 import numpy as np
 
-from sim.world.kernels.floor import absorption_at, line_at
+from sim.world.kernels.floor import raster_at
 from sim.world.kernels.geometry import polygon_distance, ray_circle, ray_polygon
 from sim.world.kernels.grids import circle_grid, first_at_least, walls_near
 from sim.world.kernels.pick import pick_wall
@@ -39,7 +39,8 @@ def sample_floor(pose: np.ndarray, sensors: np.ndarray, floor: Floor, out: np.nd
     floor, at (height - line_height) * `FAN` off the mount point, else the ground (without its
     lines) at height * `FAN`; each fan's absorption is summed in float32 and truncated to 0..1023,
     and the reading is the two fans' truncated mean. Height 0 reads the mount point alone."""
-    out_absorption = np.float32(floor.outside_absorption)
+    out_absorption, off_lines = np.float32(floor.outside_absorption), np.float32(np.nan)
+    ground, lines, ox, oy, cell = floor.ground, floor.lines, floor.origin[0], floor.origin[1], floor.cell
     owner = sensors.owner
     points = np.empty((sensors.shape[0], 2))
     to_world(pose, sensors.at, owner, points)
@@ -52,10 +53,10 @@ def sample_floor(pose: np.ndarray, sensors: np.ndarray, floor: Floor, out: np.nd
             swallowed = np.float32(0.0)
             for j in range(FAN.shape[0]):
                 r = above_lines * FAN[j]
-                value = line_at(points[k, 0] + r * ux, points[k, 1] + r * uy, floor)
+                value = raster_at(points[k, 0] + r * ux, points[k, 1] + r * uy, lines, ox, oy, cell, off_lines)
                 if math.isnan(value):
                     r = height * FAN[j]
-                    value = absorption_at(points[k, 0] + r * ux, points[k, 1] + r * uy, floor, out_absorption)
+                    value = raster_at(points[k, 0] + r * ux, points[k, 1] + r * uy, ground, ox, oy, cell, out_absorption)
                 swallowed += value
             total += int(swallowed * np.float32(1023.0) / np.float32(FAN.shape[0]))
         out[k] = total // 2
