@@ -23,6 +23,7 @@ from sim.contest.game import GameJob, play
 from sim.contest.ranking import ranking
 from sim.contest.store import Store
 from sim.experiments.engines import Processes, Serial
+from sim.folder_lock import LOCK
 
 ROOT = Path(__file__).resolve().parents[1]
 LANES = ROOT / "tests" / "data" / "contest_lanes.toml"
@@ -63,7 +64,7 @@ def test_a_contest_from_the_command_line_writes_bracket_ranking_and_database(lan
     entries = drivers(tmp_path, 0.1, 0.3, 0.2, 0.15, 0.25)
     code = main(["contest", str(lanes), *entries, "--time-limit", "6", "--engine", "serial", "--noise", "none", "--out", str(out)])  # straight drivers in exact lanes
     printed = capsys.readouterr().out
-    assert code == 0
+    assert code == 0 and not (out / LOCK).exists()  # (the contest's lock removed as it ended)
     with (out / "ranking.csv").open() as f:
         rows = list(csv.DictReader(f))
     assert [r["entry"] for r in rows] == ["v03", "v025", "v02", "v015", "v01"]  # the fastest wins every race

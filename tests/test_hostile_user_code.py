@@ -299,7 +299,7 @@ def test_a_run_too_long_for_the_address_space_limit_is_refused_in_one_line(tmp_p
                           capture_output=True, text=True, timeout=600, preexec_fn=limit, cwd=Path(__file__).resolve().parents[1])  # fmt: skip
     assert done.returncode == 2, done.stderr[-2000:]
     assert done.stderr.startswith("ctsim: error: the run needs about ") and done.stderr.count("\n") == 1 and "ulimit -v" in done.stderr
-    assert sorted(p.name for p in out.iterdir()) == [".ctsim.lock"]
+    assert not any(out.iterdir())  # (its lock file removed as the command ended)
 
 
 @pytest.mark.skipif(not hasattr(signal, "setitimer"), reason="the step clock is POSIX")

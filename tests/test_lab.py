@@ -256,7 +256,8 @@ def test_a_folder_of_notebooks_and_files_is_graded_alike(tmp_path: Path) -> None
 
 def test_every_problem_has_a_hint_of_its_own_in_both_languages() -> None:
     shared = shared_hints()
-    for kind in ("load", "raised", "timeout", "crash", "forbidden", "type", "shape", "nan", "wrong", "budget", "protocol", "output", "memory"):
+    for kind in ("load", "raised", "timeout", "crash", "forbidden", "type", "shape", "nan", "wrong", "budget", "protocol", "output", "memory",
+                 "placeholder", "undefined"):
         assert set(shared[kind]) == {"en", "de"} and all(len(text.split()) > 5 for text in shared[kind].values()), kind
 
 
@@ -292,3 +293,87 @@ def test_a_students_whole_exception_message_is_printed_not_cut_to_the_cell():
     lines = table(report).splitlines()
     assert len(message) > CELL and f"    got: {message}" in lines
     assert "got:" not in table(dataclasses.replace(report, rows=[Row("circle", "1", "2", "1e-6", False)]))
+
+
+class NeverRun:
+    """A stand-in for `Student` that fails the test if the check starts the student's file at all."""
+
+    def __init__(self, *args, **kwargs):
+        raise AssertionError("the student's file was run")
+
+
+@pytest.mark.parametrize("number", sorted(WRONG))
+def test_the_untouched_template_is_told_before_anything_runs(number: int, tmp_path: Path) -> None:
+    """Each scenario would only say the same NotImplementedError, seconds of runs and replays later."""
+    from sim.lab.unfinished import placeholders
+
+    ex = exercise(number)
+    report = check_file(ex, write(tmp_path, ex.file, ex.template()), seed=SEED, runner=NeverRun)
+    assert len(report.rows) == len(ex.scenarios(SEED)) and report.score == 0
+    assert {r.problem for r in report.rows} == {"placeholder"}
+    assert all(f"{placeholders(ex.template())[0]}() raises NotImplementedError" in r.got and "not run" in r.got for r in report.rows)
+    assert {r.hint for r in report.rows} == {ex.hint("placeholder", "en", shared_hints(), name=placeholders(ex.template())[0])}
+
+
+UNFINISHED = {
+    "docstring kept": ('def turn(*a):\n    """Mine."""\n    raise NotImplementedError\n', "placeholder"),
+    "defined again": ("def turn(*a):\n    return 0, 0, 0, 0\n\ndef turn(*a):\n    raise NotImplementedError('later')\n", "placeholder"),
+    "no such name": ("def icc(*a):\n    return 0, 0, 0, 0\n", "undefined"),
+}
+STARTED = {
+    "written": "def turn(*a):\n    return 0, 0, 0, 0\n",
+    "raises after work": "def turn(*a):\n    x = 1\n    raise NotImplementedError(x)\n",
+    "imported": "from helper import turn\n",
+    "star import": "from helper import *\n",
+    "rebound": "def turn(*a):\n    raise NotImplementedError\n\nturn = lambda *a: (0, 0, 0, 0)\n",
+    "by its name in a string": "globals()['turn'] = lambda *a: (0, 0, 0, 0)\n",
+    "does not parse": "def turn(*a)\n",
+}
+
+
+@pytest.mark.parametrize("case", sorted(UNFINISHED))
+def test_a_file_that_is_no_solution_yet_is_told_at_once(case: str, tmp_path: Path) -> None:
+    text, problem = UNFINISHED[case]
+    report = check_file(exercise(1), write(tmp_path, "icc.py", text), seed=SEED, runner=NeverRun)
+    assert {r.problem for r in report.rows} == {problem} and "turn" in report.rows[0].got
+
+
+@pytest.mark.parametrize("case", sorted(STARTED))
+def test_a_file_the_text_cannot_judge_is_run(case: str, tmp_path: Path) -> None:
+    from sim.lab.unfinished import gap
+
+    assert gap(exercise(1).template(), write(tmp_path, "icc.py", STARTED[case])) is None
+
+
+def test_a_pipe_for_a_file_is_not_read_by_the_template_check(tmp_path: Path) -> None:
+    import os
+
+    from sim.lab.unfinished import gap
+
+    os.mkfifo(tmp_path / "icc.py")  # (read without O_NONBLOCK, this would wait for a writer forever)
+    assert gap(exercise(1).template(), tmp_path / "icc.py") is None
+
+
+def test_each_check_draws_into_a_new_folder_of_its_own_not_here(tmp_path: Path, monkeypatch, capsys) -> None:
+    """Two students checked one after the other (or one twice) keep both sets of figures; the
+    current folder gets nothing; `--out` puts them where asked."""
+    import tempfile
+
+    here, scratch = tmp_path / "here", tmp_path / "scratch"
+    here.mkdir()
+    scratch.mkdir()
+    monkeypatch.chdir(here)
+    monkeypatch.setattr(tempfile, "tempdir", str(scratch))
+    printed = ""
+    for name in ("alice", "bob"):
+        write(here, f"{name}.py", (SOLUTIONS / "ex2" / "reference.py").read_text())
+        assert main(["lab", "check", "2", f"{name}.py"]) == 0
+        printed += capsys.readouterr().out
+    folders = sorted(scratch.iterdir())
+    assert [f.name.split("-")[:2] for f in folders] == [["ctsim", "lab2"]] * 2 and folders[0].name != folders[1].name
+    assert [f.name.split("-")[2] for f in folders] in (["alice", "bob"], ["bob", "alice"])  # (the rest is random)
+    assert all(any(f.rglob("trajectories.png")) for f in folders)
+    assert sorted(p.name for p in here.iterdir()) == ["alice.py", "bob.py"]
+    assert all(f"wrote {f}" in printed for f in folders)  # (where they are, said)
+    assert main(["lab", "check", "2", "alice.py", "--out", "mine"]) == 0
+    assert any((here / "mine").rglob("trajectories.png")) and len(list(scratch.iterdir())) == 2

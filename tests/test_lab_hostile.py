@@ -91,7 +91,7 @@ ATTACKS = {
     "flood_stderr": ("import sys\n" + STEP + "    while True:\n        sys.stderr.write('y' * 10000)\n", "output", "printed more than"),
     "kill_parent": ("import os, signal\n" + STEP + "    for pid in (os.getppid(), 1, -1):\n        try:\n            os.kill(pid, signal.SIGKILL)\n"
                     "        except OSError:\n            pass\n    return [x, y, theta]\n", "wrong", "("),
-    "exit_at_load": ("import sys\nsys.exit(0)\n", "load", "loading your file raised SystemExit at line 2"),
+    "exit_at_load": ("import sys\nsys.exit(0)\n" + STEP + "    return [x, y, theta]\n", "load", "loading your file raised SystemExit at line 2"),
     "exit_in_step": ("import sys\n" + STEP + "    sys.exit(3)\n", "raised", "raised SystemExit at line 3"),
     "hard_exit": ("import os\n" + STEP + "    os._exit(0)\n", "crash", "ended the checking process"),
     "endless_loop": (STEP + "    while True:\n        pass\n", "timeout", "took longer than the time limit"),

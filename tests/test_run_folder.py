@@ -117,7 +117,7 @@ def test_a_folder_of_other_files_is_refused_and_left_alone(tmp_path, capsys):
     (out / "plot.png").write_bytes(b"png")
     assert status([*RUN, "--out", str(out)]) == 2
     assert "holds files that no ctsim run wrote (data.csv, plot.png)" in capsys.readouterr().err
-    assert sorted(p.name for p in out.iterdir()) == [".ctsim.lock", "data.csv", "plot.png"]
+    assert sorted(p.name for p in out.iterdir()) == ["data.csv", "plot.png"]
 
 
 @pytest.mark.parametrize("text", ['{"x": 1}', "[]", "not json", '{"reason": "done"}'])

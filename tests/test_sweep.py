@@ -4,11 +4,14 @@ a run that raises is a row with its error; spec mistakes stop the CLI before any
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
+import socket
 import subprocess
 import sys
 import time
+import warnings
 from pathlib import Path
 
 import pandas as pd
@@ -109,6 +112,22 @@ def test_dask_local_cluster_of_three_workers_gives_the_serial_table(spec_file, s
     pd.testing.assert_frame_equal(measured(table), measured(serial))
 
 
+def test_a_local_cluster_warns_nothing_where_port_8787_is_taken():
+    """Another program on Dask's dashboard port (a notebook's cluster, a second sweep): the sweep's
+    LocalCluster warned on stderr; its scheduler's few HTTP routes now take a free loopback port."""
+    holder = socket.socket()
+    try:
+        with contextlib.suppress(OSError):  # (taken already: as good)
+            holder.bind(("127.0.0.1", 8787))
+            holder.listen()
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            Dask(workers=1).close()
+    finally:
+        holder.close()
+    assert not [w for w in caught if "already in use" in str(w.message)]
+
+
 def test_killed_half_way_resumes_with_every_row_once(spec_file, reference, tmp_path):
     process = subprocess.Popen(
         [sys.executable, "-m", "sim.cli", "sweep", str(spec_file), "--out", str(tmp_path), "--jobs", "2"],
@@ -173,6 +192,30 @@ def test_a_signal_to_the_whole_group_stops_the_sweep_and_resume_finishes_it(spec
     table = sweep(spec_file, tmp_path, Processes(2), on_row=ran.append, progress=False)
     assert len(ran) == RUNS - len(kept)
     pd.testing.assert_frame_equal(measured(table), measured(reference))
+
+
+@pytest.mark.parametrize("make_runner", [lambda: Processes(2), lambda: Dask(workers=2)], ids=["processes", "dask"])
+def test_a_signal_whose_exception_code_in_between_dropped_still_stops_the_engine(make_runner):
+    """A handler's exception is raised wherever the main thread is; code that clears every error
+    (pyarrow probing a pandas column's attributes while a sweep writes its row; a finalizer the
+    garbage collector runs) dropped it, and the sweep ran to its end (exit 0 after SIGTERM). Here
+    the caller's code drops it on purpose: the engine still stops when asked for the next outcome,
+    and puts the handler back."""
+    runner = make_runner()
+    got = []
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            for _, outcome in runner.imap(abs, range(-40, 0)):
+                got.append(outcome)
+                if len(got) == 3:
+                    try:
+                        signal.raise_signal(signal.SIGINT)  # (its handler runs before this returns)
+                    except KeyboardInterrupt:  # as such code does
+                        pass
+    finally:
+        runner.close()
+    assert len(got) == 3
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
 
 def test_ctrl_c_in_a_serial_sweep_records_no_cut_run(crash, tmp_path):

@@ -62,7 +62,7 @@ def _earlier_run(out: Path) -> list[Path]:
     return [*RunFolder(out).fixed, *named, *(p.with_suffix(".csv") for p in named)]
 
 
-held: list[Any] = []  # the open lock files of this command, closed (released) when it ends
+held: list[Any] = []  # the folders this command holds (`sim.folder_lock.Hold`), freed when it ends
 
 
 def _lock(out: Path) -> None:

@@ -14,6 +14,7 @@ import multiprocessing
 import os
 import signal
 import threading
+import time
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager, suppress
@@ -71,6 +72,48 @@ def _serve(conn, inherited: list) -> None:  # noqa: ANN001 (multiprocessing Conn
                 conn.send(fn(job))
     except (EOFError, OSError):  # the parent is done with us (or gone)
         return
+
+
+POLL_S = 0.05
+"""Seconds a parallel engine waits for outcomes before it looks for a signal again (`_HeldSignals`)."""
+
+
+class _HeldSignals:
+    """Ctrl-C and SIGTERM while a parallel engine hands out outcomes, acted on where it is safe.
+    Meanwhile their handlers only note the signal, and `deliver` calls the handler that was in
+    place (default: KeyboardInterrupt; `ctsim`'s SIGTERM handler: Terminated) where the engine
+    looks: every POLL_S while it waits, and whenever it is asked for the next outcome. Raised
+    wherever the main thread happens to be, as a handler raises, the exception could be lost: in a
+    finalizer the garbage collector ran ("Exception ignored", pymunk's) or in C code that clears
+    the errors of what it calls, while the sweep wrote a row (pandas and pyarrow); the sweep then
+    ran to its end and exited 0 (2 of 56 Dask sweeps SIGTERMed here). Only handlers written in Python
+    are held (a signal that kills or is ignored stays so), and only in the main thread."""
+
+    def __init__(self) -> None:
+        self.noted: list[int] = []
+        self.previous: dict[int, Any] = {}
+
+    def __enter__(self) -> _HeldSignals:
+        if threading.current_thread() is threading.main_thread():
+            for number in (signal.SIGINT, signal.SIGTERM):
+                if callable(signal.getsignal(number)):
+                    self.previous[number] = signal.signal(number, self._note)
+        return self
+
+    def _note(self, signum: int, frame: Any) -> None:
+        self.noted.append(signum)
+
+    def deliver(self) -> None:
+        """Call the handler of the first signal noted (which raises, for a stop)."""
+        if self.noted:
+            signum = self.noted[0]
+            self.noted.clear()
+            self.previous[signum](signum, None)
+
+    def __exit__(self, *exc: object) -> None:
+        for number, handler in self.previous.items():
+            signal.signal(number, handler)
+        self.deliver()  # (a signal noted as the engine ended: the caller's now)
 
 
 @dataclass
@@ -133,40 +176,48 @@ class Processes:
         size = self.batch or _batch_size(len(pending), self.workers)
         while len(self._pool) < min(self.workers, len(pending)):
             self._start()
-        deaths: dict[int, int] = {}
         finished = False
         try:
-            while pending or any(w.queued for w in self._pool):
-                for worker in self._pool:
-                    while pending and len(worker.queued) < 2 * size:  # the running batch and the next
-                        batch = [pending.popleft() for _ in range(min(size, len(pending)))]
-                        worker.conn.send((fn, batch))
-                        worker.queued.extend(batch)
-                busy = [w for w in self._pool if w.queued]
-                ready = set(wait([w.conn for w in busy] + [w.process.sentinel for w in busy]))
-                for worker in [w for w in busy if w.conn in ready or w.process.sentinel in ready]:
-                    try:
-                        while worker.queued and worker.conn.poll():
-                            outcome = worker.conn.recv()
-                            yield worker.queued.popleft(), outcome
-                        if worker.queued and not worker.process.is_alive():
-                            raise EOFError
-                    except (EOFError, OSError):  # the worker died running its first queued job
-                        job = worker.queued.popleft()
-                        pending.extendleft(reversed(worker.queued))  # the rest of its batches, in order
-                        worker.queued.clear()
-                        self._retire(worker)
-                        deaths[id(job)] = deaths.get(id(job), 0) + 1
-                        if deaths[id(job)] <= self.retries:
-                            pending.appendleft(job)
-                        else:
-                            yield job, Lost(f"its worker process died {deaths[id(job)]} times (exit code {worker.process.exitcode})")
-                        if pending and len(self._pool) < self.workers:
-                            self._start()
+            with _HeldSignals() as held:
+                yield from self._outcomes(fn, pending, size, held)
             finished = True
         finally:
             if not finished:  # stopped half-way: the workers' queued runs must not outlive this call
                 self.close(kill=True)
+
+    def _outcomes(self, fn: Callable[[Any], Any], pending: deque, size: int, held: _HeldSignals) -> Iterator[tuple[Any, Any]]:
+        """Batches of `pending` out to the workers, outcomes back as they come; a signal acted on
+        (`held`) while waiting and whenever the caller asks for more."""
+        deaths: dict[int, int] = {}
+        while pending or any(w.queued for w in self._pool):
+            for worker in self._pool:
+                while pending and len(worker.queued) < 2 * size:  # the running batch and the next
+                    batch = [pending.popleft() for _ in range(min(size, len(pending)))]
+                    worker.conn.send((fn, batch))
+                    worker.queued.extend(batch)
+            busy = [w for w in self._pool if w.queued]
+            ready = set(wait([w.conn for w in busy] + [w.process.sentinel for w in busy], timeout=POLL_S))
+            held.deliver()
+            for worker in [w for w in busy if w.conn in ready or w.process.sentinel in ready]:
+                try:
+                    while worker.queued and worker.conn.poll():
+                        outcome = worker.conn.recv()
+                        yield worker.queued.popleft(), outcome
+                        held.deliver()
+                    if worker.queued and not worker.process.is_alive():
+                        raise EOFError
+                except (EOFError, OSError):  # the worker died running its first queued job
+                    job = worker.queued.popleft()
+                    pending.extendleft(reversed(worker.queued))  # the rest of its batches, in order
+                    worker.queued.clear()
+                    self._retire(worker)
+                    deaths[id(job)] = deaths.get(id(job), 0) + 1
+                    if deaths[id(job)] <= self.retries:
+                        pending.appendleft(job)
+                    else:
+                        yield job, Lost(f"its worker process died {deaths[id(job)]} times (exit code {worker.process.exitcode})")
+                    if pending and len(self._pool) < self.workers:
+                        self._start()
 
     def close(self, kill: bool = False) -> None:
         """Stop the workers (`kill`: at once, not after the run each is in)."""
@@ -198,6 +249,12 @@ LOCAL_CONFIG = {
 }
 """Dask settings of a LocalCluster the engine starts: the measuring that Dask's dashboard feeds
 costs CPU on a machine whose cores the runs need (`bench/run.py -k sweep_dask`)."""
+
+
+QUIET_SCHEDULER = {"dashboard": False, "dashboard_address": "127.0.0.1:0"}
+"""A LocalCluster's scheduler without the dashboard still serves a few HTTP routes, on port 8787
+unless told otherwise: where another program holds that port, Dask warned on stderr ("Port 8787 is
+already in use"). A free port on this machine's loopback instead."""
 
 
 @contextmanager
@@ -238,7 +295,7 @@ class Dask:
             try:
                 with _without_stop_signals(), dask.config.set(LOCAL_CONFIG):
                     self.cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, dashboard_address=None, memory_limit=0,
-                                                silence_logs=logging.CRITICAL, preload=PRELOAD)  # fmt: skip
+                                                silence_logs=logging.CRITICAL, preload=PRELOAD, scheduler_kwargs=QUIET_SCHEDULER)  # fmt: skip
                     self.client = Client(self.cluster, timeout=timeout)
             except BaseException:  # (a Ctrl-C while it started arrives here, once it has)
                 self._end_cluster()
@@ -256,19 +313,25 @@ class Dask:
         futures = {self.client.submit(_run_batch, fn, jobs[k : k + size], pure=False): jobs[k : k + size] for k in range(0, len(jobs), size)}
         running = as_completed(futures)
         try:
-            for future in running:
-                batch = futures.pop(future)
-                try:
-                    outcomes = future.result()
-                except KilledWorker as err:
-                    if len(batch) > 1:  # which run killed it is unknown: each again, alone
-                        for job in batch:
-                            single = self.client.submit(_run_batch, fn, [job], pure=False)
-                            futures[single] = [job]
-                            running.add(single)
+            with _HeldSignals() as held:
+                while not running.is_empty():
+                    held.deliver()
+                    if not running.has_ready():
+                        time.sleep(POLL_S)  # (as_completed's own wait would not wake for a signal held)
                         continue
-                    outcomes = [Lost(f"its Dask worker died on every attempt ({err})")]
-                yield from zip(batch, outcomes)
+                    future = next(running)
+                    batch = futures.pop(future)
+                    try:
+                        outcomes = future.result()
+                    except KilledWorker as err:
+                        if len(batch) > 1:  # which run killed it is unknown: each again, alone
+                            for job in batch:
+                                single = self.client.submit(_run_batch, fn, [job], pure=False)
+                                futures[single] = [job]
+                                running.add(single)
+                            continue
+                        outcomes = [Lost(f"its Dask worker died on every attempt ({err})")]
+                    yield from zip(batch, outcomes)
         finally:
             self.client.cancel(list(futures))
 

@@ -47,7 +47,7 @@ def add_parser(commands: argparse._SubParsersAction, handler: Callable[[argparse
     check = action("check", "check your file on the examples and on hidden scenarios")
     check.add_argument("number", type=int)
     check.add_argument("file", type=Path, help="your file, or the notebook of `lab start --notebook`")
-    check.add_argument("--out", type=Path, default=Path("lab-check"), metavar="DIR", help="folder for figures and recordings (default: lab-check)")
+    check.add_argument("--out", type=Path, metavar="DIR", help="folder for figures and recordings (default: a new one for each check in the temporary folder, named in the output)")
     check.add_argument("--degraded", action="store_true", help="where bubblewrap is missing, run the file without isolation (said in the result)")
     grade = action("grade", "grade a folder of submissions (.py files, notebooks, or a folder each): CSV, Gradescope results.json, JUnit XML")
     grade.add_argument("number", type=int)

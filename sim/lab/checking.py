@@ -8,6 +8,8 @@ values of hidden scenarios, writes the figures of public ones, and scores the wh
 from __future__ import annotations
 
 import secrets
+import shutil
+import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -18,6 +20,7 @@ from sim import sanitize
 from sim.lab.artifacts import Tracks, write
 from sim.lab.exercise import Exercise, Scenario, shared_hints
 from sim.lab.student import Student, StudentError
+from sim.lab.unfinished import Gap, gap
 from sim.sandbox.box import human_size
 from sim.world.spec import WorldSpec
 
@@ -112,6 +115,10 @@ def check_file(exercise: Exercise, path: str | Path, lang: str = "en", seed: int
     shared = shared_hints()
     report = CheckReport(exercise.number, str(path), seed, [], exercise.points)
     scenarios = exercise.scenarios(seed, out)
+    unfinished = gap(exercise.template(), Path(path))
+    if unfinished is not None:  # (said at once: every scenario would only say the same, seconds later)
+        report.rows = [_not_written(exercise, scenario, unfinished, lang, shared) for scenario in scenarios]
+        return report
     cpu = exercise.time_limit * len(scenarios) + STARTUP_CPU
     with runner(path, exercise.modules, cpu, folder, degraded, exercise.wall(len(scenarios))) as student:
         for scenario in scenarios:
@@ -154,6 +161,14 @@ def _not_run(exercise: Exercise, scenario: Scenario, student: Student, lang: str
     return Row(scenario.label(lang), HIDDEN_IN[lang] if scenario.hidden else "", got, "", False, hint, scenario.hidden, "budget", values=("", got))
 
 
+def _not_written(exercise: Exercise, scenario: Scenario, unfinished: Gap, lang: str, shared: dict) -> Row:
+    """The row of a scenario not run because the file is no solution yet (`sim.lab.unfinished`)."""
+    what = {"placeholder": f"{unfinished.name}() raises NotImplementedError, the template's placeholder", "undefined": f"your file defines no {unfinished.name}"}
+    got = f"not run: {what[unfinished.kind]}"
+    hint = exercise.hint(unfinished.kind, lang, shared, name=unfinished.name)
+    return Row(scenario.label(lang), HIDDEN_IN[lang] if scenario.hidden else "", got, "", False, hint, scenario.hidden, unfinished.kind, values=("", got))
+
+
 FATAL = ("load", "forbidden")
 """Problems that fail every scenario the same way: the file does not load, or imports what is not there."""
 
@@ -182,10 +197,12 @@ def _one(exercise: Exercise, scenario: Scenario, student: Student, lang: str, sh
 DEGRADED = "DEGRADED: run without isolation (bubblewrap missing); the code could read or change files"
 
 
-def check_and_print(exercise: Exercise, file: Path, shown: str | Path, lang: str, out: Path, degraded: bool = False) -> int:
+def check_and_print(exercise: Exercise, file: Path, shown: str | Path, lang: str, out: Path | None = None, degraded: bool = False) -> CheckReport:
     """What `ctsim lab check` and a notebook's check cell do: check `file` (named `shown`), print
-    the table, what the code printed and what was written; 0 when every scenario passed, else 1."""
-    report = check_file(exercise, file, lang, out=out, degraded=degraded)
+    the table, what the code printed and what was written, into `out` or else a new folder of
+    this check's own (`check_folder`); the report."""
+    folder = out if out is not None else check_folder(exercise, Path(shown))
+    report = check_file(exercise, file, lang, out=folder, degraded=degraded)
     print(f"exercise {exercise.number}: {exercise.title[lang]}  ({sanitize.name(str(shown))}, scenario seed {report.seed})")
     if report.degraded:
         print(DEGRADED)
@@ -194,7 +211,16 @@ def check_and_print(exercise: Exercise, file: Path, shown: str | Path, lang: str
         print(f"your code printed:\n{sanitize.terminal(report.output)}")
     for path in report.artifacts:
         print(f"  wrote {sanitize.name(str(path))}")
-    return 0 if report.passed else 1
+    if out is None and not report.artifacts:
+        shutil.rmtree(folder, ignore_errors=True)  # (nothing drawn: no empty folder left behind)
+    return report
+
+
+def check_folder(exercise: Exercise, file: Path) -> Path:
+    """A new folder for one check's figures and recordings, in the temporary folder (not where
+    the user stands): checks of several students, or of one again, never overwrite each other."""
+    stem = "".join(c if c.isalnum() else "-" for c in file.stem)[:40] or "file"
+    return Path(tempfile.mkdtemp(prefix=f"ctsim-lab{exercise.number}-{stem}-"))
 
 
 def _at_line(lang: str) -> str:
@@ -213,12 +239,13 @@ def table(report: CheckReport, lang: str = "en") -> str:
     widths = [max([len(words[i])] + [min(len(c[i]), CELL) for c in columns]) for i in range(5)]
     line = lambda cells: "  ".join(str(c)[:CELL].ljust(w) for c, w in zip(cells, widths)).rstrip()
     lines = [line(words[:5]), line(["-" * w for w in widths])]
+    said: list[str] = []  # (the lines under the row before: rows that fail alike say them once)
     for row, cells in zip(report.rows, columns):
         lines.append(line(cells))
-        if len(row.got) > CELL:  # (an exception's whole message, not its first 48 characters)
-            lines.append(f"    {words[2]}: {sanitize.name(row.got, 1000)}")
-        if row.hint:
-            lines.append(f"    {words[7]}: {sanitize.name(row.hint, 1000)}")
+        under = [f"    {words[2]}: {sanitize.name(row.got, 1000)}"] if len(row.got) > CELL else []  # (an exception's whole message)
+        under += [f"    {words[7]}: {sanitize.name(row.hint, 1000)}"] if row.hint else []
+        lines += [text for text in under if text not in said]
+        said = under
     passed = sum(r.passed for r in report.rows)
     lines.append(f"{words[8]}: {report.score_text} ({passed}/{len(report.rows)})")
     return "\n".join(lines)

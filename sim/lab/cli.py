@@ -39,7 +39,7 @@ def _check(ex: Exercise, args: argparse.Namespace) -> int:
     if not args.file.is_file():
         raise ExerciseError(f"{args.file}: no such file")
     with submission(args.file, ex) as file:  # a notebook: its solution cell, as the file
-        return check_and_print(ex, file, args.file, args.lang, args.out, args.degraded)
+        return 0 if check_and_print(ex, file, args.file, args.lang, args.out, args.degraded).passed else 1
 
 
 def _grade(ex: Exercise, args: argparse.Namespace) -> int:

@@ -135,9 +135,10 @@ def submission(path: Path, exercise: Exercise) -> Iterator[Path]:
         yield file
 
 
-def check(number: int, lang: str = "en", exercises: list[str] | tuple[str, ...] = (), out: str | Path = "lab-check", degraded: bool = False) -> bool:
+def check(number: int, lang: str = "en", exercises: list[str] | tuple[str, ...] = (), out: str | Path | None = None, degraded: bool = False) -> bool:
     """The notebook's check cell: grade the file the solution cell wrote as `ctsim lab check`
-    does (the same sandbox, table and hints), show the figures; whether every scenario passed."""
+    does (the same sandbox, table and hints, and `out` likewise), show the figures; whether every
+    scenario passed."""
     from sim.lab.checking import check_and_print
     from sim.lab.exercise import exercise
 
@@ -146,9 +147,9 @@ def check(number: int, lang: str = "en", exercises: list[str] | tuple[str, ...] 
     if not file.is_file():
         print(f"{file} is not written yet: run the solution cell (its first line is %%writefile {file}) first")
         return False
-    passed = check_and_print(ex, file, file, lang, Path(out), degraded) == 0
-    _show(sorted(Path(out).glob("*/*.png")))
-    return passed
+    report = check_and_print(ex, file, file, lang, None if out is None else Path(out), degraded)
+    _show([path for path in report.artifacts if path.suffix == ".png"])
+    return report.passed
 
 
 def _show(pictures: list[Path]) -> None:
