@@ -210,7 +210,7 @@ def test_an_exercise_file_with_a_value_at_the_edge_names_file_and_key(tmp_path, 
 @pytest.mark.parametrize(
     "options, message",
     [
-        (["--step-timeout", "1e308"], "argument --step-timeout: must be a number (s) greater than 0 and at most 86,400, not 1e+308"),
+        (["--step-timeout", "1e308"], "argument --step-timeout: must be a number (s) at least 0.05 and at most 86,400, not 1e+308"),
         (["--export-rate", "5e-324"], "argument --export-rate: must be a number (Hz) greater than 0 and at most 1,000,000, not 5e-324: a subnormal"),
         (["--duration", "1e308"], "argument --duration: must be a number (s) greater than 0 and at most 10,000,000"),
         (["--duration", "nan"], "argument --duration: expected a finite number, got 'nan'"),

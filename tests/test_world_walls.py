@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 from bots.ctbot import CTBOT
 from sim.world import World
 from sim.world.spec import Wall, WorldSpec
+from sim.world.tables import SLOP
 
 R = CTBOT.body_radius
 FULL = 255.0
@@ -214,11 +215,15 @@ def test_the_stop_rule_refuses_a_move_into_a_wall_but_not_the_turn():
 
 
 def test_the_stop_rule_keeps_a_robot_clear_of_another():
-    """Two 'stop' robots driving at each other stop more than two radii apart."""
+    """Two 'stop' robots driving at each other mouth to mouth end two radii apart: c't-Sim's rule
+    meets another c't-Bot at the boxes round its parts, which in front lie inside its circle
+    (c't-Sim stops the two 106.7 mm apart), so here the bodies' circles meet first and hold them,
+    overlapping by about pymunk's collision slop (SLOP; 0.503 mm measured: bodies that keep pushing
+    sit a little past it, hence twice it) and no further apart than a step each of touching."""
     world = World(WorldSpec("w", (-2, -2, 2, 2)))
     spec = CTBOT.with_changes(contact="stop")
     a, b = world.add_robot(spec, (-0.2, 0.0, 0.0)), world.add_robot(spec, (0.2, 0.0, math.pi))
     for _ in range(100):
         world.step(np.array([[FULL, FULL], [FULL, FULL]]))
     gap = math.hypot(*(a.pose[:2] - b.pose[:2]))
-    assert 2 * R < gap < 2 * R + 2 * 0.0045  # within a step each of touching
+    assert 2 * R - 2 * SLOP < gap < 2 * R + 2 * 0.0045
