@@ -121,9 +121,11 @@ print(best)
 def irsim_batch(robots: int = 10_000, steps: int = 2_000) -> float:
     """irsim-x's (C++, float32) batch step of `robots` differential-drive robots, one thread
     (OMP_NUM_THREADS=1, in a child process), robot-steps/s, best of 3; nan where irsim-x is not
-    installed (`pip install irsim-x`: a peer to compare with, not a dependency)."""
+    installed (`pip install irsim-x` in a venv of its own, named by CTSIM_IRSIM_X_PYTHON, default
+    this python: a peer to compare with, not a dependency)."""
     env = {**os.environ, "OMP_NUM_THREADS": "1"}
-    done = subprocess.run([sys.executable, "-c", _IRSIM, str(robots), str(steps)], env=env, capture_output=True, text=True, timeout=300)
+    python = os.environ.get("CTSIM_IRSIM_X_PYTHON", sys.executable)
+    done = subprocess.run([python, "-c", _IRSIM, str(robots), str(steps)], env=env, capture_output=True, text=True, timeout=300)
     return float(done.stdout) if done.returncode == 0 else float("nan")
 
 
