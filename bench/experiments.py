@@ -52,6 +52,13 @@ def sweep_engines(runs: int, duration: float = 20.0, rounds: int = 2) -> tuple[f
     return loop, processes, dask, started
 
 
+def _hears_ctrl_c() -> None:
+    """SIGINT back to its default in the sweep's process: a bench started in the background by a
+    shell without job control ignores SIGINT, and a child inherits that (then it would run on to
+    its end, as a background job should, and the figure would time that instead)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def sweep_stop(engine: str = "processes", duration: float = 20.0) -> tuple[float, float]:
     """(seconds from a Ctrl-C to the whole process group of a running `ctsim sweep --engine
     ENGINE` until every process of it is gone, mean wall seconds of one of its runs): a
@@ -61,7 +68,8 @@ def sweep_stop(engine: str = "processes", duration: float = 20.0) -> tuple[float
         spec.write_text(f"[base]\nduration = {duration}\n[axes]\nseed = {list(range(1000))}\n")
         out = Path(folder) / "out"
         process = subprocess.Popen([sys.executable, "-m", "sim.cli", "sweep", str(spec), "--out", str(out), "--engine", engine],
-                                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)  # fmt: skip
+                                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True,
+                                   preexec_fn=_hears_ctrl_c)  # fmt: skip
         while len(list((out / PARTS).glob("*.parquet"))) < 4:
             time.sleep(0.01)
         start = time.perf_counter()
