@@ -38,7 +38,7 @@ def test_a_cold_cache_is_filled_by_compile_processes_and_loaded_here(tmp_path, m
     assert double(1.5) == 3.0 and total(np.arange(4.0)) == 6.0
     assert sum(tiny.total.stats.cache_hits.values()) == sum(tiny.double.stats.cache_hits.values()) == 1  # compiled there, loaded here
     assert sum(tiny.double.stats.cache_misses.values()) == 0  # nothing compiled here
-    assert "in 2 processes: double, total" in lines[0] and lines[-1].startswith("compiled in")
+    assert "in 2 processes: double, total" in lines[0] and lines[-1].startswith("compiled 2 kernels in")
     assert all(line.startswith("compiling: ") and "of 2 kernels done" in line for line in lines[1:-1])  # every PROGRESS_EVERY meanwhile
     lines.clear()
     compiling.compile_all([(tiny.double, (1.0,)), (tiny.total, (np.zeros(3),))])

@@ -83,7 +83,8 @@ class Compiling:
                         PROGRESS(f"compiling: {done} of {len(self.missing)} kernels done ({time.perf_counter() - self.started:.0f} s)")
         compiled = [kernel.compile(types) for kernel, types in self.typed]
         if self.missing and PROGRESS is not None:
-            PROGRESS(f"compiled in {time.perf_counter() - self.started:.0f} s; later runs load them from numba's cache")
+            count = f"{len(self.missing)} kernel{'s' if len(self.missing) > 1 else ''}"  # (a run starts two groups)
+            PROGRESS(f"compiled {count} in {time.perf_counter() - self.started:.0f} s; later runs load them from numba's cache")
         self.helpers, self.missing = [], []
         return compiled
 
