@@ -63,7 +63,8 @@ class Compiling:
                 self.helpers.append(helper)
                 _IN_FLIGHT.update(dict.fromkeys(share, helper))
         if new and PROGRESS is not None:
-            PROGRESS(f"compiling the simulator's kernels for this machine (first run only) in {len(shares)} processes: "
+            processes = f"{len(shares)} process{'es' if len(shares) != 1 else ''}"
+            PROGRESS(f"compiling the simulator's kernels for this machine (first run only) in {processes}: "
                      f"{', '.join(k.py_func.__name__ for k, _ in new)}")  # fmt: skip
 
     def wait(self) -> list[Callable]:
