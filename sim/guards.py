@@ -160,7 +160,9 @@ class Guard:
         where = threading.current_thread().name
         if threading.current_thread() is not threading.main_thread():
             self.exited = f"called os._exit({status}) from the thread {where!r}"
-        raise SystemExit(status)
+        leaving = SystemExit(status)
+        leaving.via = "os._exit"  # (said so: `bots.controller.did`)
+        raise leaving
 
     def after_step(self, step: int) -> None:
         """After every step: a fork's child leaves, an os._exit from a thread ends the run; every

@@ -185,6 +185,40 @@ class Leaves:
         self.pose = np.array(pose, dtype=float)
     def update(self, readings):
         sys.exit(3)
+
+class RaisesInterrupt:
+    """Raises KeyboardInterrupt itself, no signal sent: its error, not the user's Ctrl-C."""
+    def step(self, t, readings):
+        if t > 0.05:
+            raise KeyboardInterrupt
+        return Twist(0.1, 0.0)
+
+class InterruptsWhenMade:
+    def __init__(self):
+        raise KeyboardInterrupt("in my constructor")
+    def step(self, t, readings):
+        return Twist(0.0, 0.0)
+
+class InterruptsOnReset:
+    def reset(self, robot):
+        raise KeyboardInterrupt
+    def step(self, t, readings):
+        return Twist(0.0, 0.0)
+
+class EstimatorInterrupts:
+    name = "interrupts"
+    def reset(self, robot, pose):
+        self.pose = np.array(pose, dtype=float)
+    def update(self, readings):
+        raise KeyboardInterrupt
+
+class SendsCtrlC:
+    """Sends its own process SIGINT, as a terminal's Ctrl-C does: an interrupt (130), not an error."""
+    def step(self, t, readings):
+        if t > 0.05:
+            import signal
+            signal.raise_signal(signal.SIGINT)
+        return Twist(0.1, 0.0)
 '''
 
 
@@ -377,3 +411,28 @@ def test_a_folder_planted_at_a_files_name_during_the_run_fails_the_writing_not_t
     assert run("--controller", f"{code}:PlantsAFolder", "--out", str(out)) == 1
     assert f"{out}/truth.tum is a folder: ctsim cannot write its file there" in capsys.readouterr().err
     assert json.loads((out / "summary.json").read_text())["reason"] == "duration"
+
+
+@pytest.mark.parametrize(("argv", "status", "said"), [
+    (("--controller", "{code}:RaisesInterrupt"), 1, "controller '{code}:RaisesInterrupt' of ctbot raised KeyboardInterrupt at step 6 (t = 0.06 s) ({code}:"),
+    (("--controller", "{code}:InterruptsOnReset"), 1, "controller '{code}:InterruptsOnReset' of ctbot raised KeyboardInterrupt in its reset at t = 0.00 s ({code}:"),
+    (("--controller", "idle", "--estimator", "{code}:EstimatorInterrupts"), 1, "estimator 'interrupts' of ctbot raised KeyboardInterrupt at step 0 (t = 0.00 s) ({code}:"),
+    (("--controller", "{code}:SendsCtrlC"), 130, "interrupted at t = 0.0"),
+])  # fmt: skip
+def test_a_keyboard_interrupt_user_code_raises_itself_is_its_error_and_ctrl_c_stays_an_interrupt(argv, status, said, code, tmp_path, capsys):
+    """Told apart by whether a signal came (`sim.interrupts`): the code's own KeyboardInterrupt
+    ends the run as its error naming its file and line (exit 1), a SIGINT as Ctrl-C (130); both
+    with every file written and the summary saying how the run ended."""
+    out = tmp_path / "out"
+    assert run(*(a.format(code=code) for a in argv), "--out", str(out)) == status
+    assert said.format(code=code) in capsys.readouterr().err
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["reason"] == ("error" if status == 1 else "interrupted") and said.format(code=code) in summary["error"]
+    assert {"run.parquet", "truth.tum"} <= {p.name for p in out.iterdir()}
+
+
+def test_a_keyboard_interrupt_a_constructor_raises_is_its_error_in_one_line(code, tmp_path, capsys):
+    assert run("--controller", f"{code}:InterruptsWhenMade", "--out", str(tmp_path / "out")) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("ctsim: error: ") and err.count("\n") == 1, err
+    assert "making it raised KeyboardInterrupt: in my constructor" in err and f"({code}:" in err

@@ -9,7 +9,7 @@ import textwrap
 from pathlib import Path
 
 from sim import sanitize
-from sim.cli.options import UsageError, add_engine_options, engine_of
+from sim.cli.options import UsageError, add_engine_options, add_step_timeout_option, engine_of
 
 
 def add_parser(commands) -> None:  # noqa: ANN001 (argparse's subparsers action)
@@ -30,6 +30,7 @@ def add_parser(commands) -> None:  # noqa: ANN001 (argparse's subparsers action)
     evaluate.add_argument("--merge", nargs="+", type=Path, metavar="RESULTS.json", help="join these results files instead of running anything")
     evaluate.add_argument("--out", type=Path, metavar="DIR", help="folder of the results (default: runs/evaluate-<suite>, runs/evaluate-merged with --merge)")
     add_engine_options(evaluate)
+    add_step_timeout_option(evaluate, "an estimator's reset, update or pose that takes longer (wall clock) fails its run as the estimator's error")
     evaluate.set_defaults(handler=cmd_evaluate)
 
 
@@ -50,14 +51,32 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         out = args.out or Path("runs") / f"evaluate-{args.suite}"
         runner = engine_of(args)
         try:
-            results = evaluate(variant(args.suite), args.estimators, out, runner)
+            results = evaluate(variant(args.suite), args.estimators, out, runner, step_timeout=args.step_timeout)
         finally:
             runner.close()
         written = [out / RESULTS]
     written += write_all(results, out)
     print(terminal(results))
     failed = sum(1 for run in results["runs"] if run.get("failed"))
+    for line in failures(results):
+        print(f"ctsim: {line}", file=sys.stderr)
     if failed:
         print(f"ctsim: {failed} of {len(results['runs'])} runs failed: see 'failed' in {sanitize.name(str(out / RESULTS), 1000)}", file=sys.stderr)
     print("wrote:\n" + "\n".join(f"  {sanitize.name(str(path), 1000)}" for path in written))
     return 1 if failed else 0
+
+
+SHOWN_FAILURES = 5
+"""Failed runs said one line each on the terminal; the rest are counted (all are in results.json)."""
+
+
+def failures(results: dict) -> list[str]:
+    """One line per failed run (at most SHOWN_FAILURES, then how many more): the scenario, the seed,
+    the file of the estimator that failed it and how (what the run loop said: its name, the step,
+    the file and line)."""
+    lines = []
+    for run in results["runs"]:
+        for who, message in run.get("failed", {}).items():
+            source = results["estimators"].get(who, {}).get("source", who)
+            lines.append(sanitize.name(f"{run['scenario']} seed {run['seed']} failed: {source}: {message}", 2000))
+    return lines[:SHOWN_FAILURES] + ([f"... and {len(lines) - SHOWN_FAILURES} more failed"] if len(lines) > SHOWN_FAILURES else [])

@@ -155,6 +155,15 @@ def engine_of(args: argparse.Namespace):  # noqa: ANN201 (an engine of sim.exper
     return engine(args.engine, args.jobs, args.scheduler)
 
 
+def add_step_timeout_option(parser: argparse.ArgumentParser, what: str) -> None:
+    """--step-timeout: how long a call of the user's code may take (`sim.run.clock`), the same
+    default and bounds in every command that runs it (`run`, `evaluate`)."""
+    from sim.run.clock import MAX_STEP_TIMEOUT, MIN_STEP_TIMEOUT, STEP_TIMEOUT
+
+    parser.add_argument("--step-timeout", type=positive(float, MAX_STEP_TIMEOUT, "s", MIN_STEP_TIMEOUT), default=STEP_TIMEOUT, metavar="SECONDS",
+                        help=f"{what} (default: {STEP_TIMEOUT:g}; at least {MIN_STEP_TIMEOUT:g})")
+
+
 def add_web_options(parser: argparse.ArgumentParser, flag: str | None = None, flag_help: str = "") -> None:
     from sim.web.serve import DEFAULT_HOST, DEFAULT_PORT
 
