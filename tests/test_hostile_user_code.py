@@ -96,6 +96,22 @@ class PatchesOnReset:
     def step(self, t, readings):
         return Twist(0.1, 0.0)
 
+class PatchesWhenMade:
+    """Replaces a method of ctsim's World in its constructor, before the run has started."""
+    def __init__(self):
+        from sim.world.physics import World
+        World.step = lambda self, commands: 1 / 0
+    def step(self, t, readings):
+        return Twist(0.1, 0.0)
+
+class PatchesJsonWhenMade:
+    """Replaces what ctsim writes summary.json with, in its constructor."""
+    def __init__(self):
+        import json
+        json.dumps = lambda *args, **kwargs: "{}"
+    def step(self, t, readings):
+        return Twist(0.1, 0.0)
+
 class PatchesQuietly:
     """Changes what ctsim does not call in this run: the run goes on, and the change is undone."""
     def step(self, t, readings):
@@ -317,6 +333,18 @@ def test_methods_a_controller_adds_or_replaces_where_the_run_does_not_call_them_
     assert np.lib.NumpyVersion.__lt__ is before and not hasattr(Samples, "added")
 
 
+@pytest.mark.parametrize(("cls", "replaced"), [("PatchesJsonWhenMade", "json.dumps"), ("PatchesWhenMade", "sim.world.physics.World.step")])
+def test_what_a_constructor_replaces_is_put_back_before_anything_is_written_or_run(cls, replaced, code, tmp_path, capsys):
+    """Made before the run (and its guards): put back as soon as it is made (`sim.guards.making`),
+    so summary.json is written with ctsim's json and the run steps ctsim's World."""
+    from sim.world.physics import World
+
+    before = json.dumps, World.step
+    assert run("--controller", f"{code}:{cls}", "--out", str(tmp_path / "out")) == 0
+    assert f"ctsim: note: a controller or estimator replaced {replaced} while it was made; ctsim put it back" in capsys.readouterr().err
+    assert (json.dumps, World.step) == before and json.loads((tmp_path / "out" / "summary.json").read_text())["reason"] == "duration"
+
+
 @pytest.mark.skipif(not Path("/proc/self/statm").exists(), reason="the address-space check reads /proc (Linux)")
 def test_a_run_too_long_for_the_address_space_limit_is_refused_in_one_line(tmp_path):
     """Under `ulimit -v 6 GiB` a run of 1e5 s (4 GiB of samples) used to die of SIGABRT inside
@@ -436,3 +464,13 @@ def test_a_keyboard_interrupt_a_constructor_raises_is_its_error_in_one_line(code
     err = capsys.readouterr().err
     assert err.startswith("ctsim: error: ") and err.count("\n") == 1, err
     assert "making it raised KeyboardInterrupt: in my constructor" in err and f"({code}:" in err
+
+
+def test_simulate_puts_back_what_a_constructor_replaced_before_the_run(code):
+    from sim.experiments import Bot, simulate
+    from sim.world.physics import World
+
+    before = World.step
+    result = simulate("empty", Bot(f"{code}:PatchesWhenMade"), duration=0.1)
+    assert result.reason == "duration" and World.step is before
+    assert result.raw.notes[0] == "a controller or estimator replaced sim.world.physics.World.step while it was made; ctsim put it back"

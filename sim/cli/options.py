@@ -18,8 +18,9 @@ DEFAULT_CONTROLLER = "solve_maze"
 EXIT_FAILED, EXIT_USER, EXIT_INTERRUPTED, EXIT_TERMINATED = 1, 2, 130, 143
 EXIT_STATUSES = f"""exit status:
   0    success
-  {EXIT_FAILED}    a run that started failed (a controller or estimator raised, called sys.exit, returned
-       a bad command or overran --step-timeout, in its reset or a step; or the disk filled up);
+  {EXIT_FAILED}    a run that started failed (a controller or estimator raised, KeyboardInterrupt too,
+       called sys.exit or os._exit, returned a bad command or overran --step-timeout, in its reset or
+       a step; or the disk filled up; `evaluate`: any of its runs);
        what was recorded up to then is written; or your controller's or estimator's constructor
        failed (one line); or ctsim has a bug: its traceback and a request to report it are printed
   {EXIT_USER}    a user error found before anything ran (bad option, world, robot or controller)

@@ -67,13 +67,18 @@ def cmd_run(args: argparse.Namespace) -> int:
     from bots.odometry.user import load
     from sim.experiments import world
     from sim.experiments.api import with_estimators
+    from sim.guards import making
 
     step_count(args.duration, args.dt)
     place = world(args.world)
     with ExitStack() as isolation:  # (--isolate: the user's processes, ended after the run)
         controller, estimator = _isolated(args, isolation) if args.isolate else (None, load)
-        # the controllers and estimators made before the folder is: a bad file, or one whose constructor fails, is refused first
-        setups = with_estimators(robot_setups(args, load_robot_spec(args), len(place.start_order()), controller), [estimator(source) for source in args.estimator])
+        # the controllers and estimators made before the folder is: a bad file, or one whose constructor fails, is refused first;
+        # what a constructor replaces in ctsim is put back at once (`sim.guards.making`)
+        with making() as replaced:
+            setups = with_estimators(robot_setups(args, load_robot_spec(args), len(place.start_order()), controller), [estimator(source) for source in args.estimator])
+        for note in replaced:
+            print(f"ctsim: note: {note}", file=sys.stderr)
         return _run(args, place, setups)
 
 

@@ -93,6 +93,7 @@ def run(
     ends the run as a controller error (`StepClock`). `stop_when(world, logs)`, asked after every
     sample (a referee), ends the run when it answers something: reason JUDGED, its answer the result's `verdict`."""
     steps = step_count(duration, dt)
+    check_seed(seed)
     if any(setup.estimators is None and batched(setup.spec) for setup in robots):  # the odometry's compile, where the cache lacks
         compiling.start(kernel_jobs())  # it, beside the world's making (its first kernel compiles here); `DefaultOdometry` waits for it
     world = World(world_spec, dt=dt, seed=seed)
@@ -324,6 +325,14 @@ def step_count(duration: float, dt: float) -> int:
     if steps == 0 and duration > 0:
         raise RunError(f"a duration of {duration:g} s is less than half a step (dt = {dt:g} s): nothing would be simulated")
     return steps
+
+
+def check_seed(seed: object) -> None:
+    """RunError naming the argument for a seed that is not a whole number of 0 or more (a float,
+    a bool, None: numpy would raise a TypeError, or draw from the operating system's entropy and
+    make the run unrepeatable)."""
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+        raise RunError(f"seed must be a whole number of 0 or more (an int), got {seed!r}"[:300])
 
 
 def _refuse_overlaps(robots: list) -> None:
