@@ -310,3 +310,21 @@ def test_a_hang_meets_the_step_time_limit_on_worker_processes_too(tmp_path, caps
     assert main(["evaluate", f"{_hostile(tmp_path, 500)}:Sleeps", "--suite", "test", "--out", str(out), "--jobs", "2", "--step-timeout", "0.3"]) == 1
     failed = [run.get("failed", {}) for run in read_results(out / RESULTS)["runs"]]
     assert [bool(f) for f in failed] == [False, False, True, True] and all("step time limit of 0.3 s at step 500" in f["Sleeps"] for f in failed[2:])
+
+
+@pytest.mark.parametrize("planted", [RESULTS, "report.html"])
+def test_a_folder_planted_at_a_results_name_fails_the_writing_alone_naming_every_file_written(scored, tmp_path, capsys, planted):
+    """The runs are kept (resumed here: all done); the other files are written; exit 1, and the
+    line names exactly the files written (no traceback, not the options' exit 2)."""
+    _, first = scored
+    folder = tmp_path / "again"
+    shutil.copytree(first, folder)
+    for name in (RESULTS, "scores.csv", "ranking.csv", "report.html"):
+        (folder / name).unlink(missing_ok=True)
+    (folder / planted).mkdir()
+    assert main(["evaluate", EULER, "--suite", "test", "--out", str(folder), "--engine", "serial"]) == 1
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and f"{folder / planted} is a folder" in err
+    written = err.rsplit("(written: ", 1)[1].rstrip(")\n").split(", ")
+    assert sorted(written) == sorted(p.name for p in folder.iterdir() if p.is_file() and p.name != "results.parquet" and not p.name.startswith("."))
+    assert (folder / planted).is_dir() and len(written) == 3

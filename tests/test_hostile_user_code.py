@@ -437,8 +437,20 @@ def test_a_folder_planted_at_a_files_name_during_the_run_fails_the_writing_not_t
     out = tmp_path / "out"
     monkeypatch.setenv("CTSIM_TEST_OUT", str(out))
     assert run("--controller", f"{code}:PlantsAFolder", "--out", str(out)) == 1
-    assert f"{out}/truth.tum is a folder: ctsim cannot write its file there" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert f"{out}/truth.tum is a folder: ctsim cannot write its file there" in err
     assert json.loads((out / "summary.json").read_text())["reason"] == "duration"
+    # the other trajectories are written all the same, and the line names every file written and no other
+    written = err.rsplit("(written: ", 1)[1].rstrip(")\n").split(", ")
+    assert sorted(written) == sorted(p.name for p in out.iterdir() if p.is_file() and not p.name.startswith("."))
+    assert {"run.rrd", "summary.json", "run.parquet", "encoders.tum", "truth.csv"} <= set(written)
+
+
+def test_the_list_of_files_a_run_wrote_is_every_file_in_its_folder(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["run", "empty", "--duration", "0.2", "--out", str(out)]) == 0
+    listed = capsys.readouterr().out.split("wrote:\n", 1)[1].split()
+    assert sorted(listed) == sorted(str(p) for p in out.iterdir() if p.is_file() and not p.name.startswith("."))
 
 
 @pytest.mark.parametrize(("argv", "status", "said"), [

@@ -45,6 +45,15 @@ class EvaluationError(UserError):
     """An estimator that cannot be scored, or a results file that cannot be read or merged."""
 
 
+class NotWritten(Exception):
+    """The suite's runs are done and kept in the run table, but the results file could not be
+    written (a full disk, a folder planted at its name: `__cause__`); `results` holds them."""
+
+    def __init__(self, results: dict[str, Any]):
+        super().__init__("the results file could not be written")
+        self.results = results
+
+
 @dataclass(frozen=True)
 class Submitted:
     """An estimator to score: its source as `ctsim evaluate` was given it, that source with the
@@ -92,7 +101,7 @@ def evaluate(variant: Variant, sources: list[str], out: str | Path, runner: Any 
     """Score the estimators of `sources` (`FILE.py[:CLASS]`, or a shipped one by name) beside the
     shipped ones on every run of `variant`, on `runner` (an engine of `sim.experiments.engines`;
     default local processes), resuming what `out` holds; the results (`results_of`), also
-    written to `out/results.json`. A call of an estimator's code that takes longer than
+    written to `out/results.json` (NotWritten, holding them, where it cannot be). A call of an estimator's code that takes longer than
     `step_timeout` seconds (wall clock; None: no limit) fails its run, as in `ctsim run`."""
     from sim.experiments.sweep import run_jobs
     from sim.folder_lock import held
@@ -105,7 +114,10 @@ def evaluate(variant: Variant, sources: list[str], out: str | Path, runner: Any 
         table = run_jobs(planned, out, runner, on_row, progress, what="evaluate")
         ours = table[table["run_id"].isin({job.run_id for job in planned})]  # (not the rows of an estimator's file as it was before)
         results = results_of(variant, entries, ours.to_dict("records"))
-        write_results(results, out / RESULTS)
+        try:
+            write_results(results, out / RESULTS)
+        except (OSError, UserError) as err:  # (NotAFileOfItsOwn: a folder at its name)
+            raise NotWritten(results) from err
     return results
 
 
