@@ -79,6 +79,7 @@ class Track:
     def load(cls, path: Path) -> Track:
         """A track `save` wrote."""
         with np.load(path) as data:
+
             def named(prefix: str) -> dict[str, np.ndarray]:
                 return {key.removeprefix(prefix): data[key] for key in data.files if key.startswith(prefix)}
 
