@@ -22,7 +22,7 @@ from sim.kinematics import (
     twist_from_wheel_speeds,
     wheel_arcs_to_arc,
 )
-from sim.kinematics.batch import step_batch, step_batch_parallel, step_poses, step_poses_parallel
+from sim.kinematics.batch import Counters, Drive, step_batch, step_batch_parallel, step_poses, step_poses_parallel
 
 
 def kinematics_batch(robots: int = 10_000, steps: int = 2_000, seed: int = 0, parallel: bool = False, repeats: int = 3,
@@ -41,18 +41,16 @@ def kinematics_batch(robots: int = 10_000, steps: int = 2_000, seed: int = 0, pa
     pool = rng.uniform(-v_max, v_max, size=(64, 2, robots)) * dt
     pose = np.zeros((3, robots))
     heading_dir = np.stack((np.ones(robots), np.zeros(robots)))
-    tick_carry, mouse_carry = np.zeros((2, robots)), np.zeros((2, robots))
-    ticks, counts = np.zeros((2, robots), np.int64), np.zeros((2, robots), np.int64)
-    mount = np.asarray(CTBOT.mouse.mount, dtype=np.float64)
+    counters = Counters(np.zeros((2, robots)), np.zeros((2, robots), np.int64), np.zeros((2, robots)), np.zeros((2, robots), np.int64))
+    mount_x, mount_y = (float(m) for m in CTBOT.mouse.mount)
     per_metre = float(ticks_per_metre(CTBOT.wheel_radius, CTBOT.encoders.ticks_per_rev))
-    per_count = float(counts_per_metre(CTBOT.mouse.dpi))
+    drive = Drive(CTBOT.track_width, per_metre, mount_x, mount_y, float(counts_per_metre(CTBOT.mouse.dpi)))
 
     def step(k: int) -> None:
         if poses:
             kernel(pose, heading_dir, pool[k % 64], CTBOT.track_width)
         else:
-            kernel(pose, heading_dir, pool[k % 64], CTBOT.track_width, per_metre, tick_carry, ticks,
-                   mount, per_count, mouse_carry, counts)
+            kernel(pose, heading_dir, pool[k % 64], drive, counters)
 
     step(0)  # compile (or load the cached machine code) before timing
     best = 0.0

@@ -12,7 +12,7 @@ systematic errors of UMBmark as constant states, which make the pose covariance 
 width grow with the rotation and that of a wheel mismatch with distance squared).
 
 The kernels of this model (`wheel_terms`, `mouse_terms`, `propagate`, `pose_covariance`) live in
-`bots.odometry.steps`, beside the steps that call them (numba caches a kernel by its own file).
+`bots.odometry.propagation`, which every estimator's compiled step calls.
 
 Quantisation is not a random walk here: counts are carried, so each channel's count is off the
 truth by less than one count at any time and that never adds up. Where the counter started within

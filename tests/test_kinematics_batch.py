@@ -39,7 +39,7 @@ from sim.kinematics import (
     wheel_arcs_to_arc,
     wheel_increment,
 )
-from sim.kinematics.batch import step_batch, step_batch_parallel, step_poses, step_poses_parallel
+from sim.kinematics.batch import Counters, Drive, step_batch, step_batch_parallel, step_poses, step_poses_parallel
 
 carry = floats(0.0, 1.0, exclude_max=True)
 
@@ -164,7 +164,7 @@ def test_step_batch_matches_the_numpy_reference(seed: int) -> None:
     ref_pose, ref_tick_carry, ref_mouse_carry = start.T.copy(), tick_carry.T.copy(), mouse_carry.T.copy()
     total_ticks = np.zeros((2, robots), dtype=np.int64)
     for k in range(steps):
-        step_batch(pose, heading_dir, arcs[k], TRACK, tpm, tick_carry, ticks, mount, cpm, mouse_carry, counts)
+        step_batch(pose, heading_dir, arcs[k], Drive(TRACK, tpm, *mount, cpm), Counters(tick_carry, ticks, mouse_carry, counts))
 
         s, a = wheel_arcs_to_arc(arcs[k, 0], arcs[k, 1], TRACK)
         ref_pose = apply_increment(ref_pose, arc_increment(s, a))
@@ -196,7 +196,7 @@ def test_step_poses_moves_as_step_batch() -> None:
     counting = [np.zeros((2, robots)), np.zeros((2, robots), np.int64), np.zeros((2, robots)), np.zeros((2, robots), np.int64)]
     mount = np.array(CTBOT.mouse.mount)
     for k in range(20):
-        step_batch(*fused, arcs[k], TRACK, 100.0, counting[0], counting[1], mount, 1000.0, counting[2], counting[3])
+        step_batch(*fused, arcs[k], Drive(TRACK, 100.0, *mount, 1000.0), Counters(*counting))
         step_poses(*alone, arcs[k], TRACK)
     for a, b in zip(fused, alone):
         assert a.tobytes() == b.tobytes()
@@ -244,7 +244,7 @@ def test_step_batch_keeps_the_carry_below_one() -> None:
     ticks = np.zeros((2, 1), dtype=np.int64)
     mouse_carry = np.zeros((2, 1))
     counts = np.zeros((2, 1), dtype=np.int64)
-    step_batch(pose, heading_dir, arcs, TRACK, tpm, tick_carry, ticks, np.array([-0.015, 0.0]), 1.0, mouse_carry, counts)
+    step_batch(pose, heading_dir, arcs, Drive(TRACK, tpm, -0.015, 0.0, 1.0), Counters(tick_carry, ticks, mouse_carry, counts))
     ref_ticks, ref_carry = ticks_from_arcs(arcs[:, 0], np.zeros(2), WHEEL_RADIUS)
     np.testing.assert_array_equal(ticks[:, 0], ref_ticks)
     np.testing.assert_array_equal(tick_carry[:, 0], ref_carry)
@@ -257,8 +257,8 @@ def test_kernels_refuse_rows_of_the_wrong_shape() -> None:
     with pytest.raises(ValueError, match=r"pose must be \(3, N\)"):
         step_poses(pose, np.zeros((2, 3)), np.zeros((2, 3)), TRACK)
     with pytest.raises(ValueError, match=r"pose must be \(3, N\)"):
-        step_batch(np.zeros((3, 4)), np.zeros((2, 4)), np.zeros((2, 4)), TRACK, 1.0, np.zeros((2, 4)),
-                   np.zeros((2, 3), np.int64), np.zeros(2), 1.0, np.zeros((2, 4)), np.zeros((2, 4), np.int64))
+        step_batch(np.zeros((3, 4)), np.zeros((2, 4)), np.zeros((2, 4)), Drive(TRACK, 1.0, 0.0, 0.0, 1.0),
+                   Counters(np.zeros((2, 4)), np.zeros((2, 3), np.int64), np.zeros((2, 4)), np.zeros((2, 4), np.int64)))
 
 
 # robot counts where the threads' parts and their SIMD remainders (4 or 8 lanes) fall differently
@@ -284,7 +284,7 @@ def test_parallel_kernels_are_bit_identical_to_the_serial_ones(robots: int, seed
     tpm, cpm = float(ticks_per_metre(WHEEL_RADIUS)), float(counts_per_metre(CTBOT.mouse.dpi))
     for k in range(12):
         for kernel, (poses, heading_dir, tick_carry, ticks, mouse_carry, counts) in ((step_batch, serial), (step_batch_parallel, parallel)):
-            kernel(poses, heading_dir, arcs[k], TRACK, tpm, tick_carry, ticks, mount, cpm, mouse_carry, counts)
+            kernel(poses, heading_dir, arcs[k], Drive(TRACK, tpm, *mount, cpm), Counters(tick_carry, ticks, mouse_carry, counts))
         step_poses(*poses_serial, arcs[k], TRACK)
         step_poses_parallel(*poses_parallel, arcs[k], TRACK)
         for a, b in zip(serial + poses_serial, parallel + poses_parallel):

@@ -22,7 +22,7 @@ from bots.noise import with_noise
 from bots.odometry.batch import DefaultOdometry, batched
 from bots.odometry.defaults import default_estimators
 from bots.odometry.encoder import EncoderOdometry
-from bots.odometry.steps import FUSED, MOUSE, SIGMA_POSES, SIGMAS, SLIDE_STATE, SLIDES
+from bots.odometry.layout import DEAD_RECKONERS, ESTIMATE, STATE
 from bots.readings import Readings
 from bots.wheeled import MECANUM4
 from sim.kinematics import advance
@@ -105,17 +105,15 @@ def test_batch_steps_as_the_python_estimators(case, order):
                 assert estimate.tolist() == estimator.pose.tolist(), estimator.name
                 assert batch.errors[k, j].tolist() == estimator.errors.tolist(), estimator.name
             if len(chosen) == 4:
-                fused = chosen[3]
-                assert batch.state[k, :SIGMA_POSES].tolist() == fused.state[:SIGMA_POSES].tolist(), "the detectors' state"
-                for estimator, estimate in ((chosen[MOUSE], MOUSE), (fused, FUSED)):
-                    start = SLIDE_STATE + (0 if estimate == MOUSE else SLIDES)
-                    assert batch.state[k, start : start + SLIDES].tolist() == estimator.state[start : start + SLIDES].tolist(), "the slide watch"
+                fused = chosen[ESTIMATE.fused]
+                detectors = [f.name for f in STATE.fields if f.kind == np.float64 and f.width == 1]
+                assert [batch.state[k][name] for name in detectors] == [fused.state[name] for name in detectors], "the detectors' state"
+                for estimator, watch in ((chosen[ESTIMATE.mouse], "mouse_watch"), (fused, "fused_watch")):
+                    assert batch.state[k][watch].tolist() == estimator.state[watch].tolist(), "the slide watch"
                 assert batch.calibration[k].tolist() == fused.calibration.tolist()
                 assert batch.contact_steps[k] == fused.contact_steps
-            for j, estimator in enumerate(chosen[:FUSED]):
-                start = SIGMA_POSES + j * SIGMAS * 3
-                assert batch.state[k, start : start + SIGMAS * 3].tolist() == estimator.sigmas.ravel().tolist(), "the sigma points"
-
+            for j, estimator in enumerate(chosen[:DEAD_RECKONERS]):
+                assert batch.state[k]["sigmas"][j].tolist() == estimator.sigmas.tolist(), "the sigma points"
 
 def test_general_chassis_stays_with_the_python_estimators():
     assert batched(CTBOT) and not batched(MECANUM4)

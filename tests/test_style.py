@@ -45,11 +45,9 @@ LONG_ON_PURPOSE = {
 MOST_PARAMETERS = 8
 """Parameters a compiled function may take: more are a table or a group that wants a name (`sim.world.layout`)."""
 NOT_YET_GROUPED = {
-    # the core's batch kernels and the odometry's compiled steps (and a general chassis's wheels)
+    # a general chassis's wheels
     # still take their arrays one by one: left of #46, no new ones
-    "sim/kinematics/batch.py": {"_batch_rows", "_batch_part", "_batch_parallel", "step_batch", "_count_one", "_advance"},
     "sim/world/chassis_drive.py": {"_wheels"},
-    "bots/odometry/steps.py": {"batch_step", "fused_step"},
     "sim/world/kernels/pick.py": {"_closest", "pick_polygon"},  # c't-Sim's cone pick, landed (#45) beside this rule
 }
 

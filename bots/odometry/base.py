@@ -17,37 +17,8 @@ from typing import Protocol
 
 import numpy as np
 
-from bots.odometry.steps import (
-    DISTANCE_MEMORY,
-    GATE,
-    HAS_MOUSE,
-    MEMORY,
-    MOUNT_X,
-    MOUNT_Y,
-    MOUSE_SCALE_STD,
-    MOUSE_VAR,
-    PARAMS,
-    PER_METRE,
-    SIGMAS,
-    SLIDE_GATE,
-    SLIDE_MEMORY,
-    SLIP_VAR,
-    TICK_LEFT,
-    TICK_RIGHT,
-    TICK_VAR_LEFT,
-    TICK_VAR_RIGHT,
-    TOLERANCE,
-    TRACK,
-    TRACK_STD,
-    TURN_TOLERANCE,
-    WHEEL_STD,
-    add_spread,
-    fresh_state,
-    mouse_terms,
-    pose_covariance,
-    wheel_terms,
-    workspace,
-)
+from bots.odometry.layout import PARAMETERS, SIGMAS, fresh_state
+from bots.odometry.propagation import add_spread, mouse_terms, pose_covariance, wheel_terms, workspace
 from bots.readings import Readings
 from bots.spec import RobotSpec
 from bots.uncertainty import COUNT_VARIANCE, COVARIANCE_FIELDS, ERRORS, Belief, square
@@ -69,7 +40,7 @@ fused estimator calls it slip or a slide: at 3 the detectors, whose sums are cor
 to step, fired often enough on noise alone to make the fused heading worse than the mouse's."""
 SLIDE_WATCH_MEMORY = 2.0
 """Time constant (s) over which the mouse and fused estimates' slide watch
-(`bots.odometry.steps.watch_slides`) sums the mouse's rotation beyond the encoders': a slide of
+(`bots.odometry.mouse.watch_slides`) sums the mouse's rotation beyond the encoders': a slide of
 a few millimetres a second along a wall lasts a second or two."""
 SLIDE_WATCH_GATE = 2.0
 """Standard deviations of the believed calibration errors of the recent turning the slide watch
@@ -104,50 +75,50 @@ class Geometry:
         return cls((robot.wheel_diameter, robot.wheel_diameter), robot.track_width)
 
 
-def parameters(robot: RobotSpec, geometry: Geometry | None = None) -> np.ndarray:
-    """The robot's row of `bots.odometry.steps` parameters (PARAMS,): what its estimators
-    believe of its drive (`geometry`, None: nominal), its mouse and its noise (`Belief.of`)."""
-    p = np.zeros(PARAMS)
+def parameters(robot: RobotSpec, geometry: Geometry | None = None) -> np.void:
+    """The robot's PARAMETERS row (`bots.odometry.layout`): what its estimators believe of its
+    drive (`geometry`, None: nominal), its mouse and its noise (`Belief.of`)."""
+    p = PARAMETERS.new(1)[0]
     believed = geometry or Geometry.nominal(robot)
-    p[TICK_LEFT], p[TICK_RIGHT] = (math.pi * d / robot.encoders.ticks_per_rev for d in believed.wheel_diameters)
-    p[TRACK] = believed.track_width
+    p["tick_left"], p["tick_right"] = (math.pi * d / robot.encoders.ticks_per_rev for d in believed.wheel_diameters)
+    p["track"] = believed.track_width
     belief = Belief.of(robot)
-    p[SLIP_VAR] = belief.slip_var
-    p[WHEEL_STD], p[TRACK_STD], p[MOUSE_SCALE_STD] = belief.wheel_scale_std, belief.track_std, belief.mouse_scale_std
+    p["slip_var"] = belief.slip_var
+    p["wheel_std"], p["track_std"], p["mouse_scale_std"] = belief.wheel_scale_std, belief.track_std, belief.mouse_scale_std
     # a metre rolled is 1/tick ticks, each one off by a tick with probability tick_rate: m² per metre
-    p[TICK_VAR_LEFT], p[TICK_VAR_RIGHT] = belief.tick_rate * p[TICK_LEFT], belief.tick_rate * p[TICK_RIGHT]
+    p["tick_var_left"], p["tick_var_right"] = belief.tick_rate * p["tick_left"], belief.tick_rate * p["tick_right"]
     if mouse_applies(robot):
         mount_x, mount_y = (float(m) for m in robot.mouse.mount)
-        p[PER_METRE], p[MOUNT_X], p[MOUNT_Y] = float(counts_per_metre(robot.mouse.dpi)), mount_x, mount_y
-        count = 1.0 / p[PER_METRE]
+        p["per_metre"], p["mount_x"], p["mount_y"] = float(counts_per_metre(robot.mouse.dpi)), mount_x, mount_y
+        count = 1.0 / p["per_metre"]
         # the fused estimator's detectors (see FusedOdometry)
-        p[TOLERANCE] = max(p[TICK_LEFT], p[TICK_RIGHT]) + count * (1.0 + abs(mount_y) / abs(mount_x))
-        p[TURN_TOLERANCE] = 2.0 * (max(p[TICK_LEFT], p[TICK_RIGHT]) / p[TRACK] + count / abs(mount_x)) + NOISE_COUNTS * count / abs(mount_x)
-        p[MEMORY], p[GATE], p[DISTANCE_MEMORY] = TURN_MEMORY, GATE_SIGMAS, SLIP_MEMORY
-        p[SLIDE_MEMORY], p[SLIDE_GATE] = SLIDE_WATCH_MEMORY, SLIDE_WATCH_GATE
-        p[MOUSE_VAR] = belief.mouse_var
-        p[HAS_MOUSE] = 1.0
+        p["tolerance"] = max(p["tick_left"], p["tick_right"]) + count * (1.0 + abs(mount_y) / abs(mount_x))
+        p["turn_tolerance"] = 2.0 * (max(p["tick_left"], p["tick_right"]) / p["track"] + count / abs(mount_x)) + NOISE_COUNTS * count / abs(mount_x)
+        p["memory"], p["gate"], p["distance_memory"] = TURN_MEMORY, GATE_SIGMAS, SLIP_MEMORY
+        p["slide_memory"], p["slide_gate"] = SLIDE_WATCH_MEMORY, SLIDE_WATCH_GATE
+        p["mouse_var"] = belief.mouse_var
+        p["has_mouse"] = True
     return p
 
 
-def quantisation_lag(p: np.ndarray, mouse: bool) -> np.ndarray:
+def quantisation_lag(p: np.void, mouse: bool) -> np.ndarray:
     """(2, 2) covariance of the (s, alpha) error of carried counts (each COUNT_VARIANCE counts²,
     `bots.uncertainty`): the encoders' or the mouse's."""
     lag, jac = np.zeros((2, 2)), np.zeros((2, ERRORS))
     if mouse:
-        mouse_terms(0.0, 0.0, p[MOUNT_X], p[MOUNT_Y], COUNT_VARIANCE / p[PER_METRE] ** 2, jac, lag)
+        mouse_terms(0.0, 0.0, p["mount_x"], p["mount_y"], COUNT_VARIANCE / p["per_metre"] ** 2, jac, lag)
     else:
-        wheel_terms(0.0, 0.0, 0.0, p[TRACK], COUNT_VARIANCE * p[TICK_LEFT] ** 2, COUNT_VARIANCE * p[TICK_RIGHT] ** 2, jac, lag)
+        wheel_terms(0.0, 0.0, 0.0, p["track"], COUNT_VARIANCE * p["tick_left"] ** 2, COUNT_VARIANCE * p["tick_right"] ** 2, jac, lag)
     return lag
 
 
 class ArcOdometry:
     """Shared dead reckoning: `step(readings)` gives (s, alpha) for the step, laid by `advance`,
     and propagates the error covariance `errors` (`bots.uncertainty`) in the same compiled step
-    (`bots.odometry.steps`); `lag` is the quantisation lag reported beside it.
+    (`bots.odometry.propagation`); `lag` is the quantisation lag reported beside it.
 
-    An estimator with `sigma_count` sigma points (`bots.odometry.steps.sigma_encoders`,
-    `sigma_mouse`) carries its calibration's part of the error there instead: each point
+    An estimator with `sigma_count` sigma points (`bots.odometry.encoder.sigma_encoders`,
+    `bots.odometry.mouse.sigma_mouse`) carries its calibration's part of the error there instead: each point
     dead-reckons the same readings with one calibration error a few standard deviations off, and
     the covariance adds their spread about the estimate. A wrong track turns the heading by tens
     of degrees over a maze, and the position error then bends away from where a first-order
@@ -171,7 +142,7 @@ class ArcOdometry:
         self.errors = Belief.of(robot).prior() if not self.sigma_count else np.zeros((ERRORS, ERRORS))
         self.sigmas = np.repeat(self.pose[None], SIGMAS, axis=0)
         self.state = fresh_state()
-        """The compiled steps' state (`bots.odometry.steps`: the fused detectors, the slide watches)."""
+        """The compiled steps' STATE row (`bots.odometry.layout`: the fused detectors, the slide watches)."""
         """(SIGMAS, 3) the sigma points' poses (the first `sigma_count` used)."""
         self.lag = quantisation_lag(self.params, self.uses_mouse)
         self._entries = np.zeros(len(COVARIANCE_FIELDS))

@@ -4,7 +4,7 @@
 robot cost more than the world's own step. `DefaultOdometry` holds the defaults of all robots that
 use them (`default_estimators` of a robot without a general chassis) as arrays and steps them in
 one numba kernel fed straight from the world's per-step tallies. The kernel calls the same
-compiled steps as the Python estimators (`bots.odometry.steps`) and lays the pose with the
+compiled steps as the Python estimators (`encoder`, `mouse`, `fused`) and lays the pose with the
 compiled twin of their `advance`, so its estimates and covariances equal theirs bit for bit
 (tests/test_odometry_batch.py holds the two together); the Python classes stay what a robot
 given its own `estimators=` runs. Parameters are read from reset Python estimators,
@@ -14,16 +14,84 @@ so every formula for them (tolerances, believed geometry) has one home, `bots.od
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import Any, NamedTuple
 
+import numba
 import numpy as np
 
 from bots.odometry.defaults import default_estimators
-from bots.odometry.steps import ENCODERS, ESTIMATES, FUSED, MOUSE, PARAMS, SIGMA_POSES, SIGMAS, batch_step, fresh_state, workspace
+from bots.odometry.encoder import encoder_step, sigma_encoders
+from bots.odometry.fused import fused_step
+from bots.odometry.layout import DEAD_RECKONERS, ENCODERS_ONLY, ESTIMATE, ESTIMATES, PARAMETERS, SIGMAS, STATE, Counts, Estimate, fresh_state
+from bots.odometry.mouse import MouseOdometry, mouse_step, sigma_mouse, turn_check, watch_slides
+from bots.odometry.propagation import add_spread, lay, pose_covariance, workspace
 from bots.spec import RobotSpec
 from bots.uncertainty import COVARIANCE_FIELDS, ERRORS
 
 COVARIANCES = len(COVARIANCE_FIELDS)
+MOUSE_SIGMAS = MouseOdometry.sigma_count
+"""The mouse estimate's sigma points (of SIGMAS)."""
+
+
+class Batch(NamedTuple):
+    """The arrays `batch_step` moves, one row per robot of the batch: its row in the tallies, its
+    PARAMETERS and STATE rows (`bots.odometry.layout`), the fused estimator's contact steps and
+    calibration (ERRORS,), and per estimate (along ESTIMATE) the pose (3,), error covariance
+    (ERRORS, ERRORS) and quantisation lag (2, 2)."""
+
+    rows: np.ndarray
+    params: np.ndarray
+    state: np.ndarray
+    contact_steps: np.ndarray
+    calibration: np.ndarray
+    poses: np.ndarray
+    errors: np.ndarray
+    lags: np.ndarray
+
+
+@numba.njit(cache=True)
+def batch_step(batch: Batch, tallies: np.ndarray, time: float, truth: np.ndarray, out: np.ndarray, cov_out: np.ndarray, work: np.ndarray) -> None:
+    """One step of every robot's default estimators by the `tallies` read at `time` (s), in place:
+    the compiled steps the Python estimators call, laid down as `ArcOdometry.update` lays them
+    (`advance_one`). Where `out` has rows: out[i] = the true pose (its row of `truth`), then the
+    estimates, and cov_out[i] their covariances (a run's log, one pass). `work`: scratch
+    (`workspace`)."""
+    rows, params, state, poses, errors, lags = batch.rows, batch.params, batch.state, batch.poses, batch.errors, batch.lags
+    if out.shape[0] != rows.shape[0] or cov_out.shape[0] != rows.shape[0]:
+        raise ValueError("DefaultOdometry.update: out and cov_out must have a row for every robot of the batch")
+    for i in range(rows.shape[0]):
+        r, p, st, pose, cov = rows[i], params[i], state[i], poses[i], errors[i]
+        if r >= tallies.shape[0] or tallies.shape[1] != 4:  # a kernel reads past an array's end without a word
+            raise ValueError("DefaultOdometry.update: tallies must be (robots, 4) with a row for every robot of the batch")
+        counts = Counts(float(tallies[r, 0]), float(tallies[r, 1]), float(tallies[r, 2]), float(tallies[r, 3]))  # (`SensorFrame.tallies`' columns)
+        for estimate in (ESTIMATE.encoders, ESTIMATE.firmware):  # the encoders' arc along the mid-angle, then the firmware's along the end heading
+            end_heading = estimate == ESTIMATE.firmware  # (a bool numba does not take for a constant: the step compiles once for both)
+            s, alpha = encoder_step(p, pose[estimate, 2], cov[estimate], counts.left, counts.right, end_heading, work)
+            lay(pose[estimate], s, alpha, end_heading)
+            sigma_encoders(p, st.sigmas[estimate], counts.left, counts.right, end_heading)
+        if not p.has_mouse:
+            continue
+        mouse = ESTIMATE.mouse
+        s, alpha = mouse_step(p, pose[mouse, 2], cov[mouse], counts.forward, counts.lateral, work)
+        lay(pose[mouse], s, alpha, False)
+        sigma_mouse(p, st.sigmas[mouse], counts.forward, counts.lateral)
+        s_enc, alpha_enc, var = turn_check(p, counts.left, counts.right, s, alpha)
+        watch_slides(p, st.mouse_watch, cov[mouse], alpha - alpha_enc, var, alpha_enc, s_enc, time)
+        fused = ESTIMATE.fused
+        s, alpha, sliding = fused_step(p, st, Estimate(pose[fused], cov[fused], lags[i, fused]), batch.calibration[i], counts, time, work)
+        batch.contact_steps[i] += sliding
+        lay(pose[fused], s, alpha, False)
+    for i in range(out.shape[0]):
+        if rows[i] >= truth.shape[0]:
+            raise ValueError("DefaultOdometry.update: truth must have a row for every robot of the batch")
+        for c in range(3):  # (element by element: an array assignment compiles numba's whole shape-mismatch message)
+            out[i, 0, c] = truth[rows[i], c]
+            for j in range(ESTIMATES):
+                out[i, 1 + j, c] = poses[i, j, c]
+        for j in range(ESTIMATES if params[i].has_mouse else ENCODERS_ONLY):
+            pose_covariance(errors[i, j], poses[i, j, 2], lags[i, j], cov_out[i, j])
+            if j != ESTIMATE.fused:
+                add_spread(state[i].sigmas[j], SIGMAS if j != ESTIMATE.mouse else MOUSE_SIGMAS, poses[i, j], cov_out[i, j])
 
 
 def batched(robot: RobotSpec) -> bool:
@@ -58,8 +126,8 @@ class DefaultOdometry:
         world's kernels), waited for at the first update; None: compiled here and now."""
         n = len(robots)
         self.rows = np.array(rows, dtype=np.int64).reshape(n)
-        self.params = np.zeros((n, PARAMS))
-        self.state = np.repeat(fresh_state()[None], n, axis=0)
+        self.params = PARAMETERS.new(n)
+        self.state = STATE.new(n)
         self.contact_steps = np.zeros(n, dtype=np.int64)
         self.calibration = np.zeros((n, ERRORS))
         self.poses = np.repeat(np.asarray(poses, dtype=np.float64).reshape(n, 1, 3), ESTIMATES, axis=1)
@@ -72,20 +140,18 @@ class DefaultOdometry:
                 estimator.reset(robot, pose)
                 self.errors[k, j], self.lags[k, j] = estimator.errors, estimator.lag
             self.names.append([estimator.name for estimator in chosen])
-            self.params[k] = chosen[ENCODERS].params
-            if len(chosen) > MOUSE:
-                self.state[k] = chosen[FUSED].state
-            for j in range(min(len(chosen), FUSED)):  # the dead reckoners' sigma points (`bots.odometry.steps.sigma_block`)
-                start = SIGMA_POSES + j * SIGMAS * 3
-                self.state[k, start : start + SIGMAS * 3] = chosen[j].sigmas.ravel()
+            self.params[k] = chosen[ESTIMATE.encoders].params
+            self.state[k] = chosen[ESTIMATE.fused].state if len(chosen) == ESTIMATES else fresh_state()
+            for j, estimator in enumerate(chosen[:DEAD_RECKONERS]):  # the dead reckoners' sigma points
+                self.state[k]["sigmas"][j] = estimator.sigmas
+        self.batch = Batch(self.rows, self.params, self.state, self.contact_steps, self.calibration, self.poses, self.errors, self.lags)
         self._out = np.zeros((n, 1 + ESTIMATES, 3))  # (where `update` is not given a run's row)
         self._cov_out = np.zeros((n, ESTIMATES, COVARIANCES))
         self._truth = np.zeros((max(self.rows.max(initial=-1) + 1, 0), 3))
         self._work = workspace()
         # the kernel for these arrays' types, called without numba's dispatch (a third of its cost),
         # as `sim.world.compiling.compiled_for` does it for the world (bots/ does not import the world)
-        arguments = (np.zeros((1, 4), np.int64), self.rows, 0.0, self.params, self.state, self.contact_steps, self.calibration,
-                     self.poses, self.errors, self.lags, self._truth, self._out, self._cov_out, self._work)  # fmt: skip
+        arguments = (self.batch, np.zeros((1, 4), np.int64), 0.0, self._truth, self._out, self._cov_out, self._work)
         if compiling is None:
             self._step = batch_step.compile(tuple(batch_step.typeof_pyval(argument) for argument in arguments))
         else:
@@ -121,7 +187,6 @@ class DefaultOdometry:
         """`update` with `out` and `cov_out`, for a caller whose arrays already have the types the
         kernel was compiled for (C-ordered: int64 tallies, float64 truth and outputs; a float time),
         as a run's columns do: no conversions, which would cost as much as the kernel's work."""
-        self._step(tallies, self.rows, time, self.params, self.state, self.contact_steps, self.calibration,
-                   self.poses, self.errors, self.lags, truth, out, cov_out, self._work)  # fmt: skip
+        self._step(self.batch, tallies, time, truth, out, cov_out, self._work)
 
 

@@ -1,10 +1,41 @@
-"""The wheel encoders' odometry through the exact arc."""
+"""The wheel encoders' odometry through the exact arc, and its compiled step."""
 
 from __future__ import annotations
 
+import numba
+import numpy as np
+
 from bots.odometry.base import ArcOdometry
-from bots.odometry.steps import SIGMAS, encoder_step, sigma_encoders
+from bots.odometry.layout import SIGMA_SPREAD, SIGMAS
+from bots.odometry.propagation import END_HEADING, MID_ANGLE, PROPAGATE_WORK, lay, propagate, wheel_terms, wheel_variances
 from bots.readings import Readings
+
+
+@numba.njit(cache=True)
+def encoder_step(p: np.void, heading: float, cov: np.ndarray, left: float, right: float, end_heading: bool, work: np.ndarray) -> tuple[float, float]:
+    """Encoder odometry: the increment of `left`, `right` ticks; `cov` propagated from `heading`
+    (`work`: scratch, `workspace`)."""
+    s_left, s_right = left * p.tick_left, right * p.tick_right
+    s, alpha = 0.5 * (s_left + s_right), (s_right - s_left) / p.track
+    jac, noise = work[PROPAGATE_WORK, :2, :], work[PROPAGATE_WORK + 1, :2, :2]
+    var_left, var_right = wheel_variances(p, s_left, s_right)
+    wheel_terms(s_left, s_right, alpha, p.track, var_left, var_right, jac, noise)
+    propagate(cov, heading, s, alpha, END_HEADING if end_heading else MID_ANGLE, jac, noise, work)
+    return s, alpha
+
+
+@numba.njit(cache=True)
+def sigma_encoders(p: np.void, sigmas: np.ndarray, left: float, right: float, end_heading: bool) -> None:
+    """Lay these ticks on every sigma point of the encoders' calibration, in place: point 2j
+    (2j + 1) believes error j (left wheel, right wheel, track) SIGMA_SPREAD standard deviations
+    above (below) the estimate, so its wheels roll (1 + k) times the believed arc and it turns
+    over (1 + k) times the believed track, exactly, however far its heading strays."""
+    for i in range(SIGMAS):
+        offset = (SIGMA_SPREAD if i % 2 == 0 else -SIGMA_SPREAD) * (p.wheel_std if i < 4 else p.track_std)
+        s_left = left * p.tick_left * (1.0 + (offset if i // 2 == 0 else 0.0))
+        s_right = right * p.tick_right * (1.0 + (offset if i // 2 == 1 else 0.0))
+        track = p.track * (1.0 + (offset if i // 2 == 2 else 0.0))
+        lay(sigmas[i], 0.5 * (s_left + s_right), (s_right - s_left) / track, end_heading)
 
 
 class EncoderOdometry(ArcOdometry):

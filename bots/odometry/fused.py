@@ -1,34 +1,220 @@
-"""Encoders and mouse together: an extended Kalman filter of the pose and the calibration, or the
-c't-Bot's blend."""
+"""Encoders and mouse together: an extended Kalman filter of the pose and the calibration (its
+compiled step, `fused_step`), or the c't-Bot's blend.
+
+The filter's model: each step both sensors measure the same increment (s, alpha): u = u_enc +
+J_enc k + n_enc = u_mouse + J_mouse k + n_mouse. Their difference d (each corrected by the
+current calibration estimate) measures the calibration errors alone, with noise n_enc - n_mouse:
+the Kalman update moves the calibration (and, through their correlation, the pose). The increment
+laid down is the two corrected increments weighted by their information, whose noise is
+uncorrelated with d's (the same weights), so one step uses every reading once. The Jacobians are
+taken at the mouse's increment (fine counts), not the encoders' (a tick arrives on some steps
+only): Jacobians taken at the encoders' quantised values correlate with their own quantisation
+error and bias the calibration.
+
+Per step, a count's quantisation (up to one count) is far above the random noise, so the weights
+and the update take it as white noise of variance count²/12 on each channel: this over-states its
+sum over many steps (carried counts lag by less than one count, never more), which keeps the
+calibration update cautious. The propagated covariance takes only the random noise; the
+quantisation lag is reported beside it (`lag`, as `bots.uncertainty` does).
+
+Two detectors leave a sensor out where its model does not hold (`FusedOdometry` says why they
+hold): slip (the encoders' distance strays from the mouse's beyond a quantisation band) and wall
+contact (the mouse's rotation strays from the encoders', a slide read as rotation); a channel left
+out gets the variance IGNORED.
+"""
 
 from __future__ import annotations
 
+import math
 from typing import Literal
 
+import numba
 import numpy as np
 
 from bots.odometry.base import ArcOdometry, Geometry
 from bots.odometry.encoder import EncoderOdometry
-from bots.odometry.mouse import MouseOdometry
-from bots.odometry.steps import (
-    TOLERANCE,
-    TURN_TOLERANCE,
-    fused_step,
-)
+from bots.odometry.layout import Counts, Estimate
+from bots.odometry.mouse import MouseOdometry, mouse_arc, watch_slides
+from bots.odometry.propagation import MID_ANGLE, PROPAGATE_WORK, mouse_terms, mouse_variance, propagate, wheel_terms, wheel_variances
 from bots.readings import Readings
 from bots.spec import RobotSpec
-from bots.uncertainty import ERRORS
+from bots.uncertainty import ERRORS, LEFT_SCALE, MOUSE_SCALE, RIGHT_SCALE, TRACK_SCALE
 from sim.kinematics import advance
 
 G_POS = 0.5
 """The c't-Bot firmware's weight of the encoder pose against the mouse pose (bot-local.h:108)."""
+IGNORED = 1e6
+"""Variance (m², rad²) of a channel left out for a step: a million times any real one."""
+
+
+@numba.njit(cache=True)
+def _mul(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """out <- a @ b for 2-D arrays (numba's own needs SciPy's BLAS); `out` (a view of scratch)."""
+    out[:, :] = 0.0
+    for i in range(a.shape[0]):
+        for k in range(a.shape[1]):
+            for j in range(b.shape[1]):
+                out[i, j] += a[i, k] * b[k, j]
+    return out
+
+
+@numba.njit(cache=True)
+def _apply(a: np.ndarray, v: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """out <- a @ v for a 2-D a and a 1-D v."""
+    out[:] = 0.0
+    for i in range(a.shape[0]):
+        for k in range(a.shape[1]):
+            out[i] += a[i, k] * v[k]
+    return out
+
+
+@numba.njit(cache=True)
+def _inverse(m: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """out <- the inverse of the 2 x 2 `m`."""
+    det = m[0, 0] * m[1, 1] - m[0, 1] * m[1, 0]
+    out[0, 0], out[0, 1], out[1, 0], out[1, 1] = m[1, 1] / det, -m[0, 1] / det, -m[1, 0] / det, m[0, 0] / det
+    return out
+
+
+@numba.njit(cache=True)
+def _add(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """out <- a + b, element by element (2-D)."""
+    for i in range(a.shape[0]):
+        for j in range(a.shape[1]):
+            out[i, j] = a[i, j] + b[i, j]
+    return out
+
+
+@numba.njit(cache=True)
+def _weighed(w_enc: np.ndarray, m_enc: np.ndarray, w_mouse: np.ndarray, m_mouse: np.ndarray, out: np.ndarray, work: np.ndarray) -> None:
+    """out <- w_enc m_enc w_enc^T + w_mouse m_mouse w_mouse^T (2 x 2; `work`: four scratch planes)."""
+    _add(_mul(_mul(w_enc, m_enc, work[0, :2, :2]), w_enc.T, work[1, :2, :2]), _mul(_mul(w_mouse, m_mouse, work[2, :2, :2]), w_mouse.T, work[3, :2, :2]), out)
+
+
+@numba.njit(cache=True)
+def fused_step(p: np.void, st: np.void, estimate: Estimate, calibration: np.ndarray, counts: Counts, time: float, work: np.ndarray) -> tuple[float, float, bool]:
+    """The fused filter's step of one step's `counts` read at `time` (s), in place: the
+    `estimate`'s pose corrected by the update (not yet advanced), its covariance (ERRORS, ERRORS)
+    and quantisation lag, `calibration` (ERRORS,) the estimated errors (entries 3 on), `st` (a
+    STATE row) the detectors; every intermediate in `work` (`workspace`: no allocation a step).
+    Returns the increment (s, alpha) to lay from the corrected pose and whether the mouse slid
+    (wall contact)."""
+    pose, cov, lag = estimate
+    left, right, forward, lateral = counts
+    vectors = work[PROPAGATE_WORK]  # rows: the increments and their corrections
+    u_enc, u_mouse, corrected_enc, corrected_mouse, d, u = vectors[0, :2], vectors[1, :2], vectors[2, :2], vectors[3, :2], vectors[4, :2], vectors[5, :2]
+    applied, correction, updated_enc, updated_mouse = vectors[6, :2], work[PROPAGATE_WORK + 1, 0], work[PROPAGATE_WORK + 1, 1, :2], work[PROPAGATE_WORK + 1, 2, :2]
+    j_enc, r_enc, q_enc, a_enc = work[5, :2, :], work[6, :2, :2], work[7, :2, :2], work[8, :2, :2]
+    j_mouse, r_mouse, q_mouse, a_mouse = work[9, :2, :], work[10, :2, :2], work[11, :2, :2], work[12, :2, :2]
+    h, noise_d, ph, gain, keep_cov = work[13, :2, :], work[14, :2, :2], work[15, :, :2], work[16, :, :2], work[17, :, :]
+    i_enc, i_mouse, weights, w_enc, w_mouse = work[18, :2, :2], work[19, :2, :2], work[20, :2, :2], work[21, :2, :2], work[22, :2, :2]
+    jac, noise, scratch = work[23, :2, :], work[24, :2, :2], work[25:]
+    matrix = cov[:, :]  # (every matrix a view of one type, 'A': one compile of each helper, not one per layout)
+    track = p.track
+    s_left, s_right = left * p.tick_left, right * p.tick_right
+    u_enc[0], u_enc[1] = 0.5 * (s_left + s_right), (s_right - s_left) / track
+    u_mouse[0], u_mouse[1] = mouse_arc(p, forward, lateral)
+    # the error models, the encoders' at the arcs of the mouse's increment (see the module)
+    count = 1.0 / p.per_metre
+    mouse_terms(u_mouse[0], u_mouse[1], p.mount_x, p.mount_y, mouse_variance(p, u_mouse[0], u_mouse[1]), j_mouse, r_mouse)
+    mouse_terms(u_mouse[0], u_mouse[1], p.mount_x, p.mount_y, count * count / 12.0, j_mouse, q_mouse)
+    _apply(j_mouse, calibration, applied)
+    for k in range(2):
+        corrected_mouse[k] = u_mouse[k] + applied[k]
+    # the detectors, on the corrected increments
+    at_left = corrected_mouse[0] - 0.5 * corrected_mouse[1] * track
+    at_right = corrected_mouse[0] + 0.5 * corrected_mouse[1] * track
+    var_left, var_right = wheel_variances(p, at_left, at_right)
+    wheel_terms(at_left, at_right, corrected_mouse[1], track, var_left, var_right, j_enc, r_enc)
+    wheel_terms(at_left, at_right, corrected_mouse[1], track, p.tick_left ** 2 / 12.0, p.tick_right ** 2 / 12.0, j_enc, q_enc)
+    _apply(j_enc, calibration, applied)
+    for k in range(2):
+        corrected_enc[k] = u_enc[k] + applied[k]
+    # slip: the encoders' distance beyond the mouse's, over the last DISTANCE_MEMORY of the mouse's
+    # path, against its quantisation band, GATE sigmas of its random noise summed as it is, and of
+    # the calibration still unknown over that path
+    forget = math.exp(-abs(corrected_mouse[0]) / p.distance_memory)
+    st.disagreement = st.disagreement * forget + corrected_enc[0] - corrected_mouse[0]
+    st.disagreement_var = st.disagreement_var * forget * forget + r_enc[0, 0] + r_mouse[0, 0]
+    st.travel = st.travel * forget + abs(corrected_mouse[0])
+    scale = math.sqrt(max(0.25 * (cov[LEFT_SCALE, LEFT_SCALE] + cov[RIGHT_SCALE, RIGHT_SCALE] + 2.0 * cov[LEFT_SCALE, RIGHT_SCALE]) + cov[MOUSE_SCALE, MOUSE_SCALE], 0.0))
+    slipped = abs(st.disagreement) > p.tolerance + p.gate * (math.sqrt(st.disagreement_var) + scale * st.travel)
+    # a slide: the mouse's rotation beyond the encoders', over the last TURN_MEMORY seconds, the same way
+    if math.isnan(st.time):
+        keep = 1.0
+    else:
+        elapsed = time - st.time
+        keep = math.exp(-(0.0 if 0.0 > elapsed else elapsed) / p.memory)
+    st.time = time
+    st.turning = st.turning * keep + abs(corrected_enc[1])
+    st.turn_travel = st.turn_travel * keep + abs(corrected_enc[0])
+    st.turn_disagreement = st.turn_disagreement * keep + corrected_mouse[1] - corrected_enc[1]
+    st.turn_var = st.turn_var * keep * keep + r_enc[1, 1] + r_mouse[1, 1]
+    st.taken = st.taken * keep
+    turn_scale = math.sqrt(max(cov[TRACK_SCALE, TRACK_SCALE] + cov[MOUSE_SCALE, MOUSE_SCALE], 0.0))
+    mismatch = math.sqrt(max(cov[LEFT_SCALE, LEFT_SCALE] + cov[RIGHT_SCALE, RIGHT_SCALE] - 2.0 * cov[LEFT_SCALE, RIGHT_SCALE], 0.0))
+    band = p.turn_tolerance + p.gate * (math.sqrt(st.turn_var) + turn_scale * st.turning + mismatch * st.turn_travel / track)
+    sliding = abs(st.turn_disagreement) > band
+    watch_slides(p, st.fused_watch, cov, corrected_mouse[1] - corrected_enc[1], r_enc[1, 1] + r_mouse[1, 1], corrected_enc[1], corrected_enc[0], time)
+    _add(r_enc, q_enc, a_enc)
+    _add(r_mouse, q_mouse, a_mouse)
+    if slipped:
+        a_enc[0, 0], a_enc[0, 1], a_enc[1, 0] = IGNORED, 0.0, 0.0
+    if sliding:
+        a_mouse[1, 1], a_mouse[0, 1], a_mouse[1, 0] = IGNORED, 0.0, 0.0
+    # the update: d = corrected_enc - corrected_mouse = h e + v, e = truth - estimate
+    for r in range(2):
+        d[r] = corrected_enc[r] - corrected_mouse[r]
+        for j in range(ERRORS):
+            h[r, j] = j_mouse[r, j] - j_enc[r, j]
+    _add(a_enc, a_mouse, noise_d)
+    _mul(matrix, h.T, ph)  # (ERRORS, 2)
+    _mul(ph, _inverse(_add(_mul(h, ph, scratch[0, :2, :2]), noise_d, scratch[1, :2, :2]), scratch[2, :2, :2]), gain)
+    _apply(gain, d, correction)
+    _mul(gain, h, keep_cov)
+    for r in range(ERRORS):
+        for j in range(ERRORS):
+            keep_cov[r, j] = (1.0 if r == j else 0.0) - keep_cov[r, j]
+    # (Joseph's form: stays symmetric, positive)
+    _add(_mul(_mul(keep_cov, matrix, scratch[0, :, :]), keep_cov.T, scratch[1, :, :]), _mul(_mul(gain, noise_d, scratch[2, :, :2]), gain.T, scratch[3, :, :]), matrix)
+    for r in range(3):
+        pose[r] += correction[r]
+    for r in range(3, ERRORS):
+        calibration[r] += correction[r]
+    # the increment: both, corrected by the updated calibration, by their information
+    _inverse(a_enc, i_enc)
+    _inverse(a_mouse, i_mouse)
+    _inverse(_add(i_enc, i_mouse, scratch[0, :2, :2]), weights)
+    _mul(weights, i_enc, w_enc)
+    _mul(weights, i_mouse, w_mouse)
+    _apply(j_enc, calibration, applied)
+    for k in range(2):
+        updated_enc[k] = u_enc[k] + applied[k]
+    _apply(j_mouse, calibration, applied)
+    for k in range(2):
+        updated_mouse[k] = u_mouse[k] + applied[k]
+    _apply(w_enc, updated_enc, scratch[0, 0, :2])
+    _apply(w_mouse, updated_mouse, scratch[0, 1, :2])
+    for k in range(2):
+        u[k] = scratch[0, 0, k] + scratch[0, 1, k]
+    _add(_mul(w_enc, j_enc, scratch[0, :2, :]), _mul(w_mouse, j_mouse, scratch[1, :2, :]), jac)
+    _weighed(w_enc, r_enc, w_mouse, r_mouse, noise, scratch)
+    _weighed(w_enc, q_enc, w_mouse, q_mouse, lag[:, :], scratch)
+    propagate(cov, pose[2], u[0], u[1], MID_ANGLE, jac, noise, work)
+    s, alpha = u[0], u[1]
+    if sliding:  # what the mouse's rotation added before the slide was seen is taken back
+        alpha -= st.taken
+        st.taken = 0.0
+    else:
+        st.taken += alpha - corrected_enc[1]
+    return s, alpha, sliding
 
 
 class FusedOdometry(ArcOdometry):
     """Encoders and mouse together.
 
     rule "ekf" (default, name "fused"): an extended Kalman filter of the pose and the four
-    calibration errors (`bots.odometry.steps.fused_step`): every step the encoders' and the
+    calibration errors (`fused_step`): every step the encoders' and the
     mouse's increments, each corrected by the calibration estimated so far, are weighted by their
     information, and their disagreement updates the calibration. The mouse resolves 1 count / m_x
     (4.2 mrad on the c't-Bot) per step against 1 tick / track (30 mrad) for the encoders, so the
@@ -52,14 +238,14 @@ class FusedOdometry(ArcOdometry):
     rotation is left out, and what it added to the heading before the slide was seen is taken back
     (the disagreement fades below the band within TURN_MEMORY * ln(size / band) after the slide).
     `contact_steps` counts those steps. Limits: a slide under about 1 mm per TURN_MEMORY goes
-    unnoticed here; a slower watch over SLIDE_WATCH_MEMORY (`bots.odometry.steps.watch_slides`)
+    unnoticed here; a slower watch over SLIDE_WATCH_MEMORY (`bots.odometry.mouse.watch_slides`)
     widens the heading's variance by what such a slide may have turned it, without moving the
     estimate (in the maze its mean NEES at the end is 3.95 over 40 runs, just above the interval,
     one run 45 degrees off after a slide; docs/odometry.md).
 
     Too cautious where the calibration is learnt: with systematic errors drawn from its belief,
     its errors spread a quarter to a half of what its covariance says (the quantisation taken as
-    white noise in the update, see `bots.odometry.steps`, slows the covariance, not the estimate).
+    white noise in the update, see the module, slows the covariance, not the estimate).
 
     rule "blend": the c't-Bot's coupled estimate (MEASURE_COUPLED_AVAILABLE): the encoder and the
     mouse poses, each dead-reckoned on its own, averaged with weight G_POS on the encoders
@@ -83,7 +269,7 @@ class FusedOdometry(ArcOdometry):
         super().reset(robot, pose)
         self.encoders.reset(robot, pose)
         self.mouse.reset(robot, pose)
-        self.tolerance, self.turn_tolerance = float(self.params[TOLERANCE]), float(self.params[TURN_TOLERANCE])
+        self.tolerance, self.turn_tolerance = float(self.params["tolerance"]), float(self.params["turn_tolerance"])
         self.calibration = np.zeros(ERRORS)
         """The estimated calibration errors (entries LEFT_SCALE on of `bots.uncertainty`; relative)."""
         self.contact_steps = 0
@@ -96,8 +282,8 @@ class FusedOdometry(ArcOdometry):
             return
         left, right = readings.encoder_ticks.tolist()
         forward, lateral = readings.mouse_counts.tolist()
-        s, alpha, sliding = fused_step(self.params, self.state, self.pose, self.calibration, self.errors, self.lag,
-                                       float(left), float(right), float(forward), float(lateral), float(readings.time), self.work)  # fmt: skip
+        counts = Counts(float(left), float(right), float(forward), float(lateral))
+        s, alpha, sliding = fused_step(self.params, self.state, Estimate(self.pose, self.errors, self.lag), self.calibration, counts, float(readings.time), self.work)
         self.contact_steps += sliding
         self.pose = advance(self.pose, s, alpha, False)
 

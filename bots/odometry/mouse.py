@@ -1,10 +1,89 @@
-"""The optical mouse's odometry through the inverse model of seed 002."""
+"""The optical mouse's odometry through the inverse model of seed 002, its compiled step, and the
+slide watch it shares with the fused estimator."""
 
 from __future__ import annotations
 
+import math
+
+import numba
+import numpy as np
+
 from bots.odometry.base import ArcOdometry
-from bots.odometry.steps import MOUSE, mouse_step, sigma_mouse, slide_block, turn_check, watch_slides
+from bots.odometry.layout import SIGMA_SPREAD
+from bots.odometry.propagation import MID_ANGLE, PROPAGATE_WORK, lay, mouse_terms, mouse_variance, propagate, wheel_variances
 from bots.readings import Readings
+from bots.uncertainty import HEADING
+
+
+@numba.njit(cache=True)
+def mouse_arc(p: np.void, forward: float, lateral: float) -> tuple[float, float]:
+    """The mouse's increment (seed 002 §2.1): alpha = lateral/m_x, s = forward + alpha*m_y."""
+    alpha = lateral / p.per_metre / p.mount_x
+    return forward / p.per_metre + alpha * p.mount_y, alpha
+
+
+@numba.njit(cache=True)
+def mouse_step(p: np.void, heading: float, cov: np.ndarray, forward: float, lateral: float, work: np.ndarray) -> tuple[float, float]:
+    """Mouse odometry: the increment of these counts; `cov` propagated from `heading` (`work`:
+    scratch, `workspace`)."""
+    s, alpha = mouse_arc(p, forward, lateral)
+    jac, noise = work[PROPAGATE_WORK, :2, :], work[PROPAGATE_WORK + 1, :2, :2]
+    mouse_terms(s, alpha, p.mount_x, p.mount_y, mouse_variance(p, s, alpha), jac, noise)
+    propagate(cov, heading, s, alpha, MID_ANGLE, jac, noise, work)
+    return s, alpha
+
+
+@numba.njit(cache=True)
+def sigma_mouse(p: np.void, sigmas: np.ndarray, forward: float, lateral: float) -> None:
+    """Lay these counts on the two sigma points of the mouse's resolution (SIGMA_SPREAD standard
+    deviations above and below the estimate: a finer mouse counts (1 + k) times the floor)."""
+    s, alpha = mouse_arc(p, forward, lateral)
+    for i in range(2):
+        scale = 1.0 + (SIGMA_SPREAD if i == 0 else -SIGMA_SPREAD) * p.mouse_scale_std
+        lay(sigmas[i], s / scale, alpha / scale, False)
+
+
+@numba.njit(cache=True)
+def watch_slides(p: np.void, watch: np.ndarray, cov: np.ndarray, disagreement: float, var: float, turned: float, travelled: float,
+                 time: float) -> None:  # fmt: skip
+    """Widen the heading's variance by what a slide may have added, in place. A robot sliding
+    along a wall moves its mouse sideways, which the mouse reads as rotation, while the encoders
+    turn as the wheels do: the mouse's rotation beyond the encoders' (`disagreement`, rad, this
+    step), summed with a memory of SLIDE_MEMORY seconds, stays within the quantisation band
+    (`TURN_TOLERANCE`), GATE standard deviations of its random noise (`var`, rad² this step,
+    summed as it is) and SLIDE_GATE believed calibration errors of the recent net turning and
+    driving (`turned` rad, signed, `travelled` m this step: a scale error's disagreement follows
+    the net turn, the quantisation's ticks back and forth cancel) unless the robot slid. Beyond
+    it the whole sum is what the slide may have turned the mouse's heading by: while it grows,
+    the variance grows with its square (an episode adds its peak squared; the watch starts again
+    once the sum is back within the band). Slower slides than about the band over SLIDE_MEMORY
+    go unseen."""
+    last = watch.time
+    keep = 1.0 if math.isnan(last) else math.exp(-max(time - last, 0.0) / p.slide_memory)
+    watch.time = time
+    watch.disagreement = watch.disagreement * keep + disagreement
+    watch.turning = watch.turning * keep + turned
+    watch.travel = watch.travel * keep + abs(travelled)
+    watch.var = watch.var * keep * keep + var
+    turn_scale = math.sqrt(p.track_std * p.track_std + p.mouse_scale_std * p.mouse_scale_std)
+    band = p.turn_tolerance + p.gate * math.sqrt(watch.var) + p.slide_gate * (turn_scale * abs(watch.turning) + math.sqrt(2.0) * p.wheel_std * watch.travel / p.track)
+    level = abs(watch.disagreement)
+    if level <= band:
+        watch.peak = 0.0
+    elif level > watch.peak:
+        cov[HEADING, HEADING] += level * level - watch.peak * watch.peak
+        watch.peak = level
+
+
+@numba.njit(cache=True)
+def turn_check(p: np.void, left: float, right: float, s: float, alpha: float) -> tuple[float, float, float]:
+    """What the mouse estimate's slide watch compares (`watch_slides`): the encoders' increment
+    (s m, alpha rad) of these ticks by the believed geometry, and the random variance (rad²) of
+    the difference of the two rotations, the mouse's increment being (s, alpha)."""
+    s_left, s_right = left * p.tick_left, right * p.tick_right
+    var_left, var_right = wheel_variances(p, s_left, s_right)
+    var = (var_left + var_right) / (p.track * p.track) + mouse_variance(p, s, alpha) / (p.mount_x * p.mount_x)
+    return 0.5 * (s_left + s_right), (s_right - s_left) / p.track, var
 
 
 class MouseOdometry(ArcOdometry):
@@ -14,11 +93,11 @@ class MouseOdometry(ArcOdometry):
     believed size (`bots.uncertainty`). Not modelled: a mouse too fast to track (reads zero).
 
     The resolution's error is carried by two sigma points (`ArcOdometry`); a slide along a wall,
-    which the mouse reads as rotation, by the slide watch (`bots.odometry.steps.watch_slides`,
-    which looks at the encoders' ticks only to widen the heading's variance, never to move the
-    estimate). Not consistent once slides have turned its heading by more than about a quarter
-    turn: no Gaussian then describes where it is (in the maze 3 of 40 runs end 88-138 degrees off
-    and lift the mean NEES at the end to 25, docs/odometry.md)."""
+    which the mouse reads as rotation, by the slide watch (`watch_slides`, which looks at the
+    encoders' ticks only to widen the heading's variance, never to move the estimate). Not
+    consistent once slides have turned its heading by more than about a quarter turn: no Gaussian
+    then describes where it is (in the maze 3 of 40 runs end 88-138 degrees off and lift the mean
+    NEES at the end to 25, docs/odometry.md)."""
 
     name = "mouse"
     uses_mouse = True
@@ -33,5 +112,5 @@ class MouseOdometry(ArcOdometry):
         sigma_mouse(self.params, self.sigmas, float(forward), float(lateral))
         s, alpha = mouse_step(self.params, float(self.pose[2]), self.errors, float(forward), float(lateral), self.work)
         s_enc, alpha_enc, var = turn_check(self.params, float(left), float(right), s, alpha)
-        watch_slides(self.params, slide_block(self.state, MOUSE), self.errors, alpha - alpha_enc, var, alpha_enc, s_enc, float(readings.time))
+        watch_slides(self.params, self.state["mouse_watch"], self.errors, alpha - alpha_enc, var, alpha_enc, s_enc, float(readings.time))
         return s, alpha

@@ -19,6 +19,8 @@ from collections import deque
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager, suppress
 from dataclasses import dataclass, field
+from functools import cache
+from multiprocessing import util
 from multiprocessing.connection import wait
 from typing import Any
 
@@ -363,12 +365,20 @@ class Dask:
             self.client.close()
         if self.cluster is not None:
             self.cluster.close()
-            _stop_resource_tracker()
+            _stop_resource_tracker_at_exit()
+
+
+@cache
+def _stop_resource_tracker_at_exit() -> None:
+    """End the process multiprocessing started to track the LocalCluster's semaphores, and wait
+    for it, when this process ends: left to end with it, the tracker would linger unreaped until
+    init collects it. Not at once: stopped while a semaphore's owner here still lived, the tracker
+    unlinked it as leaked (with a warning), and the owner's own cleanup then printed a traceback.
+    A finalizer of negative priority runs after every semaphore's own (priority 0)."""
+    util.Finalize(None, _stop_resource_tracker, exitpriority=-100)
 
 
 def _stop_resource_tracker() -> None:
-    """End the process multiprocessing started to track the LocalCluster's semaphores, and wait
-    for it: left to end with this process, it would linger unreaped until init collects it."""
     from multiprocessing import resource_tracker
 
     with suppress(Exception):  # (a private method, present since Python 3.8)

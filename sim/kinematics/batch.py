@@ -22,6 +22,7 @@ in the reference's order, so ticks and counts equal the reference's exactly.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -30,6 +31,28 @@ from numba import types
 from numba.extending import intrinsic
 
 from sim.kinematics.arc import _ADVANCE_SERIES_LIMIT, _COS, _SERIES_LIMIT, _SINC
+
+
+class Drive(NamedTuple):
+    """What the robots of a batch share (`step_batch`): the track (m), encoder ticks per metre of
+    rim, the mouse's mount x, y in the body frame (m) and its counts per metre."""
+
+    track: float
+    ticks_per_metre: float
+    mount_x: float
+    mount_y: float
+    counts_per_metre: float
+
+
+class Counters(NamedTuple):
+    """The robots' counting (`step_batch`), (2, N) each, in place: the encoders' carries (rows
+    left, right) and this step's ticks (int64), the mouse's carries and this step's counts (int64;
+    rows forward, left)."""
+
+    tick_carry: np.ndarray
+    ticks: np.ndarray
+    mouse_carry: np.ndarray
+    counts: np.ndarray
 
 
 @intrinsic
@@ -105,13 +128,12 @@ def quantize_one(total: float) -> tuple[float, float]:
 
 
 @numba.njit(cache=True, inline="always")
-def _advance(
-    x: float, y: float, theta: float, c: float, s: float, chord: float, alpha: float, cos_h: float, sin_h: float
-) -> tuple[float, float, float, float, float]:
-    """Pose and heading direction (c, s) = (cos θ, sin θ) after an arc: the chord runs along the
-    mid heading θ + α/2, and the heading turns by α/2 twice. Carrying (c, s) saves the heading's
-    trig; one Newton step back onto the unit circle keeps it from drifting in length. Multiply-adds
-    are fused (`_fma`)."""
+def _advance(moving: tuple[float, float, float, float, float], chord: float, alpha: float, cos_h: float, sin_h: float) -> tuple[float, float, float, float, float]:
+    """Pose and heading direction `moving` = (x, y, θ, c, s), (c, s) = (cos θ, sin θ), after an arc:
+    the chord runs along the mid heading θ + α/2, and the heading turns by α/2 twice. Carrying (c,
+    s) saves the heading's trig; one Newton step back onto the unit circle keeps it from drifting
+    in length. Multiply-adds are fused (`_fma`)."""
+    x, y, theta, c, s = moving
     mid_c, mid_s = _fma(c, cos_h, -s * sin_h), _fma(s, cos_h, c * sin_h)
     c, s = _fma(mid_c, cos_h, -mid_s * sin_h), _fma(mid_s, cos_h, mid_c * sin_h)
     norm = 1.5 - 0.5 * _fma(c, c, s * s)
@@ -130,7 +152,7 @@ def _arc_one(x: float, y: float, theta: float, c: float, s: float, s_left: float
     beyond = abs(h) > _SERIES_LIMIT
     h = min(max(h, -_SERIES_LIMIT), _SERIES_LIMIT)
     cos_h, sinc_h = _series(h, _fma)
-    moved = _advance(x, y, theta, c, s, 0.5 * (s_left + s_right) * sinc_h, alpha, cos_h, sinc_h * h)
+    moved = _advance((x, y, theta, c, s), 0.5 * (s_left + s_right) * sinc_h, alpha, cos_h, sinc_h * h)
     if beyond:
         return x, y, theta, c, s, beyond
     return moved[0], moved[1], moved[2], moved[3], moved[4], beyond
@@ -143,17 +165,16 @@ def _arcs_beyond(x: np.ndarray, y: np.ndarray, theta: np.ndarray, c: np.ndarray,
     for i in range(x.shape[0]):
         chord, alpha, cos_h, sin_h = exact_arc(s_left[i], s_right[i], track)
         if abs(0.5 * alpha) > _SERIES_LIMIT:
-            x[i], y[i], theta[i], c[i], s[i] = _advance(x[i], y[i], theta[i], c[i], s[i], chord, alpha, cos_h, sin_h)
+            x[i], y[i], theta[i], c[i], s[i] = _advance((x[i], y[i], theta[i], c[i], s[i]), chord, alpha, cos_h, sin_h)
 
 
 @numba.njit(cache=True, inline="always")
-def _count_one(
-    s_left: float, s_right: float, alpha: float, ticks_per_metre: float, carry_left: float, carry_right: float,
-    mount_x: float, mount_y: float, counts_per_metre: float, carry_forward: float, carry_lateral: float,
-) -> tuple:
+def _count_one(s_left: float, s_right: float, alpha: float, drive: Drive, carries: tuple[float, float, float, float]) -> tuple:
     """A robot's encoder ticks and carries (left, right), then mouse counts and carries (forward,
-    left): `quantize_one` of each running total. The mouse at (mount_x, mount_y) in the body frame
-    moves by (s − α·mount_y, α·mount_x)."""
+    left): `quantize_one` of each running total, carried from `carries` (left, right, forward,
+    left). The mouse at (mount_x, mount_y) in the body frame moves by (s − α·mount_y, α·mount_x)."""
+    ticks_per_metre, mount_x, mount_y, counts_per_metre = drive.ticks_per_metre, drive.mount_x, drive.mount_y, drive.counts_per_metre
+    carry_left, carry_right, carry_forward, carry_lateral = carries
     ticks_left, carry_left = quantize_one(s_left * ticks_per_metre + carry_left)
     ticks_right, carry_right = quantize_one(s_right * ticks_per_metre + carry_right)
     forward, carry_forward = quantize_one((0.5 * (s_left + s_right) - alpha * mount_y) * counts_per_metre + carry_forward)
@@ -175,23 +196,23 @@ def _pose_rows(x: np.ndarray, y: np.ndarray, theta: np.ndarray, c: np.ndarray, s
 
 
 @numba.njit(cache=True)
-def _batch_rows(
-    x: np.ndarray, y: np.ndarray, theta: np.ndarray, c: np.ndarray, s: np.ndarray,
-    s_left: np.ndarray, s_right: np.ndarray, track: float, ticks_per_metre: float,
-    carry_left: np.ndarray, carry_right: np.ndarray, ticks_left: np.ndarray, ticks_right: np.ndarray,
-    mount_x: float, mount_y: float, counts_per_metre: float,
-    carry_forward: np.ndarray, carry_lateral: np.ndarray, counts_forward: np.ndarray, counts_lateral: np.ndarray,
-) -> None:
+def _batch_rows(motion: tuple, wheels: tuple[np.ndarray, np.ndarray], drive: Drive, counting: tuple) -> None:
     """Robots along their exact arcs and their ticks and counts, in place, in one loop (the rows of
-    one part): each wheel arc is loaded, and each turn divided out, once."""
+    one part): each wheel arc is loaded, and each turn divided out, once. `motion`: the rows x, y,
+    θ, cos θ, sin θ; `wheels`: the wheel arcs' rows (left, right); `counting`: the rows of the
+    encoders' carries and ticks (left, right), then the mouse's (forward, left), as `Counters`.
+    (Rows, not 2-D blocks: the loop runs in SIMD lanes over contiguous rows.)"""
+    x, y, theta, c, s = motion
+    s_left, s_right = wheels
+    track = drive.track
+    carry_left, carry_right, ticks_left, ticks_right, carry_forward, carry_lateral, counts_forward, counts_lateral = counting
     beyond = 0
     for i in range(x.shape[0]):
         alpha = (s_right[i] - s_left[i]) / track
         x[i], y[i], theta[i], c[i], s[i], far = _arc_one(x[i], y[i], theta[i], c[i], s[i], s_left[i], s_right[i], alpha)
         beyond += far
         (ticks_left[i], carry_left[i], ticks_right[i], carry_right[i], counts_forward[i], carry_forward[i], counts_lateral[i],
-         carry_lateral[i]) = _count_one(s_left[i], s_right[i], alpha, ticks_per_metre, carry_left[i], carry_right[i], mount_x,
-                                        mount_y, counts_per_metre, carry_forward[i], carry_lateral[i])  # fmt: skip
+         carry_lateral[i]) = _count_one(s_left[i], s_right[i], alpha, drive, (carry_left[i], carry_right[i], carry_forward[i], carry_lateral[i]))
     if beyond:
         _arcs_beyond(x, y, theta, c, s, s_left, s_right, track)
 
@@ -213,13 +234,11 @@ def _check_poses(pose: np.ndarray, heading_dir: np.ndarray, wheel_arcs: np.ndarr
 
 
 @numba.njit(cache=True)
-def _check_counts(robots: int, tick_carry: np.ndarray, ticks: np.ndarray, mount: np.ndarray, mouse_carry: np.ndarray, counts: np.ndarray) -> None:
-    _check_rows(tick_carry, 2, robots)
-    _check_rows(ticks, 2, robots)
-    _check_rows(mouse_carry, 2, robots)
-    _check_rows(counts, 2, robots)
-    if mount.shape[0] != 2:
-        raise ValueError("step_batch: mount is the mouse's (x, y) in the body frame")
+def _check_counts(robots: int, counters: Counters) -> None:
+    _check_rows(counters.tick_carry, 2, robots)
+    _check_rows(counters.ticks, 2, robots)
+    _check_rows(counters.mouse_carry, 2, robots)
+    _check_rows(counters.counts, 2, robots)
 
 
 @numba.njit(cache=True)
@@ -235,15 +254,11 @@ def _poses_part(lo: int, hi: int, pose: np.ndarray, heading_dir: np.ndarray, whe
 
 
 @numba.njit(cache=True)
-def _batch_part(
-    lo: int, hi: int, pose: np.ndarray, heading_dir: np.ndarray, wheel_arcs: np.ndarray, track: float, ticks_per_metre: float,
-    tick_carry: np.ndarray, ticks: np.ndarray, mount: np.ndarray, counts_per_metre: float, mouse_carry: np.ndarray,
-    counts: np.ndarray,
-) -> None:
-    _batch_rows(pose[0, lo:hi], pose[1, lo:hi], pose[2, lo:hi], heading_dir[0, lo:hi], heading_dir[1, lo:hi],
-                wheel_arcs[0, lo:hi], wheel_arcs[1, lo:hi], track, ticks_per_metre,
-                tick_carry[0, lo:hi], tick_carry[1, lo:hi], ticks[0, lo:hi], ticks[1, lo:hi], mount[0], mount[1],
-                counts_per_metre, mouse_carry[0, lo:hi], mouse_carry[1, lo:hi], counts[0, lo:hi], counts[1, lo:hi])  # fmt: skip
+def _batch_part(lo: int, hi: int, pose: np.ndarray, heading_dir: np.ndarray, wheel_arcs: np.ndarray, drive: Drive, counters: Counters) -> None:
+    tick_carry, ticks, mouse_carry, counts = counters
+    _batch_rows((pose[0, lo:hi], pose[1, lo:hi], pose[2, lo:hi], heading_dir[0, lo:hi], heading_dir[1, lo:hi]), (wheel_arcs[0, lo:hi], wheel_arcs[1, lo:hi]), drive,
+                (tick_carry[0, lo:hi], tick_carry[1, lo:hi], ticks[0, lo:hi], ticks[1, lo:hi],
+                 mouse_carry[0, lo:hi], mouse_carry[1, lo:hi], counts[0, lo:hi], counts[1, lo:hi]))  # fmt: skip
 
 
 @numba.njit(cache=True)
@@ -274,43 +289,15 @@ def _poses_parallel(parts: int, pose: np.ndarray, heading_dir: np.ndarray, wheel
 
 
 @numba.njit(cache=True)
-def step_batch(
-    pose: np.ndarray,
-    heading_dir: np.ndarray,
-    wheel_arcs: np.ndarray,
-    track: float,
-    ticks_per_metre: float,
-    tick_carry: np.ndarray,
-    ticks: np.ndarray,
-    mount: np.ndarray,
-    counts_per_metre: float,
-    mouse_carry: np.ndarray,
-    counts: np.ndarray,
-) -> None:
-    """Advance N robots by one step, in place: `step_poses`, then each robot's encoder ticks and
-    mouse counts of the step.
-
-    tick_carry (2, N) the encoders' carries (rows left, right) and ticks (2, N, int64) this step's
-    ticks; mount (2,) the mouse's position (m) in the body frame; mouse_carry (2, N) its carries
-    and counts (2, N, int64) its counts (rows forward, left)."""
+def step_batch(pose: np.ndarray, heading_dir: np.ndarray, wheel_arcs: np.ndarray, drive: Drive, counters: Counters) -> None:
+    """Advance N robots by one step, in place: `step_poses` (on `drive.track`), then each robot's
+    encoder ticks and mouse counts of the step into `counters`."""
     robots = _check_poses(pose, heading_dir, wheel_arcs)
-    _check_counts(robots, tick_carry, ticks, mount, mouse_carry, counts)
-    _batch_part(0, robots, pose, heading_dir, wheel_arcs, track, ticks_per_metre, tick_carry, ticks, mount, counts_per_metre, mouse_carry, counts)
+    _check_counts(robots, counters)
+    _batch_part(0, robots, pose, heading_dir, wheel_arcs, drive, counters)
 
 
-def step_batch_parallel(
-    pose: np.ndarray,
-    heading_dir: np.ndarray,
-    wheel_arcs: np.ndarray,
-    track: float,
-    ticks_per_metre: float,
-    tick_carry: np.ndarray,
-    ticks: np.ndarray,
-    mount: np.ndarray,
-    counts_per_metre: float,
-    mouse_carry: np.ndarray,
-    counts: np.ndarray,
-) -> None:
+def step_batch_parallel(pose: np.ndarray, heading_dir: np.ndarray, wheel_arcs: np.ndarray, drive: Drive, counters: Counters) -> None:
     """`step_batch` (same arguments) with the robots shared out over the cores (numba threads), one
     part each: bit-identical to it, since each part runs the same code on its own columns. Between calls
     OpenMP's threads spin a while before they sleep (its default): called step after step, they are
@@ -319,19 +306,14 @@ def step_batch_parallel(
     them costs 2-6 µs a call there, and the second thread's part often ends 3-5 µs after the same
     part on the calling thread: up to a third of a serial 10,000-robot step. It pays from thousands
     of robots, fully from tens of thousands, and only on cores that other work leaves free."""
-    _batch_parallel(numba.get_num_threads(), pose, heading_dir, wheel_arcs, track, ticks_per_metre, tick_carry, ticks, mount,
-                    counts_per_metre, mouse_carry, counts)  # fmt: skip
+    _batch_parallel(numba.get_num_threads(), pose, heading_dir, wheel_arcs, drive, counters)
 
 
 @numba.njit(cache=True, parallel=True)
-def _batch_parallel(
-    parts: int, pose: np.ndarray, heading_dir: np.ndarray, wheel_arcs: np.ndarray, track: float, ticks_per_metre: float,
-    tick_carry: np.ndarray, ticks: np.ndarray, mount: np.ndarray, counts_per_metre: float, mouse_carry: np.ndarray,
-    counts: np.ndarray,
-) -> None:
+def _batch_parallel(parts: int, pose: np.ndarray, heading_dir: np.ndarray, wheel_arcs: np.ndarray, drive: Drive, counters: Counters) -> None:
     """`step_batch` in `parts` parts over the threads (see `_poses_parallel`)."""
     robots = _check_poses(pose, heading_dir, wheel_arcs)
-    _check_counts(robots, tick_carry, ticks, mount, mouse_carry, counts)
+    _check_counts(robots, counters)
     for k in numba.prange(parts):
         lo, hi = _part(k, parts, robots)
-        _batch_part(lo, hi, pose, heading_dir, wheel_arcs, track, ticks_per_metre, tick_carry, ticks, mount, counts_per_metre, mouse_carry, counts)
+        _batch_part(lo, hi, pose, heading_dir, wheel_arcs, drive, counters)

@@ -5,7 +5,7 @@ per-sensor values packed into a few tables, one numpy structured array each (MuJ
 and pymunk's `BodyFields` are the models: one declaration with meaning and shape). The compiled
 kernels (`sim.world.kernels`) read a row's fields by name (`robots[i].mass`, `state[i].move[0]`),
 the World (`sim.world.physics`) fills them by name (`robots["mass"] = ...`); ints stay int64 and
-flags bool, so nothing is an offset typed by hand.
+flags bool, so nothing is an offset typed by hand (`sim.kinematics.packed` declares them).
 """
 
 from __future__ import annotations
@@ -15,32 +15,7 @@ from typing import NamedTuple
 import numpy as np
 import pymunk.batch
 
-
-class Field(NamedTuple):
-    """One field of a table: its name, how many values a row holds (1: a scalar), their unit and kind."""
-
-    name: str
-    width: int
-    unit: str
-    kind: type = np.float64
-
-
-class Table:
-    """A table's declaration: its fields in order, as a numpy structured dtype."""
-
-    def __init__(self, what: str, *fields: Field):
-        self.what = what
-        self.fields = fields
-        self.dtype = np.dtype([(f.name, f.kind) if f.width == 1 else (f.name, f.kind, (f.width,)) for f in fields], align=True)
-
-    def new(self, rows: int) -> np.ndarray:
-        """A table of `rows` rows, every field zero (False)."""
-        return np.zeros(rows, self.dtype)
-
-    def columns(self, table: np.ndarray) -> dict[str, np.ndarray]:
-        """Each field of `table` as an array of its own (views: writing them writes the table)."""
-        return {f.name: table[f.name] for f in self.fields}
-
+from sim.kinematics.packed import Field, Table
 
 ROBOTS = Table(
     "per robot: what stays fixed once the robots are in",

@@ -1,0 +1,128 @@
+"""The odometry's packed tables, each declared once (`sim.kinematics.packed`), and the default
+estimates by name.
+
+The compiled steps (`encoder`, `mouse`, `fused`, stepped together by `batch`) take a robot's
+parameters and state as one row each and read them by name (`p.track`, `st.mouse_watch.peak`);
+the default estimates of a batch lie along an axis in the order of `ESTIMATES`, and code reaches
+one by its name (`poses[i, ESTIMATE.fused]`), never by a number typed by hand.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+from sim.kinematics.packed import Field, Table
+
+
+class Estimates(NamedTuple):
+    """Each default estimate's place along a batch's estimate axis, in the order of
+    `bots.odometry.defaults.default_estimators` (the dead reckoners first: they alone have sigma
+    points)."""
+
+    encoders: int
+    firmware: int
+    mouse: int
+    fused: int
+
+
+ESTIMATE = Estimates(*range(len(Estimates._fields)))
+"""Where each default estimate lies (`poses[i, ESTIMATE.mouse]`); a compiled step reads it as a constant."""
+ESTIMATES = len(ESTIMATE)
+"""Default estimates of a robot with a mouse that sees rotation (one without has the first two)."""
+ENCODERS_ONLY = ESTIMATE.firmware + 1
+"""Default estimates of a robot without such a mouse: the encoders' and the firmware's."""
+DEAD_RECKONERS = ESTIMATE.fused
+"""The estimates before the fused one, each with its sigma points (`STATE.sigmas`)."""
+SIGMAS = 6
+"""Sigma points of a dead-reckoning estimator: two per calibration error it has (encoders: left
+wheel, right wheel, track; mouse: resolution, its other four unused)."""
+SIGMA_SPREAD = math.sqrt(3.0)
+"""Standard deviations from the estimate to each sigma point: sqrt(n + kappa) with n + kappa = 3,
+Julier and Uhlmann's choice for Gaussian errors; each point then weighs 1 / (2 * 3)."""
+
+PARAMETERS = Table(
+    "per robot: what its estimators believe, passed to the compiled steps rather than compiled in "
+    "(numba's cache would not see a module's constants change); the fused estimator's tolerances "
+    "and memories are `bots.odometry.base`'s",
+    # the encoders' (and everyone's) believed drive
+    Field("tick_left", 1, "m of rim per tick, left wheel"),
+    Field("tick_right", 1, "m of rim per tick, right wheel"),
+    Field("track", 1, "m, the believed track"),
+    # the mouse
+    Field("per_metre", 1, "mouse counts per m"),
+    Field("mount_x", 1, "m, the mouse's x in the body frame"),
+    Field("mount_y", 1, "m, the mouse's y in the body frame"),
+    # the fused estimator's detectors (`FusedOdometry`)
+    Field("tolerance", 1, "m, the slip detector's quantisation band"),
+    Field("turn_tolerance", 1, "rad, the slide detector's band"),
+    Field("memory", 1, "s, TURN_MEMORY"),
+    Field("gate", 1, "standard deviations, GATE_SIGMAS"),
+    Field("has_mouse", 1, "the robot has the mouse estimators, not only the encoders'", np.bool_),
+    # the believed noise (`bots.uncertainty.Belief`)
+    Field("slip_var", 1, "relative slip variance (m² per m)"),
+    Field("tick_var_left", 1, "m² per m, spurious ticks, left wheel"),
+    Field("tick_var_right", 1, "m² per m, spurious ticks, right wheel"),
+    Field("mouse_var", 1, "m² per m, a mouse axis's reading"),
+    Field("distance_memory", 1, "m, SLIP_MEMORY"),
+    # the believed calibration errors' standard deviations (the sigma points' offsets)
+    Field("wheel_std", 1, "relative, each wheel's scale"),
+    Field("track_std", 1, "relative, the track's"),
+    Field("mouse_scale_std", 1, "relative, the mouse resolution's"),
+    # the slide watch (`bots.odometry.mouse.watch_slides`)
+    Field("slide_memory", 1, "s, SLIDE_WATCH_MEMORY"),
+    Field("slide_gate", 1, "standard deviations, SLIDE_WATCH_GATE"),
+)
+SLIDE_WATCH = Table(
+    "a slide watch's sums (`bots.odometry.mouse.watch_slides`), of the mouse or the fused estimate",
+    Field("disagreement", 1, "rad, the mouse's rotation beyond the encoders', summed"),
+    Field("turning", 1, "rad, the encoders' net turn, summed"),
+    Field("travel", 1, "m, the encoders' distance, summed"),
+    Field("peak", 1, "rad, the largest disagreement of the slide going on (0: none)"),
+    Field("time", 1, "s, of the last step (nan: none yet)"),
+    Field("var", 1, "rad², the disagreement's random variance, summed"),
+)
+STATE = Table(
+    "per robot: what the compiled steps carry from step to step",
+    # the fused estimator's detectors, as `FusedOdometry` describes them
+    Field("disagreement", 1, "m, the encoders' distance beyond the mouse's, over the last distance_memory"),
+    Field("turn_disagreement", 1, "rad, the mouse's rotation beyond the encoders', over the last memory"),
+    Field("taken", 1, "rad, what the mouse's rotation added since the last slide"),
+    Field("turning", 1, "rad, the encoders' turning over the last memory"),
+    Field("time", 1, "s, of the last step (nan: none yet)"),
+    Field("travel", 1, "m, the mouse's distance over the last distance_memory"),
+    Field("turn_travel", 1, "m, the encoders' distance over the last memory"),
+    Field("disagreement_var", 1, "m², the distance disagreement's random variance"),
+    Field("turn_var", 1, "rad², the rotation disagreement's random variance"),
+    Field("sigmas", DEAD_RECKONERS, "the sigma points' poses (SIGMAS, 3) of each dead reckoner, by ESTIMATE", np.dtype((np.float64, (SIGMAS, 3)))),
+    Field("mouse_watch", 1, "the mouse estimate's slide watch", SLIDE_WATCH.dtype),
+    Field("fused_watch", 1, "the fused estimate's slide watch", SLIDE_WATCH.dtype),
+)
+
+
+class Counts(NamedTuple):
+    """One step's readings an estimator takes (floats): encoder ticks, mouse counts in the sensor frame."""
+
+    left: float
+    right: float
+    forward: float
+    lateral: float
+
+
+class Estimate(NamedTuple):
+    """One estimate a compiled step moves, in place: its pose (3,), its error covariance (ERRORS,
+    ERRORS) and the quantisation lag (2, 2) reported beside it."""
+
+    pose: np.ndarray
+    cov: np.ndarray
+    lag: np.ndarray
+
+
+def fresh_state() -> np.void:
+    """A robot's STATE row before its first step: no time seen yet (nan), all else zero (the
+    sigma points are set to the start pose by their estimators)."""
+    state = STATE.new(1)[0]
+    state["time"] = state["mouse_watch"]["time"] = state["fused_watch"]["time"] = math.nan
+    return state

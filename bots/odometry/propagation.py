@@ -1,0 +1,151 @@
+"""The error models every default estimator shares and their propagation, compiled: an
+increment's Jacobian on the calibration errors and its noise (`wheel_terms`, `mouse_terms`), the
+random variances the believed noise gives a step (`wheel_variances`, `mouse_variance`), the
+covariance carried through laying an arc (`propagate`), and the reported pose covariance with the
+quantisation lag and the sigma points' spread (`pose_covariance`, `add_spread`).
+
+Each estimator's own compiled step lives in its file (`encoder`, `mouse`, `fused`) and calls
+these. numba caches a kernel by its own file's content: after changing a kernel here, clear the
+`__pycache__` of bots/odometry/ so that its callers are compiled again with it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from bots.odometry.layout import SIGMA_SPREAD
+from bots.uncertainty import ERRORS, HEADING, LEFT_SCALE, MOUSE_SCALE, RIGHT_SCALE, TRACK_SCALE
+from sim.kinematics.batch import advance_one
+
+MID_ANGLE, END_HEADING = 0.5, 1.0
+"""Where an arc's chord is laid (`propagate`'s share of the heading change): along the mid-angle
+(exact, seed 002 eqs 1.7, 1.12) or along the end heading (the c't-Bot firmware)."""
+PROPAGATE_WORK = 3
+"""Scratch planes (`workspace`) `propagate` uses; the steps that call it use those after."""
+WORK = 29
+"""Scratch planes of (ERRORS, ERRORS) a step uses at most (`bots.odometry.fused.fused_step`)."""
+
+
+@numba.njit(cache=True)
+def wheel_terms(s_left: float, s_right: float, alpha: float, track: float, var_left: float, var_right: float,
+                jac: np.ndarray, noise: np.ndarray) -> None:  # fmt: skip
+    """The encoder increment's error model, in place: `jac` (2, ERRORS) of (s, alpha) on the
+    scales for wheel arcs s_left, s_right (m) and heading change alpha over `track` (m); `noise`
+    (2, 2) for independent wheel-arc variances var_left, var_right (m²)."""
+    jac[:, :] = 0.0
+    jac[0, LEFT_SCALE], jac[0, RIGHT_SCALE] = 0.5 * s_left, 0.5 * s_right
+    jac[1, LEFT_SCALE], jac[1, RIGHT_SCALE], jac[1, TRACK_SCALE] = -s_left / track, s_right / track, -alpha
+    noise[0, 0] = 0.25 * (var_left + var_right)
+    noise[0, 1] = noise[1, 0] = 0.5 * (var_right - var_left) / track
+    noise[1, 1] = (var_left + var_right) / (track * track)
+
+
+@numba.njit(cache=True)
+def mouse_terms(s: float, alpha: float, mount_x: float, mount_y: float, var: float, jac: np.ndarray, noise: np.ndarray) -> None:
+    """The mouse increment's error model, in place: `jac` on the resolution's error for the
+    increment (s m, alpha rad), `noise` for a variance `var` (m²) of each axis's reading, through
+    alpha = lateral/m_x, s = forward + alpha*m_y."""
+    jac[:, :] = 0.0
+    jac[0, MOUSE_SCALE], jac[1, MOUSE_SCALE] = -s, -alpha
+    lever = mount_y / mount_x
+    noise[0, 0] = var * (1.0 + lever * lever)
+    noise[0, 1] = noise[1, 0] = var * lever / mount_x
+    noise[1, 1] = var / (mount_x * mount_x)
+
+
+@numba.njit(cache=True)
+def propagate(cov: np.ndarray, heading: float, s: float, alpha: float, share: float, jac: np.ndarray, noise: np.ndarray,
+              work: np.ndarray) -> None:  # fmt: skip
+    """`cov` (ERRORS, ERRORS) after laying the increment (s, alpha) from `heading` (rad, before
+    the step) along `heading + share * alpha` (`MID_ANGLE`, exact, or `END_HEADING`, the
+    firmware), whose error is jac @ errors + n, n ~ noise: cov <- A cov A^T + G noise G^T, with A
+    the identity but for the pose rows (d pose'/d pose and G @ jac, G = d pose'/d (s, alpha)).
+    `work` (WORK, ERRORS, ERRORS): scratch planes (`workspace`), its first PROPAGATE_WORK used.
+    (A float, not a bool: numba compiles a function once for each constant bool it is called with.)"""
+    angle = heading + share * alpha
+    c, sn = math.cos(angle), math.sin(angle)
+    lever = share * s
+    g = ((c, -lever * sn), (sn, lever * c), (0.0, 1.0))
+    a, rows, pose = work[0, :3], work[1, :3], work[2, :3, :3]  # rows: a @ cov; pose: a @ cov @ a^T, + G noise G^T
+    a[:, :] = 0.0
+    for r in range(3):
+        a[r, r] = 1.0
+        for j in range(ERRORS):
+            a[r, j] += g[r][0] * jac[0, j] + g[r][1] * jac[1, j]
+    a[0, HEADING] -= s * sn
+    a[1, HEADING] += s * c
+    for r in range(3):
+        for j in range(ERRORS):
+            total = 0.0
+            for k in range(ERRORS):
+                total += a[r, k] * cov[k, j]
+            rows[r, j] = total
+    for r in range(3):
+        for q in range(3):
+            total = 0.0
+            for k in range(ERRORS):
+                total += rows[r, k] * a[q, k]
+            pose[r, q] = total + (g[r][0] * (noise[0, 0] * g[q][0] + noise[0, 1] * g[q][1]) + g[r][1] * (noise[1, 0] * g[q][0] + noise[1, 1] * g[q][1]))
+    for r in range(3):
+        for j in range(3, ERRORS):
+            cov[r, j] = cov[j, r] = rows[r, j]
+        for q in range(3):
+            cov[r, q] = pose[r, q]
+
+
+@numba.njit(cache=True)
+def pose_covariance(cov: np.ndarray, heading: float, lag: np.ndarray, out: np.ndarray) -> None:
+    """The reported pose covariance's six entries (COVARIANCE_FIELDS) into `out`: the propagated
+    one plus the quantisation lag `lag` (2, 2) of the increment (s along the heading, alpha)."""
+    c, sn = math.cos(heading), math.sin(heading)
+    out[0] = cov[0, 0] + lag[0, 0] * c * c
+    out[1] = cov[0, 1] + lag[0, 0] * c * sn
+    out[2] = cov[0, 2] + lag[0, 1] * c
+    out[3] = cov[1, 1] + lag[0, 0] * sn * sn
+    out[4] = cov[1, 2] + lag[0, 1] * sn
+    out[5] = cov[2, 2] + lag[1, 1]
+
+
+def workspace() -> np.ndarray:
+    """Scratch for the steps (WORK planes of (ERRORS, ERRORS)): their intermediates live there,
+    not in arrays allocated every step (which cost more than the arithmetic)."""
+    return np.zeros((WORK, ERRORS, ERRORS))
+
+
+@numba.njit(cache=True)
+def wheel_variances(p: np.void, s_left: float, s_right: float) -> tuple[float, float]:
+    """The random variance (m²) of each wheel's arc over a step of these arcs (m): slip and
+    spurious ticks both grow with the distance rolled (m² per metre each), whatever the step."""
+    return (p.slip_var + p.tick_var_left) * abs(s_left), (p.slip_var + p.tick_var_right) * abs(s_right)
+
+
+@numba.njit(cache=True)
+def mouse_variance(p: np.void, s: float, alpha: float) -> float:
+    """The random variance (m²) of each mouse axis over a step of this increment: its noise
+    (m² per metre) times the floor the sensor passed, (s - alpha m_y, alpha m_x)."""
+    return p.mouse_var * math.hypot(s - alpha * p.mount_y, alpha * p.mount_x)
+
+
+@numba.njit(cache=True)
+def add_spread(sigmas: np.ndarray, count: int, pose: np.ndarray, out: np.ndarray) -> None:
+    """Add the spread of the first `count` sigma points about `pose` to the covariance entries
+    `out` (COVARIANCE_FIELDS): the calibration's part of the error, unscented (each point weighs
+    1 / (2 SIGMA_SPREAD²), the estimate itself the rest)."""
+    weight = 0.5 / (SIGMA_SPREAD * SIGMA_SPREAD)
+    for i in range(count):
+        dx, dy, dt = sigmas[i, 0] - pose[0], sigmas[i, 1] - pose[1], sigmas[i, 2] - pose[2]
+        out[0] += weight * dx * dx
+        out[1] += weight * dx * dy
+        out[2] += weight * dx * dt
+        out[3] += weight * dy * dy
+        out[4] += weight * dy * dt
+        out[5] += weight * dt * dt
+
+
+@numba.njit(cache=True, inline="always")
+def lay(pose: np.ndarray, s: float, alpha: float, end_heading: bool) -> None:
+    """`ArcOdometry.update`: the pose after the arc, in place."""
+    pose[0], pose[1], pose[2] = advance_one(pose[0], pose[1], pose[2], s, alpha, end_heading)
