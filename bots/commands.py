@@ -102,8 +102,13 @@ def _wheel_speeds(command: Command, robot: RobotSpec) -> tuple[float, float]:
     return left / scale, right / scale
 
 
+def command_per_speed(robot: RobotSpec) -> float:
+    """Motor command units (e.g. 255 at full speed) per m/s of rim speed."""
+    return robot.motor.command_max / robot.max_wheel_surface_speed
+
+
 def motor_commands(left: float, right: float, robot: RobotSpec) -> tuple[float, float]:
-    """Signed motor commands (the motors' units, e.g. +-255) for rim speeds (m/s): plain floats,
-    which the run loop writes into its command array without a new array a step."""
-    per_speed = robot.motor.command_max / robot.max_wheel_surface_speed
+    """Signed motor commands (the motors' units, e.g. +-255) for rim speeds (m/s): plain floats
+    (the run loop scales by `command_per_speed` itself, into its command array)."""
+    per_speed = command_per_speed(robot)
     return left * per_speed, right * per_speed

@@ -18,6 +18,17 @@ def _frozen(values: np.ndarray) -> np.ndarray:
     return values
 
 
+def frozen_copies(values: np.ndarray, believed: np.ndarray, tallies: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Copies of a step's rows (C-ordered: int64 `values`, float64 `believed`, int64 `tallies`)
+    over one immutable bytes object: no flag, view or `.base` of them can be made writeable (numpy
+    refuses), so readings handed to a controller never reach the rows they were copied from. (One
+    copy for the three: a run makes one every step.)"""
+    data = b"".join((values.data, believed.data, tallies.data))
+    ints = np.frombuffer(data, np.int64)
+    n, m = len(values), len(believed)
+    return ints[:n], np.frombuffer(data, np.float64, m, 8 * n), ints[n + m :].reshape(tallies.shape)
+
+
 NO_STEERING = _frozen(np.zeros(0))
 NO_MOUSE2 = _frozen(np.zeros(2, dtype=np.int64))
 """What a c't-Bot's readings hold for a chassis's steering angles and second mouse (shared, read-only)."""

@@ -186,8 +186,9 @@ class Guard:
                 if _signal.getsignal(number) is not handler:
                     signal.signal(number, handler)
                     self.notes.setdefault(f"signal {number}", f"the controller changed the handler of {signal.Signals(number).name}; ctsim put its own back")
-            blocked = signal.pthread_sigmask(signal.SIG_BLOCK, ()) if hasattr(signal, "pthread_sigmask") else ()
-            if any(number in blocked for number in _SIGNALS):
+            # (the C module's call: a set of ints, without signal.py's conversion of each into an enum member)
+            blocked = _signal.pthread_sigmask(signal.SIG_BLOCK, ()) if hasattr(_signal, "pthread_sigmask") else set()
+            if not blocked.isdisjoint(_SIGNALS):
                 signal.pthread_sigmask(signal.SIG_UNBLOCK, _SIGNALS)
                 self.notes.setdefault("mask", "the controller blocked ctsim's signals; ctsim unblocked them")
             if self.timer is not None and self.timer[1]:
@@ -197,8 +198,8 @@ class Guard:
         if sys.getrecursionlimit() < RECURSION_LIMIT:
             sys.setrecursionlimit(RECURSION_LIMIT)
             self.notes.setdefault("recursion", f"the controller lowered the recursion limit; ctsim put it back to {RECURSION_LIMIT}")
-        if sys.stdout is not self.streams[0] or sys.stderr is not self.streams[1] or self.streams[0].closed or self.streams[1].closed \
-                or any(_shadowed(stream) for stream in self.streams):
+        out, err = self.streams
+        if sys.stdout is not out or sys.stderr is not err or out.closed or err.closed or _shadowed(out) or _shadowed(err):
             self._put_back_streams()
         else:
             self._put_back_descriptors()

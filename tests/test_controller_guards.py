@@ -79,7 +79,7 @@ class Patches:
         if t > 0.05:
             numpy.zeros = None
             import sim.run.loop
-            sim.run.loop.motor_commands = None
+            sim.run.loop._sample = None
         return Twist(0.1, 0.0)
 
 class RearmsTheTimerFarAhead:
@@ -167,10 +167,10 @@ def test_a_fork_that_returns_into_the_run_leaves_and_writes_nothing(controllers,
 
 
 def test_replacing_numpy_or_ctsim_ends_the_run_as_the_controllers_error_and_is_undone(controllers, tmp_path, capsys):
-    zeros, commands = numpy.zeros, sim.run.loop.motor_commands
+    zeros, sample = numpy.zeros, sim.run.loop._sample
     assert run(controllers, "Patches", tmp_path / "out") == 1
-    assert "replaced numpy.zeros, sim.run.loop.motor_commands, and the run failed" in capsys.readouterr().err
-    assert numpy.zeros is zeros and sim.run.loop.motor_commands is commands
+    assert "replaced numpy.zeros, sim.run.loop._sample, and the run failed" in capsys.readouterr().err
+    assert numpy.zeros is zeros and sim.run.loop._sample is sample
     assert summary(tmp_path / "out")["reason"] == "error"
 
 

@@ -86,7 +86,7 @@ class PatchesWithABuiltin:
     def step(self, t, readings):
         if t > 0.05:
             from sim.world.physics import World
-            World.poses = len
+            World.poses_view = len
         return Twist(0.1, 0.0)
 
 class PatchesOnReset:
@@ -260,18 +260,18 @@ def test_sys_exit_in_an_estimator_ends_the_run_as_the_users_error_with_its_files
 
 @pytest.mark.parametrize(("cls", "said"), [
     ("PatchesAClassMethod", "replaced sim.world.physics.World.step, and the run failed with ZeroDivisionError"),
-    ("PatchesWithABuiltin", "replaced sim.world.physics.World.poses, and the run failed with TypeError"),
+    ("PatchesWithABuiltin", "replaced sim.world.physics.World.poses_view, and the run failed with TypeError"),
     ("PatchesOnReset", "replaced sim.world.physics.World.step, and the run failed with ZeroDivisionError: division by zero at t = 0.00 s"),
 ])  # fmt: skip
 def test_a_patched_class_method_is_the_controllers_error_and_is_put_back(cls, said, code, tmp_path, capsys):
     from sim.world.physics import World
 
-    methods = World.step, World.poses
+    methods = World.step, World.poses_view
     assert run("--controller", f"{code}:{cls}", "--out", str(tmp_path / "out")) == 1
     err = capsys.readouterr().err
     assert f"controller '{code}:{cls}' of ctbot {said}" in err and "Traceback" not in err, err
     assert json.loads((tmp_path / "out" / "summary.json").read_text())["reason"] == "error"
-    assert (World.step, World.poses) == methods  # (the next run in this process has ctsim's own)
+    assert (World.step, World.poses_view) == methods  # (the next run in this process has ctsim's own)
 
 
 def test_methods_a_controller_adds_or_replaces_where_the_run_does_not_call_them_are_put_back(code, tmp_path, capsys):

@@ -54,6 +54,7 @@ from gymnasium import spaces
 from gymnasium.utils import seeding
 from gymnasium.vector import AutoresetMode, VectorEnv
 
+from bots.commands import command_per_speed
 from bots.noise import DEFAULT_NOISE
 from bots.readings import SensorFrame
 from bots.spec import RobotSpec
@@ -130,7 +131,7 @@ class _Task:
         self.ir_far = np.array([s.max_range for s in spec.ir])
         self.counts = (len(spec.ir), len(spec.line), len(spec.border), len(spec.light))
         self.rim_per_tick = math.pi * spec.wheel_diameter / spec.encoders.ticks_per_rev / self.control_dt
-        self.command_per_speed = spec.motor.command_max / spec.max_wheel_surface_speed
+        self.command_per_speed = command_per_speed(spec)
 
     # --- what a seed draws ----------------------------------------------------------------------
 

@@ -18,7 +18,7 @@ from typing import Protocol
 import numpy as np
 
 from bots.chassis_commands import chassis_setpoints
-from bots.commands import BadCommand, motor_commands, wheel_speeds_for
+from bots.commands import BadCommand, command_per_speed, wheel_speeds_for
 from bots.controller import Controller, ControllerStopped, Status, did, reset, where
 from bots.odometry.base import Estimator
 from bots.odometry.batch import DefaultOdometry, batched, kernel_jobs
@@ -34,7 +34,7 @@ from sim.world import World, compiling
 from sim.world.chassis_drive import FaultError
 from sim.world.localising import MapScan
 from sim.world.physics import Robot, sensor_rng
-from sim.world.spec import Start, WheelFault, WorldSpec
+from sim.world.spec import Goal, Start, WheelFault, WorldSpec
 from sim.world.step import DEFAULT_DT, StepError, check_dt
 
 
@@ -124,32 +124,41 @@ def run(
         if failed is not None:
             raise _Stop(failed)
         samplers = [observer.on_sample for observer in observers if hasattr(observer, "on_sample")]
-        drivers = [(i, robot.spec, log, controller) for i, (robot, log, controller) in enumerate(zip(world.robots, logs, controllers))]
+        # per robot what its every step needs, looked up once
+        drivers = [(i, robot.spec, log, controller, robot.spec.chassis is not None, command_per_speed(robot.spec))
+                   for i, (robot, log, controller) in enumerate(zip(world.robots, logs, controllers))]  # fmt: skip
         can_finish = all(isinstance(getattr(controller, "status", None), Status) for controller in controllers)  # a behaviour says when it is done
-        awaited = [(log, robot.slot, k) for k, (log, robot) in enumerate(zip(logs, world.robots))] if world_spec.goals else []
+        running = Status.RUNNING
+        awaited = [(log, world_spec.goals_of(robot.slot), k) for k, (log, robot) in enumerate(zip(logs, world.robots))] if world_spec.goals else []
         for step in range(steps + 1):
-            frame = _sample(world, samples, logs, estimators, odometry, awaited)
+            frame = _sample(world, samples, estimators, odometry)
+            if awaited and _reached_goals(awaited, world.poses_view(), frame.time) and until_goal:
+                result.reason = Ending.GOAL
             for on_sample in samplers:
                 on_sample(world, logs)
-            if until_goal and any(log.goal_time is not None for log in logs):
-                result.reason = Ending.GOAL
+            if result.reason is Ending.GOAL:
                 break
-            if can_finish and not any(controller.status is Status.RUNNING for controller in controllers):
-                result.reason = Ending.DONE
-                break
+            if can_finish:
+                for controller in controllers:
+                    if controller.status is running:
+                        break
+                else:
+                    result.reason = Ending.DONE
+                    break
             if stop_when is not None and (verdict := stop_when(world, logs)):
                 result.reason, result.verdict = Ending.JUDGED, str(verdict)
                 break
             if step == steps:
                 break
-            now = world.time
-            for i, spec, log, controller in drivers:
-                readings = frame[i]
+            now = frame.time
+            readings_of = frame.robots()
+            for i, spec, log, controller, on_chassis, per_speed in drivers:
+                readings = readings_of[i]
                 try:
                     clock.begin()
                     command = controller.step(now, readings)
                     clock.busy = 0
-                    if spec.chassis is not None:
+                    if on_chassis:
                         _drive_chassis(world, i, log, command, readings, step)
                         continue
                     left, right = wheel_speeds_for(command, spec)
@@ -158,7 +167,8 @@ def run(
                 except BaseException as err:  # the controller's error: anything it raises, sys.exit and a step timeout too
                     clock.busy = 0
                     raise _Stop(_failure(err, log, step, world.time, step_timeout)) from None
-                commands[i] = motor_commands(left, right, spec)
+                commands[i, 0] = left * per_speed  # (`motor_commands`, written in place)
+                commands[i, 1] = right * per_speed
             guard.after_step(step)
             world.step(commands)
     except _Stop as stop:
@@ -372,35 +382,20 @@ def _update(estimator: Estimator, uncertain: bool, timed: bool, readings: Readin
     return pose, covariance
 
 
-def frozen(array: np.ndarray) -> np.ndarray:
-    """A copy of `array` over immutable bytes: no flag, view or `.base` of it can be made
-    writeable (numpy refuses), and none reaches the run's recorded rows it was copied from."""
-    copy = np.frombuffer(array.tobytes(), dtype=array.dtype)
-    return copy if array.ndim == 1 else copy.reshape(array.shape)
-
-
-def _sample(
-    world: World, samples: Samples, logs: list[RobotLog], estimators: list[_Estimators],
-    odometry: DefaultOdometry | None, awaited: list[tuple[RobotLog, int | None, int]],
-) -> SensorFrame:
+def _sample(world: World, samples: Samples, estimators: list[_Estimators], odometry: DefaultOdometry | None) -> SensorFrame:
     """Read every robot's sensors at the current state into the run's next sample row and log
     truth and estimates: the default odometry of all batched robots updates and logs them in one
     pass; Python estimators (a robot's own, or all of a robot outside the batch) update theirs
-    here. Then note who of `awaited` (log, start slot, index: the robots yet to reach a goal)
-    reached one, and take them out of it."""
+    here. The frame holds immutable copies of the row (`World.read_all`): the recorded rows
+    themselves never reach a controller."""
     n = samples.count
     time = world.time
-    rows = samples.values[n], samples.believed[n], samples.tallies[n]
-    frame = samples.frame = world.read_all(rows)
-    # the frame's arrays as frozen copies (the recorded rows themselves never reach a controller):
-    # one of each row, the floor, light and raw IR values slices of the first
-    values, floors, lights = frozen(rows[0]), len(frame.floor), len(frame.floor) + len(frame.light)
-    frame.floor, frame.light, frame.ir_raw = values[:floors], values[floors:lights], values[lights:]
-    frame.ir_distance, frame.tallies = frozen(rows[1]), frozen(rows[2])
+    tallies = samples.tallies[n]
+    frame = samples.frame = world.read_all((samples.values[n], samples.believed[n], tallies))
     samples.time[n] = time
-    poses = world.poses()
+    poses = world.poses_view()
     if odometry is not None:
-        odometry.update_into(rows[2], time, poses, samples.poses[n], samples.covariances[n])
+        odometry.update_into(tallies, time, poses, samples.poses[n], samples.covariances[n])
     for i, log, checked, beside_batch in estimators:
         readings = frame[i]
         poses_read, covariances = [], []
@@ -415,11 +410,21 @@ def _sample(
             beside_batch(poses_read, covariances)
     samples.count = n + 1
     samples.columns.release_written(n + 1)
-    if awaited:
-        in_goal = world.spec.in_goal
-        for entry in list(awaited):
-            log, slot, k = entry
-            if in_goal(float(poses[k, 0]), float(poses[k, 1]), slot):
-                log.goal_time = time
-                awaited.remove(entry)
     return frame
+
+
+def _reached_goals(awaited: list[tuple[RobotLog, tuple[Goal, ...], int]], poses: np.ndarray, time: float) -> bool:
+    """Note who of `awaited` (log, its goals, index: the robots yet to reach a goal) is in one of
+    its goals at `poses`, at `time`, and take them out of it; whether anyone was."""
+    reached = False
+    for entry in awaited:
+        log, goals, k = entry
+        x, y, _ = poses[k].tolist()
+        for goal in goals:
+            if goal.contains(x, y):
+                log.goal_time = time
+                reached = True
+                break
+    if reached:
+        awaited[:] = [entry for entry in awaited if entry[0].goal_time is None]
+    return reached

@@ -21,6 +21,8 @@ import time
 from collections.abc import Callable
 from typing import Any
 
+import numpy as np
+
 HELPER_TIMEOUT_S = 1800.0
 """Longest wait for the compile processes (s), far beyond their minutes on a loaded machine."""
 PROGRESS: Callable[[str], None] | None = None
@@ -104,12 +106,37 @@ def compile_all(jobs: list[tuple[Any, tuple]], workers: int | None = None) -> li
 
 
 def _types(kernel: Any, arguments: tuple) -> tuple:
-    return tuple(kernel.typeof_pyval(argument) for argument in arguments)
+    return tuple(_type_of(kernel, argument) for argument in arguments)
+
+
+_ARRAY_TYPES: dict[tuple, Any] = {}
+"""numba's types of arrays by (dtype, aligned struct, dimensions, layout, writeable): numba's own
+`typeof` builds a structured dtype's record type afresh every time, and every run types its
+world's tables (some 70 arguments: a millisecond or two of its start)."""
+
+
+def _type_of(kernel: Any, value: Any) -> Any:
+    """numba's type of an argument as `kernel.typeof_pyval` gives it, arrays' (also inside tuples) kept."""
+    if type(value) is np.ndarray:
+        flags = value.flags
+        key = (value.dtype, value.dtype.isalignedstruct, value.ndim, "C" if flags.c_contiguous else "F" if flags.f_contiguous else "A", flags.writeable)
+        found = _ARRAY_TYPES.get(key)
+        if found is None:
+            found = _ARRAY_TYPES[key] = kernel.typeof_pyval(value)
+        return found
+    if isinstance(value, tuple):  # (a plain or named tuple: numba's `typeof` of one, from its items' types)
+        from numba.core.types import BaseTuple
+
+        return BaseTuple.from_types([_type_of(kernel, item) for item in value], type(value))
+    return kernel.typeof_pyval(value)
 
 
 def _in_cache(kernel: Any, types: tuple) -> bool:
-    """Whether numba's cache holds `kernel` for `types` (numba's own key); True where that cannot
-    be told (no cache, another numba's layout): then nothing is started."""
+    """Whether `kernel` is compiled for `types` in this process or numba's cache holds it (numba's
+    own key); True where that cannot be told (no cache, another numba's layout): then nothing is
+    started."""
+    if types in kernel.overloads:  # (loaded or compiled here already: no need to read the cache's index)
+        return True
     try:
         cache = kernel._cache
         key = cache._index_key(types, kernel.targetctx.codegen())

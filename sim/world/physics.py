@@ -22,7 +22,7 @@ import numpy as np
 import pymunk
 
 import sim
-from bots.readings import SensorFrame
+from bots.readings import SensorFrame, frozen_copies
 from bots.spec import RobotSpec
 from sim.world import layout
 from sim.world.bodies import BodyArrays
@@ -319,6 +319,12 @@ class World:
         self._batch()
         return self._poses.copy()
 
+    def poses_view(self) -> np.ndarray:
+        """`poses` without the copy, for a caller that only reads them before the next step (which
+        replaces them): the run loop, every step."""
+        self._batch()
+        return self._poses
+
     # --- sensors ----------------------------------------------------------------------------
 
     def sensor_rows(self) -> dict[str, np.dtype]:
@@ -346,8 +352,8 @@ class World:
     def read_all(self, rows: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> SensorFrame:
         """Every robot's sensor readings from the current state (the start of the next step):
         `frame[i]` is robot i's `Readings`. `rows`: one row of each of `sensor_rows`' arrays
-        (values, believed, tallies) to read into, in place of new arrays: the frame's views then
-        point into them."""
+        (values, believed, tallies) to read into, in place of new arrays: the frame then holds
+        immutable copies of them (`frozen_copies`), never views into them."""
         st = self._batch()
         pose = self._poses
         if rows is None:
@@ -365,13 +371,14 @@ class World:
             self._read_sensors(pose, *self._read_arguments, layout.Readout(values, believed))
         else:  # without the IR rows: pymunk reads them below
             self._read_sensors(pose, *self._read_arguments, layout.Readout(values[:lights], believed[:0]))
-        floor, light, ir_raw = values[: st.n_floor], values[st.n_floor : lights], values[lights:]
         if st.floor_and_light_noise.sensors:
             st.floor_and_light_noise.normals.reserve(1)
             self._floor_and_light_noise(values, *self._floor_and_light_arguments)
         if not self._round_ir:
-            self._read_ir_with_pymunk(pose, ir_raw, believed)
-        frame = SensorFrame(self.time, tallies, ir_raw, believed, floor, light, st.layout)
+            self._read_ir_with_pymunk(pose, values[lights:], believed)
+        if rows is not None:
+            values, believed, tallies = frozen_copies(values, believed, tallies)
+        frame = SensorFrame(self.time, tallies, values[lights:], believed, values[: st.n_floor], values[st.n_floor : lights], st.layout)
         if self.chassis.drives:
             self.chassis.fill(frame)
         return frame

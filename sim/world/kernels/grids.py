@@ -1,6 +1,6 @@
-"""Compiled uniform grids that let a query meet only what is near: the static walls'
-(`build_wall_grid`, `walls_near`), the circles' of a crowd (`circle_grid`) and the pairs of robots
-that could touch in a step (`near_pairs`), with the sort and search they share."""
+"""Uniform grids that let a query meet only what is near, compiled: the static walls' (`walls_near`,
+over the grid `build_wall_grid` makes in numpy), the circles' of a crowd (`circle_grid`) and the
+pairs of robots that could touch in a step (`near_pairs`), with the sort and search they share."""
 
 from __future__ import annotations
 
@@ -14,43 +14,41 @@ from sim.world.layout import GRID, Walls
 _GRID = GRID.dtype  # (a dtype for the compiled code: it reads globals, not attributes of objects)
 
 
-@numba.njit(cache=True)
 def build_wall_grid(boxes: np.ndarray, cell: float) -> tuple[np.ndarray, np.ndarray]:
     """A uniform grid of square `cell`s over the walls' BOXES, for `walls_near`: (frame: one GRID
     row; cells: one int64 array, the starts of each cell's list (rows x columns + 1, row-major;
     cell k lists members[starts[k]:starts[k + 1]]), then the members, then a buffer one wall long
     per wall). A wall is listed, in ascending order, in every cell its box overlaps. The grid
     spans the walls' boxes only (a query beyond it meets its edge cells, whose walls' boxes it
-    misses). An infinite `cell` gives one cell of every wall: the plain loop."""
+    misses). An infinite `cell` gives one cell of every wall: the plain loop. (numpy, once per
+    world: compiled, it cost every first run seconds of compiling before anything else.)"""
     n = boxes.shape[0]
-    x0 = boxes.xmin.min() if n else 0.0
-    y0 = boxes.ymin.min() if n else 0.0
-    cols = 1 + max(_cell_index(boxes.xmax.max(), x0, cell, 1 << 30), 0) if n else 1
-    rows = 1 + max(_cell_index(boxes.ymax.max(), y0, cell, 1 << 30), 0) if n else 1
-    # per wall: its first and last column, first and last row
-    col_lo, col_hi, row_lo, row_hi = np.empty(n, np.int64), np.empty(n, np.int64), np.empty(n, np.int64), np.empty(n, np.int64)
-    count = np.zeros(rows * cols + 1, dtype=np.int64)  # count[k + 1]: walls in cell k
-    for w in range(n):
-        box = boxes[w]
-        col_lo[w], col_hi[w] = _cell_index(box.xmin, x0, cell, cols - 1), _cell_index(box.xmax, x0, cell, cols - 1)
-        row_lo[w], row_hi[w] = _cell_index(box.ymin, y0, cell, rows - 1), _cell_index(box.ymax, y0, cell, rows - 1)
-        for r in range(row_lo[w], row_hi[w] + 1):
-            for k in range(r * cols + col_lo[w] + 1, r * cols + col_hi[w] + 2):  # (a loop: as below)
-                count[k] += 1
-    starts = np.cumsum(count)
-    first = starts.shape[0]  # where the members begin
-    cells = np.empty(first + starts[-1] + max(n, 1), dtype=np.int64)
-    for k in range(starts.shape[0]):  # (loops: numba's slice assignment compiles the formatting of its error message, seconds)
-        cells[k] = starts[k]
-    fill = first + starts[:-1]
-    for w in range(n):  # walls in ascending order: each cell's list ascends
-        for r in range(row_lo[w], row_hi[w] + 1):
-            for k in range(r * cols + col_lo[w], r * cols + col_hi[w] + 1):
-                cells[fill[k]] = w
-                fill[k] += 1
+    x0 = float(boxes["xmin"].min()) if n else 0.0
+    y0 = float(boxes["ymin"].min()) if n else 0.0
+    cols = 1 + max(int(_cell_indices(boxes["xmax"].max(keepdims=True), x0, cell, 1 << 30)[0]), 0) if n else 1
+    rows = 1 + max(int(_cell_indices(boxes["ymax"].max(keepdims=True), y0, cell, 1 << 30)[0]), 0) if n else 1
+    # per wall: its first column and row, and how many columns and rows it spans
+    col_lo, row_lo = _cell_indices(boxes["xmin"], x0, cell, cols - 1), _cell_indices(boxes["ymin"], y0, cell, rows - 1)
+    width = np.maximum(_cell_indices(boxes["xmax"], x0, cell, cols - 1) - col_lo + 1, 0)
+    height = np.maximum(_cell_indices(boxes["ymax"], y0, cell, rows - 1) - row_lo + 1, 0)
+    spans = width * height
+    wall = np.repeat(np.arange(n, dtype=np.int64), spans)  # each (wall, cell) entry's wall, walls ascending
+    within = np.arange(len(wall)) - np.repeat(np.cumsum(spans) - spans, spans)  # its place in its wall's cells, row-major
+    cell_of = (row_lo[wall] + within // width[wall]) * cols + col_lo[wall] + within % width[wall]
+    starts = np.zeros(rows * cols + 1, dtype=np.int64)
+    np.cumsum(np.bincount(cell_of, minlength=rows * cols), out=starts[1:])
+    cells = np.empty(len(starts) + len(wall) + max(n, 1), dtype=np.int64)
+    cells[: len(starts)] = starts
+    cells[len(starts) : len(starts) + len(wall)] = wall[np.argsort(cell_of, kind="stable")]  # (stable: each cell's walls stay ascending)
     frame = np.zeros(1, _GRID)
-    frame[0].x, frame[0].y, frame[0].cell, frame[0].columns, frame[0].rows = x0, y0, cell, cols, rows
+    frame["x"], frame["y"], frame["cell"], frame["columns"], frame["rows"] = x0, y0, cell, cols, rows
     return frame, cells
+
+
+def _cell_indices(x: np.ndarray, origin: float, cell: float, last: int) -> np.ndarray:
+    """`_cell_index` of every coordinate in `x`, in numpy."""
+    v = (x - origin) / cell
+    return np.where(v >= last, last, np.where((v >= 0.0) & (v < last), v, 0.0).astype(np.int64))
 
 
 @numba.njit(cache=True, inline="always")
