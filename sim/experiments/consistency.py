@@ -115,7 +115,7 @@ def replay(track: Track, scenario: Scenario = MAZE) -> Track:
     """The track with its default estimates made anew from its tallies by the estimators as they
     are now (`bots.odometry.batch.DefaultOdometry`, as a run steps them)."""
     from bots.odometry.batch import COVARIANCES, DefaultOdometry
-    from bots.odometry.steps import ESTIMATES
+    from bots.odometry.layout import ESTIMATES
 
     odometry = DefaultOdometry([robot("ctbot", noise=scenario.noise)], track.truth[:1], [0])
     names = odometry.names[0]
