@@ -12,7 +12,7 @@ from bots.odometry.base import ArcOdometry
 from bots.odometry.layout import SIGMA_SPREAD
 from bots.odometry.propagation import MID_ANGLE, PROPAGATE_WORK, lay, mouse_terms, mouse_variance, propagate, wheel_variances
 from bots.readings import Readings
-from bots.uncertainty import HEADING
+from bots.uncertainty import ERROR
 
 
 @numba.njit(cache=True)
@@ -71,7 +71,7 @@ def watch_slides(p: np.void, watch: np.ndarray, cov: np.ndarray, disagreement: f
     if level <= band:
         watch.peak = 0.0
     elif level > watch.peak:
-        cov[HEADING, HEADING] += level * level - watch.peak * watch.peak
+        cov[ERROR.heading, ERROR.heading] += level * level - watch.peak * watch.peak
         watch.peak = level
 
 
