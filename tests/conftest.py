@@ -18,3 +18,18 @@ settings.load_profile("ctsim")
 # (`sim.views.recording.arrow.keep_pandas_out_of_arrow`), which suits a command that ends with its run but
 # not a test process that calls the command line in-process and reads Arrow data in later tests:
 # with pandas loaded from the start that trick steps aside, whatever order the tests run in.
+
+
+def pytest_addoption(parser) -> None:  # noqa: ANN001 (pytest's Parser)
+    parser.addoption("--slow", action="store_true", help="also run the tests marked slow (minutes each: the maze NEES over 40 seeds)")
+
+
+def pytest_collection_modifyitems(config, items) -> None:  # noqa: ANN001 (pytest's Config, Items)
+    """Tests marked slow run only with --slow: the suite's 10-20 minutes stay that."""
+    if config.getoption("--slow"):
+        return
+    import pytest
+
+    for item in items:
+        if "slow" in item.keywords:
+            item.add_marker(pytest.mark.skip(reason="slow (minutes): run with --slow"))

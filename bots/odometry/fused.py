@@ -33,12 +33,12 @@ import numpy as np
 
 from bots.odometry.base import ArcOdometry, Geometry
 from bots.odometry.encoder import EncoderOdometry
-from bots.odometry.layout import Counts, Estimate
+from bots.odometry.layout import ESTIMATE, Counts, Estimate
 from bots.odometry.mouse import MouseOdometry, mouse_arc, watch_slides
-from bots.odometry.propagation import MID_ANGLE, PROPAGATE_WORK, mouse_terms, mouse_variance, propagate, wheel_terms, wheel_variances
+from bots.odometry.propagation import MID_ANGLE, PROPAGATE_WORK, lay, mouse_terms, mouse_variance, propagate, wheel_terms, wheel_variances
 from bots.readings import Readings
 from bots.spec import RobotSpec
-from bots.uncertainty import ERRORS, LEFT_SCALE, MOUSE_SCALE, RIGHT_SCALE, TRACK_SCALE
+from bots.uncertainty import ERRORS, HEADING, LEFT_SCALE, MOUSE_SCALE, RIGHT_SCALE, TRACK_SCALE
 from sim.kinematics import advance
 
 G_POS = 0.5
@@ -155,7 +155,6 @@ def fused_step(p: np.void, st: np.void, estimate: Estimate, calibration: np.ndar
     mismatch = math.sqrt(max(cov[LEFT_SCALE, LEFT_SCALE] + cov[RIGHT_SCALE, RIGHT_SCALE] - 2.0 * cov[LEFT_SCALE, RIGHT_SCALE], 0.0))
     band = p.turn_tolerance + p.gate * (math.sqrt(st.turn_var) + turn_scale * st.turning + mismatch * st.turn_travel / track)
     sliding = abs(st.turn_disagreement) > band
-    watch_slides(p, st.fused_watch, cov, corrected_mouse[1] - corrected_enc[1], r_enc[1, 1] + r_mouse[1, 1], corrected_enc[1], corrected_enc[0], time)
     _add(r_enc, q_enc, a_enc)
     _add(r_mouse, q_mouse, a_mouse)
     if slipped:
@@ -179,6 +178,7 @@ def fused_step(p: np.void, st: np.void, estimate: Estimate, calibration: np.ndar
     _add(_mul(_mul(keep_cov, matrix, scratch[0, :, :]), keep_cov.T, scratch[1, :, :]), _mul(_mul(gain, noise_d, scratch[2, :, :2]), gain.T, scratch[3, :, :]), matrix)
     for r in range(3):
         pose[r] += correction[r]
+        st.fused_watch.hypothesis[r] += correction[r]
     for r in range(3, ERRORS):
         calibration[r] += correction[r]
     # the increment: both, corrected by the updated calibration, by their information
@@ -207,6 +207,8 @@ def fused_step(p: np.void, st: np.void, estimate: Estimate, calibration: np.ndar
         st.taken = 0.0
     else:
         st.taken += alpha - corrected_enc[1]
+    # the slower watch, on the turn laid beyond the encoders' (what the detector took back is not)
+    cov[HEADING, HEADING] += watch_slides(p, st.fused_watch, alpha - corrected_enc[1], r_enc[1, 1] + r_mouse[1, 1], corrected_enc[1], corrected_enc[0], time)
     return s, alpha, sliding
 
 
@@ -254,6 +256,7 @@ class FusedOdometry(ArcOdometry):
     """
 
     uses_mouse = True
+    watch = ESTIMATE.fused
 
     def __init__(self, rule: Literal["ekf", "blend"] = "ekf", geometry: Geometry | None = None, weight: float = G_POS):
         if rule not in ("ekf", "blend"):
@@ -286,6 +289,7 @@ class FusedOdometry(ArcOdometry):
         s, alpha, sliding = fused_step(self.params, self.state, Estimate(self.pose, self.errors, self.lag), self.calibration, counts, float(readings.time), self.work)
         self.contact_steps += sliding
         self.pose = advance(self.pose, s, alpha, False)
+        lay(self.state["fused_watch"]["hypothesis"], s, alpha, False)
 
     @property
     def covariance(self) -> np.ndarray:
