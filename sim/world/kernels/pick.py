@@ -56,9 +56,11 @@ triangle's find on one whose diagonal falls (measured: Java's roundings decide t
 
 
 @numba.njit(cache=True)
-def _closest(ox, oy, oz, dx, dy, dz, px, py, pz, qx, qy, qz):
-    """Closest points of the segment o + s d (0 <= s <= 1) and the segment p-q: (squared
-    distance, distance from o along d to the first, the second's x, y, z)."""
+def _closest(o: tuple[float, float, float], d: tuple[float, float, float], p: tuple[float, float, float], q: tuple[float, float, float]) -> tuple:
+    """Closest points of the segment o + s d (0 <= s <= 1) and the segment p-q (points and
+    direction as (x, y, z)): (squared distance, distance from o along d to the first, the second's
+    x, y, z)."""
+    (ox, oy, oz), (dx, dy, dz), (px, py, pz), (qx, qy, qz) = o, d, p, q
     ex, ey, ez = qx - px, qy - py, qz - pz
     rx, ry, rz = ox - px, oy - py, oz - pz
     a, c, b = dx * dx + dy * dy + dz * dz, ex * ex + ey * ey + ez * ez, dx * ex + dy * ey + dz * ez
@@ -98,7 +100,7 @@ def _triangle(o: np.ndarray, d: np.ndarray, tan_spread: float, v: np.ndarray, ed
                 return s * math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), hx, hy, hz
     for k in range(3):
         j = (k + 1) % 3
-        squared, along, x, y, z = _closest(o[0], o[1], o[2], d[0], d[1], d[2], v[k, 0], v[k, 1], v[k, 2], v[j, 0], v[j, 1], v[j, 2])
+        squared, along, x, y, z = _closest((o[0], o[1], o[2]), (d[0], d[1], d[2]), (v[k, 0], v[k, 1], v[k, 2]), (v[j, 0], v[j, 1], v[j, 2]))
         if squared <= (tan_spread * along) ** 2:
             return along - edge_bonus, x, y, z
     return math.inf, 0.0, 0.0, 0.0
@@ -147,16 +149,17 @@ def _cone_meets_bounds(o: np.ndarray, d: np.ndarray, tan_spread: float, lower: n
     for corner in range(4):  # its 4 upright edges (the 8 level ones lie too far above or below the cone to count)
         x = upper[0] if corner & 1 else lower[0]
         y = upper[1] if corner & 2 else lower[1]
-        squared, along, _, _, _ = _closest(o[0], o[1], o[2], d[0], d[1], d[2], x, y, lower[2], x, y, upper[2])
+        squared, along, _, _, _ = _closest((o[0], o[1], o[2]), (d[0], d[1], d[2]), (x, y, lower[2]), (x, y, upper[2]))
         if squared <= (tan_spread * along) ** 2:
             return True
     return False
 
 
 @numba.njit(cache=True)
-def pick_polygon(ox: float, oy: float, ux: float, uy: float, length: float, tan_spread: float, vertices: np.ndarray, start: int, end: int) -> float:
-    """Distance (m) c't-Sim's pick reads from a sensor at (ox, oy) looking along the unit (ux, uy)
-    to the wall polygon vertices[start:end] (see the module doc); inf if it sees none of it."""
+def pick_polygon(ray: tuple[float, float, float, float, float], tan_spread: float, vertices: np.ndarray, start: int, end: int) -> float:
+    """Distance (m) c't-Sim's pick reads along RAY (sensor x, y, unit look x, y, length) of the
+    wall polygon vertices[start:end] (see the module doc); inf if it sees none of it."""
+    ox, oy, ux, uy, length = ray
     o = np.array((ox, oy, SENSOR_HEIGHT))
     d = np.array((length * ux, length * uy, 0.0))
     best = math.inf
@@ -225,8 +228,7 @@ def pick_wall(ray: tuple[float, float, float, float, float], tan_spread: float, 
     inf if it sees none of it."""
     if cylinder:
         return pick_cylinder(ray, tan_spread, vertices, start, end)
-    ox, oy, ux, uy, length = ray
-    return pick_polygon(ox, oy, ux, uy, length, tan_spread, vertices, start, end)
+    return pick_polygon(ray, tan_spread, vertices, start, end)
 
 
 FACES = np.array((
