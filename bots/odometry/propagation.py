@@ -130,19 +130,25 @@ def mouse_variance(p: np.void, s: float, alpha: float) -> float:
 
 
 @numba.njit(cache=True)
+def add_offset(point: np.ndarray, pose: np.ndarray, weight: float, out: np.ndarray) -> None:
+    """Add `weight` times the outer product of `point`'s offset from `pose` (both (3,)) to the
+    covariance entries `out` (COVARIANCE_FIELDS)."""
+    dx, dy, dt = point[0] - pose[0], point[1] - pose[1], point[2] - pose[2]
+    out[0] += weight * dx * dx
+    out[1] += weight * dx * dy
+    out[2] += weight * dx * dt
+    out[3] += weight * dy * dy
+    out[4] += weight * dy * dt
+    out[5] += weight * dt * dt
+
+
+@numba.njit(cache=True)
 def add_spread(sigmas: np.ndarray, count: int, pose: np.ndarray, out: np.ndarray) -> None:
     """Add the spread of the first `count` sigma points about `pose` to the covariance entries
     `out` (COVARIANCE_FIELDS): the calibration's part of the error, unscented (each point weighs
     1 / (2 SIGMA_SPREAD²), the estimate itself the rest)."""
-    weight = 0.5 / (SIGMA_SPREAD * SIGMA_SPREAD)
     for i in range(count):
-        dx, dy, dt = sigmas[i, 0] - pose[0], sigmas[i, 1] - pose[1], sigmas[i, 2] - pose[2]
-        out[0] += weight * dx * dx
-        out[1] += weight * dx * dy
-        out[2] += weight * dx * dt
-        out[3] += weight * dy * dy
-        out[4] += weight * dy * dt
-        out[5] += weight * dt * dt
+        add_offset(sigmas[i], pose, 0.5 / (SIGMA_SPREAD * SIGMA_SPREAD), out)
 
 
 @numba.njit(cache=True, inline="always")
