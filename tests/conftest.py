@@ -32,3 +32,16 @@ def ctrl_c():
     previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     yield
     signal.signal(signal.SIGINT, previous)
+
+
+def pytest_addoption(parser) -> None:  # noqa: ANN001 (pytest's Parser)
+    parser.addoption("--slow", action="store_true", help="also run the tests marked slow (minutes each: the maze NEES over 40 seeds)")
+
+
+def pytest_collection_modifyitems(config, items) -> None:  # noqa: ANN001 (pytest's Config, Items)
+    """Tests marked slow run only with --slow: the suite's 10-20 minutes stay that."""
+    if config.getoption("--slow"):
+        return
+    for item in items:
+        if "slow" in item.keywords:
+            item.add_marker(pytest.mark.skip(reason="slow (minutes): run with --slow"))
