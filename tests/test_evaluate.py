@@ -488,3 +488,14 @@ def test_an_estimator_argument_that_is_no_estimator_is_one_line_and_exit_2(tmp_p
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("ctsim: error:") and said in err[0], err
     assert not out.exists()
+
+
+def test_a_hang_on_dask_ends_its_worker_and_the_run_is_lost_the_others_kept(tmp_path, capsys):
+    """Dask runs its tasks in a worker's thread, where no signal reaches: an overrun ends the
+    worker (`StepClock.ends_process`); Dask tries the run on fresh workers, then it is lost.
+    The maze runs (400 steps) finish before the estimator's hang (step 500) and are kept."""
+    out = tmp_path / "out"
+    assert main(["evaluate", f"{_hostile(tmp_path, 500)}:Sleeps", "--suite", "test", "--out", str(out), "--engine", "dask", "--jobs", "2", "--step-timeout", "0.3"]) == 1
+    failed = [run.get("failed", {}) for run in read_results(out / RESULTS)["runs"]]
+    assert [bool(f) for f in failed] == [False, False, True, True] and all("its Dask worker died on every attempt" in f["Sleeps"] for f in failed[2:])
+    assert "ctsim: line_none_20s seed 0 failed: hostile.py:Sleeps: run lost" in capsys.readouterr().err

@@ -237,7 +237,11 @@ def _batch_size(jobs: int, workers: int) -> int:
 
 
 def _run_batch(fn: Callable[[Any], Any], batch: list[Any]) -> list[Any]:
-    """A Dask task: the outcomes of a batch of jobs."""
+    """A Dask task: the outcomes of a batch of jobs. Its runs go in a worker's thread, where no
+    signal keeps a step time limit: an overrun ends the worker (`StepClock.ends_process`)."""
+    from sim.run.clock import StepClock
+
+    StepClock.ends_process = True
     return [fn(job) for job in batch]
 
 
@@ -332,7 +336,7 @@ class Dask:
                                 futures[single] = [job]
                                 running.add(single)
                             continue
-                        outcomes = [Lost(f"its Dask worker died on every attempt ({err})")]
+                        outcomes = [Lost(f"its Dask worker died on every attempt ({type(err).__name__}: a crash, or a call of the user's code past the step time limit, ends it)")]
                     yield from zip(batch, outcomes)
         finally:
             self.client.cancel(list(futures))
