@@ -499,3 +499,40 @@ def test_a_hang_on_dask_ends_its_worker_and_the_run_is_lost_the_others_kept(tmp_
     failed = [run.get("failed", {}) for run in read_results(out / RESULTS)["runs"]]
     assert [bool(f) for f in failed] == [False, False, True, True] and all("its Dask worker died on every attempt" in f["Sleeps"] for f in failed[2:])
     assert "ctsim: line_none_20s seed 0 failed: hostile.py:Sleeps: run lost" in capsys.readouterr().err
+
+
+WANDERS = """
+import os
+
+os.chdir({away!r})
+
+
+class Wanders:
+    def reset(self, robot, pose):
+        os.chdir({away!r})
+        self.pose = pose
+
+    def update(self, readings):
+        pass
+"""
+
+
+def test_an_estimator_that_changes_the_current_folder_moves_no_result(tmp_path, monkeypatch):
+    """At its import and in its reset (the trial runs in this process): a relative --out and
+    estimator file are taken from the folder ctsim started in."""
+    from sim.cli import output
+
+    away = tmp_path / "away"
+    away.mkdir()
+    (tmp_path / "wanders.py").write_text(textwrap.dedent(WANDERS.format(away=str(away))))
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(output, "START", tmp_path)
+    assert main(["evaluate", "wanders.py", "--suite", "test", "--out", "results", "--engine", "serial"]) == 0
+    assert (tmp_path / "results" / RESULTS).is_file() and not any(away.iterdir())
+
+
+def test_more_jobs_than_four_per_core_are_refused_before_any_starts(tmp_path, capsys):
+    """A Dask LocalCluster started as many worker processes as asked (a million)."""
+    assert main(["evaluate", "--suite", "test", "--engine", "dask", "--jobs", "1000000", "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("ctsim: error: --jobs 1000000: more worker processes than 4 per core")

@@ -38,6 +38,7 @@ def add_parser(commands) -> None:  # noqa: ANN001 (argparse's subparsers action)
 def cmd_evaluate(args: argparse.Namespace) -> int:
     import numpy as np
 
+    from sim.cli.output import START
     from sim.experiments.evaluation import RESULTS, NotWritten, evaluate, merge, read_results, write_results
     from sim.experiments.scores import terminal
     from sim.experiments.suite import variant
@@ -46,7 +47,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 
     if args.merge and args.estimators:
         raise UsageError("--merge joins results files; run the estimators without it first")
-    out = args.out or Path("runs") / ("evaluate-merged" if args.merge else f"evaluate-{args.suite}")
+    # (from the folder ctsim started in: an estimator that changes the current folder cannot move the results)
+    out = START / (args.out or Path("runs") / ("evaluate-merged" if args.merge else f"evaluate-{args.suite}"))
     with tallied() as tally:  # (every file written: the list below, also when writing failed half-way)
         failure: Exception | None = None
         if args.merge:

@@ -83,11 +83,12 @@ def submitted(sources: list[str], step_timeout: float | None = STEP_TIMEOUT) -> 
         if source in BY_NAME and not Path(source).is_file():
             found.append(Submitted(source, source, source, "shipped"))
             continue
+        file, _, cls = source.partition(":") if not Path(source).is_file() else (source, "", "")
+        path = Path(file).resolve()  # (before its code runs: code that changes the current folder moves nothing)
         with made_in_time(step_timeout):
             load(source)  # (a missing file or class: one line of its own)
-        file, _, cls = source.partition(":") if not Path(source).is_file() else (source, "", "")
-        located = str(Path(file).resolve()) + (f":{cls}" if cls else "")
-        identity = "sha256:" + hashlib.sha256(Path(file).read_bytes()).hexdigest()
+        located = str(path) + (f":{cls}" if cls else "")
+        identity = "sha256:" + hashlib.sha256(path.read_bytes()).hexdigest()
         found.append(Submitted(source, located, "", identity))
     shipped = [s for s in SHIPPED if s not in sources]
     with made_in_time(step_timeout):
