@@ -33,7 +33,7 @@ from sim.world.kernels.contacts import settle
 from sim.world.kernels.motion import glide, measure, plan
 from sim.world.kernels.noise import ENCODER_DRAWS, add_rounded, draw_step, spurious_ticks
 from sim.world.kernels.pick import pick_wall
-from sim.world.kernels.sensing import ir_rays, ir_values, read_sensors
+from sim.world.kernels.sensing import CIRCLE_GRID_ABOVE, ir_rays, ir_values, read_sensors
 from sim.world.sensors import IRCurve, gp2d12, load_ir_curve
 from sim.world.spec import Start, WorldSpec
 from sim.world.step import DEFAULT_DT, check_dt
@@ -293,8 +293,13 @@ class World:
         self._moved = (st.robots, st.state, st.tally_rows)
         """The tables `plan` and `measure` change a step's motion and counts in."""
         bodies = layout.Bodies(self._bodies.row_index, layout.motion_rows(self._bodies.motion), st.circles)
-        self._read_arguments = (layout.Sensing(st.sensors[:read], st.n_floor, self._lights), floor, walls, st.circles, ir.curves, ir.noise.kernel)
-        self._settle_arguments = (st.robots, st.state, self._world, walls, floor, layout.Ground(st.contacts, st.anchored, st.fallen), bodies)
+        # (None where a world cannot need them: the circles' grid of a crowd, the robots' keeping apart;
+        # numba then prunes their code, and a first run of one robot does not compile it)
+        grid_above = CIRCLE_GRID_ABOVE if len(st.circles) > CIRCLE_GRID_ABOVE else None
+        meeting = True if len(self.robots) > 1 and self.robots_meet else None
+        self._read_arguments = (layout.Sensing(st.sensors[:read], st.n_floor, self._lights), floor, walls, st.circles, ir.curves, ir.noise.kernel,
+                                grid_above)  # fmt: skip
+        self._settle_arguments = (st.robots, st.state, self._world, walls, floor, layout.Ground(st.contacts, st.anchored, st.fallen), bodies, meeting)
         self._glide_arguments = (st.robots, bodies, self._world)
         self._step_noise_arguments = (st.step_noise.kernel, st.encoders, st.state, st.tick_uniforms)
         self._tick_noise_arguments = (st.step_noise.rows[: st.encoders], st.tick_noise, st.tick_uniforms, st.tally_rows)

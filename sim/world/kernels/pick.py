@@ -143,10 +143,10 @@ def pick_cylinder(ray: tuple[float, float, float, float, float], tan_spread: flo
     d = np.array((length * ux, length * uy, 0.0))
     corners = end - start
     strip = np.empty((2 * corners + 2, 3))
-    for i in range(corners + 1):
+    for i in range(corners + 1):  # (element by element: a row assignment compiles numba's whole shape-mismatch message, seconds)
         k = end - 1 if i == 0 else start + i - 1
-        strip[2 * i] = (vertices[k, 0], vertices[k, 1], CYLINDER_TOP)
-        strip[2 * i + 1] = (vertices[k, 0], vertices[k, 1], 0.0)
+        strip[2 * i, 0], strip[2 * i, 1], strip[2 * i, 2] = vertices[k, 0], vertices[k, 1], CYLINDER_TOP
+        strip[2 * i + 1, 0], strip[2 * i + 1, 1], strip[2 * i + 1, 2] = vertices[k, 0], vertices[k, 1], 0.0
     key, px, py, pz = math.inf, 0.0, 0.0, 0.0
     for t in range(strip.shape[0] - 2):
         found, x, y, z = _triangle(o, d, tan_spread, strip[t : t + 3], 0.0)

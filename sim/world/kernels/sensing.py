@@ -15,6 +15,9 @@ from sim.world.kernels.grids import circle_grid, first_at_least, walls_near
 from sim.world.kernels.pick import pick_wall
 from sim.world.layout import GHOST, Curves, Floor, Noise, Rays, Readout, Sensing, Walls
 
+CIRCLE_GRID_ABOVE = 32
+"""Circles (robots and cans) beyond which IR rays find the circles near them in a grid (`sense_ir`)."""
+
 
 @numba.njit(cache=True)
 def to_world(pose: np.ndarray, offsets: np.ndarray, owner: np.ndarray, out: np.ndarray) -> None:
@@ -86,7 +89,7 @@ def _circle_in_view(view: tuple, px: float, py: float, r: float, best: float) ->
 
 
 @numba.njit(cache=True)
-def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: np.ndarray, grid_above: int = 32) -> None:
+def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: np.ndarray, grid_above: int | None = CIRCLE_GRID_ABOVE) -> None:
     """Distance (m) from each IR ray's origin to the nearest point of a wall (convex polygons with
     bounding boxes, `Walls`) or a circle (CIRCLES; a sensor skips its own robot's, and every sensor
     a GHOST's) within the ray's cone (half-angle, rad) of its view and within `length`; inf if
@@ -96,14 +99,15 @@ def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: 
 
     With more than `grid_above` circles, each sensor checks only the circles in the grid cells
     its cone's bounding box overlaps (a crowd would otherwise cost sensors x robots); the nearest
-    distance is a minimum, so the grid gives the all-circles result bit for bit. Walls are taken
+    distance is a minimum, so the grid gives the all-circles result bit for bit. None: never (numba
+    then prunes the grid's code, which need not be compiled for a world of a few circles). Walls are taken
     from the walls' grid in the cells the cone's bounding box overlaps, in ascending order as a
     loop over every wall would meet them; only a wall whose box meets the cone's can give a
     distance within `length` (every nearest point and edge-ray hit that counts lies in the cone),
     so the others are skipped without changing a bit."""
     origins, looks, cones, owner, picks = rays.origins, rays.look, rays.cone, rays.owner, rays.pick
     vertices, spans, boxes = walls.vertices, walls.spans, walls.boxes
-    use_grid = circles.shape[0] > grid_above
+    use_grid = grid_above is not None and circles.shape[0] > grid_above
     cell, x0, y0, cols, rows, order, sorted_key, widest = 1.0, 0.0, 0.0, 1, 1, np.empty(0, np.int64), np.empty(0, np.int64), 0.0
     if use_grid:
         cell, x0, y0, cols, rows, order, sorted_key, widest = circle_grid(circles, length)
@@ -216,16 +220,17 @@ def ir_values(distance: np.ndarray, sensors: np.ndarray, noise: Noise, curves: C
 
 @numba.njit(cache=True)
 def read_ir(pose: np.ndarray, sensors: np.ndarray, walls: Walls, circles: np.ndarray, curves: Curves, noise: Noise, raw: np.ndarray,
-            believed: np.ndarray) -> None:  # fmt: skip
+            believed: np.ndarray, grid_above: int | None) -> None:  # fmt: skip
     """Every IR reading of a world whose robots are all circles, in one call: the sensors' rays
     (`ir_rays`), the robots (the first CIRCLES rows, positions taken from `pose`) and the other
-    circles and walls they see (`sense_ir`), and noise and curves (`ir_values`)."""
+    circles and walls they see (`sense_ir`, the circles in a grid beyond `grid_above` of them),
+    and noise and curves (`ir_values`)."""
     m = sensors.shape[0]
     origins, look, distance = np.empty((m, 2)), np.empty(m), np.empty(m)
     ir_rays(pose, sensors, origins, look)
     for i in range(pose.shape[0]):
         circles[i].x, circles[i].y = pose[i, 0], pose[i, 1]
-    sense_ir(Rays(origins, look, sensors.opening, sensors.owner, sensors.pick), walls, circles, curves.length, distance, 32)
+    sense_ir(Rays(origins, look, sensors.opening, sensors.owner, sensors.pick), walls, circles, curves.length, distance, grid_above)
     ir_values(distance, sensors, noise, curves, raw, believed)
 
 
@@ -255,15 +260,16 @@ def sense_light(pose: np.ndarray, sensors: np.ndarray, lights: np.ndarray, out: 
 
 @numba.njit(cache=True)
 def read_sensors(pose: np.ndarray, sensing: Sensing, floor: Floor, walls: Walls, circles: np.ndarray, curves: Curves, noise: Noise,
-                 out: Readout) -> None:  # fmt: skip
+                 grid_above: int | None, out: Readout) -> None:  # fmt: skip
     """Every floor, light and IR reading of the world in one call: the first `sensing.floor`
     SENSORS rows are floor sensors (`sample_floor`), the last len(out.believed) IR sensors
     (`read_ir`), the rows between light sensors (`sense_light`); `out.values` gets each row's
     integer reading. A world that reads its IR sensors with pymunk passes only the floor and
-    light rows and no `believed`."""
+    light rows and no `believed`. `grid_above`: as `sense_ir`'s (None for a world of no more
+    circles than CIRCLE_GRID_ABOVE)."""
     sensors, values, believed = sensing.sensors, out.values, out.believed
     lo, hi = sensing.floor, sensors.shape[0] - believed.shape[0]
     sample_floor(pose, sensors[:lo], floor, values[:lo])
     sense_light(pose, sensors[lo:hi], sensing.lights, values[lo:hi])
     if believed.shape[0]:
-        read_ir(pose, sensors[hi:], walls, circles, curves, noise, values[hi:], believed)
+        read_ir(pose, sensors[hi:], walls, circles, curves, noise, values[hi:], believed, grid_above)
