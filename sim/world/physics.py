@@ -22,7 +22,7 @@ import numpy as np
 import pymunk
 
 import sim
-from bots.readings import SensorFrame, frozen_copies
+from bots.readings import SensorFrame, frozen_copy
 from bots.spec import RobotSpec
 from sim.world import layout
 from sim.world.bodies import BodyArrays
@@ -293,13 +293,17 @@ class World:
         self._moved = (st.robots, st.state, st.tally_rows)
         """The tables `plan` and `measure` change a step's motion and counts in."""
         bodies = layout.Bodies(self._bodies.row_index, layout.motion_rows(self._bodies.motion), st.circles)
-        # (None where a world cannot need them: the circles' grid of a crowd, the robots' keeping apart;
-        # numba then prunes their code, and a first run of one robot does not compile it)
+        # (None where a world cannot need them: the circles' grid of a crowd, cylinder walls, the robots'
+        # keeping apart, c't-Sim's contact rule; numba then prunes their code, and a first run of one
+        # c't-Bot in a maze does not compile it)
         grid_above = CIRCLE_GRID_ABOVE if len(st.circles) > CIRCLE_GRID_ABOVE else None
+        cylinders = True if walls.boxes["cylinder"].any() else None
         meeting = True if len(self.robots) > 1 and self.robots_meet else None
+        stopping = True if len(st.stoppers) else None
         self._read_arguments = (layout.Sensing(st.sensors[:read], st.n_floor, self._lights), floor, walls, st.circles, ir.curves, ir.noise.kernel,
-                                grid_above)  # fmt: skip
-        self._settle_arguments = (st.robots, st.state, self._world, walls, floor, layout.Ground(st.contacts, st.anchored, st.fallen), bodies, meeting)
+                                grid_above, cylinders)  # fmt: skip
+        self._settle_arguments = (st.robots, st.state, self._world, walls, floor, layout.Ground(st.contacts, st.anchored, st.fallen), bodies,
+                                  meeting, stopping)  # fmt: skip
         self._glide_arguments = (st.robots, bodies, self._world)
         self._step_noise_arguments = (st.step_noise.kernel, st.encoders, st.state, st.tick_uniforms)
         self._tick_noise_arguments = (st.step_noise.rows[: st.encoders], st.tick_noise, st.tick_uniforms, st.tally_rows)
@@ -358,7 +362,7 @@ class World:
         """Every robot's sensor readings from the current state (the start of the next step):
         `frame[i]` is robot i's `Readings`. `rows`: one row of each of `sensor_rows`' arrays
         (values, believed, tallies) to read into, in place of new arrays: the frame then holds
-        immutable copies of them (`frozen_copies`), never views into them."""
+        immutable copies of them (`frozen_copy`), never views into them."""
         st = self._batch()
         pose = self._poses
         if rows is None:
@@ -382,7 +386,7 @@ class World:
         if not self._round_ir:
             self._read_ir_with_pymunk(pose, values[lights:], believed)
         if rows is not None:
-            values, believed, tallies = frozen_copies(values, believed, tallies)
+            values, believed, tallies = frozen_copy(values), frozen_copy(believed), frozen_copy(tallies)
         frame = SensorFrame(self.time, tallies, values[lights:], believed, values[: st.n_floor], values[st.n_floor : lights], st.layout)
         if self.chassis.drives:
             self.chassis.fill(frame)

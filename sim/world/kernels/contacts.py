@@ -21,7 +21,7 @@ that pymunk, which finds a contact at distance <= 0, finds none where this finds
 
 @numba.njit(cache=True)
 def settle(pose: np.ndarray, robots: np.ndarray, state: np.ndarray, world: np.ndarray, walls: Walls, floor: Floor, ground: Ground,
-           bodies: Bodies, meeting: bool | None) -> tuple[bool, bool]:  # fmt: skip
+           bodies: Bodies, meeting: bool | None, stopping: bool | None) -> tuple[bool, bool]:  # fmt: skip
     """The planned moves and turns (STATE's move, alpha) refused by c't-Sim's contact rule
     (`stop_at_contact`) or cut where walls (`sweep_walls`), other robots (`keep_apart`) or holes
     (`hold_at_holes`) stop them, and the force and torque that give each robot that motion in
@@ -29,8 +29,9 @@ def settle(pose: np.ndarray, robots: np.ndarray, state: np.ndarray, world: np.nd
     pymunk's body data: the world step's arithmetic between the drive and pymunk in one call.
 
     `meeting`: None where no two robots can meet (one robot, or robots that pass through each
-    other): numba then prunes `keep_apart`, which need not be compiled (a third of this kernel's
-    compile, every first run of one robot).
+    other), `stopping` None where no robot has c't-Sim's contact rule: numba then prunes
+    `keep_apart` and `stop_at_contact`, which need not be compiled (half of this kernel's compile,
+    every first run of one c't-Bot).
 
     Returns whether any robot's `fallen` changed, and whether the step is quiet: it began with no
     robot touching a wall (`CLEAR`), as did the WORLD's quiet_after steps before it (its streak
@@ -38,7 +39,8 @@ def settle(pose: np.ndarray, robots: np.ndarray, state: np.ndarray, world: np.nd
     none in its memory, so that `glide` moves the robots as pymunk's step would."""
     here = world[0]
     move, alpha = state.move, state.alpha
-    stop_at_contact(pose, robots, state, walls, bodies.circles)
+    if stopping is not None:
+        stop_at_contact(pose, robots, state, walls, bodies.circles)
     sweep_walls(pose, move, robots.sweep_radius, here.slide_margin, walls)
     if meeting is not None and pose.shape[0] > 1 and here.robots_meet:
         keep_apart(pose, move, robots.apart_radius)

@@ -158,11 +158,13 @@ def pick_cylinder(ray: tuple[float, float, float, float, float], tan_spread: flo
 
 
 @numba.njit(cache=True)
-def pick_wall(ray: tuple[float, float, float, float, float], tan_spread: float, vertices: np.ndarray, start: int, end: int, cylinder: bool) -> float:
+def pick_wall(ray: tuple[float, float, float, float, float], tan_spread: float, vertices: np.ndarray, start: int, end: int, cylinder: bool,
+              cylinders: bool | None = True) -> float:  # fmt: skip
     """Distance (m) c't-Sim's pick reads along RAY (sensor x, y, unit look x, y, length) of the
     wall vertices[start:end]: a Java3D cylinder's (`pick_cylinder`) or a box's (`pick_polygon`);
-    inf if it sees none of it."""
-    if cylinder:
+    inf if it sees none of it. `cylinders` None: the world has no cylinder (numba then prunes
+    `pick_cylinder`, which need not be compiled)."""
+    if cylinders is not None and cylinder:
         return pick_cylinder(ray, tan_spread, vertices, start, end)
     ox, oy, ux, uy, length = ray
     return pick_polygon(ox, oy, ux, uy, length, tan_spread, vertices, start, end)

@@ -89,7 +89,8 @@ def _circle_in_view(view: tuple, px: float, py: float, r: float, best: float) ->
 
 
 @numba.njit(cache=True)
-def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: np.ndarray, grid_above: int | None = CIRCLE_GRID_ABOVE) -> None:
+def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: np.ndarray, grid_above: int | None = CIRCLE_GRID_ABOVE,
+             cylinders: bool | None = True) -> None:  # fmt: skip
     """Distance (m) from each IR ray's origin to the nearest point of a wall (convex polygons with
     bounding boxes, `Walls`) or a circle (CIRCLES; a sensor skips its own robot's, and every sensor
     a GHOST's) within the ray's cone (half-angle, rad) of its view and within `length`; inf if
@@ -100,7 +101,8 @@ def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: 
     With more than `grid_above` circles, each sensor checks only the circles in the grid cells
     its cone's bounding box overlaps (a crowd would otherwise cost sensors x robots); the nearest
     distance is a minimum, so the grid gives the all-circles result bit for bit. None: never (numba
-    then prunes the grid's code, which need not be compiled for a world of a few circles). Walls are taken
+    then prunes the grid's code, which need not be compiled for a world of a few circles);
+    `cylinders` None likewise for a world without cylinder walls (`pick.pick_wall`). Walls are taken
     from the walls' grid in the cells the cone's bounding box overlaps, in ascending order as a
     loop over every wall would meet them; only a wall whose box meets the cone's can give a
     distance within `length` (every nearest point and edge-ray hit that counts lies in the cone),
@@ -128,7 +130,7 @@ def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: 
                 continue
             start, end = spans[w].start, spans[w].end
             if picks[k]:
-                best = min(best, pick_wall((ox, oy, cx, cy, length), math.tan(cone), vertices, start, end, box.cylinder))
+                best = min(best, pick_wall((ox, oy, cx, cy, length), math.tan(cone), vertices, start, end, box.cylinder, cylinders))
                 continue
             distance, qx, qy = polygon_distance(ox, oy, vertices, start, end)
             if distance <= 0.0:
@@ -220,17 +222,17 @@ def ir_values(distance: np.ndarray, sensors: np.ndarray, noise: Noise, curves: C
 
 @numba.njit(cache=True)
 def read_ir(pose: np.ndarray, sensors: np.ndarray, walls: Walls, circles: np.ndarray, curves: Curves, noise: Noise, raw: np.ndarray,
-            believed: np.ndarray, grid_above: int | None) -> None:  # fmt: skip
+            believed: np.ndarray, grid_above: int | None, cylinders: bool | None) -> None:  # fmt: skip
     """Every IR reading of a world whose robots are all circles, in one call: the sensors' rays
     (`ir_rays`), the robots (the first CIRCLES rows, positions taken from `pose`) and the other
-    circles and walls they see (`sense_ir`, the circles in a grid beyond `grid_above` of them),
-    and noise and curves (`ir_values`)."""
+    circles and walls they see (`sense_ir`, with its `grid_above` and `cylinders`), and noise and
+    curves (`ir_values`)."""
     m = sensors.shape[0]
     origins, look, distance = np.empty((m, 2)), np.empty(m), np.empty(m)
     ir_rays(pose, sensors, origins, look)
     for i in range(pose.shape[0]):
         circles[i].x, circles[i].y = pose[i, 0], pose[i, 1]
-    sense_ir(Rays(origins, look, sensors.opening, sensors.owner, sensors.pick), walls, circles, curves.length, distance, grid_above)
+    sense_ir(Rays(origins, look, sensors.opening, sensors.owner, sensors.pick), walls, circles, curves.length, distance, grid_above, cylinders)
     ir_values(distance, sensors, noise, curves, raw, believed)
 
 
@@ -260,16 +262,16 @@ def sense_light(pose: np.ndarray, sensors: np.ndarray, lights: np.ndarray, out: 
 
 @numba.njit(cache=True)
 def read_sensors(pose: np.ndarray, sensing: Sensing, floor: Floor, walls: Walls, circles: np.ndarray, curves: Curves, noise: Noise,
-                 grid_above: int | None, out: Readout) -> None:  # fmt: skip
+                 grid_above: int | None, cylinders: bool | None, out: Readout) -> None:  # fmt: skip
     """Every floor, light and IR reading of the world in one call: the first `sensing.floor`
     SENSORS rows are floor sensors (`sample_floor`), the last len(out.believed) IR sensors
     (`read_ir`), the rows between light sensors (`sense_light`); `out.values` gets each row's
     integer reading. A world that reads its IR sensors with pymunk passes only the floor and
-    light rows and no `believed`. `grid_above`: as `sense_ir`'s (None for a world of no more
-    circles than CIRCLE_GRID_ABOVE)."""
+    light rows and no `believed`. `grid_above` and `cylinders`: as `sense_ir`'s (None where the
+    world cannot need them)."""
     sensors, values, believed = sensing.sensors, out.values, out.believed
     lo, hi = sensing.floor, sensors.shape[0] - believed.shape[0]
     sample_floor(pose, sensors[:lo], floor, values[:lo])
     sense_light(pose, sensors[lo:hi], sensing.lights, values[lo:hi])
     if believed.shape[0]:
-        read_ir(pose, sensors[hi:], walls, circles, curves, noise, values[hi:], believed, grid_above)
+        read_ir(pose, sensors[hi:], walls, circles, curves, noise, values[hi:], believed, grid_above, cylinders)
