@@ -44,12 +44,6 @@ LONG_ON_PURPOSE = {
 }
 MOST_PARAMETERS = 8
 """Parameters a compiled function may take: more are a table or a group that wants a name (`sim.world.layout`)."""
-NOT_YET_GROUPED = {
-    # a general chassis's wheels
-    # still take their arrays one by one: left of #46, no new ones
-    "sim/world/chassis_drive.py": {"_wheels"},
-    "sim/world/kernels/pick.py": {"_closest", "pick_polygon"},  # c't-Sim's cone pick, landed (#45) beside this rule
-}
 
 
 def _relative(path: Path) -> str:
@@ -72,7 +66,7 @@ def test_a_compiled_function_takes_a_few_grouped_parameters():
         for node in ast.walk(tree):
             if isinstance(node, ast.FunctionDef) and any("njit" in ast.unparse(d) or "numba" in ast.unparse(d) for d in node.decorator_list):
                 count = len(node.args.posonlyargs) + len(node.args.args) + len(node.args.kwonlyargs)
-                if count > MOST_PARAMETERS and node.name not in NOT_YET_GROUPED.get(rel, ()):
+                if count > MOST_PARAMETERS:
                     wide.append(f"{rel}:{node.lineno}: {node.name} takes {count}")
     assert not wide, f"more than {MOST_PARAMETERS} parameters: " + "; ".join(wide)
 

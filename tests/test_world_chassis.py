@@ -470,7 +470,7 @@ def test_the_compiled_wheel_step_is_the_cores_forward_kinematics_motor_and_encod
     (`quantize`) and the exact step (`se2_exp`)."""
     from sim.kinematics import quantize
     from sim.kinematics.chassis import forward_pinv, forward_system, rolling_rows
-    from sim.world.chassis_drive import _wheels
+    from sim.world.chassis_drive import Motors, Solver, Wheels, _wheels
 
     chassis = PRESETS[name]()
     n, rng = chassis.n, np.random.default_rng(15)
@@ -485,8 +485,8 @@ def test_the_compiled_wheel_step_is_the_cores_forward_kinematics_motor_and_encod
     lag, max_change, dt, ticks_per_rad = 0.3, 1.5, 0.01, 60 / (2 * np.pi)
 
     phi_dot, tick_carry, ticks, twist = phi.copy(), carry.copy(), np.zeros(n, dtype=np.int64), np.zeros(3)
-    *increment, residual = _wheels(dt, phi_dot, target, top, lag, max_change, degraded.driven, degraded.locked, measured,
-                                   rim, slip, a, forward_pinv(a), rolls, ticks_per_rad, tick_carry, ticks, twist)
+    *increment, residual = _wheels(dt, Motors(top, lag, max_change, ticks_per_rad), Wheels(phi_dot, target, degraded.driven, degraded.locked, measured, rim, slip),
+                                   Solver(a, forward_pinv(a), rolls), tick_carry, ticks, twist)
 
     expected = np.where(degraded.driven, phi + np.clip((np.clip(target, -top, top) - phi) * lag, -max_change, max_change), phi)
     slipped = expected + slip * np.sqrt(np.abs(expected * rim) / dt) / rim  # the arc off by slip * sqrt(|arc|)

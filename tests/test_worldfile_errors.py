@@ -8,7 +8,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from sim.world.files import check_world, load_world
+from sim.world.files import check_world, load_world, shipped_worlds
 from sim.world.spec import WorldFileError
 
 START = "[[start]]\nposition = [0.5, 0.5]\n"
@@ -166,3 +166,14 @@ def test_mangled_files_give_world_file_errors_only(tmp_path: Path, world: Path, 
             load_world(path)
         except WorldFileError as e:
             assert e.problem and e.path == str(path)
+
+
+def test_a_folder_named_like_a_shipped_world_does_not_hide_it(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """`ctsim run --out maze` makes a folder `maze/`; the next `ctsim run` (world `maze` by default)
+    in the same place still loads the shipped maze, not the folder ('unknown world file type')."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "maze").mkdir()
+    assert load_world("maze").name == load_world(shipped_worlds()["maze"]).name
+    (tmp_path / "corridor").mkdir()
+    with pytest.raises(WorldFileError, match="no such world file or shipped world"):
+        load_world("corridor")

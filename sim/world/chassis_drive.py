@@ -20,7 +20,7 @@ from __future__ import annotations
 import logging
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any, Literal
+from typing import TYPE_CHECKING, Any, Literal, NamedTuple
 
 import numba
 import numpy as np
@@ -46,6 +46,7 @@ from sim.kinematics.chassis import (
     rolling_rows,
     sliding_rows,
 )
+from sim.world.compiling import compiled_for
 from sim.world.spec import FAULT_KINDS, WheelFault
 
 if TYPE_CHECKING:
@@ -56,6 +57,40 @@ if TYPE_CHECKING:
 
 FaultKind = Literal["lock", "free", "steering"]
 _log = logging.getLogger(__name__)
+
+
+class Motors(NamedTuple):
+    """A chassis's motors and encoders (`_wheels`): each wheel's speed limit (rad/s), the lag
+    (fraction of the way to the target per step), the acceleration limit (rad/s per step) and
+    encoder ticks per wheel radian."""
+
+    max_phi: np.ndarray
+    lag: float
+    max_change: float
+    ticks_per_rad: float
+
+
+class Wheels(NamedTuple):
+    """A chassis's wheels over one step (`_wheels`), per wheel: speed (rad/s, in place), target
+    speed, driven, locked, measured (the twist is solved from them), rim (m per rad of wheel) and
+    this step's random slip (sqrt m)."""
+
+    phi_dot: np.ndarray
+    target_phi: np.ndarray
+    driven: np.ndarray
+    locked: np.ndarray
+    measured: np.ndarray
+    rim: np.ndarray
+    slip: np.ndarray
+
+
+class Solver(NamedTuple):
+    """A chassis's forward kinematics at its wheels' angles (`_wheels`): A, pinv(A) and the
+    rolling rows (what unmeasured wheels turn at)."""
+
+    a: np.ndarray
+    pinv: np.ndarray
+    rolls: np.ndarray
 
 
 class FaultError(UserError):
@@ -86,6 +121,7 @@ class _Drive:
     mouse2_carry: np.ndarray = field(default_factory=lambda: np.zeros(2))
     mouse2_counts: np.ndarray = field(default_factory=lambda: np.zeros(2, dtype=np.int64))
     _solver: tuple = ()
+    _kernel: Any = None
 
     def __post_init__(self) -> None:
         self.chassis = self.nominal
@@ -96,6 +132,7 @@ class _Drive:
         self.held: set[int] = set()  # wheels reported held at a stop
         self.passive = bool(np.isin(self.nominal.kind, (WheelType.CASTOR, WheelType.SPHERICAL)).any())
         self.rim = self.nominal.radius * np.cos(self.nominal.gamma)
+        self.motors = Motors(self.max_phi, self.lag, self.max_change, self.ticks_per_rad)
         self._refresh()
 
     def _refresh(self) -> None:
@@ -103,7 +140,8 @@ class _Drive:
         c = self.chassis
         self.steerable = (c.kind == WheelType.STEERED) & c.steer_ok
         self.steers = bool(self.steerable.any())
-        self.measured = c.driven | c.locked
+        self.driven, self.locked = np.ascontiguousarray(c.driven, dtype=np.bool_), np.ascontiguousarray(c.locked, dtype=np.bool_)
+        self.measured = self.driven | self.locked
 
     def strike(self, wheel: int, kind: FaultKind) -> None:
         """Apply a fault now; the core's `degrade` gives the new chassis state."""
@@ -122,13 +160,13 @@ class _Drive:
 
     def step(self, dt: float, slip: np.ndarray) -> list[float]:
         """Steering, motors, forward kinematics and encoders for one step; the body increment (dx, dy, dθ)."""
-        c = self.chassis
         if self.steers:
             self._steer(self.steer_rate * dt)
-        a, pinv, rolls = self._system()
-        *increment, self.slip = _wheels(dt, self.phi_dot, self.target_phi, self.max_phi, self.lag, self.max_change,
-                                        c.driven, c.locked, self.measured, self.rim, slip, a, pinv, rolls,
-                                        self.ticks_per_rad, self.tick_carry, self.ticks, self.twist)
+        wheels = Wheels(self.phi_dot, self.target_phi, self.driven, self.locked, self.measured, self.rim, slip)
+        arguments = (dt, self.motors, wheels, self._system(), self.tick_carry, self.ticks, self.twist)
+        if self._kernel is None:  # (called without numba's dispatch, which types a NamedTuple in Python: a few µs a step)
+            self._kernel = compiled_for(_wheels, *arguments)
+        *increment, self.slip = self._kernel(*arguments)
         if self.passive:
             self._swivel(dt)
         return increment
@@ -156,15 +194,16 @@ class _Drive:
         moved = np.where(reached & ~beyond, self.target_beta, wrap_angle(now + np.clip(turn, -max_turn, max_turn) - offset))
         self.beta = np.where(self.steerable, wrap_angle(moved), self.beta)
 
-    def _system(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def _system(self) -> Solver:
         """A and pinv(A) of the forward kinematics and the rolling rows (what unmeasured wheels turn
-        at), kept while β and the faults stay the same."""
+        at), kept while β and the faults stay the same (C-ordered: the types `_wheels` was compiled for)."""
         key = (self.beta.tobytes(), len(self.failures))
         if not self._solver or self._solver[0] != key:
             c = self.chassis
             a, _ = forward_system(c, np.zeros(c.n), self.beta, self.measured)
-            self._solver = (key, a, forward_pinv(a), rolling_rows(c.alpha, self.beta, c.l, c.gamma))
-        return self._solver[1:]
+            solver = Solver(*(np.ascontiguousarray(m, dtype=np.float64) for m in (a, forward_pinv(a), rolling_rows(c.alpha, self.beta, c.l, c.gamma))))
+            self._solver = (key, solver)
+        return self._solver[1]
 
     def _swivel(self, dt: float) -> None:
         """Passive wheels turn with the motion: castors by their swivel rate (2.51), balls to align."""
@@ -227,7 +266,7 @@ class ChassisDrive:
                              f"got shapes {phi_dot.shape} and {beta.shape}")
         if not (np.all(np.isfinite(phi_dot)) and np.all(np.isfinite(beta))):
             raise ValueError(f"{drive.robot.name}: non-finite wheel command")
-        drive.target_phi, drive.target_beta = phi_dot, beta
+        drive.target_phi, drive.target_beta = np.ascontiguousarray(phi_dot), beta  # (C-ordered: the types `_wheels` was compiled for)
 
     def fail(self, index: int, wheel: int, kind: FaultKind) -> None:
         """Make a wheel of robot `index` fail now."""
@@ -286,10 +325,7 @@ class ChassisDrive:
 
 
 @numba.njit(cache=True)
-def _wheels(dt: float, phi_dot: np.ndarray, target_phi: np.ndarray, max_phi: np.ndarray, lag: float, max_change: float,
-            driven: np.ndarray, locked: np.ndarray, measured: np.ndarray, rim: np.ndarray, slip: np.ndarray,
-            a: np.ndarray, pinv: np.ndarray, rolls: np.ndarray, ticks_per_rad: float, tick_carry: np.ndarray,
-            ticks: np.ndarray, twist: np.ndarray) -> tuple[float, float, float, float]:
+def _wheels(dt: float, motors: Motors, wheels: Wheels, solver: Solver, tick_carry: np.ndarray, ticks: np.ndarray, twist: np.ndarray) -> tuple[float, float, float, float]:
     """One chassis's wheels over one step, compiled (numpy's per-call cost dominated the step): driven
     wheels follow their targets through the motor model (clip, lag, acceleration limit), locked ones
     stop; the body twist is pinv(A)·b of the measured wheels' rim speeds (b's sliding half is 0) and
@@ -297,6 +333,9 @@ def _wheels(dt: float, phi_dot: np.ndarray, target_phi: np.ndarray, max_phi: np.
     its rotation (`quantize_one`, remainder carried). Writes phi_dot, tick_carry, ticks and twist;
     returns the body increment `se2_exp(twist·dt)` (dx, dy, dθ; `half_angle` keeps dθ → 0
     continuous) and the slip (m/s)."""
+    max_phi, lag, max_change, ticks_per_rad = motors
+    phi_dot, target_phi, driven, locked, measured, rim, slip = wheels
+    a, pinv, rolls = solver
     n = phi_dot.shape[0]
     rhs = np.zeros(a.shape[0])
     for i in range(n):

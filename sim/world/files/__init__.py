@@ -40,9 +40,10 @@ def shipped_worlds() -> dict[str, Path]:
 
 
 def _resolve(source: str | Path) -> Path:
-    """A path as given, or the shipped world of that bare name."""
+    """A path as given, or the shipped world of that bare name (a folder of that name here, such as
+    a run's output folder `maze/`, is no world file and does not hide it)."""
     path = Path(source)
-    if path.suffix or path.parent != Path(".") or path.exists():
+    if path.suffix or path.parent != Path(".") or path.is_file():
         return path
     worlds = shipped_worlds()
     if str(source) in worlds:

@@ -27,10 +27,13 @@ c't-Sim's lamp pillars are Java3D cylinders (`pick_cylinder`): one shape whose s
 triangle strip round the 15 corners, top and bottom corner of each in turn from due north counter-
 clockwise back to north (Java3D's `Quadrics.cylinder` and `GeomBuffer`, read in
 hharrison/java3d-utils), each triangle tested as above and the strip's smallest key, the first of
-equal ones, giving its find; 0.5 m tall, so the cone never reaches its caps. Not reproduced:
-Java3D's bounds tree, which skips a face some cones graze (a face whose plane the axis runs beside,
-within the cone but off the face: c't-Sim then sees nothing of it); cans (movable, not walls) are
-seen by ctsim's own cone rule.
+equal ones, giving its find; 0.5 m tall, so the cone never reaches its caps.
+
+Before a shape's triangles, Java3D tests its bounding box (`_cone_meets_bounds`: each face of a
+Box is a shape of its own, a pillar's side one): a face the cone grazes without its corners or the
+axis ray meeting its bounds is not seen at all. Not reproduced: the same test on the boxes of
+Java3D's bounds tree above the shapes (its `BHTree` over the whole scene, bots included), which
+skips a few more such faces; cans (movable, not walls) are seen by ctsim's own cone rule.
 """
 
 from __future__ import annotations
@@ -53,9 +56,11 @@ triangle's find on one whose diagonal falls (measured: Java's roundings decide t
 
 
 @numba.njit(cache=True)
-def _closest(ox, oy, oz, dx, dy, dz, px, py, pz, qx, qy, qz):
-    """Closest points of the segment o + s d (0 <= s <= 1) and the segment p-q: (squared
-    distance, distance from o along d to the first, the second's x, y, z)."""
+def _closest(o: tuple[float, float, float], d: tuple[float, float, float], p: tuple[float, float, float], q: tuple[float, float, float]) -> tuple:
+    """Closest points of the segment o + s d (0 <= s <= 1) and the segment p-q (points and
+    direction as (x, y, z)): (squared distance, distance from o along d to the first, the second's
+    x, y, z)."""
+    (ox, oy, oz), (dx, dy, dz), (px, py, pz), (qx, qy, qz) = o, d, p, q
     ex, ey, ez = qx - px, qy - py, qz - pz
     rx, ry, rz = ox - px, oy - py, oz - pz
     a, c, b = dx * dx + dy * dy + dz * dz, ex * ex + ey * ey + ez * ez, dx * ex + dy * ey + dz * ez
@@ -95,20 +100,71 @@ def _triangle(o: np.ndarray, d: np.ndarray, tan_spread: float, v: np.ndarray, ed
                 return s * math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]), hx, hy, hz
     for k in range(3):
         j = (k + 1) % 3
-        squared, along, x, y, z = _closest(o[0], o[1], o[2], d[0], d[1], d[2], v[k, 0], v[k, 1], v[k, 2], v[j, 0], v[j, 1], v[j, 2])
+        squared, along, x, y, z = _closest((o[0], o[1], o[2]), (d[0], d[1], d[2]), (v[k, 0], v[k, 1], v[k, 2]), (v[j, 0], v[j, 1], v[j, 2]))
         if squared <= (tan_spread * along) ** 2:
             return along - edge_bonus, x, y, z
     return math.inf, 0.0, 0.0, 0.0
 
 
 @numba.njit(cache=True)
-def pick_polygon(ox: float, oy: float, ux: float, uy: float, length: float, tan_spread: float, vertices: np.ndarray, start: int, end: int) -> float:
-    """Distance (m) c't-Sim's pick reads from a sensor at (ox, oy) looking along the unit (ux, uy)
-    to the wall polygon vertices[start:end] (see the module doc); inf if it sees none of it."""
+def _ray_meets_box(o: np.ndarray, d: np.ndarray, lower: np.ndarray, upper: np.ndarray) -> bool:
+    """Whether the ray from o along d (unbounded beyond the segment) meets the box lower-upper:
+    slabs in Java3D's order and roundings (its `BoundingBox.intersect(origin, direction, position)`)."""
+    norm = 1.0 / math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+    near, far = -math.inf, math.inf
+    for c in range(3):
+        unit = d[c] * norm
+        if unit == 0.0:
+            if o[c] < lower[c] or o[c] > upper[c]:
+                return False
+            continue
+        t1, t2 = (lower[c] - o[c]) * (1.0 / unit), (upper[c] - o[c]) * (1.0 / unit)
+        if t1 > t2:
+            t1, t2 = t2, t1
+        near, far = max(near, t1), min(far, t2)
+        if far < 0.0 or near > far:
+            return False
+    return True
+
+
+@numba.njit(cache=True)
+def _cone_meets_bounds(o: np.ndarray, d: np.ndarray, tan_spread: float, lower: np.ndarray, upper: np.ndarray) -> bool:
+    """Java3D's test of a cone segment against a shape's bounding box, which its pick makes before
+    it tests the shape's triangles (`PickConeSegment.intersect(Bounds)`): the box's centre near the
+    axis, the unbounded axis ray through the box, or one of the box's edges within the cone.
+    A face the cone grazes with none of these (the axis beside the face's plane, the cone reaching
+    the face between its ends) is not tested at all: c't-Sim sees nothing of it."""
+    centre = 0.5 * (lower + upper)
+    seg = d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+    along = (centre[0] - o[0]) * d[0] + (centre[1] - o[1]) * d[1] + (centre[2] - o[2]) * d[2]
+    s = 0.0 if along <= 0.0 else (1.0 if along >= seg else along / seg)
+    gap = centre - (o + s * d)
+    squared = gap[0] * gap[0] + gap[1] * gap[1] + gap[2] * gap[2]
+    radius = tan_spread * s * math.sqrt(seg)
+    reach = (centre[0] - lower[0] + radius) ** 2 + (centre[1] - lower[1] + radius) ** 2 + (centre[2] - lower[2] + radius) ** 2
+    if squared > reach:
+        return False
+    if squared < radius * radius or _ray_meets_box(o, d, lower, upper):
+        return True
+    for corner in range(4):  # its 4 upright edges (the 8 level ones lie too far above or below the cone to count)
+        x = upper[0] if corner & 1 else lower[0]
+        y = upper[1] if corner & 2 else lower[1]
+        squared, along, _, _, _ = _closest((o[0], o[1], o[2]), (d[0], d[1], d[2]), (x, y, lower[2]), (x, y, upper[2]))
+        if squared <= (tan_spread * along) ** 2:
+            return True
+    return False
+
+
+@numba.njit(cache=True)
+def pick_polygon(ray: tuple[float, float, float, float, float], tan_spread: float, vertices: np.ndarray, start: int, end: int) -> float:
+    """Distance (m) c't-Sim's pick reads along RAY (sensor x, y, unit look x, y, length) of the
+    wall polygon vertices[start:end] (see the module doc); inf if it sees none of it."""
+    ox, oy, ux, uy, length = ray
     o = np.array((ox, oy, SENSOR_HEIGHT))
     d = np.array((length * ux, length * uy, 0.0))
     best = math.inf
     tri = np.empty((3, 3))
+    lower, upper = np.array((0.0, 0.0, WALL_BOTTOM)), np.array((0.0, 0.0, WALL_TOP))
     for k in range(start, end):
         nxt = k + 1 if k + 1 < end else start
         # the face's corners: 0 start bottom, 1 start top, 2 end bottom, 3 end top
@@ -116,6 +172,10 @@ def pick_polygon(ox: float, oy: float, ux: float, uy: float, length: float, tan_
             (vertices[k, 0], vertices[k, 1], WALL_BOTTOM), (vertices[k, 0], vertices[k, 1], WALL_TOP),
             (vertices[nxt, 0], vertices[nxt, 1], WALL_BOTTOM), (vertices[nxt, 0], vertices[nxt, 1], WALL_TOP),
         ))  # fmt: skip
+        lower[0], lower[1] = min(vertices[k, 0], vertices[nxt, 0]), min(vertices[k, 1], vertices[nxt, 1])
+        upper[0], upper[1] = max(vertices[k, 0], vertices[nxt, 0]), max(vertices[k, 1], vertices[nxt, 1])
+        if not _cone_meets_bounds(o, d, tan_spread, lower, upper):
+            continue  # (each face of a Java3D Box is a shape of its own, with its own bounds)
         side = (k - start) % 4
         rising = side % 2 == 0
         order = FACES[side]
@@ -147,6 +207,10 @@ def pick_cylinder(ray: tuple[float, float, float, float, float], tan_spread: flo
         k = end - 1 if i == 0 else start + i - 1
         strip[2 * i, 0], strip[2 * i, 1], strip[2 * i, 2] = vertices[k, 0], vertices[k, 1], CYLINDER_TOP
         strip[2 * i + 1, 0], strip[2 * i + 1, 1], strip[2 * i + 1, 2] = vertices[k, 0], vertices[k, 1], 0.0
+    lower = np.array((vertices[start:end, 0].min(), vertices[start:end, 1].min(), 0.0))
+    upper = np.array((vertices[start:end, 0].max(), vertices[start:end, 1].max(), CYLINDER_TOP))
+    if not _cone_meets_bounds(o, d, tan_spread, lower, upper):
+        return math.inf
     key, px, py, pz = math.inf, 0.0, 0.0, 0.0
     for t in range(strip.shape[0] - 2):
         found, x, y, z = _triangle(o, d, tan_spread, strip[t : t + 3], 0.0)
@@ -166,8 +230,7 @@ def pick_wall(ray: tuple[float, float, float, float, float], tan_spread: float, 
     `pick_cylinder`, which need not be compiled)."""
     if cylinders is not None and cylinder:
         return pick_cylinder(ray, tan_spread, vertices, start, end)
-    ox, oy, ux, uy, length = ray
-    return pick_polygon(ox, oy, ux, uy, length, tan_spread, vertices, start, end)
+    return pick_polygon(ray, tan_spread, vertices, start, end)
 
 
 FACES = np.array((
