@@ -29,7 +29,7 @@ from sim.world.bodies import BodyArrays
 from sim.world.chassis_drive import ChassisDrive
 from sim.world.compiling import compile_all
 from sim.world.floor import FloorMap, rasterize
-from sim.world.kernels.contacts import settle
+from sim.world.kernels.contacts import settle, settle_meeting
 from sim.world.kernels.motion import glide, measure, plan
 from sim.world.kernels.noise import ENCODER_DRAWS, add_rounded, draw_step, spurious_ticks
 from sim.world.kernels.pick import pick_wall
@@ -293,17 +293,15 @@ class World:
         self._moved = (st.robots, st.state, st.tally_rows)
         """The tables `plan` and `measure` change a step's motion and counts in."""
         bodies = layout.Bodies(self._bodies.row_index, layout.motion_rows(self._bodies.motion), st.circles)
-        # (None where a world cannot need them: the circles' grid of a crowd, cylinder walls, the robots'
-        # keeping apart, c't-Sim's contact rule; numba then prunes their code, and a first run of one
-        # c't-Bot in a maze does not compile it)
-        grid_above = CIRCLE_GRID_ABOVE if len(st.circles) > CIRCLE_GRID_ABOVE else None
-        cylinders = True if walls.boxes["cylinder"].any() else None
-        meeting = True if len(self.robots) > 1 and self.robots_meet else None
-        stopping = True if len(st.stoppers) else None
-        self._read_arguments = (layout.Sensing(st.sensors[:read], st.n_floor, self._lights), floor, walls, st.circles, ir.curves, ir.noise.kernel,
-                                grid_above, cylinders)  # fmt: skip
-        self._settle_arguments = (st.robots, st.state, self._world, walls, floor, layout.Ground(st.contacts, st.anchored, st.fallen), bodies,
-                                  meeting, stopping)  # fmt: skip
+        # what a world of one c't-Bot in a maze does not need (a crowd's circle grid, cylinder walls,
+        # robots keeping apart, c't-Sim's contact rule) is left out of its kernels: numba prunes it
+        # (`read_sensors`' rare_parts None) or it has a kernel of its own (`settle_meeting`), and a
+        # first run of the main job does not compile it
+        rare_parts = True if len(st.circles) > CIRCLE_GRID_ABOVE or walls.boxes["cylinder"].any() else None
+        settling = settle_meeting if len(st.stoppers) or (len(self.robots) > 1 and self.robots_meet) else settle
+        self._read_arguments = (layout.Sensing(st.sensors[:read], st.n_floor, self._lights, st.circles), floor, walls, ir.curves, ir.noise.kernel,
+                                rare_parts)  # fmt: skip
+        self._settle_arguments = (st.robots, st.state, self._world, walls, floor, layout.Ground(st.contacts, st.anchored, st.fallen), bodies)
         self._glide_arguments = (st.robots, bodies, self._world)
         self._step_noise_arguments = (st.step_noise.kernel, st.encoders, st.state, st.tick_uniforms)
         self._tick_noise_arguments = (st.step_noise.rows[: st.encoders], st.tick_noise, st.tick_uniforms, st.tally_rows)
@@ -319,7 +317,7 @@ class World:
             (plan, (commands, *self._moved, pose, self._world)),
             (glide, (pose, *self._glide_arguments)),
             (measure, (pose, pose, *self._moved, floor)),
-            (settle, (pose, *self._settle_arguments)),
+            (settling, (pose, *self._settle_arguments)),
             (read_sensors, (pose, *self._read_arguments, layout.Readout(np.empty(0, np.int64), np.empty(0)))),
         ])  # fmt: skip
 

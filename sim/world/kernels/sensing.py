@@ -221,19 +221,24 @@ def ir_values(distance: np.ndarray, sensors: np.ndarray, noise: Noise, curves: C
 
 
 @numba.njit(cache=True)
-def read_ir(pose: np.ndarray, sensors: np.ndarray, walls: Walls, circles: np.ndarray, curves: Curves, noise: Noise, raw: np.ndarray,
-            believed: np.ndarray, grid_above: int | None, cylinders: bool | None) -> None:  # fmt: skip
+def read_ir(pose: np.ndarray, sensors: np.ndarray, walls: Walls, circles: np.ndarray, curves: Curves, noise: Noise, out: Readout,
+            rare_parts: bool | None) -> None:  # fmt: skip
     """Every IR reading of a world whose robots are all circles, in one call: the sensors' rays
     (`ir_rays`), the robots (the first CIRCLES rows, positions taken from `pose`) and the other
-    circles and walls they see (`sense_ir`, with its `grid_above` and `cylinders`), and noise and
-    curves (`ir_values`)."""
+    circles and walls they see (`sense_ir`), and noise and curves (`ir_values`) into `out`'s raw
+    values and believed distances. `rare_parts` None: the world has no more circles than
+    CIRCLE_GRID_ABOVE and no cylinder wall (numba then prunes their code)."""
     m = sensors.shape[0]
     origins, look, distance = np.empty((m, 2)), np.empty(m), np.empty(m)
     ir_rays(pose, sensors, origins, look)
     for i in range(pose.shape[0]):
         circles[i].x, circles[i].y = pose[i, 0], pose[i, 1]
-    sense_ir(Rays(origins, look, sensors.opening, sensors.owner, sensors.pick), walls, circles, curves.length, distance, grid_above, cylinders)
-    ir_values(distance, sensors, noise, curves, raw, believed)
+    rays = Rays(origins, look, sensors.opening, sensors.owner, sensors.pick)
+    if rare_parts is None:
+        sense_ir(rays, walls, circles, curves.length, distance, None, None)
+    else:
+        sense_ir(rays, walls, circles, curves.length, distance, CIRCLE_GRID_ABOVE, True)
+    ir_values(distance, sensors, noise, curves, out.values, out.believed)
 
 
 @numba.njit(cache=True)
@@ -261,17 +266,16 @@ def sense_light(pose: np.ndarray, sensors: np.ndarray, lights: np.ndarray, out: 
 
 
 @numba.njit(cache=True)
-def read_sensors(pose: np.ndarray, sensing: Sensing, floor: Floor, walls: Walls, circles: np.ndarray, curves: Curves, noise: Noise,
-                 grid_above: int | None, cylinders: bool | None, out: Readout) -> None:  # fmt: skip
+def read_sensors(pose: np.ndarray, sensing: Sensing, floor: Floor, walls: Walls, curves: Curves, noise: Noise, rare_parts: bool | None,
+                 out: Readout) -> None:  # fmt: skip
     """Every floor, light and IR reading of the world in one call: the first `sensing.floor`
     SENSORS rows are floor sensors (`sample_floor`), the last len(out.believed) IR sensors
     (`read_ir`), the rows between light sensors (`sense_light`); `out.values` gets each row's
     integer reading. A world that reads its IR sensors with pymunk passes only the floor and
-    light rows and no `believed`. `grid_above` and `cylinders`: as `sense_ir`'s (None where the
-    world cannot need them)."""
+    light rows and no `believed`. `rare_parts`: as `read_ir`'s."""
     sensors, values, believed = sensing.sensors, out.values, out.believed
     lo, hi = sensing.floor, sensors.shape[0] - believed.shape[0]
     sample_floor(pose, sensors[:lo], floor, values[:lo])
     sense_light(pose, sensors[lo:hi], sensing.lights, values[lo:hi])
     if believed.shape[0]:
-        read_ir(pose, sensors[hi:], walls, circles, curves, noise, values[hi:], believed, grid_above, cylinders)
+        read_ir(pose, sensors[hi:], walls, sensing.circles, curves, noise, Readout(values[hi:], believed), rare_parts)
