@@ -26,6 +26,7 @@ from bots.readings import Readings
 from bots.schema import parse_number
 from bots.spec import RobotSpec
 from sim.errors import UserCodeFailed, UserError
+from sim.interrupts import Counting
 
 
 class Status(enum.Enum):
@@ -118,11 +119,15 @@ def build(factory: Callable[..., Controller], params: dict[str, str], label: str
             kwargs[key] = _convert(text, p.annotation, p.default)
         except ValueError as err:
             raise ControllerError(f"controller {label!r}, parameter {key}: {err}") from None
+    counted = Counting()  # (a KeyboardInterrupt the code raises is its error; Ctrl-C stops)
     try:
-        made = factory(**kwargs)
+        with counted:
+            made = factory(**kwargs)
     except (TypeError, ValueError) as err:  # a parameter it cannot take
         raise ControllerError(f"controller {label!r}: {err}") from None
-    except (Exception, SystemExit) as err:  # the user's code failing (or leaving): theirs, not a way out of ctsim
+    except (Exception, SystemExit, KeyboardInterrupt) as err:  # the user's code failing (or leaving): theirs, not a way out of ctsim
+        if counted.by_signal(err):
+            raise
         raise UserCodeFailed(f"controller {label!r}: making it {did(err)}{where(err)}") from None
     try:
         return made if hasattr(made, "step") else FunctionController(made)
@@ -163,9 +168,13 @@ def user_module(path: Path, kind: str, error: type[UserError]) -> types.ModuleTy
     spec = importlib.util.spec_from_file_location(f"ctsim_user_{path.stem}", path)
     module = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = module
+    counted = Counting()
     try:
-        spec.loader.exec_module(module)
-    except (Exception, SystemExit) as err:  # the user's code (sys.exit too): report where it failed, not our traceback
+        with counted:
+            spec.loader.exec_module(module)
+    except (Exception, SystemExit, KeyboardInterrupt) as err:  # the user's code (sys.exit too): report where it failed, not our traceback
+        if counted.by_signal(err):
+            raise
         line = _user_line(err, path)
         raise error(f"{path}:{line}: {type(err).__name__}: {err}") from None
     return module
@@ -174,10 +183,10 @@ def user_module(path: Path, kind: str, error: type[UserError]) -> types.ModuleTy
 def did(err: BaseException) -> str:
     """What user code did that ended it, for a line: 'called sys.exit(3)' or 'raised T: message'."""
     if isinstance(err, SystemExit):
-        return f"called sys.exit({err.code!r})"
+        return f"called {getattr(err, 'via', 'sys.exit')}({err.code!r})"
     if isinstance(err, ControllerStopped):
         return f"stopped: {err}"
-    return f"raised {type(err).__name__}: {err}"
+    return f"raised {type(err).__name__}: {err}" if str(err) else f"raised {type(err).__name__}"
 
 
 _MACHINERY = (str(Path(__file__).resolve().parents[1] / "sim") + os.sep, str(Path(__file__).resolve()), str(Path(__file__).resolve().parent / "odometry" / "user.py"),

@@ -6,7 +6,9 @@ descriptors 1 and 2 under them, redirected with os.dup2 too), `os._exit` (and `p
 a thread, a fork that returns into the run loop, and the module attributes of ctsim, numpy and
 the standard library modules ctsim writes its files and lines with (json, os, io, csv, builtins),
 and the methods of their classes. The guard holds from the run's first user code (the resets)
-to its end; what a controller changes while it is made, before the run, it keeps.
+to its end; what the controllers' and estimators' constructors replace in those modules and
+classes is put back as soon as they are made, before ctsim writes anything (`making`: `simulate`,
+`ctsim run`).
 
 A controller is the user's own code (or, in a contest, someone else's, which runs sandboxed):
 these guards catch mistakes, not an attacker; code that means harm can still use ctypes. What a
@@ -31,7 +33,8 @@ import sys
 import sysconfig
 import threading
 import traceback
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
 from pathlib import Path
 from types import ModuleType
 from typing import Any
@@ -114,6 +117,65 @@ def _code(value: Any) -> bool:
     return callable(value) or isinstance(value, ModuleType | classmethod | staticmethod | property)
 
 
+_MISSING = object()
+
+
+class Snapshot:
+    """The code in the watched modules and their classes at one moment (`_snapshot`, `_classes`):
+    `put_back` restores what was replaced since and names it."""
+
+    def __init__(self) -> None:
+        self.modules = _snapshot()
+        self.classes = _classes(self.modules)
+
+    def put_back(self, ours: object = None) -> str:
+        """The functions, classes and modules in the watched modules, and the methods of their
+        classes, replaced, deleted or (on a class) added since the snapshot, put back; named ('' for
+        none). `ours`: a replacement in place on purpose (the guard's own os._exit), left alone."""
+        changed = []
+        for name, (owner, before) in self.modules.items():
+            now = vars(owner)
+            if _same(before, now):
+                continue
+            for key, value in before.items():
+                current = now.get(key, _MISSING)
+                if current is not value and current is not ours and _code(value):
+                    changed.append(f"{name}.{key}")
+                    setattr(owner, key, value)
+        for cls, before in self.classes.items():
+            now = vars(cls)
+            if _same(before, now):
+                continue
+            for key in before.keys() | now.keys():
+                value, current = before.get(key, _MISSING), now.get(key, _MISSING)
+                if current is not value and (_code(value) or _code(current)):
+                    changed.append(f"{cls.__module__}.{cls.__qualname__}.{key}")
+                    if value is _MISSING:
+                        delattr(cls, key)
+                    else:
+                        setattr(cls, key, value)
+        return ", ".join(changed[:5]) + (f" and {len(changed) - 5} more" if len(changed) > 5 else "")
+
+
+@contextmanager
+def making() -> Iterator[list[str]]:
+    """The user's controllers and estimators made inside: what their constructors replace in the
+    watched modules and classes is put back on leaving (also when one fails), before the run and
+    before ctsim writes a file with them; the list yielded then holds the note that says so, if any."""
+    snapshot = Snapshot()
+    notes: list[str] = []
+    try:
+        yield notes
+    finally:
+        replaced = snapshot.put_back()
+        if replaced:
+            notes.append(f"a controller or estimator replaced {replaced} while it was made; ctsim put {_them(replaced)} back")
+
+
+def _them(replaced: str) -> str:
+    return "them" if ", " in replaced or " and " in replaced else "it"
+
+
 class Guard:
     """The process state a run relies on, taken at its start (after its handlers and timer are
     set); `check()` after every step puts back what a controller changed."""
@@ -127,8 +189,7 @@ class Guard:
         self.streams = [sys.stdout, sys.stderr]
         self.descriptors = {fd: os.dup(fd) for fd in (1, 2) if _open(fd)}
         self.targets = {fd: _identity(copy) for fd, copy in self.descriptors.items()}
-        self.modules = _snapshot()
-        self.classes = _classes(self.modules)
+        self.snapshot = Snapshot()
         self.exited: str | None = None
         self.notes: dict[str, str] = {}
         self._exit = os._exit
@@ -148,7 +209,7 @@ class Guard:
         self._put_back_descriptors()
         replaced = self.replaced()
         if replaced:
-            self.notes["modules"] = f"the controller replaced {replaced}; ctsim put {'them' if ', ' in replaced or ' and ' in replaced else 'it'} back"
+            self.notes["modules"] = f"the controller replaced {replaced}; ctsim put {_them(replaced)} back"
         for descriptor in self.descriptors.values():
             os.close(descriptor)
 
@@ -160,7 +221,9 @@ class Guard:
         where = threading.current_thread().name
         if threading.current_thread() is not threading.main_thread():
             self.exited = f"called os._exit({status}) from the thread {where!r}"
-        raise SystemExit(status)
+        leaving = SystemExit(status)
+        leaving.via = "os._exit"  # (said so: `bots.controller.did`)
+        raise leaving
 
     def after_step(self, step: int) -> None:
         """After every step: a fork's child leaves, an os._exit from a thread ends the run; every
@@ -228,35 +291,11 @@ class Guard:
                 self.notes.setdefault("descriptors", "the controller closed or redirected file descriptor 1 or 2; ctsim put it back")
 
     def replaced(self) -> str:
-        """The functions, classes and modules in the watched modules, and the methods of their
-        classes, that a controller replaced, deleted or (on a class) added since the run started,
-        put back; named ('' for none)."""
-        changed = []
-        for name, (owner, before) in self.modules.items():
-            now = vars(owner)
-            if _same(before, now):
-                continue
-            for key, value in before.items():
-                current = now.get(key, _MISSING)
-                if current is not value and current is not self._hook and _code(value):
-                    changed.append(f"{name}.{key}")
-                    setattr(owner, key, value)
-        for cls, before in self.classes.items():
-            now = vars(cls)
-            if _same(before, now):
-                continue
-            for key in before.keys() | now.keys():
-                value, current = before.get(key, _MISSING), now.get(key, _MISSING)
-                if current is not value and (_code(value) or _code(current)):
-                    changed.append(f"{cls.__module__}.{cls.__qualname__}.{key}")
-                    if value is _MISSING:
-                        delattr(cls, key)
-                    else:
-                        setattr(cls, key, value)
-        return ", ".join(changed[:5]) + (f" and {len(changed) - 5} more" if len(changed) > 5 else "")
+        """What a controller replaced in the watched modules and their classes since the snapshot,
+        put back; named ('' for none: `Snapshot.put_back`)."""
+        return self.snapshot.put_back(self._hook)
 
 
-_MISSING = object()
 _ROOT = Path(__file__).resolve().parents[1]
 _KNOWN = tuple({str(_ROOT / "sim"), str(_ROOT / "bots"), *(sysconfig.get_paths()[key] for key in ("stdlib", "platstdlib", "purelib", "platlib"))})
 """Where ctsim's and the installed libraries' code lives: never the user's."""

@@ -8,7 +8,8 @@ stood at the name (a link itself, not its target; another name of the same file 
 was) and the file is whole or absent. A file rewritten in place (`open_in_place`) is opened
 without following a link and used only when it is a regular file with no other name. A folder
 ctsim creates inside its output (`subfolder`) must be a folder of its own, not a link to one.
-Standard library only: a leaf any layer may use.
+What was written is tallied (`tallied`), so that a command that fails half-way names exactly the
+files it wrote. Standard library only: a leaf any layer may use.
 """
 
 from __future__ import annotations
@@ -39,6 +40,28 @@ def kind(mode: int) -> str:
     kinds = ((stat.S_ISLNK, "a symbolic link"), (stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a named pipe"),
              (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
     return next((name for test, name in kinds if test(mode)), "a regular file")
+
+
+_TALLIES: list[list[Path]] = []
+"""The tallies open now (`tallied`): each gets every file written."""
+
+
+@contextmanager
+def tallied() -> Iterator[list[Path]]:
+    """A list that gets every file written while inside, in order, as it is renamed into its
+    place or opened to be rewritten in place (a file written twice is in it twice): what a command
+    says it wrote, also when it failed half-way, and nothing it did not."""
+    tally: list[Path] = []
+    _TALLIES.append(tally)
+    try:
+        yield tally
+    finally:
+        _TALLIES.remove(tally)
+
+
+def _tally(path: Path) -> None:
+    for tally in _TALLIES:
+        tally.append(Path(path))
 
 
 @contextmanager
@@ -89,6 +112,7 @@ def open_in_place(path: Path) -> IO[bytes] | None:
     if not stat.S_ISREG(info.st_mode) or info.st_nlink != 1:
         os.close(descriptor)
         return None
+    _tally(path)
     return os.fdopen(descriptor, "r+b")
 
 
@@ -125,3 +149,4 @@ def _rename(temporary: Path, path: Path) -> None:
         if err.errno in (errno.EISDIR, errno.ENOTEMPTY, errno.EEXIST, errno.ENOTDIR):
             raise NotAFileOfItsOwn(f"{shown(str(path), 1000)} is a folder: ctsim cannot write its file there (remove it or give another folder)") from None
         raise
+    _tally(path)

@@ -8,7 +8,10 @@ prints every thread's stack, instead of by a short timeout inside the test.
 
 from __future__ import annotations
 
+import signal
+
 import pandas  # noqa: F401  (see below)
+import pytest
 from hypothesis import settings
 
 settings.register_profile("ctsim", deadline=None, print_blob=True)
@@ -18,3 +21,27 @@ settings.load_profile("ctsim")
 # (`sim.views.recording.arrow.keep_pandas_out_of_arrow`), which suits a command that ends with its run but
 # not a test process that calls the command line in-process and reads Arrow data in later tests:
 # with pandas loaded from the start that trick steps aside, whatever order the tests run in.
+
+
+@pytest.fixture()
+def ctrl_c():
+    """SIGINT raising KeyboardInterrupt during the test, as in a Python started at a terminal (one
+    started in the background by a shell without job control ignores it), for tests whose code
+    sends itself Ctrl-C: a KeyboardInterrupt raised with no signal is that code's error, not an
+    interrupt (`sim.interrupts`)."""
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, previous)
+
+
+def pytest_addoption(parser) -> None:  # noqa: ANN001 (pytest's Parser)
+    parser.addoption("--slow", action="store_true", help="also run the tests marked slow (minutes each: the maze NEES over 40 seeds)")
+
+
+def pytest_collection_modifyitems(config, items) -> None:  # noqa: ANN001 (pytest's Config, Items)
+    """Tests marked slow run only with --slow: the suite's 10-20 minutes stay that."""
+    if config.getoption("--slow"):
+        return
+    for item in items:
+        if "slow" in item.keywords:
+            item.add_marker(pytest.mark.skip(reason="slow (minutes): run with --slow"))

@@ -214,3 +214,117 @@ def test_an_estimator_that_fails_mid_run_is_a_failed_run_ranked_last_and_exit_1(
     assert not failed["maze_realistic_4s"] and "lost my mind" in failed["line_none_20s"]["Later"]
     assert "2 of 4 runs failed" in capsys.readouterr().err
     assert ranking(per_scenario(results))["estimator"].iloc[-1] == "Later"
+
+
+HOSTILE = """
+import os, sys, threading, time
+import numpy as np
+
+AT = {at}
+
+class Base:
+    def reset(self, robot, pose):
+        self.pose, self.steps = np.array(pose, dtype=float), 0
+        self.covariance = np.eye(3) * 1e-4
+
+    def update(self, readings):
+        self.steps += 1
+        if self.steps > AT:
+            self.fail()
+
+class Sleeps(Base):
+    def fail(self): time.sleep(1000)
+class Loops(Base):
+    def fail(self):
+        while True:
+            pass
+class Raises(Base):
+    def fail(self): raise RuntimeError("boom")
+class Interrupts(Base):
+    def fail(self): raise KeyboardInterrupt
+class NanPose(Base):
+    def fail(self): self.pose = np.array([np.nan, 0.0, 0.0])
+class Asymmetric(Base):
+    def fail(self): self.covariance = np.array([[1.0, 0.5, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+class NegativeDefinite(Base):
+    def fail(self): self.covariance = -np.eye(3)
+class Exits(Base):
+    def fail(self): sys.exit(3)
+class OsExit(Base):
+    def fail(self): os._exit(4)
+class ThreadExits(Base):
+    def fail(self):
+        thread = threading.Thread(target=os._exit, args=(5,))
+        thread.start()
+        thread.join()
+"""
+HOSTILE_SAID = {
+    "Sleeps": "took longer than the step time limit of 0.3 s", "Loops": "took longer than the step time limit of 0.3 s",
+    "Raises": "raised RuntimeError: boom", "Interrupts": "raised KeyboardInterrupt", "NanPose": "its pose is not finite (nan)",
+    "Asymmetric": "its covariance is not symmetric", "NegativeDefinite": "its covariance is not positive semi-definite",
+    "Exits": "called sys.exit(3)", "OsExit": "called os._exit(4)", "ThreadExits": "called os._exit(5) from the thread",
+}  # fmt: skip
+"""What the line says of each hostile estimator (each also names itself and the step)."""
+
+
+def _hostile(tmp_path: Path, at: int) -> Path:
+    path = tmp_path / "hostile.py"
+    path.write_text(textwrap.dedent(HOSTILE.format(at=at)))
+    return path
+
+
+@pytest.mark.parametrize("cls", HOSTILE_SAID)
+def test_an_estimator_that_fails_its_trial_in_any_way_is_one_line_and_exit_2(cls, tmp_path, capsys):
+    """Hangs under a short --step-timeout too: the trial runs each call of it under the limit."""
+    out = tmp_path / "out"
+    assert main(["evaluate", f"{_hostile(tmp_path, 1)}:{cls}", "--suite", "test", "--out", str(out), "--engine", "serial", "--step-timeout", "0.3"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("ctsim: error: ") and f"estimator '{cls}' of ctbot" in err[0] and "at step 1 " in err[0]
+    assert HOSTILE_SAID[cls] in err[0]
+    assert not (out / RESULTS).exists()
+
+
+@pytest.mark.parametrize("cls", ["Sleeps", "Interrupts", "NegativeDefinite"])
+def test_an_estimator_that_fails_mid_suite_fails_only_its_runs_with_one_line_each(cls, tmp_path, capsys):
+    """After step 500 (past the 4 s maze runs' 400 steps; within the 20 s line runs): the maze runs
+    are kept and scored, each line run is a failed run said in one line naming the estimator's
+    file, itself and the step (a hang meets --step-timeout), exit 1, every file written."""
+    path = _hostile(tmp_path, 500)
+    out = tmp_path / "out"
+    assert main(["evaluate", f"{path}:{cls}", "--suite", "test", "--out", str(out), "--engine", "serial", "--step-timeout", "0.3"]) == 1
+    err = capsys.readouterr().err
+    lines = [line for line in err.splitlines() if " seed " in line and " failed: " in line]
+    assert [line.split(" failed: ")[0] for line in lines] == ["ctsim: line_none_20s seed 0", "ctsim: line_none_20s seed 1"]
+    assert all(f"hostile.py:{cls}: estimator '{cls}' of ctbot" in line and "at step 500 " in line and HOSTILE_SAID[cls] in line for line in lines), lines
+    assert "2 of 4 runs failed" in err
+    results = read_results(out / RESULTS)
+    runs = {(run["scenario"], run["seed"]): run for run in results["runs"]}
+    assert all(not runs["maze_realistic_4s", seed].get("failed") and cls in runs["maze_realistic_4s", seed]["metrics"] for seed in (0, 1))
+    assert all(HOSTILE_SAID[cls] in runs["line_none_20s", seed]["failed"][cls] for seed in (0, 1))
+    assert {p.name for p in out.iterdir()} >= {RESULTS, "scores.csv", "ranking.csv", "report.html"}
+
+
+def test_a_hang_meets_the_step_time_limit_on_worker_processes_too(tmp_path, capsys):
+    """The default engine: each worker runs its runs in its main thread, where the step clock holds."""
+    out = tmp_path / "out"
+    assert main(["evaluate", f"{_hostile(tmp_path, 500)}:Sleeps", "--suite", "test", "--out", str(out), "--jobs", "2", "--step-timeout", "0.3"]) == 1
+    failed = [run.get("failed", {}) for run in read_results(out / RESULTS)["runs"]]
+    assert [bool(f) for f in failed] == [False, False, True, True] and all("step time limit of 0.3 s at step 500" in f["Sleeps"] for f in failed[2:])
+
+
+@pytest.mark.parametrize("planted", [RESULTS, "report.html"])
+def test_a_folder_planted_at_a_results_name_fails_the_writing_alone_naming_every_file_written(scored, tmp_path, capsys, planted):
+    """The runs are kept (resumed here: all done); the other files are written; exit 1, and the
+    line names exactly the files written (no traceback, not the options' exit 2)."""
+    _, first = scored
+    folder = tmp_path / "again"
+    shutil.copytree(first, folder)
+    for name in (RESULTS, "scores.csv", "ranking.csv", "report.html"):
+        (folder / name).unlink(missing_ok=True)
+    (folder / planted).mkdir()
+    assert main(["evaluate", EULER, "--suite", "test", "--out", str(folder), "--engine", "serial"]) == 1
+    err = capsys.readouterr().err
+    assert "Traceback" not in err and f"{folder / planted} is a folder" in err
+    written = err.rsplit("(written: ", 1)[1].rstrip(")\n").split(", ")
+    assert sorted(written) == sorted(p.name for p in folder.iterdir() if p.is_file() and p.name != "results.parquet" and not p.name.startswith("."))
+    assert (folder / planted).is_dir() and len(written) == 3

@@ -17,22 +17,23 @@ from sim.experiments import Serial, load_results, sweep
 from sim.folder_lock import LOCK
 
 STOPS_ONCE = '''
+import signal
 from pathlib import Path
 from bots.commands import Twist
 
 MARKER = Path(__file__).with_suffix(".stopped")
 
 class StopsOnce:
-    """Acts as Ctrl-C in its second step, the first time it runs."""
+    """Sends its process Ctrl-C in its second step, the first time it runs."""
     def step(self, t, readings):
         if t > 0 and not MARKER.exists():
             MARKER.touch()
-            raise KeyboardInterrupt
+            signal.raise_signal(signal.SIGINT)
         return Twist(0.1, 0.0)
 '''
 
 
-def test_an_interrupted_sweep_keeps_no_row_of_the_run_it_cut_and_redoes_it_on_resume(tmp_path):
+def test_an_interrupted_sweep_keeps_no_row_of_the_run_it_cut_and_redoes_it_on_resume(tmp_path, ctrl_c):
     controller = tmp_path / "stops.py"
     controller.write_text(STOPS_ONCE)
     spec = {"base": {"duration": 0.05, "world": "empty", "controller": f"{controller}:StopsOnce"}, "axes": {"seed": [0, 1]}}

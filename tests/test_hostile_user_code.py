@@ -96,6 +96,22 @@ class PatchesOnReset:
     def step(self, t, readings):
         return Twist(0.1, 0.0)
 
+class PatchesWhenMade:
+    """Replaces a method of ctsim's World in its constructor, before the run has started."""
+    def __init__(self):
+        from sim.world.physics import World
+        World.step = lambda self, commands: 1 / 0
+    def step(self, t, readings):
+        return Twist(0.1, 0.0)
+
+class PatchesJsonWhenMade:
+    """Replaces what ctsim writes summary.json with, in its constructor."""
+    def __init__(self):
+        import json
+        json.dumps = lambda *args, **kwargs: "{}"
+    def step(self, t, readings):
+        return Twist(0.1, 0.0)
+
 class PatchesQuietly:
     """Changes what ctsim does not call in this run: the run goes on, and the change is undone."""
     def step(self, t, readings):
@@ -185,6 +201,40 @@ class Leaves:
         self.pose = np.array(pose, dtype=float)
     def update(self, readings):
         sys.exit(3)
+
+class RaisesInterrupt:
+    """Raises KeyboardInterrupt itself, no signal sent: its error, not the user's Ctrl-C."""
+    def step(self, t, readings):
+        if t > 0.05:
+            raise KeyboardInterrupt
+        return Twist(0.1, 0.0)
+
+class InterruptsWhenMade:
+    def __init__(self):
+        raise KeyboardInterrupt("in my constructor")
+    def step(self, t, readings):
+        return Twist(0.0, 0.0)
+
+class InterruptsOnReset:
+    def reset(self, robot):
+        raise KeyboardInterrupt
+    def step(self, t, readings):
+        return Twist(0.0, 0.0)
+
+class EstimatorInterrupts:
+    name = "interrupts"
+    def reset(self, robot, pose):
+        self.pose = np.array(pose, dtype=float)
+    def update(self, readings):
+        raise KeyboardInterrupt
+
+class SendsCtrlC:
+    """Sends its own process SIGINT, as a terminal's Ctrl-C does: an interrupt (130), not an error."""
+    def step(self, t, readings):
+        if t > 0.05:
+            import signal
+            signal.raise_signal(signal.SIGINT)
+        return Twist(0.1, 0.0)
 '''
 
 
@@ -283,6 +333,18 @@ def test_methods_a_controller_adds_or_replaces_where_the_run_does_not_call_them_
     assert np.lib.NumpyVersion.__lt__ is before and not hasattr(Samples, "added")
 
 
+@pytest.mark.parametrize(("cls", "replaced"), [("PatchesJsonWhenMade", "json.dumps"), ("PatchesWhenMade", "sim.world.physics.World.step")])
+def test_what_a_constructor_replaces_is_put_back_before_anything_is_written_or_run(cls, replaced, code, tmp_path, capsys):
+    """Made before the run (and its guards): put back as soon as it is made (`sim.guards.making`),
+    so summary.json is written with ctsim's json and the run steps ctsim's World."""
+    from sim.world.physics import World
+
+    before = json.dumps, World.step
+    assert run("--controller", f"{code}:{cls}", "--out", str(tmp_path / "out")) == 0
+    assert f"ctsim: note: a controller or estimator replaced {replaced} while it was made; ctsim put it back" in capsys.readouterr().err
+    assert (json.dumps, World.step) == before and json.loads((tmp_path / "out" / "summary.json").read_text())["reason"] == "duration"
+
+
 @pytest.mark.skipif(not Path("/proc/self/statm").exists(), reason="the address-space check reads /proc (Linux)")
 def test_a_run_too_long_for_the_address_space_limit_is_refused_in_one_line(tmp_path):
     """Under `ulimit -v 6 GiB` a run of 1e5 s (4 GiB of samples) used to die of SIGABRT inside
@@ -375,5 +437,52 @@ def test_a_folder_planted_at_a_files_name_during_the_run_fails_the_writing_not_t
     out = tmp_path / "out"
     monkeypatch.setenv("CTSIM_TEST_OUT", str(out))
     assert run("--controller", f"{code}:PlantsAFolder", "--out", str(out)) == 1
-    assert f"{out}/truth.tum is a folder: ctsim cannot write its file there" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert f"{out}/truth.tum is a folder: ctsim cannot write its file there" in err
     assert json.loads((out / "summary.json").read_text())["reason"] == "duration"
+    # the other trajectories are written all the same, and the line names every file written and no other
+    written = err.rsplit("(written: ", 1)[1].rstrip(")\n").split(", ")
+    assert sorted(written) == sorted(p.name for p in out.iterdir() if p.is_file() and not p.name.startswith("."))
+    assert {"run.rrd", "summary.json", "run.parquet", "encoders.tum", "truth.csv"} <= set(written)
+
+
+def test_the_list_of_files_a_run_wrote_is_every_file_in_its_folder(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert main(["run", "empty", "--duration", "0.2", "--out", str(out)]) == 0
+    listed = capsys.readouterr().out.split("wrote:\n", 1)[1].split()
+    assert sorted(listed) == sorted(str(p) for p in out.iterdir() if p.is_file() and not p.name.startswith("."))
+
+
+@pytest.mark.parametrize(("argv", "status", "said"), [
+    (("--controller", "{code}:RaisesInterrupt"), 1, "controller '{code}:RaisesInterrupt' of ctbot raised KeyboardInterrupt at step 6 (t = 0.06 s) ({code}:"),
+    (("--controller", "{code}:InterruptsOnReset"), 1, "controller '{code}:InterruptsOnReset' of ctbot raised KeyboardInterrupt in its reset at t = 0.00 s ({code}:"),
+    (("--controller", "idle", "--estimator", "{code}:EstimatorInterrupts"), 1, "estimator 'interrupts' of ctbot raised KeyboardInterrupt at step 0 (t = 0.00 s) ({code}:"),
+    (("--controller", "{code}:SendsCtrlC"), 130, "interrupted at t = 0.0"),
+])  # fmt: skip
+def test_a_keyboard_interrupt_user_code_raises_itself_is_its_error_and_ctrl_c_stays_an_interrupt(argv, status, said, code, tmp_path, capsys):
+    """Told apart by whether a signal came (`sim.interrupts`): the code's own KeyboardInterrupt
+    ends the run as its error naming its file and line (exit 1), a SIGINT as Ctrl-C (130); both
+    with every file written and the summary saying how the run ended."""
+    out = tmp_path / "out"
+    assert run(*(a.format(code=code) for a in argv), "--out", str(out)) == status
+    assert said.format(code=code) in capsys.readouterr().err
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["reason"] == ("error" if status == 1 else "interrupted") and said.format(code=code) in summary["error"]
+    assert {"run.parquet", "truth.tum"} <= {p.name for p in out.iterdir()}
+
+
+def test_a_keyboard_interrupt_a_constructor_raises_is_its_error_in_one_line(code, tmp_path, capsys):
+    assert run("--controller", f"{code}:InterruptsWhenMade", "--out", str(tmp_path / "out")) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("ctsim: error: ") and err.count("\n") == 1, err
+    assert "making it raised KeyboardInterrupt: in my constructor" in err and f"({code}:" in err
+
+
+def test_simulate_puts_back_what_a_constructor_replaced_before_the_run(code):
+    from sim.experiments import Bot, simulate
+    from sim.world.physics import World
+
+    before = World.step
+    result = simulate("empty", Bot(f"{code}:PatchesWhenMade"), duration=0.1)
+    assert result.reason == "duration" and World.step is before
+    assert result.raw.notes[0] == "a controller or estimator replaced sim.world.physics.World.step while it was made; ctsim put it back"

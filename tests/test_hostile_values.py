@@ -229,3 +229,24 @@ def test_run_options_at_the_edges_are_one_line_naming_the_option(tmp_path, capsy
         code = done.code
     err = capsys.readouterr().err
     assert code == 2 and message in err and err.count("\n") == 1 and len(err) < 400, err
+
+
+@given(st.one_of(st.floats(), st.integers(max_value=-1), st.booleans(), st.none(), st.text(max_size=5), st.just(b"1"), st.just([1])))
+@settings(max_examples=40)
+def test_a_seed_that_is_not_a_whole_number_of_0_or_more_is_refused_naming_the_argument(seed):
+    """Not numpy's TypeError, nor a run drawn from the operating system's entropy (None)."""
+    from sim.errors import UserError
+    from sim.experiments import simulate
+
+    with pytest.raises(UserError, match=r"^seed must be a whole number of 0 or more \(an int\), got "):
+        simulate("empty", duration=0.01, seed=seed)
+
+
+@pytest.mark.parametrize("where", ["base", "sweep"])
+@pytest.mark.parametrize("seed", [1.5, -1, True])
+def test_a_sweeps_seed_that_is_not_a_whole_number_of_0_or_more_is_refused_naming_it(tmp_path, where, seed):
+    from sim.experiments import Serial, sweep
+    from sim.experiments.plan import SpecError
+
+    with pytest.raises(SpecError, match=rf"\[{where}\].*seed: must be a whole number at least 0"):
+        sweep({where: {"seed": seed}, "base" if where == "sweep" else "axes": {}}, tmp_path / "out", Serial(), progress=False)

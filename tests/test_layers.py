@@ -43,11 +43,12 @@ RULES = (
     ("sim.sanitize", ()),
     ("sim.folder_lock", ()),
     ("sim.out_files", ()),
+    ("sim.interrupts", ()),
 )
-# the bare package (its version and location) and four leaves any layer may use: the user-error
+# the bare package (its version and location) and five leaves any layer may use: the user-error
 # base, the making safe of text from outside, the lock of an output folder and the writing of
-# files into it without following links
-EVERYONE = ("sim", "sim.errors", "sim.sanitize", "sim.folder_lock", "sim.out_files")
+# files into it without following links, and Ctrl-C told apart from a KeyboardInterrupt code raises
+EVERYONE = ("sim", "sim.errors", "sim.sanitize", "sim.folder_lock", "sim.out_files", "sim.interrupts")
 
 
 def within(name: str, prefix: str) -> bool:

@@ -3,6 +3,7 @@ whose every view and override names something the recording logs."""
 
 from __future__ import annotations
 
+import signal
 import socket
 import threading
 
@@ -210,13 +211,13 @@ def test_controller_messages_reach_the_events(tmp_path):
     assert said == [(pytest.approx(0.5), "my_controller: half a second gone")]
 
 
-def test_interrupted_run_is_still_readable(tmp_path):
-    """A KeyboardInterrupt from inside the loop: the recorder flushes and closes the file."""
+def test_interrupted_run_is_still_readable(tmp_path, ctrl_c):
+    """Ctrl-C inside the loop: the recorder flushes and closes the file."""
     path = tmp_path / "run.rrd"
 
     def drive(t, readings):
         if t >= 0.5:
-            raise KeyboardInterrupt
+            signal.raise_signal(signal.SIGINT)
         return WheelSpeeds(0.1, 0.1)
 
     result = run(load_world("maze"), [RobotSetup(CTBOT, FunctionController(drive))], duration=5.0, observers=[Recorder(path)])

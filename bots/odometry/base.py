@@ -17,8 +17,8 @@ from typing import Protocol
 
 import numpy as np
 
-from bots.odometry.layout import PARAMETERS, SIGMAS, fresh_state
-from bots.odometry.propagation import add_spread, mouse_terms, pose_covariance, wheel_terms, workspace
+from bots.odometry.layout import HYPOTHESIS_WEIGHT, PARAMETERS, SIGMAS, fresh_state, watch_of
+from bots.odometry.propagation import add_offset, add_spread, mouse_terms, pose_covariance, wheel_terms, workspace
 from bots.readings import Readings
 from bots.spec import RobotSpec
 from bots.uncertainty import COUNT_VARIANCE, COVARIANCE_FIELDS, ERRORS, Belief, square
@@ -123,12 +123,15 @@ class ArcOdometry:
     the covariance adds their spread about the estimate. A wrong track turns the heading by tens
     of degrees over a maze, and the position error then bends away from where a first-order
     covariance puts it (it has no variance along the track from a heading error); the points
-    follow the bend exactly. `errors` then holds the random noise alone."""
+    follow the bend exactly. `errors` then holds the random noise alone. An estimator with a slide
+    watch (`watch`, its ESTIMATE: the mouse's and the fused one's) adds its hypothesis's offset
+    (`bots.odometry.mouse.watch_slides`)."""
 
     name = "arc"
     end_heading = False
     uses_mouse = False
     sigma_count = 0
+    watch: int | None = None
 
     def __init__(self, geometry: Geometry | None = None):
         self.geometry = geometry
@@ -143,6 +146,7 @@ class ArcOdometry:
         self.sigmas = np.repeat(self.pose[None], SIGMAS, axis=0)
         self.state = fresh_state()
         """The compiled steps' STATE row (`bots.odometry.layout`: the fused detectors, the slide watches)."""
+        self.state["mouse_watch"]["hypothesis"] = self.state["fused_watch"]["hypothesis"] = self.pose
         """(SIGMAS, 3) the sigma points' poses (the first `sigma_count` used)."""
         self.lag = quantisation_lag(self.params, self.uses_mouse)
         self._entries = np.zeros(len(COVARIANCE_FIELDS))
@@ -158,9 +162,11 @@ class ArcOdometry:
     @property
     def covariance(self) -> np.ndarray:
         """(3, 3) covariance of the pose's error (m², m·rad, rad²): propagated plus the lag, plus
-        the sigma points' spread."""
+        the sigma points' spread and the slide hypothesis's offset."""
         pose_covariance(self.errors, float(self.pose[2]), self.lag, self._entries)
         add_spread(self.sigmas, self.sigma_count, self.pose, self._entries)
+        if self.watch is not None:
+            add_offset(watch_of(self.state, self.watch)["hypothesis"], self.pose, HYPOTHESIS_WEIGHT, self._entries)
         return square(self._entries)
 
 

@@ -22,11 +22,11 @@ import numpy as np
 from bots.odometry.defaults import default_estimators
 from bots.odometry.encoder import encoder_step, sigma_encoders
 from bots.odometry.fused import fused_step
-from bots.odometry.layout import DEAD_RECKONERS, ENCODERS_ONLY, ESTIMATE, ESTIMATES, PARAMETERS, SIGMAS, STATE, Counts, Estimate, fresh_state
+from bots.odometry.layout import DEAD_RECKONERS, ENCODERS_ONLY, ESTIMATE, ESTIMATES, HYPOTHESIS_WEIGHT, PARAMETERS, SIGMAS, STATE, Counts, Estimate, fresh_state
 from bots.odometry.mouse import MouseOdometry, mouse_step, sigma_mouse, turn_check, watch_slides
-from bots.odometry.propagation import add_spread, lay, pose_covariance, workspace
+from bots.odometry.propagation import add_offset, add_spread, lay, pose_covariance, workspace
 from bots.spec import RobotSpec
-from bots.uncertainty import COVARIANCE_FIELDS, ERRORS
+from bots.uncertainty import COVARIANCE_FIELDS, ERROR, ERRORS
 
 COVARIANCES = len(COVARIANCE_FIELDS)
 MOUSE_SIGMAS = MouseOdometry.sigma_count
@@ -76,11 +76,13 @@ def batch_step(batch: Batch, tallies: np.ndarray, time: float, truth: np.ndarray
         lay(pose[mouse], s, alpha, False)
         sigma_mouse(p, st.sigmas[mouse], counts.forward, counts.lateral)
         s_enc, alpha_enc, var = turn_check(p, counts.left, counts.right, s, alpha)
-        watch_slides(p, st.mouse_watch, cov[mouse], alpha - alpha_enc, var, alpha_enc, s_enc, time)
+        lay(st.mouse_watch.hypothesis, s, alpha, False)
+        cov[mouse, ERROR.heading, ERROR.heading] += watch_slides(p, st.mouse_watch, alpha - alpha_enc, var, alpha_enc, s_enc, time)
         fused = ESTIMATE.fused
         s, alpha, sliding = fused_step(p, st, Estimate(pose[fused], cov[fused], lags[i, fused]), batch.calibration[i], counts, time, work)
         batch.contact_steps[i] += sliding
         lay(pose[fused], s, alpha, False)
+        lay(st.fused_watch.hypothesis, s, alpha, False)
     for i in range(out.shape[0]):
         if rows[i] >= truth.shape[0]:
             raise ValueError("DefaultOdometry.update: truth must have a row for every robot of the batch")
@@ -92,6 +94,9 @@ def batch_step(batch: Batch, tallies: np.ndarray, time: float, truth: np.ndarray
             pose_covariance(errors[i, j], poses[i, j, 2], lags[i, j], cov_out[i, j])
             if j != ESTIMATE.fused:
                 add_spread(state[i].sigmas[j], SIGMAS if j != ESTIMATE.mouse else MOUSE_SIGMAS, poses[i, j], cov_out[i, j])
+        if params[i].has_mouse:  # the slide watches' hypotheses (`bots.odometry.mouse.watch_slides`)
+            add_offset(state[i].mouse_watch.hypothesis, poses[i, ESTIMATE.mouse], HYPOTHESIS_WEIGHT, cov_out[i, ESTIMATE.mouse])
+            add_offset(state[i].fused_watch.hypothesis, poses[i, ESTIMATE.fused], HYPOTHESIS_WEIGHT, cov_out[i, ESTIMATE.fused])
 
 
 def batched(robot: RobotSpec) -> bool:

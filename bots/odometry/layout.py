@@ -42,6 +42,10 @@ wheel, right wheel, track; mouse: resolution, its other four unused)."""
 SIGMA_SPREAD = math.sqrt(3.0)
 """Standard deviations from the estimate to each sigma point: sqrt(n + kappa) with n + kappa = 3,
 Julier and Uhlmann's choice for Gaussian errors; each point then weighs 1 / (2 * 3)."""
+HYPOTHESIS_WEIGHT = 1.0
+"""The weight of a slide watch's hypothesis (`bots.odometry.mouse.watch_slides`) in its
+estimate's covariance: the second moment of an error as large as its offset. The watch sees the
+slide's size and sign but not which sensor was wrong; the estimate is taken as wrong by all of it."""
 
 PARAMETERS = Table(
     "per robot: what its estimators believe, passed to the compiled steps rather than compiled in "
@@ -83,6 +87,8 @@ SLIDE_WATCH = Table(
     Field("peak", 1, "rad, the largest disagreement of the slide going on (0: none)"),
     Field("time", 1, "s, of the last step (nan: none yet)"),
     Field("var", 1, "rad², the disagreement's random variance, summed"),
+    Field("pending", 1, "rad, the disagreement not yet taken as a slide (while within the band), summed"),
+    Field("hypothesis", 3, "the estimate's pose had every turn the watch saw been a slide (x, y m, heading rad)"),
 )
 STATE = Table(
     "per robot: what the compiled steps carry from step to step",
@@ -126,3 +132,9 @@ def fresh_state() -> np.void:
     state = STATE.new(1)[0]
     state["time"] = state["mouse_watch"]["time"] = state["fused_watch"]["time"] = math.nan
     return state
+
+
+def watch_of(state: np.void, estimate: int) -> np.void:
+    """The slide watch of estimate ESTIMATE.mouse or ESTIMATE.fused in a STATE row (a view), or
+    None for an estimate without one."""
+    return {ESTIMATE.mouse: state["mouse_watch"], ESTIMATE.fused: state["fused_watch"]}.get(estimate)

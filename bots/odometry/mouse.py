@@ -9,10 +9,10 @@ import numba
 import numpy as np
 
 from bots.odometry.base import ArcOdometry
-from bots.odometry.layout import SIGMA_SPREAD
+from bots.odometry.layout import ESTIMATE, SIGMA_SPREAD
 from bots.odometry.propagation import MID_ANGLE, PROPAGATE_WORK, lay, mouse_terms, mouse_variance, propagate, wheel_variances
 from bots.readings import Readings
-from bots.uncertainty import HEADING
+from bots.uncertainty import ERROR
 
 
 @numba.njit(cache=True)
@@ -44,9 +44,9 @@ def sigma_mouse(p: np.void, sigmas: np.ndarray, forward: float, lateral: float) 
 
 
 @numba.njit(cache=True)
-def watch_slides(p: np.void, watch: np.ndarray, cov: np.ndarray, disagreement: float, var: float, turned: float, travelled: float,
-                 time: float) -> None:  # fmt: skip
-    """Widen the heading's variance by what a slide may have added, in place. A robot sliding
+def watch_slides(p: np.void, watch: np.void, disagreement: float, var: float, turned: float, travelled: float, time: float) -> float:
+    """What a slide may have done to the heading: the variance (rad²) to add to it this step,
+    and the watch's slide hypothesis turned back, in place. A robot sliding
     along a wall moves its mouse sideways, which the mouse reads as rotation, while the encoders
     turn as the wheels do: the mouse's rotation beyond the encoders' (`disagreement`, rad, this
     step), summed with a memory of SLIDE_MEMORY seconds, stays within the quantisation band
@@ -57,7 +57,16 @@ def watch_slides(p: np.void, watch: np.ndarray, cov: np.ndarray, disagreement: f
     it the whole sum is what the slide may have turned the mouse's heading by: while it grows,
     the variance grows with its square (an episode adds its peak squared; the watch starts again
     once the sum is back within the band). Slower slides than about the band over SLIDE_MEMORY
-    go unseen."""
+    go unseen.
+
+    The hypothesis (`watch.hypothesis`, a pose its caller lays every increment on, as on the
+    estimate) is where the estimate would be had every such turn been a slide: while beyond the
+    band, each step's disagreement, and at the first such step the sum not yet taken (`pending`,
+    summed with the same memory while within the band), is turned back there, once each. Its
+    offset from the estimate (`HYPOTHESIS_WEIGHT`) is what the slides may have done to the
+    heading and, however far the path bends after, to the position: the heading's variance alone
+    would spread the position across the path only (first order), and a heading a quarter turn
+    off moves it along the path as much."""
     last = watch.time
     keep = 1.0 if math.isnan(last) else math.exp(-max(time - last, 0.0) / p.slide_memory)
     watch.time = time
@@ -67,12 +76,14 @@ def watch_slides(p: np.void, watch: np.ndarray, cov: np.ndarray, disagreement: f
     watch.var = watch.var * keep * keep + var
     turn_scale = math.sqrt(p.track_std * p.track_std + p.mouse_scale_std * p.mouse_scale_std)
     band = p.turn_tolerance + p.gate * math.sqrt(watch.var) + p.slide_gate * (turn_scale * abs(watch.turning) + math.sqrt(2.0) * p.wheel_std * watch.travel / p.track)
-    level = abs(watch.disagreement)
+    pending = watch.pending * keep + disagreement
+    level, peak = abs(watch.disagreement), watch.peak
     if level <= band:
-        watch.peak = 0.0
-    elif level > watch.peak:
-        cov[HEADING, HEADING] += level * level - watch.peak * watch.peak
-        watch.peak = level
+        watch.peak, watch.pending = 0.0, pending
+        return 0.0
+    watch.peak, watch.pending = max(level, peak), 0.0
+    watch.hypothesis[2] -= pending
+    return max(level * level - peak * peak, 0.0)
 
 
 @numba.njit(cache=True)
@@ -94,13 +105,14 @@ class MouseOdometry(ArcOdometry):
 
     The resolution's error is carried by two sigma points (`ArcOdometry`); a slide along a wall,
     which the mouse reads as rotation, by the slide watch (`watch_slides`, which looks at the
-    encoders' ticks only to widen the heading's variance, never to move the estimate). Not
-    consistent once slides have turned its heading by more than about a quarter turn: no Gaussian
-    then describes where it is (in the maze 3 of 40 runs end 88-138 degrees off and lift the mean
-    NEES at the end to 25, docs/odometry.md)."""
+    encoders' ticks only for the covariance, never to move the estimate): it widens the heading's
+    variance and turns back a hypothesis dead-reckoned beside the estimate, whose offset the
+    covariance adds, so that a slide of a quarter turn or more moves the position's uncertainty
+    along the path as well as across it (docs/odometry.md has the maze's NEES)."""
 
     name = "mouse"
     uses_mouse = True
+    watch = ESTIMATE.mouse
     sigma_count = 2
 
     def __init__(self) -> None:
@@ -112,5 +124,7 @@ class MouseOdometry(ArcOdometry):
         sigma_mouse(self.params, self.sigmas, float(forward), float(lateral))
         s, alpha = mouse_step(self.params, float(self.pose[2]), self.errors, float(forward), float(lateral), self.work)
         s_enc, alpha_enc, var = turn_check(self.params, float(left), float(right), s, alpha)
-        watch_slides(self.params, self.state["mouse_watch"], self.errors, alpha - alpha_enc, var, alpha_enc, s_enc, float(readings.time))
+        watch = self.state["mouse_watch"]
+        lay(watch["hypothesis"], s, alpha, False)
+        self.errors[ERROR.heading, ERROR.heading] += watch_slides(self.params, watch, alpha - alpha_enc, var, alpha_enc, s_enc, float(readings.time))
         return s, alpha

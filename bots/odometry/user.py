@@ -31,6 +31,7 @@ from bots.odometry.defaults import default_estimators
 from bots.odometry.localiser import MonteCarloLocaliser
 from bots.spec import RobotSpec
 from sim.errors import UserCodeFailed, UserError
+from sim.interrupts import Counting
 
 NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.-]{0,39}")
 """What an estimator's name may be: it is part of file names (`<name>.tum`) and column names."""
@@ -73,11 +74,15 @@ def made(given: Any) -> Estimator:
             return copy.deepcopy(given)
         except Exception as err:  # (a lock, a generator or an open file in it: copying it can raise anything)
             raise EstimatorError(f"estimator {name_of(given)!r} cannot be copied for each robot ({type(err).__name__}: {err}); give its class instead") from None
+    counted = Counting()  # (a KeyboardInterrupt the code raises is its error; Ctrl-C stops)
     try:
-        estimator = given()
+        with counted:
+            estimator = given()
     except (TypeError, ValueError) as err:  # a constructor that wants what it is not given
         raise EstimatorError(f"estimator {label!r} could not be made: {type(err).__name__}: {err}") from None
-    except (Exception, SystemExit) as err:  # the user's code failing (or leaving): theirs, not a way out of ctsim
+    except (Exception, SystemExit, KeyboardInterrupt) as err:  # the user's code failing (or leaving): theirs, not a way out of ctsim
+        if counted.by_signal(err):
+            raise
         raise UserCodeFailed(f"estimator {label!r}: making it {did(err)}{where(err)}") from None
     if not (hasattr(estimator, "reset") and hasattr(estimator, "update")):
         raise EstimatorError(f"{label!r} is not an estimator: it needs reset(robot, pose) and update(readings) methods")

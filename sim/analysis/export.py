@@ -109,17 +109,20 @@ def write_run(result, directory: str | Path, prefix: bool = True, with_csv: bool
     """Every robot's truth and estimates as TUM files (and CSV with `with_csv`) named
     `<robot>_<label>` (just `<label>` without `prefix`), every `every`-th sample and the last,
     written block by block as the run is read through (`RunResult.blocks`), so memory does not
-    grow with its length. Robot name -> label -> TUM path."""
+    grow with its length. A file that cannot be put in its place (a folder planted at its name)
+    costs that file alone: the others are written, then its error raised. Robot name -> label ->
+    TUM path."""
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
     tracks = [(log.name, label, poses) for log in result.robots for label, poses in {"truth": log.truth_array(), **log.estimate_arrays()}.items()]
     stems = [directory / stem for stem in _stems([f"{file_stem(robot)}_{file_stem(label)}" if prefix else file_stem(label) for robot, label, _ in tracks])]
     per_group = max(1, MOST_OPEN // (2 if with_csv else 1))
+    failed: list[Exception] = []
     for first in range(0, len(tracks), per_group):  # (a group's files open at once: at most MOST_OPEN handles)
         group = range(first, min(first + per_group, len(tracks)))
         with ExitStack() as stack:
-            tum = [stack.enter_context(replacing(Path(f"{stems[k]}.tum"))) for k in group]
-            tables = [stack.enter_context(replacing(Path(f"{stems[k]}.csv"))) for k in group] if with_csv else []
+            tum = [_each_alone(stack, Path(f"{stems[k]}.tum"), failed) for k in group]
+            tables = [_each_alone(stack, Path(f"{stems[k]}.csv"), failed) for k in group] if with_csv else []
             for handle in tum:
                 handle.write(TUM_HEADER.encode())
             for table in tables:
@@ -132,10 +135,32 @@ def write_run(result, directory: str | Path, prefix: bool = True, with_csv: bool
                     _tum_rows(tum[j], times, chosen)
                     if with_csv:
                         _numbers(tables[j], [times, *chosen.T], ",")
+    if failed:
+        raise failed[0]
     written: dict[str, dict[str, Path]] = {}
     for (robot, label, _), stem in zip(tracks, stems):
         written.setdefault(robot, {})[label] = Path(f"{stem}.tum")
     return written
+
+
+def _each_alone(stack: ExitStack, path: Path, failed: list[Exception]) -> BinaryIO:
+    """`replacing(path)` entered into `stack`, its failure to take its place noted in `failed`
+    rather than raised, so that the files entered before it are still put in theirs (an error of
+    the writing itself still discards every one)."""
+    writer = replacing(path)
+    handle = writer.__enter__()
+
+    def leave(*exc: object) -> bool:
+        try:
+            writer.__exit__(*exc)
+        except (OSError, UserError) as err:  # (NotAFileOfItsOwn: a folder planted at its name)
+            if exc[0] is not None:
+                raise
+            failed.append(err)
+        return False
+
+    stack.push(leave)
+    return handle
 
 
 MOST_OPEN = 64

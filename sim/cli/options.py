@@ -18,8 +18,9 @@ DEFAULT_CONTROLLER = "solve_maze"
 EXIT_FAILED, EXIT_USER, EXIT_INTERRUPTED, EXIT_TERMINATED = 1, 2, 130, 143
 EXIT_STATUSES = f"""exit status:
   0    success
-  {EXIT_FAILED}    a run that started failed (a controller or estimator raised, called sys.exit, returned
-       a bad command or overran --step-timeout, in its reset or a step; or the disk filled up);
+  {EXIT_FAILED}    a run that started failed (a controller or estimator raised, KeyboardInterrupt too,
+       called sys.exit or os._exit, returned a bad command or overran --step-timeout, in its reset or
+       a step; or the disk filled up; `evaluate`: any of its runs);
        what was recorded up to then is written; or your controller's or estimator's constructor
        failed (one line); or ctsim has a bug: its traceback and a request to report it are printed
   {EXIT_USER}    a user error found before anything ran (bad option, world, robot or controller)
@@ -153,6 +154,15 @@ def engine_of(args: argparse.Namespace):  # noqa: ANN201 (an engine of sim.exper
     if args.jobs is not None and args.jobs < 1:
         raise UsageError(f"--jobs must be at least 1, got {args.jobs}")
     return engine(args.engine, args.jobs, args.scheduler)
+
+
+def add_step_timeout_option(parser: argparse.ArgumentParser, what: str) -> None:
+    """--step-timeout: how long a call of the user's code may take (`sim.run.clock`), the same
+    default and bounds in every command that runs it (`run`, `evaluate`)."""
+    from sim.run.clock import MAX_STEP_TIMEOUT, MIN_STEP_TIMEOUT, STEP_TIMEOUT
+
+    parser.add_argument("--step-timeout", type=positive(float, MAX_STEP_TIMEOUT, "s", MIN_STEP_TIMEOUT), default=STEP_TIMEOUT, metavar="SECONDS",
+                        help=f"{what} (default: {STEP_TIMEOUT:g}; at least {MIN_STEP_TIMEOUT:g})")
 
 
 def add_web_options(parser: argparse.ArgumentParser, flag: str | None = None, flag_help: str = "") -> None:

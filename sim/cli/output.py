@@ -16,7 +16,7 @@ from sim.analysis.summary import goal_note, summarize, write_json
 from sim.cli.observers import StopOnSignal
 from sim.cli.options import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_TERMINATED, UsageError
 from sim.folder_lock import LOCK, hold
-from sim.out_files import NotAFileOfItsOwn
+from sim.out_files import NotAFileOfItsOwn, tallied
 from sim.run.ending import Ending
 
 START = Path.cwd()
@@ -83,32 +83,31 @@ def finish(result, out: Path, options: dict[str, Any], report: bool = True, metr
     is incomplete (an I/O error too). `export_rate`: samples per second in the TUM and CSV files
     (None: every sample)."""
     folder = RunFolder(out)
-    written = [folder.recording]
     summary = summarize(result, options, metrics)
-    try:
-        write_json(folder.summary, summary)
-        written.append(folder.summary)
-        written += write_trajectories(result, out, summary, export_rate)
-        write_json(folder.summary, summary)  # again, now naming the TUM files
-        if report and len(result) and stop is not None and stop.received is not None:
-            print(f"ctsim: figures skipped after the signal; `ctsim report {sanitize.name(str(out), 1000)}` draws them", file=sys.stderr)
-        elif report and len(result):
-            from sim.views.figures import report_run_dir
+    with tallied() as tally:  # (every file written, in order: the list below, also after a failure half-way)
+        try:
+            write_json(folder.summary, summary)
+            write_trajectories(result, out, summary, export_rate)
+            write_json(folder.summary, summary)  # again, now naming the TUM files
+            if report and len(result) and stop is not None and stop.received is not None:
+                print(f"ctsim: figures skipped after the signal; `ctsim report {sanitize.name(str(out), 1000)}` draws them", file=sys.stderr)
+            elif report and len(result):
+                from sim.views.figures import report_run_dir
 
-            if stop is not None:
-                stop.phase = "draw"
-            try:
-                written += report_run_dir(out)
-            except KeyboardInterrupt:
-                print(f"ctsim: figures stopped by the signal; `ctsim report {sanitize.name(str(out), 1000)}` draws them", file=sys.stderr)
-        from sim.web.report import write_run_report
+                if stop is not None:
+                    stop.phase = "draw"
+                try:
+                    report_run_dir(out)
+                except KeyboardInterrupt:
+                    print(f"ctsim: figures stopped by the signal; `ctsim report {sanitize.name(str(out), 1000)}` draws them", file=sys.stderr)
+            from sim.web.report import write_run_report
 
-        written.append(write_run_report(out))
-    except (OSError, NotAFileOfItsOwn) as err:  # (a full disk; a folder or link planted at a file's name while it ran)
-        kept = ", ".join(p.name for p in written[1:]) or "nothing"
-        said = err.strerror if isinstance(err, OSError) and err.strerror else sanitize.name(str(err), 1000)
-        print(f"ctsim: error: writing the run's results into {sanitize.name(str(out), 1000)}: {said} (written: {kept})", file=sys.stderr)
-        return EXIT_FAILED
+            write_run_report(out)
+        except (OSError, NotAFileOfItsOwn) as err:  # (a full disk; a folder or link planted at a file's name while it ran)
+            kept = ", ".join(sanitize.name(p.name) for p in _written(folder, tally)) or "nothing"
+            said = err.strerror if isinstance(err, OSError) and err.strerror else sanitize.name(str(err), 1000)
+            print(f"ctsim: error: writing the run's results into {sanitize.name(str(out), 1000)}: {said} (written: {kept})", file=sys.stderr)
+            return EXIT_FAILED
     print(table(summary))
     for note in getattr(result, "notes", ()):  # what the run's guards put back (`sim.guards`)
         print(f"ctsim: note: {note}", file=sys.stderr)
@@ -116,7 +115,7 @@ def finish(result, out: Path, options: dict[str, Any], report: bool = True, metr
         for message, count in log.notes.values():
             print(f"ctsim: note: {log.name}: {message} ({count} step{'s' if count != 1 else ''} like it)", file=sys.stderr)
     print("wrote:")
-    for path in written:
+    for path in _written(folder, tally):
         print(f"  {sanitize.name(str(path), 1000)}")
     if recording_error is not None:
         print(f"ctsim: error: the recording is incomplete: {recording_error}", file=sys.stderr)
@@ -128,6 +127,13 @@ def finish(result, out: Path, options: dict[str, Any], report: bool = True, metr
         print(f"ctsim: {result.error}; partial results written to {sanitize.name(str(out), 1000)}", file=sys.stderr)
         return EXIT_INTERRUPTED if result.reason is Ending.INTERRUPTED else EXIT_TERMINATED
     return (stop.status() if stop is not None else None) or 0
+
+
+def _written(folder: RunFolder, tally: list[Path]) -> list[Path]:
+    """The files a run wrote: its recording (written by rerun as the run went, where it is a file)
+    and those `tally` holds (`sim.out_files.tallied`), each once, in the order first written."""
+    recording = [folder.recording] if folder.recording.is_file() and not folder.recording.is_symlink() else []
+    return list(dict.fromkeys([*recording, *tally]))
 
 
 def write_trajectories(result, out: Path, summary: dict[str, Any], export_rate: float | None = None) -> list[Path]:

@@ -13,17 +13,27 @@ from sim import sanitize
 from sim.analysis.run_folder import RunFolder
 from sim.analysis.summary import SUMMARY_ROOM, unstarted, write_json
 from sim.cli.observers import Progress, StopOnSignal
-from sim.cli.options import EXIT_INTERRUPTED, EXIT_TERMINATED, UsageError, add_robot_options, add_web_options, load_robot_spec, param, positive, robot_options, robot_setups, whole
+from sim.cli.options import (
+    EXIT_INTERRUPTED,
+    EXIT_TERMINATED,
+    UsageError,
+    add_robot_options,
+    add_step_timeout_option,
+    add_web_options,
+    load_robot_spec,
+    param,
+    positive,
+    robot_options,
+    robot_setups,
+    whole,
+)
 from sim.cli.output import finish, out_dir
 from sim.cli.view import serve_until_interrupted
-from sim.run.clock import MAX_STEP_TIMEOUT, MIN_STEP_TIMEOUT
 from sim.run.ending import Ending, RunError, Terminated
 from sim.run.loop import MAX_DURATION, step_count
 
 DEFAULT_DURATION = 300.0
 """The default run: a c't-Bot solving the shipped maze, until it reaches the goal (at most 300 s)."""
-STEP_TIMEOUT = 5.0
-"""Seconds (wall clock) a controller step may take in `ctsim run` (`--step-timeout`)."""
 
 
 def add_parser(commands) -> None:  # noqa: ANN001 (argparse's subparsers action)
@@ -44,8 +54,7 @@ def add_parser(commands) -> None:  # noqa: ANN001 (argparse's subparsers action)
     run.add_argument("--param", action="append", type=param, default=[], metavar="KEY=VALUE", help="controller parameter, repeatable; applies to every robot's controller")
     run.add_argument("--robots", type=whole, metavar="N", help="number of robots (default: one per --controller); a single controller is used by all")
     run.add_argument("--duration", type=positive(float, MAX_DURATION, "s"), default=DEFAULT_DURATION, metavar="SECONDS", help=f"simulated time to run at most (default: {DEFAULT_DURATION:g})")
-    run.add_argument("--step-timeout", type=positive(float, MAX_STEP_TIMEOUT, "s", MIN_STEP_TIMEOUT), default=STEP_TIMEOUT, metavar="SECONDS",
-                     help=f"a controller step that takes longer (wall clock) ends the run as the controller's error (default: {STEP_TIMEOUT:g})")
+    add_step_timeout_option(run, "a controller step or estimator update that takes longer (wall clock) ends the run as that code's error")
     run.add_argument("--isolate", action="store_true",
                      help="run your controller and estimator files in processes of their own (the contest's sandbox), which the run ends at a step's time limit, "
                           "a signal or its end: for code that ignores signals or takes what a run relies on (docs/running.md); they may import numpy, the standard library and bots.commands")
@@ -58,13 +67,18 @@ def cmd_run(args: argparse.Namespace) -> int:
     from bots.odometry.user import load
     from sim.experiments import world
     from sim.experiments.api import with_estimators
+    from sim.guards import making
 
     step_count(args.duration, args.dt)
     place = world(args.world)
     with ExitStack() as isolation:  # (--isolate: the user's processes, ended after the run)
         controller, estimator = _isolated(args, isolation) if args.isolate else (None, load)
-        # the controllers and estimators made before the folder is: a bad file, or one whose constructor fails, is refused first
-        setups = with_estimators(robot_setups(args, load_robot_spec(args), len(place.start_order()), controller), [estimator(source) for source in args.estimator])
+        # the controllers and estimators made before the folder is: a bad file, or one whose constructor fails, is refused first;
+        # what a constructor replaces in ctsim is put back at once (`sim.guards.making`)
+        with making() as replaced:
+            setups = with_estimators(robot_setups(args, load_robot_spec(args), len(place.start_order()), controller), [estimator(source) for source in args.estimator])
+        for note in replaced:
+            print(f"ctsim: note: {note}", file=sys.stderr)
         return _run(args, place, setups)
 
 

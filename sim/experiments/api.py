@@ -23,8 +23,9 @@ from bots.noise import DEFAULT_NOISE
 from bots.spec import RobotSpec
 from sim.analysis.metrics import compare_run, path_lengths
 from sim.errors import UserError
+from sim.guards import making
 from sim.run.ending import Ending
-from sim.run.loop import RobotSetup, run
+from sim.run.loop import RobotSetup, check_seed, run
 from sim.run.samples import RunResult
 from sim.world.spec import Start, WorldSpec
 from sim.world.step import DEFAULT_DT, check_dt
@@ -242,20 +243,23 @@ def simulate(
     ('duration', 11, (11, 3))
     """
     check_dt(dt)
+    check_seed(seed)  # (before any controller is made)
     spec = world(world_source)
     given = [b for item in (*bots, *robots) for b in (item if isinstance(item, list | tuple) else (item,))]
     for b in given:
         if not isinstance(b, Bot | RobotSetup):
             raise TypeError(f"simulate: a robot is a Bot or a RobotSetup, got {type(b).__name__}: {b!r}")
     given = given or [Bot()]
-    setups = [b.setup(noise) if isinstance(b, Bot) else b for b in given]
+    with making() as replaced:  # (what a constructor replaces in ctsim is put back before the run: `sim.guards`)
+        setups = [b.setup(noise) if isinstance(b, Bot) else b for b in given]
+        setups = with_estimators(setups, estimators)
     noises = [b.noise_of(noise) if isinstance(b, Bot) else "as given" for b in given]
-    setups = with_estimators(setups, estimators)
     watchers = list(observers)
     if record is not None or live:
         from sim.views.recording.recorder import Recorder
 
         watchers.insert(0, Recorder(record, live=live))
     raw = run(spec, setups, duration, dt=dt, seed=seed, until_goal=until_goal, observers=tuple(watchers), step_timeout=step_timeout)
+    raw.notes[:0] = replaced
     named = noises[0] if len(set(noises)) == 1 else ", ".join(noises)
     return replace(result_of(raw), recording=Path(record) if record is not None else None, noise=named)

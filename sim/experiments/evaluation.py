@@ -25,7 +25,8 @@ from typing import Any
 import sim
 from sim.errors import UserError
 from sim.experiments.suite import SUITE_VERSION, Variant
-from sim.run.ending import Ending
+from sim.run.clock import STEP_TIMEOUT
+from sim.run.ending import Ending, Terminated
 
 FORMAT = "ctsim-evaluation"
 FORMAT_VERSION = 1
@@ -44,6 +45,15 @@ class EvaluationError(UserError):
     """An estimator that cannot be scored, or a results file that cannot be read or merged."""
 
 
+class NotWritten(Exception):
+    """The suite's runs are done and kept in the run table, but the results file could not be
+    written (a full disk, a folder planted at its name: `__cause__`); `results` holds them."""
+
+    def __init__(self, results: dict[str, Any]):
+        super().__init__("the results file could not be written")
+        self.results = results
+
+
 @dataclass(frozen=True)
 class Submitted:
     """An estimator to score: its source as `ctsim evaluate` was given it, that source with the
@@ -55,9 +65,11 @@ class Submitted:
     identity: str
 
 
-def submitted(sources: list[str]) -> list[Submitted]:
-    """Each source loaded, built, named and tried on a short run; EvaluationError (one line) for a
-    missing file, a class that cannot be made or raises on its first steps, or a taken name."""
+def submitted(sources: list[str], step_timeout: float | None = STEP_TIMEOUT) -> list[Submitted]:
+    """Each source loaded, built, named and tried on a short run (each call of it under
+    `step_timeout`, as in the suite's runs); EvaluationError (one line) for a missing file, a class
+    that cannot be made or fails on its first steps (raises, leaves, overruns, a bad pose or
+    covariance), or a taken name. Ctrl-C or SIGTERM during the trial stops it as it stops the suite."""
     from bots.odometry.user import SHIPPED as BY_NAME
     from bots.odometry.user import beside_defaults, load, name_of
     from sim.experiments.api import Bot, robot, simulate
@@ -76,30 +88,36 @@ def submitted(sources: list[str]) -> list[Submitted]:
     made = beside_defaults(robot("ctbot"), [*shipped, *(s.located for s in found)])  # (names taken or not words: refused here)
     found = [Submitted(s.source, s.located, name_of(e), s.identity) for s, e in zip(found, made[len(shipped):])]
     for entry in found:
-        trial = simulate("maze", Bot("solve_maze"), duration=TRIAL_S, seed=0, estimators=[entry.located])
+        trial = simulate("maze", Bot("solve_maze"), duration=TRIAL_S, seed=0, estimators=[entry.located], step_timeout=step_timeout)
+        if trial.reason.signalled:
+            raise Terminated if trial.reason is Ending.TERMINATED else KeyboardInterrupt
         if trial.error:
             raise EvaluationError(f"estimator {entry.source}: {trial.error}")
     return found
 
 
 def evaluate(variant: Variant, sources: list[str], out: str | Path, runner: Any = None, progress: bool = True,
-             on_row: Callable[[dict[str, Any]], None] | None = None) -> dict[str, Any]:  # fmt: skip
+             on_row: Callable[[dict[str, Any]], None] | None = None, step_timeout: float | None = STEP_TIMEOUT) -> dict[str, Any]:  # fmt: skip
     """Score the estimators of `sources` (`FILE.py[:CLASS]`, or a shipped one by name) beside the
     shipped ones on every run of `variant`, on `runner` (an engine of `sim.experiments.engines`;
     default local processes), resuming what `out` holds; the results (`results_of`), also
-    written to `out/results.json`."""
+    written to `out/results.json` (NotWritten, holding them, where it cannot be). A call of an estimator's code that takes longer than
+    `step_timeout` seconds (wall clock; None: no limit) fails its run, as in `ctsim run`."""
     from sim.experiments.sweep import run_jobs
     from sim.folder_lock import held
 
-    entries = submitted(sources)
+    entries = submitted(sources, step_timeout)
     out = Path(out)
     planned = variant.jobs([*(s for s in SHIPPED if s not in sources), *(e.located for e in entries)],
-                           [*(s for s in SHIPPED if s not in sources), *(e.identity for e in entries)])  # fmt: skip
+                           [*(s for s in SHIPPED if s not in sources), *(e.identity for e in entries)], step_timeout)  # fmt: skip
     with held(out, "evaluate"):
         table = run_jobs(planned, out, runner, on_row, progress, what="evaluate")
         ours = table[table["run_id"].isin({job.run_id for job in planned})]  # (not the rows of an estimator's file as it was before)
         results = results_of(variant, entries, ours.to_dict("records"))
-        write_results(results, out / RESULTS)
+        try:
+            write_results(results, out / RESULTS)
+        except (OSError, UserError) as err:  # (NotAFileOfItsOwn: a folder at its name)
+            raise NotWritten(results) from err
     return results
 
 

@@ -97,6 +97,9 @@ class Job:
     folder: str | None = None
     estimators: tuple[str, ...] = ()
     """Estimators to run beside the shipped ones (`bots.odometry.user.load`'s sources: `ctsim evaluate`)."""
+    step_timeout: float | None = None
+    """Seconds (wall clock) a call of the user's code may take (`sim.run.clock.StepClock`; None: no
+    limit). Not part of the run's id: a run that finishes is the same run under any limit."""
 
 
 def _check_key(key: str, where: str) -> None:

@@ -78,7 +78,7 @@ def execute(job: Job) -> dict[str, Any]:
             folder.mkdir(parents=True, exist_ok=True)
         record = RunFolder(folder).recording if folder is not None and "recording" in job.keep else None
         result = simulate(s["world"], bot(s), duration=s["duration"], dt=s["dt"], seed=s["seed"], until_goal=s["until_goal"], record=record,
-                          estimators=job.estimators)
+                          estimators=job.estimators, step_timeout=job.step_timeout)
         if result.reason.signalled:  # a run cut short is no result: not kept, so a resumed sweep runs it again
             raise Terminated if result.reason is Ending.TERMINATED else KeyboardInterrupt
         row.update(outcome(result))

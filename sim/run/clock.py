@@ -13,6 +13,9 @@ holds no more than about 10^8 s."""
 MIN_STEP_TIMEOUT = 0.05
 """Shortest (s): its timer ticks every quarter of it, and a tick runs a Python handler; at 1e-9 s
 the ticks came faster than the handler ran, and the run never ended."""
+STEP_TIMEOUT = 5.0
+"""Seconds (wall clock) a call of the user's code may take unless told otherwise: the default of
+`ctsim run --step-timeout`, of `ctsim evaluate --step-timeout` and of `evaluate()`."""
 
 
 class StepTimeout(BaseException):

@@ -27,6 +27,7 @@ from bots.odometry.user import has_covariance, name_of, outputs
 from bots.readings import Readings, SensorFrame
 from bots.spec import RobotSpec
 from sim.guards import ControllerBrokeOut, Guard, foreign_frame, user_code_folders
+from sim.interrupts import Counting
 from sim.run.clock import StepClock, StepTimeout
 from sim.run.ending import Ending, Quit, RunError, Terminated
 from sim.run.samples import RobotLog, RunResult, Samples
@@ -92,6 +93,7 @@ def run(
     ends the run as a controller error (`StepClock`). `stop_when(world, logs)`, asked after every
     sample (a referee), ends the run when it answers something: reason JUDGED, its answer the result's `verdict`."""
     steps = step_count(duration, dt)
+    check_seed(seed)
     if any(setup.estimators is None and batched(setup.spec) for setup in robots):  # the odometry's compile, where the cache lacks
         compiling.start(kernel_jobs())  # it, beside the world's making (its first kernel compiles here); `DefaultOdometry` waits for it
     world = World(world_spec, dt=dt, seed=seed)
@@ -104,16 +106,19 @@ def run(
     slot = {i: k for k, i in enumerate(members)}
     samples = Samples(world.sensor_rows(), len(members), steps + 1)
     clock = StepClock(step_timeout)
+    counted = Counting()  # (a KeyboardInterrupt user code raises itself is its error, not Ctrl-C)
     guard: Guard | None = None
     try:  # the resets are the run's first user code: timed and guarded as its steps are
+        counted.__enter__()
         clock.__enter__()
         guard = Guard().__enter__()
-        logs, controllers, estimators, failed = _set_up(world, world_spec, robots, placed, samples, odometry, slot, seed, clock)
+        logs, controllers, estimators, failed = _set_up(world, world_spec, robots, placed, samples, odometry, slot, seed, clock, counted)
         world.chassis.schedule_faults([*world_spec.faults, *(replace(f, robot=i) for i, setup in enumerate(robots) for f in setup.faults)])
     except BaseException as err:
         clock.__exit__()
         if guard is not None:
             guard.__exit__()
+        counted.__exit__()
         if isinstance(err, FaultError):
             raise RunError(str(err)) from None
         raise
@@ -131,7 +136,7 @@ def run(
         running = Status.RUNNING
         awaited = [(log, world_spec.goals_of(robot.slot), k) for k, (log, robot) in enumerate(zip(logs, world.robots))] if world_spec.goals else []
         for step in range(steps + 1):
-            frame = _sample(world, samples, estimators, odometry)
+            frame = _sample(world, samples, estimators, odometry, guard, counted)
             if awaited and _reached_goals(awaited, world.poses_view(), frame.time) and until_goal:
                 result.reason = Ending.GOAL
             for on_sample in samplers:
@@ -162,9 +167,9 @@ def run(
                         _drive_chassis(world, i, log, command, readings, step)
                         continue
                     left, right = wheel_speeds_for(command, spec)
-                except KeyboardInterrupt:  # Ctrl-C or SIGTERM, not the controller's doing
-                    raise
                 except BaseException as err:  # the controller's error: anything it raises, sys.exit and a step timeout too
+                    if counted.by_signal(err):
+                        raise  # Ctrl-C or SIGTERM, not the controller's doing
                     clock.busy = 0
                     raise _Stop(_failure(err, log, step, world.time, step_timeout)) from None
                 commands[i, 0] = left * per_speed  # (`motor_commands`, written in place)
@@ -190,6 +195,7 @@ def run(
     finally:
         clock.__exit__()
         guard.__exit__()
+        counted.__exit__()
         result.notes = list(guard.notes.values())
         for robot, log, controller in zip(world.robots, logs, controllers):
             log.collisions, log.fell = robot.collisions, robot.fallen
@@ -210,7 +216,7 @@ the batch's (None: `RobotLog.append`, the robot's own rows)."""
 
 def _set_up(
     world: World, world_spec: WorldSpec, robots: list[RobotSetup], placed: list[Robot], samples: Samples, odometry: DefaultOdometry | None,
-    slot: dict[int, int], seed: int, clock: StepClock,
+    slot: dict[int, int], seed: int, clock: StepClock, counted: Counting,
 ) -> tuple[list[RobotLog], list[Controller], list[_Estimators], str | None]:
     """Every robot's log, controller and Python estimators (a batched robot's own beside the
     batch's, else all of the robot's), reset (`_reset`); and how a reset failed, if one did (the
@@ -219,7 +225,7 @@ def _set_up(
     failed: str | None = None
     for i, (setup, robot) in enumerate(zip(robots, placed)):
         chosen = list(setup.extra_estimators) if i in slot else [*(setup.estimators if setup.estimators is not None else default_estimators(setup.spec)), *setup.extra_estimators]
-        failed = failed or _reset(setup, robot, chosen, world_spec, seed, i, clock)
+        failed = failed or _reset(setup, robot, chosen, world_spec, seed, i, clock, counted)
         names, uncertain = [name_of(estimator) for estimator in chosen], [name_of(e) for e in chosen if has_covariance(e)]
         if i in slot:  # the batch logs its rows, the robot's own estimators theirs
             log = RobotLog(robot.name, setup.spec, setup.controller_name, dict(setup.params), odometry.names[slot[i]], samples, i, world, slot[i],
@@ -238,12 +244,14 @@ def _set_up(
     return logs, controllers, estimators, failed
 
 
-def _reset(setup: RobotSetup, robot: Robot, chosen: list[Estimator], world_spec: WorldSpec, seed: int, index: int, clock: StepClock) -> str | None:
+def _reset(setup: RobotSetup, robot: Robot, chosen: list[Estimator], world_spec: WorldSpec, seed: int, index: int, clock: StepClock,
+           counted: Counting) -> str | None:  # fmt: skip
     """Reset a robot's estimators (a localiser first handed its map and a generator of its own)
     and its controller, the user's under the step clock (`_timed`). One that raises a ValueError
     cannot take this robot (a controller with too few sensors): the run is refused (RunError).
-    Anything else it raises, sys.exit or a step timeout, is the user's code failing: the line
-    that says so (the run's error at its start, every file written), else None."""
+    Anything else it raises, sys.exit, a step timeout or a KeyboardInterrupt no signal explains
+    (`counted`), is the user's code failing: the line that says so (the run's error at its start,
+    every file written), else None."""
     for estimator in chosen:
         what = f"estimator {name_of(estimator)!r} of {robot.name}"
         try:
@@ -253,14 +261,18 @@ def _reset(setup: RobotSetup, robot: Robot, chosen: list[Estimator], world_spec:
                 estimator.reset(setup.spec, robot.pose)
         except ValueError as err:
             raise RunError(f"{what} cannot take this robot: {err}{where(err)}") from None
-        except (Exception, SystemExit, StepTimeout) as err:
+        except BaseException as err:
+            if counted.by_signal(err):
+                raise
             return f"{what} {_ended(err, clock)} in its reset at t = 0.00 s{where(err)}"
     try:
         with _timed(clock, setup.controller):
             reset(setup.controller, setup.spec)
     except ValueError as err:  # a controller that cannot drive this robot (too few sensors): the user's choice
         raise RunError(f"{robot.name}: {err}") from None
-    except (Exception, SystemExit, StepTimeout) as err:
+    except BaseException as err:
+        if counted.by_signal(err):
+            raise
         return f"controller {setup.controller_name!r} of {robot.name} {_ended(err, clock)} in its reset at t = 0.00 s{where(err)}"
     return None
 
@@ -325,6 +337,14 @@ def step_count(duration: float, dt: float) -> int:
     return steps
 
 
+def check_seed(seed: object) -> None:
+    """RunError naming the argument for a seed that is not a whole number of 0 or more (a float,
+    a bool, None: numpy would raise a TypeError, or draw from the operating system's entropy and
+    make the run unrepeatable)."""
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or seed < 0:
+        raise RunError(f"seed must be a whole number of 0 or more (an int), got {seed!r}"[:300])
+
+
 def _refuse_overlaps(robots: list) -> None:
     """RunError when two robots start with their bodies overlapping: the contact solver would push
     them apart at once, possibly through a wall. Robots are binned into cells as wide as the
@@ -357,12 +377,14 @@ def _drive_chassis(world: World, index: int, log: RobotLog, command, readings: R
     world.chassis.command(index, setpoint.phi_dot, setpoint.beta)
 
 
-def _update(estimator: Estimator, uncertain: bool, timed: bool, readings: Readings, log: RobotLog, step: int) -> tuple[np.ndarray, np.ndarray | None]:
+def _update(estimator: Estimator, uncertain: bool, timed: bool, readings: Readings, log: RobotLog, step: int,
+            counted: Counting) -> tuple[np.ndarray, np.ndarray | None]:  # fmt: skip
     """Step an estimator and read its pose and covariance once (`outputs`; `uncertain`: it has
     one), all of it a call under the step clock as a controller's step is where `timed` (its time
     limit; a signal acted on at once: `_timed`, inline here, as it runs every step); one that
-    raises, overruns or leaves a bad pose or covariance ends the run (_Stop), as a controller's
-    error does. The pose and covariance (None without one) as read."""
+    raises (a KeyboardInterrupt no signal explains too: `counted`), overruns or leaves a bad pose
+    or covariance ends the run (_Stop), as a controller's error does. The pose and covariance
+    (None without one) as read."""
     clock = StepClock.active
     timed = timed and clock is not None
     try:
@@ -370,9 +392,9 @@ def _update(estimator: Estimator, uncertain: bool, timed: bool, readings: Readin
             clock.begin()
         estimator.update(readings)
         pose, covariance, problem = outputs(estimator, uncertain)
-    except KeyboardInterrupt:
-        raise
     except BaseException as err:  # the estimator's error (a user's code; sys.exit and a step timeout too)
+        if counted.by_signal(err):
+            raise  # Ctrl-C or SIGTERM
         raise _Stop(f"estimator {name_of(estimator)!r} of {log.name} {_ended(err, clock)} at step {step} (t = {readings.time:.2f} s){where(err)}") from None
     finally:
         if timed:
@@ -382,11 +404,12 @@ def _update(estimator: Estimator, uncertain: bool, timed: bool, readings: Readin
     return pose, covariance
 
 
-def _sample(world: World, samples: Samples, estimators: list[_Estimators], odometry: DefaultOdometry | None) -> SensorFrame:
+def _sample(world: World, samples: Samples, estimators: list[_Estimators], odometry: DefaultOdometry | None, guard: Guard, counted: Counting) -> SensorFrame:
     """Read every robot's sensors at the current state into the run's next sample row and log
     truth and estimates: the default odometry of all batched robots updates and logs them in one
     pass; Python estimators (a robot's own, or all of a robot outside the batch) update theirs
-    here. The frame holds immutable copies of the row (`World.read_all`): the recorded rows
+    here (`_update`; one whose update ended a thread with os._exit ends the run as its error:
+    `guard`). The frame holds immutable copies of the row (`World.read_all`): the recorded rows
     themselves never reach a controller."""
     n = samples.count
     time = world.time
@@ -400,7 +423,9 @@ def _sample(world: World, samples: Samples, estimators: list[_Estimators], odome
         readings = frame[i]
         poses_read, covariances = [], []
         for estimator, uncertain, timed in checked:
-            pose, covariance = _update(estimator, uncertain, timed, readings, log, n)
+            pose, covariance = _update(estimator, uncertain, timed, readings, log, n, counted)
+            if guard.exited is not None:
+                raise _Stop(f"estimator {name_of(estimator)!r} of {log.name} {guard.exited} at step {n} (t = {readings.time:.2f} s)")
             poses_read.append(pose)
             if covariance is not None:
                 covariances.append(covariance)

@@ -1,0 +1,46 @@
+"""Every shipped estimator's covariance where the robot works: the main job (solve_maze in the
+maze, realistic noise, until the goal or 300 s) on 40 seeds, the mean NEES at 10, 50 and 100 % of
+each run inside the 95 % chi-square interval of 40 runs (2.29-3.81, `sim.analysis.nees.interval`).
+
+Each seed is a robot of its own, its wheels', track's and mouse resolution's errors drawn from
+the belief (`Scenario(drawn=True)`): the interval describes runs whose errors are independent
+draws of what the covariance states. The realistic preset's own errors are one robot, the same in
+every seed; docs/odometry.md gives its figures beside these and says why its encoders end too
+cautious there. The seeds run once for the whole module, on every core (`sim.experiments.engines`).
+"""
+
+from __future__ import annotations
+
+import pytest
+
+from sim.experiments.consistency import FRACTIONS, Scenario, consistency
+from sim.experiments.engines import engine
+
+SEEDS = range(100, 140)
+OUTSIDE = {
+    ("mouse", 1.0): "too cautious at the end (2.24): a slide its watch saw counts twice, in the heading's variance and in the "
+                    "slide hypothesis's offset; with the hypothesis alone it ends at 22, over-confident (a heading off by more "
+                    "than a half turn wraps, and no Gaussian covers it)",
+}  # fmt: skip
+"""(estimate, fraction) whose mean NEES falls outside the interval on these seeds, and why (docs/odometry.md)."""
+
+pytestmark = [pytest.mark.slow, pytest.mark.timeout(3600)]
+
+
+@pytest.fixture(scope="module")
+def maze():
+    runner = engine("processes")
+    try:
+        return consistency(SEEDS, Scenario(drawn=True), runner=runner)
+    finally:
+        runner.close()
+
+
+@pytest.mark.parametrize("fraction", FRACTIONS)
+@pytest.mark.parametrize("name", ["encoders", "firmware", "mouse", "fused"])
+def test_mean_nees_over_seeds_is_inside_the_chi_square_interval(maze, name, fraction, request):
+    if (name, fraction) in OUTSIDE:
+        request.applymarker(pytest.mark.xfail(reason=OUTSIDE[name, fraction], strict=True))
+    over = maze.over[name][FRACTIONS.index(fraction)]
+    assert over.runs == len(SEEDS)
+    assert over.verdict == "consistent", f"{name} at {fraction:.0%}: {over}"
