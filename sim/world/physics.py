@@ -348,7 +348,7 @@ class World:
         `sensor_rows`' arrays, each with a leading sample axis (views, no copies). A general chassis's
         per-wheel encoders, steering and second mouse are not among them (`ChassisDrive.fill`)."""
         st = self._batch()
-        rows = {"values": values, "believed": believed, "tallies": tallies.reshape(len(tallies), -1)}
+        rows = {"values": values, "believed": believed, "tallies": tallies.reshape(len(tallies), st.tallies.size)}  # (size: a run of no sample has rows of it too)
         return {field: rows[row][:, cut] for field, (row, cut) in zip(ARRAYS, st.layout.plans[index]) if row is not None}
 
     def read_all(self, rows: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> SensorFrame:
