@@ -134,14 +134,16 @@ def _cone_meets_bounds(o: np.ndarray, d: np.ndarray, tan_spread: float, lower: n
     axis, the unbounded axis ray through the box, or one of the box's edges within the cone.
     A face the cone grazes with none of these (the axis beside the face's plane, the cone reaching
     the face between its ends) is not tested at all: c't-Sim sees nothing of it."""
-    centre = 0.5 * (lower + upper)
+    # (in scalars: numba's array expressions cost this kernel seconds of every first run's compile,
+    # and an allocation each a call)
+    cx, cy, cz = 0.5 * (lower[0] + upper[0]), 0.5 * (lower[1] + upper[1]), 0.5 * (lower[2] + upper[2])
     seg = d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
-    along = (centre[0] - o[0]) * d[0] + (centre[1] - o[1]) * d[1] + (centre[2] - o[2]) * d[2]
+    along = (cx - o[0]) * d[0] + (cy - o[1]) * d[1] + (cz - o[2]) * d[2]
     s = 0.0 if along <= 0.0 else (1.0 if along >= seg else along / seg)
-    gap = centre - (o + s * d)
-    squared = gap[0] * gap[0] + gap[1] * gap[1] + gap[2] * gap[2]
+    gx, gy, gz = cx - (o[0] + s * d[0]), cy - (o[1] + s * d[1]), cz - (o[2] + s * d[2])
+    squared = gx * gx + gy * gy + gz * gz
     radius = tan_spread * s * math.sqrt(seg)
-    reach = (centre[0] - lower[0] + radius) ** 2 + (centre[1] - lower[1] + radius) ** 2 + (centre[2] - lower[2] + radius) ** 2
+    reach = (cx - lower[0] + radius) ** 2 + (cy - lower[1] + radius) ** 2 + (cz - lower[2] + radius) ** 2
     if squared > reach:
         return False
     if squared < radius * radius or _ray_meets_box(o, d, lower, upper):
