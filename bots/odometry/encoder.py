@@ -6,8 +6,8 @@ import numba
 import numpy as np
 
 from bots.odometry.base import ArcOdometry
-from bots.odometry.layout import SIGMA_SPREAD, SIGMAS
-from bots.odometry.propagation import END_HEADING, MID_ANGLE, PROPAGATE_WORK, lay, propagate, wheel_terms, wheel_variances
+from bots.odometry.layout import PROPAGATE_WORK, SIGMA_SPREAD, SIGMAS
+from bots.odometry.propagation import END_HEADING, MID_ANGLE, lay, propagate, wheel_terms, wheel_variances
 from bots.readings import Readings
 
 

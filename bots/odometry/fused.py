@@ -33,9 +33,9 @@ import numpy as np
 
 from bots.odometry.base import ArcOdometry, Geometry
 from bots.odometry.encoder import EncoderOdometry
-from bots.odometry.layout import ESTIMATE, Counts, Estimate
+from bots.odometry.layout import ESTIMATE, PROPAGATE_WORK, Counts, Estimate
 from bots.odometry.mouse import MouseOdometry, mouse_arc, watch_slides
-from bots.odometry.propagation import MID_ANGLE, PROPAGATE_WORK, lay, mouse_terms, mouse_variance, propagate, wheel_terms, wheel_variances
+from bots.odometry.propagation import MID_ANGLE, lay, mouse_terms, mouse_variance, propagate, wheel_terms, wheel_variances
 from bots.readings import Readings
 from bots.spec import RobotSpec
 from bots.uncertainty import ERROR, ERRORS

@@ -9,8 +9,8 @@ import numba
 import numpy as np
 
 from bots.odometry.base import ArcOdometry
-from bots.odometry.layout import ESTIMATE, SIGMA_SPREAD
-from bots.odometry.propagation import MID_ANGLE, PROPAGATE_WORK, lay, mouse_terms, mouse_variance, propagate, wheel_variances
+from bots.odometry.layout import ESTIMATE, PROPAGATE_WORK, SIGMA_SPREAD
+from bots.odometry.propagation import MID_ANGLE, lay, mouse_terms, mouse_variance, propagate, wheel_variances
 from bots.readings import Readings
 from bots.uncertainty import ERROR
 
