@@ -203,10 +203,10 @@ def pick_cylinder(ray: tuple[float, float, float, float, float], tan_spread: flo
     d = np.array((length * ux, length * uy, 0.0))
     corners = end - start
     strip = np.empty((2 * corners + 2, 3))
-    for i in range(corners + 1):
+    for i in range(corners + 1):  # (element by element: a row assignment compiles numba's whole shape-mismatch message, seconds)
         k = end - 1 if i == 0 else start + i - 1
-        strip[2 * i] = (vertices[k, 0], vertices[k, 1], CYLINDER_TOP)
-        strip[2 * i + 1] = (vertices[k, 0], vertices[k, 1], 0.0)
+        strip[2 * i, 0], strip[2 * i, 1], strip[2 * i, 2] = vertices[k, 0], vertices[k, 1], CYLINDER_TOP
+        strip[2 * i + 1, 0], strip[2 * i + 1, 1], strip[2 * i + 1, 2] = vertices[k, 0], vertices[k, 1], 0.0
     lower = np.array((vertices[start:end, 0].min(), vertices[start:end, 1].min(), 0.0))
     upper = np.array((vertices[start:end, 0].max(), vertices[start:end, 1].max(), CYLINDER_TOP))
     if not _cone_meets_bounds(o, d, tan_spread, lower, upper):
@@ -222,11 +222,13 @@ def pick_cylinder(ray: tuple[float, float, float, float, float], tan_spread: flo
 
 
 @numba.njit(cache=True)
-def pick_wall(ray: tuple[float, float, float, float, float], tan_spread: float, vertices: np.ndarray, start: int, end: int, cylinder: bool) -> float:
+def pick_wall(ray: tuple[float, float, float, float, float], tan_spread: float, vertices: np.ndarray, start: int, end: int, cylinder: bool,
+              cylinders: bool | None = True) -> float:  # fmt: skip
     """Distance (m) c't-Sim's pick reads along RAY (sensor x, y, unit look x, y, length) of the
     wall vertices[start:end]: a Java3D cylinder's (`pick_cylinder`) or a box's (`pick_polygon`);
-    inf if it sees none of it."""
-    if cylinder:
+    inf if it sees none of it. `cylinders` None: the world has no cylinder (numba then prunes
+    `pick_cylinder`, which need not be compiled)."""
+    if cylinders is not None and cylinder:
         return pick_cylinder(ray, tan_spread, vertices, start, end)
     return pick_polygon(ray, tan_spread, vertices, start, end)
 
