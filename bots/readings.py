@@ -4,9 +4,12 @@ every robot's readings of one step as the step's arrays (`SensorFrame`)."""
 from __future__ import annotations
 
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
+from typing import Any
 
 import numpy as np
+
+from bots.sensor_kinds import BY_FIELD, FRAMED, FRAMES, KINDS
 
 
 def _ints(n: int = 0) -> np.ndarray:
@@ -27,11 +30,6 @@ def frozen_copies(values: np.ndarray, believed: np.ndarray, tallies: np.ndarray)
     ints = np.frombuffer(data, np.int64)
     n, m = len(values), len(believed)
     return ints[:n], np.frombuffer(data, np.float64, m, 8 * n), ints[n + m :].reshape(tallies.shape)
-
-
-NO_STEERING = _frozen(np.zeros(0))
-NO_MOUSE2 = _frozen(np.zeros(2, dtype=np.int64))
-"""What a c't-Bot's readings hold for a chassis's steering angles and second mouse (shared, read-only)."""
 
 
 @dataclass(slots=True)
@@ -61,6 +59,10 @@ class Readings:
     failures: tuple = ()
 
 
+ARRAYS = tuple(f.name for f in fields(Readings) if f.name in BY_FIELD)
+"""Readings' arrays, in its fields' order (the registry's kinds)."""
+CHASSIS_ONLY = {kind.field: _frozen(np.zeros(len(kind.channels), kind.dtype)) for kind in KINDS if kind.frame is None}
+"""What a c't-Bot's readings hold for a general chassis's own kinds (steering angles, second mouse; shared, read-only)."""
 ROWS_FROM = 16
 """Robots from which, all alike, readings are cut from a step's arrays by rows (one numpy call per
 kind) rather than by a slice per robot and kind (cheaper for a few robots)."""
@@ -68,24 +70,43 @@ kind) rather than by a slice per robot and kind (cheaper for a few robots)."""
 
 @dataclass(frozen=True)
 class SensorLayout:
-    """Where each robot's sensors lie in a step's arrays: robot after robot, the IR array holds its
-    IR sensors, the floor array its line then its border sensors, the light array its light sensors."""
+    """Where each robot's readings lie in a step's arrays (the registry's `FRAMES`) and those in
+    the World's rows: in each array, robot after robot, the kinds packed there (`FRAMED`) in the
+    registry's order; in each row, its arrays in `FRAMES`' order."""
 
-    slices: list[tuple[slice, slice, slice, slice]]
-    """Per robot: its IR, line, border and light sensors."""
-    counts: tuple[int, int, int, int] | None
-    """IR, line, border and light sensors of every robot, when ROWS_FROM or more are all alike."""
+    cuts: tuple[tuple[str, str, slice], ...]
+    """Each frame array: (its name, its row, its slice of the row)."""
+    plans: list[tuple[tuple[str | None, Any], ...]]
+    """Per robot, for each of `ARRAYS`: (its row, its slice of the row flattened), or (None, its
+    constant) for a general chassis's own kinds."""
+    columns: tuple[tuple[str | None, Any], ...] | None
+    """Robots all alike: for each of `ARRAYS`, (its frame array, its columns in a robot's row of
+    it) or (None, its constant); None otherwise."""
 
     @classmethod
-    def of(cls, counts: list[tuple[int, int, int, int]]) -> SensorLayout:
-        """The layout of robots with these (IR, line, border, light) sensor counts, in order."""
-        slices, ir, floor, light = [], 0, 0, 0
-        for n_ir, n_line, n_border, n_light in counts:
-            slices.append((slice(ir, ir + n_ir), slice(floor, floor + n_line), slice(floor + n_line, floor + n_line + n_border),
-                           slice(light, light + n_light)))  # fmt: skip
-            ir, floor, light = ir + n_ir, floor + n_line + n_border, light + n_light
-        alike = len(counts) >= ROWS_FROM and all(c == counts[0] for c in counts)
-        return cls(slices, counts[0] if alike else None)
+    def of(cls, widths: list[dict[str, int]]) -> SensorLayout:
+        """The layout of robots whose framed kinds have these widths (field -> `SensorKind.width`), in order."""
+        sizes = {frame.name: sum(robot[kind.field] for robot in widths for kind in FRAMED if kind.frame == frame.name) for frame in FRAMES}
+        cuts, ends = [], dict.fromkeys((frame.row for frame in FRAMES), 0)
+        for frame in FRAMES:
+            start = ends[frame.row]
+            ends[frame.row] = start + sizes[frame.name]
+            cuts.append((frame.name, frame.row, slice(start, ends[frame.row])))
+        row_of = {name: (row, cut.start) for name, row, cut in cuts}
+        filled = {frame.name: 0 for frame in FRAMES}
+        plans, columns = [], None
+        for robot in widths:
+            own, relative = {}, {}
+            for kind in FRAMED:
+                row, offset = row_of[kind.frame]
+                start = filled[kind.frame]
+                filled[kind.frame] = start + robot[kind.field]
+                own[kind.field] = (row, slice(offset + start, offset + filled[kind.frame]))
+                relative[kind.field] = (kind.frame, slice(start, filled[kind.frame]))
+            plans.append(tuple(own.get(name, (None, CHASSIS_ONLY.get(name))) for name in ARRAYS))
+            if columns is None:
+                columns = tuple(relative.get(name, (None, CHASSIS_ONLY.get(name))) for name in ARRAYS)
+        return cls(tuple(cuts), plans, columns if all(w == widths[0] for w in widths) else None)
 
 
 class SensorFrame(Sequence[Readings]):
@@ -97,44 +118,51 @@ class SensorFrame(Sequence[Readings]):
     the arrays (a benchmark, odometry of all robots from `tallies`) builds none; at a thousand
     robots they would cost as much as reading the sensors."""
 
-    __slots__ = ("time", "tallies", "ir_raw", "ir_distance", "floor", "light", "_layout", "_robots")
+    __slots__ = ("time", "_rows", "_layout", "_arrays", "_robots")
 
-    def __init__(self, time: float, tallies: np.ndarray, ir_raw: np.ndarray, ir_distance: np.ndarray, floor: np.ndarray,
-                 light: np.ndarray, layout: SensorLayout):  # fmt: skip
+    def __init__(self, time: float, rows: dict[str, np.ndarray], layout: SensorLayout):
+        """`rows`: the World's rows the frame's arrays are cut from (`sim.world.physics.World.sensor_rows`), each flat."""
         self.time = time
         """Simulated time of the reading (s)."""
-        self.tallies = tallies
-        """(n, 4) per robot: encoder ticks (left, right) then mouse counts (forward, left)."""
-        self.ir_raw, self.ir_distance, self.floor, self.light = ir_raw, ir_distance, floor, light
-        """Every robot's IR sensors (raw, believed distance m), floor sensors (its line then its
-        border sensors) and light sensors, robot after robot (`SensorLayout`)."""
+        self._rows = rows
         self._layout = layout
+        self._arrays: dict[str, np.ndarray] | None = None
         self._robots: list[Readings] | None = None
+
+    @property
+    def arrays(self) -> dict[str, np.ndarray]:
+        """Each of the registry's `FRAMES` arrays, flat, robot after robot (`SensorLayout`)."""
+        if self._arrays is None:
+            self._arrays = {name: self._rows[row][cut] for name, row, cut in self._layout.cuts}
+        return self._arrays
+
+    @property
+    def tallies(self) -> np.ndarray:
+        """(n, 4) per robot: encoder ticks (left, right) then mouse counts (forward, left), what odometry takes."""
+        return self.arrays["tallies"].reshape(len(self), -1)
 
     def robots(self) -> list[Readings]:
         """Every robot's `Readings` (built on the first call, the same list after it)."""
         if self._robots is None:
-            now, ir_raw, ir_distance, floor, light, layout = self.time, self.ir_raw, self.ir_distance, self.floor, self.light, self._layout
-            ticks, mice = self.tallies[:, :2], self.tallies[:, 2:]
-            if len(layout.slices) == 1:  # one robot: every IR and light array is its own
-                _, line, border, _ = layout.slices[0]
-                tally = self.tallies[0]
-                self._robots = [Readings(now, tally[:2], tally[2:], ir_raw, ir_distance, floor[line], floor[border], light, NO_STEERING, NO_MOUSE2)]
-            elif layout.counts is None:  # a slice per robot and kind
-                self._robots = [
-                    Readings(now, tick, mouse, ir_raw[r], ir_distance[r], floor[f], floor[b], light[li], NO_STEERING, NO_MOUSE2)
-                    for (r, f, b, li), tick, mouse in zip(layout.slices, ticks, mice)
-                ]
+            now, layout, rows = self.time, self._layout, self._rows
+            if layout.columns is None or len(self) < ROWS_FROM:  # a slice per robot and kind
+                self._robots = [Readings(now, *[rows[row][cut] if row is not None else cut for row, cut in plan]) for plan in layout.plans]
             else:  # rows of each kind's array, one numpy call per kind
-                n = len(layout.slices)
-                n_ir, n_line, n_border, n_light = layout.counts
-                floors = floor.reshape(n, n_line + n_border)
-                rows = zip(ticks, mice, ir_raw.reshape(n, n_ir), ir_distance.reshape(n, n_ir), floors[:, :n_line], floors[:, n_line:], light.reshape(n, n_light))
-                self._robots = [Readings(now, *row, NO_STEERING, NO_MOUSE2) for row in rows]
+                n, arrays = len(self), self.arrays
+                columns = [arrays[frame].reshape(n, -1)[:, cut] if frame is not None else [cut] * n for frame, cut in layout.columns]
+                self._robots = [Readings(now, *row) for row in zip(*columns)]
         return self._robots
 
+    def rows(self, field: str) -> np.ndarray:
+        """Every robot's values of one framed kind (a `Readings` field) as rows (n, width), a view;
+        for robots all alike (the copies of a Gymnasium environment)."""
+        frame, cut = self._layout.columns[ARRAYS.index(field)] if self._layout.columns is not None else (None, None)
+        if frame is None:
+            raise ValueError(f"rows of {field!r} need robots all alike, each with it in a step's arrays")
+        return self.arrays[frame].reshape(len(self), -1)[:, cut]
+
     def __len__(self) -> int:
-        return len(self.tallies)
+        return len(self._layout.plans)
 
     def __getitem__(self, index: int | slice) -> Readings | list[Readings]:
         return self.robots()[index]

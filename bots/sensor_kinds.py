@@ -5,8 +5,8 @@ A row names its `Readings` field, the robot-file section whose sensors give one 
 the fixed channels of a kind that is not a list of sensors), its dtype, the array of a step's
 `SensorFrame` it is packed into (kinds that share an array lie in it in the registry's order,
 robot after robot), the world kernel that computes it and the noise stage that perturbs it, the
-recording's plot group and title, the viewer window's label and the c't-Sim packet the bridge
-sends it in. The recorder, the export, the window and the bridge read the rows; a test holds
+recording's plot group and title, the viewer window's label, the c't-Sim packet the bridge
+sends it in and how a Gymnasium observation holds it. The recorder, the export, the window and the bridge read the rows; a test holds
 the registry equal to `Readings`' fields and the packets to `sim.bridge.protocol`'s.
 """
 
@@ -44,12 +44,19 @@ class SensorKind:
     """Its line's label in the viewer window."""
     packet: str | None = None
     """The name of its c't-Sim packet in `sim.bridge.protocol` (None: not sent)."""
+    idle: tuple[int, int] = (0, 0)
+    """What that packet carries for a sensor the robot lacks (of the two it sends): c't-Sim's reading of nothing."""
     scale: float = 1.0
     """Recorded and shown unit per SI unit (m -> mm, rad -> deg)."""
     needs: str | None = None
     """A `RobotSpec` attribute that must not be None for it to have channels (the mouse)."""
     chassis_only: bool = False
     """Only a general chassis reads it."""
+    observed: str | None = None
+    """How a Gymnasium observation holds it (`sim.experiments.gym`): "distance" (m, nothing in
+    range read as the sensor's `max_range`) or "fraction" (of `full_scale`); None: not at all."""
+    full_scale: float = 1.0
+    """Its highest value (the sensor's ADC's, 0-1023)."""
 
     def channels_of(self, spec: Any) -> tuple[str, ...]:
         """The channel names of a c't-Bot-like robot (`bots.spec.RobotSpec`): its section's sensor
@@ -60,18 +67,41 @@ class SensorKind:
             return tuple(sensor.name for sensor in getattr(spec, self.section))
         return self.channels
 
+    def width(self, spec: Any) -> int:
+        """How many values a robot's part of its `frame` array holds: one per sensor of its
+        section, or its fixed channels (whether or not the robot has the device: a frame's rows
+        are alike)."""
+        return len(getattr(spec, self.section)) if self.section is not None else len(self.channels)
+
+
+@dataclass(frozen=True)
+class Frame:
+    """One array of a step's `SensorFrame` (a kind's `frame`) and the World's row it is cut from
+    (`World.sensor_rows`: `values` int64, `believed` float64, `tallies` int64); the arrays cut
+    from one row lie in it in `FRAMES`' order."""
+
+    name: str
+    row: str
+
+
+FRAMES = (Frame("floor", "values"), Frame("light", "values"), Frame("ir_raw", "values"), Frame("ir_distance", "believed"), Frame("tallies", "tallies"))
+"""Every `SensorFrame` array, in the order the World packs its rows (its SENSORS table: floor, light, then IR sensors)."""
+
 
 KINDS: tuple[SensorKind, ...] = (
     SensorKind("ir_raw", "ir", (), np.int64, "ir_raw", "kernels.sensing.read_ir", "kernels.sensing.ir_values", "ir_raw", "IR raw (ADC)", "IR raw",
-               packet="SENS_IR"),
+               packet="SENS_IR", idle=(100, 80)),  # (GP2D12 raw values with nothing in view: c't-Sim's curves beyond 85 cm)
     SensorKind("ir_distance", "ir", (), np.float64, "ir_distance", "kernels.sensing.read_ir", "kernels.sensing.ir_values", "ir_distance",
-               "IR distance (mm)", "IR distance mm", scale=1000.0),
+               "IR distance (mm)", "IR distance mm", scale=1000.0, observed="distance"),
     SensorKind("line", "line", (), np.int64, "floor", "kernels.sensing.sample_floor", "kernels.noise.add_rounded", "floor",
-               "floor: line and border (0 white, 1023 black)", "line   (0-1023)", packet="SENS_LINE"),
+               "floor: line and border (0 white, 1023 black)", "line   (0-1023)", packet="SENS_LINE",
+               observed="fraction", full_scale=1023.0),
     SensorKind("border", "border", (), np.int64, "floor", "kernels.sensing.sample_floor", "kernels.noise.add_rounded", "floor",
-               "floor: line and border (0 white, 1023 black)", "border (0-1023)", packet="SENS_BORDER"),
+               "floor: line and border (0 white, 1023 black)", "border (0-1023)", packet="SENS_BORDER",
+               observed="fraction", full_scale=1023.0),
     SensorKind("light", "light", (), np.int64, "light", "kernels.sensing.sense_light", "kernels.noise.add_rounded", "light",
-               "light (0 bright, 1023 dark)", "light  (0-1023)", packet="SENS_LDR"),
+               "light (0 bright, 1023 dark)", "light  (0-1023)", packet="SENS_LDR", idle=(1023, 1023),
+               observed="fraction", full_scale=1023.0),
     SensorKind("encoder_ticks", None, ("left", "right"), np.int64, "tallies", "kernels.motion.plan", "kernels.noise.spurious_ticks",
                "encoders", "encoders (ticks per step)", "encoders ticks", packet="SENS_ENC"),
     SensorKind("mouse_counts", None, ("forward", "left"), np.int64, "tallies", "kernels.motion.measure", "kernels.noise.draw_step", "mouse",
@@ -83,6 +113,8 @@ KINDS: tuple[SensorKind, ...] = (
 )
 """Every kind, in the recording's column order (and, within a shared `frame` array, the packing order)."""
 BY_FIELD = {kind.field: kind for kind in KINDS}
+FRAMED = tuple(kind for kind in KINDS if kind.frame is not None)
+"""The kinds a step's `SensorFrame` holds (a general chassis's own are `ChassisDrive.fill`'s)."""
 
 
 def groups() -> dict[str, tuple[str, tuple[str, ...]]]:

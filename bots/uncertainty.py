@@ -31,6 +31,7 @@ covariance stay the same).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -39,9 +40,25 @@ from bots.spec import RobotSpec
 COUNT_VARIANCE = 1.0 / 6.0
 """Variance (counts²) of a carried count's error against the truth, its start phase unknown: for a
 truth ending a fraction f into a count the error is -f or 1 - f (variance f (1 - f)), 1/6 over f."""
-ERRORS = 7
+
+
+class ErrorStates(NamedTuple):
+    """Each entry's place in an estimator's error state: the pose error (x, y m; heading rad), then
+    the relative calibration errors (each wheel's scale, the track's, the mouse resolution's)."""
+
+    x: int
+    y: int
+    heading: int
+    left_scale: int
+    right_scale: int
+    track_scale: int
+    mouse_scale: int
+
+
+ERROR = ErrorStates(*range(len(ErrorStates._fields)))
+"""Where each error lies in the state (`cov[ERROR.heading, ERROR.heading]`); a compiled step reads it as a constant."""
+ERRORS = len(ERROR)
 """Entries of an estimator's error state."""
-X, Y, HEADING, LEFT_SCALE, RIGHT_SCALE, TRACK_SCALE, MOUSE_SCALE = range(ERRORS)
 COVARIANCE_FIELDS = ("cov_xx", "cov_xy", "cov_xt", "cov_yy", "cov_yt", "cov_tt")
 """The six distinct entries of a pose covariance (m², m·rad, rad²), in the order `pose_covariance` writes."""
 
@@ -81,9 +98,9 @@ class Belief:
     def prior(self) -> np.ndarray:
         """(ERRORS, ERRORS) the error covariance at the start: the pose known, the scales not."""
         cov = np.zeros((ERRORS, ERRORS))
-        cov[LEFT_SCALE, LEFT_SCALE] = cov[RIGHT_SCALE, RIGHT_SCALE] = self.wheel_scale_std**2
-        cov[TRACK_SCALE, TRACK_SCALE] = self.track_std**2
-        cov[MOUSE_SCALE, MOUSE_SCALE] = self.mouse_scale_std**2
+        cov[ERROR.left_scale, ERROR.left_scale] = cov[ERROR.right_scale, ERROR.right_scale] = self.wheel_scale_std**2
+        cov[ERROR.track_scale, ERROR.track_scale] = self.track_std**2
+        cov[ERROR.mouse_scale, ERROR.mouse_scale] = self.mouse_scale_std**2
         return cov
 
 

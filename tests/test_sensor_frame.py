@@ -30,12 +30,12 @@ def test_each_robot_s_readings_are_views_into_the_frame_s_arrays(fleet):
     frame = world.read_all()
     assert isinstance(frame, SensorFrame) and len(frame) == len(fleet)
     assert list(frame) == frame.robots() and frame[1] is frame.robots()[1]
-    for kind, whole in (("ir_raw", frame.ir_raw), ("ir_distance", frame.ir_distance), ("light", frame.light)):
+    for kind, whole in ((name, frame.arrays[name]) for name in ("ir_raw", "ir_distance", "light")):
         joined = np.concatenate([getattr(r, kind) for r in frame])
         assert np.array_equal(joined, whole, equal_nan=True), kind
         assert all(np.shares_memory(getattr(r, kind), whole) for r in frame if len(getattr(r, kind))), kind
     floors = np.concatenate([np.concatenate((r.line, r.border)) for r in frame])
-    assert floors.tolist() == frame.floor.tolist()
+    assert floors.tolist() == frame.arrays["floor"].tolist()
     for r, robot, tally in zip(frame, fleet, frame.tallies):
         assert len(r.ir_raw) == len(robot.ir) and len(r.line) == len(robot.line) and len(r.border) == len(robot.border)
         assert r.encoder_ticks.tolist() == tally[:2].tolist() and r.mouse_counts.tolist() == tally[2:].tolist()

@@ -47,6 +47,13 @@ def test_its_sections_kernels_and_packets_exist():
         assert kind.dtype(0).dtype == getattr(Readings(), kind.field).dtype, kind.field
 
 
+def test_the_full_scales_are_the_sensors_adc_tops():
+    from sim.world.sensors import CNY70_MAX, LDR_MAX
+
+    tops = {"line": CNY70_MAX, "border": CNY70_MAX, "light": LDR_MAX}
+    assert {kind.field: kind.full_scale for kind in KINDS if kind.observed == "fraction"} == tops
+
+
 def test_a_group_has_one_title():
     for kind in KINDS:
         assert groups()[kind.group][0] == kind.title, kind.field

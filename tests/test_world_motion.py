@@ -245,7 +245,7 @@ def _quiet_trace(quiet: bool, steps: int = 3000) -> tuple[np.ndarray, np.ndarray
     for k in range(steps):
         frame = world.read_all()
         tallies.append(frame.tallies.copy())
-        ir.append(frame.ir_raw.copy())
+        ir.append(frame.arrays["ir_raw"].copy())
         world.step(np.array([[200.0, 200.0]]) if (k // 300) % 2 == 0 else np.array([[-150.0, 120.0]]))
         quiet_steps += world._world[0]["streak"] > world._world[0]["quiet_after"] >= 0
         poses.append(world.poses())

@@ -26,7 +26,7 @@ from bots.odometry.layout import DEAD_RECKONERS, ENCODERS_ONLY, ESTIMATE, ESTIMA
 from bots.odometry.mouse import MouseOdometry, mouse_step, sigma_mouse, turn_check, watch_slides
 from bots.odometry.propagation import add_offset, add_spread, lay, pose_covariance, workspace
 from bots.spec import RobotSpec
-from bots.uncertainty import COVARIANCE_FIELDS, ERRORS, HEADING
+from bots.uncertainty import COVARIANCE_FIELDS, ERROR, ERRORS
 
 COVARIANCES = len(COVARIANCE_FIELDS)
 MOUSE_SIGMAS = MouseOdometry.sigma_count
@@ -77,7 +77,7 @@ def batch_step(batch: Batch, tallies: np.ndarray, time: float, truth: np.ndarray
         sigma_mouse(p, st.sigmas[mouse], counts.forward, counts.lateral)
         s_enc, alpha_enc, var = turn_check(p, counts.left, counts.right, s, alpha)
         lay(st.mouse_watch.hypothesis, s, alpha, False)
-        cov[mouse, HEADING, HEADING] += watch_slides(p, st.mouse_watch, alpha - alpha_enc, var, alpha_enc, s_enc, time)
+        cov[mouse, ERROR.heading, ERROR.heading] += watch_slides(p, st.mouse_watch, alpha - alpha_enc, var, alpha_enc, s_enc, time)
         fused = ESTIMATE.fused
         s, alpha, sliding = fused_step(p, st, Estimate(pose[fused], cov[fused], lags[i, fused]), batch.calibration[i], counts, time, work)
         batch.contact_steps[i] += sliding

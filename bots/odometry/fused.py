@@ -38,7 +38,7 @@ from bots.odometry.mouse import MouseOdometry, mouse_arc, watch_slides
 from bots.odometry.propagation import MID_ANGLE, PROPAGATE_WORK, lay, mouse_terms, mouse_variance, propagate, wheel_terms, wheel_variances
 from bots.readings import Readings
 from bots.spec import RobotSpec
-from bots.uncertainty import ERRORS, HEADING, LEFT_SCALE, MOUSE_SCALE, RIGHT_SCALE, TRACK_SCALE
+from bots.uncertainty import ERROR, ERRORS
 from sim.kinematics import advance
 
 G_POS = 0.5
@@ -137,7 +137,8 @@ def fused_step(p: np.void, st: np.void, estimate: Estimate, calibration: np.ndar
     st.disagreement = st.disagreement * forget + corrected_enc[0] - corrected_mouse[0]
     st.disagreement_var = st.disagreement_var * forget * forget + r_enc[0, 0] + r_mouse[0, 0]
     st.travel = st.travel * forget + abs(corrected_mouse[0])
-    scale = math.sqrt(max(0.25 * (cov[LEFT_SCALE, LEFT_SCALE] + cov[RIGHT_SCALE, RIGHT_SCALE] + 2.0 * cov[LEFT_SCALE, RIGHT_SCALE]) + cov[MOUSE_SCALE, MOUSE_SCALE], 0.0))
+    wheel_l, wheel_r = ERROR.left_scale, ERROR.right_scale
+    scale = math.sqrt(max(0.25 * (cov[wheel_l, wheel_l] + cov[wheel_r, wheel_r] + 2.0 * cov[wheel_l, wheel_r]) + cov[ERROR.mouse_scale, ERROR.mouse_scale], 0.0))
     slipped = abs(st.disagreement) > p.tolerance + p.gate * (math.sqrt(st.disagreement_var) + scale * st.travel)
     # a slide: the mouse's rotation beyond the encoders', over the last TURN_MEMORY seconds, the same way
     if math.isnan(st.time):
@@ -151,8 +152,8 @@ def fused_step(p: np.void, st: np.void, estimate: Estimate, calibration: np.ndar
     st.turn_disagreement = st.turn_disagreement * keep + corrected_mouse[1] - corrected_enc[1]
     st.turn_var = st.turn_var * keep * keep + r_enc[1, 1] + r_mouse[1, 1]
     st.taken = st.taken * keep
-    turn_scale = math.sqrt(max(cov[TRACK_SCALE, TRACK_SCALE] + cov[MOUSE_SCALE, MOUSE_SCALE], 0.0))
-    mismatch = math.sqrt(max(cov[LEFT_SCALE, LEFT_SCALE] + cov[RIGHT_SCALE, RIGHT_SCALE] - 2.0 * cov[LEFT_SCALE, RIGHT_SCALE], 0.0))
+    turn_scale = math.sqrt(max(cov[ERROR.track_scale, ERROR.track_scale] + cov[ERROR.mouse_scale, ERROR.mouse_scale], 0.0))
+    mismatch = math.sqrt(max(cov[ERROR.left_scale, ERROR.left_scale] + cov[ERROR.right_scale, ERROR.right_scale] - 2.0 * cov[ERROR.left_scale, ERROR.right_scale], 0.0))
     band = p.turn_tolerance + p.gate * (math.sqrt(st.turn_var) + turn_scale * st.turning + mismatch * st.turn_travel / track)
     sliding = abs(st.turn_disagreement) > band
     _add(r_enc, q_enc, a_enc)
@@ -208,7 +209,7 @@ def fused_step(p: np.void, st: np.void, estimate: Estimate, calibration: np.ndar
     else:
         st.taken += alpha - corrected_enc[1]
     # the slower watch, on the turn laid beyond the encoders' (what the detector took back is not)
-    cov[HEADING, HEADING] += watch_slides(p, st.fused_watch, alpha - corrected_enc[1], r_enc[1, 1] + r_mouse[1, 1], corrected_enc[1], corrected_enc[0], time)
+    cov[ERROR.heading, ERROR.heading] += watch_slides(p, st.fused_watch, alpha - corrected_enc[1], r_enc[1, 1] + r_mouse[1, 1], corrected_enc[1], corrected_enc[0], time)
     return s, alpha, sliding
 
 
@@ -278,7 +279,7 @@ class FusedOdometry(ArcOdometry):
         self.mouse.reset(robot, pose)
         self.tolerance, self.turn_tolerance = float(self.params["tolerance"]), float(self.params["turn_tolerance"])
         self.calibration = np.zeros(ERRORS)
-        """The estimated calibration errors (entries LEFT_SCALE on of `bots.uncertainty`; relative)."""
+        """The estimated calibration errors (entries ERROR.left_scale on of `bots.uncertainty`; relative)."""
         self.contact_steps = 0
 
     def update(self, readings: Readings) -> None:

@@ -12,7 +12,7 @@ from bots.odometry.base import ArcOdometry
 from bots.odometry.layout import ESTIMATE, SIGMA_SPREAD
 from bots.odometry.propagation import MID_ANGLE, PROPAGATE_WORK, lay, mouse_terms, mouse_variance, propagate, wheel_variances
 from bots.readings import Readings
-from bots.uncertainty import HEADING
+from bots.uncertainty import ERROR
 
 
 @numba.njit(cache=True)
@@ -128,5 +128,5 @@ class MouseOdometry(ArcOdometry):
         s_enc, alpha_enc, var = turn_check(self.params, float(left), float(right), s, alpha)
         watch = self.state["mouse_watch"]
         lay(watch["hypothesis"], s, alpha, False)
-        self.errors[HEADING, HEADING] += watch_slides(self.params, watch, alpha - alpha_enc, var, alpha_enc, s_enc, float(readings.time))
+        self.errors[ERROR.heading, ERROR.heading] += watch_slides(self.params, watch, alpha - alpha_enc, var, alpha_enc, s_enc, float(readings.time))
         return s, alpha

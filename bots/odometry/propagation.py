@@ -17,7 +17,7 @@ import numba
 import numpy as np
 
 from bots.odometry.layout import SIGMA_SPREAD
-from bots.uncertainty import ERRORS, HEADING, LEFT_SCALE, MOUSE_SCALE, RIGHT_SCALE, TRACK_SCALE
+from bots.uncertainty import ERROR, ERRORS
 from sim.kinematics.batch import advance_one
 
 MID_ANGLE, END_HEADING = 0.5, 1.0
@@ -36,8 +36,8 @@ def wheel_terms(s_left: float, s_right: float, alpha: float, track: float, var_l
     scales for wheel arcs s_left, s_right (m) and heading change alpha over `track` (m); `noise`
     (2, 2) for independent wheel-arc variances var_left, var_right (m²)."""
     jac[:, :] = 0.0
-    jac[0, LEFT_SCALE], jac[0, RIGHT_SCALE] = 0.5 * s_left, 0.5 * s_right
-    jac[1, LEFT_SCALE], jac[1, RIGHT_SCALE], jac[1, TRACK_SCALE] = -s_left / track, s_right / track, -alpha
+    jac[0, ERROR.left_scale], jac[0, ERROR.right_scale] = 0.5 * s_left, 0.5 * s_right
+    jac[1, ERROR.left_scale], jac[1, ERROR.right_scale], jac[1, ERROR.track_scale] = -s_left / track, s_right / track, -alpha
     noise[0, 0] = 0.25 * (var_left + var_right)
     noise[0, 1] = noise[1, 0] = 0.5 * (var_right - var_left) / track
     noise[1, 1] = (var_left + var_right) / (track * track)
@@ -49,7 +49,7 @@ def mouse_terms(s: float, alpha: float, mount_x: float, mount_y: float, var: flo
     increment (s m, alpha rad), `noise` for a variance `var` (m²) of each axis's reading, through
     alpha = lateral/m_x, s = forward + alpha*m_y."""
     jac[:, :] = 0.0
-    jac[0, MOUSE_SCALE], jac[1, MOUSE_SCALE] = -s, -alpha
+    jac[0, ERROR.mouse_scale], jac[1, ERROR.mouse_scale] = -s, -alpha
     lever = mount_y / mount_x
     noise[0, 0] = var * (1.0 + lever * lever)
     noise[0, 1] = noise[1, 0] = var * lever / mount_x
@@ -75,8 +75,8 @@ def propagate(cov: np.ndarray, heading: float, s: float, alpha: float, share: fl
         a[r, r] = 1.0
         for j in range(ERRORS):
             a[r, j] += g[r][0] * jac[0, j] + g[r][1] * jac[1, j]
-    a[0, HEADING] -= s * sn
-    a[1, HEADING] += s * c
+    a[0, ERROR.heading] -= s * sn
+    a[1, ERROR.heading] += s * c
     for r in range(3):
         for j in range(ERRORS):
             total = 0.0

@@ -73,8 +73,6 @@ class CtsimEncoders:
             self.rest[w] = total - whole
             ticks.append(whole)
         return ticks[0], ticks[1]
-IR_NOTHING = (100, 80)
-"""GP2D12 raw values with nothing in view (left, right), c't-Sim's curves beyond 85 cm."""
 MAP_MM_PER_CELL, MAP_ORIGIN_MM = 8, 6144
 """The firmware's map grid (125 cells/m) and its centre, the start pose (map_to_world)."""
 CAM_POSITION = 14
@@ -233,6 +231,12 @@ class FirmwareController:
         self.seq = (self.seq + 1) & 0xFF
         return packet
 
+    def _sensors(self, command: str, readings: Readings) -> Packet:
+        """The packet of a sensor pair (`SENS_IR`, `SENS_LINE`, ...): its registry kind's first two
+        values in `readings` (the kind's `idle` where the robot has fewer)."""
+        kind = BY_PACKET[command]
+        return self._packet(command, *_pair(getattr(readings, kind.field), kind.idle))
+
     def _block(self, step: int, t: float, readings: Readings, after: Readings, ticks: tuple[int, int] | None = None) -> bytes:
         """One step's packets (`m D B H I R T L E S b e X`, orders and offers first), one write:
         the sensors of `readings`, the encoder ticks (or `ticks`) and mouse dots of `after` (the
@@ -258,13 +262,13 @@ class FirmwareController:
         packets += [
             self._packet(p.SENS_MOUSE, dl=-left, dr=forward),  # c't-Sim: dX sideways to the right, dY forward
             self._packet(p.SENS_DOOR, dl=int(self.state.door_open)),
-            self._packet(p.SENS_BORDER, *_pair(readings.border, (0, 0))),
-            self._packet(p.SENS_LDR, *_pair(readings.light, (1023, 1023))),
-            self._packet(p.SENS_IR, *_pair(readings.ir_raw, IR_NOTHING)),
+            self._sensors(p.SENS_BORDER, readings),
+            self._sensors(p.SENS_LDR, readings),
+            self._sensors(p.SENS_IR, readings),
             self._packet(p.SENS_RC5, dl=key, dr=self.state.rc5_toggle),
             self._packet(p.SENS_TRANS),
-            self._packet(p.SENS_LINE, *_pair(readings.line, (0, 0))),
-            self._packet(p.SENS_ENC, *(ticks if ticks is not None else _pair(after.encoder_ticks, (0, 0)))),
+            self._sensors(p.SENS_LINE, readings),
+            self._packet(p.SENS_ENC, *ticks) if ticks is not None else self._sensors(p.SENS_ENC, after),
             self._packet(p.SENS_CAM, dl=CAM_POSITION),
             self._packet(p.SENS_BPS, dl=BPS_NONE - 0x10000),
             self._packet(p.SENS_ERROR, dl=1),  # c't-Sim: 1 = OK, data_r 0
@@ -373,6 +377,10 @@ class FirmwareController:
             "lcd": self.state.lcd_text,
             "map_blocks": self.state.map.blocks,
         }
+
+
+BY_PACKET = {getattr(p, kind.packet): kind for kind in KINDS if kind.packet is not None}
+"""The sensor registry's kinds by the command letter of their packet."""
 
 
 def _block_sensors(readings: Readings) -> Readings:

@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from bots.sensor_kinds import FRAMED
 from bots.spec import BeliefSpec
 from sim.analysis.nees import OverRuns, nees, over_runs
 from sim.experiments.api import Bot, robot, simulate
@@ -105,7 +106,7 @@ def drive(seed: int, scenario: Scenario = MAZE) -> Track:
         raise RuntimeError(f"seed {seed}: {result.error}")
     log = result.raw.robots[0]
     readings = log.readings(slice(0, len(result.time)))
-    tallies = np.concatenate((readings["encoder_ticks"], readings["mouse_counts"]), axis=1).astype(np.int64)
+    tallies = np.concatenate([readings[kind.field] for kind in FRAMED if kind.frame == "tallies"], axis=1).astype(np.int64)  # (the registry's order)
     copied = {name: np.array(poses) for name, poses in log.estimate_arrays().items()}
     return Track(seed, np.array(result.time), np.array(log.truth_array()), tallies, copied,
                  {name: np.array(entries) for name, entries in log.covariance_arrays().items()})  # fmt: skip

@@ -57,11 +57,12 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from bots.commands import command_per_speed
 from bots.noise import DEFAULT_NOISE
 from bots.readings import SensorFrame
+from bots.sensor_kinds import KINDS
 from bots.spec import RobotSpec
 from sim.experiments.api import robot as load_robot_spec
 from sim.experiments.api import world as world_spec
 from sim.world import World, WorldSpec
-from sim.world.sensors import CNY70_MAX, LDR_MAX
+from sim.world.sensors import CNY70_MAX
 from sim.world.step import DEFAULT_DT
 
 TASKS = {"maze": "maze", "line": "line"}
@@ -73,6 +74,8 @@ TIME_COST = 0.2
 COLLISION_COST = 0.1
 GOAL_REACH = 0.1
 """The maze task ends when the robot's centre is this near the goal (m)."""
+OBSERVED = tuple(kind for kind in KINDS if kind.observed is not None)
+"""The sensor registry's kinds an observation holds, in its order."""
 LINE_SEEN = 512
 """A CNY70 value above this (0 white .. 1023 black) sees the line."""
 LINE_OFFSET = 0.01
@@ -88,9 +91,13 @@ DRAWS = 10_000
 def observation_space(spec: RobotSpec, task: str = "line", world: WorldSpec | None = None) -> spaces.Box:
     """The Box of a robot's observations in a task (see the module docstring for the order)."""
     top = 2.0 * spec.max_wheel_surface_speed  # encoders under slip can read above the motors' limit
-    floor = len(spec.line) + len(spec.border) + len(spec.light)
-    low = [0.0] * len(spec.ir) + [0.0] * floor + [-top, -top]
-    high = [s.max_range for s in spec.ir] + [1.0] * floor + [top, top]
+    low, high = [], []
+    for kind in OBSERVED:
+        sensors = getattr(spec, kind.section)
+        low += [0.0] * len(sensors)
+        high += [s.max_range for s in sensors] if kind.observed == "distance" else [1.0] * len(sensors)
+    low += [-top, -top]
+    high += [top, top]
     if task == "maze":
         xmin, ymin, xmax, ymax = world.bounds if world is not None else (0.0, 0.0, 100.0, 100.0)
         low += [0.0, -1.0, -1.0]
@@ -128,8 +135,8 @@ class _Task:
         self.episode_steps = max(1, round(episode_seconds / self.control_dt))
         self.observation_space = observation_space(self.robot, task, self.world)
         spec = self.robot
-        self.ir_far = np.array([s.max_range for s in spec.ir])
-        self.counts = (len(spec.ir), len(spec.line), len(spec.border), len(spec.light))
+        self.ranges = {kind.field: np.array([s.max_range for s in getattr(spec, kind.section)]) for kind in OBSERVED if kind.observed == "distance"}
+        """What an observed distance reads where nothing is in range: each sensor's `max_range` (m)."""
         self.rim_per_tick = math.pi * spec.wheel_diameter / spec.encoders.ticks_per_rev / self.control_dt
         self.command_per_speed = command_per_speed(spec)
 
@@ -244,15 +251,12 @@ class _Copies:
     def observe(self) -> np.ndarray:
         """(n, obs) observations from a fresh reading of every copy's sensors."""
         frame = self.readings = self.world.read_all()
-        task, n = self.task, self.n
-        n_ir, n_line, n_border, n_light = task.counts
-        ir = frame.ir_distance.reshape(n, n_ir)
-        parts = [
-            np.where(np.isfinite(ir), ir, task.ir_far),
-            frame.floor.reshape(n, n_line + n_border) / CNY70_MAX,
-            frame.light.reshape(n, n_light) / LDR_MAX,
-            self.ticks * task.rim_per_tick,
-        ]
+        task = self.task
+        parts = []
+        for kind in OBSERVED:
+            values = frame.rows(kind.field)
+            parts.append(np.where(np.isfinite(values), values, task.ranges[kind.field]) if kind.observed == "distance" else values / kind.full_scale)
+        parts.append(self.ticks * task.rim_per_tick)
         if task.task == "maze":
             pose = self.world.poses()
             offset = self.goal - pose[:, :2]
@@ -275,9 +279,7 @@ class _Copies:
             reward = reward + GOAL_BONUS * reached
         else:
             forward = (after[:, 0] - before[:, 0]) * np.cos(before[:, 2]) + (after[:, 1] - before[:, 1]) * np.sin(before[:, 2])
-            n_line = task.counts[1]
-            floor = self.readings.floor.reshape(self.n, -1)
-            on_line = (floor[:, :n_line] > LINE_SEEN).any(axis=1)
+            on_line = (self.readings.rows("line") > LINE_SEEN).any(axis=1)  # (the line task's: its line sensors)
             reward = np.where(on_line, forward, -TIME_COST * task.control_dt)
             reached = np.zeros(self.n, dtype=bool)
         reward = reward - COLLISION_COST * new

@@ -104,7 +104,11 @@ def ranking(scores: pd.DataFrame) -> pd.DataFrame:
 
 
 def _shown(value: float, digits: int = 3) -> str:
-    return "-" if not np.isfinite(value) else f"{value:.{digits}g}"
+    """`digits` significant digits; from 10**digits on in full with thousands separators (1,270
+    mm, not 1.27e+03)."""
+    if not np.isfinite(value):
+        return "-"
+    return f"{value:,.0f}" if abs(value) >= 10**digits else f"{value:.{digits}g}"
 
 
 def ranking_text(table: pd.DataFrame) -> pd.DataFrame:
@@ -125,7 +129,7 @@ def scenario_text(scores: pd.DataFrame, metric: str = RANKED_BY) -> pd.DataFrame
 def nees_text(scores: pd.DataFrame) -> pd.DataFrame:
     """Scenarios down, estimators with a covariance across: the mean NEES at the runs' end and its verdict."""
     judged = scores[scores["nees.runs"] > 0]
-    cells = judged.assign(cell=[f"{m:.3g} {'ok' if v == 'consistent' else 'over' if v == 'over-confident' else 'under'}" for m, v in zip(judged["nees.mean"], judged["nees.verdict"])])
+    cells = judged.assign(cell=[f"{_shown(m)} {'ok' if v == 'consistent' else 'over' if v == 'over-confident' else 'under'}" for m, v in zip(judged["nees.mean"], judged["nees.verdict"])])
     table = cells.pivot(index="scenario", columns="estimator", values="cell").reindex(index=scores["scenario"].unique(), columns=judged["estimator"].unique())
     return table.fillna("-").reset_index().rename_axis(columns=None)
 

@@ -22,7 +22,7 @@ import numpy as np
 import pymunk
 
 import sim
-from bots.readings import SensorFrame, frozen_copies
+from bots.readings import ARRAYS, SensorFrame, frozen_copies
 from bots.spec import RobotSpec
 from sim.world import layout
 from sim.world.bodies import BodyArrays
@@ -341,13 +341,8 @@ class World:
         `sensor_rows`' arrays, each with a leading sample axis (views, no copies). A general chassis's
         per-wheel encoders, steering and second mouse are not among them (`ChassisDrive.fill`)."""
         st = self._batch()
-        ir, line, border, light = st.layout.slices[index]
-        lights = st.n_floor + st.n_light
-        return {
-            "encoder_ticks": tallies[:, index, :2], "mouse_counts": tallies[:, index, 2:],
-            "ir_raw": values[:, lights + ir.start : lights + ir.stop], "ir_distance": believed[:, ir],
-            "line": values[:, line], "border": values[:, border], "light": values[:, st.n_floor + light.start : st.n_floor + light.stop],
-        }  # fmt: skip
+        rows = {"values": values, "believed": believed, "tallies": tallies.reshape(len(tallies), -1)}
+        return {field: rows[row][:, cut] for field, (row, cut) in zip(ARRAYS, st.layout.plans[index]) if row is not None}
 
     def read_all(self, rows: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> SensorFrame:
         """Every robot's sensor readings from the current state (the start of the next step):
@@ -378,7 +373,7 @@ class World:
             self._read_ir_with_pymunk(pose, values[lights:], believed)
         if rows is not None:
             values, believed, tallies = frozen_copies(values, believed, tallies)
-        frame = SensorFrame(self.time, tallies, values[lights:], believed, values[: st.n_floor], values[st.n_floor : lights], st.layout)
+        frame = SensorFrame(self.time, {"values": values, "believed": believed, "tallies": tallies.reshape(-1)}, st.layout)
         if self.chassis.drives:
             self.chassis.fill(frame)
         return frame
@@ -519,3 +514,4 @@ class World:
 def _damped(body: pymunk.Body, gravity, damping: float, dt: float) -> None:  # noqa: ANN001 (pymunk callback)
     """Movable obstacles lose speed on the floor; robots are not damped (their velocity is set)."""
     pymunk.Body.update_velocity(body, gravity, MOVABLE_DAMPING**dt, dt)
+

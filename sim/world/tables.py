@@ -13,7 +13,7 @@ import numpy as np
 import pymunk
 
 from bots.readings import SensorLayout
-from bots.sensor_kinds import sections
+from bots.sensor_kinds import FRAMED
 from bots.spec import RobotSpec
 from sim.kinematics import counts_per_metre
 from sim.world import layout
@@ -211,7 +211,7 @@ class RobotTables:
         self.circles["radius"] = [r.shape.radius for r in robots if isinstance(r.shape, pymunk.Circle)] + [shape.radius for shape in movable_shapes]
         self.circles["owner"] = owners
         """Robots then movable obstacles as CIRCLES for the IR kernel; positions are filled in at each read."""
-        self.layout = SensorLayout.of([tuple(len(getattr(s, section)) for section in sections()) for s in specs])
+        self.layout = SensorLayout.of([{kind.field: kind.width(s) for kind in FRAMED} for s in specs])
 
     def start_counters(self, robot: Any) -> None:
         """`robot`'s counters' carries at their start phases (`physics.start_phases`)."""
