@@ -132,6 +132,9 @@ class ArcOdometry:
     uses_mouse = False
     sigma_count = 0
     watch: int | None = None
+    caveat = ""
+    """Where its covariance is known not to tell the truth, in one line for a run's summary and
+    table (docs/odometry.md, "Where the covariance holds", measures it)."""
 
     def __init__(self, geometry: Geometry | None = None):
         self.geometry = geometry

@@ -48,6 +48,8 @@ class EncoderOdometry(ArcOdometry):
 
     name = "encoders"
     sigma_count = SIGMAS
+    caveat = ("a robot whose wheels or track are 3 standard deviations of its belief out turns its heading past a quarter "
+              "turn in the maze, and the position's error then bends beyond what a covariance describes")  # fmt: skip
 
     def step(self, readings: Readings) -> tuple[float, float]:
         left, right = readings.encoder_ticks.tolist()

@@ -260,6 +260,8 @@ class FusedOdometry(ArcOdometry):
 
     uses_mouse = True
     watch = ESTIMATE.fused
+    caveat = ("too cautious early in a run (its calibration update takes quantisation as white noise); a slide slower than "
+              "its slide watch sees is not in its covariance")  # fmt: skip
 
     def __init__(self, rule: Literal["ekf", "blend"] = "ekf", geometry: Geometry | None = None, weight: float = G_POS):
         if rule not in ("ekf", "blend"):

@@ -113,6 +113,8 @@ class MouseOdometry(ArcOdometry):
     name = "mouse"
     uses_mouse = True
     watch = ESTIMATE.mouse
+    caveat = ("a slide along a wall turns its heading, by more than a half turn in some runs: no Gaussian covers a heading "
+              "that wraps, and the slides its watch sees are counted twice (too cautious), those it does not not at all")  # fmt: skip
     sigma_count = 2
 
     def __init__(self) -> None:
