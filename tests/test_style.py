@@ -141,3 +141,84 @@ def test_a_run_folder_s_file_names_have_one_home():
                       for body in [node.body] if body and isinstance(body[0], ast.Expr)}  # fmt: skip
         found += [f"{rel}:{n.lineno}: {n.value!r}" for n in ast.walk(tree) if isinstance(n, ast.Constant) and n.value in names and id(n) not in docstrings]
     assert not found, "a run folder's file named outside run_folder.py (use RunFolder): " + "; ".join(found)
+
+
+OTHER_MEANINGS = {
+    # where a kind's name is also a word for something else (the sensor registry's kinds are
+    # `Readings` fields; these are not): file and the words, with what they name there
+    "sim/kinematics/__init__.py": ({"mouse_counts"}, "the core's function of that name, in __all__"),
+    "bots/spec.py": ({"line", "border", "light"}, "the robot file's sections (the registry's `section`s: tests/test_sensor_kinds.py holds them equal)"),
+    "bots/behaviours/floor.py": ({"line", "border"}, "the robot-file section of sensors a behaviour needs"),
+    "bots/behaviours/walls.py": ({"line"}, "the robot-file section of sensors a behaviour needs"),
+    "bots/behaviours/ocp_path.py": ({"line"}, "the OCP's steering-angle convention"),
+    "sim/kinematics/ocp.py": ({"line"}, "the OCP's steering-angle convention"),
+    "sim/kinematics/chassis.py": ({"line"}, "an ICR locus on a line"),
+    "sim/experiments/gym.py": ({"line"}, "the line-following task (and the line sensors its reward watches)"),
+    "sim/sandbox/box.py": ({"line"}, "the line number of a user's error"),
+    "sim/sandbox/guest.py": ({"line"}, "the line number of a user's error"),
+    "sim/sandbox/reply.py": ({"line"}, "the line number of a user's error"),
+    "sim/views/figures.py": ({"line", "light"}, "a world's floor line and lamps in a figure's legend"),
+    "sim/views/map_image.py": ({"light"}, "a world's lamp drawn on the map"),
+    "sim/world/files/parcours.py": ({"line"}, "c't-Sim's parcours character of a floor line"),
+    "sim/world/files/toml_format.py": ({"line", "light"}, "a world file's tables of floor lines and lamps"),
+    "sim/world/spec.py": ({"steering"}, "a wheel fault's kind"),
+    "sim/world/chassis_drive.py": ({"steering"}, "a wheel fault's kind"),
+}
+
+
+def test_sensor_kinds_are_spelled_only_in_the_registry():
+    """A sensor kind's name (a `Readings` field of `bots.sensor_kinds`) appears as a string only in
+    the registry (docstrings aside): every other part iterates over it or asks a row's column, so
+    a new kind is one row. OTHER_MEANINGS lists where the same word names something else."""
+    from bots.sensor_kinds import KINDS
+
+    kinds = {kind.field for kind in KINDS}
+    spelled = []
+    for rel, tree in _trees():
+        if rel == "bots/sensor_kinds.py":
+            continue
+        allowed = OTHER_MEANINGS.get(rel, (set(), ""))[0]
+        docstrings = {id(node.body[0].value) for node in ast.walk(tree) if isinstance(node, ast.Module | ast.ClassDef | ast.FunctionDef)
+                      and node.body and isinstance(node.body[0], ast.Expr)}  # fmt: skip
+        spelled += [f"{rel}:{n.lineno}: {n.value!r}" for n in ast.walk(tree)
+                    if isinstance(n, ast.Constant) and n.value in kinds and n.value not in allowed and id(n) not in docstrings]  # fmt: skip
+    assert not spelled, "a sensor kind spelled outside bots/sensor_kinds.py (iterate the registry): " + "; ".join(spelled)
+
+
+DECLARING = {"sim/world/layout.py", "bots/odometry/layout.py", "bots/sensor_kinds.py", "bots/uncertainty.py"}
+"""The modules that declare packed tables and the places along an axis (`ESTIMATE`, `ERROR`): an
+offset's number is typed there, once; everyone else reads it by name."""
+
+
+def test_no_integer_offset_is_typed_by_hand():
+    """An index into an array is a name from a declaration (a table's field, `ESTIMATE.fused`),
+    never a module constant bound to a number (`ENCODERS = 0`, `X, Y = range(2)`) outside the
+    DECLARING modules: such a constant used as an index (a slice's bounds are lengths, not
+    offsets) fails here with its file and line."""
+    modules = {rel: tree for rel, tree in _trees()}
+    offsets = {}  # (module name, constant) -> its file
+    for rel, tree in modules.items():
+        if rel in DECLARING:
+            continue
+        for node in tree.body:
+            value = node.value if isinstance(node, ast.Assign) else None
+            numbered = (isinstance(value, ast.Constant) and type(value.value) is int) or (
+                isinstance(value, ast.Tuple) and value.elts and all(isinstance(e, ast.Constant) and type(e.value) is int for e in value.elts)) or (
+                isinstance(value, ast.Call) and isinstance(value.func, ast.Name) and value.func.id == "range")  # fmt: skip
+            if numbered:
+                for target in node.targets:
+                    for name in target.elts if isinstance(target, ast.Tuple) else [target]:
+                        if isinstance(name, ast.Name) and name.id.isupper():
+                            offsets[(rel[:-3].replace("/", "."), name.id)] = rel
+    typed = []
+    for rel, tree in modules.items():
+        own = rel[:-3].replace("/", ".")
+        names = {name: module for module, name in offsets if module == own}
+        for node in tree.body:
+            if isinstance(node, ast.ImportFrom) and node.module:
+                names.update({a.asname or a.name: node.module for a in node.names if (node.module, a.name) in offsets})
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Subscript):
+                slices = {id(n) for s in ast.walk(node.slice) if isinstance(s, ast.Slice) for n in ast.walk(s)}
+                typed += [f"{rel}:{node.lineno}: {n.id}" for n in ast.walk(node.slice) if isinstance(n, ast.Name) and n.id in names and id(n) not in slices]
+    assert not typed, "an integer offset typed by hand outside the layouts (declare it in one, read it by name): " + "; ".join(typed)

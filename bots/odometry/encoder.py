@@ -6,8 +6,8 @@ import numba
 import numpy as np
 
 from bots.odometry.base import ArcOdometry
-from bots.odometry.layout import SIGMA_SPREAD, SIGMAS
-from bots.odometry.propagation import END_HEADING, MID_ANGLE, PROPAGATE_WORK, lay, propagate, wheel_terms, wheel_variances
+from bots.odometry.layout import PROPAGATE_WORK, SIGMA_SPREAD, SIGMAS
+from bots.odometry.propagation import END_HEADING, MID_ANGLE, lay, propagate, wheel_terms, wheel_variances
 from bots.readings import Readings
 
 
@@ -48,6 +48,8 @@ class EncoderOdometry(ArcOdometry):
 
     name = "encoders"
     sigma_count = SIGMAS
+    caveat = ("a robot whose wheels or track are 3 standard deviations of its belief out turns its heading past a quarter "
+              "turn in the maze, and the position's error then bends beyond what a covariance describes")  # fmt: skip
 
     def step(self, readings: Readings) -> tuple[float, float]:
         left, right = readings.encoder_ticks.tolist()

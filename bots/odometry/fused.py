@@ -33,9 +33,9 @@ import numpy as np
 
 from bots.odometry.base import ArcOdometry, Geometry
 from bots.odometry.encoder import EncoderOdometry
-from bots.odometry.layout import ESTIMATE, Counts, Estimate
+from bots.odometry.layout import ESTIMATE, PROPAGATE_WORK, Counts, Estimate
 from bots.odometry.mouse import MouseOdometry, mouse_arc, watch_slides
-from bots.odometry.propagation import MID_ANGLE, PROPAGATE_WORK, lay, mouse_terms, mouse_variance, propagate, wheel_terms, wheel_variances
+from bots.odometry.propagation import MID_ANGLE, lay, mouse_terms, mouse_variance, propagate, wheel_terms, wheel_variances
 from bots.readings import Readings
 from bots.spec import RobotSpec
 from bots.uncertainty import ERROR, ERRORS
@@ -260,6 +260,8 @@ class FusedOdometry(ArcOdometry):
 
     uses_mouse = True
     watch = ESTIMATE.fused
+    caveat = ("too cautious early in a run (its calibration update takes quantisation as white noise); a slide slower than "
+              "its slide watch sees is not in its covariance")  # fmt: skip
 
     def __init__(self, rule: Literal["ekf", "blend"] = "ekf", geometry: Geometry | None = None, weight: float = G_POS):
         if rule not in ("ekf", "blend"):

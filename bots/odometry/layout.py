@@ -14,6 +14,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from bots.uncertainty import ERRORS
 from sim.kinematics.packed import Field, Table
 
 
@@ -107,6 +108,11 @@ STATE = Table(
     Field("fused_watch", 1, "the fused estimate's slide watch", SLIDE_WATCH.dtype),
 )
 
+PROPAGATE_WORK = 3
+"""Scratch planes (`workspace`) `bots.odometry.propagation.propagate` uses; the steps that call it use those after."""
+WORK = 29
+"""Scratch planes of (ERRORS, ERRORS) a step uses at most (`bots.odometry.fused.fused_step`)."""
+
 
 class Counts(NamedTuple):
     """One step's readings an estimator takes (floats): encoder ticks, mouse counts in the sensor frame."""
@@ -138,3 +144,9 @@ def watch_of(state: np.void, estimate: int) -> np.void:
     """The slide watch of estimate ESTIMATE.mouse or ESTIMATE.fused in a STATE row (a view), or
     None for an estimate without one."""
     return {ESTIMATE.mouse: state["mouse_watch"], ESTIMATE.fused: state["fused_watch"]}.get(estimate)
+
+
+def workspace() -> np.ndarray:
+    """Scratch for the compiled steps (WORK planes of (ERRORS, ERRORS)): their intermediates live
+    there, not in arrays allocated every step (which cost more than the arithmetic)."""
+    return np.zeros((WORK, ERRORS, ERRORS))

@@ -23,10 +23,6 @@ from sim.kinematics.batch import advance_one
 MID_ANGLE, END_HEADING = 0.5, 1.0
 """Where an arc's chord is laid (`propagate`'s share of the heading change): along the mid-angle
 (exact, seed 002 eqs 1.7, 1.12) or along the end heading (the c't-Bot firmware)."""
-PROPAGATE_WORK = 3
-"""Scratch planes (`workspace`) `propagate` uses; the steps that call it use those after."""
-WORK = 29
-"""Scratch planes of (ERRORS, ERRORS) a step uses at most (`bots.odometry.fused.fused_step`)."""
 
 
 @numba.njit(cache=True)
@@ -108,11 +104,6 @@ def pose_covariance(cov: np.ndarray, heading: float, lag: np.ndarray, out: np.nd
     out[4] = cov[1, 2] + lag[0, 1] * sn
     out[5] = cov[2, 2] + lag[1, 1]
 
-
-def workspace() -> np.ndarray:
-    """Scratch for the steps (WORK planes of (ERRORS, ERRORS)): their intermediates live there,
-    not in arrays allocated every step (which cost more than the arithmetic)."""
-    return np.zeros((WORK, ERRORS, ERRORS))
 
 
 @numba.njit(cache=True)

@@ -23,6 +23,7 @@ import pymunk
 
 import sim
 from bots.readings import ARRAYS, SensorFrame, frozen_copy
+from bots.sensor_kinds import sections
 from bots.spec import RobotSpec
 from sim.world import layout
 from sim.world.bodies import BodyArrays
@@ -231,7 +232,7 @@ class World:
         return ((start.x, start.y, start.heading), start.slot) if isinstance(start, Start) else (tuple(start), None)
 
     def _sensor_rngs(self, spec: RobotSpec, index: int, seed: int | None) -> dict[str, np.random.Generator]:
-        sensors = ["encoders", "mouse", "mouse2", PHASES] + [s.name for s in (*spec.ir, *spec.line, *spec.border, *spec.light)]
+        sensors = ["encoders", "mouse", "mouse2", PHASES] + [s.name for section in sections() for s in getattr(spec, section)]
         if seed is None:
             return {n: sensor_rng(self.seed, index, n) for n in sensors}
         return {n: sensor_rng(seed, 0, n) for n in sensors}
