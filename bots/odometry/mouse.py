@@ -9,7 +9,7 @@ import numba
 import numpy as np
 
 from bots.odometry.base import ArcOdometry
-from bots.odometry.layout import ESTIMATE, PROPAGATE_WORK, SIGMA_SPREAD
+from bots.odometry.layout import ESTIMATE, PLANE, SIGMA_SPREAD
 from bots.odometry.propagation import MID_ANGLE, lay, mouse_terms, mouse_variance, propagate, wheel_variances
 from bots.readings import Readings
 from bots.uncertainty import ERROR
@@ -27,7 +27,7 @@ def mouse_step(p: np.void, heading: float, cov: np.ndarray, forward: float, late
     """Mouse odometry: the increment of these counts; `cov` propagated from `heading` (`work`:
     scratch, `workspace`)."""
     s, alpha = mouse_arc(p, forward, lateral)
-    jac, noise = work[PROPAGATE_WORK, :2, :], work[PROPAGATE_WORK + 1, :2, :2]
+    jac, noise = work[PLANE.jac, :2, :], work[PLANE.noise, :2, :2]
     mouse_terms(s, alpha, p.mount_x, p.mount_y, mouse_variance(p, s, alpha), jac, noise)
     propagate(cov, heading, s, alpha, MID_ANGLE, jac, noise, work)
     return s, alpha
