@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import dataclasses
 import importlib
+from typing import get_args, get_origin, get_type_hints
 
 import numpy as np
 import pytest
@@ -14,7 +15,7 @@ from bots import sensor_kinds
 from bots.ctbot import CTBOT
 from bots.readings import Readings
 from bots.sensor_kinds import KINDS, SensorKind, groups, sections
-from bots.spec import _LISTS
+from bots.spec import _LISTS, RobotSpec
 
 
 def _resolve(dotted: str):
@@ -39,7 +40,8 @@ def test_the_registry_lists_every_readings_array_once():
 def test_its_sections_kernels_and_packets_exist():
     from sim.bridge import protocol
 
-    assert set(sections()) == set(_LISTS)
+    declared = {name for name, hint in get_type_hints(RobotSpec).items() if get_origin(hint) is tuple and dataclasses.is_dataclass(get_args(hint)[0])}
+    assert set(sections()) == set(_LISTS) == declared  # (every list of sensors a robot declares is a kind's section, and only those)
     for kind in KINDS:
         assert callable(_resolve(kind.kernel)), kind.kernel
         assert kind.noise is None or callable(_resolve(kind.noise)), kind.noise
