@@ -133,3 +133,15 @@ def test_the_export_and_the_recording_name_a_c_t_bot_s_channels_alike():
             assert _channels(CTBOT, kind.field) == field_channels(CTBOT, kind.field)[0], kind.field
     assert _channels(CTBOT, "ir_raw") == tuple(s.name for s in CTBOT.ir)
     assert _channels(CTBOT.with_changes(mouse=None), "mouse_counts") == ()
+
+
+def test_the_odometry_names_the_tallies_in_the_registry_s_order():
+    """`bots.odometry.layout.TALLY` (the counts' places in a step's tallies) follows the
+    registry's packing of its tallies array: the encoder ticks (left, right), then the mouse
+    counts (forward, lateral)."""
+    from bots.odometry.layout import TALLY
+    from bots.sensor_kinds import FRAMED
+
+    packed = [(kind.field, kind.width(CTBOT)) for kind in FRAMED if kind.frame == "tallies"]
+    assert packed == [("encoder_ticks", 2), ("mouse_counts", 2)]
+    assert (TALLY.left, TALLY.right, TALLY.forward, TALLY.lateral) == (0, 1, 2, 3)
