@@ -231,9 +231,10 @@ class _Copies:
         world = self.world
         before = world.poses()
         self.ticks[:] = 0.0
+        ticks = tally_rows(world.tallies)["ticks"]  # (the World's tallies, each step's counts written into them)
         for _ in range(self.task.substeps):
             world.step(commands)
-            self.ticks += tally_rows(world.tallies)["ticks"]
+            self.ticks += ticks
         self.steps += moving
         return before, world.poses()
 
