@@ -35,9 +35,9 @@ def figures(quick: bool):
         from bench import world
     except ImportError:
         return
-    from bench import bridge, experiments, first_run, lab, localiser, main_job, memory
+    from bench import bridge, experiments, first_run, lab, localiser, main_job, memory, sigma_points
 
-    for module in (main_job, world, localiser, bridge, lab, experiments, memory, first_run):
+    for module in (main_job, world, localiser, bridge, lab, experiments, memory, first_run, sigma_points):
         yield from module.figures(scale)
 
 

@@ -65,3 +65,18 @@ def test_a_kept_run_replays_to_the_estimates_it_logged(tmp_path):
     for name, values in nees_at(track).items():
         np.testing.assert_array_equal(table.per_seed[name][0], values)
         np.testing.assert_array_equal(values, nees(track.truth[rows], track.estimates[name][rows], track.covariances[name][rows]))
+
+
+def test_where_a_covariance_does_not_hold_the_run_says_so():
+    """summary.json and the run's table say, for each shipped estimate, where its covariance is
+    known not to tell the truth (`ArcOdometry.caveat`, docs/odometry.md); a user's estimate has none."""
+    from bots.odometry.defaults import caveats
+    from sim.cli.output import table
+    from sim.experiments import simulate
+
+    summary = simulate("maze", duration=0.2).summary()
+    said = summary["robots"][0]["caveats"]
+    assert set(said) == {"encoders", "firmware", "mouse", "fused"} and said == caveats()
+    printed = table(summary).splitlines()
+    for name, caveat in said.items():
+        assert f"  {name}: {caveat}" in printed

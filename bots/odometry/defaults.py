@@ -11,6 +11,12 @@ from bots.odometry.mouse import MouseOdometry
 from bots.spec import RobotSpec
 
 
+def caveats() -> dict[str, str]:
+    """Each shipped estimator's name -> where its covariance is known not to tell the truth
+    (`ArcOdometry.caveat`), for a run's summary and table."""
+    return {e.name: e.caveat for e in (EncoderOdometry(), FirmwareOdometry(), MouseOdometry(), FusedOdometry()) if e.caveat}
+
+
 def default_estimators(robot: RobotSpec, geometry: Geometry | None = None) -> list[Estimator]:
     """The estimators a run compares by default for this robot: encoders and firmware always,
     mouse and fused where the robot has a mouse that can see rotation; for a general chassis, its

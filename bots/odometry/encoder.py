@@ -6,8 +6,8 @@ import numba
 import numpy as np
 
 from bots.odometry.base import ArcOdometry
-from bots.odometry.layout import SIGMA_SPREAD, SIGMAS
-from bots.odometry.propagation import END_HEADING, MID_ANGLE, PROPAGATE_WORK, lay, propagate, wheel_terms, wheel_variances
+from bots.odometry.layout import PLANE, SIGMA_SPREAD, SIGMAS
+from bots.odometry.propagation import END_HEADING, MID_ANGLE, lay, propagate, wheel_terms, wheel_variances
 from bots.readings import Readings
 
 
@@ -17,7 +17,7 @@ def encoder_step(p: np.void, heading: float, cov: np.ndarray, left: float, right
     (`work`: scratch, `workspace`)."""
     s_left, s_right = left * p.tick_left, right * p.tick_right
     s, alpha = 0.5 * (s_left + s_right), (s_right - s_left) / p.track
-    jac, noise = work[PROPAGATE_WORK, :2, :], work[PROPAGATE_WORK + 1, :2, :2]
+    jac, noise = work[PLANE.jac, :2, :], work[PLANE.noise, :2, :2]
     var_left, var_right = wheel_variances(p, s_left, s_right)
     wheel_terms(s_left, s_right, alpha, p.track, var_left, var_right, jac, noise)
     propagate(cov, heading, s, alpha, END_HEADING if end_heading else MID_ANGLE, jac, noise, work)
@@ -48,6 +48,8 @@ class EncoderOdometry(ArcOdometry):
 
     name = "encoders"
     sigma_count = SIGMAS
+    caveat = ("a robot whose wheels or track are 3 standard deviations of its belief out turns its heading past a quarter "
+              "turn in the maze, and the position's error then bends beyond what a covariance describes")  # fmt: skip
 
     def step(self, readings: Readings) -> tuple[float, float]:
         left, right = readings.encoder_ticks.tolist()

@@ -15,3 +15,4 @@ class FirmwareOdometry(EncoderOdometry):
 
     name = "firmware"
     end_heading = True
+    caveat = "not consistent by construction: its own lateral error (the chord laid along the end heading) is not in its covariance"

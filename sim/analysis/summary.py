@@ -48,7 +48,10 @@ def summarize(result: RunResult, options: dict[str, Any], metrics: dict[str, dic
     (`metrics`: robot -> estimate -> metrics as a dict, where the caller has them already)."""
     from dataclasses import asdict
 
+    from bots.odometry.defaults import caveats
     from sim.analysis.metrics import compare_run, path_length
+
+    known = caveats()
 
     if metrics is None:
         metrics = {robot: {name: asdict(m) for name, m in by_name.items()} for robot, by_name in (compare_run(result) if len(result) else {}).items()}
@@ -65,6 +68,7 @@ def summarize(result: RunResult, options: dict[str, Any], metrics: dict[str, dic
             "goal_time": log.goal_time,
             "goal": log.goal_outcome(result.duration) if result.world.goals else None,
             "estimates": metrics.get(log.name, {}),
+            "caveats": {name: known[name] for name in metrics.get(log.name, {}) if name in known},
             "notes": [{"message": message, "steps": count} for message, count in log.notes.values()],
         }
         for log in result.robots

@@ -198,5 +198,8 @@ def table(summary: dict[str, Any]) -> str:
         if note:
             lines[row] += "   " + note
     low, high = interval(1)
+    said = {name: caveat for robot in summary["robots"] for name, caveat in robot.get("caveats", {}).items()}
     return "\n".join([f"{sanitize.name(summary['world']['name'])}, seed {summary['seed']}, noise {summary.get('noise', 'none')}, "
-                      f"{summary['time']:.2f} s simulated: {outcome}", *lines, NEES_NOTE.format(low=low, high=high)])
+                      f"{summary['time']:.2f} s simulated: {outcome}", *lines, NEES_NOTE.format(low=low, high=high),
+                      *(["where each covariance is known not to hold (docs/odometry.md):"] if said else []),
+                      *(f"  {name}: {caveat}" for name, caveat in said.items())])
