@@ -16,7 +16,7 @@ import math
 import numba
 import numpy as np
 
-from bots.odometry.layout import SIGMA_SPREAD
+from bots.odometry.layout import NODE_WEIGHTS
 from bots.uncertainty import ERROR, ERRORS
 from sim.kinematics.batch import advance_one
 
@@ -143,12 +143,29 @@ def add_offset(point: np.ndarray, pose: np.ndarray, weight: float, out: np.ndarr
 
 
 @numba.njit(cache=True)
+def node_of(point: int, error: int) -> int:
+    """Which node (`bots.odometry.layout.NODES`) sigma point `point` takes for calibration error
+    `error`: the error's base-3 digit of point + 1 (point 0 is the first beside the estimate)."""
+    return ((point + 1) // 3**error) % 3
+
+
+@numba.njit(cache=True)
+def point_weight(point: int, count: int) -> float:
+    """The weight of sigma point `point` of `count` (3**errors - 1): its nodes' weights' product."""
+    weight, errors = 1.0, 0
+    while 3**errors < count + 1:
+        weight *= NODE_WEIGHTS[node_of(point, errors)]
+        errors += 1
+    return weight
+
+
+@numba.njit(cache=True)
 def add_spread(sigmas: np.ndarray, count: int, pose: np.ndarray, out: np.ndarray) -> None:
     """Add the spread of the first `count` sigma points about `pose` to the covariance entries
-    `out` (COVARIANCE_FIELDS): the calibration's part of the error, unscented (each point weighs
-    1 / (2 SIGMA_SPREAD²), the estimate itself the rest)."""
+    `out` (COVARIANCE_FIELDS): the calibration's part of the error, by Gauss-Hermite cubature
+    (each point weighs `point_weight`, the estimate itself the rest)."""
     for i in range(count):
-        add_offset(sigmas[i], pose, 0.5 / (SIGMA_SPREAD * SIGMA_SPREAD), out)
+        add_offset(sigmas[i], pose, point_weight(i, count), out)
 
 
 @numba.njit(cache=True, inline="always")
