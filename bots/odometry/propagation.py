@@ -132,8 +132,10 @@ def mouse_variance(p: np.void, s: float, alpha: float) -> float:
 @numba.njit(cache=True)
 def add_offset(point: np.ndarray, pose: np.ndarray, weight: float, out: np.ndarray) -> None:
     """Add `weight` times the outer product of `point`'s offset from `pose` (both (3,)) to the
-    covariance entries `out` (COVARIANCE_FIELDS)."""
-    dx, dy, dt = point[0] - pose[0], point[1] - pose[1], point[2] - pose[2]
+    covariance entries `out` (COVARIANCE_FIELDS), its heading within a half turn as the NEES
+    takes an error's (`sim.analysis.nees`): a point 245 degrees one way lies 115 the other."""
+    dx, dy = point[0] - pose[0], point[1] - pose[1]
+    dt = (point[2] - pose[2] + math.pi) % (2.0 * math.pi) - math.pi
     out[0] += weight * dx * dx
     out[1] += weight * dx * dy
     out[2] += weight * dx * dt
