@@ -41,14 +41,15 @@ class EncoderOdometry(ArcOdometry):
     """Wheel encoders through the exact arc: ticks -> wheel arcs -> pose increment (eqs 1.3, 1.12).
     Covariance: each wheel's arc has variance (slip_var + tick_rate * tick) * |s| per step
     (first order), and the wheel scales and track are unknown by their believed size
-    (`bots.uncertainty`), carried by six sigma points (`ArcOdometry`).
+    (`bots.uncertainty`), carried by 26 sigma points, every combination of three nodes of each
+    (`ArcOdometry`, `bots.odometry.layout.SIGMAS`).
 
     geometry: the believed wheel diameters and track; None = the robot's nominal ones."""
 
     name = "encoders"
     sigma_count = SIGMAS
-    caveat = ("a robot whose wheels or track are 3 standard deviations of its belief out turns its heading past a quarter "
-              "turn in the maze, and the position's error then bends beyond what a covariance describes")  # fmt: skip
+    caveat = ("one robot's wheels and track are off the same in every run: its mean NEES over runs says where they lie in "
+              "its belief (the realistic c't-Bot's: too cautious), not whether the covariance holds over the robots it describes")  # fmt: skip
 
     def step(self, readings: Readings) -> tuple[float, float]:
         left, right = readings.encoder_ticks.tolist()
