@@ -148,16 +148,19 @@ def add_offset(point: np.ndarray, pose: np.ndarray, weight: float, out: np.ndarr
 def node_of(point: int, error: int) -> int:
     """Which node (`bots.odometry.layout.NODES`) sigma point `point` takes for calibration error
     `error`: the error's base-3 digit of point + 1 (point 0 is the first beside the estimate)."""
-    return ((point + 1) // 3**error) % 3
+    digits = point + 1
+    for _ in range(error):
+        digits //= 3
+    return digits % 3
 
 
 @numba.njit(cache=True)
 def point_weight(point: int, count: int) -> float:
     """The weight of sigma point `point` of `count` (3**errors - 1): its nodes' weights' product."""
-    weight, errors = 1.0, 0
-    while 3**errors < count + 1:
-        weight *= NODE_WEIGHTS[node_of(point, errors)]
-        errors += 1
+    weight, digits, size = 1.0, point + 1, count + 1
+    while size > 1:
+        weight *= NODE_WEIGHTS[digits % 3]
+        digits, size = digits // 3, size // 3
     return weight
 
 
