@@ -160,11 +160,18 @@ def load_file(path: str | Path, name: str | None = None) -> Callable[..., Contro
     return lambda: FunctionController(found)
 
 
+MAX_SOURCE_BYTES = 16 * 2**20
+"""Largest controller or estimator file loaded: Python holds a file's text and its compiled code in
+memory at once (a 200 MB file of comments took 700 MB and 20 s)."""
+
+
 def user_module(path: Path, kind: str, error: type[UserError]) -> types.ModuleType:
     """A user's Python file run as a module (a controller's, an estimator's); `error` names the
     file and line where it failed to load, with no traceback of ours."""
     if not path.is_file():
         raise error(f"{path}: not a regular file (a pipe, device or folder); give the {kind}'s .py file" if path.exists() else f"{path}: no such {kind} file")
+    if path.stat().st_size > MAX_SOURCE_BYTES:
+        raise error(f"{path}: {path.stat().st_size:,} bytes, more than {'an' if kind[0] in 'aeiou' else 'a'} {kind}'s file may have ({MAX_SOURCE_BYTES:,}); keep data in files it reads")
     spec = importlib.util.spec_from_file_location(f"ctsim_user_{path.stem}", path)
     module = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = module

@@ -21,15 +21,12 @@ def _frozen(values: np.ndarray) -> np.ndarray:
     return values
 
 
-def frozen_copies(values: np.ndarray, believed: np.ndarray, tallies: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Copies of a step's rows (C-ordered: int64 `values`, float64 `believed`, int64 `tallies`)
-    over one immutable bytes object: no flag, view or `.base` of them can be made writeable (numpy
-    refuses), so readings handed to a controller never reach the rows they were copied from. (One
-    copy for the three: a run makes one every step.)"""
-    data = b"".join((values.data, believed.data, tallies.data))
-    ints = np.frombuffer(data, np.int64)
-    n, m = len(values), len(believed)
-    return ints[:n], np.frombuffer(data, np.float64, m, 8 * n), ints[n + m :].reshape(tallies.shape)
+def frozen_copy(array: np.ndarray) -> np.ndarray:
+    """A flat copy of `array` over immutable bytes: no flag, view or `.base` of it can be made
+    writeable (numpy refuses), so readings handed to a controller never reach the array they were
+    copied from. (Cheaper than one bytes object for a step's three rows: memoryviews cost more than
+    they save.)"""
+    return np.frombuffer(array.tobytes(), array.dtype)
 
 
 @dataclass(slots=True)

@@ -52,6 +52,12 @@ class SensorKind:
     """A `RobotSpec` attribute that must not be None for it to have channels (the mouse)."""
     chassis_only: bool = False
     """Only a general chassis reads it."""
+    per_wheel: bool = False
+    """A general chassis has one channel per wheel (named after them) instead of its `channels`."""
+    angle: bool = False
+    """A wheel's angle: recorded and shown from the wheel's straight-ahead (`sim.views.chassis_view.steering_deflection`)."""
+    rays: bool = False
+    """A distance each of its sensors sees: the recording draws it as rays from the sensors."""
     observed: str | None = None
     """How a Gymnasium observation holds it (`sim.experiments.gym`): "distance" (m, nothing in
     range read as the sensor's `max_range`) or "fraction" (of `full_scale`); None: not at all."""
@@ -92,7 +98,7 @@ KINDS: tuple[SensorKind, ...] = (
     SensorKind("ir_raw", "ir", (), np.int64, "ir_raw", "kernels.sensing.read_ir", "kernels.sensing.ir_values", "ir_raw", "IR raw (ADC)", "IR raw",
                packet="SENS_IR", idle=(100, 80)),  # (GP2D12 raw values with nothing in view: c't-Sim's curves beyond 85 cm)
     SensorKind("ir_distance", "ir", (), np.float64, "ir_distance", "kernels.sensing.read_ir", "kernels.sensing.ir_values", "ir_distance",
-               "IR distance (mm)", "IR distance mm", scale=1000.0, observed="distance"),
+               "IR distance (mm)", "IR distance mm", scale=1000.0, observed="distance", rays=True),
     SensorKind("line", "line", (), np.int64, "floor", "kernels.sensing.sample_floor", "kernels.noise.add_rounded", "floor",
                "floor: line and border (0 white, 1023 black)", "line   (0-1023)", packet="SENS_LINE",
                observed="fraction", full_scale=1023.0),
@@ -103,13 +109,13 @@ KINDS: tuple[SensorKind, ...] = (
                "light (0 bright, 1023 dark)", "light  (0-1023)", packet="SENS_LDR", idle=(1023, 1023),
                observed="fraction", full_scale=1023.0),
     SensorKind("encoder_ticks", None, ("left", "right"), np.int64, "tallies", "kernels.motion.plan", "kernels.noise.spurious_ticks",
-               "encoders", "encoders (ticks per step)", "encoders ticks", packet="SENS_ENC"),
+               "encoders", "encoders (ticks per step)", "encoders ticks", packet="SENS_ENC", per_wheel=True),
     SensorKind("mouse_counts", None, ("forward", "left"), np.int64, "tallies", "kernels.motion.measure", "kernels.noise.draw_step", "mouse",
                "mouse (counts per step: forward, left)", "mouse counts", packet="SENS_MOUSE", needs="mouse"),
     SensorKind("mouse2_counts", None, ("mouse 2 forward", "mouse 2 left"), np.int64, None, "chassis_drive.ChassisDrive.fill", "chassis_drive.ChassisDrive.fill", "mouse",
                "mouse (counts per step: forward, left)", "mouse 2 counts", chassis_only=True),
     SensorKind("steering", None, (), np.float64, None, "chassis_drive.ChassisDrive.fill", None, "steering", "steered from straight (deg)", "steered deg",
-               scale=180.0 / math.pi, chassis_only=True),
+               scale=180.0 / math.pi, chassis_only=True, angle=True),
 )
 """Every kind, in the recording's column order (and, within a shared `frame` array, the packing order)."""
 BY_FIELD = {kind.field: kind for kind in KINDS}

@@ -155,24 +155,102 @@ def test_a_bad_estimator_is_one_line_and_exit_2_before_anything_runs(tmp_path, c
     assert not (out / RESULTS).exists()
 
 
-def _broken_run(results: dict) -> dict:
-    broken = json.loads(json.dumps(results))
-    broken["runs"][1]["metrics"]["encoders"]["ate_rmse"] = "small"
-    return broken
+def _changed(results: dict, change) -> dict:  # noqa: ANN001 (a function changing a copy in place)
+    copy = json.loads(json.dumps(results))
+    change(copy)
+    return copy
 
 
-CHANGES = {"suite_version": lambda r: {**r, "suite_version": "0"}, "format": lambda r: {**r, "format": "0"}, "runs missing": lambda r: {**r, "runs": r["runs"][1:]},
-           "a metric not a number": _broken_run, "a name not a word": lambda r: {**r, "estimators": {"\x1b[31mred": r["estimators"]["euler"]}}}  # fmt: skip
+def _metric(results: dict, value: object, name: str = "ate_rmse") -> dict:
+    return _changed(results, lambda r: r["runs"][1]["metrics"]["euler"].__setitem__(name, value))
 
 
-@pytest.mark.parametrize("change", [*CHANGES, "not json"])
+def _ghost(r: dict) -> None:
+    r["runs"][0]["metrics"]["ghost"] = r["runs"][0]["metrics"]["euler"]
+
+
+def _million(r: dict) -> None:  # (a million runs: more than any suite has, refused by the suite's seeds)
+    r["seeds"] = list(range(10**6))
+    r["runs"] = [{"scenario": "maze_realistic_4s", "seed": seed, "metrics": {}} for seed in r["seeds"]]
+
+
+CHANGES = {
+    "suite_version": lambda r: {**r, "suite_version": "0"}, "format": lambda r: {**r, "format": "0"}, "runs missing": lambda r: {**r, "runs": r["runs"][1:]},
+    "a metric not a number": lambda r: _metric(r, "small"), "a name not a word": lambda r: {**r, "estimators": {"\x1b[31mred": r["estimators"]["euler"]}},
+    "a negative metric": lambda r: _metric(r, -1.0), "a metric true": lambda r: _metric(r, True), "a heading error beyond pi": lambda r: _metric(r, 4.0, "final_heading_error"),
+    "format_version true": lambda r: {**r, "format_version": True}, "ctsim_version a list": lambda r: {**r, "ctsim_version": ["0.1"]},
+    "ctsim_version with escapes": lambda r: {**r, "ctsim_version": "\x1b[2J\u202e0.1"}, "an unknown suite": lambda r: {**r, "suite": "mine"},
+    "other seeds": lambda r: {**r, "seeds": [0, 2]}, "seeds as bools": lambda r: {**r, "seeds": [False, True]}, "a million runs": lambda r: _changed(r, _million),
+    "an unknown key": lambda r: {**r, "note": "\ud800"}, "a scenario renamed": lambda r: _changed(r, lambda c: c["scenarios"].__setitem__("x", c["scenarios"].pop("line_none_20s"))),
+    "a scenario's settings changed": lambda r: _changed(r, lambda c: c["scenarios"]["line_none_20s"].__setitem__("noise", "none ")),
+    "two scenarios of one hash": lambda r: _changed(r, lambda c: [v.__setitem__("hash", "0" * 64) for v in c["scenarios"].values()]),
+    "a hash not hex": lambda r: _changed(r, lambda c: c["scenarios"]["line_none_20s"].__setitem__("hash", "<b>")),
+    "a run's seed a float": lambda r: _changed(r, lambda c: c["runs"][0].__setitem__("seed", 0.0)),
+    "a run twice": lambda r: {**r, "runs": [r["runs"][0], *r["runs"]]}, "runs out of order": lambda r: {**r, "runs": r["runs"][::-1]},
+    "metrics of an estimator not listed": lambda r: _changed(r, _ghost),
+    "a failure of a shipped estimator": lambda r: _changed(r, lambda c: c["runs"][0].__setitem__("failed", {"encoders": "boom"})),
+    "a failure with escapes": lambda r: _changed(r, lambda c: c["runs"][0].__setitem__("failed", {"euler": "\x1b[2Jboom"})),
+    "a source with escapes": lambda r: _changed(r, lambda c: c["estimators"]["euler"].__setitem__("source", "\x1b[31m<script>.py")),
+}  # fmt: skip
+"""Results files edited by hand or by another program, each refused in one line naming the file."""
+TEXTS = {
+    "not json": lambda text: "{", "empty": lambda text: "", "NaN": lambda text: text.replace('"ate_rmse": 0.', '"ate_rmse": NaN, "x": 0.', 1),
+    "Infinity": lambda text: text.replace('"ate_rmse": 0.', '"ate_rmse": Infinity, "x": 0.', 1),
+    "a key twice": lambda text: text.replace('"format": ', '"format": "x", "format": ', 1), "nested 100,000 deep": lambda text: "[" * 100_000 + "]" * 100_000,
+    "an integer of 5,000 digits": lambda text: text.replace('"seeds": [', '"seeds": [' + "9" * 5000 + ", ", 1),
+    "not UTF-8": lambda text: text.replace("euler", "eul\udcffr", 1),
+}  # fmt: skip
+"""Results files that are not JSON as a results file holds it."""
+
+
+@pytest.mark.parametrize("change", [*CHANGES, *TEXTS])
 def test_a_results_file_of_another_version_or_shape_is_one_line_and_exit_2(scored, tmp_path, capsys, change):
     results, out = scored
     other = tmp_path / "other.json"
-    other.write_text("{" if change == "not json" else json.dumps(CHANGES[change](results)))
+    if change in TEXTS:
+        other.write_bytes(TEXTS[change]((out / RESULTS).read_text()).encode("utf-8", "surrogateescape"))
+    else:
+        other.write_text(json.dumps(CHANGES[change](results)))
     assert main(["evaluate", "--merge", str(out / RESULTS), str(other), "--out", str(tmp_path / "merged")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and err[0].startswith("ctsim: error:") and "other.json" in err[0]
+    assert len(err) == 1 and err[0].startswith("ctsim: error:") and "other.json" in err[0] and len(err[0]) < 400, err
+    assert not (tmp_path / "merged").exists()
+
+
+def _plant(path: Path, kind: str) -> None:
+    """Something that is not a results file at `path`."""
+    import os
+
+    if kind == "pipe":
+        os.mkfifo(path)
+    elif kind == "folder":
+        path.mkdir()
+    elif kind == "link to a device":
+        path.symlink_to("/dev/zero")
+    elif kind == "dangling link":
+        path.symlink_to(path.with_name("nowhere.json"))
+    else:  # (sparse: it takes no room)
+        with path.open("wb") as file:
+            file.truncate(10**9)
+
+
+@pytest.mark.skipif(not hasattr(__import__("os"), "mkfifo"), reason="named pipes are POSIX")
+@pytest.mark.parametrize("kind", ["pipe", "folder", "link to a device", "dangling link", "a sparse file of 1 GB"])
+def test_a_results_file_that_is_no_regular_file_or_too_large_is_refused_without_reading_it(scored, tmp_path, capsys, kind):
+    """Not waited on (a pipe), not read into memory (/dev/zero, 1 GB): one line naming it, exit 2."""
+    _, out = scored
+    other = tmp_path / "other.json"
+    _plant(other, kind)
+    assert main(["evaluate", "--merge", str(out / RESULTS), str(other), "--out", str(tmp_path / "merged")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith(f"ctsim: error: {other}: "), err
+
+
+def test_a_link_to_a_results_file_is_read_as_the_file(scored, tmp_path):
+    results, out = scored
+    (tmp_path / "link.json").symlink_to(out / RESULTS)
+    assert main(["evaluate", "--merge", str(out / RESULTS), str(tmp_path / "link.json"), "--out", str(tmp_path / "merged")]) == 0
+    assert read_results(tmp_path / "merged" / RESULTS) == results
 
 
 def test_ctrl_c_keeps_the_finished_runs_and_the_same_call_runs_only_the_rest(scored, tmp_path):
@@ -328,3 +406,85 @@ def test_a_folder_planted_at_a_results_name_fails_the_writing_alone_naming_every
     written = err.rsplit("(written: ", 1)[1].rstrip(")\n").split(", ")
     assert sorted(written) == sorted(p.name for p in folder.iterdir() if p.is_file() and p.name != "results.parquet" and not p.name.startswith("."))
     assert (folder / planted).is_dir() and len(written) == 3
+
+
+HANGS_WHEN = """
+import time
+
+if {at!r} == "import":
+    time.sleep(1000)
+
+
+class Slow:
+    def __init__(self):
+        if {at!r} == "init":
+            time.sleep(1000)
+
+    def reset(self, robot, pose):
+        self.pose = pose
+
+    def update(self, readings):
+        pass
+"""
+
+
+@pytest.mark.parametrize(("at", "line"), [("import", 5), ("init", 11)])
+def test_an_estimator_file_that_hangs_while_it_is_loaded_or_made_is_one_line_and_exit_1(tmp_path, capsys, at, line):
+    """Under twelve step time limits (a minute by default: a file may import a large library), as in `ctsim run`."""
+    path = tmp_path / "slow.py"
+    path.write_text(textwrap.dedent(HANGS_WHEN.format(at=at)))
+    assert main(["evaluate", str(path), "--suite", "test", "--out", str(tmp_path / "out"), "--engine", "serial", "--step-timeout", "0.1"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [f"ctsim: error: loading or making the controllers and estimators took longer than 1.2 s (12 step time limits) ({path}:{line})"]
+
+
+def _source(tmp_path: Path, kind: str) -> str:
+    """An estimator argument of `ctsim evaluate` of the given hostile kind."""
+    import os
+
+    path = tmp_path / "mine.py"
+    good = "class Mine:\n    def reset(self, robot, pose):\n        self.pose = pose\n\n    def update(self, readings):\n        pass\n"
+    if kind == "a class it does not define":
+        path.write_text(good)
+        return f"{path}:Missing"
+    if kind == "a syntax error":
+        path.write_text("def broken(:\n")
+    elif kind == "null bytes":
+        path.write_bytes(b"class A:\x00\n")
+    elif kind == "no estimator class":
+        path.write_text("class Controller:\n    def step(self, t, readings):\n        pass\n")
+    elif kind == "a class that is no estimator":
+        path.write_text("class Controller:\n    def step(self, t, readings):\n        pass\n")
+        return f"{path}:Controller"
+    elif kind == "a number named as its class":
+        path.write_text("X = 5\n")
+        return f"{path}:X"
+    elif kind == "a folder":
+        path.mkdir()
+    elif kind == "a pipe":
+        os.mkfifo(path)
+    elif kind == "a device":
+        return "/dev/zero"
+    elif kind == "a sparse file of 100 MB":
+        path.write_text(good)
+        with path.open("ab") as file:
+            file.truncate(100 * 2**20)
+    elif kind == "a name taken":
+        path.write_text(good.replace("class Mine:", "class Mine:\n    name = 'encoders'"))
+    return str(path)
+
+
+@pytest.mark.skipif(not hasattr(__import__("os"), "mkfifo"), reason="named pipes are POSIX")
+@pytest.mark.parametrize(("kind", "said"), [
+    ("missing", "no such estimator file"), ("a class it does not define", "defines no 'Missing'"), ("a syntax error", "mine.py:1: SyntaxError"),
+    ("null bytes", "cannot contain null bytes"), ("no estimator class", "expected one class with reset(robot, pose) and update(readings)"),
+    ("a class that is no estimator", "'Controller' is not an estimator"), ("a number named as its class", "could not be made"),
+    ("a folder", "not a regular file"), ("a pipe", "not a regular file"), ("a device", "/dev/zero: not a regular file"),
+    ("a sparse file of 100 MB", "104,857,600 bytes, more than an estimator's file may have"), ("a name taken", "estimator name 'encoders' is taken"),
+])  # fmt: skip
+def test_an_estimator_argument_that_is_no_estimator_is_one_line_and_exit_2(tmp_path, capsys, kind, said):
+    out = tmp_path / "out"
+    assert main(["evaluate", _source(tmp_path, kind), "--suite", "test", "--out", str(out), "--engine", "serial"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("ctsim: error:") and said in err[0], err
+    assert not out.exists()

@@ -141,3 +141,130 @@ def test_a_run_folder_s_file_names_have_one_home():
                       for body in [node.body] if body and isinstance(body[0], ast.Expr)}  # fmt: skip
         found += [f"{rel}:{n.lineno}: {n.value!r}" for n in ast.walk(tree) if isinstance(n, ast.Constant) and n.value in names and id(n) not in docstrings]
     assert not found, "a run folder's file named outside run_folder.py (use RunFolder): " + "; ".join(found)
+
+
+OTHER_MEANINGS = {
+    # where a kind's name is also a word for something else (the sensor registry's kinds are
+    # `Readings` fields; these are not): file and the words, with what they name there
+    "sim/kinematics/__init__.py": ({"mouse_counts"}, "the core's function of that name, in __all__"),
+    "bots/spec.py": ({"line", "border", "light"}, "the robot file's sections (the registry's `section`s: tests/test_sensor_kinds.py holds them equal)"),
+    "bots/behaviours/floor.py": ({"line", "border"}, "the robot-file section of sensors a behaviour needs"),
+    "bots/behaviours/walls.py": ({"line"}, "the robot-file section of sensors a behaviour needs"),
+    "bots/behaviours/ocp_path.py": ({"line"}, "the OCP's steering-angle convention"),
+    "sim/kinematics/ocp.py": ({"line"}, "the OCP's steering-angle convention"),
+    "sim/kinematics/chassis.py": ({"line"}, "an ICR locus on a line"),
+    "sim/experiments/gym.py": ({"line"}, "the line-following task (and the line sensors its reward watches)"),
+    "sim/sandbox/box.py": ({"line"}, "the line number of a user's error"),
+    "sim/sandbox/guest.py": ({"line"}, "the line number of a user's error"),
+    "sim/sandbox/reply.py": ({"line"}, "the line number of a user's error"),
+    "sim/views/figures.py": ({"line", "light"}, "a world's floor line and lamps in a figure's legend"),
+    "sim/views/map_image.py": ({"light"}, "a world's lamp drawn on the map"),
+    "sim/world/files/parcours.py": ({"line"}, "c't-Sim's parcours character of a floor line"),
+    "sim/world/files/toml_format.py": ({"line", "light"}, "a world file's tables of floor lines and lamps"),
+    "sim/world/spec.py": ({"steering"}, "a wheel fault's kind"),
+    "sim/world/chassis_drive.py": ({"steering"}, "a wheel fault's kind"),
+}
+
+
+def test_sensor_kinds_are_spelled_only_in_the_registry():
+    """A sensor kind's name (a `Readings` field of `bots.sensor_kinds`) appears as a string only in
+    the registry (docstrings aside): every other part iterates over it or asks a row's column, so
+    a new kind is one row. OTHER_MEANINGS lists where the same word names something else."""
+    from bots.sensor_kinds import KINDS
+
+    kinds = {kind.field for kind in KINDS}
+    spelled = []
+    for rel, tree in _trees():
+        if rel == "bots/sensor_kinds.py":
+            continue
+        allowed = OTHER_MEANINGS.get(rel, (set(), ""))[0]
+        docstrings = {id(node.body[0].value) for node in ast.walk(tree) if isinstance(node, ast.Module | ast.ClassDef | ast.FunctionDef)
+                      and node.body and isinstance(node.body[0], ast.Expr)}  # fmt: skip
+        spelled += [f"{rel}:{n.lineno}: {n.value!r}" for n in ast.walk(tree)
+                    if isinstance(n, ast.Constant) and n.value in kinds and n.value not in allowed and id(n) not in docstrings]  # fmt: skip
+    assert not spelled, "a sensor kind spelled outside bots/sensor_kinds.py (iterate the registry): " + "; ".join(spelled)
+
+
+DECLARING = {"sim/world/layout.py", "bots/odometry/layout.py", "bots/sensor_kinds.py", "bots/uncertainty.py"}
+"""The modules that declare packed tables and the places along an axis (`ESTIMATE`, `ERROR`): an
+offset's number is typed there, once; everyone else reads it by name."""
+
+
+def test_no_integer_offset_is_typed_by_hand():
+    """An index into an array is a name from a declaration (a table's field, `ESTIMATE.fused`),
+    never a module constant bound to a number (`ENCODERS = 0`, `X, Y = range(2)`) outside the
+    DECLARING modules: such a constant used as an index (a slice's bounds are lengths, not
+    offsets) fails here with its file and line."""
+    modules = {rel: tree for rel, tree in _trees()}
+    offsets = {}  # (module name, constant) -> its file
+    for rel, tree in modules.items():
+        if rel in DECLARING:
+            continue
+        for node in tree.body:
+            value = node.value if isinstance(node, ast.Assign) else None
+            numbered = (isinstance(value, ast.Constant) and type(value.value) is int) or (
+                isinstance(value, ast.Tuple) and value.elts and all(isinstance(e, ast.Constant) and type(e.value) is int for e in value.elts)) or (
+                isinstance(value, ast.Call) and isinstance(value.func, ast.Name) and value.func.id == "range")  # fmt: skip
+            if numbered:
+                for target in node.targets:
+                    for name in target.elts if isinstance(target, ast.Tuple) else [target]:
+                        if isinstance(name, ast.Name) and name.id.isupper():
+                            offsets[(rel[:-3].replace("/", "."), name.id)] = rel
+    typed = []
+    for rel, tree in modules.items():
+        own = rel[:-3].replace("/", ".")
+        names = {name: module for module, name in offsets if module == own}
+        for node in tree.body:
+            if isinstance(node, ast.ImportFrom) and node.module:
+                names.update({a.asname or a.name: node.module for a in node.names if (node.module, a.name) in offsets})
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Subscript):
+                slices = {id(n) for s in ast.walk(node.slice) if isinstance(s, ast.Slice) for n in ast.walk(s)}
+                typed += [f"{rel}:{node.lineno}: {n.id}" for n in ast.walk(node.slice) if isinstance(n, ast.Name) and n.id in names and id(n) not in slices]
+    assert not typed, "an integer offset typed by hand outside the layouts (declare it in one, read it by name): " + "; ".join(typed)
+
+
+WORKSPACE = {"work", "_work"}
+"""The names the odometry's scratch workspace (`bots.odometry.layout.workspace`) goes by."""
+
+
+def _plane_views(function: ast.AST) -> set[str]:
+    """The names a function binds to one whole plane of its workspace (`rows = work[PLANE.x]`):
+    their first index is a row declared in the layout, as the workspace's is a plane."""
+    views = set()
+    for node in ast.walk(function):
+        if isinstance(node, ast.Assign):
+            pairs = []
+            for target in node.targets:
+                if isinstance(target, ast.Tuple) and isinstance(node.value, ast.Tuple):
+                    pairs += zip(target.elts, node.value.elts)
+                else:
+                    pairs.append((target, node.value))
+            views |= {t.id for t, v in pairs if isinstance(t, ast.Name) and isinstance(v, ast.Subscript) and _name(v.value) in WORKSPACE
+                      and not isinstance(v.slice, ast.Tuple | ast.Slice)}  # fmt: skip
+    return views
+
+
+def _name(node: ast.AST) -> str | None:
+    return node.id if isinstance(node, ast.Name) else node.attr if isinstance(node, ast.Attribute) else None
+
+
+def test_no_literal_offset_into_the_workspace():
+    """The odometry's workspace is read by name: a plane by `PLANE`, a row of a plane by the
+    layout's row names (`INCREMENT`, `UPDATE`), never by a number typed at the use
+    (`work[5]`, `work[25:]`, `rows[6]`). Limits (where a number is not an offset into a table):
+    the entries of a plane's matrices and vectors are numbered by their maths ((s, alpha), a 2 x 2
+    noise), the SCRATCH_PLANES temporaries (`scratch`, a slice of planes) by their place in one
+    expression, and a view handed to another function under another name is not followed. The
+    world's tables are structured arrays, read by field name (`test_no_integer_offset_is_typed_by_hand`)."""
+    typed = []
+    for rel, tree in _trees():
+        for function in (n for n in ast.walk(tree) if isinstance(n, ast.FunctionDef)):
+            tables = WORKSPACE | _plane_views(function)
+            for node in ast.walk(function):
+                if isinstance(node, ast.Subscript) and _name(node.value) in tables:
+                    first = node.slice.elts[0] if isinstance(node.slice, ast.Tuple) else node.slice
+                    bounds = [first.lower, first.upper] if isinstance(first, ast.Slice) else [first]
+                    if any(isinstance(b, ast.Constant) and type(b.value) is int for b in bounds):
+                        typed.append(f"{rel}:{node.lineno}: {ast.unparse(node)}")
+    assert not typed, "a number typed as an offset into the odometry's workspace (name it in bots/odometry/layout.py): " + "; ".join(sorted(set(typed)))

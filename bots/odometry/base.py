@@ -17,8 +17,8 @@ from typing import Protocol
 
 import numpy as np
 
-from bots.odometry.layout import HYPOTHESIS_WEIGHT, PARAMETERS, SIGMAS, fresh_state, watch_of
-from bots.odometry.propagation import add_offset, add_spread, mouse_terms, pose_covariance, wheel_terms, workspace
+from bots.odometry.layout import HYPOTHESIS_WEIGHT, PARAMETERS, SIGMAS, fresh_state, watch_of, workspace
+from bots.odometry.propagation import add_offset, add_spread, mouse_terms, pose_covariance, wheel_terms
 from bots.readings import Readings
 from bots.spec import RobotSpec
 from bots.uncertainty import COUNT_VARIANCE, COVARIANCE_FIELDS, ERRORS, Belief, square

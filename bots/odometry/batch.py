@@ -22,9 +22,9 @@ import numpy as np
 from bots.odometry.defaults import default_estimators
 from bots.odometry.encoder import encoder_step, sigma_encoders
 from bots.odometry.fused import fused_step
-from bots.odometry.layout import DEAD_RECKONERS, ENCODERS_ONLY, ESTIMATE, ESTIMATES, HYPOTHESIS_WEIGHT, PARAMETERS, SIGMAS, STATE, Counts, Estimate, fresh_state
+from bots.odometry.layout import DEAD_RECKONERS, ENCODERS_ONLY, ESTIMATE, ESTIMATES, HYPOTHESIS_WEIGHT, PARAMETERS, SIGMAS, STATE, Counts, Estimate, fresh_state, workspace
 from bots.odometry.mouse import MOUSE_SIGMAS, mouse_step, sigma_mouse, turn_check, watch_slides
-from bots.odometry.propagation import add_offset, add_spread, lay, pose_covariance, workspace
+from bots.odometry.propagation import add_offset, add_spread, lay, pose_covariance
 from bots.spec import RobotSpec
 from bots.uncertainty import COVARIANCE_FIELDS, ERROR, ERRORS
 

@@ -6,8 +6,8 @@ import numba
 import numpy as np
 
 from bots.odometry.base import ArcOdometry
-from bots.odometry.layout import NODES, SIGMAS
-from bots.odometry.propagation import END_HEADING, MID_ANGLE, PROPAGATE_WORK, lay, node_of, propagate, wheel_terms, wheel_variances
+from bots.odometry.layout import NODES, PLANE, SIGMAS
+from bots.odometry.propagation import END_HEADING, MID_ANGLE, lay, node_of, propagate, wheel_terms, wheel_variances
 from bots.readings import Readings
 
 
@@ -17,7 +17,7 @@ def encoder_step(p: np.void, heading: float, cov: np.ndarray, left: float, right
     (`work`: scratch, `workspace`)."""
     s_left, s_right = left * p.tick_left, right * p.tick_right
     s, alpha = 0.5 * (s_left + s_right), (s_right - s_left) / p.track
-    jac, noise = work[PROPAGATE_WORK, :2, :], work[PROPAGATE_WORK + 1, :2, :2]
+    jac, noise = work[PLANE.jac, :2, :], work[PLANE.noise, :2, :2]
     var_left, var_right = wheel_variances(p, s_left, s_right)
     wheel_terms(s_left, s_right, alpha, p.track, var_left, var_right, jac, noise)
     propagate(cov, heading, s, alpha, END_HEADING if end_heading else MID_ANGLE, jac, noise, work)

@@ -14,6 +14,7 @@ from typing import NamedTuple
 
 import numpy as np
 
+from bots.uncertainty import ERRORS
 from sim.kinematics.packed import Field, Table
 
 
@@ -117,6 +118,75 @@ STATE = Table(
     Field("fused_watch", 1, "the fused estimate's slide watch", SLIDE_WATCH.dtype),
 )
 
+class Planes(NamedTuple):
+    """Each scratch plane's place in a `workspace` (WORK planes of (ERRORS, ERRORS)), by what a
+    compiled step keeps there: `propagate`'s own three, the increment's Jacobian and noise a step
+    hands it, the fused step's (`bots.odometry.fused.fused_step`) intermediates, and last
+    SCRATCH_PLANES of temporaries, each used within one expression."""
+
+    propagate_a: int  # propagate: d pose' / d (pose, errors)
+    propagate_rows: int  # propagate: a @ cov
+    propagate_pose: int  # propagate: the pose block of a @ cov @ a^T
+    increments: int  # fused: the step's increments (rows by INCREMENT)
+    updates: int  # fused: the update's correction and the increments it corrects (rows by UPDATE)
+    j_enc: int  # fused: the encoders' increment's Jacobian on the errors, its random noise,
+    r_enc: int
+    q_enc: int  # its quantisation,
+    a_enc: int  # and the two together
+    j_mouse: int  # fused: the same of the mouse's
+    r_mouse: int
+    q_mouse: int
+    a_mouse: int
+    h: int  # fused: the disagreement's Jacobian on the errors, its noise,
+    noise_d: int
+    ph: int  # cov h^T,
+    gain: int  # the Kalman gain,
+    keep_cov: int  # and I - gain h
+    i_enc: int  # fused: each increment's information, their weights
+    i_mouse: int
+    weights: int
+    w_enc: int
+    w_mouse: int
+    jac: int  # every step: the increment's Jacobian on the errors and its noise, for `propagate`
+    noise: int
+    scratch: int  # the first of SCRATCH_PLANES
+
+
+PLANE = Planes(*range(len(Planes._fields)))
+"""Where each scratch plane lies in a `workspace` (`work[PLANE.gain, :, :2]`)."""
+SCRATCH_PLANES = 4
+"""Temporary planes after PLANE.scratch (`_weighed` in `bots.odometry.fused` takes four)."""
+WORK = PLANE.scratch + SCRATCH_PLANES
+"""Scratch planes of (ERRORS, ERRORS) a step uses at most."""
+
+
+class Increments(NamedTuple):
+    """The rows of plane PLANE.increments (each an increment (s, alpha), its first two entries)."""
+
+    enc: int  # the encoders' increment
+    mouse: int  # the mouse's
+    corrected_enc: int  # each corrected by the calibration estimated so far
+    corrected_mouse: int
+    d: int  # their difference
+    u: int  # the increment laid down
+    applied: int  # a Jacobian applied to the calibration
+
+
+INCREMENT = Increments(*range(len(Increments._fields)))
+"""Where each increment lies in plane PLANE.increments."""
+
+
+class Updates(NamedTuple):
+    """The rows of plane PLANE.updates."""
+
+    correction: int  # the update's correction of the pose and the calibration (ERRORS entries)
+    updated_enc: int  # the encoders' increment, corrected by the updated calibration (two entries)
+    updated_mouse: int  # the mouse's
+
+
+UPDATE = Updates(*range(len(Updates._fields)))
+"""Where each row lies in plane PLANE.updates."""
+
 
 class Counts(NamedTuple):
     """One step's readings an estimator takes (floats): encoder ticks, mouse counts in the sensor frame."""
@@ -148,3 +218,9 @@ def watch_of(state: np.void, estimate: int) -> np.void:
     """The slide watch of estimate ESTIMATE.mouse or ESTIMATE.fused in a STATE row (a view), or
     None for an estimate without one."""
     return {ESTIMATE.mouse: state["mouse_watch"], ESTIMATE.fused: state["fused_watch"]}.get(estimate)
+
+
+def workspace() -> np.ndarray:
+    """Scratch for the compiled steps (WORK planes of (ERRORS, ERRORS)): their intermediates live
+    there, not in arrays allocated every step (which cost more than the arithmetic)."""
+    return np.zeros((WORK, ERRORS, ERRORS))

@@ -9,8 +9,8 @@ import numba
 import numpy as np
 
 from bots.odometry.base import ArcOdometry
-from bots.odometry.layout import ESTIMATE, NODES
-from bots.odometry.propagation import MID_ANGLE, PROPAGATE_WORK, lay, mouse_terms, mouse_variance, node_of, propagate, wheel_variances
+from bots.odometry.layout import ESTIMATE, NODES, PLANE
+from bots.odometry.propagation import MID_ANGLE, lay, mouse_terms, mouse_variance, node_of, propagate, wheel_variances
 from bots.readings import Readings
 from bots.uncertainty import ERROR
 
@@ -30,7 +30,7 @@ def mouse_step(p: np.void, heading: float, cov: np.ndarray, forward: float, late
     """Mouse odometry: the increment of these counts; `cov` propagated from `heading` (`work`:
     scratch, `workspace`)."""
     s, alpha = mouse_arc(p, forward, lateral)
-    jac, noise = work[PROPAGATE_WORK, :2, :], work[PROPAGATE_WORK + 1, :2, :2]
+    jac, noise = work[PLANE.jac, :2, :], work[PLANE.noise, :2, :2]
     mouse_terms(s, alpha, p.mount_x, p.mount_y, mouse_variance(p, s, alpha), jac, noise)
     propagate(cov, heading, s, alpha, MID_ANGLE, jac, noise, work)
     return s, alpha

@@ -16,17 +16,13 @@ import math
 import numba
 import numpy as np
 
-from bots.odometry.layout import NODE_WEIGHTS
+from bots.odometry.layout import NODE_WEIGHTS, PLANE
 from bots.uncertainty import ERROR, ERRORS
 from sim.kinematics.batch import advance_one
 
 MID_ANGLE, END_HEADING = 0.5, 1.0
 """Where an arc's chord is laid (`propagate`'s share of the heading change): along the mid-angle
 (exact, seed 002 eqs 1.7, 1.12) or along the end heading (the c't-Bot firmware)."""
-PROPAGATE_WORK = 3
-"""Scratch planes (`workspace`) `propagate` uses; the steps that call it use those after."""
-WORK = 29
-"""Scratch planes of (ERRORS, ERRORS) a step uses at most (`bots.odometry.fused.fused_step`)."""
 
 
 @numba.njit(cache=True)
@@ -63,13 +59,13 @@ def propagate(cov: np.ndarray, heading: float, s: float, alpha: float, share: fl
     the step) along `heading + share * alpha` (`MID_ANGLE`, exact, or `END_HEADING`, the
     firmware), whose error is jac @ errors + n, n ~ noise: cov <- A cov A^T + G noise G^T, with A
     the identity but for the pose rows (d pose'/d pose and G @ jac, G = d pose'/d (s, alpha)).
-    `work` (WORK, ERRORS, ERRORS): scratch planes (`workspace`), its first PROPAGATE_WORK used.
+    `work` (WORK, ERRORS, ERRORS): scratch planes (`workspace`), its PLANE.propagate_* used.
     (A float, not a bool: numba compiles a function once for each constant bool it is called with.)"""
     angle = heading + share * alpha
     c, sn = math.cos(angle), math.sin(angle)
     lever = share * s
     g = ((c, -lever * sn), (sn, lever * c), (0.0, 1.0))
-    a, rows, pose = work[0, :3], work[1, :3], work[2, :3, :3]  # rows: a @ cov; pose: a @ cov @ a^T, + G noise G^T
+    a, rows, pose = work[PLANE.propagate_a, :3], work[PLANE.propagate_rows, :3], work[PLANE.propagate_pose, :3, :3]  # rows: a @ cov; pose: a @ cov @ a^T, + G noise G^T
     a[:, :] = 0.0
     for r in range(3):
         a[r, r] = 1.0
@@ -108,11 +104,6 @@ def pose_covariance(cov: np.ndarray, heading: float, lag: np.ndarray, out: np.nd
     out[4] = cov[1, 2] + lag[0, 1] * sn
     out[5] = cov[2, 2] + lag[1, 1]
 
-
-def workspace() -> np.ndarray:
-    """Scratch for the steps (WORK planes of (ERRORS, ERRORS)): their intermediates live there,
-    not in arrays allocated every step (which cost more than the arithmetic)."""
-    return np.zeros((WORK, ERRORS, ERRORS))
 
 
 @numba.njit(cache=True)

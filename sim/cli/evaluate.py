@@ -36,6 +36,8 @@ def add_parser(commands) -> None:  # noqa: ANN001 (argparse's subparsers action)
 
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
+    import numpy as np
+
     from sim.experiments.evaluation import RESULTS, NotWritten, evaluate, merge, read_results, write_results
     from sim.experiments.scores import terminal
     from sim.experiments.suite import variant
@@ -59,10 +61,12 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
                 results, failure = err.results, err.__cause__
             finally:
                 runner.close()
-        tables = _writing(lambda: write_all(results, out))  # (also when the results file could not be written)
+        with np.errstate(over="ignore", invalid="ignore"):  # (metrics near the largest float: their means inf, said so, not warned of)
+            tables = _writing(lambda: write_all(results, out))  # (also when the results file could not be written)
+            table = terminal(results)
         failure = failure or tables
     written = [path for path in dict.fromkeys(tally) if path.is_file()]  # (a run's row is written, then folded into the table)
-    print(terminal(results))
+    print(table)
     failed = sum(1 for run in results["runs"] if run.get("failed"))
     for line in failures(results):
         print(f"ctsim: {line}", file=sys.stderr)

@@ -68,6 +68,7 @@ def cmd_run(args: argparse.Namespace) -> int:
     from sim.experiments import world
     from sim.experiments.api import with_estimators
     from sim.guards import making
+    from sim.run.clock import made_in_time
 
     step_count(args.duration, args.dt)
     place = world(args.world)
@@ -75,7 +76,7 @@ def cmd_run(args: argparse.Namespace) -> int:
         controller, estimator = _isolated(args, isolation) if args.isolate else (None, load)
         # the controllers and estimators made before the folder is: a bad file, or one whose constructor fails, is refused first;
         # what a constructor replaces in ctsim is put back at once (`sim.guards.making`)
-        with making() as replaced:
+        with making() as replaced, made_in_time(args.step_timeout):
             setups = with_estimators(robot_setups(args, load_robot_spec(args), len(place.start_order()), controller), [estimator(source) for source in args.estimator])
         for note in replaced:
             print(f"ctsim: note: {note}", file=sys.stderr)

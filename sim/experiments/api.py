@@ -24,6 +24,7 @@ from bots.spec import RobotSpec
 from sim.analysis.metrics import compare_run, path_lengths
 from sim.errors import UserError
 from sim.guards import making
+from sim.run.clock import made_in_time
 from sim.run.ending import Ending
 from sim.run.loop import RobotSetup, check_seed, run
 from sim.run.samples import RunResult
@@ -250,7 +251,7 @@ def simulate(
         if not isinstance(b, Bot | RobotSetup):
             raise TypeError(f"simulate: a robot is a Bot or a RobotSetup, got {type(b).__name__}: {b!r}")
     given = given or [Bot()]
-    with making() as replaced:  # (what a constructor replaces in ctsim is put back before the run: `sim.guards`)
+    with making() as replaced, made_in_time(step_timeout):  # (what a constructor replaces in ctsim is put back before the run: `sim.guards`)
         setups = [b.setup(noise) if isinstance(b, Bot) else b for b in given]
         setups = with_estimators(setups, estimators)
     noises = [b.noise_of(noise) if isinstance(b, Bot) else "as given" for b in given]

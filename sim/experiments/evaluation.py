@@ -17,15 +17,19 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import os
+import re
+import stat
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import sim
+from sim import sanitize
 from sim.errors import UserError
-from sim.experiments.suite import SUITE_VERSION, Variant
-from sim.run.clock import STEP_TIMEOUT
+from sim.experiments.suite import SUITE_VERSION, Scenario, Variant
+from sim.run.clock import STEP_TIMEOUT, made_in_time
 from sim.run.ending import Ending, Terminated
 
 FORMAT = "ctsim-evaluation"
@@ -79,13 +83,15 @@ def submitted(sources: list[str], step_timeout: float | None = STEP_TIMEOUT) -> 
         if source in BY_NAME and not Path(source).is_file():
             found.append(Submitted(source, source, source, "shipped"))
             continue
-        load(source)  # (a missing file or class: one line of its own)
+        with made_in_time(step_timeout):
+            load(source)  # (a missing file or class: one line of its own)
         file, _, cls = source.partition(":") if not Path(source).is_file() else (source, "", "")
         located = str(Path(file).resolve()) + (f":{cls}" if cls else "")
         identity = "sha256:" + hashlib.sha256(Path(file).read_bytes()).hexdigest()
         found.append(Submitted(source, located, "", identity))
     shipped = [s for s in SHIPPED if s not in sources]
-    made = beside_defaults(robot("ctbot"), [*shipped, *(s.located for s in found)])  # (names taken or not words: refused here)
+    with made_in_time(step_timeout):
+        made = beside_defaults(robot("ctbot"), [*shipped, *(s.located for s in found)])  # (names taken or not words: refused here)
     found = [Submitted(s.source, s.located, name_of(e), s.identity) for s, e in zip(found, made[len(shipped):])]
     for entry in found:
         trial = simulate("maze", Bot("solve_maze"), duration=TRIAL_S, seed=0, estimators=[entry.located], step_timeout=step_timeout)
@@ -150,18 +156,24 @@ def results_of(variant: Variant, entries: list[Submitted], rows: list[dict[str, 
         "suite_version": SUITE_VERSION,
         "ctsim_version": sim.__version__,
         "seeds": list(variant.seeds),
-        "scenarios": {s.name: {"hash": digest, "world": s.world, "controller": s.controller, "params": dict(s.params), "noise": s.noise,
-                               "duration_s": s.duration, "until_goal": s.until_goal} for s, digest in zip(variant.scenarios, variant.hashes().values())},  # fmt: skip
+        "scenarios": {s.name: {"hash": digest, **_about(s)} for s, digest in zip(variant.scenarios, variant.hashes().values())},
         "estimators": {e.name: {"source": Path(e.source.partition(":")[0]).name + (":" + e.source.partition(":")[2] if ":" in e.source else ""),
                                 "identity": e.identity} for e in entries},  # fmt: skip
         "runs": runs,
     }
 
 
+def _about(scenario: Scenario) -> dict[str, Any]:
+    """A scenario's settings as its results file gives them (beside its hash), as JSON reads them back."""
+    return {"world": scenario.world, "controller": scenario.controller, "params": dict(scenario.params), "noise": scenario.noise,
+            "duration_s": scenario.duration, "until_goal": scenario.until_goal}
+
+
 def _blamed(entries: list[Submitted], error: str) -> dict[str, str]:
     """Who failed a run: the submitted estimator its error names (the run loop's `estimator 'NAME'`),
     else every submitted one (the shipped ones do not fail), else the run itself."""
     named = [e for e in entries if f"estimator {e.name!r}" in error]
+    error = sanitize.name(error, 2000)  # (what the user's code said, one line, its escapes as text, cut)
     return {e.name: error for e in named or entries} or {"run": error}
 
 
@@ -173,18 +185,32 @@ def write_results(results: dict[str, Any], path: Path) -> Path:
     return write_text(path, json.dumps(results, indent=2, sort_keys=True, allow_nan=False) + "\n")
 
 
+MAX_RESULTS_BYTES = 64 * 2**20
+"""Largest results file `read_results` reads: the full suite with a class of a hundred estimators
+beside the shipped ones is a few MB."""
+_KEYS = ("format", "format_version", "suite", "suite_version", "ctsim_version", "seeds", "scenarios", "estimators", "runs")
+_RUN_KEYS = {"scenario", "seed", "metrics", "failed"}
+_VERSIONS = re.compile(r"[0-9A-Za-z.+!_-]{1,40}(, [0-9A-Za-z.+!_-]{1,40}){0,99}")
+"""ctsim's version as a results file may give it (merged files: several, comma-separated)."""
+_HASH = re.compile(r"[0-9a-f]{64}")
+
+
 def read_results(path: str | Path) -> dict[str, Any]:
-    """A results file, checked to be one of this format and of this ctsim's suite version."""
+    """A results file, checked to be one of this format and of this ctsim's suite version, and to
+    hold what `results_of` writes and nothing else (`_shape_problem`): EvaluationError, one line
+    naming the file, for anything else (not a regular file, larger than MAX_RESULTS_BYTES, not
+    UTF-8 JSON, a key twice, NaN, nested or numbered beyond what Python reads)."""
     path = Path(path)
+    text = _read_text(path)
     try:
-        results = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as err:
-        raise EvaluationError(f"{path}: not a results file of ctsim evaluate ({type(err).__name__}: {err})") from None
-    keys = ("format", "format_version", "suite", "suite_version", "ctsim_version", "seeds", "scenarios", "estimators", "runs")
-    if not isinstance(results, dict) or results.get("format") != FORMAT or any(k not in results for k in keys):
+        results = json.loads(text, object_pairs_hook=_once_each, parse_constant=_no_constant)
+    except (ValueError, RecursionError) as err:  # (a JSONDecodeError; an integer of thousands of digits; nesting too deep)
+        said = "nested too deeply" if isinstance(err, RecursionError) else f"{type(err).__name__}: {err}"
+        raise EvaluationError(f"{path}: not a results file of ctsim evaluate ({said})") from None
+    if not isinstance(results, dict) or results.get("format") != FORMAT or any(k not in results for k in _KEYS):
         raise EvaluationError(f"{path}: not a results file of ctsim evaluate")
-    if results["format_version"] != FORMAT_VERSION or results["suite_version"] != SUITE_VERSION:
-        raise EvaluationError(f"{path}: suite version {results['suite_version']!r} (file format {results['format_version']!r}); "
+    if type(results["format_version"]) is not int or results["format_version"] != FORMAT_VERSION or results["suite_version"] != SUITE_VERSION:
+        raise EvaluationError(f"{path}: suite version {str(results['suite_version'])[:40]!r} (file format {str(results['format_version'])[:40]!r}); "
                               f"this ctsim scores suite version {SUITE_VERSION!r} (format {FORMAT_VERSION}): run the estimator again with this ctsim")  # fmt: skip
     problem = _shape_problem(results)
     if problem:
@@ -192,39 +218,119 @@ def read_results(path: str | Path) -> dict[str, Any]:
     return results
 
 
+def _read_text(path: Path) -> str:
+    """The text of a results file: a regular file (through a link too) of at most
+    MAX_RESULTS_BYTES, opened without waiting on a pipe; EvaluationError otherwise."""
+    from sim.out_files import kind
+
+    try:
+        descriptor = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
+    except OSError as err:
+        raise EvaluationError(f"{path}: cannot be read ({err.strerror or err})") from None
+    info = os.fstat(descriptor)
+    mode, size = info.st_mode, info.st_size
+    if not stat.S_ISREG(mode):
+        os.close(descriptor)
+        raise EvaluationError(f"{path}: {kind(mode)}, not a results file of ctsim evaluate (a regular file)")
+    with os.fdopen(descriptor, "rb") as file:
+        data = file.read(MAX_RESULTS_BYTES + 1) if size <= MAX_RESULTS_BYTES else b""
+    if size > MAX_RESULTS_BYTES or len(data) > MAX_RESULTS_BYTES:
+        raise EvaluationError(f"{path}: {max(size, len(data)):,} bytes, more than a results file of ctsim evaluate holds ({MAX_RESULTS_BYTES:,})")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as err:
+        raise EvaluationError(f"{path}: not a results file of ctsim evaluate (not UTF-8: {err.reason} at byte {err.start})") from None
+
+
+def _once_each(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """A JSON object whose keys are all different (else ValueError: a file edited by hand, whose
+    reader would otherwise keep the last of two values unsaid)."""
+    table = dict(pairs)
+    if len(table) != len(pairs):
+        twice = next(key for k, (key, _) in enumerate(pairs) if key in dict(pairs[:k]))
+        raise ValueError(f"the key {twice[:100]!r} twice in one object")
+    return table
+
+
+def _no_constant(name: str) -> Any:
+    raise ValueError(f"{name} is no number a results file holds")
+
+
+def _plain(text: Any, limit: int = 300) -> bool:
+    """Text a results file may hold where ctsim prints or writes it: no control, format or lone
+    surrogate character (`sanitize.escape` leaves it as it is), at most `limit` characters."""
+    return isinstance(text, str) and len(text) <= limit and sanitize.escape(text) == text
+
+
 def _shape_problem(results: dict[str, Any]) -> str | None:
     """What in a results file of the right version is not as `results_of` writes one (None: nothing):
-    a file edited by hand or by another program is refused in one line, never half read."""
+    a file edited by hand or by another program is refused in one line, never half read. Its
+    suite, seeds and scenarios are those of this suite version's variant of that name; every
+    estimator named is a shipped one or listed with its source; every metric a finite number
+    (non-negative but the heading error) or null."""
     from bots.odometry.user import NAME
+    from sim.experiments.suite import VARIANTS
 
-    def number(value: Any) -> bool:
-        return value is None or (isinstance(value, int | float) and not isinstance(value, bool))
-
-    scenarios, seeds, runs = results["scenarios"], results["seeds"], results["runs"]
-    if not (isinstance(scenarios, dict) and all(isinstance(v, dict) and isinstance(v.get("hash"), str) for v in scenarios.values())):
-        return "'scenarios' must map each scenario to its settings and hash"
-    if not (isinstance(seeds, list) and all(isinstance(seed, int) for seed in seeds)):
-        return "'seeds' must be a list of whole numbers"
-    if not (isinstance(results["estimators"], dict) and all(isinstance(v, dict) and isinstance(v.get("identity"), str) and isinstance(v.get("source"), str)
-                                                             for v in results["estimators"].values())):  # fmt: skip
-        return "'estimators' must map each estimator to its source and identity"
-    if not (isinstance(runs, list) and all(isinstance(run, dict) for run in runs)):
-        return "'runs' must be a list of runs"
+    unknown = sorted(set(results) - set(_KEYS), key=str)
+    if unknown:
+        return f"unknown key {unknown[0][:100]!r}"
+    if not (isinstance(results["ctsim_version"], str) and _VERSIONS.fullmatch(results["ctsim_version"])):
+        return "'ctsim_version' must be a version (letters, digits, '.', '+', '-')"
+    variant = VARIANTS.get(results["suite"]) if isinstance(results["suite"], str) else None
+    if variant is None:
+        return f"'suite' must be one of {', '.join(VARIANTS)}"
+    seeds, scenarios, estimators, runs = results["seeds"], results["scenarios"], results["estimators"], results["runs"]
+    if not (isinstance(seeds, list) and all(type(seed) is int for seed in seeds) and seeds == list(variant.seeds)):
+        return f"'seeds' must be the {variant.name} suite's, {list(variant.seeds)}"
+    expected = {s.name: _about(s) for s in variant.scenarios}
+    if not (isinstance(scenarios, dict) and set(scenarios) == set(expected)):
+        return f"'scenarios' must be the {variant.name} suite's, {', '.join(expected)}"
+    for name, about in scenarios.items():
+        if not (isinstance(about, dict) and isinstance(about.get("hash"), str) and _HASH.fullmatch(about["hash"])
+                and {k: v for k, v in about.items() if k != "hash"} == expected[name]):  # fmt: skip
+            return f"scenario {name}: its settings must be the suite's, with its hash (64 hex digits)"
+    if len({about["hash"] for about in scenarios.values()}) != len(scenarios):
+        return "two scenarios with the same hash"
+    if not (isinstance(estimators, dict) and all(isinstance(name, str) and NAME.fullmatch(name) and isinstance(v, dict) and set(v) == {"source", "identity"}
+                                                  and _plain(v["source"]) and _plain(v["identity"], 100) for name, v in estimators.items())):  # fmt: skip
+        return "'estimators' must map each estimator (a plain word) to its source and identity (plain text)"
+    if not (isinstance(runs, list) and all(isinstance(run, dict) and set(run) <= _RUN_KEYS and type(run.get("seed")) is int for run in runs)):
+        return "'runs' must be a list of runs, each its scenario, seed (a whole number), metrics and what failed"
     order = list(dict.fromkeys(run.get("scenario") for run in runs))  # (the suite's order: the file's keys are sorted)
-    if set(order) != set(scenarios) or [(r.get("scenario"), r.get("seed")) for r in runs] != [(scenario, seed) for scenario in order for seed in seeds]:
-        return "'runs' must hold every scenario's runs, seed by seed, in order"
+    if order != list(expected) or [(r.get("scenario"), r.get("seed")) for r in runs] != [(scenario, seed) for scenario in order for seed in seeds]:
+        return "'runs' must hold every scenario's runs, seed by seed, in the suite's order"
+    scored = set(estimators) | shipped_names()
     for run in runs:
         metrics, failed = run.get("metrics"), run.get("failed", {})
+        where = f"run {run['scenario']} seed {run['seed']}"
         if not (isinstance(metrics, dict) and isinstance(failed, dict)):
-            return f"run {run['scenario']} seed {run['seed']}: 'metrics' and 'failed' must be tables"
-        names = [*metrics, *results["estimators"], *failed]
-        if not all(isinstance(name, str) and NAME.fullmatch(name) for name in names):
-            return f"run {run['scenario']} seed {run['seed']}: an estimator name that is not a plain word"
-        if not all(isinstance(values, dict) and set(values) == set(METRICS) and all(map(number, values.values())) for values in metrics.values()):
-            return f"run {run['scenario']} seed {run['seed']}: each estimator's metrics must be {', '.join(METRICS)} (numbers or null)"
-        if not all(isinstance(message, str) for message in failed.values()):
-            return f"run {run['scenario']} seed {run['seed']}: 'failed' must give each estimator's error as text"
+            return f"{where}: 'metrics' and 'failed' must be tables"
+        if not (set(metrics) <= scored and set(failed) <= set(estimators) | {"run"}):
+            return f"{where}: an estimator that is neither shipped nor listed in 'estimators'"
+        if not all(isinstance(values, dict) and set(values) == set(METRICS) and all(_metric(m, v) for m, v in values.items()) for values in metrics.values()):
+            return f"{where}: each estimator's metrics must be {', '.join(METRICS)} (finite numbers, not negative but the heading error, or null)"
+        if not all(_plain(message, 4000) for message in failed.values()):
+            return f"{where}: 'failed' must give each estimator's error as plain text"
     return None
+
+
+def _metric(name: str, value: Any) -> bool:
+    """Whether `value` can be metric `name` of a run: null (undefined), or a finite number, not
+    negative but the heading error (wrapped to at most pi either way)."""
+    if value is None:
+        return True
+    if not isinstance(value, int | float) or isinstance(value, bool) or not math.isfinite(value):
+        return False
+    return abs(value) <= math.pi + 1e-9 if name == "final_heading_error" else value >= 0
+
+
+def shipped_names() -> set[str]:
+    """The estimators every run scores beside the submitted ones: the c't-Bot's defaults and SHIPPED."""
+    from bots.odometry.defaults import default_estimators
+    from bots.odometry.user import name_of
+    from sim.experiments.api import robot
+
+    return {name_of(e) for e in default_estimators(robot("ctbot"))} | set(SHIPPED)
 
 
 def merge(results: list[dict[str, Any]], names: list[str] | None = None) -> dict[str, Any]:

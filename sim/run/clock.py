@@ -4,7 +4,10 @@ from __future__ import annotations
 
 import signal
 import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 
+from sim.errors import UserCodeFailed
 from sim.run.ending import RunError
 
 MAX_STEP_TIMEOUT = 86_400.0
@@ -73,3 +76,29 @@ def in_controller() -> bool:
     """Whether a run in this process is inside a controller step right now (a signal handler
     can then raise at once: no ctsim lock is held there)."""
     return StepClock.active is not None and StepClock.active.busy != 0
+
+
+MAKING_STEPS = 12
+"""Step time limits the user's code may take to load and be made (`made_in_time`): a file that
+imports a large library takes seconds (a minute under the default limit)."""
+
+
+@contextmanager
+def made_in_time(limit: float | None) -> Iterator[None]:
+    """The user's code run before a run (loading its files, its constructors) under MAKING_STEPS
+    times the limit of each of its steps (`StepClock`; None: none): UserCodeFailed, one line naming
+    the line of the user's code it was in, once it takes longer, rather than a command that never
+    ends."""
+    from bots.controller import where
+
+    StepClock(limit)  # (a limit out of bounds refused as such)
+    allowed = None if limit is None else min(MAKING_STEPS * limit, MAX_STEP_TIMEOUT)
+    clock = StepClock(allowed)
+    with clock:
+        clock.begin()
+        try:
+            yield
+        except StepTimeout as err:
+            raise UserCodeFailed(f"loading or making the controllers and estimators took longer than {allowed:g} s ({MAKING_STEPS} step time limits){where(err)}") from None
+        finally:
+            clock.busy = 0

@@ -163,11 +163,13 @@ class Bodies(NamedTuple):
 
 class Sensing(NamedTuple):
     """The sensors to read (SENSORS rows: the first `floor` ones floor sensors, then light, then
-    IR sensors) and the lamps the light sensors see."""
+    IR sensors), the lamps the light sensors see and the CIRCLES the IR sensors see (robots
+    first, their positions taken from the poses)."""
 
     sensors: np.ndarray
     floor: int
     lights: np.ndarray
+    circles: np.ndarray
 
 
 class Curves(NamedTuple):

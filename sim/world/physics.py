@@ -22,18 +22,19 @@ import numpy as np
 import pymunk
 
 import sim
-from bots.readings import ARRAYS, SensorFrame, frozen_copies
+from bots.readings import ARRAYS, SensorFrame, frozen_copy
+from bots.sensor_kinds import sections
 from bots.spec import RobotSpec
 from sim.world import layout
 from sim.world.bodies import BodyArrays
 from sim.world.chassis_drive import ChassisDrive
 from sim.world.compiling import compile_all
 from sim.world.floor import FloorMap, rasterize
-from sim.world.kernels.contacts import settle
+from sim.world.kernels.contacts import settle, settle_meeting
 from sim.world.kernels.motion import glide, measure, plan
 from sim.world.kernels.noise import ENCODER_DRAWS, add_rounded, draw_step, spurious_ticks
 from sim.world.kernels.pick import pick_wall
-from sim.world.kernels.sensing import ir_rays, ir_values, read_sensors
+from sim.world.kernels.sensing import CIRCLE_GRID_ABOVE, ir_rays, ir_values, read_sensors
 from sim.world.sensors import IRCurve, gp2d12, load_ir_curve
 from sim.world.spec import Start, WorldSpec
 from sim.world.step import DEFAULT_DT, check_dt
@@ -231,7 +232,7 @@ class World:
         return ((start.x, start.y, start.heading), start.slot) if isinstance(start, Start) else (tuple(start), None)
 
     def _sensor_rngs(self, spec: RobotSpec, index: int, seed: int | None) -> dict[str, np.random.Generator]:
-        sensors = ["encoders", "mouse", "mouse2", PHASES] + [s.name for s in (*spec.ir, *spec.line, *spec.border, *spec.light)]
+        sensors = ["encoders", "mouse", "mouse2", PHASES] + [s.name for section in sections() for s in getattr(spec, section)]
         if seed is None:
             return {n: sensor_rng(self.seed, index, n) for n in sensors}
         return {n: sensor_rng(seed, 0, n) for n in sensors}
@@ -293,7 +294,14 @@ class World:
         self._moved = (st.robots, st.state, st.tally_rows)
         """The tables `plan` and `measure` change a step's motion and counts in."""
         bodies = layout.Bodies(self._bodies.row_index, layout.motion_rows(self._bodies.motion), st.circles)
-        self._read_arguments = (layout.Sensing(st.sensors[:read], st.n_floor, self._lights), floor, walls, st.circles, ir.curves, ir.noise.kernel)
+        # what a world of one c't-Bot in a maze does not need (a crowd's circle grid, cylinder walls,
+        # robots keeping apart, c't-Sim's contact rule) is left out of its kernels: numba prunes it
+        # (`read_sensors`' rare_parts None) or it has a kernel of its own (`settle_meeting`), and a
+        # first run of the main job does not compile it
+        rare_parts = True if len(st.circles) > CIRCLE_GRID_ABOVE or walls.boxes["cylinder"].any() else None
+        settling = settle_meeting if len(st.stoppers) or (len(self.robots) > 1 and self.robots_meet) else settle
+        self._read_arguments = (layout.Sensing(st.sensors[:read], st.n_floor, self._lights, st.circles), floor, walls, ir.curves, ir.noise.kernel,
+                                rare_parts)  # fmt: skip
         self._settle_arguments = (st.robots, st.state, self._world, walls, floor, layout.Ground(st.contacts, st.anchored, st.fallen), bodies)
         self._glide_arguments = (st.robots, bodies, self._world)
         self._step_noise_arguments = (st.step_noise.kernel, st.encoders, st.state, st.tick_uniforms)
@@ -310,7 +318,7 @@ class World:
             (plan, (commands, *self._moved, pose, self._world)),
             (glide, (pose, *self._glide_arguments)),
             (measure, (pose, pose, *self._moved, floor)),
-            (settle, (pose, *self._settle_arguments)),
+            (settling, (pose, *self._settle_arguments)),
             (read_sensors, (pose, *self._read_arguments, layout.Readout(np.empty(0, np.int64), np.empty(0)))),
         ])  # fmt: skip
 
@@ -341,14 +349,14 @@ class World:
         `sensor_rows`' arrays, each with a leading sample axis (views, no copies). A general chassis's
         per-wheel encoders, steering and second mouse are not among them (`ChassisDrive.fill`)."""
         st = self._batch()
-        rows = {"values": values, "believed": believed, "tallies": tallies.reshape(len(tallies), -1)}
+        rows = {"values": values, "believed": believed, "tallies": tallies.reshape(len(tallies), st.tallies.size)}  # (size: a run of no sample has rows of it too)
         return {field: rows[row][:, cut] for field, (row, cut) in zip(ARRAYS, st.layout.plans[index]) if row is not None}
 
     def read_all(self, rows: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> SensorFrame:
         """Every robot's sensor readings from the current state (the start of the next step):
         `frame[i]` is robot i's `Readings`. `rows`: one row of each of `sensor_rows`' arrays
         (values, believed, tallies) to read into, in place of new arrays: the frame then holds
-        immutable copies of them (`frozen_copies`), never views into them."""
+        immutable copies of them (`frozen_copy`), never views into them."""
         st = self._batch()
         pose = self._poses
         if rows is None:
@@ -372,7 +380,7 @@ class World:
         if not self._round_ir:
             self._read_ir_with_pymunk(pose, values[lights:], believed)
         if rows is not None:
-            values, believed, tallies = frozen_copies(values, believed, tallies)
+            values, believed, tallies = frozen_copy(values), frozen_copy(believed), frozen_copy(tallies)
         frame = SensorFrame(self.time, {"values": values, "believed": believed, "tallies": tallies.reshape(-1)}, st.layout)
         if self.chassis.drives:
             self.chassis.fill(frame)

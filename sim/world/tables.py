@@ -13,7 +13,7 @@ import numpy as np
 import pymunk
 
 from bots.readings import SensorLayout
-from bots.sensor_kinds import FRAMED
+from bots.sensor_kinds import FRAMED, FRAMES
 from bots.spec import RobotSpec
 from sim.kinematics import counts_per_metre
 from sim.world import layout
@@ -180,9 +180,7 @@ class RobotTables:
         """The step's uniforms of each noisy encoder's spurious ticks."""
         self.spurious_ticks = bool(self.tick_noise.any())
 
-        floor = [(r, s) for r in robots for s in (*r.spec.line, *r.spec.border)]
-        light = [(r, s) for r in robots for s in r.spec.light]
-        ir = [(r, s) for r in robots for s in r.spec.ir]
+        floor, light, ir = (_framed_sensors(robots, frame.name) for frame in FRAMES if frame.row == "values")  # (SENSORS' order)
         self.ir_sensors = ir
         self.n_floor, self.n_light = len(floor), len(light)
         every = floor + light + ir
@@ -284,3 +282,10 @@ def _curve_ends(ends: list[tuple[int, int]]) -> np.ndarray:
     if ends:
         rows["last"], rows["lowest"] = zip(*ends)
     return rows
+
+
+def _framed_sensors(robots: list[Any], frame: str) -> list[tuple[Any, Any]]:
+    """(robot, sensor) of every sensor whose kind the registry packs into the `frame` array, robot
+    after robot, each robot's in the registry's order (`bots.readings.SensorLayout`)."""
+    kinds = [kind for kind in FRAMED if kind.frame == frame and kind.section is not None]
+    return [(r, s) for r in robots for kind in kinds for s in getattr(r.spec, kind.section)]

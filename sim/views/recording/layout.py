@@ -47,13 +47,13 @@ def field_channels(spec: Any, name: str) -> tuple[tuple[str, ...], np.ndarray | 
     wheels that turn (steered, castors, balls); the c't-Bot has two of each pair."""
     chassis = spec.chassis.chassis if spec.chassis is not None else None
     kind = BY_FIELD[name]
-    if chassis is None or not (kind.chassis_only or name == "encoder_ticks"):
+    if chassis is None or not (kind.chassis_only or kind.per_wheel):
         return kind.channels_of(spec), None
-    if name == "encoder_ticks":
+    if kind.per_wheel:
         return chassis.names, None
-    if name == "mouse2_counts":
+    if not kind.angle:  # a chassis's own device (its second mouse)
         return (kind.channels if spec.chassis.mouse2 is not None else ()), None
-    turning = np.flatnonzero(np.isin(chassis.kind, TURNING))  # (the steering)
+    turning = np.flatnonzero(np.isin(chassis.kind, TURNING))
     return tuple(chassis.names[i] for i in turning), turning
 
 

@@ -43,6 +43,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from bots.sensor_kinds import BY_FIELD, KINDS
 from sim.kinematics import wrap_angle
 from sim.views import palette
 from sim.views.chassis_view import ChassisLayer, body_outline, fault_text
@@ -51,6 +52,9 @@ from sim.views.recording.arrow import ArrowOwned, lazy_rerun, strips, turn, xyz
 from sim.views.recording.layout import ELLIPSE_EVERY, ELLIPSE_POINTS, FIELDS, SCALE, SENSOR_GROUPS, TIMELINE, TRAIL_EVERY, blueprint, ellipses, field_channels, log_world, rgb
 from sim.views.recording.live import LiveStream
 from sim.world import IR_RAY_LENGTH, World
+
+RAYS = next(kind for kind in KINDS if kind.rays)
+"""The kind drawn as rays from its sensors (the IR sensors' distances)."""
 
 if TYPE_CHECKING:
     from sim.run.samples import RobotLog, RunResult
@@ -282,7 +286,7 @@ class Recorder(LiveStream):
         return _Track(
             log=log,
             estimates=list(log.estimate_arrays()),
-            ir=np.array([(*s.position, s.direction) for s in spec.ir]).reshape(-1, 3),
+            ir=np.array([(*s.position, s.direction) for s in getattr(spec, RAYS.section)]).reshape(-1, 3),
             channels=list(channels),
             picks=list(picks),
             buffered=spec.chassis is not None,
@@ -376,13 +380,13 @@ class Recorder(LiveStream):
         if self._particles is not None:
             self._particles.flush(name)
         if len(track.ir):
-            self._send_rays(track, times, truth, readings["ir_distance"])
+            self._send_rays(track, times, truth, readings[RAYS.field])
         for group, (_, fields) in SENSOR_GROUPS.items():
             for f in fields:
                 if f not in readings:
                     continue
                 values = readings[f]
-                if f == "steering":  # from straight, as `chassis_view.steering_deflection`
+                if BY_FIELD[f].angle:  # from straight, as `chassis_view.steering_deflection`
                     values = wrap_angle(values - track.log.spec.chassis.chassis.beta[track.picks[FIELDS.index(f)]])
                 self._columns(f"sensors/{group}/{name}/{f}", times, rr.Scalars.columns(scalars=(values * SCALE.get(f, 1.0)).ravel()).partition(np.full(n, values.shape[1])))
         track.start = stop

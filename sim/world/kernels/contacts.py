@@ -22,11 +22,35 @@ that pymunk, which finds a contact at distance <= 0, finds none where this finds
 @numba.njit(cache=True)
 def settle(pose: np.ndarray, robots: np.ndarray, state: np.ndarray, world: np.ndarray, walls: Walls, floor: Floor, ground: Ground,
            bodies: Bodies) -> tuple[bool, bool]:  # fmt: skip
-    """The planned moves and turns (STATE's move, alpha) refused by c't-Sim's contact rule
-    (`stop_at_contact`) or cut where walls (`sweep_walls`), other robots (`keep_apart`) or holes
+    """The planned moves and turns (STATE's move, alpha) cut where walls (`sweep_walls`) or holes
     (`hold_at_holes`) stop them, and the force and torque that give each robot that motion in
-    pymunk's velocity phase (m move / dt^2, I alpha / dt^2) written into its MOTION row of
-    pymunk's body data: the world step's arithmetic between the drive and pymunk in one call.
+    pymunk's velocity phase (`push`): the world step's arithmetic between the drive and pymunk in
+    one call, for a world whose robots cannot meet and none of which has c't-Sim's contact rule
+    (one c't-Bot in a maze: `settle_meeting` otherwise, whose code such a world need not compile,
+    half of this kernel's on a first run). Returns `push`'s answer."""
+    sweep_walls(pose, state.move, robots.sweep_radius, world[0].slide_margin, walls)
+    return push(pose, robots, state, world, walls, floor, ground, bodies)
+
+
+@numba.njit(cache=True)
+def settle_meeting(pose: np.ndarray, robots: np.ndarray, state: np.ndarray, world: np.ndarray, walls: Walls, floor: Floor, ground: Ground,
+                   bodies: Bodies) -> tuple[bool, bool]:  # fmt: skip
+    """`settle` for any world: moves also refused by c't-Sim's contact rule (`stop_at_contact`)
+    and cut where other robots stop them (`keep_apart`)."""
+    here = world[0]
+    stop_at_contact(pose, robots, state, walls, bodies.circles)
+    sweep_walls(pose, state.move, robots.sweep_radius, here.slide_margin, walls)
+    if pose.shape[0] > 1 and here.robots_meet:
+        keep_apart(pose, state.move, robots.apart_radius)
+    return push(pose, robots, state, world, walls, floor, ground, bodies)
+
+
+@numba.njit(cache=True)
+def push(pose: np.ndarray, robots: np.ndarray, state: np.ndarray, world: np.ndarray, walls: Walls, floor: Floor, ground: Ground,
+         bodies: Bodies) -> tuple[bool, bool]:  # fmt: skip
+    """The planned moves held at holes (`hold_at_holes`), and the force and torque that give each
+    robot its motion in pymunk's velocity phase (m move / dt^2, I alpha / dt^2) written into its
+    MOTION row of pymunk's body data.
 
     Returns whether any robot's `fallen` changed, and whether the step is quiet: it began with no
     robot touching a wall (`CLEAR`), as did the WORLD's quiet_after steps before it (its streak
@@ -34,10 +58,6 @@ def settle(pose: np.ndarray, robots: np.ndarray, state: np.ndarray, world: np.nd
     none in its memory, so that `glide` moves the robots as pymunk's step would."""
     here = world[0]
     move, alpha = state.move, state.alpha
-    stop_at_contact(pose, robots, state, walls, bodies.circles)
-    sweep_walls(pose, move, robots.sweep_radius, here.slide_margin, walls)
-    if pose.shape[0] > 1 and here.robots_meet:
-        keep_apart(pose, move, robots.apart_radius)
     changed = hold_at_holes(pose, state, ground, floor)
     dt = here.dt
     dt2 = dt * dt

@@ -134,14 +134,16 @@ def _cone_meets_bounds(o: np.ndarray, d: np.ndarray, tan_spread: float, lower: n
     axis, the unbounded axis ray through the box, or one of the box's edges within the cone.
     A face the cone grazes with none of these (the axis beside the face's plane, the cone reaching
     the face between its ends) is not tested at all: c't-Sim sees nothing of it."""
-    centre = 0.5 * (lower + upper)
+    # (in scalars: numba's array expressions cost this kernel seconds of every first run's compile,
+    # and an allocation each a call)
+    cx, cy, cz = 0.5 * (lower[0] + upper[0]), 0.5 * (lower[1] + upper[1]), 0.5 * (lower[2] + upper[2])
     seg = d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
-    along = (centre[0] - o[0]) * d[0] + (centre[1] - o[1]) * d[1] + (centre[2] - o[2]) * d[2]
+    along = (cx - o[0]) * d[0] + (cy - o[1]) * d[1] + (cz - o[2]) * d[2]
     s = 0.0 if along <= 0.0 else (1.0 if along >= seg else along / seg)
-    gap = centre - (o + s * d)
-    squared = gap[0] * gap[0] + gap[1] * gap[1] + gap[2] * gap[2]
+    gx, gy, gz = cx - (o[0] + s * d[0]), cy - (o[1] + s * d[1]), cz - (o[2] + s * d[2])
+    squared = gx * gx + gy * gy + gz * gz
     radius = tan_spread * s * math.sqrt(seg)
-    reach = (centre[0] - lower[0] + radius) ** 2 + (centre[1] - lower[1] + radius) ** 2 + (centre[2] - lower[2] + radius) ** 2
+    reach = (cx - lower[0] + radius) ** 2 + (cy - lower[1] + radius) ** 2 + (cz - lower[2] + radius) ** 2
     if squared > reach:
         return False
     if squared < radius * radius or _ray_meets_box(o, d, lower, upper):
@@ -203,10 +205,10 @@ def pick_cylinder(ray: tuple[float, float, float, float, float], tan_spread: flo
     d = np.array((length * ux, length * uy, 0.0))
     corners = end - start
     strip = np.empty((2 * corners + 2, 3))
-    for i in range(corners + 1):
+    for i in range(corners + 1):  # (element by element: a row assignment compiles numba's whole shape-mismatch message, seconds)
         k = end - 1 if i == 0 else start + i - 1
-        strip[2 * i] = (vertices[k, 0], vertices[k, 1], CYLINDER_TOP)
-        strip[2 * i + 1] = (vertices[k, 0], vertices[k, 1], 0.0)
+        strip[2 * i, 0], strip[2 * i, 1], strip[2 * i, 2] = vertices[k, 0], vertices[k, 1], CYLINDER_TOP
+        strip[2 * i + 1, 0], strip[2 * i + 1, 1], strip[2 * i + 1, 2] = vertices[k, 0], vertices[k, 1], 0.0
     lower = np.array((vertices[start:end, 0].min(), vertices[start:end, 1].min(), 0.0))
     upper = np.array((vertices[start:end, 0].max(), vertices[start:end, 1].max(), CYLINDER_TOP))
     if not _cone_meets_bounds(o, d, tan_spread, lower, upper):
@@ -222,11 +224,13 @@ def pick_cylinder(ray: tuple[float, float, float, float, float], tan_spread: flo
 
 
 @numba.njit(cache=True)
-def pick_wall(ray: tuple[float, float, float, float, float], tan_spread: float, vertices: np.ndarray, start: int, end: int, cylinder: bool) -> float:
+def pick_wall(ray: tuple[float, float, float, float, float], tan_spread: float, vertices: np.ndarray, start: int, end: int, cylinder: bool,
+              cylinders: bool | None = True) -> float:  # fmt: skip
     """Distance (m) c't-Sim's pick reads along RAY (sensor x, y, unit look x, y, length) of the
     wall vertices[start:end]: a Java3D cylinder's (`pick_cylinder`) or a box's (`pick_polygon`);
-    inf if it sees none of it."""
-    if cylinder:
+    inf if it sees none of it. `cylinders` None: the world has no cylinder (numba then prunes
+    `pick_cylinder`, which need not be compiled)."""
+    if cylinders is not None and cylinder:
         return pick_cylinder(ray, tan_spread, vertices, start, end)
     return pick_polygon(ray, tan_spread, vertices, start, end)
 

@@ -15,6 +15,9 @@ from sim.world.kernels.grids import circle_grid, first_at_least, walls_near
 from sim.world.kernels.pick import pick_wall
 from sim.world.layout import GHOST, Curves, Floor, Noise, Rays, Readout, Sensing, Walls
 
+CIRCLE_GRID_ABOVE = 32
+"""Circles (robots and cans) beyond which IR rays find the circles near them in a grid (`sense_ir`)."""
+
 
 @numba.njit(cache=True)
 def to_world(pose: np.ndarray, offsets: np.ndarray, owner: np.ndarray, out: np.ndarray) -> None:
@@ -86,7 +89,8 @@ def _circle_in_view(view: tuple, px: float, py: float, r: float, best: float) ->
 
 
 @numba.njit(cache=True)
-def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: np.ndarray, grid_above: int = 32) -> None:
+def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: np.ndarray, grid_above: int | None = CIRCLE_GRID_ABOVE,
+             cylinders: bool | None = True) -> None:  # fmt: skip
     """Distance (m) from each IR ray's origin to the nearest point of a wall (convex polygons with
     bounding boxes, `Walls`) or a circle (CIRCLES; a sensor skips its own robot's, and every sensor
     a GHOST's) within the ray's cone (half-angle, rad) of its view and within `length`; inf if
@@ -96,14 +100,16 @@ def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: 
 
     With more than `grid_above` circles, each sensor checks only the circles in the grid cells
     its cone's bounding box overlaps (a crowd would otherwise cost sensors x robots); the nearest
-    distance is a minimum, so the grid gives the all-circles result bit for bit. Walls are taken
+    distance is a minimum, so the grid gives the all-circles result bit for bit. None: never (numba
+    then prunes the grid's code, which need not be compiled for a world of a few circles);
+    `cylinders` None likewise for a world without cylinder walls (`pick.pick_wall`). Walls are taken
     from the walls' grid in the cells the cone's bounding box overlaps, in ascending order as a
     loop over every wall would meet them; only a wall whose box meets the cone's can give a
     distance within `length` (every nearest point and edge-ray hit that counts lies in the cone),
     so the others are skipped without changing a bit."""
     origins, looks, cones, owner, picks = rays.origins, rays.look, rays.cone, rays.owner, rays.pick
     vertices, spans, boxes = walls.vertices, walls.spans, walls.boxes
-    use_grid = circles.shape[0] > grid_above
+    use_grid = grid_above is not None and circles.shape[0] > grid_above
     cell, x0, y0, cols, rows, order, sorted_key, widest = 1.0, 0.0, 0.0, 1, 1, np.empty(0, np.int64), np.empty(0, np.int64), 0.0
     if use_grid:
         cell, x0, y0, cols, rows, order, sorted_key, widest = circle_grid(circles, length)
@@ -124,7 +130,7 @@ def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: 
                 continue
             start, end = spans[w].start, spans[w].end
             if picks[k]:
-                best = min(best, pick_wall((ox, oy, cx, cy, length), math.tan(cone), vertices, start, end, box.cylinder))
+                best = min(best, pick_wall((ox, oy, cx, cy, length), math.tan(cone), vertices, start, end, box.cylinder, cylinders))
                 continue
             distance, qx, qy = polygon_distance(ox, oy, vertices, start, end)
             if distance <= 0.0:
@@ -215,18 +221,24 @@ def ir_values(distance: np.ndarray, sensors: np.ndarray, noise: Noise, curves: C
 
 
 @numba.njit(cache=True)
-def read_ir(pose: np.ndarray, sensors: np.ndarray, walls: Walls, circles: np.ndarray, curves: Curves, noise: Noise, raw: np.ndarray,
-            believed: np.ndarray) -> None:  # fmt: skip
+def read_ir(pose: np.ndarray, sensors: np.ndarray, walls: Walls, circles: np.ndarray, curves: Curves, noise: Noise, out: Readout,
+            rare_parts: bool | None) -> None:  # fmt: skip
     """Every IR reading of a world whose robots are all circles, in one call: the sensors' rays
     (`ir_rays`), the robots (the first CIRCLES rows, positions taken from `pose`) and the other
-    circles and walls they see (`sense_ir`), and noise and curves (`ir_values`)."""
+    circles and walls they see (`sense_ir`), and noise and curves (`ir_values`) into `out`'s raw
+    values and believed distances. `rare_parts` None: the world has no more circles than
+    CIRCLE_GRID_ABOVE and no cylinder wall (numba then prunes their code)."""
     m = sensors.shape[0]
     origins, look, distance = np.empty((m, 2)), np.empty(m), np.empty(m)
     ir_rays(pose, sensors, origins, look)
     for i in range(pose.shape[0]):
         circles[i].x, circles[i].y = pose[i, 0], pose[i, 1]
-    sense_ir(Rays(origins, look, sensors.opening, sensors.owner, sensors.pick), walls, circles, curves.length, distance, 32)
-    ir_values(distance, sensors, noise, curves, raw, believed)
+    rays = Rays(origins, look, sensors.opening, sensors.owner, sensors.pick)
+    if rare_parts is None:
+        sense_ir(rays, walls, circles, curves.length, distance, None, None)
+    else:
+        sense_ir(rays, walls, circles, curves.length, distance, CIRCLE_GRID_ABOVE, True)
+    ir_values(distance, sensors, noise, curves, out.values, out.believed)
 
 
 @numba.njit(cache=True)
@@ -254,16 +266,16 @@ def sense_light(pose: np.ndarray, sensors: np.ndarray, lights: np.ndarray, out: 
 
 
 @numba.njit(cache=True)
-def read_sensors(pose: np.ndarray, sensing: Sensing, floor: Floor, walls: Walls, circles: np.ndarray, curves: Curves, noise: Noise,
+def read_sensors(pose: np.ndarray, sensing: Sensing, floor: Floor, walls: Walls, curves: Curves, noise: Noise, rare_parts: bool | None,
                  out: Readout) -> None:  # fmt: skip
     """Every floor, light and IR reading of the world in one call: the first `sensing.floor`
     SENSORS rows are floor sensors (`sample_floor`), the last len(out.believed) IR sensors
     (`read_ir`), the rows between light sensors (`sense_light`); `out.values` gets each row's
     integer reading. A world that reads its IR sensors with pymunk passes only the floor and
-    light rows and no `believed`."""
+    light rows and no `believed`. `rare_parts`: as `read_ir`'s."""
     sensors, values, believed = sensing.sensors, out.values, out.believed
     lo, hi = sensing.floor, sensors.shape[0] - believed.shape[0]
     sample_floor(pose, sensors[:lo], floor, values[:lo])
     sense_light(pose, sensors[lo:hi], sensing.lights, values[lo:hi])
     if believed.shape[0]:
-        read_ir(pose, sensors[hi:], walls, circles, curves, noise, values[hi:], believed)
+        read_ir(pose, sensors[hi:], walls, sensing.circles, curves, noise, Readout(values[hi:], believed), rare_parts)
