@@ -197,6 +197,11 @@ class Counts(NamedTuple):
     lateral: float
 
 
+TALLY = Counts(*range(len(Counts._fields)))
+"""Where each count lies in a row of a step's tallies (`SensorFrame.tallies`, (robots,
+len(TALLY)) int64: the registry's kinds of its tallies array, encoder ticks then mouse counts)."""
+
+
 class Estimate(NamedTuple):
     """One estimate a compiled step moves, in place: its pose (3,), its error covariance (ERRORS,
     ERRORS) and the quantisation lag (2, 2) reported beside it."""
