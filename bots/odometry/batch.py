@@ -23,14 +23,12 @@ from bots.odometry.defaults import default_estimators
 from bots.odometry.encoder import encoder_step, sigma_encoders
 from bots.odometry.fused import fused_step
 from bots.odometry.layout import DEAD_RECKONERS, ENCODERS_ONLY, ESTIMATE, ESTIMATES, HYPOTHESIS_WEIGHT, PARAMETERS, SIGMAS, STATE, TALLY, Counts, Estimate, fresh_state, workspace
-from bots.odometry.mouse import MouseOdometry, mouse_step, sigma_mouse, turn_check, watch_slides
+from bots.odometry.mouse import MOUSE_SIGMAS, mouse_step, sigma_mouse, turn_check, watch_slides
 from bots.odometry.propagation import add_offset, add_spread, lay, pose_covariance
 from bots.spec import RobotSpec
 from bots.uncertainty import COVARIANCE_FIELDS, ERROR, ERRORS
 
 COVARIANCES = len(COVARIANCE_FIELDS)
-MOUSE_SIGMAS = MouseOdometry.sigma_count
-"""The mouse estimate's sigma points (of SIGMAS)."""
 
 
 class Batch(NamedTuple):

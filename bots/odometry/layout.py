@@ -37,12 +37,22 @@ ENCODERS_ONLY = ESTIMATE.firmware + 1
 """Default estimates of a robot without such a mouse: the encoders' and the firmware's."""
 DEAD_RECKONERS = ESTIMATE.fused
 """The estimates before the fused one, each with its sigma points (`STATE.sigmas`)."""
-SIGMAS = 6
-"""Sigma points of a dead-reckoning estimator: two per calibration error it has (encoders: left
-wheel, right wheel, track; mouse: resolution, its other four unused)."""
 SIGMA_SPREAD = math.sqrt(3.0)
-"""Standard deviations from the estimate to each sigma point: sqrt(n + kappa) with n + kappa = 3,
-Julier and Uhlmann's choice for Gaussian errors; each point then weighs 1 / (2 * 3)."""
+"""Standard deviations from the estimate to a sigma point along each calibration error: the nodes
+of Gauss-Hermite quadrature with three points (0, +-sqrt(3)), exact for a Gaussian's moments up
+to the fifth."""
+NODES = (0.0, SIGMA_SPREAD, -SIGMA_SPREAD)
+"""The three nodes (standard deviations) of each calibration error; a point's base-3 digits pick one per error."""
+NODE_WEIGHTS = (2.0 / 3.0, 1.0 / 6.0, 1.0 / 6.0)
+"""Their weights; a point weighs the product of its nodes' (`bots.odometry.propagation.point_weight`)."""
+SIGMAS = 3**3 - 1
+"""Sigma points of a dead-reckoning estimator: every combination of the nodes of its calibration
+errors but all at 0 (the estimate itself): the encoders' 26 of three (left wheel, right wheel,
+track), the mouse's first 2 of one (its resolution). The combinations carry how the errors act
+together: with only the 2 a error (6 in all), a robot of the belief's spread turns its heading tens
+of degrees in the maze, its position's error curves, and the points' spread missed a direction
+the errors take (their mean NEES over robots drawn from the belief, calibration alone: 170-370
+where 3 is right; with the 26: 3.1)."""
 HYPOTHESIS_WEIGHT = 1.0
 """The weight of a slide watch's hypothesis (`bots.odometry.mouse.watch_slides`) in its
 estimate's covariance: the second moment of an error as large as its offset. The watch sees the
