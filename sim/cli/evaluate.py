@@ -102,9 +102,7 @@ def failures(results: dict) -> list[str]:
     """One line per failed run (at most SHOWN_FAILURES, then how many more): the scenario, the seed,
     the file of the estimator that failed it and how (what the run loop said: its name, the step,
     the file and line)."""
-    lines = []
-    for run in results["runs"]:
-        for who, message in run.get("failed", {}).items():
-            source = results["estimators"].get(who, {}).get("source", who)
-            lines.append(sanitize.name(f"{run['scenario']} seed {run['seed']} failed: {source}: {message}", 2000))
+    from sim.experiments.evaluation import failed_runs
+
+    lines = [sanitize.name(f"{row['scenario']} seed {row['seed']} failed: {row['source']}: {row['error']}", 2000) for row in failed_runs(results)]
     return lines[:SHOWN_FAILURES] + ([f"... and {len(lines) - SHOWN_FAILURES} more failed"] if len(lines) > SHOWN_FAILURES else [])

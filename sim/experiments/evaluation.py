@@ -178,6 +178,14 @@ def _blamed(entries: list[Submitted], error: str) -> dict[str, str]:
     return {e.name: error for e in named or entries} or {"run": error}
 
 
+def failed_runs(results: dict[str, Any]) -> list[dict[str, Any]]:
+    """Every failed run of a results file, a row per estimator it blames: the scenario, the seed,
+    the estimator, its source (the file's name and class as given; a shipped one's or the run's own
+    name) and the error, in the suite's order."""
+    return [{"scenario": run["scenario"], "seed": run["seed"], "estimator": who, "source": results["estimators"].get(who, {}).get("source", who), "error": message}
+            for run in results["runs"] for who, message in run.get("failed", {}).items()]  # fmt: skip
+
+
 def write_results(results: dict[str, Any], path: Path) -> Path:
     """The results as JSON, keys sorted, two-space indents, floats as Python writes them back
     exactly: the same results are the same bytes."""
