@@ -380,6 +380,7 @@ def test_an_estimator_that_fails_mid_suite_fails_only_its_runs_with_one_line_eac
     assert all(not runs["maze_realistic_4s", seed].get("failed") and cls in runs["maze_realistic_4s", seed]["metrics"] for seed in (0, 1))
     assert all(HOSTILE_SAID[cls] in runs["line_none_20s", seed]["failed"][cls] for seed in (0, 1))
     assert {p.name for p in out.iterdir()} >= {RESULTS, "scores.csv", "ranking.csv", "report.html"}
+    assert str(tmp_path) not in (out / RESULTS).read_text()  # (the file's line by its name: nothing of the machine)
     page = (out / "report.html").read_text()
     assert "Failed runs (2 of 4)" in page and page.count(f"estimator &#x27;{cls}&#x27; of ctbot") == 2
 

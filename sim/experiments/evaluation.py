@@ -172,8 +172,13 @@ def _about(scenario: Scenario) -> dict[str, Any]:
 
 def _blamed(entries: list[Submitted], error: str) -> dict[str, str]:
     """Who failed a run: the submitted estimator its error names (the run loop's `estimator 'NAME'`),
-    else every submitted one (the shipped ones do not fail), else the run itself."""
+    else every submitted one (the shipped ones do not fail), else the run itself. The error names
+    the estimators' files by their names alone (as the results file's sources do: nothing of the
+    machine's folders)."""
     named = [e for e in entries if f"estimator {e.name!r}" in error]
+    for entry in entries:
+        folder = str(Path(entry.located.partition(".py:")[0]).parent)
+        error = error.replace(folder + os.sep, "") if entry.identity != "shipped" else error
     error = sanitize.name(error, 2000)  # (what the user's code said, one line, its escapes as text, cut)
     return {e.name: error for e in named or entries} or {"run": error}
 
