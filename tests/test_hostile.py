@@ -218,8 +218,9 @@ def test_a_disk_full_while_writing_ends_with_one_line_and_the_summary_kept(tmp_p
     monkeypatch.setattr("sim.cli.output.write_trajectories", full)
     assert run_cli("--controller", "square", "--out", str(tmp_path / "out")) == 1
     err = capsys.readouterr().err
-    assert err == f"ctsim: error: writing the run's results into {tmp_path / 'out'}: No space left on device (written: summary.json)\n"
+    assert err == f"ctsim: error: writing the run's results into {tmp_path / 'out'}: No space left on device (written: run.rrd, summary.json)\n"
     assert summary_of(tmp_path / "out")["reason"] == "duration"
+    assert sorted(p.name for p in (tmp_path / "out").iterdir() if not p.name.startswith(".")) == ["run.rrd", "summary.json"]  # the list is what is there
 
 
 @pytest.fixture()
