@@ -14,7 +14,7 @@ import numpy as np
 from bots.odometry.batch import COVARIANCES, DefaultOdometry
 from bots.odometry.encoder import sigma_encoders
 from bots.odometry.layout import ESTIMATE, ESTIMATES, HYPOTHESIS_WEIGHT, SIGMAS
-from bots.odometry.mouse import mouse_arc, sigma_mouse
+from bots.odometry.mouse import MOUSE_SIGMAS, mouse_arc, sigma_mouse
 from bots.odometry.propagation import add_offset, add_spread, lay
 
 
@@ -33,7 +33,7 @@ def _sigma_work(params: np.ndarray, state: np.ndarray, poses: np.ndarray, tallie
         lay(st.fused_watch.hypothesis, s, alpha, False)
         add_spread(st.sigmas[ESTIMATE.encoders], SIGMAS, poses[0, ESTIMATE.encoders], cov_out[0, ESTIMATE.encoders])
         add_spread(st.sigmas[ESTIMATE.firmware], SIGMAS, poses[0, ESTIMATE.firmware], cov_out[0, ESTIMATE.firmware])
-        add_spread(st.sigmas[ESTIMATE.mouse], 2, poses[0, ESTIMATE.mouse], cov_out[0, ESTIMATE.mouse])
+        add_spread(st.sigmas[ESTIMATE.mouse], MOUSE_SIGMAS, poses[0, ESTIMATE.mouse], cov_out[0, ESTIMATE.mouse])
         add_offset(st.mouse_watch.hypothesis, poses[0, ESTIMATE.mouse], HYPOTHESIS_WEIGHT, cov_out[0, ESTIMATE.mouse])
         add_offset(st.fused_watch.hypothesis, poses[0, ESTIMATE.fused], HYPOTHESIS_WEIGHT, cov_out[0, ESTIMATE.fused])
 

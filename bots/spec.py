@@ -11,11 +11,12 @@ import math
 from dataclasses import MISSING, dataclass, field, fields, is_dataclass, replace
 from functools import cached_property
 from pathlib import Path
-from typing import Any
+from typing import Any, get_args, get_type_hints
 
 from bots.chassis_spec import ChassisSpec, chassis_from_dict, inscribed_radius
 from bots.schema import MIN_LENGTH, MIN_MASS, WORLD_EXTENT, FileError, Locator, Problem, check_fields, declared, file_stem, shown
 from bots.schema import read_toml as read_located
+from bots.sensor_kinds import sections
 from sim.errors import UserError
 
 REACH = 2.0
@@ -257,7 +258,8 @@ class RobotSpec:
 
 
 _NESTED = {"motor": MotorSpec, "encoders": EncoderSpec, "mouse": MouseSpec, "belief": BeliefSpec}
-_LISTS = {"ir": IRSensorSpec, "line": FloorSensorSpec, "border": FloorSensorSpec, "light": LightSensorSpec}
+_LISTS = {section: get_args(get_type_hints(RobotSpec)[section])[0] for section in sections()}
+"""Each robot-file section of sensors (the registry's) -> its sensor class (`RobotSpec`'s field declares it)."""
 
 
 class _Source:

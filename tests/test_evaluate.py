@@ -380,6 +380,8 @@ def test_an_estimator_that_fails_mid_suite_fails_only_its_runs_with_one_line_eac
     assert all(not runs["maze_realistic_4s", seed].get("failed") and cls in runs["maze_realistic_4s", seed]["metrics"] for seed in (0, 1))
     assert all(HOSTILE_SAID[cls] in runs["line_none_20s", seed]["failed"][cls] for seed in (0, 1))
     assert {p.name for p in out.iterdir()} >= {RESULTS, "scores.csv", "ranking.csv", "report.html"}
+    page = (out / "report.html").read_text()
+    assert "Failed runs (2 of 4)" in page and page.count(f"estimator &#x27;{cls}&#x27; of ctbot") == 2
 
 
 def test_a_hang_meets_the_step_time_limit_on_worker_processes_too(tmp_path, capsys):
@@ -488,3 +490,62 @@ def test_an_estimator_argument_that_is_no_estimator_is_one_line_and_exit_2(tmp_p
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("ctsim: error:") and said in err[0], err
     assert not out.exists()
+
+
+def test_a_hang_on_dask_ends_its_worker_and_the_run_is_lost_the_others_kept(tmp_path, capsys):
+    """Dask runs its tasks in a worker's thread, where no signal reaches: an overrun ends the
+    worker (`StepClock.ends_process`); Dask tries the run on fresh workers, then it is lost.
+    The maze runs (400 steps) finish before the estimator's hang (step 500) and are kept. (Under a
+    heavy load a nanny may fail to start a worker after some deaths: the runs left are lost after
+    WORKERLESS_S, not waited for.)"""
+    out = tmp_path / "out"
+    assert main(["evaluate", f"{_hostile(tmp_path, 500)}:Sleeps", "--suite", "test", "--out", str(out), "--engine", "dask", "--jobs", "2", "--step-timeout", "0.3"]) == 1
+    failed = [run.get("failed", {}) for run in read_results(out / RESULTS)["runs"]]
+    assert [bool(f) for f in failed] == [False, False, True, True] and all(f["Sleeps"].startswith("run lost: ") for f in failed[2:])
+    assert "ctsim: line_none_20s seed 0 failed: hostile.py:Sleeps: run lost" in capsys.readouterr().err
+
+
+WANDERS = """
+import os
+
+os.chdir({away!r})
+
+
+class Wanders:
+    def reset(self, robot, pose):
+        os.chdir({away!r})
+        self.pose = pose
+
+    def update(self, readings):
+        pass
+"""
+
+
+def test_an_estimator_that_changes_the_current_folder_moves_no_result(tmp_path, monkeypatch):
+    """At its import and in its reset (the trial runs in this process): a relative --out and
+    estimator file are taken from the folder ctsim started in."""
+    from sim.cli import output
+
+    away = tmp_path / "away"
+    away.mkdir()
+    (tmp_path / "wanders.py").write_text(textwrap.dedent(WANDERS.format(away=str(away))))
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setattr(output, "START", tmp_path)
+    assert main(["evaluate", "wanders.py", "--suite", "test", "--out", "results", "--engine", "serial"]) == 0
+    assert (tmp_path / "results" / RESULTS).is_file() and not any(away.iterdir())
+
+
+def test_more_jobs_than_four_per_core_are_refused_before_any_starts(tmp_path, capsys):
+    """A Dask LocalCluster started as many worker processes as asked (a million)."""
+    assert main(["evaluate", "--suite", "test", "--engine", "dask", "--jobs", "1000000", "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("ctsim: error: --jobs 1000000: more worker processes than 4 per core")
+
+
+def test_ctrl_c_during_the_trial_is_an_interrupt_not_a_refused_estimator(tmp_path, capsys, ctrl_c):
+    """The trial is a run of its own: Ctrl-C there stops the command (130), not 'estimator ...: interrupted' (2)."""
+    path = tmp_path / "ctrl_c.py"
+    path.write_text("import signal\n\nclass CtrlC:\n    def reset(self, robot, pose):\n        self.pose = pose\n\n"
+                    "    def update(self, readings):\n        signal.raise_signal(signal.SIGINT)\n")  # fmt: skip
+    assert main(["evaluate", str(path), "--suite", "test", "--out", str(tmp_path / "out"), "--engine", "serial"]) == 130
+    assert capsys.readouterr().err.strip().splitlines() == ["ctsim: interrupted"]

@@ -1,6 +1,9 @@
 """Every shipped estimator's covariance where the robot works: the main job (solve_maze in the
-maze, realistic noise, until the goal or 300 s) on 40 seeds, the mean NEES at 10, 50 and 100 % of
-each run inside the 95 % chi-square interval of 40 runs (2.29-3.81, `sim.analysis.nees.interval`).
+maze, realistic noise, until the goal or 300 s) on 120 seeds, the mean NEES at 10, 50 and 100 % of
+each run inside the 95 % chi-square interval of 120 runs (2.58-3.45, `sim.analysis.nees.interval`).
+Three sets of 40 (the docs' table gives each): a slide or a robot far out in the belief makes a
+run's NEES tens or hundreds, and the mean of 40 such heavy-tailed draws strays further than the
+40 runs' interval (2.29-3.81), made for chi-square draws, allows.
 
 Each seed is a robot of its own, its wheels', track's and mouse resolution's errors drawn from
 the belief (`Scenario(drawn=True)`): the interval describes runs whose errors are independent
@@ -16,11 +19,13 @@ import pytest
 from sim.experiments.consistency import FRACTIONS, Scenario, consistency
 from sim.experiments.engines import engine
 
-SEEDS = range(100, 140)
+SEEDS = [*range(100, 140), *range(200, 240), *range(300, 340)]
 OUTSIDE = {
-    ("mouse", 1.0): "too cautious at the end (2.24): a slide its watch saw counts twice, in the heading's variance and in the "
-                    "slide hypothesis's offset; with the hypothesis alone it ends at 22, over-confident (a heading off by more "
-                    "than a half turn wraps, and no Gaussian covers it)",
+    ("mouse", 1.0): "too cautious at the end (2.48): a slide its watch saw counts twice, in the heading's variance and in the "
+                    "slide hypothesis's offset; with the hypothesis alone it ends at 3.59, over-confident (a truth and a "
+                    "hypothesis on either side of the half turn from the estimate, which no Gaussian covers)",
+    ("fused", 0.1): "too cautious early in the run (2.33): its calibration update takes the quantisation as white noise",
+    ("fused", 1.0): "over-confident at the end by a little (3.46): slides slower than its slide watch sees",
 }  # fmt: skip
 """(estimate, fraction) whose mean NEES falls outside the interval on these seeds, and why (docs/odometry.md)."""
 

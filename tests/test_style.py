@@ -222,3 +222,58 @@ def test_no_integer_offset_is_typed_by_hand():
                 slices = {id(n) for s in ast.walk(node.slice) if isinstance(s, ast.Slice) for n in ast.walk(s)}
                 typed += [f"{rel}:{node.lineno}: {n.id}" for n in ast.walk(node.slice) if isinstance(n, ast.Name) and n.id in names and id(n) not in slices]
     assert not typed, "an integer offset typed by hand outside the layouts (declare it in one, read it by name): " + "; ".join(typed)
+
+
+NUMBERED = {"work": 0, "_work": 0, "tallies": 1}
+"""The packed arrays still indexed by number, by the names they go by, and their axis of
+declared places: the odometry's scratch workspace (`bots.odometry.layout.workspace`, planes by
+`PLANE`) and a step's tallies (robots, counts by `bots.odometry.layout.TALLY`; the World's own
+view of them is its TALLIES table)."""
+
+
+def _plane_views(function: ast.AST) -> set[str]:
+    """The names a function binds to one whole plane of its workspace (`rows = work[PLANE.x]`):
+    their first index is a row declared in the layout, as the workspace's is a plane."""
+    views = set()
+    for node in ast.walk(function):
+        if isinstance(node, ast.Assign):
+            pairs = []
+            for target in node.targets:
+                if isinstance(target, ast.Tuple) and isinstance(node.value, ast.Tuple):
+                    pairs += zip(target.elts, node.value.elts)
+                else:
+                    pairs.append((target, node.value))
+            views |= {t.id for t, v in pairs if isinstance(t, ast.Name) and isinstance(v, ast.Subscript) and NUMBERED.get(_name(v.value)) == 0
+                      and not isinstance(v.slice, ast.Tuple | ast.Slice)}  # fmt: skip
+    return views
+
+
+def _name(node: ast.AST) -> str | None:
+    return node.id if isinstance(node, ast.Name) else node.attr if isinstance(node, ast.Attribute) else None
+
+
+def test_no_literal_offset_into_a_numbered_array():
+    """The odometry's workspace and a step's tallies are read by name: a plane by `PLANE`, a row
+    of a plane by the layout's row names (`INCREMENT`, `UPDATE`), a count by `TALLY`, never by a
+    number typed at the use (`work[5]`, `work[25:]`, `rows[6]`, `tallies[r, 0]`, `tallies[:, :2]`).
+    Limits (where a number is not an offset into a table): the entries of a plane's matrices and
+    vectors are numbered by their maths ((s, alpha), a 2 x 2 noise), the SCRATCH_PLANES
+    temporaries (`scratch`, a slice of planes) by their place in one expression; only the names
+    in NUMBERED are seen, and a view handed to another function under another name is not
+    followed. The world's tables are structured arrays, read by field name
+    (`test_no_integer_offset_is_typed_by_hand`)."""
+    typed = []
+    for rel, tree in _trees():
+        for function in (n for n in ast.walk(tree) if isinstance(n, ast.FunctionDef)):
+            axes = NUMBERED | dict.fromkeys(_plane_views(function), 0)
+            for node in ast.walk(function):
+                axis = axes.get(_name(node.value)) if isinstance(node, ast.Subscript) else None
+                if axis is None:
+                    continue
+                index = node.slice.elts if isinstance(node.slice, ast.Tuple) else [node.slice]
+                if axis < len(index):
+                    place = index[axis]
+                    bounds = [place.lower, place.upper] if isinstance(place, ast.Slice) else [place]
+                    if any(isinstance(b, ast.Constant) and type(b.value) is int for b in bounds):
+                        typed.append(f"{rel}:{node.lineno}: {ast.unparse(node)}")
+    assert not typed, "a number typed as an offset into a numbered array (name it in bots/odometry/layout.py): " + "; ".join(sorted(set(typed)))

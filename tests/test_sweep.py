@@ -351,3 +351,27 @@ def test_cli_spec_mistakes_exit_2_before_anything_runs(tmp_path, capsys, text, m
     err = capsys.readouterr().err
     assert err.startswith("ctsim: error:") and message in err and err.count("\n") == 1
     assert not (tmp_path / "out").exists()
+
+
+def test_a_local_cluster_left_without_workers_is_given_up_after_a_while(monkeypatch):
+    """Every worker dead and none started again (a nanny under a heavy load): the runs left are
+    lost after WORKERLESS_S, looked at every WORKERS_EVERY_S; a cluster of someone else's is waited for."""
+    from types import SimpleNamespace
+
+    from sim.experiments import engines
+
+    now = [0.0]
+    monkeypatch.setattr(engines, "time", SimpleNamespace(monotonic=lambda: now[0]))
+    workers: dict = {}
+    own = SimpleNamespace(cluster=object(), client=SimpleNamespace(scheduler_info=lambda n_workers: {"workers": workers}))
+    watch, theirs = engines._Workerless(own), engines._Workerless(SimpleNamespace(cluster=None, client=None))
+    given_up = []
+    for second in range(100):
+        now[0] = float(second)
+        given_up.append(watch.too_long())
+        assert not theirs.too_long()
+    first = engines.WORKERS_EVERY_S + engines.WORKERLESS_S  # (none seen at the first look, 5 s in; 60 s later: given up)
+    assert given_up.index(True) == first
+    workers["tcp://w"] = {}
+    now[0] += engines.WORKERS_EVERY_S
+    assert not watch.too_long() and watch.since is None

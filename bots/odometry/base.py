@@ -119,7 +119,8 @@ class ArcOdometry:
 
     An estimator with `sigma_count` sigma points (`bots.odometry.encoder.sigma_encoders`,
     `bots.odometry.mouse.sigma_mouse`) carries its calibration's part of the error there instead: each point
-    dead-reckons the same readings with one calibration error a few standard deviations off, and
+    dead-reckons the same readings with its calibration errors off by nodes of Gauss-Hermite
+    quadrature (`bots.odometry.layout.NODES`), and
     the covariance adds their spread about the estimate. A wrong track turns the heading by tens
     of degrees over a maze, and the position error then bends away from where a first-order
     covariance puts it (it has no variance along the track from a heading error); the points

@@ -22,15 +22,13 @@ import numpy as np
 from bots.odometry.defaults import default_estimators
 from bots.odometry.encoder import encoder_step, sigma_encoders
 from bots.odometry.fused import fused_step
-from bots.odometry.layout import DEAD_RECKONERS, ENCODERS_ONLY, ESTIMATE, ESTIMATES, HYPOTHESIS_WEIGHT, PARAMETERS, SIGMAS, STATE, Counts, Estimate, fresh_state, workspace
-from bots.odometry.mouse import MouseOdometry, mouse_step, sigma_mouse, turn_check, watch_slides
+from bots.odometry.layout import DEAD_RECKONERS, ENCODERS_ONLY, ESTIMATE, ESTIMATES, HYPOTHESIS_WEIGHT, PARAMETERS, SIGMAS, STATE, TALLY, Counts, Estimate, fresh_state, workspace
+from bots.odometry.mouse import MOUSE_SIGMAS, mouse_step, sigma_mouse, turn_check, watch_slides
 from bots.odometry.propagation import add_offset, add_spread, lay, pose_covariance
 from bots.spec import RobotSpec
 from bots.uncertainty import COVARIANCE_FIELDS, ERROR, ERRORS
 
 COVARIANCES = len(COVARIANCE_FIELDS)
-MOUSE_SIGMAS = MouseOdometry.sigma_count
-"""The mouse estimate's sigma points (of SIGMAS)."""
 
 
 class Batch(NamedTuple):
@@ -61,9 +59,9 @@ def batch_step(batch: Batch, tallies: np.ndarray, time: float, truth: np.ndarray
         raise ValueError("DefaultOdometry.update: out and cov_out must have a row for every robot of the batch")
     for i in range(rows.shape[0]):
         r, p, st, pose, cov = rows[i], params[i], state[i], poses[i], errors[i]
-        if r >= tallies.shape[0] or tallies.shape[1] != 4:  # a kernel reads past an array's end without a word
+        if r >= tallies.shape[0] or tallies.shape[1] != len(TALLY):  # a kernel reads past an array's end without a word
             raise ValueError("DefaultOdometry.update: tallies must be (robots, 4) with a row for every robot of the batch")
-        counts = Counts(float(tallies[r, 0]), float(tallies[r, 1]), float(tallies[r, 2]), float(tallies[r, 3]))  # (`SensorFrame.tallies`' columns)
+        counts = Counts(float(tallies[r, TALLY.left]), float(tallies[r, TALLY.right]), float(tallies[r, TALLY.forward]), float(tallies[r, TALLY.lateral]))
         for estimate in (ESTIMATE.encoders, ESTIMATE.firmware):  # the encoders' arc along the mid-angle, then the firmware's along the end heading
             end_heading = estimate == ESTIMATE.firmware  # (a bool numba does not take for a constant: the step compiles once for both)
             s, alpha = encoder_step(p, pose[estimate, 2], cov[estimate], counts.left, counts.right, end_heading, work)

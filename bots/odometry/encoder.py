@@ -6,8 +6,8 @@ import numba
 import numpy as np
 
 from bots.odometry.base import ArcOdometry
-from bots.odometry.layout import PROPAGATE_WORK, SIGMA_SPREAD, SIGMAS
-from bots.odometry.propagation import END_HEADING, MID_ANGLE, lay, propagate, wheel_terms, wheel_variances
+from bots.odometry.layout import NODES, PLANE, SIGMAS
+from bots.odometry.propagation import END_HEADING, MID_ANGLE, lay, node_of, propagate, wheel_terms, wheel_variances
 from bots.readings import Readings
 
 
@@ -17,7 +17,7 @@ def encoder_step(p: np.void, heading: float, cov: np.ndarray, left: float, right
     (`work`: scratch, `workspace`)."""
     s_left, s_right = left * p.tick_left, right * p.tick_right
     s, alpha = 0.5 * (s_left + s_right), (s_right - s_left) / p.track
-    jac, noise = work[PROPAGATE_WORK, :2, :], work[PROPAGATE_WORK + 1, :2, :2]
+    jac, noise = work[PLANE.jac, :2, :], work[PLANE.noise, :2, :2]
     var_left, var_right = wheel_variances(p, s_left, s_right)
     wheel_terms(s_left, s_right, alpha, p.track, var_left, var_right, jac, noise)
     propagate(cov, heading, s, alpha, END_HEADING if end_heading else MID_ANGLE, jac, noise, work)
@@ -26,15 +26,14 @@ def encoder_step(p: np.void, heading: float, cov: np.ndarray, left: float, right
 
 @numba.njit(cache=True)
 def sigma_encoders(p: np.void, sigmas: np.ndarray, left: float, right: float, end_heading: bool) -> None:
-    """Lay these ticks on every sigma point of the encoders' calibration, in place: point 2j
-    (2j + 1) believes error j (left wheel, right wheel, track) SIGMA_SPREAD standard deviations
-    above (below) the estimate, so its wheels roll (1 + k) times the believed arc and it turns
-    over (1 + k) times the believed track, exactly, however far its heading strays."""
+    """Lay these ticks on every sigma point of the encoders' calibration, in place: each point
+    believes the left wheel, the right wheel and the track off by one node each (`NODES`, its
+    base-3 digits: `node_of`), so its wheels roll (1 + k) times the believed arc and it turns over
+    (1 + k) times the believed track, exactly, however far its heading strays."""
     for i in range(SIGMAS):
-        offset = (SIGMA_SPREAD if i % 2 == 0 else -SIGMA_SPREAD) * (p.wheel_std if i < 4 else p.track_std)
-        s_left = left * p.tick_left * (1.0 + (offset if i // 2 == 0 else 0.0))
-        s_right = right * p.tick_right * (1.0 + (offset if i // 2 == 1 else 0.0))
-        track = p.track * (1.0 + (offset if i // 2 == 2 else 0.0))
+        s_left = left * p.tick_left * (1.0 + NODES[node_of(i, 0)] * p.wheel_std)
+        s_right = right * p.tick_right * (1.0 + NODES[node_of(i, 1)] * p.wheel_std)
+        track = p.track * (1.0 + NODES[node_of(i, 2)] * p.track_std)
         lay(sigmas[i], 0.5 * (s_left + s_right), (s_right - s_left) / track, end_heading)
 
 
@@ -42,14 +41,15 @@ class EncoderOdometry(ArcOdometry):
     """Wheel encoders through the exact arc: ticks -> wheel arcs -> pose increment (eqs 1.3, 1.12).
     Covariance: each wheel's arc has variance (slip_var + tick_rate * tick) * |s| per step
     (first order), and the wheel scales and track are unknown by their believed size
-    (`bots.uncertainty`), carried by six sigma points (`ArcOdometry`).
+    (`bots.uncertainty`), carried by 26 sigma points, every combination of three nodes of each
+    (`ArcOdometry`, `bots.odometry.layout.SIGMAS`).
 
     geometry: the believed wheel diameters and track; None = the robot's nominal ones."""
 
     name = "encoders"
     sigma_count = SIGMAS
-    caveat = ("a robot whose wheels or track are 3 standard deviations of its belief out turns its heading past a quarter "
-              "turn in the maze, and the position's error then bends beyond what a covariance describes")  # fmt: skip
+    caveat = ("one robot's wheels and track are off the same in every run: its mean NEES over runs says where they lie in "
+              "its belief (the realistic c't-Bot's: too cautious), not whether the covariance holds over the robots it describes")  # fmt: skip
 
     def step(self, readings: Readings) -> tuple[float, float]:
         left, right = readings.encoder_ticks.tolist()

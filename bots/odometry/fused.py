@@ -33,7 +33,7 @@ import numpy as np
 
 from bots.odometry.base import ArcOdometry, Geometry
 from bots.odometry.encoder import EncoderOdometry
-from bots.odometry.layout import ESTIMATE, PROPAGATE_WORK, Counts, Estimate
+from bots.odometry.layout import ESTIMATE, INCREMENT, PLANE, UPDATE, Counts, Estimate
 from bots.odometry.mouse import MouseOdometry, mouse_arc, watch_slides
 from bots.odometry.propagation import MID_ANGLE, lay, mouse_terms, mouse_variance, propagate, wheel_terms, wheel_variances
 from bots.readings import Readings
@@ -86,9 +86,9 @@ def _add(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> np.ndarray:
 
 
 @numba.njit(cache=True)
-def _weighed(w_enc: np.ndarray, m_enc: np.ndarray, w_mouse: np.ndarray, m_mouse: np.ndarray, out: np.ndarray, work: np.ndarray) -> None:
-    """out <- w_enc m_enc w_enc^T + w_mouse m_mouse w_mouse^T (2 x 2; `work`: four scratch planes)."""
-    _add(_mul(_mul(w_enc, m_enc, work[0, :2, :2]), w_enc.T, work[1, :2, :2]), _mul(_mul(w_mouse, m_mouse, work[2, :2, :2]), w_mouse.T, work[3, :2, :2]), out)
+def _weighed(w_enc: np.ndarray, m_enc: np.ndarray, w_mouse: np.ndarray, m_mouse: np.ndarray, out: np.ndarray, scratch: np.ndarray) -> None:
+    """out <- w_enc m_enc w_enc^T + w_mouse m_mouse w_mouse^T (2 x 2; `scratch`: four temporary planes)."""
+    _add(_mul(_mul(w_enc, m_enc, scratch[0, :2, :2]), w_enc.T, scratch[1, :2, :2]), _mul(_mul(w_mouse, m_mouse, scratch[2, :2, :2]), w_mouse.T, scratch[3, :2, :2]), out)
 
 
 @numba.njit(cache=True)
@@ -101,14 +101,16 @@ def fused_step(p: np.void, st: np.void, estimate: Estimate, calibration: np.ndar
     (wall contact)."""
     pose, cov, lag = estimate
     left, right, forward, lateral = counts
-    vectors = work[PROPAGATE_WORK]  # rows: the increments and their corrections
-    u_enc, u_mouse, corrected_enc, corrected_mouse, d, u = vectors[0, :2], vectors[1, :2], vectors[2, :2], vectors[3, :2], vectors[4, :2], vectors[5, :2]
-    applied, correction, updated_enc, updated_mouse = vectors[6, :2], work[PROPAGATE_WORK + 1, 0], work[PROPAGATE_WORK + 1, 1, :2], work[PROPAGATE_WORK + 1, 2, :2]
-    j_enc, r_enc, q_enc, a_enc = work[5, :2, :], work[6, :2, :2], work[7, :2, :2], work[8, :2, :2]
-    j_mouse, r_mouse, q_mouse, a_mouse = work[9, :2, :], work[10, :2, :2], work[11, :2, :2], work[12, :2, :2]
-    h, noise_d, ph, gain, keep_cov = work[13, :2, :], work[14, :2, :2], work[15, :, :2], work[16, :, :2], work[17, :, :]
-    i_enc, i_mouse, weights, w_enc, w_mouse = work[18, :2, :2], work[19, :2, :2], work[20, :2, :2], work[21, :2, :2], work[22, :2, :2]
-    jac, noise, scratch = work[23, :2, :], work[24, :2, :2], work[25:]
+    increments, updates = work[PLANE.increments], work[PLANE.updates]
+    u_enc, u_mouse, corrected_enc, corrected_mouse = increments[INCREMENT.enc, :2], increments[INCREMENT.mouse, :2], increments[INCREMENT.corrected_enc, :2], increments[INCREMENT.corrected_mouse, :2]
+    d, u, applied = increments[INCREMENT.d, :2], increments[INCREMENT.u, :2], increments[INCREMENT.applied, :2]
+    correction, updated_enc, updated_mouse = updates[UPDATE.correction], updates[UPDATE.updated_enc, :2], updates[UPDATE.updated_mouse, :2]
+    j_enc, r_enc, q_enc, a_enc = work[PLANE.j_enc, :2, :], work[PLANE.r_enc, :2, :2], work[PLANE.q_enc, :2, :2], work[PLANE.a_enc, :2, :2]
+    j_mouse, r_mouse, q_mouse, a_mouse = work[PLANE.j_mouse, :2, :], work[PLANE.r_mouse, :2, :2], work[PLANE.q_mouse, :2, :2], work[PLANE.a_mouse, :2, :2]
+    h, noise_d, ph, gain, keep_cov = work[PLANE.h, :2, :], work[PLANE.noise_d, :2, :2], work[PLANE.ph, :, :2], work[PLANE.gain, :, :2], work[PLANE.keep_cov, :, :]
+    i_enc, i_mouse, weights = work[PLANE.i_enc, :2, :2], work[PLANE.i_mouse, :2, :2], work[PLANE.weights, :2, :2]
+    w_enc, w_mouse = work[PLANE.w_enc, :2, :2], work[PLANE.w_mouse, :2, :2]
+    jac, noise, scratch = work[PLANE.jac, :2, :], work[PLANE.noise, :2, :2], work[PLANE.scratch:]  # scratch: temporaries, numbered where used
     matrix = cov[:, :]  # (every matrix a view of one type, 'A': one compile of each helper, not one per layout)
     track = p.track
     s_left, s_right = left * p.tick_left, right * p.tick_right

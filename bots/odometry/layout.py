@@ -37,12 +37,22 @@ ENCODERS_ONLY = ESTIMATE.firmware + 1
 """Default estimates of a robot without such a mouse: the encoders' and the firmware's."""
 DEAD_RECKONERS = ESTIMATE.fused
 """The estimates before the fused one, each with its sigma points (`STATE.sigmas`)."""
-SIGMAS = 6
-"""Sigma points of a dead-reckoning estimator: two per calibration error it has (encoders: left
-wheel, right wheel, track; mouse: resolution, its other four unused)."""
 SIGMA_SPREAD = math.sqrt(3.0)
-"""Standard deviations from the estimate to each sigma point: sqrt(n + kappa) with n + kappa = 3,
-Julier and Uhlmann's choice for Gaussian errors; each point then weighs 1 / (2 * 3)."""
+"""Standard deviations from the estimate to a sigma point along each calibration error: the nodes
+of Gauss-Hermite quadrature with three points (0, +-sqrt(3)), exact for a Gaussian's moments up
+to the fifth."""
+NODES = (0.0, SIGMA_SPREAD, -SIGMA_SPREAD)
+"""The three nodes (standard deviations) of each calibration error; a point's base-3 digits pick one per error."""
+NODE_WEIGHTS = (2.0 / 3.0, 1.0 / 6.0, 1.0 / 6.0)
+"""Their weights; a point weighs the product of its nodes' (`bots.odometry.propagation.point_weight`)."""
+SIGMAS = 3**3 - 1
+"""Sigma points of a dead-reckoning estimator: every combination of the nodes of its calibration
+errors but all at 0 (the estimate itself): the encoders' 26 of three (left wheel, right wheel,
+track), the mouse's first 2 of one (its resolution). The combinations carry how the errors act
+together: with only the 2 a error (6 in all), a robot of the belief's spread turns its heading tens
+of degrees in the maze, its position's error curves, and the points' spread missed a direction
+the errors take (their mean NEES over robots drawn from the belief, calibration alone: 170-370
+where 3 is right; with the 26: 3.1)."""
 HYPOTHESIS_WEIGHT = 1.0
 """The weight of a slide watch's hypothesis (`bots.odometry.mouse.watch_slides`) in its
 estimate's covariance: the second moment of an error as large as its offset. The watch sees the
@@ -108,10 +118,74 @@ STATE = Table(
     Field("fused_watch", 1, "the fused estimate's slide watch", SLIDE_WATCH.dtype),
 )
 
-PROPAGATE_WORK = 3
-"""Scratch planes (`workspace`) `bots.odometry.propagation.propagate` uses; the steps that call it use those after."""
-WORK = 29
-"""Scratch planes of (ERRORS, ERRORS) a step uses at most (`bots.odometry.fused.fused_step`)."""
+class Planes(NamedTuple):
+    """Each scratch plane's place in a `workspace` (WORK planes of (ERRORS, ERRORS)), by what a
+    compiled step keeps there: `propagate`'s own three, the increment's Jacobian and noise a step
+    hands it, the fused step's (`bots.odometry.fused.fused_step`) intermediates, and last
+    SCRATCH_PLANES of temporaries, each used within one expression."""
+
+    propagate_a: int  # propagate: d pose' / d (pose, errors)
+    propagate_rows: int  # propagate: a @ cov
+    propagate_pose: int  # propagate: the pose block of a @ cov @ a^T
+    increments: int  # fused: the step's increments (rows by INCREMENT)
+    updates: int  # fused: the update's correction and the increments it corrects (rows by UPDATE)
+    j_enc: int  # fused: the encoders' increment's Jacobian on the errors, its random noise,
+    r_enc: int
+    q_enc: int  # its quantisation,
+    a_enc: int  # and the two together
+    j_mouse: int  # fused: the same of the mouse's
+    r_mouse: int
+    q_mouse: int
+    a_mouse: int
+    h: int  # fused: the disagreement's Jacobian on the errors, its noise,
+    noise_d: int
+    ph: int  # cov h^T,
+    gain: int  # the Kalman gain,
+    keep_cov: int  # and I - gain h
+    i_enc: int  # fused: each increment's information, their weights
+    i_mouse: int
+    weights: int
+    w_enc: int
+    w_mouse: int
+    jac: int  # every step: the increment's Jacobian on the errors and its noise, for `propagate`
+    noise: int
+    scratch: int  # the first of SCRATCH_PLANES
+
+
+PLANE = Planes(*range(len(Planes._fields)))
+"""Where each scratch plane lies in a `workspace` (`work[PLANE.gain, :, :2]`)."""
+SCRATCH_PLANES = 4
+"""Temporary planes after PLANE.scratch (`_weighed` in `bots.odometry.fused` takes four)."""
+WORK = PLANE.scratch + SCRATCH_PLANES
+"""Scratch planes of (ERRORS, ERRORS) a step uses at most."""
+
+
+class Increments(NamedTuple):
+    """The rows of plane PLANE.increments (each an increment (s, alpha), its first two entries)."""
+
+    enc: int  # the encoders' increment
+    mouse: int  # the mouse's
+    corrected_enc: int  # each corrected by the calibration estimated so far
+    corrected_mouse: int
+    d: int  # their difference
+    u: int  # the increment laid down
+    applied: int  # a Jacobian applied to the calibration
+
+
+INCREMENT = Increments(*range(len(Increments._fields)))
+"""Where each increment lies in plane PLANE.increments."""
+
+
+class Updates(NamedTuple):
+    """The rows of plane PLANE.updates."""
+
+    correction: int  # the update's correction of the pose and the calibration (ERRORS entries)
+    updated_enc: int  # the encoders' increment, corrected by the updated calibration (two entries)
+    updated_mouse: int  # the mouse's
+
+
+UPDATE = Updates(*range(len(Updates._fields)))
+"""Where each row lies in plane PLANE.updates."""
 
 
 class Counts(NamedTuple):
@@ -121,6 +195,11 @@ class Counts(NamedTuple):
     right: float
     forward: float
     lateral: float
+
+
+TALLY = Counts(*range(len(Counts._fields)))
+"""Where each count lies in a row of a step's tallies (`SensorFrame.tallies`, (robots,
+len(TALLY)) int64: the registry's kinds of its tallies array, encoder ticks then mouse counts)."""
 
 
 class Estimate(NamedTuple):

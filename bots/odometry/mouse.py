@@ -9,10 +9,13 @@ import numba
 import numpy as np
 
 from bots.odometry.base import ArcOdometry
-from bots.odometry.layout import ESTIMATE, PROPAGATE_WORK, SIGMA_SPREAD
-from bots.odometry.propagation import MID_ANGLE, lay, mouse_terms, mouse_variance, propagate, wheel_variances
+from bots.odometry.layout import ESTIMATE, NODES, PLANE
+from bots.odometry.propagation import MID_ANGLE, lay, mouse_terms, mouse_variance, node_of, propagate, wheel_variances
 from bots.readings import Readings
 from bots.uncertainty import ERROR
+
+MOUSE_SIGMAS = 3 - 1
+"""The mouse's sigma points: the two nodes of its one calibration error, the resolution."""
 
 
 @numba.njit(cache=True)
@@ -27,7 +30,7 @@ def mouse_step(p: np.void, heading: float, cov: np.ndarray, forward: float, late
     """Mouse odometry: the increment of these counts; `cov` propagated from `heading` (`work`:
     scratch, `workspace`)."""
     s, alpha = mouse_arc(p, forward, lateral)
-    jac, noise = work[PROPAGATE_WORK, :2, :], work[PROPAGATE_WORK + 1, :2, :2]
+    jac, noise = work[PLANE.jac, :2, :], work[PLANE.noise, :2, :2]
     mouse_terms(s, alpha, p.mount_x, p.mount_y, mouse_variance(p, s, alpha), jac, noise)
     propagate(cov, heading, s, alpha, MID_ANGLE, jac, noise, work)
     return s, alpha
@@ -38,8 +41,8 @@ def sigma_mouse(p: np.void, sigmas: np.ndarray, forward: float, lateral: float) 
     """Lay these counts on the two sigma points of the mouse's resolution (SIGMA_SPREAD standard
     deviations above and below the estimate: a finer mouse counts (1 + k) times the floor)."""
     s, alpha = mouse_arc(p, forward, lateral)
-    for i in range(2):
-        scale = 1.0 + (SIGMA_SPREAD if i == 0 else -SIGMA_SPREAD) * p.mouse_scale_std
+    for i in range(MOUSE_SIGMAS):
+        scale = 1.0 + NODES[node_of(i, 0)] * p.mouse_scale_std
         lay(sigmas[i], s / scale, alpha / scale, False)
 
 
@@ -115,7 +118,7 @@ class MouseOdometry(ArcOdometry):
     watch = ESTIMATE.mouse
     caveat = ("a slide along a wall turns its heading, by more than a half turn in some runs: no Gaussian covers a heading "
               "that wraps, and the slides its watch sees are counted twice (too cautious), those it does not not at all")  # fmt: skip
-    sigma_count = 2
+    sigma_count = MOUSE_SIGMAS
 
     def __init__(self) -> None:
         super().__init__()

@@ -16,7 +16,7 @@ import math
 import numba
 import numpy as np
 
-from bots.odometry.layout import SIGMA_SPREAD
+from bots.odometry.layout import NODE_WEIGHTS, PLANE
 from bots.uncertainty import ERROR, ERRORS
 from sim.kinematics.batch import advance_one
 
@@ -59,13 +59,13 @@ def propagate(cov: np.ndarray, heading: float, s: float, alpha: float, share: fl
     the step) along `heading + share * alpha` (`MID_ANGLE`, exact, or `END_HEADING`, the
     firmware), whose error is jac @ errors + n, n ~ noise: cov <- A cov A^T + G noise G^T, with A
     the identity but for the pose rows (d pose'/d pose and G @ jac, G = d pose'/d (s, alpha)).
-    `work` (WORK, ERRORS, ERRORS): scratch planes (`workspace`), its first PROPAGATE_WORK used.
+    `work` (WORK, ERRORS, ERRORS): scratch planes (`workspace`), its PLANE.propagate_* used.
     (A float, not a bool: numba compiles a function once for each constant bool it is called with.)"""
     angle = heading + share * alpha
     c, sn = math.cos(angle), math.sin(angle)
     lever = share * s
     g = ((c, -lever * sn), (sn, lever * c), (0.0, 1.0))
-    a, rows, pose = work[0, :3], work[1, :3], work[2, :3, :3]  # rows: a @ cov; pose: a @ cov @ a^T, + G noise G^T
+    a, rows, pose = work[PLANE.propagate_a, :3], work[PLANE.propagate_rows, :3], work[PLANE.propagate_pose, :3, :3]  # rows: a @ cov; pose: a @ cov @ a^T, + G noise G^T
     a[:, :] = 0.0
     for r in range(3):
         a[r, r] = 1.0
@@ -123,8 +123,10 @@ def mouse_variance(p: np.void, s: float, alpha: float) -> float:
 @numba.njit(cache=True)
 def add_offset(point: np.ndarray, pose: np.ndarray, weight: float, out: np.ndarray) -> None:
     """Add `weight` times the outer product of `point`'s offset from `pose` (both (3,)) to the
-    covariance entries `out` (COVARIANCE_FIELDS)."""
-    dx, dy, dt = point[0] - pose[0], point[1] - pose[1], point[2] - pose[2]
+    covariance entries `out` (COVARIANCE_FIELDS), its heading within a half turn as the NEES
+    takes an error's (`sim.analysis.nees`): a point 245 degrees one way lies 115 the other."""
+    dx, dy = point[0] - pose[0], point[1] - pose[1]
+    dt = (point[2] - pose[2] + math.pi) % (2.0 * math.pi) - math.pi
     out[0] += weight * dx * dx
     out[1] += weight * dx * dy
     out[2] += weight * dx * dt
@@ -134,12 +136,32 @@ def add_offset(point: np.ndarray, pose: np.ndarray, weight: float, out: np.ndarr
 
 
 @numba.njit(cache=True)
+def node_of(point: int, error: int) -> int:
+    """Which node (`bots.odometry.layout.NODES`) sigma point `point` takes for calibration error
+    `error`: the error's base-3 digit of point + 1 (point 0 is the first beside the estimate)."""
+    digits = point + 1
+    for _ in range(error):
+        digits //= 3
+    return digits % 3
+
+
+@numba.njit(cache=True)
+def point_weight(point: int, count: int) -> float:
+    """The weight of sigma point `point` of `count` (3**errors - 1): its nodes' weights' product."""
+    weight, digits, size = 1.0, point + 1, count + 1
+    while size > 1:
+        weight *= NODE_WEIGHTS[digits % 3]
+        digits, size = digits // 3, size // 3
+    return weight
+
+
+@numba.njit(cache=True)
 def add_spread(sigmas: np.ndarray, count: int, pose: np.ndarray, out: np.ndarray) -> None:
     """Add the spread of the first `count` sigma points about `pose` to the covariance entries
-    `out` (COVARIANCE_FIELDS): the calibration's part of the error, unscented (each point weighs
-    1 / (2 SIGMA_SPREAD²), the estimate itself the rest)."""
+    `out` (COVARIANCE_FIELDS): the calibration's part of the error, by Gauss-Hermite cubature
+    (each point weighs `point_weight`, the estimate itself the rest)."""
     for i in range(count):
-        add_offset(sigmas[i], pose, 0.5 / (SIGMA_SPREAD * SIGMA_SPREAD), out)
+        add_offset(sigmas[i], pose, point_weight(i, count), out)
 
 
 @numba.njit(cache=True, inline="always")

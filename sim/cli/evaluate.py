@@ -38,6 +38,7 @@ def add_parser(commands) -> None:  # noqa: ANN001 (argparse's subparsers action)
 def cmd_evaluate(args: argparse.Namespace) -> int:
     import numpy as np
 
+    from sim.cli.output import START
     from sim.experiments.evaluation import RESULTS, NotWritten, evaluate, merge, read_results, write_results
     from sim.experiments.scores import terminal
     from sim.experiments.suite import variant
@@ -46,7 +47,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 
     if args.merge and args.estimators:
         raise UsageError("--merge joins results files; run the estimators without it first")
-    out = args.out or Path("runs") / ("evaluate-merged" if args.merge else f"evaluate-{args.suite}")
+    # (from the folder ctsim started in: an estimator that changes the current folder cannot move the results)
+    out = START / (args.out or Path("runs") / ("evaluate-merged" if args.merge else f"evaluate-{args.suite}"))
     with tallied() as tally:  # (every file written: the list below, also when writing failed half-way)
         failure: Exception | None = None
         if args.merge:
@@ -100,9 +102,7 @@ def failures(results: dict) -> list[str]:
     """One line per failed run (at most SHOWN_FAILURES, then how many more): the scenario, the seed,
     the file of the estimator that failed it and how (what the run loop said: its name, the step,
     the file and line)."""
-    lines = []
-    for run in results["runs"]:
-        for who, message in run.get("failed", {}).items():
-            source = results["estimators"].get(who, {}).get("source", who)
-            lines.append(sanitize.name(f"{run['scenario']} seed {run['seed']} failed: {source}: {message}", 2000))
+    from sim.experiments.evaluation import failed_runs
+
+    lines = [sanitize.name(f"{row['scenario']} seed {row['seed']} failed: {row['source']}: {row['error']}", 2000) for row in failed_runs(results)]
     return lines[:SHOWN_FAILURES] + ([f"... and {len(lines) - SHOWN_FAILURES} more failed"] if len(lines) > SHOWN_FAILURES else [])

@@ -4,6 +4,7 @@ as a file's values are, the robot options and the robots they set up."""
 from __future__ import annotations
 
 import argparse
+import os
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -153,7 +154,14 @@ def engine_of(args: argparse.Namespace):  # noqa: ANN201 (an engine of sim.exper
 
     if args.jobs is not None and args.jobs < 1:
         raise UsageError(f"--jobs must be at least 1, got {args.jobs}")
+    most = JOBS_PER_CORE * (os.cpu_count() or 1)
+    if args.jobs is not None and args.jobs > most and args.scheduler is None:
+        raise UsageError(f"--jobs {args.jobs}: more worker processes than {JOBS_PER_CORE} per core ({most} here) only wait for each other and fill the memory")
     return engine(args.engine, args.jobs, args.scheduler)
+
+
+JOBS_PER_CORE = 4
+"""Most local worker processes per core `--jobs` starts (a Dask LocalCluster started as many as asked)."""
 
 
 def add_step_timeout_option(parser: argparse.ArgumentParser, what: str) -> None:

@@ -237,7 +237,11 @@ def _batch_size(jobs: int, workers: int) -> int:
 
 
 def _run_batch(fn: Callable[[Any], Any], batch: list[Any]) -> list[Any]:
-    """A Dask task: the outcomes of a batch of jobs."""
+    """A Dask task: the outcomes of a batch of jobs. Its runs go in a worker's thread, where no
+    signal keeps a step time limit: an overrun ends the worker (`StepClock.ends_process`)."""
+    from sim.run.clock import StepClock
+
+    StepClock.ends_process = True
     return [fn(job) for job in batch]
 
 
@@ -314,11 +318,16 @@ class Dask:
         size = self.batch or _batch_size(len(jobs), self.workers)
         futures = {self.client.submit(_run_batch, fn, jobs[k : k + size], pure=False): jobs[k : k + size] for k in range(0, len(jobs), size)}
         running = as_completed(futures)
+        workerless = _Workerless(self)
         try:
             with _HeldSignals() as held:
                 while not running.is_empty():
                     held.deliver()
                     if not running.has_ready():
+                        if workerless.too_long():
+                            for batch in list(futures.values()):
+                                yield from ((job, Lost(f"no Dask worker was left for {WORKERLESS_S:g} s (each died, and none came back)")) for job in batch)
+                            return
                         time.sleep(POLL_S)  # (as_completed's own wait would not wake for a signal held)
                         continue
                     future = next(running)
@@ -332,7 +341,7 @@ class Dask:
                                 futures[single] = [job]
                                 running.add(single)
                             continue
-                        outcomes = [Lost(f"its Dask worker died on every attempt ({err})")]
+                        outcomes = [Lost(f"its Dask worker died on every attempt ({type(err).__name__}: a crash, or a call of the user's code past the step time limit, ends it)")]
                     yield from zip(batch, outcomes)
         finally:
             self.client.cancel(list(futures))
@@ -376,6 +385,36 @@ def _stop_resource_tracker_at_exit() -> None:
     unlinked it as leaked (with a warning), and the owner's own cleanup then printed a traceback.
     A finalizer of negative priority runs after every semaphore's own (priority 0)."""
     util.Finalize(None, _stop_resource_tracker, exitpriority=-100)
+
+
+WORKERLESS_S = 60.0
+"""Seconds a LocalCluster the engine started may have runs to go and no worker (every worker died
+and its nanny could not start another, as under a heavy load after several deaths) before the
+runs left are reported lost rather than waited for for ever. A cluster of someone else's may
+have none for a while (a batch system starting them): it is waited for."""
+WORKERS_EVERY_S = 5.0
+"""Seconds between two looks at the number of a cluster's workers (a round trip to its scheduler)."""
+
+
+class _Workerless:
+    """How long a LocalCluster of the engine's own has been without a worker."""
+
+    def __init__(self, engine: Dask):
+        self.engine = engine
+        self.since: float | None = None
+        self.looked = time.monotonic()
+
+    def too_long(self) -> bool:
+        """Whether the cluster has had no worker for WORKERLESS_S (looked at every WORKERS_EVERY_S)."""
+        now = time.monotonic()
+        if self.engine.cluster is None or now - self.looked < WORKERS_EVERY_S:
+            return False
+        self.looked = now
+        if self.engine.client.scheduler_info(n_workers=-1)["workers"]:
+            self.since = None
+            return False
+        self.since = self.since if self.since is not None else now
+        return now - self.since >= WORKERLESS_S
 
 
 def _stop_resource_tracker() -> None:

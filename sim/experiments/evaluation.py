@@ -83,11 +83,12 @@ def submitted(sources: list[str], step_timeout: float | None = STEP_TIMEOUT) -> 
         if source in BY_NAME and not Path(source).is_file():
             found.append(Submitted(source, source, source, "shipped"))
             continue
+        file, _, cls = source.partition(":") if not Path(source).is_file() else (source, "", "")
+        path = Path(file).resolve()  # (before its code runs: code that changes the current folder moves nothing)
         with made_in_time(step_timeout):
             load(source)  # (a missing file or class: one line of its own)
-        file, _, cls = source.partition(":") if not Path(source).is_file() else (source, "", "")
-        located = str(Path(file).resolve()) + (f":{cls}" if cls else "")
-        identity = "sha256:" + hashlib.sha256(Path(file).read_bytes()).hexdigest()
+        located = str(path) + (f":{cls}" if cls else "")
+        identity = "sha256:" + hashlib.sha256(path.read_bytes()).hexdigest()
         found.append(Submitted(source, located, "", identity))
     shipped = [s for s in SHIPPED if s not in sources]
     with made_in_time(step_timeout):
@@ -175,6 +176,14 @@ def _blamed(entries: list[Submitted], error: str) -> dict[str, str]:
     named = [e for e in entries if f"estimator {e.name!r}" in error]
     error = sanitize.name(error, 2000)  # (what the user's code said, one line, its escapes as text, cut)
     return {e.name: error for e in named or entries} or {"run": error}
+
+
+def failed_runs(results: dict[str, Any]) -> list[dict[str, Any]]:
+    """Every failed run of a results file, a row per estimator it blames: the scenario, the seed,
+    the estimator, its source (the file's name and class as given; a shipped one's or the run's own
+    name) and the error, in the suite's order."""
+    return [{"scenario": run["scenario"], "seed": run["seed"], "estimator": who, "source": results["estimators"].get(who, {}).get("source", who), "error": message}
+            for run in results["runs"] for who, message in run.get("failed", {}).items()]  # fmt: skip
 
 
 def write_results(results: dict[str, Any], path: Path) -> Path:

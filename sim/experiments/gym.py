@@ -62,6 +62,7 @@ from bots.spec import RobotSpec
 from sim.experiments.api import robot as load_robot_spec
 from sim.experiments.api import world as world_spec
 from sim.world import World, WorldSpec
+from sim.world.layout import tally_rows
 from sim.world.sensors import CNY70_MAX
 from sim.world.step import DEFAULT_DT
 
@@ -230,9 +231,10 @@ class _Copies:
         world = self.world
         before = world.poses()
         self.ticks[:] = 0.0
+        ticks = tally_rows(world.tallies)["ticks"]  # (the World's tallies, each step's counts written into them)
         for _ in range(self.task.substeps):
             world.step(commands)
-            self.ticks += world.tallies[:, :2]
+            self.ticks += ticks
         self.steps += moving
         return before, world.poses()
 

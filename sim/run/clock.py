@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 import signal
 import threading
 from collections.abc import Iterator
@@ -26,15 +27,27 @@ class StepTimeout(BaseException):
     `except Exception` does not swallow it)."""
 
 
+_END_PROCESS = os._exit
+"""os._exit as it was when ctsim started (a run's guard replaces it meanwhile: `sim.guards`)."""
+OVERRUN_STATUS = 124
+"""Exit status of a process that an overrun ended (`StepClock.ends_process`), as `timeout`'s."""
+
+
 class StepClock:
     """A time limit on each controller step, kept by SIGALRM: a timer ticks every quarter of the
     limit and raises StepTimeout inside a controller that the last four ticks found in the same
     step (so a step ends between 1 and 1.25 limits). Only in the main thread of a POSIX process
-    (signals go there); elsewhere steps are not timed. `busy` is the number of the call of user code
-    in progress (a controller's step or an estimator's update: `begin`; 0: none)."""
+    (signals go there); elsewhere steps are not timed, unless `ends_process`: then a thread ticks
+    and ends the process at an overrun (no exception can be raised into a call blocked in
+    another thread). `busy` is the number of the call of user code in progress (a controller's
+    step or an estimator's update: `begin`; 0: none)."""
 
     active: StepClock | None = None
     """The clock of the run going on in this process, if any."""
+    ends_process = False
+    """Whether an overrun off the main thread ends this process: set in a Dask worker
+    (`sim.experiments.engines`), whose runs go in threads; a worker that ends is replaced, its run
+    tried again and then reported lost, rather than holding the sweep for ever."""
 
     def __init__(self, limit: float | None):
         if limit is not None and not (isinstance(limit, (int, float)) and MIN_STEP_TIMEOUT <= limit <= MAX_STEP_TIMEOUT):
@@ -44,12 +57,16 @@ class StepClock:
         self.calls = 0
         self._seen, self._ticks, self._previous = 0, 0, None
         self.armed = bool(limit) and hasattr(signal, "setitimer") and threading.current_thread() is threading.main_thread()
+        self.watched = bool(limit) and not self.armed and StepClock.ends_process
+        self._stopped = threading.Event()
 
     def __enter__(self) -> StepClock:
         if self.armed:
             self._previous = signal.signal(signal.SIGALRM, self._tick)
             signal.setitimer(signal.ITIMER_REAL, self.limit / 4, self.limit / 4)
             StepClock.active = self
+        elif self.watched:
+            threading.Thread(target=self._watch, name="ctsim step clock", daemon=True).start()
         return self
 
     def __exit__(self, *exc: object) -> None:
@@ -57,6 +74,17 @@ class StepClock:
             signal.setitimer(signal.ITIMER_REAL, 0)
             signal.signal(signal.SIGALRM, self._previous)
             StepClock.active = None
+        self._stopped.set()
+
+    def _watch(self) -> None:
+        """The ticks of a clock off the main thread (`ends_process`): an overrun ends the process."""
+        while not self._stopped.wait(self.limit / 4):
+            if self.busy and self.busy == self._seen:
+                self._ticks += 1
+                if self._ticks >= 4:
+                    _END_PROCESS(OVERRUN_STATUS)
+            else:
+                self._seen, self._ticks = self.busy, 0
 
     def begin(self) -> None:
         """A call of user code (a controller's step, an estimator's update) starts: timed from now."""

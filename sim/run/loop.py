@@ -136,7 +136,7 @@ def run(
         running = Status.RUNNING
         awaited = [(log, world_spec.goals_of(robot.slot), k) for k, (log, robot) in enumerate(zip(logs, world.robots))] if world_spec.goals else []
         for step in range(steps + 1):
-            frame = _sample(world, samples, estimators, odometry, guard, counted)
+            frame = _sample(world, samples, estimators, odometry, clock, guard, counted)
             if awaited and _reached_goals(awaited, world.poses_view(), frame.time) and until_goal:
                 result.reason = Ending.GOAL
             for on_sample in samplers:
@@ -378,15 +378,13 @@ def _drive_chassis(world: World, index: int, log: RobotLog, command, readings: R
 
 
 def _update(estimator: Estimator, uncertain: bool, timed: bool, readings: Readings, log: RobotLog, step: int,
-            counted: Counting) -> tuple[np.ndarray, np.ndarray | None]:  # fmt: skip
+            clock: StepClock, counted: Counting) -> tuple[np.ndarray, np.ndarray | None]:  # fmt: skip
     """Step an estimator and read its pose and covariance once (`outputs`; `uncertain`: it has
     one), all of it a call under the step clock as a controller's step is where `timed` (its time
     limit; a signal acted on at once: `_timed`, inline here, as it runs every step); one that
     raises (a KeyboardInterrupt no signal explains too: `counted`), overruns or leaves a bad pose
     or covariance ends the run (_Stop), as a controller's error does. The pose and covariance
     (None without one) as read."""
-    clock = StepClock.active
-    timed = timed and clock is not None
     try:
         if timed:
             clock.begin()
@@ -404,7 +402,8 @@ def _update(estimator: Estimator, uncertain: bool, timed: bool, readings: Readin
     return pose, covariance
 
 
-def _sample(world: World, samples: Samples, estimators: list[_Estimators], odometry: DefaultOdometry | None, guard: Guard, counted: Counting) -> SensorFrame:
+def _sample(world: World, samples: Samples, estimators: list[_Estimators], odometry: DefaultOdometry | None, clock: StepClock, guard: Guard,
+            counted: Counting) -> SensorFrame:  # fmt: skip
     """Read every robot's sensors at the current state into the run's next sample row and log
     truth and estimates: the default odometry of all batched robots updates and logs them in one
     pass; Python estimators (a robot's own, or all of a robot outside the batch) update theirs
@@ -423,7 +422,7 @@ def _sample(world: World, samples: Samples, estimators: list[_Estimators], odome
         readings = frame[i]
         poses_read, covariances = [], []
         for estimator, uncertain, timed in checked:
-            pose, covariance = _update(estimator, uncertain, timed, readings, log, n, counted)
+            pose, covariance = _update(estimator, uncertain, timed, readings, log, n, clock, counted)
             if guard.exited is not None:
                 raise _Stop(f"estimator {name_of(estimator)!r} of {log.name} {guard.exited} at step {n} (t = {readings.time:.2f} s)")
             poses_read.append(pose)

@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 
 from sim.analysis.run_folder import REPORT  # (the page of every folder ctsim writes: a run's, a sweep's, an evaluation's)
+from sim.experiments.evaluation import failed_runs
 from sim.experiments.scores import SCALE, nees_text, per_scenario, ranking, ranking_text, results_estimators, runs_frame, scenario_text
 from sim.experiments.scores import scenarios as suite_order
 from sim.out_files import replacing, write_text
@@ -151,6 +152,13 @@ def write_page(results: dict[str, Any], out: Path) -> Path:
         "lies in its 95 % chi-square interval.</p>",
         frame_table(ranking_text(table), 2),
         image(ranking_figure(table), "ranking"),
+    ]
+    failed = failed_runs(results)
+    if failed:
+        body += [f"<h2>Failed runs ({len({(row['scenario'], row['seed']) for row in failed})} of {len(results['runs'])})</h2>",
+                 "<p>A run stops where an estimator's code raised, left, overran the step time limit or gave a pose or covariance that is no "
+                 "estimate; none of the run's estimators is scored in it.</p>", frame_table(pd.DataFrame(failed), 5)]  # fmt: skip
+    body += [
         "<h2>Per scenario</h2>",
         image(ate_figure(results), "ATE per scenario"),
     ]
