@@ -247,8 +247,6 @@ class MonteCarloLocaliser:
         elif self.lost or size != n or 1.0 / float(np.dot(self.weights, self.weights)) < 0.5 * n:
             fresh = self.rng.binomial(size, INJECT) if self.lost else 0
             self._resample(size - fresh, [self._picked(fresh, raw)] if fresh else [])
-            if not (self.lost or was_lost):  # (the mean of hypotheses far apart is none of them)
-                self._hold_mean()
         self.updated = readings.time
 
     @property
@@ -274,15 +272,6 @@ class MonteCarloLocaliser:
         self.particles = np.concatenate([self.particles[drawn], *(poses for poses, _ in added)])
         self.likelihood = np.concatenate([self.likelihood[drawn], *(likelihood for _, likelihood in added)])
         self.weights = np.full(len(self.particles), 1.0 / len(self.particles))
-
-    def _hold_mean(self) -> None:
-        """Shift the resampled set back onto the weighted mean it was drawn from: drawing n of n
-        particles moves their mean by chance (by the spread over root n, genetic drift), and on a
-        floor whose scans say little that random walk, resampling after resampling, would carry the
-        estimate away from the odometry it follows."""
-        mean, spread = np.empty(3), np.empty((3, 3))
-        mean_and_covariance(self.particles, self.weights, float(self._mean[2]), mean, spread)
-        self.particles += self._mean - mean
 
     def _picked(self, count: int, raw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(count, 3) free poses drawn in proportion to the likelihood of the scan `raw` among
