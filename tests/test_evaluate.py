@@ -9,17 +9,20 @@ in seconds rather than a minute."""
 from __future__ import annotations
 
 import json
+import math
 import shutil
 import textwrap
 from dataclasses import replace
 from pathlib import Path
 
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from sim.cli.entry import main
 from sim.experiments.engines import Processes, Serial
 from sim.experiments.evaluation import RESULTS, EvaluationError, evaluate, merge, read_results
-from sim.experiments.scores import per_scenario, ranking
+from sim.experiments.scores import _shown, per_scenario, ranking
 from sim.experiments.suite import VARIANTS
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -550,3 +553,13 @@ def test_ctrl_c_during_the_trial_is_an_interrupt_not_a_refused_estimator(tmp_pat
                     "    def update(self, readings):\n        signal.raise_signal(signal.SIGINT)\n")  # fmt: skip
     assert main(["evaluate", str(path), "--suite", "test", "--out", str(tmp_path / "out"), "--engine", "serial"]) == 130
     assert capsys.readouterr().err.strip().splitlines() == ["ctsim: interrupted"]
+
+
+@given(st.one_of(st.floats(-1e307, 1e307), st.sampled_from([math.nan, math.inf, -math.inf])))  # (below the largest float, where "1.8e+308" would read back as inf)
+def test_a_table_cell_stays_short_whatever_a_merged_file_holds(value):
+    """A results file may hold any finite metric (1e300 m passes the merge's checks): its cell
+    keeps 3 significant digits, thousands in full (1,266) and beyond a billion in exponent form,
+    never hundreds of digits across the terminal; nan and inf print as a dash."""
+    cell = _shown(value)
+    assert len(cell) <= 13
+    assert cell == "-" or math.isclose(float(cell.replace(",", "")), value, rel_tol=5e-3, abs_tol=1e-300)

@@ -103,12 +103,16 @@ def ranking(scores: pd.DataFrame) -> pd.DataFrame:
     return table.drop(columns=["_failed", "_key"]).reset_index(drop=True)
 
 
+FULL_BELOW = 1e9
+"""Values from 10**digits up to this are printed in full (1,270 mm, not 1.27e+03); beyond it (a
+merged results file may carry any finite number) in exponent form, so no cell runs to 300 digits."""
+
+
 def _shown(value: float, digits: int = 3) -> str:
-    """`digits` significant digits; from 10**digits on in full with thousands separators (1,270
-    mm, not 1.27e+03)."""
+    """`digits` significant digits, thousands in full with their separators (`FULL_BELOW`)."""
     if not np.isfinite(value):
         return "-"
-    return f"{value:,.0f}" if abs(value) >= 10**digits else f"{value:.{digits}g}"
+    return f"{value:,.0f}" if 10**digits <= abs(value) < FULL_BELOW else f"{value:.{digits}g}"
 
 
 def ranking_text(table: pd.DataFrame) -> pd.DataFrame:
