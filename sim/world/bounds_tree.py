@@ -23,19 +23,15 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sim.world import layout
+from sim.world.kernels.contacts import CTBOT_PARTS
 from sim.world.kernels.pick import robot_boxes
 from sim.world.spec import JAVA3D_FLOOR, SceneShape
 
-CTBOT_SHAPES = np.array((
-    # (x, y) lower and upper (m, body frame: x forward, y left) of c't-Sim's CtBotShape's three
-    # shapes in the order they go live: right cheek, left cheek, the middle (measured in c't-Sim's
-    # bounds tree with the bot facing +y)
-    ((-0.05332801923155785, -0.0599322354793549), (0.05332798823714256, -0.0274977350234985)),
-    ((-0.05332801923155785, 0.0274977350234985), (0.05332798823714256, 0.0599322879314423)),
-    ((-0.0599322772026062, -0.0274977350234985), (0.01377798836678267, 0.0274977350234985)),
-))  # fmt: skip
-CTBOT_BOTTOM, CTBOT_TOP = JAVA3D_FLOOR + 0.0150000013411045, JAVA3D_FLOOR + 0.1349999986588954
-"""m: the z range of c't-Sim's bot shapes in Java3D's world (it floats 7.5 mm up, 120 mm tall)."""
+CTBOT_SHAPES = CTBOT_PARTS[[1, 0, 2]].reshape(-1, 2, 2)
+"""c't-Sim's CtBotShape's three shapes in the order they go live (right cheek, left cheek, the
+middle: `kernels.contacts.CTBOT_PARTS`), each its (forward, left) lower and upper corner (m)."""
+CTBOT_BOTTOM, CTBOT_TOP = JAVA3D_FLOOR + 0.075 - 0.06, JAVA3D_FLOOR + 0.075 + 0.06
+"""m: the z range of c't-Sim's bot shapes in Java3D's world (120 mm tall round its centre 75 mm up: World.addBot, CtBotShape)."""
 
 
 class _JavaRandom:
