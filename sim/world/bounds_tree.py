@@ -23,15 +23,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from sim.world import layout
-from sim.world.kernels.contacts import CTBOT_PARTS
-from sim.world.kernels.pick import robot_boxes
-from sim.world.spec import JAVA3D_FLOOR, SceneShape
-
-CTBOT_SHAPES = CTBOT_PARTS[[1, 0, 2]].reshape(-1, 2, 2)
-"""c't-Sim's CtBotShape's three shapes in the order they go live (right cheek, left cheek, the
-middle: `kernels.contacts.CTBOT_PARTS`), each its (forward, left) lower and upper corner (m)."""
-CTBOT_BOTTOM, CTBOT_TOP = JAVA3D_FLOOR + 0.075 - 0.06, JAVA3D_FLOOR + 0.075 + 0.06
-"""m: the z range of c't-Sim's bot shapes in Java3D's world (120 mm tall round its centre 75 mm up: World.addBot, CtBotShape)."""
+from sim.world.kernels.pick import CTBOT_BOTTOM, CTBOT_SHAPES, CTBOT_TOP, robot_boxes
+from sim.world.spec import SceneShape
 
 
 class _JavaRandom:

@@ -27,7 +27,7 @@ from bots.sensor_kinds import sections
 from bots.spec import RobotSpec
 from sim.world import layout
 from sim.world.bodies import BodyArrays
-from sim.world.bounds_tree import CTBOT_BOTTOM, CTBOT_SHAPES, CTBOT_TOP, BoundsTree
+from sim.world.bounds_tree import BoundsTree
 from sim.world.chassis_drive import ChassisDrive
 from sim.world.compiling import compile_all
 from sim.world.floor import FloorMap, rasterize
@@ -373,8 +373,6 @@ class World:
             values, believed, tallies = rows
             tallies[:] = st.tallies
         lights = st.n_floor + st.n_light  # the end of the light rows, where the IR rows start
-        if self._bounds_tree is not None:
-            move_robot_leaves(self._walls.tree, pose, CTBOT_SHAPES, CTBOT_BOTTOM, CTBOT_TOP)
         if self._round_ir:
             if len(st.ir.noise.rows):
                 st.ir.noise.normals.reserve(1)
@@ -415,7 +413,7 @@ class World:
             walls = self._walls
             spans = zip(walls.spans["start"], walls.spans["end"], walls.boxes["cylinder"])
             if self._bounds_tree is not None:
-                move_robot_leaves(walls.tree, self.poses_view(), CTBOT_SHAPES, CTBOT_BOTTOM, CTBOT_TOP)
+                move_robot_leaves(walls.tree, self.poses_view())
                 best = pick_tree((origin[0], origin[1], c, s, length), math.tan(cone), walls)
             else:
                 best = min((pick_wall((origin[0], origin[1], c, s, length), math.tan(cone), walls.vertices, a, b, round_) for a, b, round_ in spans), default=math.inf)

@@ -44,6 +44,7 @@ import math
 import numba
 import numpy as np
 
+from sim.world.kernels.contacts import CTBOT_PARTS
 from sim.world.layout import BoundsTree, Walls
 from sim.world.spec import JAVA3D_FLOOR
 
@@ -172,30 +173,27 @@ def pick_polygon(ray: tuple[float, float, float, float, float], tan_spread: floa
     o = np.array((ox, oy, SENSOR_HEIGHT))
     d = np.array((length * ux, length * uy, 0.0))
     best = math.inf
+    scratch = np.empty((7, 3))
     lower, upper = np.array((0.0, 0.0, WALL_BOTTOM)), np.array((0.0, 0.0, WALL_TOP))
     for k in range(start, end):
         nxt = k + 1 if k + 1 < end else start
         lower[0], lower[1] = min(vertices[k, 0], vertices[nxt, 0]), min(vertices[k, 1], vertices[nxt, 1])
         upper[0], upper[1] = max(vertices[k, 0], vertices[nxt, 0]), max(vertices[k, 1], vertices[nxt, 1])
         if _cone_meets_bounds(o, d, tan_spread, lower, upper):  # (each face of a Java3D Box is a shape of its own, with its own bounds)
-            best = min(best, pick_face(ray, tan_spread, vertices, start, end, k))
+            best = min(best, _face(o, d, tan_spread, vertices, start, end, k, scratch))
     return best
 
 
 @numba.njit(cache=True)
-def pick_face(ray: tuple[float, float, float, float, float], tan_spread: float, vertices: np.ndarray, start: int, end: int, k: int) -> float:
-    """Distance (m) c't-Sim's pick reads along RAY of the upright face over edge k of the wall
-    polygon vertices[start:end], its bounds test passed (see the module doc); inf if it sees none of it."""
-    ox, oy, ux, uy, length = ray
-    o = np.array((ox, oy, SENSOR_HEIGHT))
-    d = np.array((length * ux, length * uy, 0.0))
-    tri = np.empty((3, 3))
+def _face(o: np.ndarray, d: np.ndarray, tan_spread: float, vertices: np.ndarray, start: int, end: int, k: int, scratch: np.ndarray) -> float:
+    """Distance (m) c't-Sim's pick reads along the cone segment o + s d (sensor at SENSOR_HEIGHT)
+    of the upright face over edge k of the wall polygon vertices[start:end], its bounds test
+    passed (see the module doc); inf if it sees none of it. SCRATCH (7, 3): a triangle, then the
+    face's corners."""
+    tri, corner = scratch[:3], scratch[3:]
     nxt = k + 1 if k + 1 < end else start
-    # the face's corners: 0 start bottom, 1 start top, 2 end bottom, 3 end top
-    corner = np.array((
-        (vertices[k, 0], vertices[k, 1], WALL_BOTTOM), (vertices[k, 0], vertices[k, 1], WALL_TOP),
-        (vertices[nxt, 0], vertices[nxt, 1], WALL_BOTTOM), (vertices[nxt, 0], vertices[nxt, 1], WALL_TOP),
-    ))  # fmt: skip
+    for c, (v, z) in enumerate(((k, WALL_BOTTOM), (k, WALL_TOP), (nxt, WALL_BOTTOM), (nxt, WALL_TOP))):
+        corner[c, 0], corner[c, 1], corner[c, 2] = vertices[v, 0], vertices[v, 1], z  # 0 start bottom, 1 start top, 2 end bottom, 3 end top
     side = (k - start) % 4
     rising = side % 2 == 0
     order = FACES[side]
@@ -209,7 +207,7 @@ def pick_face(ray: tuple[float, float, float, float, float], tan_spread: float, 
             key, px, py, pz = found, x, y, z
     if key == math.inf:
         return math.inf
-    return math.sqrt((px - ox) ** 2 + (py - oy) ** 2 + (pz - SENSOR_HEIGHT) ** 2)
+    return math.sqrt((px - o[0]) ** 2 + (py - o[1]) ** 2 + (pz - o[2]) ** 2)
 
 
 @numba.njit(cache=True)
@@ -268,11 +266,13 @@ def pick_tree(ray: tuple[float, float, float, float, float], tan_spread: float, 
     """Distance (m) c't-Sim's pick reads along RAY (sensor x, y, unit look x, y, length) of the
     walls of a c't-Sim parcours: Java3D's walk of its bounds tree (`BHTree.doSelect`: a node's
     children only if the cone meets its box, right child first), each wall face or pillar side
-    whose own box the cone meets picked (`pick_face`, `pick_cylinder`); inf if it sees none."""
+    whose own box the cone meets picked (`pick_polygon`'s rule for one face, `pick_cylinder`); inf if it sees none."""
     tree = walls.tree
     ox, oy, ux, uy, length = ray
-    o = np.array((ox, oy, SENSOR_HEIGHT + JAVA3D_FLOOR))
+    o = np.array((ox, oy, SENSOR_HEIGHT + JAVA3D_FLOOR))  # in Java3D's world, the floor 2 m down
+    at = np.array((ox, oy, SENSOR_HEIGHT))  # in ctsim's, as the faces are
     d = np.array((length * ux, length * uy, 0.0))
+    scratch = np.empty((7, 3))
     best = math.inf
     stack = np.empty(2 * tree.lower.shape[0] + 1, np.int64)  # (at most every node once)
     stack[0], top = 0, 1
@@ -292,8 +292,15 @@ def pick_tree(ray: tuple[float, float, float, float, float], tan_spread: float, 
         if cylinders is not None and walls.boxes[wall].cylinder:
             best = min(best, pick_cylinder(ray, tan_spread, walls.vertices, start, end))
         else:
-            best = min(best, pick_face(ray, tan_spread, walls.vertices, start, end, tree.face[node]))
+            best = min(best, _face(at, d, tan_spread, walls.vertices, start, end, tree.face[node], scratch))
     return best
+
+
+CTBOT_SHAPES = CTBOT_PARTS[[1, 0, 2]].reshape(-1, 2, 2)
+"""c't-Sim's CtBotShape's three shapes in the order they go live (right cheek, left cheek, the
+middle: `kernels.contacts.CTBOT_PARTS`), each its (forward, left) lower and upper corner (m)."""
+CTBOT_BOTTOM, CTBOT_TOP = JAVA3D_FLOOR + 0.075 - 0.06, JAVA3D_FLOOR + 0.075 + 0.06
+"""m: the z range of c't-Sim's bot shapes in Java3D's world (120 mm tall round its centre 75 mm up: World.addBot, CtBotShape)."""
 
 
 @numba.njit(cache=True)
@@ -313,15 +320,15 @@ def robot_boxes(x: float, y: float, heading: float, shapes: np.ndarray, bottom: 
 
 
 @numba.njit(cache=True)
-def move_robot_leaves(tree: BoundsTree, pose: np.ndarray, shapes: np.ndarray, bottom: float, top: float) -> None:
-    """The bots' leaves of the bounds tree to their robots' poses (robots, 3), and every box above
-    them to its children's again, as Java3D updates its tree when a bot moves."""
-    lower, upper = np.empty((shapes.shape[0], 3)), np.empty((shapes.shape[0], 3))
+def move_robot_leaves(tree: BoundsTree, pose: np.ndarray) -> None:
+    """The bots' leaves of the bounds tree to their robots' poses (robots, 3; `CTBOT_SHAPES`), and
+    every box above them to its children's again, as Java3D updates its tree when a bot moves."""
+    lower, upper = np.empty((CTBOT_SHAPES.shape[0], 3)), np.empty((CTBOT_SHAPES.shape[0], 3))
     for r in range(tree.robot_leaves.shape[0]):
         if tree.robot_leaves[r, 0] < 0:
             continue
-        robot_boxes(pose[r, 0], pose[r, 1], pose[r, 2], shapes, bottom, top, lower, upper)
-        for k in range(shapes.shape[0]):
+        robot_boxes(pose[r, 0], pose[r, 1], pose[r, 2], CTBOT_SHAPES, CTBOT_BOTTOM, CTBOT_TOP, lower, upper)
+        for k in range(CTBOT_SHAPES.shape[0]):
             node = tree.robot_leaves[r, k]
             for c in range(3):
                 tree.lower[node, c], tree.upper[node, c] = lower[k, c], upper[k, c]

@@ -12,7 +12,7 @@ import numpy as np
 from sim.world.kernels.floor import raster_at
 from sim.world.kernels.geometry import polygon_distance, ray_circle, ray_polygon
 from sim.world.kernels.grids import circle_grid, first_at_least, walls_near
-from sim.world.kernels.pick import pick_tree, pick_wall
+from sim.world.kernels.pick import move_robot_leaves, pick_tree, pick_wall
 from sim.world.layout import GHOST, Curves, Floor, Noise, Rays, Readout, Sensing, Walls
 
 CIRCLE_GRID_ABOVE = 32
@@ -236,6 +236,8 @@ def read_ir(pose: np.ndarray, sensors: np.ndarray, walls: Walls, circles: np.nda
     m = sensors.shape[0]
     origins, look, distance = np.empty((m, 2)), np.empty(m), np.empty(m)
     ir_rays(pose, sensors, origins, look)
+    if walls.tree.robot_leaves.shape[0] > 0:
+        move_robot_leaves(walls.tree, pose)  # (c't-Sim's bots in its scene's bounds tree, which its pick walks)
     for i in range(pose.shape[0]):
         circles[i].x, circles[i].y = pose[i, 0], pose[i, 1]
     rays = Rays(origins, look, sensors.opening, sensors.owner, sensors.pick)
