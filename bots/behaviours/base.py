@@ -161,6 +161,11 @@ class Behaviour:
         return relative_pose(self.origin, self.odometry.pose)
 
     @property
+    def heading(self) -> float:
+        """Believed heading (rad) in this behaviour's frame: `pose[2]` without its position."""
+        return self.odometry.pose[2] - self.origin[2]
+
+    @property
     def dt(self) -> float:
         """The step (s) as the readings show it."""
         return self.odometry.dt
