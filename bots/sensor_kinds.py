@@ -52,6 +52,8 @@ class SensorKind:
     """The class of one sensor of its `section` (a class of `bots.spec`)."""
     packet: str | None = None
     """The name of its c't-Sim packet in `sim.bridge.protocol` (None: not sent)."""
+    wire: tuple[str, str] | None = None
+    """The two channels its packet carries, in order, '-' before a negated one (None: its first two values)."""
     idle: tuple[int, int] = (0, 0)
     """What that packet carries for a sensor the robot lacks (of the two it sends): c't-Sim's reading of nothing."""
     scale: float = 1.0
@@ -138,7 +140,8 @@ KINDS: tuple[SensorKind, ...] = (
                meaning="signed ticks counted during the previous step, (left, right)", packet="SENS_ENC", per_wheel=True),
     SensorKind("mouse_counts", None, ("forward", "left"), np.int64, "tallies", "kernels.motion.measure", "kernels.noise.draw_step", "mouse",
                "mouse (counts per step: forward, left)", "mouse counts",
-               meaning="signed counts during the previous step, (forward, left) in the sensor frame", packet="SENS_MOUSE", needs="mouse"),
+               meaning="signed counts during the previous step, (forward, left) in the sensor frame", needs="mouse",
+               packet="SENS_MOUSE", wire=("-left", "forward")),  # (c't-Sim's dX sideways to the right, dY forward)
     SensorKind("mouse2_counts", None, ("mouse 2 forward", "mouse 2 left"), np.int64, None, "chassis_drive.ChassisDrive.fill", "chassis_drive.ChassisDrive.fill", "mouse",
                "mouse (counts per step: forward, left)", "mouse 2 counts",
                meaning="a general chassis's second mouse, as mouse_counts", needs="chassis.mouse2", chassis_only=True),

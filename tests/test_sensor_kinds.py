@@ -47,6 +47,17 @@ def test_its_sections_kernels_and_packets_exist():
         assert kind.dtype(0).dtype == getattr(Readings(), kind.field).dtype, kind.field
 
 
+def test_the_bridge_sends_each_packet_of_the_registry_once_in_c_t_sim_s_order():
+    """The bridge's table of a step's packets (`sim.bridge.firmware.BLOCK`, c't-Sim's wire order)
+    holds every registry kind's packet once, and a kind's `wire` names its channels."""
+    from sim.bridge import protocol
+    from sim.bridge.firmware import BLOCK
+
+    for kind in KINDS:
+        assert kind.packet is None or BLOCK.count(getattr(protocol, kind.packet)) == 1, kind.field
+        assert kind.wire is None or all(name.removeprefix("-") in kind.channels for name in kind.wire), kind.field
+
+
 def test_the_full_scales_are_the_sensors_adc_tops():
     from sim.world.sensors import CNY70_MAX, LDR_MAX
 
