@@ -83,7 +83,7 @@ def test_step_moves_every_body_as_pymunks_own_step() -> None:
     for fast in (False, True):
         space, bodies, cans = space_with_everything(3, 4)
         touched = []
-        space.on_collision(None, None, begin=lambda arbiter, space, data: touched.append(1))
+        space.on_collision(None, None, begin=lambda arbiter, space, data, touched=touched: touched.append(1))
         for b in bodies + cans:  # all towards the origin, where they meet after a second
             b.velocity = (-b.position.x, -b.position.y)
         arrays = BodyArrays(space, bodies)
