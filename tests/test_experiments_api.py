@@ -4,6 +4,8 @@ frames, recordings, the examples of docs/experiments.md, and sweep plans (grid, 
 from __future__ import annotations
 
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -108,6 +110,16 @@ def test_readme_examples_run(tmp_path, monkeypatch):
         exec(compile(block, str(EXPERIMENTS), "exec"), {"__name__": "__main__"})
 
 
+def test_sweep_is_the_function_after_its_module_was_imported_directly():
+    """Importing a package's submodule binds it as the package's attribute: a submodule named
+    `sweep` replaced the public function for every later `from sim.experiments import sweep`
+    (test_readme_examples_run failed right after test_evaluate.py). In a fresh interpreter, so
+    that no earlier import in this process decides it."""
+    code = "import sim.experiments.sweeping, sim.experiments.evaluation\nfrom sim.experiments import sweep\nprint(callable(sweep), type(sweep).__name__)"
+    shown = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True)
+    assert shown.stdout.split() == ["True", "function"]
+
+
 def test_grid_plan_and_ids():
     spec = spec_from_dict({"base": {"duration": 1.0}, "axes": {"seed": [0, 1, 2], "world": ["maze", "empty"]}})
     planned = settings(spec)
@@ -119,7 +131,7 @@ def test_grid_plan_and_ids():
 def test_a_noise_axis_runs_each_preset_and_names_it_in_its_row():
     """`noise` is a sweep setting as `--noise` is an option: realistic unless [base] or [axes] say
     otherwise; each preset gives the same run as `simulate(noise=...)`."""
-    from sim.experiments.sweep import execute
+    from sim.experiments.sweeping import execute
 
     assert all(s["noise"] == "realistic" for s in settings(spec_from_dict({"axes": {"seed": [0, 1]}})))
     spec = spec_from_dict({"base": {"duration": 0.3, "world": "empty", "controller": "wander", "seed": 3}, "axes": {"noise": ["none", "realistic", "harsh"]}})

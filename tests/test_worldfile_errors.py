@@ -177,3 +177,16 @@ def test_a_folder_named_like_a_shipped_world_does_not_hide_it(tmp_path: Path, mo
     (tmp_path / "corridor").mkdir()
     with pytest.raises(WorldFileError, match="no such world file or shipped world"):
         load_world("corridor")
+
+
+@pytest.mark.parametrize("written", ["./maze", "maze/", "./maze/"])
+def test_a_path_with_a_directory_part_is_that_path_and_a_folder_is_refused(tmp_path: Path, monkeypatch: pytest.MonkeyPatch, written: str) -> None:
+    """`ctsim run ./maze` with a folder `maze/` here ran the shipped maze (pathlib drops `./`): a
+    name written with a directory part is that path, and a folder is refused naming it as written."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "maze").mkdir()
+    with pytest.raises(WorldFileError, match="is a folder, not a world file") as raised:
+        load_world(written)
+    assert raised.value.path == written
+    with pytest.raises(WorldFileError, match="no such file"):
+        load_world("./corridor")

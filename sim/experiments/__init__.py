@@ -23,7 +23,7 @@ from sim.experiments.api import (
 from sim.experiments.engines import Dask, Processes, Serial, engine
 from sim.experiments.plan import SpecError, SweepSpec, load_sweep, spec_from_dict
 
-_ON_DEMAND = {"sweep": ("sim.experiments.sweep", "sweep"), "load_results": ("sim.experiments.store", "load"), "summary_table": ("sim.experiments.report", "summary_table")}
+_ON_DEMAND = {"sweep": ("sim.experiments.sweeping", "sweep"), "load_results": ("sim.experiments.store", "load"), "summary_table": ("sim.experiments.report", "summary_table")}
 
 
 def __getattr__(name: str):

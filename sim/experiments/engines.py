@@ -27,7 +27,7 @@ RETRIES = 3
 """How often a run whose worker died is started again (Dask's default `allowed-failures`)."""
 
 
-PRELOAD = ["sim.experiments.sweep", "sim.experiments.warm"]
+PRELOAD = ["sim.experiments.sweeping", "sim.experiments.warm"]
 """Modules a worker imports (and runs, `warm`) before its first run: once in a fork server or a
 Dask worker, or in each worker forked from a process that has not yet."""
 

@@ -1,7 +1,7 @@
 """`ctsim evaluate`: estimators scored on the evaluation suite (`sim.experiments.suite`) beside
 the shipped ones, into a results file others can check and merge.
 
-The runs go through the sweep's machinery (`sim.experiments.sweep.run_jobs`: local processes or
+The runs go through the sweep's machinery (`sim.experiments.sweeping.run_jobs`: local processes or
 Dask, a row kept on disk as each run finishes, Ctrl-C keeps them and the same call resumes). The
 results file (`results.json`) holds the suite's name and version, ctsim's version, each
 scenario's hash, each estimator's source and the sha256 of its file, and every run's metrics; it
@@ -110,7 +110,7 @@ def evaluate(variant: Variant, sources: list[str], out: str | Path, runner: Any 
     default local processes), resuming what `out` holds; the results (`results_of`), also
     written to `out/results.json` (NotWritten, holding them, where it cannot be). A call of an estimator's code that takes longer than
     `step_timeout` seconds (wall clock; None: no limit) fails its run, as in `ctsim run`."""
-    from sim.experiments.sweep import run_jobs
+    from sim.experiments.sweeping import run_jobs
     from sim.folder_lock import held
 
     entries = submitted(sources, step_timeout)
@@ -137,7 +137,7 @@ def _number(value: Any) -> float | None:
 
 
 def results_of(variant: Variant, entries: list[Submitted], rows: list[dict[str, Any]]) -> dict[str, Any]:
-    """The results file's content from a suite's finished rows (`sim.experiments.sweep` rows):
+    """The results file's content from a suite's finished rows (`sim.experiments.sweeping` rows):
     runs in the suite's order, each estimator's metrics, and for a run that failed its error
     against whoever failed it (`_blamed`)."""
     names = sorted({c.rpartition(".")[0] for row in rows for c in row if c.endswith(".ate_rmse")})

@@ -521,7 +521,7 @@ class World:
         integrated after the step (`BodyArrays.move`): the same order as setting the velocity
         inside `velocity_func`, without a Python callback per body."""
         self._bodies.send()
-        self.space.step(self.dt)
+        self._bodies.step(self.dt)
         self._bodies.move(self.dt)
 
     def _count_contact(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:  # noqa: ANN001

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import difflib
 import math
+import os
 from pathlib import Path
 
 import sim
@@ -41,9 +42,11 @@ def shipped_worlds() -> dict[str, Path]:
 
 def _resolve(source: str | Path) -> Path:
     """A path as given, or the shipped world of that bare name (a folder of that name here, such as
-    a run's output folder `maze/`, is no world file and does not hide it)."""
+    a run's output folder `maze/`, is no world file and does not hide it). A name written with a
+    directory part (`./maze`, `maze/`) is that path: pathlib drops a leading `./`, so the text is
+    asked, not the Path."""
     path = Path(source)
-    if path.suffix or path.parent != Path(".") or path.is_file():
+    if path.suffix or os.path.dirname(source) or path.is_file():
         return path
     worlds = shipped_worlds()
     if str(source) in worlds:
@@ -58,6 +61,10 @@ def load_world(source: str | Path, pillars: str = "cell") -> WorldSpec:
     `pillars`: how a c't-Sim parcours' lamp pillars stand, 'cell' (wall blocks) or 'cylinder'
     (c't-Sim's own 0.1 m cylinders, as the bridge loads them; `sim.world.files.grid`)."""
     path = _resolve(source)
+    if path.is_dir():  # (named as written: `./maze` is not the shipped maze)
+        raise WorldFileError(str(source), None, "is a folder, not a world file; give a .toml or .xml file or a shipped world's name (`ctsim worlds`)")
+    if not path.suffix and not path.exists():
+        raise WorldFileError(str(source), None, "no such file")
     loader = _LOADERS.get(path.suffix.lower())
     if loader is None:
         raise WorldFileError(path, None, f"unknown world file type '{path.suffix}'; expected .toml or .xml")
