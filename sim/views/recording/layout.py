@@ -96,9 +96,9 @@ def log_world(log: Any, spec: WorldSpec) -> None:
 
 def log_key(log: Any, spec: WorldSpec, entries: Sequence[tuple[str, palette.RGB, float]]) -> None:
     """Draw the map's colour key once, static under world/map/key, right of the world: per entry
-    (label, colour, line radius in points) a short line and its label just below it (rerun centres
-    a point's label under the point), top down. Its colours and
-    labels are the trails' and the error plots' series', whose own legends stay hidden."""
+    (label, colour, line radius in points) a short line and, touching it below, its label (rerun
+    centres a point's label under the point), top down. Its colours and labels are the trails' and
+    the error plots' series', whose own legends stay hidden."""
     rr = lazy_rerun()
     xmin, ymin, xmax, ymax = spec.bounds
     size = max(xmax - xmin, ymax - ymin)
@@ -108,7 +108,7 @@ def log_key(log: Any, spec: WorldSpec, entries: Sequence[tuple[str, palette.RGB,
     lines = [[(centre - half, y), (centre + half, y)] for y in heights]
     labels, colours, radii = zip(*entries) if entries else ((), (), ())
     log("world/map/key/lines", rr.LineStrips2D(lines, colors=[rgb(c) for c in colours], radii=[-r for r in radii], draw_order=90.0), static=True)
-    log("world/map/key/labels", rr.Points2D([(centre, y - 0.012 * size) for y in heights], colors=[rgb(c) for c in colours], radii=-0.5, labels=list(labels),
+    log("world/map/key/labels", rr.Points2D([(centre, y - 0.005 * size) for y in heights], colors=[rgb(c) for c in colours], radii=-0.5, labels=list(labels),
                                             show_labels=True, draw_order=91.0), static=True)  # fmt: skip
 
 
