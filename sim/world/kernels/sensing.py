@@ -268,12 +268,13 @@ def sense_light(pose: np.ndarray, sensors: np.ndarray, lights: np.ndarray, tree:
         if sensor.pick:
             at[0], at[1], at[2], u[0], u[1], u[2] = points[k, 0], points[k, 1], sensor.height, cx, cy, 0.0
             nearest = pick_lamps(at, u, math.tan(sensor.opening), lights, tree)
-        for j in range(lights.shape[0] if not sensor.pick else 0):
-            lamp = lights[j]
-            ox, oy, oz = lamp.x - points[k, 0], lamp.y - points[k, 1], lamp.height - sensor.height
-            centre = math.sqrt(ox * ox + oy * oy + oz * oz)
-            if ox * cx + oy * cy >= cos_limit * centre - 1e-12:
-                nearest = min(nearest, max(centre - lamp.radius, 0.0))
+        else:
+            for j in range(lights.shape[0]):
+                lamp = lights[j]
+                ox, oy, oz = lamp.x - points[k, 0], lamp.y - points[k, 1], lamp.height - sensor.height
+                centre = math.sqrt(ox * ox + oy * oy + oz * oz)
+                if ox * cx + oy * cy >= cos_limit * centre - 1e-12:
+                    nearest = min(nearest, max(centre - lamp.radius, 0.0))
         out[k] = int(math.floor(min(nearest / sensor.reach, 1.0) * 1023))
 
 
