@@ -266,6 +266,8 @@ class RunResult:
         self.reason: Ending = Ending.DURATION
         self.verdict: str | None = None
         self.error: str | None = None
+        self.failed_estimator: tuple[int, str] | None = None
+        """(robot index, estimator name) of the Python estimator whose failure ended the run, else None."""
         self.notes: list[str] = []
         """What the run's guards put back that a controller had changed (`sim.guards`), once each."""
         self._samples = samples
