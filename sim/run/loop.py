@@ -30,7 +30,7 @@ from sim.guards import ControllerBrokeOut, Guard, foreign_frame, user_code_folde
 from sim.interrupts import Counting
 from sim.run.clock import StepClock, StepTimeout
 from sim.run.ending import Ending, Quit, RunError, Terminated
-from sim.run.samples import RobotLog, RunResult, Samples
+from sim.run.samples import RobotLog, RunResult, Samples, SamplesNotKept
 from sim.world import World, compiling
 from sim.world.chassis_drive import FaultError
 from sim.world.localising import MapScan
@@ -178,6 +178,8 @@ def run(
             world.step(commands)
     except _Stop as stop:
         result.reason, result.error, result.failed_estimator = Ending.ERROR, str(stop), stop.estimator
+    except SamplesNotKept as lost:  # (the run's file of samples failed it: what it holds is the run's)
+        result.reason, result.error = Ending.ERROR, lost.strerror
     except ControllerBrokeOut as broke:
         result.reason, result.error = Ending.ERROR, f"{_who(logs)} {broke} at step {step} (t = {world.time:.2f} s)"
     except Exception as err:  # ctsim's own code failing: a ctsim bug, unless a controller replaced what it calls
@@ -417,13 +419,14 @@ def _sample(world: World, samples: Samples, estimators: list[_Estimators], odome
     `guard`). The frame holds immutable copies of the row (`World.read_all`): the recorded rows
     themselves never reach a controller."""
     n = samples.count
+    at, columns = samples.columns.local(n), samples.columns.arrays
     time = world.time
-    tallies = samples.tallies[n]
-    frame = samples.frame = world.read_all((samples.values[n], samples.believed[n], tallies))
-    samples.time[n] = time
+    tallies = columns["tallies"][at]
+    frame = samples.frame = world.read_all((columns["values"][at], columns["believed"][at], tallies))
+    columns["time"][at] = time
     poses = world.poses_view()
     if odometry is not None:
-        odometry.update_into(tallies, time, poses, samples.poses[n], samples.covariances[n])
+        odometry.update_into(tallies, time, poses, columns["poses"][at], columns["covariances"][at])
     for i, log, checked, beside_batch in estimators:
         readings = frame[i]
         poses_read, covariances = [], []
@@ -439,7 +442,6 @@ def _sample(world: World, samples: Samples, estimators: list[_Estimators], odome
         else:
             beside_batch(poses_read, covariances)
     samples.count = n + 1
-    samples.columns.release_written(n + 1)
     return frame
 
 
