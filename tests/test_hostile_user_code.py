@@ -510,3 +510,35 @@ def test_simulate_puts_back_what_a_constructor_replaced_before_the_run(code):
     result = simulate("empty", Bot(f"{code}:PatchesWhenMade"), duration=0.1)
     assert result.reason == "duration" and World.step is before
     assert result.raw.notes[0] == "a controller or estimator replaced sim.world.physics.World.step while it was made; ctsim put it back"
+
+
+def test_a_disk_error_writing_the_samples_mid_run_ends_it_keeping_every_sample_before(tmp_path, monkeypatch, capsys):
+    """The samples' file fails (a disk error, ENOSPC) when the third window of 100 rows goes to
+    it: the run ends there in one line (exit 1), and every sample before it, the 100 that never
+    reached the file too, is in summary.json's time, the TUM files and run.parquet."""
+    import errno
+
+    from sim.run import samples
+
+    written, write = [], os.pwrite
+
+    def pwrite(descriptor: int, data, offset: int) -> int:
+        if len(written) >= 2 * 6:  # (two windows of the run's 6 columns)
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        written.append(offset)
+        return write(descriptor, data, offset)
+
+    monkeypatch.setattr(samples, "WINDOW", 100)
+    monkeypatch.setattr(samples.os, "pwrite", pwrite)
+    out = tmp_path / "out"
+    assert main(["run", "empty", "--controller", "wander", "--duration", "5", "--no-report", "--seed", "4", "--out", str(out)]) == 1
+    err = capsys.readouterr().err
+    assert "ctsim: run stopped: the run's samples from sample 200 on could not be written to the temporary folder" in err and "No space left on device" in err
+    monkeypatch.undo()
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["reason"] == "error" and summary["time"] == pytest.approx(2.99)  # (samples 0-299: the third window whole)
+    whole = tmp_path / "whole"
+    assert main(["run", "empty", "--controller", "wander", "--duration", "2.99", "--no-report", "--seed", "4", "--out", str(whole)]) == 0
+    for name in ("truth.tum", "fused.tum", "mouse.csv"):
+        assert (out / name).read_bytes() == (whole / name).read_bytes()
+    assert pq.read_table(out / "run.parquet").to_pandas().equals(pq.read_table(whole / "run.parquet").to_pandas())  # (NaN as NaN: IR seeing nothing)

@@ -199,6 +199,7 @@ def run(
         guard.__exit__()
         counted.__exit__()
         result.notes = list(guard.notes.values())
+        samples.settle()
         for robot, log, controller in zip(world.robots, logs, controllers):
             log.collisions, log.fell = robot.collisions, robot.fallen
             log.status = controller.status.value if isinstance(getattr(controller, "status", None), Status) else None

@@ -38,6 +38,12 @@ class SamplesNotKept(OSError):
     sample before it kept."""
 
 
+WHOLE = 256 << 20
+"""Largest file of samples read through one mapping of all of it (a run of up to about 600,000
+samples of a c't-Bot): its rows are views of that, and a result kept holds no descriptor of it
+(`_Store.settle`). A larger one is mapped a range at a time."""
+
+
 class _Store:
     """The unlinked temporary file (in TMPDIR) that holds a run's columns, and the regions handed
     out of it, each given its disk space when handed out (`_reserve`). Unlinked, it has no name in
@@ -47,15 +53,35 @@ class _Store:
         self._file = tempfile.TemporaryFile()
         self.descriptor = self._file.fileno()
         self.size = 0
+        self._whole: mmap.mmap | None = None
 
-    def region(self, size: int) -> int:
-        """The offset of `size` new bytes (from a page boundary, as mappings start)."""
-        offset = self.size
-        size = -(-size // mmap.PAGESIZE) * mmap.PAGESIZE
-        if size:
-            _reserve(self.descriptor, offset, size)
-        self.size += size
-        return offset
+    def mapped(self, offset: int, length: int) -> tuple[mmap.mmap, int]:
+        """A read-only mapping that holds the file's bytes [offset, offset + length), and where in
+        it they start: the whole file's (WHOLE), else one of just that range."""
+        if self.size <= WHOLE:
+            if self._whole is None or len(self._whole) < self.size:
+                self._whole = mmap.mmap(self.descriptor, self.size, access=mmap.ACCESS_READ)
+            return self._whole, offset
+        aligned = offset - offset % mmap.ALLOCATIONGRANULARITY
+        return mmap.mmap(self.descriptor, offset - aligned + length, access=mmap.ACCESS_READ, offset=aligned), offset - aligned
+
+    def settle(self) -> None:
+        """Once every row is in the file: a file read through one mapping needs its descriptor
+        no more (closed: a result kept holds the mapping's alone)."""
+        if self.size <= WHOLE:
+            self.mapped(0, 0)
+            self._file.close()
+
+    def regions(self, sizes: list[int]) -> list[int]:
+        """The offsets of new regions of `sizes` bytes (each from a page boundary, as mappings
+        start), reserved at once."""
+        offsets, start = [], self.size
+        for size in sizes:
+            offsets.append(self.size)
+            self.size += -(-size // mmap.PAGESIZE) * mmap.PAGESIZE
+        if self.size > start:
+            _reserve(self.descriptor, start, self.size - start)
+        return offsets
 
 
 class _Columns:
@@ -64,14 +90,15 @@ class _Columns:
     goes to the file and the arrays take the next rows. Readers get rows mapped from the file (the
     page cache; rows still in the window are written there first), read-only and without a copy:
     a run's memory and address space do not grow with its length, and one robot's part of a row
-    is a view of it. The last rows read of each column (a block at most) stay mapped, so that every
-    robot's part of a block is read from one mapping."""
+    is a view of it. In a file mapped a range at a time (`_Store.mapped`), the last rows read of
+    each column (a block at most) stay mapped, so that every robot's part of a block is read from
+    one mapping."""
 
     def __init__(self, store: _Store, rows: dict[str, np.dtype], capacity: int):
         self.window = max(1, min(WINDOW, capacity))
         _check_address_space(sum(kind.itemsize for kind in rows.values()) * self.window)
         self._store, self._kinds = store, rows
-        self._offsets = {name: store.region(capacity * kind.itemsize) for name, kind in rows.items()}
+        self._offsets = dict(zip(rows, store.regions([capacity * kind.itemsize for kind in rows.values()])))
         self.arrays = {name: np.zeros((self.window, *kind.shape), kind.base) for name, kind in rows.items()}
         self.base = 0
         """The run's row of the arrays' first row: rows before it are in the file."""
@@ -86,10 +113,14 @@ class _Columns:
         at = n - self.base
         if at < self.window:
             return at
-        for name in self._kinds:
-            self._keep(name, self.base + self.window)
+        self.keep(self.base + self.window)
         self.base = n
         return 0
+
+    def keep(self, stop: int) -> None:
+        """Write every column's window rows below `stop` to the file."""
+        for name in self._kinds:
+            self._keep(name, stop)
 
     def _keep(self, name: str, stop: int) -> None:
         """Write the window's rows of column `name` below `stop` to the file (rows written whole)."""
@@ -102,27 +133,40 @@ class _Columns:
             while done < len(data):
                 done += os.pwrite(self._store.descriptor, data[done:], offset + done)
         except OSError as err:
-            raise SamplesNotKept(err.errno, f"the run's samples could not be written to the temporary folder {tempfile.gettempdir()} ({err.strerror or err}) "
-                                            f"after sample {start}") from None  # fmt: skip
+            raise SamplesNotKept(err.errno, f"the run's samples from sample {start} on could not be written to the temporary folder {tempfile.gettempdir()} "
+                                            f"({err.strerror or err}); the run ends there") from None  # fmt: skip
         self._kept[name] = stop
 
     def view(self, name: str, start: int, stop: int) -> np.ndarray:
         """Rows [start, stop) of column `name` (rows written whole: below the run's count),
-        mapped read-only from the file."""
+        mapped read-only from the file; where the window's rows cannot be written there (a disk
+        error ended the run), they are copied from the window."""
         kind = self._kinds[name]
         if stop <= start:
             return np.empty((0, *kind.shape), kind.base)
-        self._keep(name, stop)
+        try:
+            self._keep(name, stop)
+        except SamplesNotKept:
+            kept = min(max(start, self.base), stop)
+            rows = np.concatenate((self._mapped(name, start, kept), self.arrays[name][kept - self.base : stop - self.base]))
+            rows.flags.writeable = False
+            return rows
         last = self._last.get(name)
         if last is not None and last[0] <= start and stop <= last[1]:
             return last[2][start - last[0] : stop - last[0]]
-        first = self._offsets[name] + start * kind.itemsize
-        aligned = first - first % mmap.ALLOCATIONGRANULARITY
-        mapped = mmap.mmap(self._store.descriptor, first - aligned + (stop - start) * kind.itemsize, access=mmap.ACCESS_READ, offset=aligned)
-        rows = np.frombuffer(mapped, kind.base, (stop - start) * math.prod(kind.shape), first - aligned).reshape(stop - start, *kind.shape)
-        if stop - start <= BLOCK:  # (a whole long run read at once is not kept mapped)
+        rows = self._mapped(name, start, stop)
+        if self._store.size > WHOLE and stop - start <= BLOCK:  # (ranges mapped apart; a long run read whole is not kept mapped)
             self._last[name] = (start, stop, rows)
         return rows
+
+    def _mapped(self, name: str, start: int, stop: int) -> np.ndarray:
+        """Rows [start, stop) of column `name` in the file, mapped read-only (unmapped when the
+        array goes)."""
+        kind = self._kinds[name]
+        if stop <= start:
+            return np.empty((0, *kind.shape), kind.base)
+        mapped, at = self._store.mapped(self._offsets[name] + start * kind.itemsize, (stop - start) * kind.itemsize)
+        return np.frombuffer(mapped, kind.base, (stop - start) * math.prod(kind.shape), at).reshape(stop - start, *kind.shape)
 
 
 HEADROOM = 2 << 30
@@ -170,17 +214,33 @@ class Samples:
     """The run's own columns, one row per sample for all robots at once: the sample times, the
     arrays the world's sensors are read into (`World.sensor_rows`), and the true pose and default
     estimates of the robots whose odometry is stepped in one batch (`DefaultOdometry`, which writes
-    them), in the run's file (`store`) beside the robots' own. `count` is the number of complete
+    them), in the run's file beside the robots' own (`new_columns`). `count` is the number of complete
     samples: a sample counts once every robot's part of it is written (a Ctrl-C half-way leaves the
     last row uncounted)."""
 
     def __init__(self, sensors: dict[str, np.dtype], batched: int, capacity: int):
-        self.store, self.capacity = _Store(), capacity
-        self.columns = _Columns(self.store, {"time": row(), "poses": row((batched, 1 + ESTIMATES, 3)),
-                                             "covariances": row((batched, ESTIMATES, COVARIANCES)), **sensors}, capacity)  # fmt: skip
+        self._store, self._every = _Store(), []
+        self.capacity = capacity
+        self.columns = self.new_columns({"time": row(), "poses": row((batched, 1 + ESTIMATES, 3)), "covariances": row((batched, ESTIMATES, COVARIANCES)), **sensors})
         self.count = 0
         self.frame: SensorFrame | None = None
         """The readings of the current sample."""
+
+    def new_columns(self, rows: dict[str, np.dtype]) -> _Columns:
+        """Columns of the run's length in its file (the run's own, or a robot's)."""
+        columns = _Columns(self._store, rows, self.capacity)
+        self._every.append(columns)
+        return columns
+
+    def settle(self) -> None:
+        """At the run's end: every complete row written to the file (`_Store.settle`); a disk
+        error leaves the rows not written in their windows, where they are read."""
+        try:
+            for columns in self._every:
+                columns.keep(self.count)
+        except SamplesNotKept:
+            return
+        self._store.settle()
 
     def rows(self, rows: slice | None) -> tuple[int, int]:
         """(start, stop) of `rows` (None: all) among the complete samples (a slice of step 1)."""
@@ -223,7 +283,7 @@ class RobotLog:
         self._columns: _Columns | None = None
         """The robot's own columns: all its poses (slot None), or its `extra` estimators'."""
         if slot is None:
-            self._columns = own = _Columns(samples.store, {"poses": row((1 + len(estimators), 3)), "covariances": row((len(uncertain), COVARIANCES))}, samples.capacity)
+            self._columns = own = samples.new_columns({"poses": row((1 + len(estimators), 3)), "covariances": row((len(uncertain), COVARIANCES))})
             place: tuple[_Columns, tuple] = (own, ())
         else:
             place = (samples.columns, (slot,))
@@ -232,7 +292,7 @@ class RobotLog:
         self._estimates = {label: (place[0], "poses", (*place[1], 1 + k)) for k, label in enumerate(estimators)}
         self._uncertain = {label: (place[0], "covariances", (*place[1], k)) for k, label in enumerate(uncertain)}
         if extra:  # a batched robot's own estimators: in columns of its own, after the batch's
-            self._columns = own = _Columns(samples.store, {"poses": row((len(extra), 3)), "covariances": row((len(extra_uncertain), COVARIANCES))}, samples.capacity)
+            self._columns = own = samples.new_columns({"poses": row((len(extra), 3)), "covariances": row((len(extra_uncertain), COVARIANCES))})
             self._estimates |= {label: (own, "poses", (k,)) for k, label in enumerate(extra)}
             self._uncertain |= {label: (own, "covariances", (k,)) for k, label in enumerate(extra_uncertain)}
 
