@@ -125,7 +125,7 @@ class _Columns:
     def _keep(self, name: str, stop: int) -> None:
         """Write the window's rows of column `name` below `stop` to the file (rows written whole)."""
         start, width = self._kept[name], self._kinds[name].itemsize
-        if stop <= start:
+        if stop <= start or not width:  # (a column of no values: the batch's poses in a run without it)
             return
         data = memoryview(self.arrays[name][start - self.base : stop - self.base]).cast("B")
         offset, done = self._offsets[name] + start * width, 0
@@ -142,8 +142,8 @@ class _Columns:
         mapped read-only from the file; where the window's rows cannot be written there (a disk
         error ended the run), they are copied from the window."""
         kind = self._kinds[name]
-        if stop <= start:
-            return np.empty((0, *kind.shape), kind.base)
+        if stop <= start or not kind.itemsize:
+            return np.empty((max(stop - start, 0), *kind.shape), kind.base)
         try:
             self._keep(name, stop)
         except SamplesNotKept:
