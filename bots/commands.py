@@ -33,6 +33,12 @@ class Twist:
     omega: float
     vy: float = 0.0
 
+    def __init__(self, v: float, omega: float, vy: float = 0.0):
+        # (into the instance's dict: a frozen dataclass's own __init__ sets each field through
+        # object.__setattr__, 0.8 µs a command, and behaviours make one every step)
+        fields = self.__dict__
+        fields["v"], fields["omega"], fields["vy"] = v, omega, vy
+
 
 @dataclass(frozen=True)
 class WheelCommands:

@@ -3,17 +3,13 @@ every robot's readings of one step as the step's arrays (`SensorFrame`)."""
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence
-from dataclasses import dataclass, field, fields
-from typing import Any
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass, field, make_dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from bots.sensor_kinds import BY_FIELD, FRAMED, FRAMES, KINDS
-
-
-def _ints(n: int = 0) -> np.ndarray:
-    return np.zeros(n, dtype=np.int64)
+from bots.sensor_kinds import FRAMED, FRAMES, KINDS, SensorKind
 
 
 def _frozen(values: np.ndarray) -> np.ndarray:
@@ -29,34 +25,43 @@ def frozen_copy(array: np.ndarray) -> np.ndarray:
     return np.frombuffer(array.tobytes(), array.dtype)
 
 
-@dataclass(slots=True)
-class Readings:
-    """Sensor values read at the start of a step, in the devices' own units.
-
-    encoder_ticks: signed ticks counted during the previous step, (left, right).
-    mouse_counts: signed counts during the previous step, (forward, left) in the sensor frame.
-    ir_raw: raw IR sensor values (ADC units, as c't-Sim), one per IR sensor of the robot.
-    ir_distance: distance the robot's firmware would infer from ir_raw (m); nan outside 0.1-0.8 m.
-    line, border: CNY70 reflex sensors, 0 (white) .. 1023 (black or hole).
-    light: light sensors, 0 (bright) .. 1023 (dark), c't-Sim's convention.
-
-    (Slots: controllers read its fields often.)
-    """
-
-    time: float = 0.0
-    encoder_ticks: np.ndarray = field(default_factory=lambda: _ints(2))
-    mouse_counts: np.ndarray = field(default_factory=lambda: _ints(2))
-    ir_raw: np.ndarray = field(default_factory=_ints)
-    ir_distance: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    line: np.ndarray = field(default_factory=_ints)
-    border: np.ndarray = field(default_factory=_ints)
-    light: np.ndarray = field(default_factory=_ints)
-    steering: np.ndarray = field(default_factory=lambda: np.zeros(0))
-    mouse2_counts: np.ndarray = field(default_factory=lambda: _ints(2))
-    failures: tuple = ()
+def _empty(kind: SensorKind) -> Callable[[], np.ndarray]:
+    """A kind's value where none was read: zeros of its fixed channels (none for a list of sensors)."""
+    return lambda: np.zeros(len(kind.channels), kind.dtype)
 
 
-ARRAYS = tuple(f.name for f in fields(Readings) if f.name in BY_FIELD)
+def _readings_class() -> type:
+    """`Readings`, one array field per row of the sensor registry, in its order (between `time`
+    and `failures`), so that a new kind is a row there and nothing here."""
+    arrays = [(kind.field, np.ndarray, field(default_factory=_empty(kind))) for kind in KINDS]
+    made = make_dataclass("Readings", [("time", float, field(default=0.0)), *arrays, ("failures", tuple, field(default=()))], slots=True)
+    made.__module__ = __name__  # (so that it pickles, for the sandbox's processes, as `bots.readings.Readings`)
+    made.__doc__ = "\n".join([
+        "Sensor values read at the start of a step, in the devices' own units: one array per kind of",
+        "the sensor registry (`bots.sensor_kinds.KINDS`, its `meaning`), named after it.",
+        "",
+        "time: simulated time of the reading (s).",
+        *(f"{kind.field}: {kind.meaning}." for kind in KINDS),
+        "failures: the wheel faults a general chassis's fault observer reports (`bots.chassis_commands`).",
+        "",
+        "(Slots: controllers read its fields often.)",
+    ])  # fmt: skip
+    return made
+
+
+if TYPE_CHECKING:  # (what a type checker knows of the class made from the registry)
+
+    class Readings:
+        time: float
+        failures: tuple
+
+        def __init__(self, time: float = 0.0, *arrays: np.ndarray, failures: tuple = (), **named: np.ndarray) -> None: ...
+        def __getattr__(self, field: str) -> np.ndarray: ...
+else:
+    Readings = _readings_class()
+
+
+ARRAYS = tuple(kind.field for kind in KINDS)
 """Readings' arrays, in its fields' order (the registry's kinds)."""
 CHASSIS_ONLY = {kind.field: _frozen(np.zeros(len(kind.channels), kind.dtype)) for kind in KINDS if kind.frame is None}
 """What a c't-Bot's readings hold for a general chassis's own kinds (steering angles, second mouse; shared, read-only)."""

@@ -6,8 +6,11 @@ the fixed channels of a kind that is not a list of sensors), its dtype, the arra
 `SensorFrame` it is packed into (kinds that share an array lie in it in the registry's order,
 robot after robot), the world kernel that computes it and the noise stage that perturbs it, the
 recording's plot group and title, the viewer window's label, the c't-Sim packet the bridge
-sends it in and how a Gymnasium observation holds it. The recorder, the export, the window and the bridge read the rows; a test holds
-the registry equal to `Readings`' fields and the packets to `sim.bridge.protocol`'s.
+sends it in and how a Gymnasium observation holds it. `bots.readings.Readings` (a field per row)
+and `bots.spec.RobotSpec`'s lists of sensors (a field per `section`) are made from the rows; the
+World, the `SensorFrame`, the recorder, the export, the window, gym and the bridge read them. A
+new kind is its row here (and, if no kernel computes it yet, its kernel): a test adds one so
+(tests/test_sensor_kinds.py); another holds the packets to `sim.bridge.protocol`'s.
 """
 
 from __future__ import annotations
@@ -26,7 +29,8 @@ class SensorKind:
     field: str
     """The `Readings` field (and the recording's and export's column name)."""
     section: str | None
-    """The robot-file section (`RobotSpec` list) with one value per sensor; None: `channels`."""
+    """The robot-file section (a `RobotSpec` field, a tuple of `sensor`s, made from it) with one
+    value per sensor; None: `channels`."""
     channels: tuple[str, ...]
     """The fixed channels of a kind that is no list of sensors (a c't-Bot's)."""
     dtype: type
@@ -42,14 +46,20 @@ class SensorKind:
     """That plot's title (the same for every kind of the group)."""
     window: str
     """Its line's label in the viewer window."""
+    meaning: str = ""
+    """What a `Readings` field of it holds, in which unit (its line of `Readings`' docstring)."""
+    sensor: str | None = None
+    """The class of one sensor of its `section` (a class of `bots.spec`)."""
     packet: str | None = None
     """The name of its c't-Sim packet in `sim.bridge.protocol` (None: not sent)."""
+    wire: tuple[str, str] | None = None
+    """The two channels its packet carries, in order, '-' before a negated one (None: its first two values)."""
     idle: tuple[int, int] = (0, 0)
     """What that packet carries for a sensor the robot lacks (of the two it sends): c't-Sim's reading of nothing."""
     scale: float = 1.0
     """Recorded and shown unit per SI unit (m -> mm, rad -> deg)."""
     needs: str | None = None
-    """A `RobotSpec` attribute that must not be None for it to have channels (the mouse)."""
+    """A `RobotSpec` attribute (dotted) that must not be None for it to have channels (a mouse)."""
     chassis_only: bool = False
     """Only a general chassis reads it."""
     per_wheel: bool = False
@@ -67,11 +77,23 @@ class SensorKind:
     def channels_of(self, spec: Any) -> tuple[str, ...]:
         """The channel names of a c't-Bot-like robot (`bots.spec.RobotSpec`): its section's sensor
         names, or the fixed channels (none where it lacks the device or only a chassis has it)."""
-        if self.chassis_only or (self.needs is not None and getattr(spec, self.needs) is None):
+        if self.chassis_only or not self.present(spec):
             return ()
         if self.section is not None:
             return tuple(sensor.name for sensor in getattr(spec, self.section))
         return self.channels
+
+    def present(self, spec: Any) -> bool:
+        """Whether a robot (`bots.spec.RobotSpec`) has the device: a chassis for a general
+        chassis's own kinds, and what it `needs`."""
+        if self.chassis_only and spec.chassis is None:
+            return False
+        found = spec
+        for name in self.needs.split(".") if self.needs else ():
+            found = getattr(found, name)
+            if found is None:
+                return False
+        return True
 
     def width(self, spec: Any) -> int:
         """How many values a robot's part of its `frame` array holds: one per sensor of its
@@ -96,26 +118,35 @@ FRAMES = (Frame("floor", "values"), Frame("light", "values"), Frame("ir_raw", "v
 
 KINDS: tuple[SensorKind, ...] = (
     SensorKind("ir_raw", "ir", (), np.int64, "ir_raw", "kernels.sensing.read_ir", "kernels.sensing.ir_values", "ir_raw", "IR raw (ADC)", "IR raw",
+               meaning="raw IR sensor values (ADC units, as c't-Sim), one per IR sensor of the robot", sensor="IRSensorSpec",
                packet="SENS_IR", idle=(100, 80)),  # (GP2D12 raw values with nothing in view: c't-Sim's curves beyond 85 cm)
     SensorKind("ir_distance", "ir", (), np.float64, "ir_distance", "kernels.sensing.read_ir", "kernels.sensing.ir_values", "ir_distance",
-               "IR distance (mm)", "IR distance mm", scale=1000.0, observed="distance", rays=True),
+               "IR distance (mm)", "IR distance mm", meaning="distance the robot's firmware would infer from ir_raw (m); nan outside 0.1-0.8 m",
+               sensor="IRSensorSpec", scale=1000.0, observed="distance", rays=True),
     SensorKind("line", "line", (), np.int64, "floor", "kernels.sensing.sample_floor", "kernels.noise.add_rounded", "floor",
-               "floor: line and border (0 white, 1023 black)", "line   (0-1023)", packet="SENS_LINE",
+               "floor: line and border (0 white, 1023 black)", "line   (0-1023)",
+               meaning="CNY70 reflex sensors on the line, 0 (white) .. 1023 (black or hole)", sensor="FloorSensorSpec", packet="SENS_LINE",
                observed="fraction", full_scale=1023.0),
     SensorKind("border", "border", (), np.int64, "floor", "kernels.sensing.sample_floor", "kernels.noise.add_rounded", "floor",
-               "floor: line and border (0 white, 1023 black)", "border (0-1023)", packet="SENS_BORDER",
+               "floor: line and border (0 white, 1023 black)", "border (0-1023)",
+               meaning="CNY70 reflex sensors at the border, 0 (white) .. 1023 (black or hole)", sensor="FloorSensorSpec", packet="SENS_BORDER",
                observed="fraction", full_scale=1023.0),
     SensorKind("light", "light", (), np.int64, "light", "kernels.sensing.sense_light", "kernels.noise.add_rounded", "light",
-               "light (0 bright, 1023 dark)", "light  (0-1023)", packet="SENS_LDR", idle=(1023, 1023),
+               "light (0 bright, 1023 dark)", "light  (0-1023)",
+               meaning="light sensors, 0 (bright) .. 1023 (dark), c't-Sim's convention", sensor="LightSensorSpec", packet="SENS_LDR", idle=(1023, 1023),
                observed="fraction", full_scale=1023.0),
     SensorKind("encoder_ticks", None, ("left", "right"), np.int64, "tallies", "kernels.motion.plan", "kernels.noise.spurious_ticks",
-               "encoders", "encoders (ticks per step)", "encoders ticks", packet="SENS_ENC", per_wheel=True),
+               "encoders", "encoders (ticks per step)", "encoders ticks",
+               meaning="signed ticks counted during the previous step, (left, right)", packet="SENS_ENC", per_wheel=True),
     SensorKind("mouse_counts", None, ("forward", "left"), np.int64, "tallies", "kernels.motion.measure", "kernels.noise.draw_step", "mouse",
-               "mouse (counts per step: forward, left)", "mouse counts", packet="SENS_MOUSE", needs="mouse"),
+               "mouse (counts per step: forward, left)", "mouse counts",
+               meaning="signed counts during the previous step, (forward, left) in the sensor frame", needs="mouse",
+               packet="SENS_MOUSE", wire=("-left", "forward")),  # (c't-Sim's dX sideways to the right, dY forward)
     SensorKind("mouse2_counts", None, ("mouse 2 forward", "mouse 2 left"), np.int64, None, "chassis_drive.ChassisDrive.fill", "chassis_drive.ChassisDrive.fill", "mouse",
-               "mouse (counts per step: forward, left)", "mouse 2 counts", chassis_only=True),
+               "mouse (counts per step: forward, left)", "mouse 2 counts",
+               meaning="a general chassis's second mouse, as mouse_counts", needs="chassis.mouse2", chassis_only=True),
     SensorKind("steering", None, (), np.float64, None, "chassis_drive.ChassisDrive.fill", None, "steering", "steered from straight (deg)", "steered deg",
-               scale=180.0 / math.pi, chassis_only=True, angle=True),
+               meaning="each wheel's steering angle (its wheel plane's, rad) on a general chassis", scale=180.0 / math.pi, chassis_only=True, angle=True),
 )
 """Every kind, in the recording's column order (and, within a shared `frame` array, the packing order)."""
 BY_FIELD = {kind.field: kind for kind in KINDS}
@@ -132,6 +163,7 @@ def groups() -> dict[str, tuple[str, tuple[str, ...]]]:
     return found
 
 
-def sections() -> tuple[str, ...]:
-    """The robot-file sections of sensors, in the registry's order, each once."""
-    return tuple(dict.fromkeys(kind.section for kind in KINDS if kind.section is not None))
+def sections() -> dict[str, str]:
+    """The robot-file sections of sensors, in the registry's order, each once -> the name of
+    their sensor class (in `bots.spec`)."""
+    return {kind.section: kind.sensor for kind in KINDS if kind.section is not None}

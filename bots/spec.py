@@ -194,7 +194,23 @@ class LightSensorSpec:
         check_fields(self)
 
 
+def _with_sensor_lists(cls: type) -> type:
+    """Give a robot a field per robot-file section of the sensor registry (`SensorKind.section`),
+    a tuple of that section's `sensor` class (of this module), empty by default, after its
+    `belief`: a new list of sensors is its registry row, nothing here."""
+    hints: dict[str, Any] = {}
+    for name, hint in cls.__annotations__.items():
+        hints[name] = hint
+        if name == "belief":
+            for section, sensor in sections().items():
+                hints[section] = f"tuple[{sensor}, ...]"  # (read by `dataclass` and `get_type_hints` in this module)
+                setattr(cls, section, ())
+    cls.__annotations__ = hints
+    return cls
+
+
 @dataclass(frozen=True)
+@_with_sensor_lists
 class RobotSpec:
     """A differential-drive robot: geometry (m, kg), motors and sensors, and what its own
     estimators believe about their errors (`belief`).
@@ -214,10 +230,7 @@ class RobotSpec:
     encoders: EncoderSpec = field(default_factory=EncoderSpec)
     mouse: MouseSpec | None = field(default_factory=MouseSpec)
     belief: BeliefSpec = field(default_factory=BeliefSpec)
-    ir: tuple[IRSensorSpec, ...] = ()
-    line: tuple[FloorSensorSpec, ...] = ()
-    border: tuple[FloorSensorSpec, ...] = ()
-    light: tuple[LightSensorSpec, ...] = ()
+    # (here `_with_sensor_lists` puts one tuple of sensors per section of the sensor registry)
     chassis: ChassisSpec | None = None
     contact: str = declared("text", default="slide", choices=CONTACT_RULES)
     """How the body meets walls and other robots: 'slide' (pymunk's contacts: it stops at the

@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pymunk
 import pymunk.batch as batch
+import pytest
 
 from sim.world import layout
 from sim.world.bodies import _POSE, BodyArrays, _Walk
@@ -72,3 +73,29 @@ def test_the_motion_rows_are_named_after_pymunk_batch_fields():
     """MOTION's fields are pymunk's BodyFields of MOTION_FIELDS, in the order pymunk walks them (its flags' order)."""
     names = [field.name.lower() for field in batch.BodyFields if field in layout.MOTION_FIELDS and field is not layout.MOTION_FIELDS]
     assert names == [field.name for field in layout.MOTION.fields]
+
+
+def test_step_moves_every_body_as_pymunks_own_step() -> None:
+    """`BodyArrays.step` (pymunk's C step without its Python wrapper) leaves every body where
+    `space.step` leaves it, contacts and a begin callback included; work pymunk's wrapper does after
+    a step (something added during it) is refused rather than dropped."""
+    moved = []
+    for fast in (False, True):
+        space, bodies, cans = space_with_everything(3, 4)
+        touched = []
+        space.on_collision(None, None, begin=lambda arbiter, space, data, touched=touched: touched.append(1))
+        for b in bodies + cans:  # all towards the origin, where they meet after a second
+            b.velocity = (-b.position.x, -b.position.y)
+        arrays = BodyArrays(space, bodies)
+        for _ in range(300):
+            arrays.step(0.01) if fast else space.step(0.01)
+        moved.append(([(*b.position, b.angle, *b.velocity) for b in bodies + cans], len(touched)))
+    assert moved[0] == moved[1] and moved[0][1] > 0
+    space, bodies, _ = space_with_everything(1, 0)
+    arrays = BodyArrays(space, bodies)
+    space.add(pymunk.Body(1.0, 1.0))  # a body added outside a step is checked by pymunk's own step
+    arrays.step(0.01)
+    space.on_collision(None, None, begin=lambda arbiter, space, data: space.add(pymunk.Body(1.0, 1.0)))
+    bodies[0].position, bodies[0].velocity = (5.5, 5.2), (0.0, 0.0)  # inside the wall: a contact begins
+    with pytest.raises(RuntimeError, match="during the step"):
+        arrays.step(0.01)

@@ -44,11 +44,13 @@ RULES = (
     ("sim.folder_lock", ()),
     ("sim.out_files", ()),
     ("sim.interrupts", ()),
+    ("sim.kernel_cache", ()),
 )
-# the bare package (its version and location) and five leaves any layer may use: the user-error
+# the bare package (its version and location) and six leaves any layer may use: the user-error
 # base, the making safe of text from outside, the lock of an output folder and the writing of
-# files into it without following links, and Ctrl-C told apart from a KeyboardInterrupt code raises
-EVERYONE = ("sim", "sim.errors", "sim.sanitize", "sim.folder_lock", "sim.out_files", "sim.interrupts")
+# files into it without following links, Ctrl-C told apart from a KeyboardInterrupt code raises,
+# and numba's cache kept true to the modules kernels freeze (which `import sim` does)
+EVERYONE = ("sim", "sim.errors", "sim.sanitize", "sim.folder_lock", "sim.out_files", "sim.interrupts", "sim.kernel_cache")
 
 
 def within(name: str, prefix: str) -> bool:

@@ -96,7 +96,7 @@ def test_batch_steps_as_the_python_estimators(case, order):
         world_tallies[rows + [sorted(set(range(n + 1)) - set(rows))[0]]] = per_robot
         batch.update(world_tallies, time)
         for k, chosen in enumerate(python):
-            readings = Readings(time, per_robot[k, :2].copy(), per_robot[k, 2:].copy())
+            readings = Readings(time, encoder_ticks=per_robot[k, :2].copy(), mouse_counts=per_robot[k, 2:].copy())
             for estimator in chosen:
                 estimator.update(readings)
             estimates = batch.rows_of(k)

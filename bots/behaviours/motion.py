@@ -75,11 +75,11 @@ class Turn(Behaviour):
         self.speed = speed_m_s
 
     def act(self, t: float, readings: Readings) -> Command:
-        error = self.angle - self.pose[2]
+        error = self.angle - self.heading
         if abs(error) <= ANGLE_TOLERANCE:
             return self.finish()
         half_track = self.robot.track_width / 2
-        rim = ramp(abs(error) * half_track, self.speed, self.dt)
+        rim = ramp(abs(error) * half_track, self.speed, self.odometry.dt)
         return Twist(0.0, math.copysign(rim / half_track, error))
 
 
@@ -99,9 +99,10 @@ class DriveTo(Behaviour):
         bend = math.atan2(local[1], local[0])  # half the heading change on the arc to the target
         if abs(bend) > math.pi / 2:
             return self.finish(Status.FAILURE)  # passed it: the arc would be most of a circle
-        length = distance if bend == 0 else distance * bend / math.sin(bend)
-        curvature = 2 * math.sin(bend) / distance
-        v = ramp(length, self.speed, self.dt)
+        sin_bend = math.sin(bend)
+        length = distance if bend == 0 else distance * bend / sin_bend
+        curvature = 2 * sin_bend / distance
+        v = ramp(length, self.speed, self.odometry.dt)
         return Twist(v, v * curvature)
 
 

@@ -10,6 +10,7 @@ import numpy as np
 from bots.behaviours.base import (
     BORDER_DANGEROUS,
     GROUND_GOAL,
+    RUNNING,
     SPEED_NORMAL,
     Behaviour,
     Look,
@@ -36,6 +37,8 @@ GOAL_READINGS = 10
 as the goal: one noisy reading near the goal colour is not the goal floor (under harsh noise, 20
 raw units, a floor 40 units off the goal colour reads within the tolerance one time in nine; the
 mean of 20 readings strays by 4.5)."""
+_GOAL_SUM, _GOAL_SUM_TOLERANCE, _GOAL_SPREAD_SQUARED = GOAL_READINGS * GROUND_GOAL, GOAL_READINGS * GOAL_TOLERANCE, (GOAL_READINGS * GOAL_SPREAD) ** 2
+"""The goal test's bounds on GOAL_READINGS readings' sum and its spread (`SolveMaze._on_goal`)."""
 LOOK_STEPS = 8
 """Steps a look averages the IR distances over at least (all it needs when the readings are steady)."""
 LOOK_MAX_STEPS = 64
@@ -116,7 +119,7 @@ class DriveToRoom(DriveTo):
             self.abyss = True
         if self.abyss or self.stalled:
             return self.finish(Status.FAILURE)
-        return super().act(t, readings)
+        return DriveTo.act(self, t, readings)  # (not super(): a super object a step)
 
 
 @register("solve_maze")
@@ -185,25 +188,27 @@ class SolveMaze(Plan):
         if self._on_goal(readings.line.tolist()) and self.entering is None:
             self.entering = self.run(DriveToRoom(self.cell / 4, 0.0, self.speed))
         if self.entering is None:
-            return super().act(t, readings)
+            return Plan.act(self, t, readings)  # (not super(): a super object a step)
         command = self.entering.step(t, readings)
-        return command if self.entering.status is Status.RUNNING else self.finish(self.entering.status)
+        return command if self.entering.status is RUNNING else self.finish(self.entering.status)
 
     def _on_goal(self, line: list[int]) -> bool:
         """Take this step's line readings; whether a line sensor's last GOAL_READINGS readings
         average to the goal floor's colour and scatter no more than noise does (each sensor by
         itself, and a steady floor: readings crossing from white to black pass through the goal
         colour on the way). Running sums over a ring of the last readings: a few additions a step."""
-        slot = self.floor_steps % GOAL_READINGS
-        gone, self.floor_seen[slot] = self.floor_seen[slot], line
-        self.floor_steps += 1
+        seen, steps, sums, all_squares = self.floor_seen, self.floor_steps, self.floor_sums, self.floor_squares
+        slot = steps % GOAL_READINGS
+        gone, seen[slot] = seen[slot], line
+        self.floor_steps = steps = steps + 1
         found = False
         for k, value in enumerate(line):
-            total = self.floor_sums[k] = self.floor_sums[k] + value - gone[k]
-            squares = self.floor_squares[k] = self.floor_squares[k] + value * value - gone[k] * gone[k]
-            if abs(total - GOAL_READINGS * GROUND_GOAL) <= GOAL_READINGS * GOAL_TOLERANCE:  # (the mean, times GOAL_READINGS)
-                found = found or GOAL_READINGS * squares - total * total <= (GOAL_READINGS * GOAL_SPREAD) ** 2  # (the variance, times its square)
-        return found and self.floor_steps >= GOAL_READINGS
+            old = gone[k]
+            total = sums[k] = sums[k] + value - old
+            squares = all_squares[k] = all_squares[k] + value * value - old * old
+            if abs(total - _GOAL_SUM) <= _GOAL_SUM_TOLERANCE:  # (the mean, times GOAL_READINGS)
+                found = found or GOAL_READINGS * squares - total * total <= _GOAL_SPREAD_SQUARED  # (the variance, times its square)
+        return found and steps >= GOAL_READINGS
 
     def _correct_odometry(self, readings: Readings) -> None:
         """Correct this step's turn of the shared odometry, which the children steer by.
@@ -246,7 +251,7 @@ class SolveMaze(Plan):
         driven = (x - last_x) * math.cos(heading) + (y - last_y) * math.sin(heading)
         scale = self.mouse_straight / self.encoders_straight if self.encoders_straight > MOUSE_LEARN_M else 1.0
         mouse = lateral * self.mouse_turn / scale
-        if self.drive is not None and self.drive.status is Status.RUNNING:
+        if self.drive is not None and self.drive.status is RUNNING:
             self._watch_stall(driven, forward * self.mouse_metre / scale)
         tick_turn = self.tick_turn
         if abs(turned - mouse) > tick_turn / 2:

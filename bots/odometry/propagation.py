@@ -5,8 +5,8 @@ covariance carried through laying an arc (`propagate`), and the reported pose co
 quantisation lag and the sigma points' spread (`pose_covariance`, `add_spread`).
 
 Each estimator's own compiled step lives in its file (`encoder`, `mouse`, `fused`) and calls
-these. numba caches a kernel by its own file's content: after changing a kernel here, clear the
-`__pycache__` of bots/odometry/ so that its callers are compiled again with it.
+these. numba caches a kernel by its own file's content: a change here recompiles its callers
+because this module is one of `sim.kernel_cache.SHARED`.
 """
 
 from __future__ import annotations

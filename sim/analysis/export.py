@@ -195,9 +195,9 @@ def write_parquet(result, path: str | Path) -> Path:  # noqa: ANN001 (sim.run.sa
     """Every sample of a run as one Parquet table, a row per sample, written block by block:
     `time` (s); per robot `<robot>.<label>.x|y|theta` (m, rad) of the truth and each estimate,
     `<robot>.<label>.cov_xx|cov_xy|cov_xt|cov_yy|cov_yt|cov_tt` (m², m·rad, rad²) of each
-    estimate that has a covariance; and its readings `<robot>.<field>.<channel>` in the devices' units (`Readings`: encoder
-    ticks and mouse counts of the step, raw IR, IR distance m, line, border, light; a general
-    chassis's per-wheel readings are in the recording only)."""
+    estimate that has a covariance; and its readings `<robot>.<field>.<channel>` in the devices' units, in the
+    sensor registry's order (`Readings`: raw IR, IR distance m, line, border, light, encoder ticks
+    and mouse counts of the step; a general chassis's per-wheel readings are in the recording only)."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 

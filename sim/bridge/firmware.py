@@ -23,7 +23,7 @@ import numpy as np
 from bots.commands import WheelSpeeds
 from bots.controller import ControllerStopped, Status
 from bots.readings import Readings
-from bots.sensor_kinds import KINDS
+from bots.sensor_kinds import KINDS, SensorKind
 from bots.spec import RobotSpec
 from sim.bridge import protocol as p
 from sim.bridge.firmware_map import FirmwareMap
@@ -77,6 +77,15 @@ MAP_MM_PER_CELL, MAP_ORIGIN_MM = 8, 6144
 """The firmware's map grid (125 cells/m) and its centre, the start pose (map_to_world)."""
 CAM_POSITION = 14
 BPS_NONE = 0xFFFF
+BLOCK = (p.SENS_MOUSE, p.SENS_DOOR, p.SENS_BORDER, p.SENS_LDR, p.SENS_IR, p.SENS_RC5, p.SENS_TRANS, p.SENS_LINE, p.SENS_ENC, p.SENS_CAM, p.SENS_BPS, p.SENS_ERROR)
+"""A step's packets before its DONE, in the order ctsim sends them (`m D B H I R T L E S b e`):
+the sensor registry's packets (`SensorKind.packet`, their values from the readings) among those of
+the bot's other state (door, remote control, transport pocket, camera, beacons, error line). One
+order c't-Sim sent (its own changes from run to run, a hash map's: docs/bridge.md), kept fixed so
+that runs repeat byte for byte; it interleaves packets the registry does not know and follows no
+rule a registry column could state, so it is this one table rather than the registry's order."""
+ERROR_OK = (1, 0)
+"""c't-Sim's error-line packet: 1 = OK, data_r 0."""
 DOOR_OPEN_FROM = 12
 """Servo 1 position (ACT_SERVO data_l = position / 8) from which the door counts as open."""
 
@@ -231,12 +240,6 @@ class FirmwareController:
         self.seq = (self.seq + 1) & 0xFF
         return packet
 
-    def _sensors(self, command: str, readings: Readings) -> Packet:
-        """The packet of a sensor pair (`SENS_IR`, `SENS_LINE`, ...): its registry kind's first two
-        values in `readings` (the kind's `idle` where the robot has fewer)."""
-        kind = BY_PACKET[command]
-        return self._packet(command, *_pair(getattr(readings, kind.field), kind.idle))
-
     def _block(self, step: int, t: float, readings: Readings, after: Readings, ticks: tuple[int, int] | None = None) -> bytes:
         """One step's packets (`m D B H I R T L E S b e X`, orders and offers first), one write:
         the sensors of `readings`, the encoder ticks (or `ticks`) and mouse dots of `after` (the
@@ -245,10 +248,9 @@ class FirmwareController:
         packets = self._extra
         self._extra = []
         if step == 0:
-            packets += [self._packet(command) for command in "mDBHIRTLESb"]
-            packets += [self._packet(p.SENS_ERROR, dl=1), self._packet(p.DONE, dl=-1)]
+            packets += [self._packet(command, *(ERROR_OK if command == p.SENS_ERROR else (0, 0))) for command in BLOCK]
+            packets.append(self._packet(p.DONE, dl=-1))
             return b"".join(packet.encode() for packet in packets)
-        forward, left = (int(x) for x in after.mouse_counts)
         key = self.rc5.pop(0)[1] if self.rc5 and self.rc5[0][0] <= t + 1e-9 else 0  # one key per block
         if key:
             self.state.rc5_toggle ^= 1  # c't-Sim flips it per key and sends it in every block
@@ -259,21 +261,12 @@ class FirmwareController:
                 call.sent_step = step
                 packets.append(self._packet(p.REMOTE_CALL, sub=p.RC_ORDER, payload=p.remote_call_payload(call.name, call.args)))
                 self.events.append(Event(step, t, "call", f"sent {call.text}"))
-        packets += [
-            self._packet(p.SENS_MOUSE, dl=-left, dr=forward),  # c't-Sim: dX sideways to the right, dY forward
-            self._packet(p.SENS_DOOR, dl=int(self.state.door_open)),
-            self._sensors(p.SENS_BORDER, readings),
-            self._sensors(p.SENS_LDR, readings),
-            self._sensors(p.SENS_IR, readings),
-            self._packet(p.SENS_RC5, dl=key, dr=self.state.rc5_toggle),
-            self._packet(p.SENS_TRANS),
-            self._sensors(p.SENS_LINE, readings),
-            self._packet(p.SENS_ENC, *ticks) if ticks is not None else self._sensors(p.SENS_ENC, after),
-            self._packet(p.SENS_CAM, dl=CAM_POSITION),
-            self._packet(p.SENS_BPS, dl=BPS_NONE - 0x10000),
-            self._packet(p.SENS_ERROR, dl=1),  # c't-Sim: 1 = OK, data_r 0
-            self._packet(p.DONE, dl=round((t + self.dt) * 1000) % 10000),
-        ]
+        state = {p.SENS_DOOR: (int(self.state.door_open), 0), p.SENS_RC5: (key, self.state.rc5_toggle), p.SENS_TRANS: (0, 0),
+                 p.SENS_CAM: (CAM_POSITION, 0), p.SENS_BPS: (BPS_NONE - 0x10000, 0), p.SENS_ERROR: ERROR_OK}  # fmt: skip
+        if ticks is not None:  # (the firmware's own encoder model's, in place of the world's)
+            state[p.SENS_ENC] = ticks
+        packets += [self._packet(command, *(state[command] if command in state else _sensor_pair(BY_PACKET[command], readings, after))) for command in BLOCK]
+        packets.append(self._packet(p.DONE, dl=round((t + self.dt) * 1000) % 10000))
         return b"".join(packet.encode() for packet in packets)
 
     # --- the firmware's reply ---------------------------------------------------------------
@@ -389,9 +382,15 @@ def _block_sensors(readings: Readings) -> Readings:
     return Readings(readings.time, **{kind.field: getattr(readings, kind.field).copy() for kind in KINDS if kind.section and kind.packet})
 
 
-def _pair(values: np.ndarray, default: tuple[int, int]) -> tuple[int, int]:
-    """The first two values of a sensor group; the default where the robot has fewer sensors."""
-    v = [int(x) for x in values[:2]] + list(default[len(values[:2]) :])
+def _sensor_pair(kind: SensorKind, readings: Readings, after: Readings) -> tuple[int, int]:
+    """What a registry kind's packet carries: a list of sensors' first two values at the step's
+    start (`readings`; the kind's `idle` where the robot has fewer), counts' of the motion that
+    followed (`after`), as the kind's `wire` names its channels where it does."""
+    values = getattr(readings if kind.section is not None else after, kind.field)
+    if kind.wire is not None:
+        left, right = ((-1 if name.startswith("-") else 1) * int(values[kind.channels.index(name.removeprefix("-"))]) for name in kind.wire)
+        return left, right
+    v = [int(x) for x in values[:2]] + list(kind.idle[len(values[:2]) :])
     return v[0], v[1]
 
 

@@ -201,8 +201,8 @@ def advance_floats(pose: Sequence[float], s: float, alpha: float, end_heading: b
 def relative_pose(start: np.ndarray | Pose, end: np.ndarray | Pose) -> Pose:
     """The scalar form of `relative_increment` for one pair of poses (x, y, theta), for code that
     steps one robot at a time (behaviours), as `advance` is of `apply_increment`: plain floats out."""
-    x0, y0, theta0 = _floats(start)
-    x1, y1, theta1 = _floats(end)
+    x0, y0, theta0 = start if type(start) is tuple else _floats(start)  # (tuples inline: behaviours ask a few times a step)
+    x1, y1, theta1 = end if type(end) is tuple else _floats(end)
     c, s = math.cos(theta0), math.sin(theta0)
     dx, dy = x1 - x0, y1 - y0
     return (c * dx + s * dy, -s * dx + c * dy, theta1 - theta0)

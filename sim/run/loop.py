@@ -137,11 +137,12 @@ def run(
         awaited = [(log, world_spec.goals_of(robot.slot), k) for k, (log, robot) in enumerate(zip(logs, world.robots))] if world_spec.goals else []
         for step in range(steps + 1):
             frame = _sample(world, samples, estimators, odometry, clock, guard, counted)
-            if awaited and _reached_goals(awaited, world.poses_view(), frame.time) and until_goal:
+            at_goal = awaited and _reached_goals(awaited, world.poses_view(), frame.time) and until_goal
+            if at_goal:
                 result.reason = Ending.GOAL
             for on_sample in samplers:
                 on_sample(world, logs)
-            if result.reason is Ending.GOAL:
+            if at_goal:
                 break
             if can_finish:
                 for controller in controllers:

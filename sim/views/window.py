@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from bots.behaviours.motion import Teleop
-from bots.sensor_kinds import KINDS
+from bots.sensor_kinds import KINDS, SensorKind
 from bots.spec import RobotSpec
 from sim.run.ending import Quit
 from sim.run.loop import RobotSetup, run
@@ -47,6 +47,14 @@ WINDOW = (1000, 720)
 PANEL = 320
 TRAIL_POINTS = 2000
 """Most points drawn per trail each frame (a long session is thinned, not slowed)."""
+
+
+def _shown(kind: SensorKind, values: np.ndarray) -> str:
+    """A kind's values on its line: integers as they are, others in its shown unit (mm, degrees),
+    nothing in view as a dash."""
+    if kind.dtype is not np.float64:
+        return "  ".join(f"{int(v):5d}" for v in values)
+    return "  ".join("  -  " if not np.isfinite(v) else f"{kind.scale * v:4.0f}" for v in values)
 
 
 class Window:
@@ -160,8 +168,6 @@ class Window:
     def _readout(self, log: RobotLog, robot, pose: np.ndarray, estimates: dict[str, np.ndarray]) -> list[tuple[str, tuple[int, int, int]]]:
         """The robot's pose, each estimate's error (its colour as the key) and the sensors in their units."""
         readings = log.latest
-        mm = lambda values: "  ".join("  -  " if not np.isfinite(v) else f"{1000 * v:4.0f}" for v in values)  # noqa: E731
-        ints = lambda values: "  ".join(f"{int(v):5d}" for v in values)  # noqa: E731
         lines = [
             ("", palette.ROBOT_EDGE),
             (f"{log.name}: x {pose[0]:6.3f} m  y {pose[1]:6.3f} m", palette.ROBOT_EDGE),
@@ -171,16 +177,12 @@ class Window:
         for name, poses in estimates.items():
             error = 1000 * math.hypot(*(poses[-1, :2] - pose[:2]))
             lines.append((f"{name:<9} error {error:6.1f} mm", palette.estimate_colour(name, list(estimates))))
-        for kind in KINDS:  # (the sensor registry's; a chassis's own below)
-            if not kind.chassis_only:
+        for kind in KINDS:  # (the sensor registry's, those the robot has)
+            if kind.present(robot.spec):
                 values = getattr(readings, kind.field)
-                shown = mm(values) if kind.dtype is np.float64 else ints(values)
-                lines.append((f"{kind.window:<17}{shown}", palette.ROBOT_EDGE))
-        if robot.spec.chassis is not None:
-            degrees = "  ".join(f"{math.degrees(b):5.0f}" for b in steering_deflection(robot.spec.chassis.chassis, readings.steering))
-            lines.append((f"steered deg      {degrees}", palette.ROBOT_EDGE))
-            if robot.spec.chassis.mouse2 is not None:
-                lines.append((f"mouse 2 counts   {ints(readings.mouse2_counts)}", palette.ROBOT_EDGE))
+                if kind.angle:
+                    values = steering_deflection(robot.spec.chassis.chassis, values)
+                lines.append((f"{kind.window:<17}{_shown(kind, values)}", palette.ROBOT_EDGE))
         return lines
 
     def _trail(self, poses: np.ndarray, colour, width: int) -> None:

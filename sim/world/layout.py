@@ -117,15 +117,38 @@ GRID = Table(
 )
 
 
+class BoundsTree(NamedTuple):
+    """Java3D's bounds tree over c't-Sim's scene for the compiled pick (`sim.world.bounds_tree`),
+    the root first: each node's box (m, Java3D's world frame: the floor at z -2), its children
+    (right, left; -1 for a leaf), its parent (-1 for the root), the wall vertex whose edge's face
+    (or pillar) a leaf is and that wall's index (-1: none), and each robot's leaves (robots,
+    shapes; -1: none)."""
+
+    lower: np.ndarray
+    upper: np.ndarray
+    kids: np.ndarray
+    parent: np.ndarray
+    face: np.ndarray
+    wall: np.ndarray
+    robot_leaves: np.ndarray
+
+
+def no_bounds_tree() -> BoundsTree:
+    """The tree of a world that is no c't-Sim parcours: none (every face is tested on its own)."""
+    return BoundsTree(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 2), np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 3), np.int64))
+
+
 class Walls(NamedTuple):
     """The walls for the kernels: convex polygons vertices[spans[w].start:spans[w].end], their
-    bounding boxes, and the uniform grid over the boxes (`kernels.grids.build_wall_grid`)."""
+    bounding boxes, the uniform grid over the boxes (`kernels.grids.build_wall_grid`), and the
+    bounds tree c't-Sim's pick walks (`BoundsTree`; empty but for a c't-Sim parcours)."""
 
     vertices: np.ndarray
     spans: np.ndarray
     boxes: np.ndarray
     frame: np.ndarray
     cells: np.ndarray
+    tree: BoundsTree
 
 
 class Floor(NamedTuple):

@@ -27,13 +27,14 @@ from bots.sensor_kinds import sections
 from bots.spec import RobotSpec
 from sim.world import layout
 from sim.world.bodies import BodyArrays
+from sim.world.bounds_tree import BoundsTree
 from sim.world.chassis_drive import ChassisDrive
 from sim.world.compiling import compile_all
 from sim.world.floor import FloorMap, rasterize
 from sim.world.kernels.contacts import settle, settle_meeting
 from sim.world.kernels.motion import glide, measure, plan
 from sim.world.kernels.noise import ENCODER_DRAWS, add_rounded, draw_step, spurious_ticks
-from sim.world.kernels.pick import pick_wall
+from sim.world.kernels.pick import move_robot_leaves, pick_tree, pick_wall
 from sim.world.kernels.sensing import CIRCLE_GRID_ABOVE, ir_rays, ir_values, read_sensors
 from sim.world.sensors import IRCurve, gp2d12, load_ir_curve
 from sim.world.spec import Start, WorldSpec
@@ -153,6 +154,10 @@ class World:
             self.space.add(shape)
         self._walls = walls_of(spec)
         """The walls for the kernels."""
+        self._bounds_tree = BoundsTree.of_scene(spec.scene) if spec.scene else None
+        """Java3D's bounds tree over a c't-Sim parcours, which its IR pick walks (`sim.world.bounds_tree`); None for other worlds."""
+        if self._bounds_tree is not None:
+            self._walls = self._walls._replace(tree=self._bounds_tree.kernel(0, self._walls.spans))
         self.movables: list[pymunk.Body] = []
         self._movable_shapes: list[pymunk.Circle] = []
         self._round_bodies = True
@@ -222,6 +227,9 @@ class World:
         self.robots.append(robot)
         if spec.chassis is not None:
             self.chassis.add(robot)
+        if self._bounds_tree is not None:  # c't-Sim's bot joins its scene's bounds tree where it starts
+            self._bounds_tree.insert_robot(index, (x, y, heading))
+            self._walls = self._walls._replace(tree=self._bounds_tree.kernel(len(self.robots), self._walls.spans))
         self._stale = True
         return robot
 
@@ -390,7 +398,8 @@ class World:
         """Distance (m) from `origin` to the nearest point of any body other than the robot's own
         within `cone` (rad, half-angle) of world `direction` and within `length`; inf if none.
         With `pick`, walls are seen as c't-Sim's Java3D pick sees them (`IRSensorSpec.view`,
-        `kernels.pick.pick_wall`); other bodies in the whole cone.
+        `kernels.pick.pick_wall`, through Java3D's bounds tree in a c't-Sim parcours); other bodies
+        in the whole cone.
 
         A cone across a wall at a slant reads the cone's near edge, not the axis. Every body is
         convex, so its nearest point in the cone is its nearest point overall when that lies
@@ -403,7 +412,11 @@ class World:
         if pick:
             walls = self._walls
             spans = zip(walls.spans["start"], walls.spans["end"], walls.boxes["cylinder"])
-            best = min((pick_wall((origin[0], origin[1], c, s, length), math.tan(cone), walls.vertices, a, b, round_) for a, b, round_ in spans), default=math.inf)
+            if self._bounds_tree is not None:
+                move_robot_leaves(walls.tree, self.poses_view())
+                best = pick_tree((origin[0], origin[1], c, s, length), math.tan(cone), walls)
+            else:
+                best = min((pick_wall((origin[0], origin[1], c, s, length), math.tan(cone), walls.vertices, a, b, round_) for a, b, round_ in spans), default=math.inf)
             best = min(best, self._cast(robot, origin, direction - cone, length, moving=True), self._cast(robot, origin, direction + cone, length, moving=True))
             limit = math.inf  # a find past the segment's end (a rim point, a pillar's far side) counts, as in the kernel
         else:
@@ -508,7 +521,7 @@ class World:
         integrated after the step (`BodyArrays.move`): the same order as setting the velocity
         inside `velocity_func`, without a Python callback per body."""
         self._bodies.send()
-        self.space.step(self.dt)
+        self._bodies.step(self.dt)
         self._bodies.move(self.dt)
 
     def _count_contact(self, arbiter: pymunk.Arbiter, space: pymunk.Space, data) -> None:  # noqa: ANN001

@@ -118,6 +118,24 @@ class Goal:
 
 
 @dataclass(frozen=True)
+class SceneShape:
+    """One shape of c't-Sim's Java3D scene as its bounds tree holds it (`sim.world.bounds_tree`):
+    its bounding box (m) in Java3D's world frame, where c't-Sim's floor lies at z = -2
+    (`JAVA3D_FLOOR`), computed in the float arithmetic c't-Sim builds it with; `face` is the
+    wall vertex that starts the wall edge this shape is the upright face of (an index into the
+    world's wall vertices, in `WorldSpec.walls` order), or the first vertex of the pillar whose
+    side it is; -1 for any other shape (floor, lines, lamps, wall tops)."""
+
+    lower: tuple[float, float, float]
+    upper: tuple[float, float, float]
+    face: int = -1
+
+
+JAVA3D_FLOOR = -2.0
+"""m: z of c't-Sim's floor in its Java3D world (its World's worldTG moves the scene 2 m down)."""
+
+
+@dataclass(frozen=True)
 class Movable:
     """A movable round obstacle (a c't-Sim 'can', 30 mm across): centre (m), radius (m), mass (kg)."""
 
@@ -160,6 +178,10 @@ class WorldSpec:
     faults: tuple[WheelFault, ...] = ()
     floor_colour: Colour = DEFAULT_FLOOR
     outside_is_hole: bool = False
+    scene: tuple[SceneShape, ...] = ()
+    """c't-Sim's Java3D scene of a parcours in the order Java3D's bounds tree takes its shapes
+    (bots aside); empty for any other world. The IR pick of a bridge robot walks the tree built
+    from it (`sim.world.bounds_tree`)."""
     line_height: float = 0.0
     """How far (m) the painted lines' top stands above the floor: c't-Sim's line tiles lie 1 mm
     above its floor tiles, so a floor sensor's slanted rays meet a line nearer the mount point

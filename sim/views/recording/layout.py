@@ -52,7 +52,7 @@ def field_channels(spec: Any, name: str) -> tuple[tuple[str, ...], np.ndarray | 
     if kind.per_wheel:
         return chassis.names, None
     if not kind.angle:  # a chassis's own device (its second mouse)
-        return (kind.channels if spec.chassis.mouse2 is not None else ()), None
+        return (kind.channels if kind.present(spec) else ()), None
     turning = np.flatnonzero(np.isin(chassis.kind, TURNING))
     return tuple(chassis.names[i] for i in turning), turning
 

@@ -24,8 +24,11 @@ from collections.abc import Callable, Container, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 from sim.world.spec import (
     BLACK,
+    JAVA3D_FLOOR,
     Colour,
     FloorLine,
     FloorRegion,
@@ -34,6 +37,7 @@ from sim.world.spec import (
     Light,
     Movable,
     Point,
+    SceneShape,
     Start,
     Wall,
     WorldFileError,
@@ -113,6 +117,7 @@ class GridPieces:
     starts: tuple[Start, ...]
     goals: tuple[Goal, ...]
     movables: tuple[Movable, ...]
+    scene: tuple[SceneShape, ...] = ()
 
 
 MAX_CELLS = 250_000
@@ -151,10 +156,13 @@ def build_grid(
     tiles = _Tiles([row.ljust(width) for row in reversed(rows)])
     colour = {**DEFAULT_TILE_COLOURS, **colours}
     cells = _Cells(cell, origin)
+    spans = _wall_spans(tiles, pillars == "cell")
+    walls = tuple(Wall(cells.box(*span)) for span in spans) + tuple(
+        Wall(_pillar(*cells.centre(c, r)), cylinder=True) for c, r, _ in tiles.cells("*") if pillars == "cylinder"
+    )
     return GridPieces(
         bounds=(origin[0], origin[1], origin[0] + width * cell, origin[1] + tiles.height * cell),
-        walls=tuple(Wall(cells.box(*span)) for span in _wall_spans(tiles, pillars == "cell"))
-        + tuple(Wall(_pillar(*cells.centre(c, r)), cylinder=True) for c, r, _ in tiles.cells("*") if pillars == "cylinder"),
+        walls=walls,
         floor=tuple(_floor(tiles, cells, colour)),
         lines=tuple(line for c, r, ch in tiles.cells(LINE_ARMS) for line in _line(ch, c, r, cells, colour[ch])),
         holes=tuple(Hole(cells.box(*span)) for span in _runs(tiles, lambda ch: ch == HOLE_TILE)),
@@ -162,6 +170,7 @@ def build_grid(
         starts=tuple(Start(*cells.centre(c, r), _heading(tiles, c, r), START_SLOTS[ch]) for c, r, ch in tiles.cells(START_SLOTS)),
         goals=tuple(Goal(cells.box(c, r, 1, 1)) for c, r, _ in tiles.cells("Z")),
         movables=tuple(Movable(cells.centre(c, r)) for c, r, _ in tiles.cells(MOVABLE_TILES)),
+        scene=_scene(tiles, cell, origin, spans, walls) if pillars == "cylinder" else (),
     )  # fmt: skip
 
 
@@ -215,11 +224,10 @@ def _runs(
                 c += 1
 
 
-def _pillar(x: float, y: float) -> tuple[Point, ...]:
-    """c't-Sim's lamp pillar at (x, y): Java3D's cylinder, corners on the circle of 0.05 m from due
-    north clockwise (its vertex k at angle -pi/2 + k 2pi/15 about the axis, which stands up after
-    the pillar's rotation about x)."""
-    r = PILLAR_DIAMETER / 2
+def _pillar(x: float, y: float, r: float = PILLAR_DIAMETER / 2) -> tuple[Point, ...]:
+    """c't-Sim's lamp pillar at (x, y): Java3D's cylinder, corners on the circle of radius `r` (m)
+    from due north clockwise (its vertex k at angle -pi/2 + k 2pi/15 about the axis, which stands
+    up after the pillar's rotation about x)."""
     angles = (math.pi / 2 - k * 2 * math.pi / PILLAR_SIDES for k in range(PILLAR_SIDES))
     return tuple(reversed([(x + r * math.cos(a), y + r * math.sin(a)) for a in angles]))  # counter-clockwise
 
@@ -300,3 +308,96 @@ def _heading(tiles: _Tiles, c: int, r: int) -> float:
         if tiles.at(c + dc, r + dr) == ".":
             return math.atan2(dr, dc)
     return 0.0
+
+
+BOX_FACES = (None, None, 1, 3, 2, 0)
+"""The wall polygon edge (`spec.box`: bottom, right, top, left) of each shape of a Java3D Box in
+its order (front and back lie level, +z and -z; then +x, -x, +y, -y); None: a level face."""
+CAN_DIAMETER, CAN_HEIGHT = 0.03, 0.08  # m, c't-Sim's movable object (ParcoursLoader.createMovableObject)
+BEACON_RADIUS, BEACON_HEIGHT = 0.02, 0.1  # m, c't-Sim's BPS beacon sphere and its height (BPS.BPSZ)
+WALL_HALF_HEIGHT = 0.2  # m, c't-Sim's wall boxes (ParcoursLoader.WALL_HEIGHT, a half-height)
+LIGHT_RADIUS = 0.07  # m, c't-Sim's lamp sphere
+
+
+def _scene(tiles: _Tiles, cell: float, origin: Point, spans: list[tuple[int, int, int, int]], walls: tuple[Wall, ...]) -> tuple[SceneShape, ...]:
+    """c't-Sim's Java3D scene of the grid (ParcoursLoader.parse, World.setParcours) in the order
+    its shapes go live: the lamp spheres, the BPS beacons, the floor (a tile under each lamp
+    pillar, start, goal, hole, white and line tile, the lines, then one floor under everything),
+    then the obstacles (walls, pillars, cans), each group in the parse's order (rows bottom-up,
+    columns left to right, a wall where its first cell is met). Bounds as Java3D holds them:
+    c't-Sim's float positions and sizes, moved 2 m down (`JAVA3D_FLOOR`)."""
+    f = np.float32
+    block = f(cell)
+
+    def at(v: float) -> float:  # a grid coordinate (cells, float) to metres as c't-Sim computes it
+        return float(f(v) * block)
+
+    def shape(cx: float, cy: float, cz: float, hx: float, hy: float, hz: float, face: int = -1) -> SceneShape:
+        x, y = cx + origin[0], cy + origin[1]
+        return SceneShape((x - hx, y - hy, cz - hz), (x + hx, y + hy, cz + hz), face)
+
+    def box(cx: float, cy: float, cz: float, hx: float, hy: float, hz: float, first: int | None) -> list[SceneShape]:
+        """A Java3D Box's six shapes; `first`: the wall's first vertex, for its upright faces."""
+        out = []
+        for k, edge in enumerate(BOX_FACES):
+            sx, sy, sz = ((0, 0, 1), (0, 0, -1), (1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0))[k]
+            face = first + edge if first is not None and edge is not None else -1
+            x, y, z = cx + sx * hx, cy + sy * hy, cz + sz * hz
+            out.append(shape(x, y, z, hx * (sx == 0), hy * (sy == 0), hz * (sz == 0), face))
+        return out
+
+    def cylinder(cx: float, cy: float, bottom: float, top: float, radius: float, first: int) -> list[SceneShape]:
+        """A Java3D Cylinder's side, top and bottom (its 15-sided outline's bounds)."""
+        corners = np.array(_pillar(0.0, 0.0, radius))
+        (lx, ly), (ux, uy) = corners.min(axis=0), corners.max(axis=0)
+        x, y = cx + origin[0], cy + origin[1]
+        side = SceneShape((x + lx, y + ly, bottom), (x + ux, y + uy, top), first)
+        return [side, SceneShape((x + lx, y + ly, top), (x + ux, y + uy, top)), SceneShape((x + lx, y + ly, bottom), (x + ux, y + uy, bottom))]
+
+    first_vertex = np.concatenate(([0], np.cumsum([len(w.vertices) for w in walls])))
+    wall_at = {(c, r): (w, h, first_vertex[i]) for i, (c, r, w, h) in enumerate(spans)}
+    pillar_at = {(c, r): first_vertex[len(spans) + i] for i, (c, r, _) in enumerate(tiles.cells("*"))}
+    obstacle_z = JAVA3D_FLOOR + WALL_HALF_HEIGHT  # World's obstacle group stands 0.2 m up (its walls' half-height)
+    floor_z = JAVA3D_FLOOR + float(f(0.001))
+    lamps: list[SceneShape] = []
+    beacons: list[SceneShape] = []
+    floor: list[SceneShape] = []
+    obstacles: list[SceneShape] = []
+    half = float(f(block * f(0.5)))
+    for c, r, ch in tiles.cells(set(KNOWN_TILES)):
+        cx, cy = at(c + 0.5), at(r + 0.5)
+        if (c, r) in wall_at:
+            w, h, first = wall_at[c, r]
+            hx, hy = float(f(block / f(2)) * f(w)), float(f(block / f(2)) * f(h))
+            obstacles += box(at(c + w / 2), at(r + h / 2), obstacle_z, hx, hy, float(f(WALL_HALF_HEIGHT)), int(first))
+        if ch == "*":
+            height = f(LIGHT_HEIGHT)
+            z = obstacle_z + float(height / f(2) - f(WALL_HALF_HEIGHT))
+            obstacles += cylinder(cx, cy, z - float(height / f(2)), z + float(height / f(2)), PILLAR_DIAMETER / 2, int(pillar_at[c, r]))
+            lamps.append(shape(cx, cy, JAVA3D_FLOOR + float(height), float(f(LIGHT_RADIUS)), float(f(LIGHT_RADIUS)), float(f(LIGHT_RADIUS))))
+        if ch == "l":
+            beacons.append(shape(cx, cy, JAVA3D_FLOOR + float(f(BEACON_HEIGHT)), *[float(f(BEACON_RADIUS))] * 3))
+        if ch in "*.L012Z" or ch in LINE_ARMS:
+            floor += box(cx, cy, floor_z, half, half, 0.0, None)
+        if ch in LINE_ARMS:
+            line = [p for ln in _line(ch, c, r, _Cells(1.0, (0.0, 0.0)), BLACK) for p in _outline(ln)]
+            (lx, ly), (ux, uy) = np.min(line, axis=0) - (c + 0.5, r + 0.5), np.max(line, axis=0) - (c + 0.5, r + 0.5)
+            x0, y0, x1, y1 = (float(f(round(v * 20) / 20) * block) for v in (lx, ly, ux, uy))  # c't-Sim's outline points: 0.05 cell steps
+            z = JAVA3D_FLOOR + float(f(2 * LINE_HEIGHT))
+            floor.append(SceneShape((cx + origin[0] + x0, cy + origin[1] + y0, z), (cx + origin[0] + x1, cy + origin[1] + y1, z)))
+        if ch in MOVABLE_TILES:
+            height = f(CAN_HEIGHT)
+            z = obstacle_z + float(height / f(2) - f(WALL_HALF_HEIGHT))
+            obstacles += cylinder(float(f(c + 0.5) * block), float(f(r + 0.5) * block), z - float(height / f(2)), z + float(height / f(2)), CAN_DIAMETER / 2, -1)
+    width, height = f(tiles.width), f(tiles.height)
+    floor += box(float(width / f(2) * block), float(height / f(2) * block), JAVA3D_FLOOR + float(f(-0.005)),
+                 float(width * block * f(0.5)), float(height * block * f(0.5)), 0.0, None)  # fmt: skip
+    return tuple(lamps + beacons + floor + obstacles)
+
+
+def _outline(line: FloorLine) -> list[Point]:
+    """The corners of a straight flat-ended FloorLine's rectangle."""
+    (ax, ay), (bx, by) = line.points[0], line.points[-1]
+    length = math.hypot(bx - ax, by - ay)
+    nx, ny = -(by - ay) / length * line.width / 2, (bx - ax) / length * line.width / 2
+    return [(ax + nx, ay + ny), (ax - nx, ay - ny), (bx + nx, by + ny), (bx - nx, by - ny)]

@@ -133,6 +133,7 @@ def load_parcours(path: Path, pillars: str = "cell") -> WorldSpec:
         starts=pieces.starts,
         goals=pieces.goals,
         movables=pieces.movables,
+        scene=pieces.scene,
         floor_colour=colours.get(" ", DEFAULT_TILE_COLOURS[" "]),
         outside_is_hole=True,
         line_height=LINE_HEIGHT,

@@ -31,9 +31,10 @@ equal ones, giving its find; 0.5 m tall, so the cone never reaches its caps.
 
 Before a shape's triangles, Java3D tests its bounding box (`_cone_meets_bounds`: each face of a
 Box is a shape of its own, a pillar's side one): a face the cone grazes without its corners or the
-axis ray meeting its bounds is not seen at all. Not reproduced: the same test on the boxes of
-Java3D's bounds tree above the shapes (its `BHTree` over the whole scene, bots included), which
-skips a few more such faces; cans (movable, not walls) are seen by ctsim's own cone rule.
+axis ray meeting its bounds is not seen at all. In a c't-Sim parcours it tests the same on the
+boxes of its bounds tree above the shapes first (`pick_tree`, `sim.world.bounds_tree`: the whole
+scene, bots included), which skips a few more such faces; cans (movable, not walls) are seen by
+ctsim's own cone rule.
 """
 
 from __future__ import annotations
@@ -42,6 +43,10 @@ import math
 
 import numba
 import numpy as np
+
+from sim.world.kernels.contacts import CTBOT_PARTS
+from sim.world.layout import BoundsTree, Walls
+from sim.world.spec import JAVA3D_FLOOR
 
 WALL_BOTTOM, WALL_TOP = 0.0, 0.4
 """m: c't-Sim's wall boxes stand on the floor and are 0.4 m tall (ParcoursLoader's 0.2 m half-height)."""
@@ -67,7 +72,7 @@ def _closest(o: tuple[float, float, float], d: tuple[float, float, float], p: tu
     f, g = dx * rx + dy * ry + dz * rz, ex * rx + ey * ry + ez * rz
     den = a * c - b * b
     s = min(max((b * g - f * c) / den, 0.0), 1.0) if den > 1e-15 * a * c else 0.0
-    t = (b * s + g) / c
+    t = (b * s + g) / c if c > 0.0 else 0.0  # (a point: a flat box's upright edge)
     if t < 0.0:
         t, s = 0.0, min(max(-f / a, 0.0), 1.0)
     elif t > 1.0:
@@ -136,8 +141,11 @@ def _cone_meets_bounds(o: np.ndarray, d: np.ndarray, tan_spread: float, lower: n
     the face between its ends) is not tested at all: c't-Sim sees nothing of it."""
     # (in scalars: numba's array expressions cost this kernel seconds of every first run's compile,
     # and an allocation each a call)
-    cx, cy, cz = 0.5 * (lower[0] + upper[0]), 0.5 * (lower[1] + upper[1]), 0.5 * (lower[2] + upper[2])
     seg = d[0] * d[0] + d[1] * d[1] + d[2] * d[2]
+    widest = tan_spread * math.sqrt(seg)
+    if upper[2] < o[2] - widest or lower[2] > o[2] + widest:
+        return False  # wholly above or below the cone (a level cone: floor, lamps, a wall's top)
+    cx, cy, cz = 0.5 * (lower[0] + upper[0]), 0.5 * (lower[1] + upper[1]), 0.5 * (lower[2] + upper[2])
     along = (cx - o[0]) * d[0] + (cy - o[1]) * d[1] + (cz - o[2]) * d[2]
     s = 0.0 if along <= 0.0 else (1.0 if along >= seg else along / seg)
     gx, gy, gz = cx - (o[0] + s * d[0]), cy - (o[1] + s * d[1]), cz - (o[2] + s * d[2])
@@ -148,7 +156,7 @@ def _cone_meets_bounds(o: np.ndarray, d: np.ndarray, tan_spread: float, lower: n
         return False
     if squared < radius * radius or _ray_meets_box(o, d, lower, upper):
         return True
-    for corner in range(4):  # its 4 upright edges (the 8 level ones lie too far above or below the cone to count)
+    for corner in range(4):  # its 4 upright edges (the 8 level ones of a box the cone reaches lie too far above or below it to count)
         x = upper[0] if corner & 1 else lower[0]
         y = upper[1] if corner & 2 else lower[1]
         squared, along, _, _, _ = _closest((o[0], o[1], o[2]), (d[0], d[1], d[2]), (x, y, lower[2]), (x, y, upper[2]))
@@ -165,33 +173,41 @@ def pick_polygon(ray: tuple[float, float, float, float, float], tan_spread: floa
     o = np.array((ox, oy, SENSOR_HEIGHT))
     d = np.array((length * ux, length * uy, 0.0))
     best = math.inf
-    tri = np.empty((3, 3))
+    scratch = np.empty((7, 3))
     lower, upper = np.array((0.0, 0.0, WALL_BOTTOM)), np.array((0.0, 0.0, WALL_TOP))
     for k in range(start, end):
         nxt = k + 1 if k + 1 < end else start
-        # the face's corners: 0 start bottom, 1 start top, 2 end bottom, 3 end top
-        corner = np.array((
-            (vertices[k, 0], vertices[k, 1], WALL_BOTTOM), (vertices[k, 0], vertices[k, 1], WALL_TOP),
-            (vertices[nxt, 0], vertices[nxt, 1], WALL_BOTTOM), (vertices[nxt, 0], vertices[nxt, 1], WALL_TOP),
-        ))  # fmt: skip
         lower[0], lower[1] = min(vertices[k, 0], vertices[nxt, 0]), min(vertices[k, 1], vertices[nxt, 1])
         upper[0], upper[1] = max(vertices[k, 0], vertices[nxt, 0]), max(vertices[k, 1], vertices[nxt, 1])
-        if not _cone_meets_bounds(o, d, tan_spread, lower, upper):
-            continue  # (each face of a Java3D Box is a shape of its own, with its own bounds)
-        side = (k - start) % 4
-        rising = side % 2 == 0
-        order = FACES[side]
-        key, px, py, pz = math.inf, 0.0, 0.0, 0.0
-        for t in range(2):
-            for j in range(3):
-                for c in range(3):  # (element by element: a row assignment compiles numba's whole shape-mismatch message)
-                    tri[j, c] = corner[order[t, j], c]
-            found, x, y, z = _triangle(o, d, tan_spread, tri, TIE if rising else 0.0)
-            if found < key - (0.0 if rising else TIE):
-                key, px, py, pz = found, x, y, z
-        if key < math.inf:
-            best = min(best, math.sqrt((px - ox) ** 2 + (py - oy) ** 2 + (pz - SENSOR_HEIGHT) ** 2))
+        if _cone_meets_bounds(o, d, tan_spread, lower, upper):  # (each face of a Java3D Box is a shape of its own, with its own bounds)
+            best = min(best, _face(o, d, tan_spread, vertices, start, end, k, scratch))
     return best
+
+
+@numba.njit(cache=True)
+def _face(o: np.ndarray, d: np.ndarray, tan_spread: float, vertices: np.ndarray, start: int, end: int, k: int, scratch: np.ndarray) -> float:
+    """Distance (m) c't-Sim's pick reads along the cone segment o + s d (sensor at SENSOR_HEIGHT)
+    of the upright face over edge k of the wall polygon vertices[start:end], its bounds test
+    passed (see the module doc); inf if it sees none of it. SCRATCH (7, 3): a triangle, then the
+    face's corners."""
+    tri, corner = scratch[:3], scratch[3:]
+    nxt = k + 1 if k + 1 < end else start
+    for c, (v, z) in enumerate(((k, WALL_BOTTOM), (k, WALL_TOP), (nxt, WALL_BOTTOM), (nxt, WALL_TOP))):
+        corner[c, 0], corner[c, 1], corner[c, 2] = vertices[v, 0], vertices[v, 1], z  # 0 start bottom, 1 start top, 2 end bottom, 3 end top
+    side = (k - start) % 4
+    rising = side % 2 == 0
+    order = FACES[side]
+    key, px, py, pz = math.inf, 0.0, 0.0, 0.0
+    for t in range(2):
+        for j in range(3):
+            for c in range(3):  # (element by element: a row assignment compiles numba's whole shape-mismatch message)
+                tri[j, c] = corner[order[t, j], c]
+        found, x, y, z = _triangle(o, d, tan_spread, tri, TIE if rising else 0.0)
+        if found < key - (0.0 if rising else TIE):
+            key, px, py, pz = found, x, y, z
+    if key == math.inf:
+        return math.inf
+    return math.sqrt((px - o[0]) ** 2 + (py - o[1]) ** 2 + (pz - o[2]) ** 2)
 
 
 @numba.njit(cache=True)
@@ -243,3 +259,83 @@ FACES = np.array((
 ))
 """Java3D Box's faces as the two triangles of their strips, in its vertex order (corner indices as
 in `pick_polygon`), by the polygon edge's place counter-clockwise from the lowest-left corner."""
+
+
+@numba.njit(cache=True)
+def pick_tree(ray: tuple[float, float, float, float, float], tan_spread: float, walls: Walls, cylinders: bool | None = True) -> float:
+    """Distance (m) c't-Sim's pick reads along RAY (sensor x, y, unit look x, y, length) of the
+    walls of a c't-Sim parcours: Java3D's walk of its bounds tree (`BHTree.doSelect`: a node's
+    children only if the cone meets its box, right child first), each wall face or pillar side
+    whose own box the cone meets picked (`pick_polygon`'s rule for one face, `pick_cylinder`); inf if it sees none."""
+    tree = walls.tree
+    ox, oy, ux, uy, length = ray
+    o = np.array((ox, oy, SENSOR_HEIGHT + JAVA3D_FLOOR))  # in Java3D's world, the floor 2 m down
+    at = np.array((ox, oy, SENSOR_HEIGHT))  # in ctsim's, as the faces are
+    d = np.array((length * ux, length * uy, 0.0))
+    scratch = np.empty((7, 3))
+    best = math.inf
+    stack = np.empty(2 * tree.lower.shape[0] + 1, np.int64)  # (at most every node once)
+    stack[0], top = 0, 1
+    while top > 0:
+        top -= 1
+        node = stack[top]
+        if not _cone_meets_bounds(o, d, tan_spread, tree.lower[node], tree.upper[node]):
+            continue
+        if tree.kids[node, 0] >= 0:
+            stack[top], stack[top + 1] = tree.kids[node, 1], tree.kids[node, 0]  # the right child on top: visited first
+            top += 2
+            continue
+        wall = tree.wall[node]
+        if wall < 0:
+            continue
+        start, end = walls.spans[wall].start, walls.spans[wall].end
+        if cylinders is not None and walls.boxes[wall].cylinder:
+            best = min(best, pick_cylinder(ray, tan_spread, walls.vertices, start, end))
+        else:
+            best = min(best, _face(at, d, tan_spread, walls.vertices, start, end, tree.face[node], scratch))
+    return best
+
+
+CTBOT_SHAPES = CTBOT_PARTS[[1, 0, 2]].reshape(-1, 2, 2)
+"""c't-Sim's CtBotShape's three shapes in the order they go live (right cheek, left cheek, the
+middle: `kernels.contacts.CTBOT_PARTS`), each its (forward, left) lower and upper corner (m)."""
+CTBOT_BOTTOM, CTBOT_TOP = JAVA3D_FLOOR + 0.075 - 0.06, JAVA3D_FLOOR + 0.075 + 0.06
+"""m: the z range of c't-Sim's bot shapes in Java3D's world (120 mm tall round its centre 75 mm up: World.addBot, CtBotShape)."""
+
+
+@numba.njit(cache=True)
+def robot_boxes(x: float, y: float, heading: float, shapes: np.ndarray, bottom: float, top: float, lower: np.ndarray, upper: np.ndarray) -> None:
+    """Java3D's bounds of a bot's shapes at pose (x, y m, heading rad): each shape's box (SHAPES
+    (k, 2, 2): body-frame x, y lower and upper) turned with the bot, its corners' bounds
+    (`BoundingBox.transform`), z from `bottom` to `top`, into LOWER and UPPER (k, 3)."""
+    c, s = math.cos(heading), math.sin(heading)
+    for k in range(shapes.shape[0]):
+        lower[k, 0], lower[k, 1], upper[k, 0], upper[k, 1] = math.inf, math.inf, -math.inf, -math.inf
+        for corner in range(4):
+            bx, by = shapes[k, corner & 1, 0], shapes[k, corner >> 1, 1]
+            wx, wy = x + c * bx - s * by, y + s * bx + c * by
+            lower[k, 0], lower[k, 1] = min(lower[k, 0], wx), min(lower[k, 1], wy)
+            upper[k, 0], upper[k, 1] = max(upper[k, 0], wx), max(upper[k, 1], wy)
+        lower[k, 2], upper[k, 2] = bottom, top
+
+
+@numba.njit(cache=True)
+def move_robot_leaves(tree: BoundsTree, pose: np.ndarray) -> None:
+    """The bots' leaves of the bounds tree to their robots' poses (robots, 3; `CTBOT_SHAPES`), and
+    every box above them to its children's again, as Java3D updates its tree when a bot moves."""
+    lower, upper = np.empty((CTBOT_SHAPES.shape[0], 3)), np.empty((CTBOT_SHAPES.shape[0], 3))
+    for r in range(tree.robot_leaves.shape[0]):
+        if tree.robot_leaves[r, 0] < 0:
+            continue
+        robot_boxes(pose[r, 0], pose[r, 1], pose[r, 2], CTBOT_SHAPES, CTBOT_BOTTOM, CTBOT_TOP, lower, upper)
+        for k in range(CTBOT_SHAPES.shape[0]):
+            node = tree.robot_leaves[r, k]
+            for c in range(3):
+                tree.lower[node, c], tree.upper[node, c] = lower[k, c], upper[k, c]
+            node = tree.parent[node]
+            while node >= 0:
+                right, left = tree.kids[node, 0], tree.kids[node, 1]
+                for c in range(3):
+                    tree.lower[node, c] = min(tree.lower[right, c], tree.lower[left, c])
+                    tree.upper[node, c] = max(tree.upper[right, c], tree.upper[left, c])
+                node = tree.parent[node]

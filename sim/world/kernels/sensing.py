@@ -12,7 +12,7 @@ import numpy as np
 from sim.world.kernels.floor import raster_at
 from sim.world.kernels.geometry import polygon_distance, ray_circle, ray_polygon
 from sim.world.kernels.grids import circle_grid, first_at_least, walls_near
-from sim.world.kernels.pick import pick_wall
+from sim.world.kernels.pick import move_robot_leaves, pick_tree, pick_wall
 from sim.world.layout import GHOST, Curves, Floor, Noise, Rays, Readout, Sensing, Walls
 
 CIRCLE_GRID_ABOVE = 32
@@ -96,7 +96,8 @@ def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: 
     a GHOST's) within the ray's cone (half-angle, rad) of its view and within `length`; inf if
     none. As `World.ray_distance`: per convex body the nearest point if it lies in the cone, else
     the first hit of an edge ray. A ray whose `pick` is set sees a wall as c't-Sim's Java3D cone
-    pick does (`pick.pick_wall`).
+    pick does (`pick.pick_wall`; in a c't-Sim parcours, whose walls carry Java3D's bounds tree,
+    `pick.pick_tree`).
 
     With more than `grid_above` circles, each sensor checks only the circles in the grid cells
     its cone's bounding box overlaps (a crowd would otherwise cost sensors x robots); the nearest
@@ -124,21 +125,25 @@ def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: 
         best = math.inf
         # a wall counts only where it meets the cone within `length` (inside the wall: at the apex)
         lo_x, lo_y, hi_x, hi_y = _cone_box(view, cone, length)
-        for w in walls_near(lo_x, lo_y, hi_x, hi_y, walls.frame, walls.cells):
-            box = boxes[w]
-            if box.xmin > hi_x or box.xmax < lo_x or box.ymin > hi_y or box.ymax < lo_y:
-                continue
-            start, end = spans[w].start, spans[w].end
-            if picks[k]:
-                best = min(best, pick_wall((ox, oy, cx, cy, length), math.tan(cone), vertices, start, end, box.cylinder, cylinders))
-                continue
-            distance, qx, qy = polygon_distance(ox, oy, vertices, start, end)
-            if distance <= 0.0:
-                best = 0.0
-                break
-            if (qx - ox) * cx + (qy - oy) * cy >= cos_cone * distance:
-                best = min(best, distance)
-            best = min(best, ray_polygon(ox, oy, l1x, l1y, vertices, start, end), ray_polygon(ox, oy, l2x, l2y, vertices, start, end))
+        tree_pick = picks[k] and walls.tree.lower.shape[0] > 0
+        if tree_pick:  # a c't-Sim parcours: the walls its bounds tree lets the pick reach
+            best = pick_tree((ox, oy, cx, cy, length), math.tan(cone), walls, cylinders)
+        else:
+            for w in walls_near(lo_x, lo_y, hi_x, hi_y, walls.frame, walls.cells):
+                box = boxes[w]
+                if box.xmin > hi_x or box.xmax < lo_x or box.ymin > hi_y or box.ymax < lo_y:
+                    continue
+                start, end = spans[w].start, spans[w].end
+                if picks[k]:
+                    best = min(best, pick_wall((ox, oy, cx, cy, length), math.tan(cone), vertices, start, end, box.cylinder, cylinders))
+                    continue
+                distance, qx, qy = polygon_distance(ox, oy, vertices, start, end)
+                if distance <= 0.0:
+                    best = 0.0
+                    break
+                if (qx - ox) * cx + (qy - oy) * cy >= cos_cone * distance:
+                    best = min(best, distance)
+                best = min(best, ray_polygon(ox, oy, l1x, l1y, vertices, start, end), ray_polygon(ox, oy, l2x, l2y, vertices, start, end))
         if use_grid:
             # a circle can matter if its centre lies within its radius of the cone's box
             gx0 = max(int(math.floor((lo_x - widest - x0) / cell)), 0)
@@ -231,6 +236,8 @@ def read_ir(pose: np.ndarray, sensors: np.ndarray, walls: Walls, circles: np.nda
     m = sensors.shape[0]
     origins, look, distance = np.empty((m, 2)), np.empty(m), np.empty(m)
     ir_rays(pose, sensors, origins, look)
+    if walls.tree.robot_leaves.shape[0] > 0:
+        move_robot_leaves(walls.tree, pose)  # (c't-Sim's bots in its scene's bounds tree, which its pick walks)
     for i in range(pose.shape[0]):
         circles[i].x, circles[i].y = pose[i, 0], pose[i, 1]
     rays = Rays(origins, look, sensors.opening, sensors.owner, sensors.pick)
