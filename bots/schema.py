@@ -372,10 +372,15 @@ def open_regular(path: Path, error: type[FileError] = FileError, most: int = MAX
 
 
 def read_bytes(path: Path, error: type[FileError] = FileError, most: int = MAX_BYTES) -> bytes:
-    """A regular file's bytes, at most `most` (`open_regular`)."""
+    """A regular file's bytes, at most `most` (`open_regular`): read as long as the file is and
+    a byte more (Python allocates what it is asked to read: `most` would take 64 MiB of memory
+    to read a summary of a few kB), then on to `most` only where it grew meanwhile."""
     with open_regular(path, error, most) as file:
         try:
-            data = file.read(most + 1)
+            size = os.fstat(file.fileno()).st_size
+            data = file.read(size + 1)
+            if len(data) > size:  # (it grew, or it is a /proc file, which says 0)
+                data += file.read(most + 1 - len(data))
         except OSError as err:
             raise error(path, None, f"cannot read: {err.strerror or err}") from None
     if len(data) > most:  # (grew while read)

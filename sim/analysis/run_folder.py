@@ -173,31 +173,29 @@ def trajectory_path(run_dir: Path, name: str, key: str = "tum") -> Path:
     return run_dir / name
 
 
-def trajectory_text(run_dir: Path, name: str, lines: int | None = None) -> str:
-    """A trajectory file's text: a regular file in the folder, at most MOST_TRAJECTORY_BYTES.
-    With `lines`, about that many of its lines at most, evenly spread, the first and the last
-    among them, read through a line at a time (a long run's figure needs no more points than it
-    has pixels, and its file need not fit in memory)."""
+def trajectory_text(run_dir: Path, name: str, lines: int) -> str:
+    """A trajectory file's text: a regular file in the folder, at most MOST_TRAJECTORY_BYTES, of
+    which about `lines` lines at most, evenly spread, the first and the last among them, read a
+    line at a time (a long run's figure needs no more points than it has pixels, and its file
+    need not fit in memory)."""
     path = trajectory_path(run_dir, name)
     if not path.exists():
         raise RunFolderError(path, None, f"missing: {SUMMARY} names it, but the run folder has no such file")
     with open_regular(path, RunFolderError, MOST_TRAJECTORY_BYTES) as file:
         try:
-            data = _every_line(file, lines) if lines is not None else file.read(MOST_TRAJECTORY_BYTES + 1)
+            data, every = _every_line(file, lines)
         except OSError as err:
             raise RunFolderError(path, None, f"cannot read: {err.strerror or err}") from None
-    if len(data) > MOST_TRAJECTORY_BYTES:  # (grew while read)
-        raise RunFolderError(path, None, f"the file has more than the {MOST_TRAJECTORY_BYTES:,} bytes ctsim reads of it")
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError as err:
-        line = data[: err.start].count(b"\n") + 1
+        line = data[: err.start].count(b"\n") + 1 if every == 1 else None  # (a line of those kept is not the file's)
         raise RunFolderError(path, line, "not a TUM trajectory (not text)") from None
 
 
-def _every_line(file: BinaryIO, lines: int) -> bytes:
+def _every_line(file: BinaryIO, lines: int) -> tuple[bytes, int]:
     """Every k-th line of `file` and its last, k chosen so that at most about `lines` are kept
-    (all where it has no more)."""
+    (all where it has no more); and k."""
     total = sum(chunk.count(b"\n") for chunk in iter(lambda: file.read(1 << 24), b""))
     every = max(1, -(-total // max(lines, 1)))
     file.seek(0)
@@ -208,4 +206,4 @@ def _every_line(file: BinaryIO, lines: int) -> bytes:
         last = line
     if kept and kept[-1] is not last:
         kept.append(last)
-    return b"".join(kept)
+    return b"".join(kept), every

@@ -38,10 +38,11 @@ class SamplesNotKept(OSError):
     sample before it kept."""
 
 
-WHOLE = 256 << 20
-"""Largest file of samples read through one mapping of all of it (a run of up to about 600,000
-samples of a c't-Bot): its rows are views of that, and a result kept holds no descriptor of it
-(`_Store.settle`). A larger one is mapped a range at a time."""
+WHOLE = 32 << 20
+"""Largest file of samples read, once its run has ended, through one mapping of all of it (a run
+of up to about 75,000 samples of a c't-Bot; `_Store.settle`): its rows are views of that, and a
+result kept holds that mapping's file descriptor alone. While a run runs, and after a longer run,
+rows are mapped a range at a time."""
 
 
 class _Store:
@@ -55,21 +56,24 @@ class _Store:
         self.size = 0
         self._whole: mmap.mmap | None = None
 
+    @property
+    def whole(self) -> bool:
+        """Whether the file is read through one mapping of all of it (`settle`)."""
+        return self._whole is not None
+
     def mapped(self, offset: int, length: int) -> tuple[mmap.mmap, int]:
         """A read-only mapping that holds the file's bytes [offset, offset + length), and where in
-        it they start: the whole file's (WHOLE), else one of just that range."""
-        if self.size <= WHOLE:
-            if self._whole is None or len(self._whole) < self.size:
-                self._whole = mmap.mmap(self.descriptor, self.size, access=mmap.ACCESS_READ)
+        it they start: the whole file's (`settle`), else one of just that range."""
+        if self._whole is not None:
             return self._whole, offset
         aligned = offset - offset % mmap.ALLOCATIONGRANULARITY
         return mmap.mmap(self.descriptor, offset - aligned + length, access=mmap.ACCESS_READ, offset=aligned), offset - aligned
 
     def settle(self) -> None:
-        """Once every row is in the file: a file read through one mapping needs its descriptor
-        no more (closed: a result kept holds the mapping's alone)."""
+        """Once every row is in the file: a file of WHOLE bytes at most is read through one
+        mapping from then on, and its own descriptor closed (a result kept holds the mapping's)."""
         if self.size <= WHOLE:
-            self.mapped(0, 0)
+            self._whole = mmap.mmap(self.descriptor, self.size, access=mmap.ACCESS_READ)
             self._file.close()
 
     def regions(self, sizes: list[int]) -> list[int]:
@@ -104,8 +108,8 @@ class _Columns:
         """The run's row of the arrays' first row: rows before it are in the file."""
         self._kept = dict.fromkeys(rows, 0)
         """Per column, the rows [0, kept) in the file."""
-        self._last: dict[str, tuple[int, int, np.ndarray]] = {}
-        """Per column, the rows last mapped: (start, stop, rows)."""
+        self.last: dict[str, tuple[int, int, np.ndarray]] = {}
+        """Per column, the rows last mapped (start, stop, rows), while rows are mapped by range."""
 
     def local(self, n: int) -> int:
         """Where the arrays take the run's row `n` (rows are written in order): a full window is
@@ -151,12 +155,12 @@ class _Columns:
             rows = np.concatenate((self._mapped(name, start, kept), self.arrays[name][kept - self.base : stop - self.base]))
             rows.flags.writeable = False
             return rows
-        last = self._last.get(name)
+        last = self.last.get(name)
         if last is not None and last[0] <= start and stop <= last[1]:
             return last[2][start - last[0] : stop - last[0]]
         rows = self._mapped(name, start, stop)
-        if self._store.size > WHOLE and stop - start <= BLOCK:  # (ranges mapped apart; a long run read whole is not kept mapped)
-            self._last[name] = (start, stop, rows)
+        if not self._store.whole and stop - start <= BLOCK:  # (ranges mapped apart; a long run read whole is not kept mapped)
+            self.last[name] = (start, stop, rows)
         return rows
 
     def _mapped(self, name: str, start: int, stop: int) -> np.ndarray:
@@ -241,6 +245,11 @@ class Samples:
         except SamplesNotKept:
             return
         self._store.settle()
+
+    def forget(self) -> None:
+        """Let go of the rows last mapped of every column (`_Columns.view`)."""
+        for columns in self._every:
+            columns.last.clear()
 
     def rows(self, rows: slice | None) -> tuple[int, int]:
         """(start, stop) of `rows` (None: all) among the complete samples (a slice of step 1)."""
@@ -417,7 +426,9 @@ class RunResult:
 
     def blocks(self, size: int | None = None) -> Iterator[slice]:
         """Row ranges that cover every sample, `size` (default BLOCK) at a time, to read a long run
-        through with bounded memory (each block's rows are mapped while they are read)."""
+        through with bounded memory (each block's rows are mapped while they are read, the last
+        block's no longer once all are read)."""
         size = size or BLOCK
         for start in range(0, len(self), size):
             yield slice(start, min(start + size, len(self)))
+        self._samples.forget()
