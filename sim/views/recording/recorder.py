@@ -157,7 +157,11 @@ class Recorder(LiveStream):
     def _open(self, world: World, logs: list[RobotLog]) -> None:
         rr = lazy_rerun()
         groups = [g for g, (_, fields) in SENSOR_GROUPS.items() if any(field_channels(log.spec, f)[0] for log in logs for f in fields)]
-        views = blueprint(world.spec, {log.name: list(log.estimate_arrays()) for log in logs}, groups, [log.name for log in logs if localisers(log.estimators)])
+        self._tracks = [self._track(log) for log in logs]
+        self.colours = self.colours or palette.robot_colours([log.name for log in logs])
+        key = self._key()
+        views = blueprint(world.spec, {log.name: list(log.estimate_arrays()) for log in logs}, groups, [log.name for log in logs if localisers(log.estimators)],
+                          [label for label, _, _ in key])  # fmt: skip
         self.streams = []
         if self.path is not None:
             rec = rr.RecordingStream(self.application_id, send_properties=False)
@@ -168,12 +172,10 @@ class Recorder(LiveStream):
         self._log("world", rr.Transform3D(scale=(1.0, -1.0, 1.0)), static=True)
         log_world(self._log, world.spec)
         self._log("facts", rr.TextDocument(self._facts_text(world, logs), media_type=rr.MediaType.MARKDOWN), static=True)
-        self._tracks = [self._track(log) for log in logs]
-        self.colours = self.colours or palette.robot_colours([log.name for log in logs])
         self._chassis = ChassisLayer.for_world(self._log, self._columns, world, TIMELINE)
         self._particles = ParticleLayer.for_run(self._columns, self._event, logs, TIMELINE)
         self._style()
-        log_key(self._log, world.spec, self._key())
+        log_key(self._log, world.spec, key)
         if self._chassis is not None:
             self._chassis.style({i: log.name for i, log in enumerate(logs)})
         self._now = world.time
