@@ -46,7 +46,7 @@ def test_grid_cuts_the_moves_all_pairs_cut(seed: int, count: int, spread: float,
     pose, move, reach = crowd(seed, count, spread, step)
     expected = move.copy()
     keep_apart_all_pairs(pose, expected, reach)
-    keep_apart(pose, move, reach)
+    keep_apart(pose, move, reach, np.zeros(len(reach), dtype=bool))
     assert move.tobytes() == expected.tobytes()
 
 

@@ -182,3 +182,26 @@ def test_a_c_t_bot_stops_behind_another_at_the_box_round_its_back_part():
     y = world.poses()[1, 1]
     assert step == 0.0 and round(reach, 5) == 0.06049
     assert contact - 0.0005 < y < contact  # within the last step (0.3 mm at 30 units) before it, 0.49 mm short of the circles' contact
+
+
+def test_two_c_t_bots_mouth_to_mouth_stop_where_the_cheeks_boxes_meet_the_other_s_sphere():
+    """Mouth to mouth, each bot's 60 mm sphere meets the other's cheek boxes, which reach 53.33 mm
+    forward from 27.5 mm beside the axis: at 53.33 + sqrt(60² - 27.5²) = 106.66 mm between the
+    centres, inside their circles' 120 mm, which ctsim's own robots keep (c't-Sim: two firmware
+    bots driving at each other stopped 106.96 mm apart). Both move in the same step, each against
+    where the other stood: a step is refused once it would bring its bot within 106.66 mm of the
+    other, so they end less than a step's travel either side of it."""
+    bot = as_in_ctsim(CTBOT)
+    world = World(WorldSpec("open", (-1, -1, 1, 1)))
+    world.add_robot(bot, (-0.2, 0.0, 0.0))
+    world.add_robot(bot, (0.2, 0.0, math.pi))
+    travel, last = 0.0, 0.0
+    for _ in range(1000):
+        before = world.poses()[0, 0]
+        world.step(np.array([(30.0, 30.0), (30.0, 30.0)]))
+        travel = world.poses()[0, 0] - before
+        last = travel if travel > 1e-9 else last  # (a bot at rest drifts by 1e-17 m in pymunk's float steps)
+    gap = world.poses()[1, 0] - world.poses()[0, 0]
+    cheeks = 0.053328 + math.sqrt(0.06**2 - 0.0274977**2)
+    assert abs(travel) < 1e-12 and round(cheeks, 5) == 0.10666 and 0.0 < last < 0.001
+    assert cheeks - last < gap <= cheeks + last  # (the last steps, 0.53 mm at 30 units, were made against where the other stood)

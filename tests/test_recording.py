@@ -16,7 +16,7 @@ from bots.commands import WheelSpeeds
 from bots.controller import FunctionController
 from bots.ctbot import CTBOT
 from sim.run.loop import RobotSetup, run
-from sim.views.recording.layout import TRAIL_EVERY
+from sim.views.recording.layout import BAND_LABEL, TRAIL_EVERY
 from sim.views.recording.recorder import CHUNK, Recorder
 from sim.world.files import load_world
 
@@ -51,23 +51,45 @@ def _entities(path) -> set[str]:
     return {chunk.entity_path for chunk in rerun.chunk.RrdReader(path).stream().to_chunks()}
 
 
-def _blueprint(path) -> tuple[list[tuple[str, list[str]]], list[str]]:
-    """The recording's own blueprint store: (origin, queries) of each view, and the entity path of
-    every override."""
+def _blueprint_columns(path) -> dict[str, dict[str, list]]:
+    """The recording's own blueprint store: entity path -> column -> its last value."""
     import rerun.chunk
 
     reader = rerun.chunk.RrdReader(path)
     (store,) = reader.blueprints()
-    origins, queries, overrides = {}, {}, []
+    found: dict[str, dict[str, list]] = {}
     for chunk in reader.stream(store=store).to_chunks():
-        batch, where = chunk.to_record_batch(), chunk.entity_path
-        if "ViewBlueprint:space_origin" in batch.schema.names:
-            origins[where] = batch.column("ViewBlueprint:space_origin").to_pylist()[-1][0]
-        if "ViewContents:query" in batch.schema.names:
-            queries[where.removesuffix("/ViewContents")] = batch.column("ViewContents:query").to_pylist()[-1]
-        if "/ViewContents/overrides/" in where:
-            overrides.append("/" + where.split("/ViewContents/overrides/", 1)[1].removesuffix("/visualizers"))
-    return [(origins[view], queries[view]) for view in origins], overrides
+        batch = chunk.to_record_batch()
+        found.setdefault(chunk.entity_path, {}).update({name: batch.column(name).to_pylist()[-1] for name in batch.schema.names})
+    return found
+
+
+def _blueprint(path) -> tuple[list[tuple[str, list[str]]], list[str]]:
+    """(origin, queries) of each view of the recording's blueprint, and the entity path of every override."""
+    columns = _blueprint_columns(path)
+    views = [(values["ViewBlueprint:space_origin"][0], columns[f"{where}/ViewContents"]["ViewContents:query"]) for where, values in columns.items()
+             if "ViewBlueprint:space_origin" in values]  # fmt: skip
+    overrides = ["/" + where.split("/ViewContents/overrides/", 1)[1].removesuffix("/visualizers") for where in columns if "/ViewContents/overrides/" in where]
+    return views, overrides
+
+
+def _legends_shown(path) -> dict[str, bool]:
+    """Origin of each plot with a legend setting -> whether its legend shows (rerun's default: it does)."""
+    columns = _blueprint_columns(path)
+    return {columns[where.removesuffix("/PlotLegend")]["ViewBlueprint:space_origin"][0]: values.get("PlotLegend:visible", [True])[0]
+            for where, values in columns.items() if where.endswith("/PlotLegend")}  # fmt: skip
+
+
+def _static(path, entity: str) -> dict[str, list]:
+    """The static columns of one entity: column -> its values."""
+    import rerun.chunk
+
+    found: dict[str, list] = {}
+    for chunk in rerun.chunk.RrdReader(path).stream().to_chunks():
+        if chunk.is_static and chunk.entity_path == entity:
+            batch = chunk.to_record_batch()
+            found.update({name: batch.column(name).to_pylist()[-1] for name in batch.schema.names})
+    return found
 
 
 def _names_logged(path_expression: str, entities: set[str]) -> bool:
@@ -156,6 +178,44 @@ def test_blueprint_names_only_what_is_logged(tmp_path, robots):
     assert len(trails) == robots * 5  # truth and four estimates each
     for override in overrides:
         assert override in entities, f"override on {override}, which holds no data"
+
+
+@pytest.mark.parametrize("robots, estimates", [(1, True), (3, True), (2, False)])
+def test_the_maps_key_names_the_error_plots_series_whose_legends_stay_hidden(tmp_path, robots, estimates):
+    """Up to twelve series would bury an error plot under its legend: the key beside the map holds
+    each trail's and series' colour under its name (an estimate once, its colour being every
+    robot's), and the error plots show no legend; a robot without estimates (a contest's) is keyed
+    by its truth only."""
+    path = tmp_path / "run.rrd"
+    setups = [RobotSetup(CTBOT, FunctionController(_drive), start=(0.36 + 0.24 * k, 0.36, 0.0), estimators=None if estimates else []) for k in range(robots)]
+    result = run(load_world("maze"), setups, duration=0.3, observers=[Recorder(path)])
+    key = _static(path, "/world/map/key/labels")
+    colour = dict(zip(key["Points2D:labels"], key["Points2D:colors"]))
+    assert len(colour) == len(key["Points2D:labels"]) == len(key["Points2D:colors"])  # each label once, each with its colour
+    truths = [log.name for log in result.robots] if robots > 1 else ["truth"]
+    assert key["Points2D:labels"][:robots] == truths
+    for log, truth in zip(result.robots, truths):
+        assert [colour[truth]] == _static(path, f"/world/{log.name}/trail/truth")["LineStrips2D:colors"]
+    (framed,) = [values["VisualBounds2D:range"][0] for values in _blueprint_columns(path).values() if "VisualBounds2D:range" in values]
+    xmin, ymin, xmax, ymax = load_world("maze").bounds
+    for x, y in [*key["Points2D:positions"], *(point for line in _static(path, "/world/map/key/lines")["LineStrips2D:strips"] for point in line)]:
+        assert xmax < x < framed["x_range"][1] and ymin < y <= ymax + 1e-6, "the key lies in the map view, beside the world"  # (float32 positions)
+    labels = list(result.robots[0].estimate_arrays())
+    assert key["Points2D:labels"][robots:] == ([*labels, BAND_LABEL] if estimates else [])
+    legends = _legends_shown(path)
+    for log in result.robots:
+        for label in labels:  # the map's trail in the key's colour
+            assert [colour[label]] == _static(path, f"/world/{log.name}/trail/{label}")["LineStrips2D:colors"]
+        for plot in ("position", "heading"):  # each plot series in the key's colour, under its name
+            series = _static(path, f"/errors/{log.name}/{plot}")
+            assert series.get("SeriesLines:names", []) == [f"{log.name} {label}" if robots > 1 else label for label in labels]
+            assert series.get("SeriesLines:colors", []) == [colour[label] for label in labels]
+            assert legends.get(f"/errors/{log.name}/{plot}", False) is False, "an error plot shows its legend"
+    assert any(origin.startswith("/errors/") for origin in legends) == estimates
+    sensor_plots = [shown for origin, shown in legends.items() if origin.startswith("/sensors/")]
+    assert sensor_plots and all(sensor_plots)  # their two to four series keep their small legends...
+    for log in result.robots:  # ...of the channels' names only: each robot has plots of its own
+        assert _static(path, f"/sensors/ir_raw/{log.name}/ir_raw")["SeriesLines:names"] == ["ir_left", "ir_right"]
 
 
 def test_map_view_shows_the_y_flip(recorded):

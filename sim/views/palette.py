@@ -55,6 +55,9 @@ the order they were added: red, yellow, white, pink, brown, light green; none is
 all stand out on a grey floor."""
 NEUTRAL: RGB = (90, 110, 140)
 """Marks that belong to no estimate or robot."""
+KEY_NOTE: RGB = (20, 20, 20)
+"""An entry of the recording's colour key that is no estimate's or robot's (the error plots' thin
+3σ bands): dark, to read both as a line beside the map and as text on rerun's grey label box."""
 OUTCOMES: dict[str, RGB] = {"goal reached": GOAL_EDGE, "time limit": NEUTRAL, "fell": (70, 70, 70), "error": FAULT, "controller done": START}
 """How a sweep's runs ended (`sim.experiments.report.OUTCOMES`): the goal's green, grey-blue for
 running out of time, a hole's near black, a fault's red."""

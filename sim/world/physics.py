@@ -47,6 +47,10 @@ MOVABLE_DAMPING = 0.05
 
 ROBOT = 1
 """pymunk collision type of robot bodies (to count their contacts)."""
+CTSIM_CONTACT = 1 << 1
+"""pymunk category of the bodies of robots under c't-Sim's contact rule, which do not collide with
+each other in pymunk: c't-Sim's rule meets another bot at its parts' boxes, which let two bots
+mouth to mouth come 106.7 mm near, within their circles' 120 mm."""
 
 
 class CommandError(ValueError):
@@ -207,13 +211,16 @@ class World:
         body.angle = heading
         shape.friction = 0.0
         shape.filter = pymunk.ShapeFilter(group=index + 1 if self.robots_meet else 1)  # a robot's group passes through itself
+        query_filter = shape.filter
+        if spec.contact == "stop" and self.robots_meet:  # two c't-Sim bots meet by c't-Sim's contact rule alone (`stop_at_contact`), not pymunk's circles
+            shape.filter = pymunk.ShapeFilter(group=index + 1, categories=CTSIM_CONTACT, mask=pymunk.ShapeFilter.ALL_MASKS() ^ CTSIM_CONTACT)
         robot = Robot(
             index=index,
             name=name or (spec.name if index == 0 else f"{spec.name}{index}"),
             spec=spec,
             body=body,
             shape=shape,
-            query_filter=shape.filter,
+            query_filter=query_filter,
             ir_curves=tuple(ir_curve_for(s.curve, s.side) for s in spec.ir),
             rngs=self._sensor_rngs(spec, index, seed),
             slot=slot,

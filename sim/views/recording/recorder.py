@@ -5,6 +5,8 @@ Layout (all on the timeline "sim_time", seconds of simulated time):
     world                              Transform3D scale (1, -1, 1): y up in rerun's y-down 2D view
     world/map/floor                    the map as an image (drawn like the PNG figures), static
     world/map/starts                   start poses (arrows), static
+    world/map/key/lines, labels        the colour key right of the map: truth, each estimate, the
+                                       error plots' 3σ bands (whose legends are hidden), static
     world/<robot>/body                 Transform3D: the true pose; body/outline is static in it
                                        (a chassis's polygon, else a circle); body/wheels of a
                                        general chassis: Arrows2D, as the steering turns
@@ -49,7 +51,7 @@ from sim.views import palette
 from sim.views.chassis_view import ChassisLayer, body_outline, fault_text
 from sim.views.particles import ParticleLayer, localisers
 from sim.views.recording.arrow import ArrowOwned, lazy_rerun, strips, turn, xyz
-from sim.views.recording.layout import ELLIPSE_EVERY, ELLIPSE_POINTS, FIELDS, SCALE, SENSOR_GROUPS, TIMELINE, TRAIL_EVERY, blueprint, ellipses, field_channels, log_world, rgb
+from sim.views.recording.layout import BAND_LABEL, ELLIPSE_EVERY, ELLIPSE_POINTS, FIELDS, SCALE, SENSOR_GROUPS, TIMELINE, TRAIL_EVERY, blueprint, ellipses, field_channels, log_key, log_world, rgb
 from sim.views.recording.live import LiveStream
 from sim.world import IR_RAY_LENGTH, World
 
@@ -154,7 +156,11 @@ class Recorder(LiveStream):
     def _open(self, world: World, logs: list[RobotLog]) -> None:
         rr = lazy_rerun()
         groups = [g for g, (_, fields) in SENSOR_GROUPS.items() if any(field_channels(log.spec, f)[0] for log in logs for f in fields)]
-        views = blueprint(world.spec, {log.name: log.estimate_names for log in logs}, groups, [log.name for log in logs if localisers(log.estimators)])
+        self._tracks = [self._track(log) for log in logs]
+        self.colours = self.colours or palette.robot_colours([log.name for log in logs])
+        key = self._key()
+        views = blueprint(world.spec, {log.name: log.estimate_names for log in logs}, groups, [log.name for log in logs if localisers(log.estimators)],
+                          [label for label, _, _ in key])  # fmt: skip
         self.streams = []
         if self.path is not None:
             rec = rr.RecordingStream(self.application_id, send_properties=False)
@@ -165,11 +171,10 @@ class Recorder(LiveStream):
         self._log("world", rr.Transform3D(scale=(1.0, -1.0, 1.0)), static=True)
         log_world(self._log, world.spec)
         self._log("facts", rr.TextDocument(self._facts_text(world, logs), media_type=rr.MediaType.MARKDOWN), static=True)
-        self._tracks = [self._track(log) for log in logs]
-        self.colours = self.colours or palette.robot_colours([log.name for log in logs])
         self._chassis = ChassisLayer.for_world(self._log, self._columns, world, TIMELINE)
         self._particles = ParticleLayer.for_run(self._columns, self._event, logs, TIMELINE)
         self._style()
+        log_key(self._log, world.spec, key)
         if self._chassis is not None:
             self._chassis.style({i: log.name for i, log in enumerate(logs)})
         self._now = world.time
@@ -346,9 +351,17 @@ class Recorder(LiveStream):
                     sides = track.channels[FIELDS.index(f)]
                     width = len(sides)
                     if width:
-                        names = [f"{name} {side}" if several else side for side in sides]
                         colours = [palette.CHANNELS[(i + 2 * fields.index(f)) % len(palette.CHANNELS)] for i in range(width)]
-                        self._log(f"sensors/{group}/{name}/{f}", rr.SeriesLines(colors=colours, names=names, widths=1.0), static=True)
+                        self._log(f"sensors/{group}/{name}/{f}", rr.SeriesLines(colors=colours, names=list(sides), widths=1.0), static=True)  # (a plot per robot)
+
+    def _key(self) -> list[tuple[str, palette.RGB, float]]:
+        """The map's key, (label, colour, line radius in points) top down: each robot's truth
+        ("truth" for a lone robot, else its name), each estimate once (its colour is the same for
+        every robot, on the map and in the error plots), and the error plots' thin 3σ bands."""
+        truths = [(track.log.name if len(self._tracks) > 1 else "truth", self.colours.get(track.log.name, palette.TRUTH), 2.5) for track in self._tracks]
+        estimates = {label: palette.estimate_colour(label, track.estimates) for track in self._tracks for label in track.estimates}
+        banded = any(track.log.uncertain_names for track in self._tracks)
+        return [*truths, *((label, colour, 2.5) for label, colour in estimates.items()), *([(BAND_LABEL, palette.KEY_NOTE, 1.0)] if banded else [])]
 
     def _send(self, track: _Track, stop: int) -> None:
         """Send one robot's samples [track.start, stop) as columns."""

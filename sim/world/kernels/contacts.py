@@ -41,7 +41,7 @@ def settle_meeting(pose: np.ndarray, robots: np.ndarray, state: np.ndarray, worl
     stop_at_contact(pose, robots, state, walls, bodies.circles)
     sweep_walls(pose, state.move, robots.sweep_radius, here.slide_margin, walls)
     if pose.shape[0] > 1 and here.robots_meet:
-        keep_apart(pose, state.move, robots.apart_radius)
+        keep_apart(pose, state.move, robots.apart_radius, robots.stops)
     return push(pose, robots, state, world, walls, floor, ground, bodies)
 
 
@@ -264,9 +264,10 @@ def _contact_time(pose: np.ndarray, move: np.ndarray, reach: np.ndarray, i: int,
 
 
 @numba.njit(cache=True)
-def keep_apart(pose: np.ndarray, move: np.ndarray, reach: np.ndarray) -> None:
+def keep_apart(pose: np.ndarray, move: np.ndarray, reach: np.ndarray, ctsim: np.ndarray) -> None:
     """Shorten the moves (n, 2), in place, of robots that would run into each other: both moves
-    of a pair are cut at the moment the pair would touch (closer than reach[i] + reach[j]).
+    of a pair are cut at the moment the pair would touch (closer than reach[i] + reach[j]). A pair
+    of robots both under c't-Sim's contact rule (CTSIM, n) is left to it (`stop_at_contact`).
     Cuts only shorten moves, but a shorter move can let a follower catch up, so the pairs are
     checked again until none closes in; robots still in conflict after that stand still.
 
@@ -275,6 +276,12 @@ def keep_apart(pose: np.ndarray, move: np.ndarray, reach: np.ndarray) -> None:
     if pose.shape[0] < 2:
         return
     pairs = near_pairs(pose, move, reach)
+    kept = 0
+    for p in range(pairs.shape[0]):
+        if not (ctsim[pairs[p, 0]] and ctsim[pairs[p, 1]]):
+            pairs[kept, 0], pairs[kept, 1] = pairs[p, 0], pairs[p, 1]
+            kept += 1
+    pairs = pairs[:kept]
     for _ in range(100):
         changed = False
         for p in range(pairs.shape[0]):
