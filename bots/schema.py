@@ -18,7 +18,7 @@ import tomllib
 from dataclasses import dataclass, fields
 from dataclasses import field as dataclass_field
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 from sim.errors import UserError
 
@@ -354,9 +354,9 @@ class Locator:
         return first if table is not None else None
 
 
-def read_bytes(path: Path, error: type[FileError] = FileError, most: int = MAX_BYTES) -> bytes:
-    """A regular file's bytes, at most `most`: a FIFO, device or folder is refused at once
-    (opened without blocking, checked before reading), as is a larger file."""
+def open_regular(path: Path, error: type[FileError] = FileError, most: int = MAX_BYTES) -> BinaryIO:
+    """A regular file of at most `most` bytes opened for reading: a FIFO, device or folder is
+    refused at once (opened without blocking, checked before reading), as is a larger file."""
     try:
         descriptor = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
     except OSError as err:
@@ -365,11 +365,22 @@ def read_bytes(path: Path, error: type[FileError] = FileError, most: int = MAX_B
     if not stat.S_ISREG(info.st_mode):
         os.close(descriptor)
         raise error(path, None, f"not a regular file ({_file_kind(info.st_mode)}); give a file ctsim can read to its end")
-    with os.fdopen(descriptor, "rb") as file:
-        if info.st_size > most:
-            raise error(path, None, f"the file has {info.st_size:,} bytes, more than the {most:,} ctsim reads of it")
+    if info.st_size > most:
+        os.close(descriptor)
+        raise error(path, None, f"the file has {info.st_size:,} bytes, more than the {most:,} ctsim reads of it")
+    return os.fdopen(descriptor, "rb")
+
+
+def read_bytes(path: Path, error: type[FileError] = FileError, most: int = MAX_BYTES) -> bytes:
+    """A regular file's bytes, at most `most` (`open_regular`): read as long as the file is and
+    a byte more (Python allocates what it is asked to read: `most` would take 64 MiB of memory
+    to read a summary of a few kB), then on to `most` only where it grew meanwhile."""
+    with open_regular(path, error, most) as file:
         try:
-            data = file.read(most + 1)
+            size = os.fstat(file.fileno()).st_size
+            data = file.read(size + 1)
+            if len(data) > size:  # (it grew, or it is a /proc file, which says 0)
+                data += file.read(most + 1 - len(data))
         except OSError as err:
             raise error(path, None, f"cannot read: {err.strerror or err}") from None
     if len(data) > most:  # (grew while read)

@@ -188,19 +188,30 @@ def test_standing_still_adds_no_stretches():
     assert count in (2, 3)  # marks at 0, 1, 2 m; whether 100 steps of 1 cm reach 3 m again is round-off
 
 
-def test_a_run_reads_back_whole_after_its_rows_left_memory():
-    """A run's logs live in file-backed columns whose pages are handed back to the system while
-    it runs and while it is read through (`blocks`); the values read afterwards are the same."""
-    result = run(load_world("empty"), [RobotSetup(CTBOT, FunctionController(lambda t, r: Twist(0.1, 0.3)))], 100.0)
-    log = result.robots[0]
-    before = result.time.copy(), log.truth_array().copy(), {k: v.copy() for k, v in log.estimate_arrays().items()}
+def test_a_run_reads_back_the_same_in_any_blocks_across_its_streamed_windows(monkeypatch):
+    """A run's logs go to a file a window of rows at a time (`sim.run.samples.WINDOW`) and are
+    read back mapped from it: whole, in blocks that do not line up with the windows, and written
+    through windows of 97 rows or of the whole run, the values are the same, bit for bit; and what
+    is read back cannot be written to (the recorded rows are the run's)."""
+    from sim.run import samples
+
+    def wander(window: int):
+        monkeypatch.setattr(samples, "WINDOW", window)
+        return run(load_world("empty"), [RobotSetup(CTBOT, FunctionController(lambda t, r: Twist(0.1, 0.3)))], 30.0)
+
+    result, whole = wander(97), wander(10**6)
+    log, reference = result.robots[0], whole.robots[0]
     blocks = list(result.blocks(size=777))
-    assert [b.start for b in blocks] == list(range(0, len(result), 777)) and blocks[-1].stop == len(result) == 10001
-    log.release(slice(0, len(result)))
-    np.testing.assert_array_equal(result.time, before[0])
-    np.testing.assert_array_equal(log.truth_array(), before[1])
-    for name, poses in log.estimate_arrays().items():
-        np.testing.assert_array_equal(poses, before[2][name])
+    assert [b.start for b in blocks] == list(range(0, len(result), 777)) and blocks[-1].stop == len(result) == 3001
+    np.testing.assert_array_equal(np.concatenate([log.truth_array(rows) for rows in blocks]), reference.truth_array())
+    np.testing.assert_array_equal(result.time, whole.time)
+    for name, poses in reference.estimate_arrays().items():
+        np.testing.assert_array_equal(np.concatenate([log.estimate_arrays(rows)[name] for rows in blocks]), poses)
+    for name, entries in reference.covariance_arrays().items():
+        np.testing.assert_array_equal(log.covariance_arrays()[name], entries)
+    for name, values in reference.readings(slice(0, 3001)).items():
+        np.testing.assert_array_equal(np.concatenate([log.readings(rows)[name] for rows in blocks]), values)
+    assert not log.truth_array().flags.writeable and not log.truth_array(slice(5, 9)).flags.writeable
 
 
 def test_rpe_is_what_evo_rpe_prints(tmp_path):

@@ -388,6 +388,23 @@ def test_an_estimator_that_fails_mid_suite_fails_only_its_runs_with_one_line_eac
     assert "Failed runs (2 of 4)" in page and page.count(f"estimator &#x27;{cls}&#x27; of ctbot") == 2
 
 
+def test_an_estimator_that_fails_a_run_leaves_the_others_metrics_as_in_a_run_without_it(scored, tmp_path, capsys):
+    """The line runs, which `Raises` fails at step 500, run again without it: every other
+    estimator's metrics of every run are those of the suite scored without it (`scored`: the world
+    draws by robot and sensor, never by the set of estimators), and its failure is said as before."""
+    without, _ = scored
+    out = tmp_path / "out"
+    assert main(["evaluate", EULER, f"{_hostile(tmp_path, 500)}:Raises", "--suite", "test", "--out", str(out), "--engine", "serial"]) == 1
+    assert "2 of 4 runs failed" in capsys.readouterr().err
+    results = read_results(out / RESULTS)
+    for run, alone in zip(results["runs"], without["runs"]):
+        assert {k: v for k, v in run["metrics"].items() if k != "Raises"} == alone["metrics"]  # (euler and the shipped ones, bit for bit)
+        assert set(run.get("failed", {})) == ({"Raises"} if run["scenario"] == "line_none_20s" else set())
+    assert all(HOSTILE_SAID["Raises"] in run["failed"]["Raises"] and "at step 500 " in run["failed"]["Raises"] for run in results["runs"][2:])
+    table = ranking(per_scenario(results)).set_index("estimator")
+    assert table.loc["euler", "failed"] == 0 and table.loc["Raises", "failed"] == 2 and table["rank"].idxmax() == "Raises"
+
+
 def test_a_hang_meets_the_step_time_limit_on_worker_processes_too(tmp_path, capsys):
     """The default engine: each worker runs its runs in its main thread, where the step clock holds."""
     out = tmp_path / "out"

@@ -25,7 +25,6 @@ OUTSIDE = {
                     "slide hypothesis's offset; with the hypothesis alone it ends at 3.59, over-confident (a truth and a "
                     "hypothesis on either side of the half turn from the estimate, which no Gaussian covers)",
     ("fused", 0.1): "too cautious early in the run (2.33): its calibration update takes the quantisation as white noise",
-    ("fused", 1.0): "over-confident at the end by a little (3.46): slides slower than its slide watch sees",
 }  # fmt: skip
 """(estimate, fraction) whose mean NEES falls outside the interval on these seeds, and why (docs/odometry.md)."""
 

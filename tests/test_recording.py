@@ -196,6 +196,10 @@ def test_the_maps_key_names_the_error_plots_series_whose_legends_stay_hidden(tmp
     assert key["Points2D:labels"][:robots] == truths
     for log, truth in zip(result.robots, truths):
         assert [colour[truth]] == _static(path, f"/world/{log.name}/trail/truth")["LineStrips2D:colors"]
+    (framed,) = [values["VisualBounds2D:range"][0] for values in _blueprint_columns(path).values() if "VisualBounds2D:range" in values]
+    xmin, ymin, xmax, ymax = load_world("maze").bounds
+    for x, y in [*key["Points2D:positions"], *(point for line in _static(path, "/world/map/key/lines")["LineStrips2D:strips"] for point in line)]:
+        assert xmax < x < framed["x_range"][1] and ymin < y <= ymax + 1e-6, "the key lies in the map view, beside the world"  # (float32 positions)
     labels = list(result.robots[0].estimate_arrays())
     assert key["Points2D:labels"][robots:] == ([*labels, BAND_LABEL] if estimates else [])
     legends = _legends_shown(path)

@@ -151,3 +151,27 @@ def test_a_controller_that_changes_folder_as_it_loads_cannot_move_the_run(tmp_pa
     monkeypatch.setattr("sim.cli.output.START", tmp_path)
     assert status(["run", "empty", "--controller", f"{controller}:Moves", "--duration", "0.05", "--no-report", "--out", "out"]) == 0
     assert (tmp_path / "out" / "summary.json").is_file() and not any(elsewhere.iterdir())
+
+
+def test_a_long_runs_figures_read_a_bounded_number_of_evenly_spread_samples(tmp_path, monkeypatch):
+    """A figure draws at most FIGURE_POINTS samples of each trajectory and band, read a line or a
+    row group at a time: every k-th and the last, the same samples from the TUM files and from
+    run.parquet, and `ctsim report` draws a long run's figures from them."""
+    from sim.analysis.run_folder import trajectory_text
+    from sim.cli.entry import main
+    from sim.views import figures
+
+    out = tmp_path / "run"
+    assert main(["run", "empty", "--controller", "wander", "--duration", "3", "--no-report", "--out", str(out)]) == 0  # 301 samples
+    monkeypatch.setattr(figures, "FIGURE_POINTS", 40)
+    lines = trajectory_text(out, "truth.tum", 40).splitlines()
+    every = (301 + 1 + 39) // 40  # (the header line counts as one)
+    whole = (out / "truth.tum").read_text().splitlines()
+    assert lines == [*whole[::every], whole[-1]] and len(lines) <= 40 + 1
+    import pyarrow.parquet as pq
+
+    rows = figures._every_row(pq.ParquetFile(out / "run.parquet"), ["time"]).column("time").to_numpy()
+    times = pq.read_table(out / "run.parquet", columns=["time"]).column("time").to_numpy()
+    expected = np.append(times[:: -(-301 // 40)], times[-1])
+    np.testing.assert_array_equal(rows, expected)
+    assert main(["report", str(out)]) == 0 and all(path.stat().st_size > 0 for path in (out / "trajectories.png", out / "errors.png"))

@@ -25,10 +25,12 @@ from bots.uncertainty import COUNT_VARIANCE, COVARIANCE_FIELDS, ERRORS, Belief, 
 from sim.kinematics import MouseEstimator, advance
 from sim.kinematics.mouse import counts_per_metre
 
-TURN_MEMORY = 0.25
+TURN_MEMORY = 0.5
 """Time constant (s) over which the fused estimator forgets the mouse's and the encoders' rotation
-disagreeing: long enough to see a slide build up, short enough that a wrong track width (a few
-per cent of the turning) never adds up to the band."""
+disagreeing: long enough to see a slide build up (a robot driven along a wall in contact slides
+its mouse sideways at 6 mm/s, read as 0.4 rad/s of turning, which over 0.25 s stayed under the
+band and turned the estimate by 16 degrees in the maze, seeds 4 and 35), short enough that a wrong
+track width (a few per cent of the turning) never adds up to the band."""
 SLIP_MEMORY = 0.1
 """Metres of the mouse's path over which the fused estimator forgets the encoders' and the
 mouse's distance disagreeing: a robot standing still forgets nothing (a wheel spinning against a

@@ -5,13 +5,15 @@ Each particle is a pose the robot may be at. Motion: the robot's own fused odome
 mouse, `bots.odometry.fused.FusedOdometry`; the encoders alone without a mouse) gives the increment
 since the last update, and every particle takes it with noise of the estimators' belief
 (`bots.uncertainty.Belief`: slip per metre rolled, mouse noise per metre passed, the calibration
-still unknown per metre and per radian), INFLATE times wider, and roughening. Measurement: every EVERY steps
-in which the robot moved, the map (`MapModel`, handed over by the run loop: a prior the robot
-carries, never its true pose) weighs each particle by the likelihood of the IR sensors' raw
-values there; the set is resampled (low variance) when its effective size falls below half,
-and shifted back onto the weighted mean it was drawn from. The estimate is the particles'
-weighted mean, its covariance their weighted spread over INFLATE squared: the spread the set
-would have with the belief's own motion noise where the scans say little.
+still unknown per metre and per radian), INFLATE times wider, and roughening; while the robot is
+found, each particle takes its turn either from that odometry or, switching now and then
+(SWITCH), from the encoders alone, so that a slide the mouse reads as turning leaves particles on
+the robot. Measurement: every EVERY steps in which the robot moved, the map (`MapModel`, handed
+over by the run loop: a prior the robot carries, never its true pose) weighs each particle by the
+likelihood of the IR sensors' raw values there; the set is resampled (low variance) when its
+effective size falls below half. The estimate is the particles' weighted mean, its covariance
+their weighted spread over INFLATE squared: the spread the set would have with the belief's own
+motion noise where the scans say little.
 
 Lost and found (after augmented MCL, Probabilistic Robotics table 8.3, on a score that does not
 depend on the scene): `score` is the scan's likelihood averaged over the particles, over the most
@@ -78,6 +80,14 @@ INJECT = 0.02
 evidence of the scans since."""
 CANDIDATES = 10
 """Free poses drawn per particle drawn anew, of which the scan picks (sensor resetting)."""
+SWITCH = 0.02
+"""Per scan, the chance that a particle changes which sensor it takes its turn from (the fused
+odometry's, the mouse's in effect, or the encoders' alone): a robot sliding along a wall moves its
+mouse sideways, which the fused odometry may read as turning (0.4 rad/s in the maze's bottom
+corridor, seeds 4 and 35 of the main job, under its slide detector's band) while the wheels turn
+alike; the particles that follow the encoders then fit the scans and the resampling keeps them.
+Where the mouse is right they fall behind by the encoders' quantisation and die out, and this
+share comes back each scan (a particle keeps its sensor for some 50 scans, 2.5 s)."""
 TEMPER = 1.0
 """While lost, a scan weighs the particles by its likelihood to this power (annealing): among
 thousands of hypotheses, one near the robot but a few millimetres or degrees off must survive
@@ -98,13 +108,14 @@ class MapModel(Protocol):
 
 
 @numba.njit(cache=True)
-def move_particles(particles: np.ndarray, dx: float, dy: float, dtheta: float, std: np.ndarray, normals: np.ndarray) -> None:
+def move_particles(particles: np.ndarray, dx: float, dy: float, dtheta: float, std: np.ndarray, normals: np.ndarray, turns: np.ndarray) -> None:
     """Every particle moved by the body-frame increment (dx, dy m, dtheta rad), each part off by
-    std (forward, lateral m; turn rad) times the particle's row of `normals` (n, 3)."""
+    std (forward, lateral m; turn rad) times the particle's row of `normals` (n, 3), its turn
+    taken from `turns` (n,) instead where that is not nan."""
     for i in range(particles.shape[0]):
         fx = dx + std[0] * normals[i, 0]
         fy = dy + std[1] * normals[i, 1]
-        turn = dtheta + std[2] * normals[i, 2]
+        turn = (dtheta if math.isnan(turns[i]) else turns[i]) + std[2] * normals[i, 2]
         mid = particles[i, 2] + 0.5 * turn
         c, s = math.cos(mid), math.sin(mid)
         particles[i, 0] += c * fx - s * fy
@@ -182,15 +193,22 @@ class MonteCarloLocaliser:
             raise ValueError("a localiser needs the world's map: run it through the run loop (ctsim run --estimator localiser)")
         self.odometry = FusedOdometry() if mouse_applies(robot) else EncoderOdometry()
         self.odometry.reset(robot, pose)
+        p = self.odometry.params
+        self._tick_turn = (p["tick_left"] / p["track"], p["tick_right"] / p["track"]) if mouse_applies(robot) else None
+        """Radians a tick of the left and the right wheel turns the robot by (the believed geometry);
+        None where the odometry is the encoders' already."""
         self.mouse_lever = abs(robot.mouse.mount[0]) if mouse_applies(robot) else 0.0
         self.track = robot.track_width
         self.belief = Belief.of(robot)
         start = np.asarray(pose, dtype=np.float64)
         self.particles = np.tile(start, (self.count, 1))
         self.weights = np.full(self.count, 1.0 / self.count)
+        self.by_encoders = np.zeros(self.count, dtype=np.bool_)
+        """Per particle: whether it takes its turn from the encoders (SWITCH)."""
         self.likelihood = np.ones(self.count)
         self._mean, self._cov = start.copy(), np.zeros((3, 3))
         self._anchor = start.copy()  # the odometry's pose at the last update
+        self._encoder_turn = 0.0  # what the encoders turned since the last update
         self.pose = start.copy()
         self._steps, self._rolled, self._turned = 0, 0.0, 0.0
         self.score = self.fast = self.slow = math.nan  # (the first scan sets the averages)
@@ -204,6 +222,9 @@ class MonteCarloLocaliser:
         self._rolled += math.hypot(step[0], step[1])
         self._turned += abs(step[2])
         self._steps += 1
+        if self._tick_turn is not None:
+            left, right = readings.encoder_ticks.tolist()
+            self._encoder_turn += right * self._tick_turn[1] - left * self._tick_turn[0]
         if self._steps >= self.every and (self._rolled > 0.0 or self._turned > 0.0):
             self._scan(readings)
         dx, dy, dtheta = relative_pose(self._anchor, self.odometry.pose)
@@ -217,7 +238,12 @@ class MonteCarloLocaliser:
         set while lost, drawing some anew)."""
         n = len(self.particles)
         increment = relative_pose(self._anchor, self.odometry.pose)
-        move_particles(self.particles, *increment, self._motion_std(roughen=True), self.rng.standard_normal((n, 3)))
+        turns = np.full(n, np.nan)
+        if self._tick_turn is not None and not self.lost:  # (searching, every particle follows the odometry)
+            self.by_encoders ^= self.rng.random(n) < SWITCH
+            turns[self.by_encoders] = self._encoder_turn
+        self._encoder_turn = 0.0
+        move_particles(self.particles, *increment, self._motion_std(roughen=True), self.rng.standard_normal((n, 3)), turns)
         self._anchor = self.odometry.pose.copy()
         self._steps, self._rolled, self._turned = 0, 0.0, 0.0
         raw = readings.ir_raw
@@ -241,6 +267,8 @@ class MonteCarloLocaliser:
         else:
             self.lost = self.fast < FOUND_AT * self.slow or math.sqrt(self._cov[0, 0] + self._cov[1, 1]) > FOUND_SPREAD
         size = self.recovery if self.lost else self.count
+        if self.lost:
+            self.by_encoders[:] = False
         if self.lost and not was_lost:  # the set as it was, and the rest around the estimate
             near = self._mean + self.rng.normal(0.0, 1.0, (size - n, 3)) * NEAR
             self._resample(n, [(near, np.zeros(len(near)))])
@@ -271,6 +299,7 @@ class MonteCarloLocaliser:
         drawn = low_variance_resample(self.weights, count, self.rng.random() / count)
         self.particles = np.concatenate([self.particles[drawn], *(poses for poses, _ in added)])
         self.likelihood = np.concatenate([self.likelihood[drawn], *(likelihood for _, likelihood in added)])
+        self.by_encoders = np.concatenate([self.by_encoders[drawn], np.zeros(len(self.particles) - count, dtype=np.bool_)])
         self.weights = np.full(len(self.particles), 1.0 / len(self.particles))
 
     def _picked(self, count: int, raw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

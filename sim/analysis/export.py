@@ -114,7 +114,7 @@ def write_run(result, directory: str | Path, prefix: bool = True, with_csv: bool
     TUM path."""
     directory = Path(directory)
     directory.mkdir(parents=True, exist_ok=True)
-    tracks = [(log.name, label, poses) for log in result.robots for label, poses in {"truth": log.truth_array(), **log.estimate_arrays()}.items()]
+    tracks = [(log.name, label, log) for log in result.robots for label in ("truth", *log.estimate_names)]
     stems = [directory / stem for stem in _stems([f"{file_stem(robot)}_{file_stem(label)}" if prefix else file_stem(label) for robot, label, _ in tracks])]
     per_group = max(1, MOST_OPEN // (2 if with_csv else 1))
     failed: list[Exception] = []
@@ -129,9 +129,11 @@ def write_run(result, directory: str | Path, prefix: bool = True, with_csv: bool
                 table.write(_csv_header(["t", "x", "y", "theta"]))
             for rows in result.blocks(FILE_ROWS):
                 picked = sampled(rows, len(result), every)
-                times = result.time[picked]
+                within = slice(None) if isinstance(picked, slice) else picked - rows.start  # (the picked samples among the block's)
+                times = result.time_array(rows)[within]
                 for j, k in enumerate(group):
-                    chosen = tracks[k][2][picked]
+                    _, label, log = tracks[k]
+                    chosen = log.poses_of(label, rows)[within]
                     _tum_rows(tum[j], times, chosen)
                     if with_csv:
                         _numbers(tables[j], [times, *chosen.T], ",")
@@ -216,14 +218,14 @@ def write_parquet(result, path: str | Path) -> Path:  # noqa: ANN001 (sim.run.sa
 
 def _columns(result, rows: slice) -> dict[str, np.ndarray]:  # noqa: ANN001 (sim.run.RunResult)
     """The Parquet columns of the samples `rows` (`write_parquet`)."""
-    columns = {"time": result.time[rows]}
+    columns = {"time": result.time_array(rows)}
     for log in result.robots:
-        for label, poses in {"truth": log.truth_array(), **log.estimate_arrays()}.items():
+        for label, poses in {"truth": log.truth_array(rows), **log.estimate_arrays(rows)}.items():
             for k, axis in enumerate(("x", "y", "theta")):
-                columns[f"{log.name}.{label}.{axis}"] = poses[rows, k]
-        for label, entries in log.covariance_arrays().items():
+                columns[f"{log.name}.{label}.{axis}"] = poses[:, k]
+        for label, entries in log.covariance_arrays(rows).items():
             for k, entry in enumerate(COVARIANCE_FIELDS):
-                columns[f"{log.name}.{label}.{entry}"] = entries[rows, k]
+                columns[f"{log.name}.{label}.{entry}"] = entries[:, k]
         if log.spec.chassis is None:
             for name, values in log.readings(rows).items():
                 for channel, column in zip(_channels(log.spec, name), values.T):

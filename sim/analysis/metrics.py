@@ -202,15 +202,14 @@ def compare(times: np.ndarray, truth: np.ndarray, estimate: np.ndarray, segment:
 def compare_run(result) -> dict[str, dict[str, Metrics]]:  # noqa: ANN001 (sim.run.samples.RunResult; run imports bots)
     """Robot name -> estimator name -> Metrics for every estimate a run recorded, read through
     block by block (`RunResult.blocks`: memory does not grow with the run's length)."""
-    comparisons = {log.name: {name: Comparison() for name in log.estimate_arrays()} for log in result.robots}
+    comparisons = {log.name: {name: Comparison() for name in log.estimate_names} for log in result.robots}
     for rows in result.blocks():
-        times = result.time[rows]
+        times = result.time_array(rows)
         for log in result.robots:
-            truth = log.truth_array()[rows]
-            covariances = log.covariance_arrays()
-            for name, poses in log.estimate_arrays().items():
-                covariance = covariances[name][rows] if name in covariances else None
-                comparisons[log.name][name].add(times, truth, poses[rows], covariance)
+            truth = log.truth_array(rows)
+            covariances = log.covariance_arrays(rows)
+            for name, poses in log.estimate_arrays(rows).items():
+                comparisons[log.name][name].add(times, truth, poses, covariances.get(name))
     return {robot: {name: c.metrics() for name, c in by_name.items()} for robot, by_name in comparisons.items()}
 
 
@@ -218,7 +217,7 @@ def path_length(result, log) -> float:  # noqa: ANN001 (sim.run.samples.RunResul
     """Metres a robot of a run really drove, read through block by block."""
     total, last = 0.0, None
     for rows in result.blocks():
-        truth = log.truth_array()[rows]
+        truth = log.truth_array(rows)
         total += float(np.sum(_steps(truth, last)))
         last = truth[-1:].copy()
     return total

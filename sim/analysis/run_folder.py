@@ -13,9 +13,9 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
-from bots.schema import MAX_DEPTH, Field, FileError, Problem, read_bytes
+from bots.schema import MAX_DEPTH, Field, FileError, Problem, open_regular, read_bytes
 from sim.folder_lock import holder
 
 SUMMARY = "summary.json"
@@ -173,14 +173,37 @@ def trajectory_path(run_dir: Path, name: str, key: str = "tum") -> Path:
     return run_dir / name
 
 
-def trajectory_text(run_dir: Path, name: str) -> str:
-    """A trajectory file's text: a regular file in the folder, at most MOST_TRAJECTORY_BYTES."""
+def trajectory_text(run_dir: Path, name: str, lines: int) -> str:
+    """A trajectory file's text: a regular file in the folder, at most MOST_TRAJECTORY_BYTES, of
+    which about `lines` lines at most, evenly spread, the first and the last among them, read a
+    line at a time (a long run's figure needs no more points than it has pixels, and its file
+    need not fit in memory)."""
     path = trajectory_path(run_dir, name)
     if not path.exists():
         raise RunFolderError(path, None, f"missing: {SUMMARY} names it, but the run folder has no such file")
-    data = read_bytes(path, RunFolderError, MOST_TRAJECTORY_BYTES)
+    with open_regular(path, RunFolderError, MOST_TRAJECTORY_BYTES) as file:
+        try:
+            data, every = _every_line(file, lines)
+        except OSError as err:
+            raise RunFolderError(path, None, f"cannot read: {err.strerror or err}") from None
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError as err:
-        line = data[: err.start].count(b"\n") + 1
+        line = data[: err.start].count(b"\n") + 1 if every == 1 else None  # (a line of those kept is not the file's)
         raise RunFolderError(path, line, "not a TUM trajectory (not text)") from None
+
+
+def _every_line(file: BinaryIO, lines: int) -> tuple[bytes, int]:
+    """Every k-th line of `file` and its last, k chosen so that at most about `lines` are kept
+    (all where it has no more); and k."""
+    total = sum(chunk.count(b"\n") for chunk in iter(lambda: file.read(1 << 24), b""))
+    every = max(1, -(-total // max(lines, 1)))
+    file.seek(0)
+    kept, last = [], b""
+    for k, line in enumerate(file):
+        if k % every == 0:
+            kept.append(line)
+        last = line
+    if kept and kept[-1] is not last:
+        kept.append(last)
+    return b"".join(kept), every

@@ -124,7 +124,7 @@ class Judge:
             return  # no verdict: the game is played again
         self.race = []
         for log, guard, fell, field in zip(result.robots, self.guards, self.fell, self.fields):
-            x, y, _ = log.truth_array()[-1]
+            x, y, _ = log.truth_array(slice(-1, None))[0]
             self.race.append(Side(log.goal_time, fell, guard.failed_at, field.distance(float(x), float(y)), result.duration))
         if len(self.race) == 2:
             self.verdict = decide(self.names, self.race, self.time_limit)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 from dataclasses import asdict, dataclass, field, replace
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -27,7 +28,7 @@ from sim.guards import making
 from sim.run.clock import made_in_time
 from sim.run.ending import Ending
 from sim.run.loop import RobotSetup, check_seed, run
-from sim.run.samples import RunResult
+from sim.run.samples import RobotLog, RunResult
 from sim.world.spec import Start, WorldSpec
 from sim.world.step import DEFAULT_DT, check_dt
 
@@ -124,17 +125,33 @@ def _text(value: Any) -> str:
 class RobotResult:
     """One robot's run: trajectories as numpy arrays and odometry metrics per estimator;
     `covariances` the (T, 6) covariance entries (`bots.uncertainty.COVARIANCE_FIELDS`) of the
-    estimates that have one."""
+    estimates that have one. The arrays are read from the run's file when first asked for (the
+    caller's own copies): a run that only wants its metrics (`ctsim run`, sweeps) never holds a
+    long run's trajectories in memory."""
 
     name: str
     controller: str
-    truth: np.ndarray
-    estimates: dict[str, np.ndarray]
     metrics: dict[str, dict[str, float]]
     collisions: int
     fell: bool
     goal_time: float | None
-    covariances: dict[str, np.ndarray] = field(default_factory=dict)
+    log: RobotLog = field(repr=False, compare=False)
+    """The run loop's log of the robot, which the arrays are read from."""
+
+    @cached_property
+    def truth(self) -> np.ndarray:
+        """(T, 3) ground-truth poses."""
+        return np.array(self.log.truth_array())
+
+    @cached_property
+    def estimates(self) -> dict[str, np.ndarray]:
+        """Estimator name -> (T, 3) estimated poses."""
+        return {label: np.array(poses) for label, poses in self.log.estimate_arrays().items()}
+
+    @cached_property
+    def covariances(self) -> dict[str, np.ndarray]:
+        """Estimator name -> (T, 6) covariance entries of the estimates that have one."""
+        return {label: np.array(entries) for label, entries in self.log.covariance_arrays().items()}
 
     @property
     def distance(self) -> float:
@@ -146,9 +163,8 @@ class RobotResult:
 class Result:
     """A finished run. `reason`: as `sim.run.samples.RunResult.reason` (an `Ending`, a str: 'duration', 'goal', 'done', 'error',
     ...); `error`: the one-line message of a failure; `raw`: the run loop's own result (for
-    `ctsim run`'s files)."""
+    `ctsim run`'s files); `time` the (T,) sample times (s), read when first asked for."""
 
-    time: np.ndarray
     robots: list[RobotResult]
     reason: Ending
     error: str | None
@@ -159,6 +175,11 @@ class Result:
     noise: str = DEFAULT_NOISE
     """The noise preset the robots ran with, or one per robot, comma-separated, where they differ
     ("as given": a RobotSetup's own robot, whose noise the API cannot name)."""
+
+    @cached_property
+    def time(self) -> np.ndarray:
+        """(T,) sample times (s)."""
+        return np.array(self.raw.time)
 
     def summary(self) -> dict[str, Any]:
         """The run as summary.json describes one (`sim.analysis.summary`: world, seed, dt, time,
@@ -189,17 +210,15 @@ def result_of(raw: RunResult) -> Result:
         RobotResult(
             name=log.name,
             controller=log.controller_name,
-            truth=log.truth_array(),
-            estimates=log.estimate_arrays(),
             metrics={est: asdict(m) for est, m in metrics.get(log.name, {}).items()},
             collisions=log.collisions,
             fell=log.fell,
             goal_time=log.goal_time,
-            covariances=log.covariance_arrays(),
+            log=log,
         )
         for log in raw.robots
     ]
-    return Result(raw.time, robots, raw.reason, raw.error, raw.seed, raw)
+    return Result(robots, raw.reason, raw.error, raw.seed, raw)
 
 
 def with_estimators(setups: list[RobotSetup], estimators: Iterable[Any]) -> list[RobotSetup]:

@@ -139,16 +139,25 @@ def _number(value: Any) -> float | None:
 def results_of(variant: Variant, entries: list[Submitted], rows: list[dict[str, Any]]) -> dict[str, Any]:
     """The results file's content from a suite's finished rows (`sim.experiments.sweeping` rows):
     runs in the suite's order, each estimator's metrics, and for a run that failed its error
-    against whoever failed it (`_blamed`)."""
+    against whoever failed it (`_blamed`). An estimator that failed a run is blamed for it by name
+    (`ESTIMATOR_ERRORS`: the run went on without it), the others keep their metrics of that run."""
+    from sim.experiments.sweeping import ESTIMATOR_ERRORS
+
     names = sorted({c.rpartition(".")[0] for row in rows for c in row if c.endswith(".ate_rmse")})
     order = {(s.name, seed): k for k, (s, seed) in enumerate((s, seed) for s in variant.scenarios for seed in variant.seeds)}
     runs = []
     for row in sorted(rows, key=lambda r: order[(r["scenario"], int(r["seed"]))]):
         failed = row["reason"] == Ending.ERROR
+        dropped = json.loads(row[ESTIMATOR_ERRORS]) if isinstance(row.get(ESTIMATOR_ERRORS), str) else {}  # (NaN in a table of rows without)
         run = {"scenario": row["scenario"], "seed": int(row["seed"]),
-               "metrics": {} if failed else {n: {m: _number(row.get(f"{n}.{m}")) for m in METRICS} for n in names if row.get(f"{n}.ate_rmse") is not None}}  # fmt: skip
+               "metrics": {} if failed else {n: {m: _number(row.get(f"{n}.{m}")) for m in METRICS} for n in names
+                                             if n not in dropped and row.get(f"{n}.ate_rmse") is not None}}  # fmt: skip
+        submitted_names = {e.name for e in entries}
+        blamed = {name if name in submitted_names else "run": _plain_error(entries, error) for name, error in dropped.items()}
         if failed:
-            run["failed"] = _blamed(entries, str(row["error"]))
+            blamed |= _blamed(entries, str(row["error"]))
+        if blamed:
+            run["failed"] = blamed
         runs.append(run)
     return {
         "format": FORMAT,
@@ -176,11 +185,17 @@ def _blamed(entries: list[Submitted], error: str) -> dict[str, str]:
     the estimators' files by their names alone (as the results file's sources do: nothing of the
     machine's folders)."""
     named = [e for e in entries if f"estimator {e.name!r}" in error]
+    error = _plain_error(entries, error)
+    return {e.name: error for e in named or entries} or {"run": error}
+
+
+def _plain_error(entries: list[Submitted], error: str) -> str:
+    """A run's error as a results file holds it: the estimators' files by their names alone (as the
+    results file's sources: nothing of the machine's folders), one line, escapes as text, cut."""
     for entry in entries:
         folder = str(Path(entry.located.partition(".py:")[0]).parent)
         error = error.replace(folder + os.sep, "") if entry.identity != "shipped" else error
-    error = sanitize.name(error, 2000)  # (what the user's code said, one line, its escapes as text, cut)
-    return {e.name: error for e in named or entries} or {"run": error}
+    return sanitize.name(error, 2000)
 
 
 def failed_runs(results: dict[str, Any]) -> list[dict[str, Any]]:

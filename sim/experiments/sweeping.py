@@ -11,6 +11,7 @@ again and only the missing runs execute.
 
 from __future__ import annotations
 
+import json
 import math
 import time
 from collections.abc import Callable
@@ -20,6 +21,7 @@ from typing import Any
 
 import pandas as pd
 
+from bots.odometry.user import name_of
 from sim.analysis.run_folder import RunFolder
 from sim.errors import UserError
 from sim.experiments import store
@@ -66,9 +68,15 @@ def outcome(result: Result) -> dict[str, Any]:
     return row
 
 
+ESTIMATOR_ERRORS = "estimator_errors"
+"""A row's column of the job's estimators that failed its run (`Job.estimators`): JSON, name -> the
+run's error line; the row's outcome and metrics are of the run again without them."""
+
+
 def execute(job: Job) -> dict[str, Any]:
     """Run one job and return its row; a run that raises becomes a row with reason 'error', a run
-    that Ctrl-C or SIGTERM stopped re-raises them."""
+    that Ctrl-C or SIGTERM stopped re-raises them. A run that one of the job's own estimators
+    failed runs again without it (`_without_failing`), so that the others' metrics count."""
     started = time.perf_counter()
     row: dict[str, Any] = {"run": job.index, "run_id": job.run_id, **job.settings}
     s = job.settings
@@ -77,17 +85,42 @@ def execute(job: Job) -> dict[str, Any]:
         if folder is not None:
             folder.mkdir(parents=True, exist_ok=True)
         record = RunFolder(folder).recording if folder is not None and "recording" in job.keep else None
-        result = simulate(s["world"], bot(s), duration=s["duration"], dt=s["dt"], seed=s["seed"], until_goal=s["until_goal"], record=record,
-                          estimators=job.estimators, step_timeout=job.step_timeout)
-        if result.reason.signalled:  # a run cut short is no result: not kept, so a resumed sweep runs it again
-            raise Terminated if result.reason is Ending.TERMINATED else KeyboardInterrupt
+
+        def attempt(estimators: tuple[str, ...]) -> Result:
+            result = simulate(s["world"], bot(s), duration=s["duration"], dt=s["dt"], seed=s["seed"], until_goal=s["until_goal"], record=record,
+                              estimators=estimators, step_timeout=job.step_timeout)
+            if result.reason.signalled:  # a run cut short is no result: not kept, so a resumed sweep runs it again
+                raise Terminated if result.reason is Ending.TERMINATED else KeyboardInterrupt
+            return result
+
+        result, failures = _without_failing(job.estimators, attempt)
         row.update(outcome(result))
+        if failures:
+            row[ESTIMATOR_ERRORS] = json.dumps(failures)
         if folder is not None and "tum" in job.keep:
             _write_tum(result, folder)
     except Exception as err:  # a failing run is a result of the sweep, not the end of it
         row.update({name: None for name in OUTCOME}, reason=Ending.ERROR, error=f"{type(err).__name__}: {err}")
     row["wall_time_s"] = time.perf_counter() - started
     return row
+
+
+def _without_failing(estimators: tuple[str, ...], attempt: Callable[[tuple[str, ...]], Result]) -> tuple[Result, dict[str, str]]:
+    """`attempt` with `estimators`, again without each of them that ended a run (its first robot's
+    own: the world draws every random number by robot and sensor, never by the set of estimators,
+    so the others' runs are the runs they would have been without it); the last run and each
+    dropped estimator's name with its run's error line."""
+    failures: dict[str, str] = {}
+    result = attempt(estimators)
+    while estimators and result.reason is Ending.ERROR and result.raw.failed_estimator is not None:
+        robot, name = result.raw.failed_estimator
+        names = [name_of(e) for e in result.raw.robots[robot].estimators] if robot == 0 else []
+        if name not in names or len(names) != len(estimators):  # (not one of the job's: the run's own failure)
+            break
+        failures[name] = str(result.error)
+        estimators = estimators[: names.index(name)] + estimators[names.index(name) + 1 :]
+        result = attempt(estimators)
+    return result, failures
 
 
 def _write_tum(result: Result, folder: Path) -> None:

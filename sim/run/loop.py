@@ -30,7 +30,7 @@ from sim.guards import ControllerBrokeOut, Guard, foreign_frame, user_code_folde
 from sim.interrupts import Counting
 from sim.run.clock import StepClock, StepTimeout
 from sim.run.ending import Ending, Quit, RunError, Terminated
-from sim.run.samples import RobotLog, RunResult, Samples
+from sim.run.samples import RobotLog, RunResult, Samples, SamplesNotKept
 from sim.world import World, compiling
 from sim.world.chassis_drive import FaultError
 from sim.world.localising import MapScan
@@ -127,7 +127,7 @@ def run(
     try:
         _notify(observers, "on_start", world, logs)  # inside: Ctrl-C while a recorder opens still ends the run
         if failed is not None:
-            raise _Stop(failed)
+            raise failed
         samplers = [observer.on_sample for observer in observers if hasattr(observer, "on_sample")]
         # per robot what its every step needs, looked up once
         drivers = [(i, robot.spec, log, controller, robot.spec.chassis is not None, command_per_speed(robot.spec))
@@ -178,7 +178,9 @@ def run(
             guard.after_step(step)
             world.step(commands)
     except _Stop as stop:
-        result.reason, result.error = Ending.ERROR, str(stop)
+        result.reason, result.error, result.failed_estimator = Ending.ERROR, str(stop), stop.estimator
+    except SamplesNotKept as lost:  # (the run's file of samples failed it: what it holds is the run's)
+        result.reason, result.error = Ending.ERROR, lost.strerror
     except ControllerBrokeOut as broke:
         result.reason, result.error = Ending.ERROR, f"{_who(logs)} {broke} at step {step} (t = {world.time:.2f} s)"
     except Exception as err:  # ctsim's own code failing: a ctsim bug, unless a controller replaced what it calls
@@ -198,6 +200,7 @@ def run(
         guard.__exit__()
         counted.__exit__()
         result.notes = list(guard.notes.values())
+        samples.settle()
         for robot, log, controller in zip(world.robots, logs, controllers):
             log.collisions, log.fell = robot.collisions, robot.fallen
             log.status = controller.status.value if isinstance(getattr(controller, "status", None), Status) else None
@@ -206,7 +209,12 @@ def run(
 
 
 class _Stop(Exception):
-    pass
+    """The run's end by user code (its one line); `estimator`: (robot index, estimator name) where
+    one of a robot's Python estimators ended it."""
+
+    def __init__(self, message: str, estimator: tuple[int, str] | None = None):
+        super().__init__(message)
+        self.estimator = estimator
 
 
 _Estimators = tuple[int, RobotLog, list[tuple[Estimator, bool, bool]], Callable | None]
@@ -218,12 +226,12 @@ the batch's (None: `RobotLog.append`, the robot's own rows)."""
 def _set_up(
     world: World, world_spec: WorldSpec, robots: list[RobotSetup], placed: list[Robot], samples: Samples, odometry: DefaultOdometry | None,
     slot: dict[int, int], seed: int, clock: StepClock, counted: Counting,
-) -> tuple[list[RobotLog], list[Controller], list[_Estimators], str | None]:
+) -> tuple[list[RobotLog], list[Controller], list[_Estimators], _Stop | None]:
     """Every robot's log, controller and Python estimators (a batched robot's own beside the
     batch's, else all of the robot's), reset (`_reset`); and how a reset failed, if one did (the
     run's error at its start; the robots after it are not reset)."""
     logs, controllers, estimators = [], [], []
-    failed: str | None = None
+    failed: _Stop | None = None
     for i, (setup, robot) in enumerate(zip(robots, placed)):
         chosen = list(setup.extra_estimators) if i in slot else [*(setup.estimators if setup.estimators is not None else default_estimators(setup.spec)), *setup.extra_estimators]
         failed = failed or _reset(setup, robot, chosen, world_spec, seed, i, clock, counted)
@@ -246,12 +254,12 @@ def _set_up(
 
 
 def _reset(setup: RobotSetup, robot: Robot, chosen: list[Estimator], world_spec: WorldSpec, seed: int, index: int, clock: StepClock,
-           counted: Counting) -> str | None:  # fmt: skip
+           counted: Counting) -> _Stop | None:  # fmt: skip
     """Reset a robot's estimators (a localiser first handed its map and a generator of its own)
     and its controller, the user's under the step clock (`_timed`). One that raises a ValueError
     cannot take this robot (a controller with too few sensors): the run is refused (RunError).
     Anything else it raises, sys.exit, a step timeout or a KeyboardInterrupt no signal explains
-    (`counted`), is the user's code failing: the line that says so (the run's error at its start,
+    (`counted`), is the user's code failing: the end that says so (the run's error at its start,
     every file written), else None."""
     for estimator in chosen:
         what = f"estimator {name_of(estimator)!r} of {robot.name}"
@@ -265,7 +273,7 @@ def _reset(setup: RobotSetup, robot: Robot, chosen: list[Estimator], world_spec:
         except BaseException as err:
             if counted.by_signal(err):
                 raise
-            return f"{what} {_ended(err, clock)} in its reset at t = 0.00 s{where(err)}"
+            return _Stop(f"{what} {_ended(err, clock)} in its reset at t = 0.00 s{where(err)}", (index, name_of(estimator)))
     try:
         with _timed(clock, setup.controller):
             reset(setup.controller, setup.spec)
@@ -274,7 +282,7 @@ def _reset(setup: RobotSetup, robot: Robot, chosen: list[Estimator], world_spec:
     except BaseException as err:
         if counted.by_signal(err):
             raise
-        return f"controller {setup.controller_name!r} of {robot.name} {_ended(err, clock)} in its reset at t = 0.00 s{where(err)}"
+        return _Stop(f"controller {setup.controller_name!r} of {robot.name} {_ended(err, clock)} in its reset at t = 0.00 s{where(err)}")
     return None
 
 
@@ -394,12 +402,13 @@ def _update(estimator: Estimator, uncertain: bool, timed: bool, readings: Readin
     except BaseException as err:  # the estimator's error (a user's code; sys.exit and a step timeout too)
         if counted.by_signal(err):
             raise  # Ctrl-C or SIGTERM
-        raise _Stop(f"estimator {name_of(estimator)!r} of {log.name} {_ended(err, clock)} at step {step} (t = {readings.time:.2f} s){where(err)}") from None
+        raise _Stop(f"estimator {name_of(estimator)!r} of {log.name} {_ended(err, clock)} at step {step} (t = {readings.time:.2f} s){where(err)}",
+                    (log.index, name_of(estimator))) from None
     finally:
         if timed:
             clock.busy = 0
     if problem is not None:
-        raise _Stop(f"estimator {name_of(estimator)!r} of {log.name} failed at step {step} (t = {readings.time:.2f} s): {problem}")
+        raise _Stop(f"estimator {name_of(estimator)!r} of {log.name} failed at step {step} (t = {readings.time:.2f} s): {problem}", (log.index, name_of(estimator)))
     return pose, covariance
 
 
@@ -412,20 +421,21 @@ def _sample(world: World, samples: Samples, estimators: list[_Estimators], odome
     `guard`). The frame holds immutable copies of the row (`World.read_all`): the recorded rows
     themselves never reach a controller."""
     n = samples.count
+    at, columns = samples.columns.local(n), samples.columns.arrays
     time = world.time
-    tallies = samples.tallies[n]
-    frame = samples.frame = world.read_all((samples.values[n], samples.believed[n], tallies))
-    samples.time[n] = time
+    tallies = columns["tallies"][at]
+    frame = samples.frame = world.read_all((columns["values"][at], columns["believed"][at], tallies))
+    columns["time"][at] = time
     poses = world.poses_view()
     if odometry is not None:
-        odometry.update_into(tallies, time, poses, samples.poses[n], samples.covariances[n])
+        odometry.update_into(tallies, time, poses, columns["poses"][at], columns["covariances"][at])
     for i, log, checked, beside_batch in estimators:
         readings = frame[i]
         poses_read, covariances = [], []
         for estimator, uncertain, timed in checked:
             pose, covariance = _update(estimator, uncertain, timed, readings, log, n, clock, counted)
             if guard.exited is not None:
-                raise _Stop(f"estimator {name_of(estimator)!r} of {log.name} {guard.exited} at step {n} (t = {readings.time:.2f} s)")
+                raise _Stop(f"estimator {name_of(estimator)!r} of {log.name} {guard.exited} at step {n} (t = {readings.time:.2f} s)", (i, name_of(estimator)))
             poses_read.append(pose)
             if covariance is not None:
                 covariances.append(covariance)
@@ -434,7 +444,6 @@ def _sample(world: World, samples: Samples, estimators: list[_Estimators], odome
         else:
             beside_batch(poses_read, covariances)
     samples.count = n + 1
-    samples.columns.release_written(n + 1)
     return frame
 
 

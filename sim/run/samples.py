@@ -1,5 +1,5 @@
-"""A run's samples: file-backed columns allocated once for the whole run, every robot's log of
-truth, estimates and readings (`RobotLog`), and the finished run (`RunResult`)."""
+"""A run's samples: columns streamed to a temporary file as the run writes them, every robot's
+log of truth, estimates and readings (`RobotLog`), and the finished run (`RunResult`)."""
 
 from __future__ import annotations
 
@@ -23,9 +23,9 @@ _UPPER = (np.array([0, 0, 0, 1, 1, 2]), np.array([0, 1, 2, 1, 2, 2]))
 """Where a (3, 3) covariance's COVARIANCE_FIELDS entries are."""
 BLOCK = 65536
 """Samples per block when a finished run is read through (metrics, files)."""
-RESIDENT = 8192
-"""Samples of a running log kept in resident memory: observers read the latest ones (the
-recorder up to `sim.views.recording.recorder.CHUNK` back)."""
+WINDOW = 8192
+"""Samples of every column a running log holds in memory: the rows being written; each window
+full goes to the run's file, so memory and address space stay the same however long the run."""
 
 
 def row(shape: tuple[int, ...] = (), kind: type = np.float64) -> np.dtype:
@@ -33,47 +33,144 @@ def row(shape: tuple[int, ...] = (), kind: type = np.float64) -> np.dtype:
     return np.dtype((kind, shape)) if shape else np.dtype(kind)
 
 
+class SamplesNotKept(OSError):
+    """The run's file of samples cannot take more rows (a disk error): the run ends there, every
+    sample before it kept."""
+
+
+WHOLE = 32 << 20
+"""Largest file of samples read, once its run has ended, through one mapping of all of it (a run
+of up to about 75,000 samples of a c't-Bot; `_Store.settle`): its rows are views of that, and a
+result kept holds that mapping's file descriptor alone. While a run runs, and after a longer run,
+rows are mapped a range at a time."""
+
+
+class _Store:
+    """The unlinked temporary file (in TMPDIR) that holds a run's columns, and the regions handed
+    out of it, each given its disk space when handed out (`_reserve`). Unlinked, it has no name in
+    any folder a link, a pipe or another process could take."""
+
+    def __init__(self) -> None:
+        self._file = tempfile.TemporaryFile()
+        self.descriptor = self._file.fileno()
+        self.size = 0
+        self._whole: mmap.mmap | None = None
+
+    @property
+    def whole(self) -> bool:
+        """Whether the file is read through one mapping of all of it (`settle`)."""
+        return self._whole is not None
+
+    def mapped(self, offset: int, length: int) -> tuple[mmap.mmap, int]:
+        """A read-only mapping that holds the file's bytes [offset, offset + length), and where in
+        it they start: the whole file's (`settle`), else one of just that range."""
+        if self._whole is not None:
+            return self._whole, offset
+        aligned = offset - offset % mmap.ALLOCATIONGRANULARITY
+        return mmap.mmap(self.descriptor, offset - aligned + length, access=mmap.ACCESS_READ, offset=aligned), offset - aligned
+
+    def settle(self) -> None:
+        """Once every row is in the file: a file of WHOLE bytes at most is read through one
+        mapping from then on, and its own descriptor closed (a result kept holds the mapping's)."""
+        if self.size <= WHOLE:
+            self._whole = mmap.mmap(self.descriptor, self.size, access=mmap.ACCESS_READ)
+            self._file.close()
+
+    def regions(self, sizes: list[int]) -> list[int]:
+        """The offsets of new regions of `sizes` bytes (each from a page boundary, as mappings
+        start), reserved at once."""
+        offsets, start = [], self.size
+        for size in sizes:
+            offsets.append(self.size)
+            self.size += -(-size // mmap.PAGESIZE) * mmap.PAGESIZE
+        if self.size > start:
+            _reserve(self.descriptor, start, self.size - start)
+        return offsets
+
+
 class _Columns:
-    """Preallocated arrays of a run's samples (name -> the type of one row, `row`), backed by an
-    unlinked temporary file instead of anonymous memory. Pages are touched only when written, and
-    rows already written or read can be handed back to the operating system (`release`): they stay
-    readable (a read brings its page back from the file), so an hour-long run's resident memory
-    does not grow with its length, while every column stays an ordinary numpy array."""
+    """Columns of a run's samples (name -> the type of one row, `row`) of up to `capacity` rows in
+    a run's file (`_Store`). Writers fill `arrays`, WINDOW rows each, at `local(n)`; a full window
+    goes to the file and the arrays take the next rows. Readers get rows mapped from the file (the
+    page cache; rows still in the window are written there first), read-only and without a copy:
+    a run's memory and address space do not grow with its length, and one robot's part of a row
+    is a view of it. In a file mapped a range at a time (`_Store.mapped`), the last rows read of
+    each column (a block at most) stay mapped, so that every robot's part of a block is read from
+    one mapping."""
 
-    def __init__(self, rows: dict[str, np.dtype], capacity: int):
-        page = mmap.PAGESIZE
-        sizes = {name: -(-max(capacity, 1) * kind.itemsize // page) * page for name, kind in rows.items()}
-        total = max(sum(sizes.values()), page)  # (mmap refuses an empty map)
-        _check_address_space(total)
-        with tempfile.TemporaryFile() as handle:
-            _reserve(handle.fileno(), total)
-            self._map = mmap.mmap(handle.fileno(), total)
-        self.arrays: dict[str, np.ndarray] = {}
-        self._regions: list[tuple[int, int]] = []  # (byte offset, bytes per row) of each column
-        offset = 0
-        for name, kind in rows.items():
-            count = capacity * math.prod(kind.shape)
-            self.arrays[name] = np.frombuffer(self._map, kind.base, count, offset).reshape(capacity, *kind.shape)
-            self._regions.append((offset, kind.itemsize))
-            offset += sizes[name]
-        self._released = 0
+    def __init__(self, store: _Store, rows: dict[str, np.dtype], capacity: int):
+        self.window = max(1, min(WINDOW, capacity))
+        _check_address_space(sum(kind.itemsize for kind in rows.values()) * self.window)
+        self._store, self._kinds = store, rows
+        self._offsets = dict(zip(rows, store.regions([capacity * kind.itemsize for kind in rows.values()])))
+        self.arrays = {name: np.zeros((self.window, *kind.shape), kind.base) for name, kind in rows.items()}
+        self.base = 0
+        """The run's row of the arrays' first row: rows before it are in the file."""
+        self._kept = dict.fromkeys(rows, 0)
+        """Per column, the rows [0, kept) in the file."""
+        self.last: dict[str, tuple[int, int, np.ndarray]] = {}
+        """Per column, the rows last mapped (start, stop, rows), while rows are mapped by range."""
 
-    def release(self, start: int, stop: int) -> None:
-        """Take rows [start, stop) out of resident memory (whole pages inside that range)."""
-        if not hasattr(mmap, "MADV_DONTNEED"):  # not on every platform: memory then just grows
+    def local(self, n: int) -> int:
+        """Where the arrays take the run's row `n` (rows are written in order): a full window is
+        written to the file first (SamplesNotKept where it cannot be)."""
+        at = n - self.base
+        if at < self.window:
+            return at
+        self.keep(self.base + self.window)
+        self.base = n
+        return 0
+
+    def keep(self, stop: int) -> None:
+        """Write every column's window rows below `stop` to the file."""
+        for name in self._kinds:
+            self._keep(name, stop)
+
+    def _keep(self, name: str, stop: int) -> None:
+        """Write the window's rows of column `name` below `stop` to the file (rows written whole)."""
+        start, width = self._kept[name], self._kinds[name].itemsize
+        if stop <= start or not width:  # (a column of no values: the batch's poses in a run without it)
             return
-        page = mmap.PAGESIZE
-        for offset, width in self._regions:
-            first, last = -(-start * width // page) * page, stop * width // page * page
-            if last > first:
-                self._map.madvise(mmap.MADV_DONTNEED, offset + first, last - first)
+        data = memoryview(self.arrays[name][start - self.base : stop - self.base]).cast("B")
+        offset, done = self._offsets[name] + start * width, 0
+        try:
+            while done < len(data):
+                done += os.pwrite(self._store.descriptor, data[done:], offset + done)
+        except OSError as err:
+            raise SamplesNotKept(err.errno, f"the run's samples from sample {start} on could not be written to the temporary folder {tempfile.gettempdir()} "
+                                            f"({err.strerror or err}); the run ends there") from None  # fmt: skip
+        self._kept[name] = stop
 
-    def release_written(self, count: int) -> None:
-        """While a run writes: release what lies more than RESIDENT rows behind `count`, once per
-        RESIDENT rows."""
-        if count - self._released >= 2 * RESIDENT:
-            self.release(self._released, count - RESIDENT)
-            self._released = count - RESIDENT
+    def view(self, name: str, start: int, stop: int) -> np.ndarray:
+        """Rows [start, stop) of column `name` (rows written whole: below the run's count),
+        mapped read-only from the file; where the window's rows cannot be written there (a disk
+        error ended the run), they are copied from the window."""
+        kind = self._kinds[name]
+        if stop <= start or not kind.itemsize:
+            return np.empty((max(stop - start, 0), *kind.shape), kind.base)
+        try:
+            self._keep(name, stop)
+        except SamplesNotKept:
+            kept = min(max(start, self.base), stop)
+            rows = np.concatenate((self._mapped(name, start, kept), self.arrays[name][kept - self.base : stop - self.base]))
+            rows.flags.writeable = False
+            return rows
+        last = self.last.get(name)
+        if last is not None and last[0] <= start and stop <= last[1]:
+            return last[2][start - last[0] : stop - last[0]]
+        rows = self._mapped(name, start, stop)
+        if not self._store.whole and stop - start <= BLOCK:  # (ranges mapped apart; a long run read whole is not kept mapped)
+            self.last[name] = (start, stop, rows)
+        return rows
+
+    def _mapped(self, name: str, start: int, stop: int) -> np.ndarray:
+        """Rows [start, stop) of column `name` in the file, mapped read-only (unmapped when the
+        array goes)."""
+        kind = self._kinds[name]
+        if stop <= start:
+            return np.empty((0, *kind.shape), kind.base)
+        mapped, at = self._store.mapped(self._offsets[name] + start * kind.itemsize, (stop - start) * kind.itemsize)
+        return np.frombuffer(mapped, kind.base, (stop - start) * math.prod(kind.shape), at).reshape(stop - start, *kind.shape)
 
 
 HEADROOM = 2 << 30
@@ -95,20 +192,20 @@ def _check_address_space(size: int) -> None:
         return
     if limit != resource.RLIM_INFINITY and used + size + HEADROOM > limit:
         raise RunError(
-            f"the run needs about {(used + size + HEADROOM) / 2**30:.1f} GiB of address space ({size / 2**30:.1f} GiB for its "
-            f"samples), more than the limit of {limit / 2**30:.1f} GiB (ulimit -v); give a shorter --duration or fewer robots, or raise the limit"
+            f"the run needs about {(used + size + HEADROOM) / 2**30:.1f} GiB of address space, more than the limit of {limit / 2**30:.1f} GiB "
+            f"(ulimit -v); a run's length does not change it (its samples go to a file as it runs): raise the limit"
         )
 
 
-def _reserve(descriptor: int, size: int) -> None:
-    """Give the columns' file its disk space now: a page first written into a sparse file on a
-    full disk kills the process (SIGBUS), a reservation that does not fit is a RunError before
-    the run starts, naming the folder (TMPDIR) and what is missing."""
+def _reserve(descriptor: int, offset: int, size: int) -> None:
+    """Give the columns' file its disk space now: a window written into a sparse file on a full
+    disk would fail mid-run, a reservation that does not fit is a RunError before the run starts,
+    naming the folder (TMPDIR) and what is missing."""
     try:
         if hasattr(os, "posix_fallocate"):
-            os.posix_fallocate(descriptor, 0, size)
+            os.posix_fallocate(descriptor, offset, size)
         else:
-            os.truncate(descriptor, size)
+            os.truncate(descriptor, offset + size)
     except OSError as err:
         folder = tempfile.gettempdir()
         raise RunError(
@@ -121,27 +218,55 @@ class Samples:
     """The run's own columns, one row per sample for all robots at once: the sample times, the
     arrays the world's sensors are read into (`World.sensor_rows`), and the true pose and default
     estimates of the robots whose odometry is stepped in one batch (`DefaultOdometry`, which writes
-    them). `count` is the number of complete samples: a sample counts once every robot's part of
-    it is written (a Ctrl-C half-way leaves the last row uncounted)."""
+    them), in the run's file beside the robots' own (`new_columns`). `count` is the number of complete
+    samples: a sample counts once every robot's part of it is written (a Ctrl-C half-way leaves the
+    last row uncounted)."""
 
     def __init__(self, sensors: dict[str, np.dtype], batched: int, capacity: int):
-        self.columns = _Columns({"time": row(), "poses": row((batched, 1 + ESTIMATES, 3)), "covariances": row((batched, ESTIMATES, COVARIANCES)), **sensors}, capacity)
-        arrays = self.columns.arrays
-        self.time, self.poses, self.covariances = arrays["time"], arrays["poses"], arrays["covariances"]
-        self.values, self.believed, self.tallies = arrays["values"], arrays["believed"], arrays["tallies"]
+        self._store, self._every = _Store(), []
+        self.capacity = capacity
+        self.columns = self.new_columns({"time": row(), "poses": row((batched, 1 + ESTIMATES, 3)), "covariances": row((batched, ESTIMATES, COVARIANCES)), **sensors})
         self.count = 0
         self.frame: SensorFrame | None = None
         """The readings of the current sample."""
+
+    def new_columns(self, rows: dict[str, np.dtype]) -> _Columns:
+        """Columns of the run's length in its file (the run's own, or a robot's)."""
+        columns = _Columns(self._store, rows, self.capacity)
+        self._every.append(columns)
+        return columns
+
+    def settle(self) -> None:
+        """At the run's end: every complete row written to the file (`_Store.settle`); a disk
+        error leaves the rows not written in their windows, where they are read."""
+        try:
+            for columns in self._every:
+                columns.keep(self.count)
+        except SamplesNotKept:
+            return
+        self._store.settle()
+
+    def forget(self) -> None:
+        """Let go of the rows last mapped of every column (`_Columns.view`)."""
+        for columns in self._every:
+            columns.last.clear()
+
+    def rows(self, rows: slice | None) -> tuple[int, int]:
+        """(start, stop) of `rows` (None: all) among the complete samples (a slice of step 1)."""
+        span = range(self.count)[rows if rows is not None else slice(None)]
+        if span.step != 1:
+            raise ValueError(f"rows of a run are read as a slice of step 1, not {rows}")
+        return span.start, span.stop
 
 
 class RobotLog:
     """Everything one robot did in a run, one row per sample (the start of every step, and the
     end of the run): ground truth and each estimate as (T, 3) arrays, each estimate's covariance
     where it has one as (T, 6) (`bots.uncertainty.COVARIANCE_FIELDS`), its readings as columns,
-    and the current sample's readings. Rows live in file-backed arrays allocated once for the whole run
-    (`_Columns`): the run's own (`Samples`) for a robot with the default estimators, else its own;
-    so a long run costs bytes of disk per sample, not a Python object per step, and its resident
-    memory stays flat."""
+    and the current sample's readings. Rows live in the run's streamed columns (`_Columns`): the
+    run's own (`Samples`) for a robot with the default estimators, else its own; so a long run
+    costs bytes of disk per sample, not a Python object per step, and its memory stays flat. Rows
+    are read by range (`truth_array(rows)`, ...), read-only."""
 
     def __init__(self, name: str, spec: RobotSpec, controller_name: str, params: dict[str, str],
                  estimators: list[str], samples: Samples, index: int, world: World, slot: int | None = None,
@@ -164,25 +289,21 @@ class RobotLog:
         observers that draw what one holds beyond its pose (a localiser's particles)."""
         self._samples, self._world = samples, world
         uncertain = list(estimators if uncertain is None else uncertain)
+        self._columns: _Columns | None = None
+        """The robot's own columns: all its poses (slot None), or its `extra` estimators'."""
         if slot is None:
-            rows = {"poses": row((1 + len(estimators), 3)), "covariances": row((len(uncertain), COVARIANCES))}
-            self._columns: _Columns | None = _Columns(rows, len(samples.time))
-            self._poses, self._covariances = self._columns.arrays["poses"], self._columns.arrays["covariances"]
+            self._columns = own = samples.new_columns({"poses": row((1 + len(estimators), 3)), "covariances": row((len(uncertain), COVARIANCES))})
+            place: tuple[_Columns, tuple] = (own, ())
         else:
-            self._columns = None
-            self._poses = samples.poses[:, slot, : 1 + len(estimators)]
-            self._covariances = samples.covariances[:, slot, : len(estimators)]
-        """Per sample: the true pose, then each estimate (one row to write a sample, not one per
-        pose); and the covariances of those in `uncertain`."""
-        self._truth = self._poses[:, 0]
-        self._estimates = {label: self._poses[:, 1 + k] for k, label in enumerate(estimators)}
-        self._uncertain = {label: self._covariances[:, k] for k, label in enumerate(uncertain)}
+            place = (samples.columns, (slot,))
+        # where each of its columns lies: (columns, column name, index within a row)
+        self._truth = (place[0], "poses", (*place[1], 0))
+        self._estimates = {label: (place[0], "poses", (*place[1], 1 + k)) for k, label in enumerate(estimators)}
+        self._uncertain = {label: (place[0], "covariances", (*place[1], k)) for k, label in enumerate(uncertain)}
         if extra:  # a batched robot's own estimators: in columns of its own, after the batch's
-            rows = {"poses": row((len(extra), 3)), "covariances": row((len(extra_uncertain), COVARIANCES))}
-            self._columns = _Columns(rows, len(samples.time))
-            self._extra_poses, self._extra_covariances = self._columns.arrays["poses"], self._columns.arrays["covariances"]
-            self._estimates |= {label: self._extra_poses[:, k] for k, label in enumerate(extra)}
-            self._uncertain |= {label: self._extra_covariances[:, k] for k, label in enumerate(extra_uncertain)}
+            self._columns = own = samples.new_columns({"poses": row((len(extra), 3)), "covariances": row((len(extra_uncertain), COVARIANCES))})
+            self._estimates |= {label: (own, "poses", (k,)) for k, label in enumerate(extra)}
+            self._uncertain |= {label: (own, "covariances", (k,)) for k, label in enumerate(extra_uncertain)}
 
     def goal_outcome(self, duration: float) -> str:
         """Whether and when the robot reached its goal, in the words the table, report.html and
@@ -198,29 +319,25 @@ class RobotLog:
     def append(self, truth: np.ndarray, estimates: np.ndarray | Sequence[np.ndarray], covariances: Sequence[np.ndarray] = ()) -> None:
         """Log the current sample of a robot with Python estimators: the true pose (3,), the
         estimates, (k, 3) or k poses, and the (3, 3) covariances of those with one."""
-        n = self._samples.count
-        self._truth[n] = truth
+        at = self._columns.local(self._samples.count)
+        poses = self._columns.arrays["poses"][at]
+        poses[0] = truth
         if len(estimates):
-            self._poses[n, 1:] = estimates
+            poses[1:] = estimates
+        entries = self._columns.arrays["covariances"][at]
         for k, cov in enumerate(covariances):
-            self._covariances[n, k] = cov[_UPPER]
-        self._columns.release_written(n + 1)
+            entries[k] = cov[_UPPER]
 
     def append_extra(self, estimates: Sequence[np.ndarray], covariances: Sequence[np.ndarray] = ()) -> None:
         """Log the current sample of a batched robot's own estimators (`extra`): their poses and
         the (3, 3) covariances of those with one (the batch logs the rest)."""
-        n = self._samples.count
-        row = self._extra_poses[n]
+        at = self._columns.local(self._samples.count)
+        poses = self._columns.arrays["poses"][at]
         for k, pose in enumerate(estimates):  # (pose by pose: numpy makes an array of a list of them first)
-            row[k] = pose
+            poses[k] = pose
+        entries = self._columns.arrays["covariances"][at]
         for k, cov in enumerate(covariances):
-            self._extra_covariances[n, k] = cov[_UPPER]
-        self._columns.release_written(n + 1)
-
-    def release(self, rows: slice) -> None:
-        """Take these rows out of resident memory (they stay readable)."""
-        if self._columns is not None:
-            self._columns.release(rows.start, rows.stop)
+            entries[k] = cov[_UPPER]
 
     def __len__(self) -> int:
         return self._samples.count
@@ -230,30 +347,47 @@ class RobotLog:
         entry = self.notes.setdefault(re.sub(r"-?\d[\d.e+-]*", "#", message), [message, 0])
         entry[1] += 1
 
-    def time_array(self) -> np.ndarray:
-        """(T,) sample times (s), the run's (a view)."""
-        return self._samples.time[: self._samples.count]
+    def _read(self, place: tuple[_Columns, str, tuple], rows: slice | None) -> np.ndarray:
+        columns, name, within = place
+        return columns.view(name, *self._samples.rows(rows))[(slice(None), *within)]
 
-    def truth_array(self) -> np.ndarray:
-        """(T, 3) ground-truth poses (a view, no copy)."""
-        return self._truth[: self._samples.count]
+    @property
+    def estimate_names(self) -> list[str]:
+        """The estimators whose poses the log holds, in order."""
+        return list(self._estimates)
 
-    def estimate_arrays(self) -> dict[str, np.ndarray]:
-        """Estimator name -> (T, 3) estimated poses (views, no copies)."""
-        count = self._samples.count
-        return {label: poses[:count] for label, poses in self._estimates.items()}
+    @property
+    def uncertain_names(self) -> list[str]:
+        """Those of them with a covariance."""
+        return list(self._uncertain)
 
-    def covariance_arrays(self) -> dict[str, np.ndarray]:
-        """Estimator name -> (T, 6) covariance entries (COVARIANCE_FIELDS: m², m·rad, rad²) of the
-        estimates that have one (views, no copies)."""
-        count = self._samples.count
-        return {label: values[:count] for label, values in self._uncertain.items()}
+    def time_array(self, rows: slice | None = None) -> np.ndarray:
+        """(T,) sample times (s) of `rows` (None: all), the run's."""
+        return self._samples.columns.view("time", *self._samples.rows(rows))
+
+    def truth_array(self, rows: slice | None = None) -> np.ndarray:
+        """(T, 3) ground-truth poses of `rows` (None: all)."""
+        return self._read(self._truth, rows)
+
+    def estimate_arrays(self, rows: slice | None = None) -> dict[str, np.ndarray]:
+        """Estimator name -> (T, 3) estimated poses of `rows` (None: all)."""
+        return {label: self._read(place, rows) for label, place in self._estimates.items()}
+
+    def poses_of(self, label: str, rows: slice | None = None) -> np.ndarray:
+        """(T, 3) poses of `rows` (None: all) of the truth (label 'truth', a name no estimator may
+        take) or of one estimate."""
+        return self._read(self._truth if label == "truth" else self._estimates[label], rows)
+
+    def covariance_arrays(self, rows: slice | None = None) -> dict[str, np.ndarray]:
+        """Estimator name -> (T, 6) covariance entries (COVARIANCE_FIELDS: m², m·rad, rad²) of `rows`
+        (None: all) of the estimates that have one."""
+        return {label: self._read(place, rows) for label, place in self._uncertain.items()}
 
     def readings(self, rows: slice) -> dict[str, np.ndarray]:
         """This robot's readings of samples `rows` as columns: Readings' field name -> (n, width)
-        array (views into the run's columns; not a general chassis's per-wheel fields)."""
-        s = self._samples
-        return self._world.readings_columns(self.index, s.values[rows], s.believed[rows], s.tallies[rows])
+        array (not a general chassis's per-wheel fields)."""
+        columns, span = self._samples.columns, self._samples.rows(rows)
+        return self._world.readings_columns(self.index, columns.view("values", *span), columns.view("believed", *span), columns.view("tallies", *span))
 
 
 class RunResult:
@@ -266,14 +400,20 @@ class RunResult:
         self.reason: Ending = Ending.DURATION
         self.verdict: str | None = None
         self.error: str | None = None
+        self.failed_estimator: tuple[int, str] | None = None
+        """(robot index, estimator name) of the Python estimator whose failure ended the run, else None."""
         self.notes: list[str] = []
         """What the run's guards put back that a controller had changed (`sim.guards`), once each."""
         self._samples = samples
 
     @property
     def time(self) -> np.ndarray:
-        """(T,) sample times (s), a view."""
-        return self._samples.time[: self._samples.count]
+        """(T,) sample times (s), read-only."""
+        return self.time_array()
+
+    def time_array(self, rows: slice | None = None) -> np.ndarray:
+        """(T,) sample times (s) of `rows` (None: all), read-only."""
+        return self._samples.columns.view("time", *self._samples.rows(rows))
 
     def __len__(self) -> int:
         return self._samples.count
@@ -281,17 +421,14 @@ class RunResult:
     @property
     def duration(self) -> float:
         """Simulated seconds covered (0 before the first sample)."""
-        count = self._samples.count
-        return float(self._samples.time[count - 1]) if count else 0.0
+        last = self.time_array(slice(-1, None))
+        return float(last[0]) if len(last) else 0.0
 
     def blocks(self, size: int | None = None) -> Iterator[slice]:
         """Row ranges that cover every sample, `size` (default BLOCK) at a time, to read a long run
-        through with bounded memory: once the next is asked for, the previous block's rows of the
-        run's columns and of every robot's log leave resident memory again."""
+        through with bounded memory (each block's rows are mapped while they are read, the last
+        block's no longer once all are read)."""
         size = size or BLOCK
         for start in range(0, len(self), size):
-            rows = slice(start, min(start + size, len(self)))
-            yield rows
-            self._samples.columns.release(rows.start, rows.stop)
-            for log in self.robots:
-                log.release(rows)
+            yield slice(start, min(start + size, len(self)))
+        self._samples.forget()

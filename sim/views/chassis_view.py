@@ -141,7 +141,7 @@ class ChassisLayer:
         """Every EVERY-th sample: the wheels if a steering angle or fault changed, the ICR of the last step."""
         self.samples += 1
         for i in self.robots:
-            pose = logs[i].truth_array()[-1]
+            pose = logs[i].truth_array(slice(-1, None))[0]
             previous = self.previous.get(i, pose)
             self.previous[i] = pose
             if (self.samples - 1) % EVERY:

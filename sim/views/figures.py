@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.analysis.export import read_tum
+from sim.analysis.export import read_tum, sampled
 from sim.analysis.run_folder import RunFolder, RunFolderError, read_summary, trajectory_text
 from sim.out_files import replacing
 from sim.views import palette
@@ -292,8 +292,9 @@ def report_run_dir(run_dir: str | Path) -> list[Path]:
 
 
 def _trajectory(run_dir: Path, name: str) -> tuple:
-    """A TUM file of the run folder (`run_folder.trajectory_text`), its content never quoted."""
-    text = trajectory_text(run_dir, name)
+    """A TUM file of the run folder (`run_folder.trajectory_text`: FIGURE_POINTS of its lines at
+    most), its content never quoted."""
+    text = trajectory_text(run_dir, name, FIGURE_POINTS)
     try:
         return read_tum(io.StringIO(text))
     except ValueError:
@@ -315,6 +316,28 @@ def bands_of(run_dir: Path, summary: dict) -> dict[str, dict[str, Trajectory]]:
         return {}
 
 
+FIGURE_POINTS = 200_000
+"""Most samples of a trajectory or band a figure draws (evenly spread, the last among them): a
+figure has a few thousand pixels across, and a long run's files need not fit in memory."""
+
+
+def _every_row(file, columns: list[str]):  # noqa: ANN001, ANN202 (pyarrow's ParquetFile and Table)
+    """`columns` of every k-th row of a Parquet file and its last, k chosen so that at most about
+    FIGURE_POINTS are kept (all where it has no more), read a row group at a time."""
+    import pyarrow as pa
+
+    total = file.metadata.num_rows
+    every = max(1, -(-total // FIGURE_POINTS))
+    if every == 1:
+        return file.read(columns=columns)
+    parts, start = [], 0
+    for group in range(file.num_row_groups):
+        part = file.read_row_group(group, columns=columns)
+        parts.append(part.take(sampled(slice(start, start + part.num_rows), total, every) - start))
+        start += part.num_rows
+    return pa.concat_tables(parts)
+
+
 def _bands(path: Path, summary: dict) -> dict[str, dict[str, Trajectory]]:
     import pyarrow.parquet as pq
 
@@ -326,7 +349,7 @@ def _bands(path: Path, summary: dict) -> dict[str, dict[str, Trajectory]]:
     if not wanted:
         return {}
     columns = ["time", *(f"{robot}.{label}.{entry}" for robot, label in sorted(wanted) for entry in fields)]
-    table = pq.read_table(path, columns=columns)
+    table = _every_row(pq.ParquetFile(path), columns)
     times = table.column("time").to_numpy()
     bands: dict[str, dict[str, Trajectory]] = {}
     for robot, label in sorted(wanted):

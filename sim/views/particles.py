@@ -58,7 +58,7 @@ class ParticleLayer:
         """A layer for the localisers among the robots' estimators (`RobotLog.estimators`), None if none."""
         robots = {log.name: localisers(log.estimators) for log in logs}
         robots = {name: found for name, found in robots.items() if found}
-        others = {log.name: list(log.estimate_arrays()) for log in logs}
+        others = {log.name: log.estimate_names for log in logs}
         return cls(columns, event, robots, timeline, others) if robots else None
 
     def on_sample(self, world: Any, logs: list[Any]) -> None:

@@ -34,10 +34,13 @@ SENSOR_GROUPS = groups()
 """Sensor plot -> (title, readings fields); each field is logged under sensors/<group>/<robot>/<field>."""
 SCALE = {kind.field: kind.scale for kind in KINDS if kind.scale != 1.0}
 """Recorded unit per SI unit where a field is shown in other units (m -> mm, rad -> deg)."""
-KEY_WIDTH = 0.32
-"""Room for the map's colour key right of the world, as a share of the world's larger side: the
-map is framed on the world and labels keep their size in pixels, so a share holds them at any
-world size. The key stands in for the error plots' legends, which would cover their data."""
+MAP_MARGIN = 0.03
+"""Floor around the world in the map view, as a share of the world's larger side."""
+KEY_CHARACTER = 0.009
+"""Width of one character of a key label, as a share of the world's larger side (about 7 px at the
+map's size in the viewer's default layout): the map is framed on the world and labels keep their
+size in pixels, so shares of the world hold them at any world size. The key stands in for the
+error plots' legends, which would cover their data."""
 KEY_ROW = 0.06
 """Height of one key entry (a line, its label centred below it, as rerun draws point labels), as a
 share of the world's larger side (about 40 px in the viewer)."""
@@ -94,6 +97,13 @@ def log_world(log: Any, spec: WorldSpec) -> None:
         log("world/map/starts", rr.Arrows2D(origins=origins, vectors=vectors, colors=rgb(palette.START), radii=-1.5, draw_order=10.0), static=True)
 
 
+def key_room(spec: WorldSpec, labels: Sequence[str]) -> float:
+    """Width (m) the map's key takes right of the world: room for its longest label and a margin,
+    at least that of its lines."""
+    xmin, ymin, xmax, ymax = spec.bounds
+    return max(0.12, 0.05 + KEY_CHARACTER * max(map(len, labels), default=0)) * max(xmax - xmin, ymax - ymin)
+
+
 def log_key(log: Any, spec: WorldSpec, entries: Sequence[tuple[str, palette.RGB, float]]) -> None:
     """Draw the map's colour key once, static under world/map/key, right of the world: per entry
     (label, colour, line radius in points) a short line and, touching it below, its label (rerun
@@ -102,21 +112,21 @@ def log_key(log: Any, spec: WorldSpec, entries: Sequence[tuple[str, palette.RGB,
     rr = lazy_rerun()
     xmin, ymin, xmax, ymax = spec.bounds
     size = max(xmax - xmin, ymax - ymin)
+    labels, colours, radii = zip(*entries) if entries else ((), (), ())
     row = size * min(KEY_ROW, 1.0 / max(len(entries), 1))  # many robots: rows closer, the key no taller than the world
-    centre, half = xmax + 0.5 * KEY_WIDTH * size, 0.04 * size
+    centre, half = xmax + MAP_MARGIN * size + 0.5 * key_room(spec, labels), 0.04 * size
     heights = ymax - row * np.arange(len(entries))
     lines = [[(centre - half, y), (centre + half, y)] for y in heights]
-    labels, colours, radii = zip(*entries) if entries else ((), (), ())
     log("world/map/key/lines", rr.LineStrips2D(lines, colors=[rgb(c) for c in colours], radii=[-r for r in radii], draw_order=90.0), static=True)
     log("world/map/key/labels", rr.Points2D([(centre, y - 0.005 * size) for y in heights], colors=[rgb(c) for c in colours], radii=-0.5, labels=list(labels),
                                             show_labels=True, draw_order=91.0), static=True)  # fmt: skip
 
 
-def blueprint(world: WorldSpec, robots: dict[str, list[str]], groups: list[str], localising: Sequence[str] = ()) -> Any:
-    """The map framed on the world with every trail, events and facts below it; per robot
-    its error plots (and, for the robots in `localising`, their localisers' scan score and lost
-    flag), and one plot per sensor group in `groups`, beside it. `robots` maps each robot's name
-    to its estimates' names."""
+def blueprint(world: WorldSpec, robots: dict[str, list[str]], groups: list[str], localising: Sequence[str] = (), key: Sequence[str] = ()) -> Any:
+    """The map framed on the world and its colour key (labels `key`, see `log_key`) with every
+    trail, events and facts below it; per robot its error plots (and, for the robots in
+    `localising`, their localisers' scan score and lost flag), and one plot per sensor group in
+    `groups`, beside it. `robots` maps each robot's name to its estimates' names."""
     import rerun.blueprint as rrb
 
     history = rrb.VisibleTimeRanges([rrb.VisibleTimeRange(TIMELINE, start=rrb.TimeRangeBoundary.infinite(), end=rrb.TimeRangeBoundary.cursor_relative())])
@@ -125,9 +135,8 @@ def blueprint(world: WorldSpec, robots: dict[str, list[str]], groups: list[str],
                                                          end=rrb.TimeRangeBoundary.cursor_relative())])  # fmt: skip
     trails |= {f"/world/{name}/ellipse/{label}": recent for name, labels in robots.items() for label in labels}
     xmin, ymin, xmax, ymax = world.bounds
-    margin = 0.03 * max(xmax - xmin, ymax - ymin)
-    key = KEY_WIDTH * max(xmax - xmin, ymax - ymin)  # the colour key's room (`log_key`)
-    bounds = rrb.VisualBounds2D(x_range=(xmin - margin, xmax + margin + key), y_range=(-ymax - margin, -ymin + margin))  # y flipped, see `world`
+    margin = MAP_MARGIN * max(xmax - xmin, ymax - ymin)
+    bounds = rrb.VisualBounds2D(x_range=(xmin - margin, xmax + margin + key_room(world, key)), y_range=(-ymax - margin, -ymin + margin))  # y flipped, see `world`
     world_map = rrb.Spatial2DView(origin="/", contents="+ /world/**", name=f"map: {world.name}", visual_bounds=bounds, background=rgb(palette.BACKGROUND), overrides=trails)
     legend = rrb.PlotLegend(corner=rrb.Corner2D.LeftTop)
     keyed = rrb.PlotLegend(visible=False)  # up to twelve series: the map's key names their colours instead

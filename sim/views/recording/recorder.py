@@ -65,8 +65,7 @@ CHUNK = 8000
 """Samples per `send_columns` batch. Each batch costs rerun's conversions once per entity (8,000
 samples cost a recorded run a quarter less than 4,000), and rerun keeps some 400 bytes per chunk
 sent until the file is closed (its footer): fewer, longer chunks are cheaper and keep a long run's
-memory flat. At most `sim.run.samples.RESIDENT` samples, which the run's logs keep in memory for the
-recorder to read."""
+memory flat."""
 
 
 @dataclass
@@ -157,7 +156,11 @@ class Recorder(LiveStream):
     def _open(self, world: World, logs: list[RobotLog]) -> None:
         rr = lazy_rerun()
         groups = [g for g, (_, fields) in SENSOR_GROUPS.items() if any(field_channels(log.spec, f)[0] for log in logs for f in fields)]
-        views = blueprint(world.spec, {log.name: list(log.estimate_arrays()) for log in logs}, groups, [log.name for log in logs if localisers(log.estimators)])
+        self._tracks = [self._track(log) for log in logs]
+        self.colours = self.colours or palette.robot_colours([log.name for log in logs])
+        key = self._key()
+        views = blueprint(world.spec, {log.name: log.estimate_names for log in logs}, groups, [log.name for log in logs if localisers(log.estimators)],
+                          [label for label, _, _ in key])  # fmt: skip
         self.streams = []
         if self.path is not None:
             rec = rr.RecordingStream(self.application_id, send_properties=False)
@@ -168,12 +171,10 @@ class Recorder(LiveStream):
         self._log("world", rr.Transform3D(scale=(1.0, -1.0, 1.0)), static=True)
         log_world(self._log, world.spec)
         self._log("facts", rr.TextDocument(self._facts_text(world, logs), media_type=rr.MediaType.MARKDOWN), static=True)
-        self._tracks = [self._track(log) for log in logs]
-        self.colours = self.colours or palette.robot_colours([log.name for log in logs])
         self._chassis = ChassisLayer.for_world(self._log, self._columns, world, TIMELINE)
         self._particles = ParticleLayer.for_run(self._columns, self._event, logs, TIMELINE)
         self._style()
-        log_key(self._log, world.spec, self._key())
+        log_key(self._log, world.spec, key)
         if self._chassis is not None:
             self._chassis.style({i: log.name for i, log in enumerate(logs)})
         self._now = world.time
@@ -288,7 +289,7 @@ class Recorder(LiveStream):
         channels, picks = zip(*(field_channels(spec, f) for f in FIELDS))
         return _Track(
             log=log,
-            estimates=list(log.estimate_arrays()),
+            estimates=log.estimate_names,
             ir=np.array([(*s.position, s.direction) for s in getattr(spec, RAYS.section)]).reshape(-1, 3),
             channels=list(channels),
             picks=list(picks),
@@ -309,7 +310,7 @@ class Recorder(LiveStream):
         lines = [f"# {world.spec.name}", "", "| | |", "|---|---|", *(f"| {k} | {v} |" for k, v in rows), ""]
         for log in logs:
             params = ", ".join(f"{k}={v}" for k, v in log.params.items()) or "defaults"
-            lines += [f"## {log.name}", "", f"- robot: {log.spec.name}", f"- controller: {log.controller_name} ({params})", f"- estimates: {', '.join(log.estimate_arrays())}", ""]
+            lines += [f"## {log.name}", "", f"- robot: {log.spec.name}", f"- controller: {log.controller_name} ({params})", f"- estimates: {', '.join(log.estimate_names)}", ""]
         return "\n".join(lines)
 
     def _style(self) -> None:
@@ -337,7 +338,7 @@ class Recorder(LiveStream):
                 who = [f"{name} {label}" if several else label for label in track.estimates]
                 self._log(f"errors/{name}/position", rr.SeriesLines(colors=colours, names=who, widths=1.2), static=True)
                 self._log(f"errors/{name}/heading", rr.SeriesLines(colors=colours, names=who, widths=1.2), static=True)
-            uncertain = list(track.log.covariance_arrays())
+            uncertain = track.log.uncertain_names
             if uncertain:
                 band = [rgb(palette.estimate_colour(label, track.estimates)) for label in uncertain]
                 for label, colour in zip(uncertain, band):
@@ -359,7 +360,7 @@ class Recorder(LiveStream):
         every robot, on the map and in the error plots), and the error plots' thin 3σ bands."""
         truths = [(track.log.name if len(self._tracks) > 1 else "truth", self.colours.get(track.log.name, palette.TRUTH), 2.5) for track in self._tracks]
         estimates = {label: palette.estimate_colour(label, track.estimates) for track in self._tracks for label in track.estimates}
-        banded = any(track.log.covariance_arrays() for track in self._tracks)
+        banded = any(track.log.uncertain_names for track in self._tracks)
         return [*truths, *((label, colour, 2.5) for label, colour in estimates.items()), *([(BAND_LABEL, palette.KEY_NOTE, 1.0)] if banded else [])]
 
     def _send(self, track: _Track, stop: int) -> None:
@@ -369,9 +370,10 @@ class Recorder(LiveStream):
         base = f"world/{name}"
         span = slice(track.start, stop)
         n = stop - track.start
-        times = [rr.TimeColumn(TIMELINE, duration=track.log.time_array()[span])]
-        truth = track.log.truth_array()[span]
-        estimates = {label: poses[span] for label, poses in track.log.estimate_arrays().items()}
+        at = track.log.time_array(span)
+        times = [rr.TimeColumn(TIMELINE, duration=at)]
+        truth = track.log.truth_array(span)
+        estimates = track.log.estimate_arrays(span)
         readings = track.columns(stop)
 
         self._columns(f"{base}/body", times, rr.Transform3D.columns(translation=xyz(truth), quaternion=turn(truth[:, 2])))
@@ -382,10 +384,10 @@ class Recorder(LiveStream):
             per_sample = np.full(n, error.shape[1])
             self._columns(f"errors/{name}/position", times, rr.Scalars.columns(scalars=(1000 * np.hypot(error[..., 0], error[..., 1])).ravel()).partition(per_sample))
             self._columns(f"errors/{name}/heading", times, rr.Scalars.columns(scalars=np.degrees(wrap_angle(error[..., 2])).ravel()).partition(per_sample))
-        self._send_trails(track, truth, estimates)
-        covariances = {label: entries[span] for label, entries in track.log.covariance_arrays().items()}
+        self._send_trails(track, at, truth, estimates)
+        covariances = track.log.covariance_arrays(span)
         if covariances:
-            self._send_uncertainty(track, times, {label: estimates[label] for label in covariances}, covariances)
+            self._send_uncertainty(track, times, at, {label: estimates[label] for label in covariances}, covariances)
         if self._chassis is not None:
             self._chassis.flush(name)
         if self._particles is not None:
@@ -403,8 +405,8 @@ class Recorder(LiveStream):
         track.start = stop
         track.count = 0
 
-    def _send_trails(self, track: _Track, truth: np.ndarray, estimates: dict[str, np.ndarray]) -> None:
-        """Trail pieces of TRAIL_EVERY samples, each starting where the last ended."""
+    def _send_trails(self, track: _Track, at: np.ndarray, truth: np.ndarray, estimates: dict[str, np.ndarray]) -> None:
+        """Trail pieces of TRAIL_EVERY samples (sent at times `at`), each starting where the last ended."""
         rr = lazy_rerun()
         n = len(truth)
         points = np.stack([truth[:, :2], *(poses[:, :2] for poses in estimates.values())], axis=1)  # (n, labels, 2)
@@ -413,7 +415,7 @@ class Recorder(LiveStream):
             ends = np.append(ends, n - 1)  # the trail reaches the last sample sent (the run's end, or a live send)
         if len(ends) == 0:
             return
-        times = [rr.TimeColumn(TIMELINE, duration=track.log.time_array()[track.start + ends])]
+        times = [rr.TimeColumn(TIMELINE, duration=at[ends])]
         # piece j is samples ends[j-1]..ends[j] (the first: the last chunk's end, or none, then 0..ends[0])
         joined = track.tail is not None
         first = np.concatenate(([0], ends[:-1] + joined))
@@ -425,9 +427,10 @@ class Recorder(LiveStream):
             self._columns(f"world/{track.log.name}/trail/{label}", times, rr.LineStrips2D.columns(strips=strips(along[rows], offsets)))  # a piece a row
         track.tail = points[ends[-1]].copy()
 
-    def _send_uncertainty(self, track: _Track, times: list, estimates: dict[str, np.ndarray], covariances: dict[str, np.ndarray]) -> None:
+    def _send_uncertainty(self, track: _Track, times: list, at: np.ndarray, estimates: dict[str, np.ndarray], covariances: dict[str, np.ndarray]) -> None:
         """The 3 sigma bands of the error plots, and every ELLIPSE_EVERY samples each estimate's
-        95 % position ellipse: `covariances` label -> (n, 6) COVARIANCE_FIELDS entries."""
+        95 % position ellipse: `covariances` label -> (n, 6) COVARIANCE_FIELDS entries of the
+        samples at times `at` (s; `times` their time column)."""
         rr = lazy_rerun()
         name = track.log.name
         entries = np.stack(list(covariances.values()), axis=1)  # (n, labels, 6)
@@ -442,11 +445,11 @@ class Recorder(LiveStream):
         picked = np.flatnonzero((track.start + np.arange(n)) % ELLIPSE_EVERY == 0)
         if not len(picked):
             return
-        at = [rr.TimeColumn(TIMELINE, duration=track.log.time_array()[track.start + picked])]
+        when = [rr.TimeColumn(TIMELINE, duration=at[picked])]
         for j, (label, poses) in enumerate(estimates.items()):
             rings = ellipses(poses[picked, :2], entries[picked, j])
             offsets = np.arange(0, len(picked) * ELLIPSE_POINTS + 1, ELLIPSE_POINTS)
-            self._columns(f"world/{name}/ellipse/{label}", at, rr.LineStrips2D.columns(strips=strips(rings.reshape(-1, 2), offsets)))
+            self._columns(f"world/{name}/ellipse/{label}", when, rr.LineStrips2D.columns(strips=strips(rings.reshape(-1, 2), offsets)))
 
     def _send_rays(self, track: _Track, times: list, truth: np.ndarray, distance: np.ndarray) -> None:
         """IR rays from each sensor to the distance it reports (`distance` (n, k) m, nan: nothing
