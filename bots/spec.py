@@ -29,6 +29,7 @@ _RELATIVE = {"low": -0.5, "high": 0.5}
 Point = tuple[float, float]
 CONTACT_RULES = ("slide", "stop")
 IR_VIEWS = ("cone", "pick")
+LIGHT_VIEWS = ("surface", "pick")
 """`RobotSpec.contact`: pymunk's contacts, or c't-Sim's rule (the bridge's firmware bots)."""
 START_PHASES = ("zero", "random")
 """Where a counter stands within a count at the start (`EncoderSpec.start_phase`)."""
@@ -189,6 +190,10 @@ class LightSensorSpec:
     reach: float = declared(default=1.0, unit="m", low=0.0, above=True, high=WORLD_EXTENT)
     height: float = declared(default=0.075, unit="m", low=0.0, high=10.0)
     noise_std: float = declared(default=0.0, **_RAW)
+    view: str = declared("text", default="surface", choices=LIGHT_VIEWS)
+    """What it measures to: 'surface' the nearest lamp sphere's surface, or 'pick' what c't-Sim's
+    Java3D cone-ray pick finds on the lamp sphere's mesh (`sim.world.kernels.light_pick`,
+    measured against the real c't-Sim)."""
 
     def __post_init__(self) -> None:
         check_fields(self)

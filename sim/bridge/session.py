@@ -116,11 +116,13 @@ def as_in_ctsim(spec: RobotSpec) -> RobotSpec:
     """`spec` as c't-Sim simulates it where ctsim's own models differ (each measured against the
     real c't-Sim with the same firmware): a step into a wall or robot is not made at all
     (contact 'stop'); IR sensors see walls as c't-Sim's Java3D cone pick does (view 'pick'), not
-    at their nearest point in the cone; line sensors average c't-Sim's cross of rays over their
-    spot (`CTSIM_LINE_HEIGHT`), not the one point under them."""
+    at their nearest point in the cone, and light sensors its lamps likewise (view 'pick'), not at
+    their surface; line sensors average c't-Sim's cross of rays over their spot
+    (`CTSIM_LINE_HEIGHT`), not the one point under them."""
     return spec.with_changes(
         contact="stop",
         ir=tuple(replace(sensor, view="pick") for sensor in spec.ir),
+        light=tuple(replace(sensor, view="pick") for sensor in spec.light),
         line=tuple(replace(sensor, height=CTSIM_LINE_HEIGHT) for sensor in spec.line),
     )
 

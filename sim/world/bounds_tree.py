@@ -45,6 +45,7 @@ class _Node:
     right: _Node | None = None
     left: _Node | None = None
     face: int = -1
+    lamp: int = -1
     robot: int = -1
     parent: _Node | None = field(default=None, repr=False)
 
@@ -133,7 +134,7 @@ class BoundsTree:
     def of_scene(cls, scene: Sequence[SceneShape]) -> BoundsTree:
         """The tree Java3D builds of the scene's shapes, all going live at once (`BHTree.create`)."""
         tree = cls()
-        leaves = [_Node(np.array(s.lower, dtype=np.float64), np.array(s.upper, dtype=np.float64), face=s.face) for s in scene]
+        leaves = [_Node(np.array(s.lower, dtype=np.float64), np.array(s.upper, dtype=np.float64), face=s.face, lamp=s.lamp) for s in scene]
         if len(leaves) == 1:
             tree.root = leaves[0]
         elif leaves:
@@ -205,6 +206,7 @@ class BoundsTree:
             parent=np.array([index[id(n.parent)] if n.parent is not None else -1 for n in nodes], dtype=np.int64),
             face=face,
             wall=np.where(face >= 0, np.searchsorted(spans["end"], face, side="right"), -1).astype(np.int64),
+            lamp=np.array([n.lamp for n in nodes], dtype=np.int64),
             robot_leaves=np.full((robots, len(CTBOT_SHAPES)), -1, dtype=np.int64),
         )
         for r, leaves in enumerate(self.robot_leaves[:robots]):

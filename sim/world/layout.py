@@ -67,7 +67,7 @@ SENSORS = Table(
     Field("direction", 1, "rad, the view in the body frame (light, IR)"),
     Field("opening", 1, "rad, the half opening (light) or cone (IR)"),
     Field("reach", 1, "m, the distance of full darkness (light)"),
-    Field("pick", 1, "an IR sensor of the 'pick' view: walls seen as c't-Sim's Java3D cone pick", np.bool_),
+    Field("pick", 1, "a light or IR sensor of the 'pick' view: lamps or walls seen as c't-Sim's Java3D pick", np.bool_),
     Field("owner", 1, "the robot's index", np.int64),
     Field("noise_row", 1, "the sensor's row of the IR noise (-1: none)", np.int64),
     Field("curve", 1, "the IR curve's index", np.int64),
@@ -121,8 +121,8 @@ class BoundsTree(NamedTuple):
     """Java3D's bounds tree over c't-Sim's scene for the compiled pick (`sim.world.bounds_tree`),
     the root first: each node's box (m, Java3D's world frame: the floor at z -2), its children
     (right, left; -1 for a leaf), its parent (-1 for the root), the wall vertex whose edge's face
-    (or pillar) a leaf is and that wall's index (-1: none), and each robot's leaves (robots,
-    shapes; -1: none)."""
+    (or pillar) a leaf is and that wall's index (-1: none), the lamp whose sphere a leaf is (-1:
+    none), and each robot's leaves (robots, shapes; -1: none)."""
 
     lower: np.ndarray
     upper: np.ndarray
@@ -130,12 +130,14 @@ class BoundsTree(NamedTuple):
     parent: np.ndarray
     face: np.ndarray
     wall: np.ndarray
+    lamp: np.ndarray
     robot_leaves: np.ndarray
 
 
 def no_bounds_tree() -> BoundsTree:
     """The tree of a world that is no c't-Sim parcours: none (every face is tested on its own)."""
-    return BoundsTree(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 2), np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 3), np.int64))
+    return BoundsTree(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 2), np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64),
+                      np.zeros((0, 3), np.int64))
 
 
 class Walls(NamedTuple):

@@ -124,11 +124,13 @@ class SceneShape:
     (`JAVA3D_FLOOR`), computed in the float arithmetic c't-Sim builds it with; `face` is the
     wall vertex that starts the wall edge this shape is the upright face of (an index into the
     world's wall vertices, in `WorldSpec.walls` order), or the first vertex of the pillar whose
-    side it is; -1 for any other shape (floor, lines, lamps, wall tops)."""
+    side it is; -1 for any other shape (floor, lines, lamps, wall tops). `lamp`: the index (in
+    `WorldSpec.lights`) of the lamp whose sphere it is, -1 for any other shape."""
 
     lower: tuple[float, float, float]
     upper: tuple[float, float, float]
     face: int = -1
+    lamp: int = -1
 
 
 JAVA3D_FLOOR = -2.0

@@ -191,7 +191,7 @@ class RobotTables:
         rows["direction"][len(floor) :] = [s.direction for _, s in light + ir]
         rows["opening"][len(floor) :] = [s.opening / 2 for _, s in light] + [s.cone for _, s in ir]
         rows["reach"][len(floor) : len(floor) + len(light)] = [s.reach for _, s in light]
-        rows["pick"][len(floor) + len(light) :] = [s.view == "pick" for _, s in ir]
+        rows["pick"][len(floor) :] = [s.view == "pick" for _, s in (*light, *ir)]
 
         def noisy(items):
             return Noisy.of([(k, robot, s.name, s.noise_std) for k, (robot, s) in enumerate(items) if s.noise_std])

@@ -166,7 +166,7 @@ def build_grid(
         floor=tuple(_floor(tiles, cells, colour)),
         lines=tuple(line for c, r, ch in tiles.cells(LINE_ARMS) for line in _line(ch, c, r, cells, colour[ch])),
         holes=tuple(Hole(cells.box(*span)) for span in _runs(tiles, lambda ch: ch == HOLE_TILE)),
-        lights=tuple(Light(cells.centre(c, r), LIGHT_HEIGHT) for c, r, _ in tiles.cells("*")),
+        lights=tuple(Light(_ctsim_centre(c, r, cell, origin), LIGHT_HEIGHT) for c, r, _ in tiles.cells("*")),
         starts=tuple(Start(*cells.centre(c, r), _heading(tiles, c, r), START_SLOTS[ch]) for c, r, ch in tiles.cells(START_SLOTS)),
         goals=tuple(Goal(cells.box(c, r, 1, 1)) for c, r, _ in tiles.cells("Z")),
         movables=tuple(Movable(cells.centre(c, r)) for c, r, _ in tiles.cells(MOVABLE_TILES)),
@@ -222,6 +222,14 @@ def _runs(
                 yield (start, r, c - start, 1)
             else:
                 c += 1
+
+
+def _ctsim_centre(c: int, r: int, cell: float, origin: Point) -> Point:
+    """Cell (c, r)'s centre (m) as c't-Sim computes a lamp's place: (c + 0.5f) * blockSizeInM in
+    float arithmetic (within 0.1 µm of the exact centre; its light pick meets the lamp's mesh to
+    the last bit, `kernels.light_pick`)."""
+    f = np.float32
+    return (origin[0] + float(f(c + 0.5) * f(cell)), origin[1] + float(f(r + 0.5) * f(cell)))
 
 
 def _pillar(x: float, y: float, r: float = PILLAR_DIAMETER / 2) -> tuple[Point, ...]:
@@ -374,7 +382,8 @@ def _scene(tiles: _Tiles, cell: float, origin: Point, spans: list[tuple[int, int
             height = f(LIGHT_HEIGHT)
             z = obstacle_z + float(height / f(2) - f(WALL_HALF_HEIGHT))
             obstacles += cylinder(cx, cy, z - float(height / f(2)), z + float(height / f(2)), PILLAR_DIAMETER / 2, int(pillar_at[c, r]))
-            lamps.append(shape(cx, cy, JAVA3D_FLOOR + float(height), float(f(LIGHT_RADIUS)), float(f(LIGHT_RADIUS)), float(f(LIGHT_RADIUS))))
+            lamp = shape(cx, cy, JAVA3D_FLOOR + float(height), float(f(LIGHT_RADIUS)), float(f(LIGHT_RADIUS)), float(f(LIGHT_RADIUS)))
+            lamps.append(SceneShape(lamp.lower, lamp.upper, lamp=len(lamps)))
         if ch == "l":
             beacons.append(shape(cx, cy, JAVA3D_FLOOR + float(f(BEACON_HEIGHT)), *[float(f(BEACON_RADIUS))] * 3))
         if ch in "*.L012Z" or ch in LINE_ARMS:

@@ -12,8 +12,9 @@ import numpy as np
 from sim.world.kernels.floor import raster_at
 from sim.world.kernels.geometry import polygon_distance, ray_circle, ray_polygon
 from sim.world.kernels.grids import circle_grid, first_at_least, walls_near
+from sim.world.kernels.light_pick import pick_lamps
 from sim.world.kernels.pick import move_robot_leaves, pick_tree, pick_wall
-from sim.world.layout import GHOST, Curves, Floor, Noise, Rays, Readout, Sensing, Walls
+from sim.world.layout import GHOST, BoundsTree, Curves, Floor, Noise, Rays, Readout, Sensing, Walls
 
 CIRCLE_GRID_ABOVE = 32
 """Circles (robots and cans) beyond which IR rays find the circles near them in a grid (`sense_ir`)."""
@@ -236,8 +237,6 @@ def read_ir(pose: np.ndarray, sensors: np.ndarray, walls: Walls, circles: np.nda
     m = sensors.shape[0]
     origins, look, distance = np.empty((m, 2)), np.empty(m), np.empty(m)
     ir_rays(pose, sensors, origins, look)
-    if walls.tree.robot_leaves.shape[0] > 0:
-        move_robot_leaves(walls.tree, pose)  # (c't-Sim's bots in its scene's bounds tree, which its pick walks)
     for i in range(pose.shape[0]):
         circles[i].x, circles[i].y = pose[i, 0], pose[i, 1]
     rays = Rays(origins, look, sensors.opening, sensors.owner, sensors.pick)
@@ -249,26 +248,33 @@ def read_ir(pose: np.ndarray, sensors: np.ndarray, walls: Walls, circles: np.nda
 
 
 @numba.njit(cache=True)
-def sense_light(pose: np.ndarray, sensors: np.ndarray, lights: np.ndarray, out: np.ndarray) -> None:
+def sense_light(pose: np.ndarray, sensors: np.ndarray, lights: np.ndarray, tree: BoundsTree, out: np.ndarray) -> None:
     """LDR darkness (0..1023) of light SENSORS, `height` m up, looking horizontally along their
     body-frame `direction` (rad): the distance from the sensor to the surface of the nearest of
     the LIGHTS whose centre is within the sensor's half opening of the view axis in 3-D, over its
-    `reach`, truncated; 1023 with none (c't-Sim `World.sensLight`)."""
+    `reach`, truncated; 1023 with none (c't-Sim `World.sensLight`). A sensor whose `pick` is set
+    measures to what c't-Sim's Java3D pick finds on the lamps' mesh (`light_pick.pick_lamps`,
+    through the TREE of a c't-Sim parcours)."""
     owner = sensors.owner
     points = np.empty((sensors.shape[0], 2))
     to_world(pose, sensors.at, owner, points)
+    at, u = np.empty(3), np.empty(3)
     for k in range(points.shape[0]):
         sensor = sensors[k]
         nearest = math.inf
         look = pose[owner[k], 2] + sensor.direction
         cx, cy = math.cos(look), math.sin(look)
         cos_limit = math.cos(sensor.opening)
-        for j in range(lights.shape[0]):
-            lamp = lights[j]
-            ox, oy, oz = lamp.x - points[k, 0], lamp.y - points[k, 1], lamp.height - sensor.height
-            centre = math.sqrt(ox * ox + oy * oy + oz * oz)
-            if ox * cx + oy * cy >= cos_limit * centre - 1e-12:
-                nearest = min(nearest, max(centre - lamp.radius, 0.0))
+        if sensor.pick:
+            at[0], at[1], at[2], u[0], u[1], u[2] = points[k, 0], points[k, 1], sensor.height, cx, cy, 0.0
+            nearest = pick_lamps(at, u, math.tan(sensor.opening), lights, tree)
+        else:
+            for j in range(lights.shape[0]):
+                lamp = lights[j]
+                ox, oy, oz = lamp.x - points[k, 0], lamp.y - points[k, 1], lamp.height - sensor.height
+                centre = math.sqrt(ox * ox + oy * oy + oz * oz)
+                if ox * cx + oy * cy >= cos_limit * centre - 1e-12:
+                    nearest = min(nearest, max(centre - lamp.radius, 0.0))
         out[k] = int(math.floor(min(nearest / sensor.reach, 1.0) * 1023))
 
 
@@ -283,6 +289,8 @@ def read_sensors(pose: np.ndarray, sensing: Sensing, floor: Floor, walls: Walls,
     sensors, values, believed = sensing.sensors, out.values, out.believed
     lo, hi = sensing.floor, sensors.shape[0] - believed.shape[0]
     sample_floor(pose, sensors[:lo], floor, values[:lo])
-    sense_light(pose, sensors[lo:hi], sensing.lights, values[lo:hi])
+    if walls.tree.robot_leaves.shape[0] > 0:
+        move_robot_leaves(walls.tree, pose)  # (c't-Sim's bots in its scene's bounds tree, which its picks walk)
+    sense_light(pose, sensors[lo:hi], sensing.lights, walls.tree, values[lo:hi])
     if believed.shape[0]:
         read_ir(pose, sensors[hi:], walls, sensing.circles, curves, noise, Readout(values[hi:], believed), rare_parts)
