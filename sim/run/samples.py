@@ -73,7 +73,10 @@ class _Store:
         """Once every row is in the file: a file of WHOLE bytes at most is read through one
         mapping from then on, and its own descriptor closed (a result kept holds the mapping's)."""
         if self.size <= WHOLE:
-            self._whole = mmap.mmap(self.descriptor, self.size, access=mmap.ACCESS_READ)
+            try:
+                self._whole = mmap.mmap(self.descriptor, self.size, access=mmap.ACCESS_READ)
+            except OSError:  # (no address space left for it: read by range, as a longer run)
+                return
             self._file.close()
 
     def regions(self, sizes: list[int]) -> list[int]:

@@ -185,7 +185,7 @@ def write_figures(
                                                 fontsize=7 if several else 8, frameon=False, **place)
     axes[0, 0].set_ylabel("position error (mm)")
     axes[1, 0].set_ylabel("heading error (deg, unwrapped)")
-    title = f"odometry error against ground truth (pale: every sample; dark: {MEAN_WINDOW_S:g} s moving mean; shaded: 3σ)"
+    title = f"odometry error against ground truth (pale: every sample drawn; dark: {MEAN_WINDOW_S:g} s moving mean; shaded: 3σ)"
     if several:
         fig.text(0.5, 0.955, title, ha="center", fontsize=10)
     else:
@@ -288,7 +288,10 @@ def report_run_dir(run_dir: str | Path) -> list[Path]:
     }
     if not any(robots.values()):
         raise RunFolderError(RunFolder(run_dir).summary, None, "no trajectories named (robots[].tum): the run wrote none to draw")
-    return write_figures(world, robots, run_dir, subtitle=describe(summary), ate=ate_of(summary), bands=bands_of(run_dir, summary))
+    drawn = next((times for tracks in robots.values() for times, _ in tracks.values() if len(times) > 1), None)
+    every = round(float(drawn[1] - drawn[0]) / summary["dt"]) if drawn is not None else 1  # (more than 1: a long run's samples thinned, FIGURE_POINTS)
+    subtitle = describe(summary) + (f" \u00b7 every {every}th sample drawn" if every > 1 else "")
+    return write_figures(world, robots, run_dir, subtitle=subtitle, ate=ate_of(summary), bands=bands_of(run_dir, summary))
 
 
 def _trajectory(run_dir: Path, name: str) -> tuple:
