@@ -152,28 +152,34 @@ REACH = 100.0
 def pick_lamps(at: np.ndarray, look: np.ndarray, tan_spread: float, lights: np.ndarray, tree: BoundsTree) -> float:
     """Distance (m) c't-Sim's light pick reads from AT along LOOK of the nearest of the LIGHTS
     (`layout.LIGHTS`, each `pick_lamp`), those Java3D's bounds tree lets it reach where the world
-    has one; inf if it sees none."""
+    has one; inf if it sees none. The lamps are taken nearest first, and one whose sphere lies
+    wholly beyond the nearest find so far is skipped (every find lies on its sphere's mesh)."""
+    reached = np.zeros(lights.shape[0], np.bool_)
+    if tree.lower.shape[0] == 0:
+        reached[:] = True
+    else:
+        o = np.array((at[0], at[1], at[2] + JAVA3D_FLOOR))
+        d = np.array((REACH * look[0], REACH * look[1], REACH * look[2]))
+        stack = np.empty(2 * tree.lower.shape[0] + 1, np.int64)
+        stack[0], top = 0, 1
+        while top > 0:
+            top -= 1
+            node = stack[top]
+            if not _cone_meets_bounds(o, d, tan_spread, tree.lower[node], tree.upper[node]):
+                continue
+            if tree.kids[node, 0] >= 0:
+                stack[top], stack[top + 1] = tree.kids[node, 1], tree.kids[node, 0]
+                top += 2
+            elif tree.lamp[node] >= 0:
+                reached[tree.lamp[node]] = True
+    gap = np.empty(lights.shape[0])
+    for j in range(lights.shape[0]):
+        gap[j] = math.sqrt((lights[j].x - at[0]) ** 2 + (lights[j].y - at[1]) ** 2 + (lights[j].height - at[2]) ** 2)
     best = math.inf
     centre = np.empty(3)
-    if tree.lower.shape[0] == 0:
-        for j in range(lights.shape[0]):
-            centre[0], centre[1], centre[2] = lights[j].x, lights[j].y, lights[j].height
-            best = min(best, pick_lamp(at, look, tan_spread, centre, LAMP_MESH))
-        return best
-    o = np.array((at[0], at[1], at[2] + JAVA3D_FLOOR))
-    d = np.array((REACH * look[0], REACH * look[1], REACH * look[2]))
-    stack = np.empty(2 * tree.lower.shape[0] + 1, np.int64)
-    stack[0], top = 0, 1
-    while top > 0:
-        top -= 1
-        node = stack[top]
-        if not _cone_meets_bounds(o, d, tan_spread, tree.lower[node], tree.upper[node]):
+    for j in np.argsort(gap):
+        if not reached[j] or gap[j] - 1.001 * LAMP_RADIUS > best:
             continue
-        if tree.kids[node, 0] >= 0:
-            stack[top], stack[top + 1] = tree.kids[node, 1], tree.kids[node, 0]
-            top += 2
-        elif tree.lamp[node] >= 0:
-            lamp = lights[tree.lamp[node]]
-            centre[0], centre[1], centre[2] = lamp.x, lamp.y, lamp.height
-            best = min(best, pick_lamp(at, look, tan_spread, centre, LAMP_MESH))
+        centre[0], centre[1], centre[2] = lights[j].x, lights[j].y, lights[j].height
+        best = min(best, pick_lamp(at, look, tan_spread, centre, LAMP_MESH))
     return best
