@@ -30,6 +30,7 @@ SHARED = (
     "sim/kinematics/batch.py", "bots/odometry/propagation.py", "bots/odometry/encoder.py", "bots/odometry/mouse.py", "bots/odometry/fused.py",
     "sim/world/kernels/floor.py", "sim/world/kernels/geometry.py", "sim/world/kernels/grids.py", "sim/world/kernels/pick.py",
     "sim/world/kernels/motion.py", "sim/world/kernels/sensing.py", "sim/world/kernels/contacts.py",
+    "sim/world/kernels/light_pick.py", "sim/world/spec.py",
 )  # fmt: skip
 """The modules (under ROOT) whose names kernels of other files use inside their compiled code:
 the layouts' constants, and kernels called across files."""

@@ -88,15 +88,17 @@ def test_free_poses_leave_the_robot_clear_of_every_wall(maze_scan: MapScan) -> N
     assert np.all((poses[:, :2] > lo) & (poses[:, :2] < hi))
 
 
-@given(dx=st.floats(-0.05, 0.05), dy=st.floats(-0.01, 0.01), turn=st.floats(-0.5, 0.5), heading=st.floats(-4.0, 4.0))
-def test_noise_free_motion_composes_the_increment_at_the_mid_heading(dx: float, dy: float, turn: float, heading: float) -> None:
+@given(dx=st.floats(-0.05, 0.05), dy=st.floats(-0.01, 0.01), turn=st.floats(-0.5, 0.5), own=st.floats(-0.5, 0.5), heading=st.floats(-4.0, 4.0))
+def test_noise_free_motion_composes_the_increment_at_the_mid_heading(dx: float, dy: float, turn: float, own: float, heading: float) -> None:
     """With no noise a particle moves by the body-frame increment turned by its heading plus half
-    the turn (the chord of an arc along its mid-angle), and turns by the turn."""
-    particles = np.array([[1.0, 2.0, heading]])
-    move_particles(particles, dx, dy, turn, np.zeros(3), np.zeros((1, 3)))
-    mid = heading + 0.5 * turn
-    expected = (1.0 + math.cos(mid) * dx - math.sin(mid) * dy, 2.0 + math.sin(mid) * dx + math.cos(mid) * dy, heading + turn)
-    np.testing.assert_allclose(particles[0], expected, rtol=0, atol=1e-12)
+    the turn (the chord of an arc along its mid-angle), and turns by the turn; a particle given a
+    turn of its own (one following the encoders) does the same with that turn."""
+    particles = np.array([[1.0, 2.0, heading], [1.0, 2.0, heading]])
+    move_particles(particles, dx, dy, turn, np.zeros(3), np.zeros((2, 3)), np.array([np.nan, own]))
+    for row, taken in zip(particles, (turn, own)):
+        mid = heading + 0.5 * taken
+        expected = (1.0 + math.cos(mid) * dx - math.sin(mid) * dy, 2.0 + math.sin(mid) * dx + math.cos(mid) * dy, heading + taken)
+        np.testing.assert_allclose(row, expected, rtol=0, atol=1e-12)
 
 
 @given(st.lists(st.floats(0.0, 1.0), min_size=1, max_size=40), st.floats(0.0, 0.999999), st.integers(1, 60))

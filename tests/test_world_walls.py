@@ -12,7 +12,6 @@ from hypothesis import strategies as st
 from bots.ctbot import CTBOT
 from sim.world import World
 from sim.world.spec import Wall, WorldSpec
-from sim.world.tables import SLOP
 
 R = CTBOT.body_radius
 FULL = 255.0
@@ -215,15 +214,16 @@ def test_the_stop_rule_refuses_a_move_into_a_wall_but_not_the_turn():
 
 
 def test_the_stop_rule_keeps_a_robot_clear_of_another():
-    """Two 'stop' robots driving at each other mouth to mouth end two radii apart: c't-Sim's rule
-    meets another c't-Bot at the boxes round its parts, which in front lie inside its circle
-    (c't-Sim stops the two 106.7 mm apart), so here the bodies' circles meet first and hold them,
-    overlapping by about pymunk's collision slop (SLOP; 0.503 mm measured: bodies that keep pushing
-    sit a little past it, hence twice it) and no further apart than a step each of touching."""
+    """Two 'stop' robots driving at each other mouth to mouth meet by c't-Sim's rule alone: each
+    one's 60 mm sphere meets the other's cheek boxes 106.66 mm between the centres, inside their
+    circles' 120 mm (c't-Sim stops two firmware bots 106.96 mm apart; tests/test_ctsim_contact.py
+    holds the rule), and a step is refused once it would bring its bot within that, so at full
+    speed they end less than a step's travel each short of it, never past it."""
     world = World(WorldSpec("w", (-2, -2, 2, 2)))
     spec = CTBOT.with_changes(contact="stop")
     a, b = world.add_robot(spec, (-0.2, 0.0, 0.0)), world.add_robot(spec, (0.2, 0.0, math.pi))
     for _ in range(100):
         world.step(np.array([[FULL, FULL], [FULL, FULL]]))
     gap = math.hypot(*(a.pose[:2] - b.pose[:2]))
-    assert 2 * R - 2 * SLOP < gap < 2 * R + 2 * 0.0045
+    cheeks, step = 0.10666, SPEED * world.dt
+    assert cheeks - 2 * step < gap <= cheeks
