@@ -32,6 +32,20 @@ def test_simulate_gives_arrays_and_metrics():
     assert frame.loc[frame.estimator == "mouse", "ate_rmse"].item() == robot.metrics["mouse"]["ate_rmse"]
 
 
+def test_a_robot_result_pickles_with_its_arrays():
+    """A robot's result crosses to another process (pickle, as multiprocessing and joblib send it)
+    with its trajectories and metrics, though its log's samples live in an open file."""
+    import pickle
+
+    robot = simulate("square", Bot("square"), duration=0.5, seed=3).robots[0]
+    copy = pickle.loads(pickle.dumps(robot))
+    assert copy.log is None and copy.distance == robot.distance
+    np.testing.assert_equal(copy.metrics, robot.metrics)  # (nan where a metric has no value: equal here)
+    np.testing.assert_array_equal(copy.truth, robot.truth)
+    assert all(np.array_equal(copy.estimates[k], robot.estimates[k]) for k in robot.estimates)
+    assert all(np.array_equal(copy.covariances[k], robot.covariances[k]) for k in robot.covariances)
+
+
 def test_same_seed_same_trajectory_and_controller_objects():
     noisy = {"encoders.slip_std": 0.05}
     a = simulate("empty", Bot(lambda t, r: Twist(0.2, 1.0), changes=noisy), duration=0.5, seed=7)

@@ -158,6 +158,15 @@ class RobotResult:
         """Metres the robot really drove."""
         return float(path_lengths(self.truth)[-1]) if len(self.truth) else 0.0
 
+    def __getstate__(self) -> dict:
+        """Pickled with its arrays read and without the log (whose samples live in an open file),
+        so that a result crosses to another process (multiprocessing, joblib) as it did."""
+        state = dict(self.__dict__)
+        for name in ("truth", "estimates", "covariances"):
+            state[name] = getattr(self, name)
+        state["log"] = None
+        return state
+
 
 @dataclass
 class Result:
