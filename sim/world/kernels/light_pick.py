@@ -31,7 +31,7 @@ import math
 import numba
 import numpy as np
 
-from sim.world.kernels.pick import _cone_meets_bounds
+from sim.world.kernels.pick import leaves_met
 from sim.world.layout import BoundsTree
 from sim.world.spec import JAVA3D_FLOOR
 
@@ -160,17 +160,8 @@ def pick_lamps(at: np.ndarray, look: np.ndarray, tan_spread: float, lights: np.n
     else:
         o = np.array((at[0], at[1], at[2] + JAVA3D_FLOOR))
         d = np.array((REACH * look[0], REACH * look[1], REACH * look[2]))
-        stack = np.empty(2 * tree.lower.shape[0] + 1, np.int64)
-        stack[0], top = 0, 1
-        while top > 0:
-            top -= 1
-            node = stack[top]
-            if not _cone_meets_bounds(o, d, tan_spread, tree.lower[node], tree.upper[node]):
-                continue
-            if tree.kids[node, 0] >= 0:
-                stack[top], stack[top + 1] = tree.kids[node, 1], tree.kids[node, 0]
-                top += 2
-            elif tree.lamp[node] >= 0:
+        for node in leaves_met(o, d, tan_spread, tree):
+            if tree.lamp[node] >= 0:
                 reached[tree.lamp[node]] = True
     gap = np.empty(lights.shape[0])
     for j in range(lights.shape[0]):

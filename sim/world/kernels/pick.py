@@ -262,6 +262,29 @@ in `pick_polygon`), by the polygon edge's place counter-clockwise from the lowes
 
 
 @numba.njit(cache=True)
+def leaves_met(o: np.ndarray, d: np.ndarray, tan_spread: float, tree: BoundsTree) -> np.ndarray:
+    """The bounds tree's leaves the cone (apex `o`, axis `d` in Java3D's world) reaches, in
+    Java3D's order: from the root, a node's children only where the cone meets its box
+    (`_cone_meets_bounds`), the right child first."""
+    leaves = np.empty(tree.lower.shape[0], np.int64)
+    found = 0
+    stack = np.empty(2 * tree.lower.shape[0] + 1, np.int64)  # (at most every node once)
+    stack[0], top = 0, 1
+    while top > 0 and tree.lower.shape[0] > 0:
+        top -= 1
+        node = stack[top]
+        if not _cone_meets_bounds(o, d, tan_spread, tree.lower[node], tree.upper[node]):
+            continue
+        if tree.kids[node, 0] >= 0:
+            stack[top], stack[top + 1] = tree.kids[node, 1], tree.kids[node, 0]  # the right child on top: visited first
+            top += 2
+        else:
+            leaves[found] = node
+            found += 1
+    return leaves[:found]
+
+
+@numba.njit(cache=True)
 def pick_tree(ray: tuple[float, float, float, float, float], tan_spread: float, walls: Walls, cylinders: bool | None = True) -> float:
     """Distance (m) c't-Sim's pick reads along RAY (sensor x, y, unit look x, y, length) of the
     walls of a c't-Sim parcours: Java3D's walk of its bounds tree (`BHTree.doSelect`: a node's
@@ -274,17 +297,7 @@ def pick_tree(ray: tuple[float, float, float, float, float], tan_spread: float, 
     d = np.array((length * ux, length * uy, 0.0))
     scratch = np.empty((7, 3))
     best = math.inf
-    stack = np.empty(2 * tree.lower.shape[0] + 1, np.int64)  # (at most every node once)
-    stack[0], top = 0, 1
-    while top > 0:
-        top -= 1
-        node = stack[top]
-        if not _cone_meets_bounds(o, d, tan_spread, tree.lower[node], tree.upper[node]):
-            continue
-        if tree.kids[node, 0] >= 0:
-            stack[top], stack[top + 1] = tree.kids[node, 1], tree.kids[node, 0]  # the right child on top: visited first
-            top += 2
-            continue
+    for node in leaves_met(o, d, tan_spread, tree):
         wall = tree.wall[node]
         if wall < 0:
             continue
