@@ -79,3 +79,13 @@ def test_realistic_noise_still_reaches_the_goal(seed):
 def test_every_parcours_is_tested_or_excluded_with_a_reason():
     tested = {Path(p.values[0]).name for p in MAZES} - {"maze"}
     assert {p.name for p in PARCOURS.glob("*.xml")} - {"defaultoptics.xml"} == tested | set(EXCLUDED)
+
+
+def test_a_mouse_on_the_axle_line_is_left_out_not_divided_by():
+    """A robot whose mouse sits on the wheels' axle (it reads no rotation, as the odometry's
+    `mouse_applies` says) runs solve_maze on its encoders; its lever of 0 once raised a
+    ZeroDivisionError in the controller's reset."""
+    from sim.experiments.api import Bot, simulate
+
+    result = simulate("maze", Bot("solve_maze", changes={"mouse.mount": (0.0, 0.0)}), duration=5.0, seed=1)
+    assert result.error is None and result.robots[0].distance > 0.1

@@ -19,6 +19,7 @@ from bots.behaviours.base import (
 from bots.behaviours.motion import DriveDistance, DriveTo, Turn
 from bots.commands import Command, Twist
 from bots.controller import Status, register
+from bots.odometry.base import mouse_applies
 from bots.readings import Readings
 from sim.kinematics import (
     Pose,
@@ -169,8 +170,9 @@ class SolveMaze(Plan):
         self.ir_ahead = 0.5 * (left[0] + right[0])  # sensors ahead of the axle (m)
         self.ir_baseline = left[1] - right[1]  # left sensor to right sensor (m)
         mouse = self.robot.mouse
-        self.mouse_turn = None if mouse is None else 0.0254 / mouse.dpi / mouse.mount[0]  # rad per lateral count
-        self.mouse_metre = None if mouse is None else 0.0254 / mouse.dpi  # m per count at the nominal dpi
+        sees_turns = mouse_applies(self.robot)  # (a mouse on the axle line reads no rotation: not used)
+        self.mouse_turn = 0.0254 / mouse.dpi / mouse.mount[0] if sees_turns else None  # rad per lateral count
+        self.mouse_metre = 0.0254 / mouse.dpi if sees_turns else None  # m per count at the nominal dpi
         self.tick_turn = self.odometry.metres_per_tick / self.robot.track_width  # rad per tick of one wheel
         self.half_track = self.robot.track_width / 2
         self.drive: DriveToRoom | None = None  # the last drive to a room
