@@ -310,10 +310,11 @@ class World:
         """The tables `plan` and `measure` change a step's motion and counts in."""
         bodies = layout.Bodies(self._bodies.row_index, layout.motion_rows(self._bodies.motion), st.circles)
         # what a world of one c't-Bot in a maze does not need (a crowd's circle grid, cylinder walls,
-        # robots keeping apart, c't-Sim's contact rule) is left out of its kernels: numba prunes it
-        # (`read_sensors`' rare_parts None) or it has a kernel of its own (`settle_meeting`), and a
-        # first run of the main job does not compile it
-        rare_parts = True if len(st.circles) > CIRCLE_GRID_ABOVE or walls.boxes["cylinder"].any() else None
+        # c't-Sim's pick and bounds tree, robots keeping apart, c't-Sim's contact rule) is left out of
+        # its kernels: numba prunes it (`read_sensors`' rare_parts None) or it has a kernel of its own
+        # (`settle_meeting`), and a first run of the main job does not compile it
+        rare = len(st.circles) > CIRCLE_GRID_ABOVE or walls.boxes["cylinder"].any() or st.sensors["pick"].any() or walls.tree.lower.shape[0] > 0
+        rare_parts = True if rare else None
         settling = settle_meeting if len(st.stoppers) or (len(self.robots) > 1 and self.robots_meet) else settle
         self._read_arguments = (layout.Sensing(st.sensors[:read], st.n_floor, self._lights, st.circles), floor, walls, ir.curves, ir.noise.kernel,
                                 rare_parts)  # fmt: skip

@@ -91,7 +91,7 @@ def _circle_in_view(view: tuple, px: float, py: float, r: float, best: float) ->
 
 @numba.njit(cache=True)
 def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: np.ndarray, grid_above: int | None = CIRCLE_GRID_ABOVE,
-             cylinders: bool | None = True) -> None:  # fmt: skip
+             cylinders: bool | None = True, picking: bool | None = True) -> None:  # fmt: skip
     """Distance (m) from each IR ray's origin to the nearest point of a wall (convex polygons with
     bounding boxes, `Walls`) or a circle (CIRCLES; a sensor skips its own robot's, and every sensor
     a GHOST's) within the ray's cone (half-angle, rad) of its view and within `length`; inf if
@@ -104,7 +104,8 @@ def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: 
     its cone's bounding box overlaps (a crowd would otherwise cost sensors x robots); the nearest
     distance is a minimum, so the grid gives the all-circles result bit for bit. None: never (numba
     then prunes the grid's code, which need not be compiled for a world of a few circles);
-    `cylinders` None likewise for a world without cylinder walls (`pick.pick_wall`). Walls are taken
+    `cylinders` None likewise for a world without cylinder walls (`pick.pick_wall`), `picking` None
+    for rays none of which picks (c't-Sim's pick is then left out). Walls are taken
     from the walls' grid in the cells the cone's bounding box overlaps, in ascending order as a
     loop over every wall would meet them; only a wall whose box meets the cone's can give a
     distance within `length` (every nearest point and edge-ray hit that counts lies in the cone),
@@ -126,8 +127,7 @@ def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: 
         best = math.inf
         # a wall counts only where it meets the cone within `length` (inside the wall: at the apex)
         lo_x, lo_y, hi_x, hi_y = _cone_box(view, cone, length)
-        tree_pick = picks[k] and walls.tree.lower.shape[0] > 0
-        if tree_pick:  # a c't-Sim parcours: the walls its bounds tree lets the pick reach
+        if picking is not None and picks[k] and walls.tree.lower.shape[0] > 0:  # a c't-Sim parcours: the walls its bounds tree lets the pick reach
             best = pick_tree((ox, oy, cx, cy, length), math.tan(cone), walls, cylinders)
         else:
             for w in walls_near(lo_x, lo_y, hi_x, hi_y, walls.frame, walls.cells):
@@ -135,7 +135,7 @@ def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: 
                 if box.xmin > hi_x or box.xmax < lo_x or box.ymin > hi_y or box.ymax < lo_y:
                     continue
                 start, end = spans[w].start, spans[w].end
-                if picks[k]:
+                if picking is not None and picks[k]:
                     best = min(best, pick_wall((ox, oy, cx, cy, length), math.tan(cone), vertices, start, end, box.cylinder, cylinders))
                     continue
                 distance, qx, qy = polygon_distance(ox, oy, vertices, start, end)
@@ -233,7 +233,7 @@ def read_ir(pose: np.ndarray, sensors: np.ndarray, walls: Walls, circles: np.nda
     (`ir_rays`), the robots (the first CIRCLES rows, positions taken from `pose`) and the other
     circles and walls they see (`sense_ir`), and noise and curves (`ir_values`) into `out`'s raw
     values and believed distances. `rare_parts` None: the world has no more circles than
-    CIRCLE_GRID_ABOVE and no cylinder wall (numba then prunes their code)."""
+    CIRCLE_GRID_ABOVE, no cylinder wall and no sensor of the pick view (numba then prunes their code)."""
     m = sensors.shape[0]
     origins, look, distance = np.empty((m, 2)), np.empty(m), np.empty(m)
     ir_rays(pose, sensors, origins, look)
@@ -241,20 +241,20 @@ def read_ir(pose: np.ndarray, sensors: np.ndarray, walls: Walls, circles: np.nda
         circles[i].x, circles[i].y = pose[i, 0], pose[i, 1]
     rays = Rays(origins, look, sensors.opening, sensors.owner, sensors.pick)
     if rare_parts is None:
-        sense_ir(rays, walls, circles, curves.length, distance, None, None)
+        sense_ir(rays, walls, circles, curves.length, distance, None, None, None)
     else:
-        sense_ir(rays, walls, circles, curves.length, distance, CIRCLE_GRID_ABOVE, True)
+        sense_ir(rays, walls, circles, curves.length, distance, CIRCLE_GRID_ABOVE, True, True)
     ir_values(distance, sensors, noise, curves, out.values, out.believed)
 
 
 @numba.njit(cache=True)
-def sense_light(pose: np.ndarray, sensors: np.ndarray, lights: np.ndarray, tree: BoundsTree, out: np.ndarray) -> None:
+def sense_light(pose: np.ndarray, sensors: np.ndarray, lights: np.ndarray, tree: BoundsTree, out: np.ndarray, picking: bool | None = True) -> None:
     """LDR darkness (0..1023) of light SENSORS, `height` m up, looking horizontally along their
     body-frame `direction` (rad): the distance from the sensor to the surface of the nearest of
     the LIGHTS whose centre is within the sensor's half opening of the view axis in 3-D, over its
     `reach`, truncated; 1023 with none (c't-Sim `World.sensLight`). A sensor whose `pick` is set
     measures to what c't-Sim's Java3D pick finds on the lamps' mesh (`light_pick.pick_lamps`,
-    through the TREE of a c't-Sim parcours)."""
+    through the TREE of a c't-Sim parcours); `picking` None: none is (numba then prunes the pick)."""
     owner = sensors.owner
     points = np.empty((sensors.shape[0], 2))
     to_world(pose, sensors.at, owner, points)
@@ -265,7 +265,7 @@ def sense_light(pose: np.ndarray, sensors: np.ndarray, lights: np.ndarray, tree:
         look = pose[owner[k], 2] + sensor.direction
         cx, cy = math.cos(look), math.sin(look)
         cos_limit = math.cos(sensor.opening)
-        if sensor.pick:
+        if picking is not None and sensor.pick:
             at[0], at[1], at[2], u[0], u[1], u[2] = points[k, 0], points[k, 1], sensor.height, cx, cy, 0.0
             nearest = pick_lamps(at, u, math.tan(sensor.opening), lights, tree)
         else:
@@ -285,12 +285,13 @@ def read_sensors(pose: np.ndarray, sensing: Sensing, floor: Floor, walls: Walls,
     SENSORS rows are floor sensors (`sample_floor`), the last len(out.believed) IR sensors
     (`read_ir`), the rows between light sensors (`sense_light`); `out.values` gets each row's
     integer reading. A world that reads its IR sensors with pymunk passes only the floor and
-    light rows and no `believed`. `rare_parts`: as `read_ir`'s."""
+    light rows and no `believed`. `rare_parts`: as `read_ir`'s (None also leaves out moving c't-Sim's
+    bots in its bounds tree, which only the pick walks)."""
     sensors, values, believed = sensing.sensors, out.values, out.believed
     lo, hi = sensing.floor, sensors.shape[0] - believed.shape[0]
     sample_floor(pose, sensors[:lo], floor, values[:lo])
-    if walls.tree.robot_leaves.shape[0] > 0:
+    if rare_parts is not None and walls.tree.robot_leaves.shape[0] > 0:
         move_robot_leaves(walls.tree, pose)  # (c't-Sim's bots in its scene's bounds tree, which its picks walk)
-    sense_light(pose, sensors[lo:hi], sensing.lights, walls.tree, values[lo:hi])
+    sense_light(pose, sensors[lo:hi], sensing.lights, walls.tree, values[lo:hi], rare_parts)
     if believed.shape[0]:
         read_ir(pose, sensors[hi:], walls, sensing.circles, curves, noise, Readout(values[hi:], believed), rare_parts)
