@@ -18,6 +18,8 @@ import numpy as np
 import pytest
 
 from sim.cli.entry import main
+from sim.cli.observers import StopOnSignal
+from sim.sandbox import box, launch
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -37,6 +39,14 @@ class Deaf:
     def step(self, t, readings):
         if t > 0.05:
             (Path(__file__).parent / "gate").read_bytes()
+        return Twist(0.1, 0.0)
+
+class Refuses:
+    """Fails any step after the file `signalled` beside this file appears (the test makes it just
+    before it sends SIGTERM to the run): a step the run should not have begun."""
+    def step(self, t, readings):
+        if (Path(__file__).parent / "signalled").exists():
+            raise RuntimeError("stepped after the SIGTERM")
         return Twist(0.1, 0.0)
 
 class Turns:
@@ -90,8 +100,50 @@ def test_a_controller_deaf_to_sigterm_through_ctypes_cannot_keep_an_isolated_run
     assert ctsim.returncode == 143, err[-2000:]
     summary = json.loads((out / "summary.json").read_text())
     assert summary["reason"] == "terminated" and (out / "truth.tum").is_file() and (out / "run.parquet").is_file()
-    guests = subprocess.run(["pgrep", "-f", f"{code.name}"], capture_output=True, text=True).stdout.split()
+    guests = subprocess.run(["pgrep", "-f", str(code)], capture_output=True, text=True).stdout.split()  # (this test's file: not another test's beside it)
     assert [pid for pid in guests if int(pid) != os.getpid()] == []
+
+
+@pytest.mark.parametrize("isolated", [False, True])
+def test_a_sigterm_just_after_the_runs_last_look_stops_it_before_the_next_call_of_user_code(isolated, code, tmp_path, monkeypatch):
+    """SIGTERM arriving between the run's look for a signal at the end of a sample and the next
+    step of a controller (here: delivered at once right after that look) is acted on when that
+    step would begin, never after it: a controller that blocks in that step (as `Deaf` does,
+    through ctypes deaf itself) would hold the run until its step time limit (600 s in the test
+    above, which once hung so)."""
+    look = StopOnSignal.on_sample
+
+    def signalled_after_look(stop: StopOnSignal, world, logs) -> None:
+        look(stop, world, logs)
+        if world.time > 0.05 and not (code.parent / "signalled").exists():
+            (code.parent / "signalled").touch()
+            signal.raise_signal(signal.SIGTERM)  # (its Python handler runs before this returns)
+
+    monkeypatch.setattr(StopOnSignal, "on_sample", signalled_after_look)
+    out = tmp_path / "out"
+    assert run("--controller", f"{code}:Refuses", *(["--isolate"] if isolated else []), "--out", str(out)) == 143
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["reason"] == "terminated", summary.get("error")
+
+
+@pytest.mark.parametrize("moment", ["_first_pid", "_receive"])
+def test_a_sigterm_while_the_controllers_process_starts_ends_the_command_and_that_process(moment, code, tmp_path, monkeypatch):
+    """SIGTERM while the run's process waits for bubblewrap to say the sandbox's pid (`_first_pid`)
+    or for the file to load (`_receive`): 143, no folder, and no process of the controller left
+    (a sandbox cut short there was 'a bug in ctsim' with its process left running)."""
+    if moment == "_first_pid" and launch.unavailable() is not None:
+        pytest.skip(f"{launch.unavailable()}: only bubblewrap reports a first pid")
+    owner = box if moment == "_first_pid" else box.Sandbox
+    waiting = getattr(owner, moment)
+
+    def signalled(*args: object) -> object:
+        signal.raise_signal(signal.SIGTERM)
+        return waiting(*args)
+
+    monkeypatch.setattr(owner, moment, signalled)
+    assert run("--controller", f"{code}:Turns", "--isolate", "--out", str(tmp_path / "out")) == 143
+    assert not (tmp_path / "out").exists()
+    assert subprocess.run(["pgrep", "-f", str(code)], capture_output=True, text=True).stdout.split() == []
 
 
 def run(*argv: str) -> int:

@@ -48,7 +48,7 @@ def test_a_light_sensor_looking_at_a_lamp_reads_its_pole_not_its_nearest_surface
     lamp = world.spec.lights[0]
     assert lamp.position == (float(np.float32(3.5) * np.float32(0.24)), float(np.float32(5.5) * np.float32(0.24)))  # c't-Sim's float place
     at = np.array((0.872, 0.408, 0.075))
-    read = pick_lamps(at, np.array((0.0, 1.0, 0.0)), math.tan(math.pi / 2), world._lights, world._walls.tree)
+    read = pick_lamps(at, np.array((0.0, 1.0, 0.0)), math.tan(math.pi / 2), world._lights, world._pick_tree)
     pole = math.dist(at, (lamp.position[0], lamp.position[1] - float(np.float32(0.07)), 0.5))
     assert read == pytest.approx(pole, abs=1e-12)
     assert round(read, 9) == round(0.9437228876939844, 9)
@@ -63,5 +63,5 @@ def test_a_lamp_whose_centre_lies_behind_the_sensor_is_not_seen():
     lights = layout.LIGHTS.new(1)
     for ahead, seen in ((-0.001, False), (0.001, True)):
         lights["x"], lights["y"], lights["height"], lights["radius"] = 0.3, ahead, 0.5, 0.07
-        read = pick_lamps(np.array((0.0, 0.0, 0.075)), np.array((0.0, 1.0, 0.0)), math.tan(math.pi / 2), lights, world._walls.tree)
+        read = pick_lamps(np.array((0.0, 0.0, 0.075)), np.array((0.0, 1.0, 0.0)), math.tan(math.pi / 2), lights, world._pick_tree)
         assert (read < math.inf) == seen

@@ -189,9 +189,14 @@ def test_the_maps_key_names_the_error_plots_series_whose_legends_stay_hidden(tmp
     path = tmp_path / "run.rrd"
     setups = [RobotSetup(CTBOT, FunctionController(_drive), start=(0.36 + 0.24 * k, 0.36, 0.0), estimators=None if estimates else []) for k in range(robots)]
     result = run(load_world("maze"), setups, duration=0.3, observers=[Recorder(path)])
-    key = _static(path, "/world/map/key/labels")
-    colour = dict(zip(key["Points2D:labels"], key["Points2D:colors"]))
-    assert len(colour) == len(key["Points2D:labels"]) == len(key["Points2D:colors"])  # each label once, each with its colour
+    key, swatches = _static(path, "/world/map/key/labels"), _static(path, "/world/map/key/lines")
+    colour = dict(zip(key["Points2D:labels"], swatches["LineStrips2D:colors"]))
+    assert len(colour) == len(key["Points2D:labels"]) == len(swatches["LineStrips2D:colors"])  # each label once, each with its swatch's colour
+    assert len(key["Points2D:colors"]) == 1, "every label in one text colour (a series' colour as text is hard to read)"
+    rows = [y for (_, y), _ in swatches["LineStrips2D:strips"]]
+    for (x, y), ((left, top), (right, _)) in zip(key["Points2D:positions"], swatches["LineStrips2D:strips"]):
+        nearest = min(rows, key=lambda row: abs(row - y))
+        assert left < x < right and y < top == nearest, "a label hangs under the middle of its own swatch (rerun centres a label under its point)"
     truths = [log.name for log in result.robots] if robots > 1 else ["truth"]
     assert key["Points2D:labels"][:robots] == truths
     for log, truth in zip(result.robots, truths):

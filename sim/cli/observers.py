@@ -7,8 +7,8 @@ import sys
 from typing import Any
 
 from sim.cli.options import EXIT_INTERRUPTED, EXIT_TERMINATED
-from sim.run.clock import in_controller
-from sim.run.ending import Terminated
+from sim.run.clock import stop_user_code
+from sim.run.ending import Terminated, stopped_by
 
 
 def terminate(signum: int, frame: Any) -> None:
@@ -22,8 +22,9 @@ class StopOnSignal:
     - "run" (from the run's start): a signal asks the run to stop at the next step boundary. A
       signal raised wherever the process happens to be (inside rerun's stream, a compiled kernel, a
       socket call) can leave a lock held, and the run would hang instead of writing what it has.
-      Inside a controller step (`sim.run.clock.in_controller`) it stops at once: a controller that blocks
-      must not make the run deaf. A second signal stops at once.
+      Inside a call of the user's code (a controller's step, an estimator's update) it stops at
+      once, and before the next such call if it came between two (`sim.run.clock.stop_user_code`):
+      a controller that blocks must not make the run deaf. A second signal stops at once.
     - "write" (summary and trajectories): signals are only noted, so those files are whole.
     - "draw" (figures): a signal stops at once; the figures can be drawn later (`ctsim report`).
     """
@@ -46,12 +47,10 @@ class StopOnSignal:
     def _handle(self, signum: int, frame: Any) -> None:
         first = self.received is None
         self.received = self.received or signum
-        if self.phase in ("setup", "draw") or (self.phase == "run" and (not first or in_controller())):
-            self._raise(signum)
-
-    @staticmethod
-    def _raise(signum: int) -> None:
-        raise Terminated if signum == signal.SIGTERM else KeyboardInterrupt
+        if self.phase in ("setup", "draw") or (self.phase == "run" and not first):
+            raise stopped_by(signum)
+        if self.phase == "run":
+            stop_user_code(signum)
 
     def status(self) -> int | None:
         """The exit status a signal received so far asks for (None: none received)."""
@@ -59,7 +58,7 @@ class StopOnSignal:
 
     def on_sample(self, world: Any, logs: Any) -> None:
         if self.received is not None:
-            self._raise(self.received)
+            raise stopped_by(self.received)
 
     def on_end(self, result: Any) -> None:
         self.phase = "write"

@@ -288,13 +288,21 @@ def _poses_parallel(parts: int, pose: np.ndarray, heading_dir: np.ndarray, wheel
         _poses_part(lo, hi, pose, heading_dir, wheel_arcs, track)
 
 
-@numba.njit(cache=True)
 def step_batch(pose: np.ndarray, heading_dir: np.ndarray, wheel_arcs: np.ndarray, drive: Drive, counters: Counters) -> None:
     """Advance N robots by one step, in place: `step_poses` (on `drive.track`), then each robot's
-    encoder ticks and mouse counts of the step into `counters`."""
+    encoder ticks and mouse counts of the step into `counters`. (`drive` and `counters` reach the
+    compiled kernel as plain tuples: numba's dispatch types a named tuple in Python, some 0.5 µs
+    each on every call, a plain one in C.)"""
+    _step_batch(pose, heading_dir, wheel_arcs, tuple(drive), tuple(counters))
+
+
+@numba.njit(cache=True)
+def _step_batch(pose: np.ndarray, heading_dir: np.ndarray, wheel_arcs: np.ndarray, drive: tuple, counting: tuple) -> None:
+    """`step_batch` with the values of a `Drive` and the arrays of `Counters` as plain tuples."""
+    counters = Counters(*counting)
     robots = _check_poses(pose, heading_dir, wheel_arcs)
     _check_counts(robots, counters)
-    _batch_part(0, robots, pose, heading_dir, wheel_arcs, drive, counters)
+    _batch_part(0, robots, pose, heading_dir, wheel_arcs, Drive(*drive), counters)
 
 
 def step_batch_parallel(pose: np.ndarray, heading_dir: np.ndarray, wheel_arcs: np.ndarray, drive: Drive, counters: Counters) -> None:
@@ -306,12 +314,14 @@ def step_batch_parallel(pose: np.ndarray, heading_dir: np.ndarray, wheel_arcs: n
     them costs 2-6 µs a call there, and the second thread's part often ends 3-5 µs after the same
     part on the calling thread: up to a third of a serial 10,000-robot step. It pays from thousands
     of robots, fully from tens of thousands, and only on cores that other work leaves free."""
-    _batch_parallel(numba.get_num_threads(), pose, heading_dir, wheel_arcs, drive, counters)
+    _batch_parallel(numba.get_num_threads(), pose, heading_dir, wheel_arcs, tuple(drive), tuple(counters))
 
 
 @numba.njit(cache=True, parallel=True)
-def _batch_parallel(parts: int, pose: np.ndarray, heading_dir: np.ndarray, wheel_arcs: np.ndarray, drive: Drive, counters: Counters) -> None:
-    """`step_batch` in `parts` parts over the threads (see `_poses_parallel`)."""
+def _batch_parallel(parts: int, pose: np.ndarray, heading_dir: np.ndarray, wheel_arcs: np.ndarray, values: tuple, counting: tuple) -> None:
+    """`step_batch` in `parts` parts over the threads (see `_poses_parallel`), `drive` and
+    `counters` as plain tuples (as `_step_batch`)."""
+    drive, counters = Drive(*values), Counters(*counting)
     robots = _check_poses(pose, heading_dir, wheel_arcs)
     _check_counts(robots, counters)
     for k in numba.prange(parts):

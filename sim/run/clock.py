@@ -9,7 +9,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 
 from sim.errors import UserCodeFailed
-from sim.run.ending import RunError
+from sim.run.ending import RunError, stopped_by
 
 MAX_STEP_TIMEOUT = 86_400.0
 """Longest wall-clock time limit on a controller step (s): a day; the operating system's timer
@@ -55,6 +55,8 @@ class StepClock:
         self.limit = limit
         self.busy = 0
         self.calls = 0
+        self.stopping: int | None = None
+        """A stopping signal noted outside user code (`stop_user_code`): the next call raises it as it begins."""
         self._seen, self._ticks, self._previous = 0, 0, None
         self.armed = bool(limit) and hasattr(signal, "setitimer") and threading.current_thread() is threading.main_thread()
         self.watched = bool(limit) and not self.armed and StepClock.ends_process
@@ -90,6 +92,8 @@ class StepClock:
         """A call of user code (a controller's step, an estimator's update) starts: timed from now."""
         self.calls += 1
         self.busy = self.calls
+        if self.stopping is not None:  # (after `busy` is set: a signal from here on raises in its handler)
+            raise stopped_by(self.stopping)
 
     def _tick(self, signum: int, frame: object) -> None:
         if self.busy and self.busy == self._seen:
@@ -100,10 +104,19 @@ class StepClock:
             self._seen, self._ticks = self.busy, 0
 
 
-def in_controller() -> bool:
-    """Whether a run in this process is inside a controller step right now (a signal handler
-    can then raise at once: no ctsim lock is held there)."""
-    return StepClock.active is not None and StepClock.active.busy != 0
+def stop_user_code(signum: int) -> None:
+    """For a signal handler: stop the user's code of the run in this process at once where a call
+    of it (a controller's step, an estimator's update) is going on (no ctsim lock is held there;
+    raises `stopped_by(signum)`), else as the next call begins, before any of it runs: a call that
+    then blocks (a controller deaf to the signal, waiting on a pipe) must not hold the run until
+    its step time limit. Checking for a call and beginning one cannot interleave so that the
+    signal is missed: `begin` looks after marking the call."""
+    clock = StepClock.active
+    if clock is None:
+        return
+    clock.stopping = signum
+    if clock.busy:
+        raise stopped_by(signum)
 
 
 MAKING_STEPS = 12

@@ -3,6 +3,7 @@ to start it."""
 
 from __future__ import annotations
 
+import signal
 from enum import StrEnum
 
 from sim.errors import UserError
@@ -55,6 +56,11 @@ class RunError(UserError, RuntimeError):
 
 class Terminated(KeyboardInterrupt):
     """Raised by a SIGTERM handler (a job scheduler, `timeout`): the run ends as on Ctrl-C."""
+
+
+def stopped_by(signum: int) -> KeyboardInterrupt:
+    """What a stopping signal raises: Terminated for SIGTERM, KeyboardInterrupt for Ctrl-C."""
+    return Terminated() if signum == signal.SIGTERM else KeyboardInterrupt()
 
 
 class Quit(KeyboardInterrupt):

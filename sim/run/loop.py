@@ -292,9 +292,9 @@ def _timed(clock: StepClock | None, code: object) -> Iterator[None]:
     it is a shipped estimator's (of `bots.odometry`: its first call compiles its kernels) or no
     clock runs."""
     timed = _is_timed(clock, code)
-    if timed:
-        clock.begin()
     try:
+        if timed:
+            clock.begin()
         yield
     finally:
         if timed:

@@ -127,6 +127,9 @@ class Sandbox:
         self.degraded = reason is not None
         self.confined = False
         self.process: subprocess.Popen | None = None
+        self._pid1: int | None = None
+        self._reader: threading.Thread | None = None
+        """(Both None until `start` has them: a start cut short by a signal is ended by `close` all the same.)"""
         self._handles = 0
         self._excerpt = bytearray()
         self._segment = 0
@@ -328,9 +331,10 @@ class Sandbox:
         except subprocess.TimeoutExpired:  # bubblewrap itself stuck: its group goes too
             os.killpg(self.process.pid, signal.SIGKILL)
             self.process.wait()
-        self._reader.join()
+        if self._reader is not None:
+            self._reader.join()
         self.process.stdout.close()
-        self.process = None
+        self.process, self._pid1, self._reader = None, None, None
 
     def __enter__(self) -> Sandbox:
         return self

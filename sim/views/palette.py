@@ -57,7 +57,10 @@ NEUTRAL: RGB = (90, 110, 140)
 """Marks that belong to no estimate or robot."""
 KEY_NOTE: RGB = (20, 20, 20)
 """An entry of the recording's colour key that is no estimate's or robot's (the error plots' thin
-3σ bands): dark, to read both as a line beside the map and as text on rerun's grey label box."""
+3σ bands): dark, to read as a thin line beside the map."""
+KEY_TEXT: RGB = (255, 255, 255)
+"""The text of the recording's colour key, as rerun writes labels of its own (light on its grey
+label box); each entry's colour is its swatch's."""
 OUTCOMES: dict[str, RGB] = {"goal reached": GOAL_EDGE, "time limit": NEUTRAL, "fell": (70, 70, 70), "error": FAULT, "controller done": START}
 """How a sweep's runs ended (`sim.experiments.report.OUTCOMES`): the goal's green, grey-blue for
 running out of time, a hole's near black, a fault's red."""

@@ -134,23 +134,17 @@ class BoundsTree(NamedTuple):
     robot_leaves: np.ndarray
 
 
-def no_bounds_tree() -> BoundsTree:
-    """The tree of a world that is no c't-Sim parcours: none (every face is tested on its own)."""
-    return BoundsTree(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 2), np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0, np.int64),
-                      np.zeros((0, 3), np.int64))
-
-
 class Walls(NamedTuple):
     """The walls for the kernels: convex polygons vertices[spans[w].start:spans[w].end], their
-    bounding boxes, the uniform grid over the boxes (`kernels.grids.build_wall_grid`), and the
-    bounds tree c't-Sim's pick walks (`BoundsTree`; empty but for a c't-Sim parcours)."""
+    bounding boxes, and the uniform grid over the boxes (`kernels.grids.build_wall_grid`). (The
+    bounds tree c't-Sim's picks walk is `Sensing.tree`: the contact kernels, which take the walls
+    every step, would pay for its eight arrays on every call.)"""
 
     vertices: np.ndarray
     spans: np.ndarray
     boxes: np.ndarray
     frame: np.ndarray
     cells: np.ndarray
-    tree: BoundsTree
 
 
 class Floor(NamedTuple):
@@ -188,13 +182,16 @@ class Bodies(NamedTuple):
 
 class Sensing(NamedTuple):
     """The sensors to read (SENSORS rows: the first `floor` ones floor sensors, then light, then
-    IR sensors), the lamps the light sensors see and the CIRCLES the IR sensors see (robots
-    first, their positions taken from the poses)."""
+    IR sensors), the lamps the light sensors see, the CIRCLES the IR sensors see (robots first,
+    their positions taken from the poses) and the bounds tree over a c't-Sim parcours that the
+    picks walk (`BoundsTree`; None in other worlds, whose kernels numba then compiles without the
+    tree's code and which pass none of its arrays)."""
 
     sensors: np.ndarray
     floor: int
     lights: np.ndarray
     circles: np.ndarray
+    tree: BoundsTree | None
 
 
 class Curves(NamedTuple):

@@ -159,9 +159,9 @@ class World:
         self._walls = walls_of(spec)
         """The walls for the kernels."""
         self._bounds_tree = BoundsTree.of_scene(spec.scene) if spec.scene else None
-        """Java3D's bounds tree over a c't-Sim parcours, which its IR pick walks (`sim.world.bounds_tree`); None for other worlds."""
-        if self._bounds_tree is not None:
-            self._walls = self._walls._replace(tree=self._bounds_tree.kernel(0, self._walls.spans))
+        """Java3D's bounds tree over a c't-Sim parcours, which its picks walk (`sim.world.bounds_tree`); None for other worlds."""
+        self._pick_tree = self._bounds_tree.kernel(0, self._walls.spans) if self._bounds_tree is not None else None
+        """That tree as the kernels take it (`layout.BoundsTree`), None for other worlds."""
         self.movables: list[pymunk.Body] = []
         self._movable_shapes: list[pymunk.Circle] = []
         self._round_bodies = True
@@ -236,7 +236,7 @@ class World:
             self.chassis.add(robot)
         if self._bounds_tree is not None:  # c't-Sim's bot joins its scene's bounds tree where it starts
             self._bounds_tree.insert_robot(index, (x, y, heading))
-            self._walls = self._walls._replace(tree=self._bounds_tree.kernel(len(self.robots), self._walls.spans))
+            self._pick_tree = self._bounds_tree.kernel(len(self.robots), self._walls.spans)
         self._stale = True
         return robot
 
@@ -310,13 +310,12 @@ class World:
         """The tables `plan` and `measure` change a step's motion and counts in."""
         bodies = layout.Bodies(self._bodies.row_index, layout.motion_rows(self._bodies.motion), st.circles)
         # what a world of one c't-Bot in a maze does not need (a crowd's circle grid, cylinder walls,
-        # c't-Sim's pick and bounds tree, robots keeping apart, c't-Sim's contact rule) is left out of
-        # its kernels: numba prunes it (`read_sensors`' rare_parts None) or it has a kernel of its own
+        # c't-Sim's pick, robots keeping apart, c't-Sim's contact rule) is left out of its kernels:
+        # numba prunes it (`read_sensors`' rare_parts None) or it has a kernel of its own
         # (`settle_meeting`), and a first run of the main job does not compile it
-        rare = len(st.circles) > CIRCLE_GRID_ABOVE or walls.boxes["cylinder"].any() or st.sensors["pick"].any() or walls.tree.lower.shape[0] > 0
-        rare_parts = True if rare else None
+        rare_parts = True if len(st.circles) > CIRCLE_GRID_ABOVE or walls.boxes["cylinder"].any() or st.sensors["pick"].any() else None
         settling = settle_meeting if len(st.stoppers) or (len(self.robots) > 1 and self.robots_meet) else settle
-        self._read_arguments = (layout.Sensing(st.sensors[:read], st.n_floor, self._lights, st.circles), floor, walls, ir.curves, ir.noise.kernel,
+        self._read_arguments = (layout.Sensing(st.sensors[:read], st.n_floor, self._lights, st.circles, self._pick_tree), floor, walls, ir.curves, ir.noise.kernel,
                                 rare_parts)  # fmt: skip
         self._settle_arguments = (st.robots, st.state, self._world, walls, floor, layout.Ground(st.contacts, st.anchored, st.fallen), bodies)
         self._glide_arguments = (st.robots, bodies, self._world)
@@ -420,9 +419,9 @@ class World:
         if pick:
             walls = self._walls
             spans = zip(walls.spans["start"], walls.spans["end"], walls.boxes["cylinder"])
-            if self._bounds_tree is not None:
-                move_robot_leaves(walls.tree, self.poses_view())
-                best = pick_tree((origin[0], origin[1], c, s, length), math.tan(cone), walls)
+            if self._pick_tree is not None:
+                move_robot_leaves(self._pick_tree, self.poses_view())
+                best = pick_tree((origin[0], origin[1], c, s, length), math.tan(cone), walls, self._pick_tree)
             else:
                 best = min((pick_wall((origin[0], origin[1], c, s, length), math.tan(cone), walls.vertices, a, b, round_) for a, b, round_ in spans), default=math.inf)
             best = min(best, self._cast(robot, origin, direction - cone, length, moving=True), self._cast(robot, origin, direction + cone, length, moving=True))

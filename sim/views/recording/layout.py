@@ -41,8 +41,11 @@ KEY_CHARACTER = 0.009
 map's size in the viewer's default layout): the map is framed on the world and labels keep their
 size in pixels, so shares of the world hold them at any world size. The key stands in for the
 error plots' legends, which would cover their data."""
-KEY_ROW = 0.06
-"""Height of one key entry (a line, its label centred below it, as rerun draws point labels), as a
+KEY_PIXEL = 0.00175
+"""One pixel of the map in the viewer's default layout at 1920x1080, as a share of the world's larger
+side (measured on screenshots: 40 px per KEY_ROW)."""
+KEY_ROW = 0.07
+"""Height of one key entry (a swatch, its label centred below it, as rerun draws point labels), as a
 share of the world's larger side (about 40 px in the viewer)."""
 BAND_LABEL = "3σ bands (thin lines)"
 """The key's entry for the error plots' bands: thin lines in their estimate's colour."""
@@ -106,9 +109,11 @@ def key_room(spec: WorldSpec, labels: Sequence[str]) -> float:
 
 def log_key(log: Any, spec: WorldSpec, entries: Sequence[tuple[str, palette.RGB, float]]) -> None:
     """Draw the map's colour key once, static under world/map/key, right of the world: per entry
-    (label, colour, line radius in points) a short line and, touching it below, its label (rerun
-    centres a point's label under the point), top down. Its colours and labels are the trails' and
-    the error plots' series', whose own legends stay hidden."""
+    (label, colour, line radius in points) a swatch, a short line in the entry's colour, and hung
+    from its lower edge its label in light text (rerun centres a point's label under the point and
+    boxes it in translucent grey: text in the series' own colours was hard to read there), top
+    down. Its colours and labels are the trails' and the error plots' series', whose own legends
+    stay hidden."""
     rr = lazy_rerun()
     xmin, ymin, xmax, ymax = spec.bounds
     size = max(xmax - xmin, ymax - ymin)
@@ -118,8 +123,9 @@ def log_key(log: Any, spec: WorldSpec, entries: Sequence[tuple[str, palette.RGB,
     heights = ymax - row * np.arange(len(entries))
     lines = [[(centre - half, y), (centre + half, y)] for y in heights]
     log("world/map/key/lines", rr.LineStrips2D(lines, colors=[rgb(c) for c in colours], radii=[-r for r in radii], draw_order=90.0), static=True)
-    log("world/map/key/labels", rr.Points2D([(centre, y - 0.005 * size) for y in heights], colors=[rgb(c) for c in colours], radii=-0.5, labels=list(labels),
-                                            show_labels=True, draw_order=91.0), static=True)  # fmt: skip
+    # each label's point (a pixel even at radius 0) lies in its swatch's lower half, drawn beneath it
+    anchors = [(centre, y - 0.5 * KEY_PIXEL * r * size) for y, r in zip(heights, radii)]
+    log("world/map/key/labels", rr.Points2D(anchors, colors=rgb(palette.KEY_TEXT), radii=0.0, labels=list(labels), show_labels=True, draw_order=89.0), static=True)
 
 
 def blueprint(world: WorldSpec, robots: dict[str, list[str]], groups: list[str], localising: Sequence[str] = (), key: Sequence[str] = ()) -> Any:

@@ -5,8 +5,9 @@ Layout (all on the timeline "sim_time", seconds of simulated time):
     world                              Transform3D scale (1, -1, 1): y up in rerun's y-down 2D view
     world/map/floor                    the map as an image (drawn like the PNG figures), static
     world/map/starts                   start poses (arrows), static
-    world/map/key/lines, labels        the colour key right of the map: truth, each estimate, the
-                                       error plots' 3σ bands (whose legends are hidden), static
+    world/map/key/lines, labels        the colour key right of the map, a swatch over each name:
+                                       truth, each estimate, the error plots' 3σ bands (whose
+                                       legends are hidden), static
     world/<robot>/body                 Transform3D: the true pose; body/outline is static in it
                                        (a chassis's polygon, else a circle); body/wheels of a
                                        general chassis: Arrows2D, as the steering turns
@@ -358,10 +359,10 @@ class Recorder(LiveStream):
         """The map's key, (label, colour, line radius in points) top down: each robot's truth
         ("truth" for a lone robot, else its name), each estimate once (its colour is the same for
         every robot, on the map and in the error plots), and the error plots' thin 3σ bands."""
-        truths = [(track.log.name if len(self._tracks) > 1 else "truth", self.colours.get(track.log.name, palette.TRUTH), 2.5) for track in self._tracks]
+        truths = [(track.log.name if len(self._tracks) > 1 else "truth", self.colours.get(track.log.name, palette.TRUTH), 4.0) for track in self._tracks]
         estimates = {label: palette.estimate_colour(label, track.estimates) for track in self._tracks for label in track.estimates}
         banded = any(track.log.uncertain_names for track in self._tracks)
-        return [*truths, *((label, colour, 2.5) for label, colour in estimates.items()), *([(BAND_LABEL, palette.KEY_NOTE, 1.0)] if banded else [])]
+        return [*truths, *((label, colour, 4.0) for label, colour in estimates.items()), *([(BAND_LABEL, palette.KEY_NOTE, 1.0)] if banded else [])]
 
     def _send(self, track: _Track, stop: int) -> None:
         """Send one robot's samples [track.start, stop) as columns."""

@@ -45,7 +45,7 @@ def settle_meeting(pose: np.ndarray, robots: np.ndarray, state: np.ndarray, worl
     return push(pose, robots, state, world, walls, floor, ground, bodies)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def push(pose: np.ndarray, robots: np.ndarray, state: np.ndarray, world: np.ndarray, walls: Walls, floor: Floor, ground: Ground,
          bodies: Bodies) -> tuple[bool, bool]:  # fmt: skip
     """The planned moves held at holes (`hold_at_holes`), and the force and torque that give each
@@ -55,7 +55,8 @@ def push(pose: np.ndarray, robots: np.ndarray, state: np.ndarray, world: np.ndar
     Returns whether any robot's `fallen` changed, and whether the step is quiet: it began with no
     robot touching a wall (`CLEAR`), as did the WORLD's quiet_after steps before it (its streak
     counts them; a negative quiet_after: never quiet). Then pymunk has no contact to solve and
-    none in its memory, so that `glide` moves the robots as pymunk's step would."""
+    none in its memory, so that `glide` moves the robots as pymunk's step would. (Inlined: a call
+    handing on the world's tables cost `settle` 0.1 µs, a hundredth of a lone c't-Bot's step.)"""
     here = world[0]
     move, alpha = state.move, state.alpha
     changed = hold_at_holes(pose, state, ground, floor)

@@ -9,7 +9,7 @@ import math
 import numba
 import numpy as np
 
-from sim.world.layout import GRID, Walls, no_bounds_tree
+from sim.world.layout import GRID, Walls
 
 _GRID = GRID.dtype  # (a dtype for the compiled code: it reads globals, not attributes of objects)
 
@@ -209,4 +209,4 @@ def gridded(vertices: np.ndarray, spans: np.ndarray, boxes: np.ndarray, cell: fl
     of `cell`s over them (`build_wall_grid`; an infinite cell: one cell of every wall) as the
     kernels take them."""
     frame, cells = build_wall_grid(boxes, cell)
-    return Walls(vertices, spans, boxes, frame, cells, no_bounds_tree())
+    return Walls(vertices, spans, boxes, frame, cells)

@@ -149,13 +149,14 @@ REACH = 100.0
 
 
 @numba.njit(cache=True)
-def pick_lamps(at: np.ndarray, look: np.ndarray, tan_spread: float, lights: np.ndarray, tree: BoundsTree) -> float:
+def pick_lamps(at: np.ndarray, look: np.ndarray, tan_spread: float, lights: np.ndarray, tree: BoundsTree | None) -> float:
     """Distance (m) c't-Sim's light pick reads from AT along LOOK of the nearest of the LIGHTS
-    (`layout.LIGHTS`, each `pick_lamp`), those Java3D's bounds tree lets it reach where the world
-    has one; inf if it sees none. The lamps are taken nearest first, and one whose sphere lies
-    wholly beyond the nearest find so far is skipped (every find lies on its sphere's mesh)."""
+    (`layout.LIGHTS`, each `pick_lamp`), those Java3D's bounds TREE lets it reach where the world
+    has one (None: it has none); inf if it sees none. The lamps are taken nearest first, and one
+    whose sphere lies wholly beyond the nearest find so far is skipped (every find lies on its
+    sphere's mesh)."""
     reached = np.zeros(lights.shape[0], np.bool_)
-    if tree.lower.shape[0] == 0:
+    if tree is None or tree.lower.shape[0] == 0:
         reached[:] = True
     else:
         o = np.array((at[0], at[1], at[2] + JAVA3D_FLOOR))

@@ -285,12 +285,11 @@ def leaves_met(o: np.ndarray, d: np.ndarray, tan_spread: float, tree: BoundsTree
 
 
 @numba.njit(cache=True)
-def pick_tree(ray: tuple[float, float, float, float, float], tan_spread: float, walls: Walls, cylinders: bool | None = True) -> float:
+def pick_tree(ray: tuple[float, float, float, float, float], tan_spread: float, walls: Walls, tree: BoundsTree, cylinders: bool | None = True) -> float:
     """Distance (m) c't-Sim's pick reads along RAY (sensor x, y, unit look x, y, length) of the
-    walls of a c't-Sim parcours: Java3D's walk of its bounds tree (`BHTree.doSelect`: a node's
+    walls of a c't-Sim parcours: Java3D's walk of its bounds TREE (`BHTree.doSelect`: a node's
     children only if the cone meets its box, right child first), each wall face or pillar side
     whose own box the cone meets picked (`pick_polygon`'s rule for one face, `pick_cylinder`); inf if it sees none."""
-    tree = walls.tree
     ox, oy, ux, uy, length = ray
     o = np.array((ox, oy, SENSOR_HEIGHT + JAVA3D_FLOOR))  # in Java3D's world, the floor 2 m down
     at = np.array((ox, oy, SENSOR_HEIGHT))  # in ctsim's, as the faces are
@@ -333,9 +332,12 @@ def robot_boxes(x: float, y: float, heading: float, shapes: np.ndarray, bottom: 
 
 
 @numba.njit(cache=True)
-def move_robot_leaves(tree: BoundsTree, pose: np.ndarray) -> None:
+def move_robot_leaves(tree: BoundsTree | None, pose: np.ndarray) -> None:
     """The bots' leaves of the bounds tree to their robots' poses (robots, 3; `CTBOT_SHAPES`), and
-    every box above them to its children's again, as Java3D updates its tree when a bot moves."""
+    every box above them to its children's again, as Java3D updates its tree when a bot moves.
+    None: the world has no tree (numba then compiles nothing else)."""
+    if tree is None:
+        return
     lower, upper = np.empty((CTBOT_SHAPES.shape[0], 3)), np.empty((CTBOT_SHAPES.shape[0], 3))
     for r in range(tree.robot_leaves.shape[0]):
         if tree.robot_leaves[r, 0] < 0:

@@ -91,21 +91,21 @@ def _circle_in_view(view: tuple, px: float, py: float, r: float, best: float) ->
 
 @numba.njit(cache=True)
 def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: np.ndarray, grid_above: int | None = CIRCLE_GRID_ABOVE,
-             cylinders: bool | None = True, picking: bool | None = True) -> None:  # fmt: skip
+             cylinders: bool | None = True, tree: BoundsTree | None = None, picking: bool | None = True) -> None:  # fmt: skip
     """Distance (m) from each IR ray's origin to the nearest point of a wall (convex polygons with
     bounding boxes, `Walls`) or a circle (CIRCLES; a sensor skips its own robot's, and every sensor
     a GHOST's) within the ray's cone (half-angle, rad) of its view and within `length`; inf if
     none. As `World.ray_distance`: per convex body the nearest point if it lies in the cone, else
     the first hit of an edge ray. A ray whose `pick` is set sees a wall as c't-Sim's Java3D cone
-    pick does (`pick.pick_wall`; in a c't-Sim parcours, whose walls carry Java3D's bounds tree,
-    `pick.pick_tree`).
+    pick does (`pick.pick_wall`; in a c't-Sim parcours, through Java3D's bounds TREE,
+    `pick.pick_tree`; None: the world has none, and numba compiles no tree walk).
 
     With more than `grid_above` circles, each sensor checks only the circles in the grid cells
     its cone's bounding box overlaps (a crowd would otherwise cost sensors x robots); the nearest
     distance is a minimum, so the grid gives the all-circles result bit for bit. None: never (numba
     then prunes the grid's code, which need not be compiled for a world of a few circles);
     `cylinders` None likewise for a world without cylinder walls (`pick.pick_wall`), `picking` None
-    for rays none of which picks (c't-Sim's pick is then left out). Walls are taken
+    for rays none of which picks (no pick is compiled then). Walls are taken
     from the walls' grid in the cells the cone's bounding box overlaps, in ascending order as a
     loop over every wall would meet them; only a wall whose box meets the cone's can give a
     distance within `length` (every nearest point and edge-ray hit that counts lies in the cone),
@@ -127,8 +127,8 @@ def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: 
         best = math.inf
         # a wall counts only where it meets the cone within `length` (inside the wall: at the apex)
         lo_x, lo_y, hi_x, hi_y = _cone_box(view, cone, length)
-        if picking is not None and picks[k] and walls.tree.lower.shape[0] > 0:  # a c't-Sim parcours: the walls its bounds tree lets the pick reach
-            best = pick_tree((ox, oy, cx, cy, length), math.tan(cone), walls, cylinders)
+        if tree is not None and picks[k] and tree.lower.shape[0] > 0:  # a c't-Sim parcours: the walls its bounds tree lets the pick reach
+            best = pick_tree((ox, oy, cx, cy, length), math.tan(cone), walls, tree, cylinders)
         else:
             for w in walls_near(lo_x, lo_y, hi_x, hi_y, walls.frame, walls.cells):
                 box = boxes[w]
@@ -227,13 +227,14 @@ def ir_values(distance: np.ndarray, sensors: np.ndarray, noise: Noise, curves: C
 
 
 @numba.njit(cache=True)
-def read_ir(pose: np.ndarray, sensors: np.ndarray, walls: Walls, circles: np.ndarray, curves: Curves, noise: Noise, out: Readout,
-            rare_parts: bool | None) -> None:  # fmt: skip
-    """Every IR reading of a world whose robots are all circles, in one call: the sensors' rays
-    (`ir_rays`), the robots (the first CIRCLES rows, positions taken from `pose`) and the other
-    circles and walls they see (`sense_ir`), and noise and curves (`ir_values`) into `out`'s raw
+def read_ir(pose: np.ndarray, sensing: Sensing, walls: Walls, curves: Curves, noise: Noise, out: Readout, rare_parts: bool | None) -> None:
+    """Every IR reading of a world whose robots are all circles, in one call: the IR sensors'
+    rays (the last len(out.believed) of SENSING's sensors, `ir_rays`), the robots (the first of
+    its circles, positions taken from `pose`) and the other circles and walls they see
+    (`sense_ir`, through its bounds tree), and noise and curves (`ir_values`) into `out`'s raw
     values and believed distances. `rare_parts` None: the world has no more circles than
     CIRCLE_GRID_ABOVE, no cylinder wall and no sensor of the pick view (numba then prunes their code)."""
+    sensors, circles = sensing.sensors[sensing.sensors.shape[0] - out.believed.shape[0] :], sensing.circles
     m = sensors.shape[0]
     origins, look, distance = np.empty((m, 2)), np.empty(m), np.empty(m)
     ir_rays(pose, sensors, origins, look)
@@ -241,24 +242,25 @@ def read_ir(pose: np.ndarray, sensors: np.ndarray, walls: Walls, circles: np.nda
         circles[i].x, circles[i].y = pose[i, 0], pose[i, 1]
     rays = Rays(origins, look, sensors.opening, sensors.owner, sensors.pick)
     if rare_parts is None:
-        sense_ir(rays, walls, circles, curves.length, distance, None, None, None)
+        sense_ir(rays, walls, circles, curves.length, distance, None, None, sensing.tree, None)
     else:
-        sense_ir(rays, walls, circles, curves.length, distance, CIRCLE_GRID_ABOVE, True, True)
+        sense_ir(rays, walls, circles, curves.length, distance, CIRCLE_GRID_ABOVE, True, sensing.tree, True)
     ir_values(distance, sensors, noise, curves, out.values, out.believed)
 
 
 @numba.njit(cache=True)
-def sense_light(pose: np.ndarray, sensors: np.ndarray, lights: np.ndarray, tree: BoundsTree, out: np.ndarray, picking: bool | None = True) -> None:
+def sense_light(pose: np.ndarray, sensors: np.ndarray, lights: np.ndarray, tree: BoundsTree | None, out: np.ndarray,
+                picking: bool | None = True) -> None:  # fmt: skip
     """LDR darkness (0..1023) of light SENSORS, `height` m up, looking horizontally along their
     body-frame `direction` (rad): the distance from the sensor to the surface of the nearest of
     the LIGHTS whose centre is within the sensor's half opening of the view axis in 3-D, over its
     `reach`, truncated; 1023 with none (c't-Sim `World.sensLight`). A sensor whose `pick` is set
     measures to what c't-Sim's Java3D pick finds on the lamps' mesh (`light_pick.pick_lamps`,
-    through the TREE of a c't-Sim parcours); `picking` None: none is (numba then prunes the pick)."""
+    through the TREE of a c't-Sim parcours; None in other worlds); `picking` None: none does (numba
+    then compiles no pick)."""
     owner = sensors.owner
     points = np.empty((sensors.shape[0], 2))
     to_world(pose, sensors.at, owner, points)
-    at, u = np.empty(3), np.empty(3)
     for k in range(points.shape[0]):
         sensor = sensors[k]
         nearest = math.inf
@@ -266,7 +268,7 @@ def sense_light(pose: np.ndarray, sensors: np.ndarray, lights: np.ndarray, tree:
         cx, cy = math.cos(look), math.sin(look)
         cos_limit = math.cos(sensor.opening)
         if picking is not None and sensor.pick:
-            at[0], at[1], at[2], u[0], u[1], u[2] = points[k, 0], points[k, 1], sensor.height, cx, cy, 0.0
+            at, u = np.array((points[k, 0], points[k, 1], sensor.height)), np.array((cx, cy, 0.0))  # (here: a world without picks allocates none)
             nearest = pick_lamps(at, u, math.tan(sensor.opening), lights, tree)
         else:
             for j in range(lights.shape[0]):
@@ -285,13 +287,11 @@ def read_sensors(pose: np.ndarray, sensing: Sensing, floor: Floor, walls: Walls,
     SENSORS rows are floor sensors (`sample_floor`), the last len(out.believed) IR sensors
     (`read_ir`), the rows between light sensors (`sense_light`); `out.values` gets each row's
     integer reading. A world that reads its IR sensors with pymunk passes only the floor and
-    light rows and no `believed`. `rare_parts`: as `read_ir`'s (None also leaves out moving c't-Sim's
-    bots in its bounds tree, which only the pick walks)."""
+    light rows and no `believed`. `rare_parts`: as `read_ir`'s."""
     sensors, values, believed = sensing.sensors, out.values, out.believed
     lo, hi = sensing.floor, sensors.shape[0] - believed.shape[0]
     sample_floor(pose, sensors[:lo], floor, values[:lo])
-    if rare_parts is not None and walls.tree.robot_leaves.shape[0] > 0:
-        move_robot_leaves(walls.tree, pose)  # (c't-Sim's bots in its scene's bounds tree, which its picks walk)
-    sense_light(pose, sensors[lo:hi], sensing.lights, walls.tree, values[lo:hi], rare_parts)
+    move_robot_leaves(sensing.tree, pose)  # (c't-Sim's bots in its scene's bounds tree, which its picks walk)
+    sense_light(pose, sensors[lo:hi], sensing.lights, sensing.tree, values[lo:hi], rare_parts)
     if believed.shape[0]:
-        read_ir(pose, sensors[hi:], walls, sensing.circles, curves, noise, Readout(values[hi:], believed), rare_parts)
+        read_ir(pose, sensing, walls, curves, noise, Readout(values[hi:], believed), rare_parts)
