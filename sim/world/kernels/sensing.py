@@ -91,7 +91,7 @@ def _circle_in_view(view: tuple, px: float, py: float, r: float, best: float) ->
 
 @numba.njit(cache=True)
 def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: np.ndarray, grid_above: int | None = CIRCLE_GRID_ABOVE,
-             cylinders: bool | None = True, tree: BoundsTree | None = None, picking: bool | None = True) -> None:  # fmt: skip
+             rare_parts: bool | None = True, tree: BoundsTree | None = None) -> None:  # fmt: skip
     """Distance (m) from each IR ray's origin to the nearest point of a wall (convex polygons with
     bounding boxes, `Walls`) or a circle (CIRCLES; a sensor skips its own robot's, and every sensor
     a GHOST's) within the ray's cone (half-angle, rad) of its view and within `length`; inf if
@@ -104,8 +104,8 @@ def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: 
     its cone's bounding box overlaps (a crowd would otherwise cost sensors x robots); the nearest
     distance is a minimum, so the grid gives the all-circles result bit for bit. None: never (numba
     then prunes the grid's code, which need not be compiled for a world of a few circles);
-    `cylinders` None likewise for a world without cylinder walls (`pick.pick_wall`), `picking` None
-    for rays none of which picks (no pick is compiled then). Walls are taken
+    `rare_parts` None likewise where no wall is a cylinder and no ray picks (numba then compiles
+    no pick: `pick.pick_wall`, `pick.pick_tree`). Walls are taken
     from the walls' grid in the cells the cone's bounding box overlaps, in ascending order as a
     loop over every wall would meet them; only a wall whose box meets the cone's can give a
     distance within `length` (every nearest point and edge-ray hit that counts lies in the cone),
@@ -127,16 +127,16 @@ def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: 
         best = math.inf
         # a wall counts only where it meets the cone within `length` (inside the wall: at the apex)
         lo_x, lo_y, hi_x, hi_y = _cone_box(view, cone, length)
-        if tree is not None and picks[k] and tree.lower.shape[0] > 0:  # a c't-Sim parcours: the walls its bounds tree lets the pick reach
-            best = pick_tree((ox, oy, cx, cy, length), math.tan(cone), walls, tree, cylinders)
+        if rare_parts is not None and tree is not None and picks[k] and tree.lower.shape[0] > 0:  # a c't-Sim parcours: the walls its bounds tree lets the pick reach
+            best = pick_tree((ox, oy, cx, cy, length), math.tan(cone), walls, tree, rare_parts)
         else:
             for w in walls_near(lo_x, lo_y, hi_x, hi_y, walls.frame, walls.cells):
                 box = boxes[w]
                 if box.xmin > hi_x or box.xmax < lo_x or box.ymin > hi_y or box.ymax < lo_y:
                     continue
                 start, end = spans[w].start, spans[w].end
-                if picking is not None and picks[k]:
-                    best = min(best, pick_wall((ox, oy, cx, cy, length), math.tan(cone), vertices, start, end, box.cylinder, cylinders))
+                if rare_parts is not None and picks[k]:
+                    best = min(best, pick_wall((ox, oy, cx, cy, length), math.tan(cone), vertices, start, end, box.cylinder, rare_parts))
                     continue
                 distance, qx, qy = polygon_distance(ox, oy, vertices, start, end)
                 if distance <= 0.0:
@@ -242,9 +242,9 @@ def read_ir(pose: np.ndarray, sensing: Sensing, walls: Walls, curves: Curves, no
         circles[i].x, circles[i].y = pose[i, 0], pose[i, 1]
     rays = Rays(origins, look, sensors.opening, sensors.owner, sensors.pick)
     if rare_parts is None:
-        sense_ir(rays, walls, circles, curves.length, distance, None, None, sensing.tree, None)
+        sense_ir(rays, walls, circles, curves.length, distance, None, None, sensing.tree)
     else:
-        sense_ir(rays, walls, circles, curves.length, distance, CIRCLE_GRID_ABOVE, True, sensing.tree, True)
+        sense_ir(rays, walls, circles, curves.length, distance, CIRCLE_GRID_ABOVE, True, sensing.tree)
     ir_values(distance, sensors, noise, curves, out.values, out.believed)
 
 
