@@ -73,6 +73,12 @@ def _blueprint(path) -> tuple[list[tuple[str, list[str]]], list[str]]:
     return views, overrides
 
 
+def _view_names(path) -> list[tuple[str, str]]:
+    """(title, origin) of each view of the recording's blueprint."""
+    columns = _blueprint_columns(path)
+    return [(values["ViewBlueprint:display_name"][0], values["ViewBlueprint:space_origin"][0]) for values in columns.values() if "ViewBlueprint:space_origin" in values]
+
+
 def _legends_shown(path) -> dict[str, bool]:
     """Origin of each plot with a legend setting -> whether its legend shows (rerun's default: it does)."""
     columns = _blueprint_columns(path)
@@ -217,10 +223,49 @@ def test_the_maps_key_names_the_error_plots_series_whose_legends_stay_hidden(tmp
             assert series.get("SeriesLines:colors", []) == [colour[label] for label in labels]
             assert legends.get(f"/errors/{log.name}/{plot}", False) is False, "an error plot shows its legend"
     assert any(origin.startswith("/errors/") for origin in legends) == estimates
+    titles = {origin: name for name, origin in _view_names(path)}
+    for log in result.robots:  # the first estimate wide beneath the rest, said in the title: one equal to it stays in sight
+        for plot in ("position", "heading") if estimates else ():
+            widths = _static(path, f"/errors/{log.name}/{plot}")["SeriesLines:widths"]
+            assert widths[0] >= widths[1] + 2.5 and len(set(widths[1:])) == 1, "a line 1.2 points wide on one of 4: 1.4 points of the first's colour each side"
+            assert f"{labels[0]} wide beneath" in titles[f"/errors/{log.name}/{plot}"]
     sensor_plots = [shown for origin, shown in legends.items() if origin.startswith("/sensors/")]
     assert sensor_plots and all(sensor_plots)  # their two to four series keep their small legends...
     for log in result.robots:  # ...of the channels' names only: each robot has plots of its own
         assert _static(path, f"/sensors/ir_raw/{log.name}/ir_raw")["SeriesLines:names"] == ["ir_left", "ir_right"]
+
+
+def _packed(colour) -> int:
+    """An RGB tuple as rerun stores a colour (0xRRGGBBAA, opaque)."""
+    r, g, b = colour
+    return (r << 24) | (g << 16) | (b << 8) | 0xFF
+
+
+@pytest.mark.parametrize("robots", [1, 3])
+def test_the_maps_labels_are_light_text_over_hidden_points_and_every_swatch_has_a_dark_rim(tmp_path, robots):
+    """rerun writes a point's label in the point's colour on a translucent grey box: a red or white
+    robot's name, a series' name, were hard to read there. Every label of the map (the key's, the
+    robots' names) is light text whose point lies beneath what covers it (a swatch, the floor); each
+    swatch has a dark rim, so that a white or yellow robot's shows on the light grey beside the map."""
+    from sim.views import palette
+
+    path = tmp_path / "run.rrd"
+    setups = [RobotSetup(CTBOT, FunctionController(_drive), start=(0.36 + 0.24 * k, 0.36, 0.0)) for k in range(robots)]
+    result = run(load_world("maze"), setups, duration=0.3, observers=[Recorder(path)])
+    light = [_packed(palette.LABEL_TEXT)]
+    floor = _static(path, "/world/map/floor")["EncodedImage:draw_order"][0]
+    names = [_static(path, f"/world/{log.name}/body/name") for log in result.robots] if robots > 1 else []
+    assert [name["Points2D:labels"] for name in names] == [[log.name] for log in result.robots[: len(names)]]
+    for name in names:
+        assert name["Points2D:colors"] == light and name["Points2D:draw_order"][0] < floor
+    assert robots == 1 or palette.ROBOTS[2] == (250, 250, 250), "the third robot is white (this test's case for the rim)"
+    key, swatches, edges = (_static(path, f"/world/map/key/{part}") for part in ("labels", "lines", "edges"))
+    assert key["Points2D:colors"] == light
+    assert edges["LineStrips2D:strips"] == swatches["LineStrips2D:strips"] and edges["LineStrips2D:colors"] == [_packed(palette.KEY_EDGE)]
+    for rim, width in zip(edges["LineStrips2D:radii"], swatches["LineStrips2D:radii"]):
+        assert rim <= width - 1.0 < 0, "a rim a point wide round each swatch (negative radii: points on screen)"
+    assert key["Points2D:draw_order"][0] < edges["LineStrips2D:draw_order"][0] < swatches["LineStrips2D:draw_order"][0]
+    assert max(palette.KEY_EDGE) < 64 and min(palette.LABEL_TEXT) > 192, "a dark rim; light text"
 
 
 def test_map_view_shows_the_y_flip(recorded):

@@ -58,9 +58,13 @@ NEUTRAL: RGB = (90, 110, 140)
 KEY_NOTE: RGB = (20, 20, 20)
 """An entry of the recording's colour key that is no estimate's or robot's (the error plots' thin
 3σ bands): dark, to read as a thin line beside the map."""
-KEY_TEXT: RGB = (255, 255, 255)
-"""The text of the recording's colour key, as rerun writes labels of its own (light on its grey
-label box); each entry's colour is its swatch's."""
+KEY_EDGE: RGB = (40, 40, 40)
+"""The rim round each swatch of the recording's colour key: a light robot colour (white, yellow)
+would fade into the light grey beside the map without it."""
+LABEL_TEXT: RGB = (255, 255, 255)
+"""The text of the recording's labels (its colour key, the robots' names on the map), as rerun
+writes labels of its own: light on its grey label box. Each entry's colour is its swatch's, each
+robot's its outline's; text in those colours was hard to read there (a red name, a white one)."""
 OUTCOMES: dict[str, RGB] = {"goal reached": GOAL_EDGE, "time limit": NEUTRAL, "fell": (70, 70, 70), "error": FAULT, "controller done": START}
 """How a sweep's runs ended (`sim.experiments.report.OUTCOMES`): the goal's green, grey-blue for
 running out of time, a hole's near black, a fault's red."""

@@ -132,6 +132,24 @@ class Robot:
         return np.array((p.x, p.y, self.body.angle))
 
 
+@dataclass(frozen=True)
+class ReadingsPlan:
+    """Where one robot's readings fields lie in the rows of `World.sensor_rows`' arrays: per field
+    of ARRAYS, (array name, its slice) or (None, ...) for a field not read so; `tallies` the
+    width of a tallies row. Plain data, so that a run's result keeps it without the world (a
+    pickled result sent to another process)."""
+
+    fields: tuple
+    tallies: int
+
+    def columns(self, values: np.ndarray, believed: np.ndarray, tallies: np.ndarray) -> dict[str, np.ndarray]:
+        """The robot's readings fields (Readings' names, each (samples, width)) out of samples of
+        the three arrays, each with a leading sample axis (views, no copies). A general chassis's
+        per-wheel encoders, steering and second mouse are not among them (`ChassisDrive.fill`)."""
+        rows = {"values": values, "believed": believed, "tallies": tallies.reshape(len(tallies), self.tallies)}  # (a run of no sample has rows of it too)
+        return {field: rows[row][:, cut] for field, (row, cut) in zip(ARRAYS, self.fields) if row is not None}
+
+
 class World:
     """A pymunk world built from a `WorldSpec`, with robots added by `add_robot`."""
 
@@ -360,12 +378,13 @@ class World:
                 "tallies": np.dtype((np.int64, st.tallies.shape))}  # fmt: skip
 
     def readings_columns(self, index: int, values: np.ndarray, believed: np.ndarray, tallies: np.ndarray) -> dict[str, np.ndarray]:
-        """Robot `index`'s readings fields (Readings' names, each (samples, width)) out of samples of
-        `sensor_rows`' arrays, each with a leading sample axis (views, no copies). A general chassis's
-        per-wheel encoders, steering and second mouse are not among them (`ChassisDrive.fill`)."""
+        """Robot `index`'s readings fields out of samples of `sensor_rows`' arrays (`ReadingsPlan.columns`)."""
+        return self.readings_plan(index).columns(values, believed, tallies)
+
+    def readings_plan(self, index: int) -> ReadingsPlan:
+        """Where robot `index`'s readings fields lie in the rows of `sensor_rows`' arrays."""
         st = self._batch()
-        rows = {"values": values, "believed": believed, "tallies": tallies.reshape(len(tallies), st.tallies.size)}  # (size: a run of no sample has rows of it too)
-        return {field: rows[row][:, cut] for field, (row, cut) in zip(ARRAYS, st.layout.plans[index]) if row is not None}
+        return ReadingsPlan(st.layout.plans[index], st.tallies.size)
 
     def read_all(self, rows: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> SensorFrame:
         """Every robot's sensor readings from the current state (the start of the next step):

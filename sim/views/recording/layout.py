@@ -49,6 +49,14 @@ KEY_ROW = 0.07
 share of the world's larger side (about 40 px in the viewer)."""
 BAND_LABEL = "3σ bands (thin lines)"
 """The key's entry for the error plots' bands: thin lines in their estimate's colour."""
+KEY_EDGE = 1.0
+"""Width (points) of the dark rim round each swatch of the key."""
+ERROR_LINE = 1.2
+"""Width (points) of an estimate's line in the error plots..."""
+ERROR_LINE_BENEATH = 4.0
+"""...but the first estimate's, drawn beneath the others (rerun draws an entity's series in their
+order): an estimate that equals it, as the firmware's (which counts the same ticks) equals the
+encoders', shows as a thin line on a wide one in the first's colour instead of hiding it."""
 
 
 def rgb(rgb: palette.RGB) -> tuple[int, int, int]:
@@ -107,13 +115,27 @@ def key_room(spec: WorldSpec, labels: Sequence[str]) -> float:
     return max(0.12, 0.05 + KEY_CHARACTER * max(map(len, labels), default=0)) * max(xmax - xmin, ymax - ymin)
 
 
+def error_widths(estimates: int) -> list[float]:
+    """Widths (points) of the error plots' lines of `estimates` estimates, in their order: the
+    first wide beneath the rest where there are several (ERROR_LINE_BENEATH)."""
+    return [ERROR_LINE_BENEATH if k == 0 and estimates > 1 else ERROR_LINE for k in range(estimates)]
+
+
+def light_labels(positions: Any, labels: Sequence[str], draw_order: float) -> Any:
+    """Points2D that only carry `labels`, in light text (palette.LABEL_TEXT): rerun centres a
+    point's label under the point and writes it in the point's colour on a translucent grey box,
+    where the colours of series and robots (a red name, a white one) were hard to read. Each point
+    is a pixel even at radius 0: draw it beneath what covers it (`draw_order`); its label shows."""
+    rr = lazy_rerun()
+    return rr.Points2D(positions, colors=rgb(palette.LABEL_TEXT), radii=0.0, labels=list(labels), show_labels=True, draw_order=draw_order)
+
+
 def log_key(log: Any, spec: WorldSpec, entries: Sequence[tuple[str, palette.RGB, float]]) -> None:
     """Draw the map's colour key once, static under world/map/key, right of the world: per entry
-    (label, colour, line radius in points) a swatch, a short line in the entry's colour, and hung
-    from its lower edge its label in light text (rerun centres a point's label under the point and
-    boxes it in translucent grey: text in the series' own colours was hard to read there), top
-    down. Its colours and labels are the trails' and the error plots' series', whose own legends
-    stay hidden."""
+    (label, colour, line radius in points) a swatch, a short line in the entry's colour with a dark
+    rim (a white or yellow robot's would fade into the light grey), and hung from its lower edge
+    its label in light text (`light_labels`), top down. Its colours and labels are the trails' and
+    the error plots' series', whose own legends stay hidden."""
     rr = lazy_rerun()
     xmin, ymin, xmax, ymax = spec.bounds
     size = max(xmax - xmin, ymax - ymin)
@@ -123,9 +145,17 @@ def log_key(log: Any, spec: WorldSpec, entries: Sequence[tuple[str, palette.RGB,
     heights = ymax - row * np.arange(len(entries))
     lines = [[(centre - half, y), (centre + half, y)] for y in heights]
     log("world/map/key/lines", rr.LineStrips2D(lines, colors=[rgb(c) for c in colours], radii=[-r for r in radii], draw_order=90.0), static=True)
-    # each label's point (a pixel even at radius 0) lies in its swatch's lower half, drawn beneath it
+    log("world/map/key/edges", rr.LineStrips2D(lines, colors=rgb(palette.KEY_EDGE), radii=[-(r + KEY_EDGE) for r in radii], draw_order=89.5), static=True)
+    # each label's point lies in its swatch's lower half, beneath it
     anchors = [(centre, y - 0.5 * KEY_PIXEL * r * size) for y, r in zip(heights, radii)]
-    log("world/map/key/labels", rr.Points2D(anchors, colors=rgb(palette.KEY_TEXT), radii=0.0, labels=list(labels), show_labels=True, draw_order=89.0), static=True)
+    log("world/map/key/labels", light_labels(anchors, labels, draw_order=89.0), static=True)
+
+
+def _error_styles(estimates: Sequence[str], band: str) -> str:
+    """What an error plot's lines mean, for its title (its legend is hidden): colours, the wide
+    first estimate (`error_widths`), the thin bands."""
+    beneath = f"{estimates[0]} wide beneath, " if len(estimates) > 1 else ""
+    return f"colours: the map's key, {beneath}thin: {band}"
 
 
 def blueprint(world: WorldSpec, robots: dict[str, list[str]], groups: list[str], localising: Sequence[str] = (), key: Sequence[str] = ()) -> Any:
@@ -148,8 +178,8 @@ def blueprint(world: WorldSpec, robots: dict[str, list[str]], groups: list[str],
     keyed = rrb.PlotLegend(visible=False)  # up to twelve series: the map's key names their colours instead
     errors = [
         rrb.Vertical(
-            rrb.TimeSeriesView(origin=f"/errors/{name}/position", name=f"{name}: position error (mm); colours: the map's key, thin: 3σ", plot_legend=keyed),
-            rrb.TimeSeriesView(origin=f"/errors/{name}/heading", name=f"{name}: heading error (deg); colours: the map's key, thin: ±3σ", plot_legend=keyed),
+            rrb.TimeSeriesView(origin=f"/errors/{name}/position", name=f"{name}: position error (mm); {_error_styles(estimates, '3σ')}", plot_legend=keyed),
+            rrb.TimeSeriesView(origin=f"/errors/{name}/heading", name=f"{name}: heading error (deg); {_error_styles(estimates, '±3σ')}", plot_legend=keyed),
             *([rrb.TimeSeriesView(origin=f"/localisation/{name}", name=f"{name}: scan score (0-1), lost (1)", plot_legend=legend)] if name in localising else []),
             name=f"errors: {name}",
         )

@@ -5,11 +5,12 @@ Layout (all on the timeline "sim_time", seconds of simulated time):
     world                              Transform3D scale (1, -1, 1): y up in rerun's y-down 2D view
     world/map/floor                    the map as an image (drawn like the PNG figures), static
     world/map/starts                   start poses (arrows), static
-    world/map/key/lines, labels        the colour key right of the map, a swatch over each name:
-                                       truth, each estimate, the error plots' 3σ bands (whose
-                                       legends are hidden), static
+    world/map/key/lines, edges, labels the colour key right of the map, a rimmed swatch over each
+                                       name: truth, each estimate, the error plots' 3σ bands
+                                       (whose legends are hidden), static
     world/<robot>/body                 Transform3D: the true pose; body/outline is static in it
-                                       (a chassis's polygon, else a circle); body/wheels of a
+                                       (a chassis's polygon, else a circle), so is body/name, the
+                                       robot's name where several share a run; body/wheels of a
                                        general chassis: Arrows2D, as the steering turns
     world/<robot>/chassis/icr          Points2D: the ICR of a general chassis's motion, in view
     world/<robot>/estimate/<est>       Transform3D: the estimated pose; estimate/<est>/outline static
@@ -19,7 +20,8 @@ Layout (all on the timeline "sim_time", seconds of simulated time):
     world/<robot>/ellipse/<est>        LineStrips2D, the 95 % ellipse of the estimate's position
                                        every ELLIPSE_EVERY samples (those with a covariance); the
                                        blueprint shows the last ELLIPSE_RECENT_S seconds
-    errors/<robot>/position            Scalars, |estimate - truth| (mm), one series per estimate
+    errors/<robot>/position            Scalars, |estimate - truth| (mm), one series per estimate (the
+                                       first wide beneath the others: `layout.error_widths`)
     errors/<robot>/position/band       Scalars, 3 sigma of the position error's major axis (mm)
     errors/<robot>/heading             Scalars, wrapped heading error (deg), one series per estimate
     errors/<robot>/heading/band_upper  Scalars, +3 sigma of the heading (deg); band_lower -3 sigma
@@ -39,6 +41,7 @@ from __future__ import annotations
 
 import logging
 import operator
+import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -48,11 +51,29 @@ import numpy as np
 
 from bots.sensor_kinds import BY_FIELD, KINDS
 from sim.kinematics import wrap_angle
+from sim.out_files import trouble
 from sim.views import palette
 from sim.views.chassis_view import ChassisLayer, body_outline, fault_text
 from sim.views.particles import ParticleLayer, localisers
 from sim.views.recording.arrow import ArrowOwned, lazy_rerun, strips, turn, xyz
-from sim.views.recording.layout import BAND_LABEL, ELLIPSE_EVERY, ELLIPSE_POINTS, FIELDS, SCALE, SENSOR_GROUPS, TIMELINE, TRAIL_EVERY, blueprint, ellipses, field_channels, log_key, log_world, rgb
+from sim.views.recording.layout import (
+    BAND_LABEL,
+    ELLIPSE_EVERY,
+    ELLIPSE_POINTS,
+    FIELDS,
+    SCALE,
+    SENSOR_GROUPS,
+    TIMELINE,
+    TRAIL_EVERY,
+    blueprint,
+    ellipses,
+    error_widths,
+    field_channels,
+    light_labels,
+    log_key,
+    log_world,
+    rgb,
+)
 from sim.views.recording.live import LiveStream
 from sim.world import IR_RAY_LENGTH, World
 
@@ -62,6 +83,11 @@ RAYS = next(kind for kind in KINDS if kind.rays)
 if TYPE_CHECKING:
     from sim.run.samples import RobotLog, RunResult
 
+FLUSH_WAIT_S = 300.0
+"""Longest wait (s) for rerun to write out what a run sent it: its flush, told of a file writer
+that died, sometimes waits for ever."""
+FOOTER = b"RRF2FOOT"
+"""What ends a whole .rrd file of this rerun (its footer's mark, some bytes before the end)."""
 CHUNK = 8000
 """Samples per `send_columns` batch. Each batch costs rerun's conversions once per entity (8,000
 samples cost a recorded run a quarter less than 4,000), and rerun keeps some 400 bytes per chunk
@@ -258,12 +284,15 @@ class Recorder(LiveStream):
             if self._live is not None:
                 self._check_live()
         finally:
+            failed: RuntimeError | None = None
             for rec in self.streams:
                 try:
-                    rec.flush()
+                    rec.flush(timeout_sec=FLUSH_WAIT_S)
                     rec.disconnect()
                 except RuntimeError as err:  # rerun's file writer died (disk full, I/O error): what it wrote stays
-                    self.write_error = f"{self.path}: {err}"
+                    failed = err
+            if self.streams and self.path is not None and not recording_whole(self.path):  # (rerun says why on its log, silenced: `quiet_rerun`)
+                self.write_error = f"{self.path}: {trouble(self.path) or failed or 'rerun stopped writing it before its end'}"
             self.streams, self._live = [], None
 
     # --- streams ----------------------------------------------------------------------------
@@ -327,7 +356,7 @@ class Recorder(LiveStream):
             own = rgb(self.colours.get(name, palette.TRUTH))
             self._log(f"{base}/body/outline", rr.LineStrips2D([outline, heading], colors=own, radii=-2.0, draw_order=60), static=True)
             if name in self.colours:
-                self._log(f"{base}/body/name", rr.Points2D([(0.0, 0.0)], colors=own, radii=-3.0, labels=[name], show_labels=True, draw_order=61), static=True)
+                self._log(f"{base}/body/name", light_labels([(0.0, 0.0)], [name], draw_order=-101.0), static=True)  # (its point beneath the floor)
             self._log(f"{base}/rays", rr.LineStrips2D.from_fields(colors=rgb(palette.RAY), radii=-0.75, draw_order=55), static=True)
             self._log(f"{base}/hits", rr.Points2D.from_fields(colors=rgb(palette.HIT), radii=-2.5, draw_order=56), static=True)
             self._log(f"{base}/trail/truth", rr.LineStrips2D.from_fields(colors=own, radii=-2.5, draw_order=48), static=True)
@@ -337,8 +366,8 @@ class Recorder(LiveStream):
                 self._log(f"{base}/estimate/{label}/outline", rr.LineStrips2D([0.6 * outline, 0.75 * np.array(heading)], colors=colour, radii=-1.2, draw_order=58), static=True)
             if track.estimates:  # one entity per kind of error, a series per estimate (one column each to send)
                 who = [f"{name} {label}" if several else label for label in track.estimates]
-                self._log(f"errors/{name}/position", rr.SeriesLines(colors=colours, names=who, widths=1.2), static=True)
-                self._log(f"errors/{name}/heading", rr.SeriesLines(colors=colours, names=who, widths=1.2), static=True)
+                self._log(f"errors/{name}/position", rr.SeriesLines(colors=colours, names=who, widths=error_widths(len(who))), static=True)
+                self._log(f"errors/{name}/heading", rr.SeriesLines(colors=colours, names=who, widths=error_widths(len(who))), static=True)
             uncertain = track.log.uncertain_names
             if uncertain:
                 band = [rgb(palette.estimate_colour(label, track.estimates)) for label in uncertain]
@@ -480,3 +509,14 @@ class _Messages(logging.Handler):
     def emit(self, record: logging.LogRecord) -> None:
         level = {"WARNING": "WARN", "CRITICAL": "ERROR"}.get(record.levelname, record.levelname)
         self.recorder._event(f"{record.name}: {record.getMessage()}", level)
+
+
+def recording_whole(path: Path) -> bool:
+    """Whether the recording at `path` ends with rerun's footer: one cut short (a full disk, the
+    file-size limit, a writer that died) does not, and rerun said so only on its log, if at all."""
+    try:
+        with open(path, "rb") as file:
+            file.seek(max(os.fstat(file.fileno()).st_size - 4 * len(FOOTER), 0))
+            return FOOTER in file.read()
+    except OSError:
+        return False
