@@ -116,6 +116,25 @@ class ReplacesJsonDumps:
         json.dumps = lambda *args, **kwargs: "{}"
         return Twist(0.1, 0.0)
 
+class StatusThatBlocks:
+    """A behaviour whose `status`, read by the run after each step, blocks for ever from its sixth step on
+    (and from the start where `at_once`)."""
+    at_once = False
+    def __init__(self):
+        self.steps = 0
+    def step(self, t, readings):
+        self.steps += 1
+        return Twist(0.1, 0.0)
+    @property
+    def status(self):
+        if self.at_once or self.steps > 5:
+            time.sleep(10**6)
+        from bots.controller import Status
+        return Status.RUNNING
+
+class StatusThatBlocksAtOnce(StatusThatBlocks):
+    at_once = True
+
 class LowersTheRecursionLimit:
     def step(self, t, readings):
         if t > 0.05:
@@ -151,6 +170,17 @@ def test_a_controller_that_ignores_signals_and_stops_the_timer_still_meets_the_s
     assert "took longer than the step time limit of 60 s at step 11" in capsys.readouterr().err
     assert summary(tmp_path / "out")["time"] == pytest.approx(0.11)
     assert signal.getsignal(signal.SIGINT) == before  # and the process has its own back
+
+
+@pytest.mark.parametrize(("name", "step"), [("StatusThatBlocks", 6), ("StatusThatBlocksAtOnce", 0)])
+def test_a_status_that_blocks_ends_the_run_as_its_step_would(name, step, controllers, tmp_path, capsys):
+    """The run reads a behaviour's `status` after every step (is it done?): user code, under the
+    step's time limit as its step is; the run's end reads none again (the status last read)."""
+    assert run(controllers, name, tmp_path / "out") == 1
+    err = capsys.readouterr().err
+    assert f"{name}' of ctbot took longer than the step time limit of 0.4 s in its status at step {step} (t = {step / 100:.2f} s)" in err
+    assert summary(tmp_path / "out")["reason"] == "error"
+    assert (tmp_path / "out" / "truth.tum").read_text().count("\n") == 1 + step + 1
 
 
 def test_os_exit_from_a_thread_ends_the_run_with_its_data(controllers, tmp_path, capsys):

@@ -124,6 +124,7 @@ def run(
         raise
     result = RunResult(world_spec, seed, dt, logs, samples)
     commands = np.zeros((len(robots), 2))
+    statuses: list[Status | None] = [None] * len(controllers)
     try:
         _notify(observers, "on_start", world, logs)  # inside: Ctrl-C while a recorder opens still ends the run
         if failed is not None:
@@ -132,11 +133,17 @@ def run(
         # per robot what its every step needs, looked up once
         drivers = [(i, robot.spec, log, controller, robot.spec.chassis is not None, command_per_speed(robot.spec))
                    for i, (robot, log, controller) in enumerate(zip(world.robots, logs, controllers))]  # fmt: skip
-        can_finish = all(isinstance(getattr(controller, "status", None), Status) for controller in controllers)  # a behaviour says when it is done
         running = Status.RUNNING
         awaited = [(log, world_spec.goals_of(robot.slot), k) for k, (log, robot) in enumerate(zip(logs, world.robots))] if world_spec.goals else []
         for step in range(steps + 1):
             frame = _sample(world, samples, estimators, odometry, clock, guard, counted)
+            # a behaviour says when it is done: its `status`, read (user code: a property may block) under the step clock as its steps
+            if step == 0:
+                statuses = _statuses(controllers, logs, step, frame.time, clock, counted, step_timeout)
+                told = [i for i, status in enumerate(statuses) if status is not None]
+                can_finish = len(told) == len(controllers)
+            elif told:
+                statuses = _statuses(controllers, logs, step, frame.time, clock, counted, step_timeout, told, statuses)
             at_goal = awaited and _reached_goals(awaited, world.poses_view(), frame.time) and until_goal
             if at_goal:
                 result.reason = Ending.GOAL
@@ -144,13 +151,9 @@ def run(
                 on_sample(world, logs)
             if at_goal:
                 break
-            if can_finish:
-                for controller in controllers:
-                    if controller.status is running:
-                        break
-                else:
-                    result.reason = Ending.DONE
-                    break
+            if can_finish and running not in statuses:
+                result.reason = Ending.DONE
+                break
             if stop_when is not None and (verdict := stop_when(world, logs)):
                 result.reason, result.verdict = Ending.JUDGED, str(verdict)
                 break
@@ -201,9 +204,9 @@ def run(
         counted.__exit__()
         result.notes = list(guard.notes.values())
         samples.settle()
-        for robot, log, controller in zip(world.robots, logs, controllers):
+        for robot, log, status in zip(world.robots, logs, statuses):
             log.collisions, log.fell = robot.collisions, robot.fallen
-            log.status = controller.status.value if isinstance(getattr(controller, "status", None), Status) else None
+            log.status = status.value if status is not None else None  # (as last read: a read now could block past every guard)
         _notify(observers, "on_end", result)
     return result
 
@@ -318,9 +321,29 @@ def _who(logs: list[RobotLog]) -> str:
     return f"a controller (of {', '.join(log.name for log in logs[:5])}{', ...' if len(logs) > 5 else ''})"
 
 
-def _failure(err: BaseException, log: RobotLog, step: int, time: float, step_timeout: float | None) -> str:
-    """The one line that says how a robot's controller ended the run."""
-    when = f"at step {step} (t = {time:.2f} s)"
+def _statuses(controllers: list[Controller], logs: list[RobotLog], step: int, time: float, clock: StepClock, counted: Counting,
+              step_timeout: float | None, which: list[int] | None = None, last: list[Status | None] | None = None) -> list[Status | None]:
+    """Each controller's `status` (None: it has none), read anew for those `which` (all: None), the
+    rest as `last`; each read a call of user code under the step clock as a step is, whatever it
+    raises (a timeout too) its controller's end of the run (`_Stop`)."""
+    statuses = list(last) if last is not None else [None] * len(controllers)
+    for i in range(len(controllers)) if which is None else which:
+        try:
+            clock.begin()
+            status = getattr(controllers[i], "status", None)
+            statuses[i] = status if isinstance(status, Status) else None
+            clock.busy = 0
+        except BaseException as err:
+            if counted.by_signal(err):
+                raise
+            clock.busy = 0
+            raise _Stop(_failure(err, logs[i], step, time, step_timeout, "in its status ")) from None
+    return statuses
+
+
+def _failure(err: BaseException, log: RobotLog, step: int, time: float, step_timeout: float | None, part: str = "") -> str:
+    """The one line that says how a robot's controller ended the run (`part`: where in it, if not its step)."""
+    when = f"{part}at step {step} (t = {time:.2f} s)"
     if isinstance(err, BadCommand):
         return f"controller {log.controller_name!r} of {log.name} returned a bad command {when}: {err}"
     if isinstance(err, ControllerStopped):
