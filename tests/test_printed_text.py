@@ -11,7 +11,9 @@ import resource
 import subprocess
 import sys
 import textwrap
+import threading
 from pathlib import Path
+from types import SimpleNamespace
 
 from hypothesis import given
 from hypothesis import strategies as st
@@ -21,6 +23,7 @@ from bots.ctbot import CTBOT
 from sim import sanitize
 from sim.out_files import trouble
 from sim.run.loop import RobotSetup, run
+from sim.views.recording import recorder as recorder_module
 from sim.views.recording.recorder import Recorder, recording_whole
 from sim.world.files import load_world
 
@@ -86,6 +89,43 @@ def test_a_recording_without_reruns_footer_is_said_cut_short_and_why(tmp_path: P
     """, fsize=path.stat().st_size)
     assert done.stdout == f"{path.stat().st_size / 1e6:.1f} MB written, and the file-size limit (ulimit -f) is {path.stat().st_size / 1e6:.1f} MB\n", done.stderr
     assert trouble(tmp_path / "gone" / "run.rrd") == "its folder is gone"
+
+
+class _Stuck:
+    """A recording stream whose flush waits for ever, as rerun's did in half of the tries once its
+    file writer died (the file-size limit): released at the test's end."""
+
+    def __init__(self) -> None:
+        self.released = threading.Event()
+        self.flushed = threading.Event()
+
+    def flush(self, timeout_sec: float) -> None:
+        self.flushed.set()
+        self.released.wait()
+
+    def disconnect(self) -> None:
+        pass
+
+
+def test_a_recordings_end_that_waits_for_ever_once_its_disk_is_full_is_given_up(tmp_path: Path, monkeypatch) -> None:
+    """Decided by no clock: the stall allowed is none, and the disk said full (`trouble`): the
+    recorder's close returns while rerun's flush still waits, saying the recording is incomplete
+    and why; rerun's own end at the process's exit, which would wait too, is called off."""
+    path = tmp_path / "run.rrd"
+    path.write_bytes(b"rrd without its footer")
+    called_off = []
+    monkeypatch.setattr(recorder_module, "STALL_S", 0.0)
+    monkeypatch.setattr(recorder_module, "trouble", lambda p: "the disk holding it is full (0.0 MB free)")
+    monkeypatch.setattr(recorder_module, "lazy_rerun", lambda: SimpleNamespace(unregister_shutdown=lambda: called_off.append(True)))
+    recorder, stuck = Recorder(path), _Stuck()
+    recorder.streams = [stuck]
+    try:
+        recorder.close()
+        assert stuck.flushed.is_set() and not stuck.released.is_set()
+        assert recorder.write_error == f"{path}: the disk holding it is full (0.0 MB free)" and called_off == [True]
+        assert recorder.streams == []
+    finally:
+        stuck.released.set()
 
 
 def test_rerun_is_imported_with_its_own_log_lines_off_unless_asked_for() -> None:

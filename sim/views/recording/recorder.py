@@ -42,6 +42,7 @@ from __future__ import annotations
 import logging
 import operator
 import os
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -86,6 +87,10 @@ if TYPE_CHECKING:
 FLUSH_WAIT_S = 300.0
 """Longest wait (s) for rerun to write out what a run sent it: its flush, told of a file writer
 that died, sometimes waits for ever."""
+STALL_S = 10.0
+"""Longest wait (s) for the end of a recording (rerun's flush and close) while its file does not
+grow and its disk is full or its file-size limit reached (`trouble`): once its file writer died
+so, the close waited for ever in half of the tries (in every one of `ctsim run`'s)."""
 FOOTER = b"RRF2FOOT"
 """What ends a whole .rrd file of this rerun (its footer's mark, some bytes before the end)."""
 CHUNK = 8000
@@ -284,13 +289,9 @@ class Recorder(LiveStream):
             if self._live is not None:
                 self._check_live()
         finally:
-            failed: RuntimeError | None = None
-            for rec in self.streams:
-                try:
-                    rec.flush(timeout_sec=FLUSH_WAIT_S)
-                    rec.disconnect()
-                except RuntimeError as err:  # rerun's file writer died (disk full, I/O error): what it wrote stays
-                    failed = err
+            failed: Exception | None = None
+            for k, rec in enumerate(self.streams):  # (the file's stream first, where there is one)
+                failed = _finish(rec, self.path if k == 0 else None) or failed
             if self.streams and self.path is not None and not recording_whole(self.path):  # (rerun says why on its log, silenced: `quiet_rerun`)
                 self.write_error = f"{self.path}: {trouble(self.path) or failed or 'rerun stopped writing it before its end'}"
             self.streams, self._live = [], None
@@ -496,6 +497,41 @@ class Recorder(LiveStream):
         rays = np.stack((origin, end), axis=2).reshape(2 * n * k, 2)  # each ray from its sensor to its end
         self._columns(f"world/{track.log.name}/rays", times, rr.LineStrips2D.columns(strips=strips(rays, np.arange(0, 2 * n * k + 1, 2))).partition(np.full(n, k)))
         self._columns(f"world/{track.log.name}/hits", times, rr.Points2D.columns(positions=end[hit]).partition(hit.sum(axis=1)))
+
+
+def _finish(rec: Any, path: Path | None) -> Exception | None:
+    """Flush and close a recording stream, in a thread of its own (rerun's file writer, once dead,
+    can leave both waiting for ever): waited for while its file at `path` grows, and after it
+    stopped growing STALL_S where its disk is full or its size limit reached (`trouble`), else
+    FLUSH_WAIT_S (no file: FLUSH_WAIT_S in all). What failed (rerun's writer died: what it wrote
+    stays), if anything."""
+    failed: list[RuntimeError] = []
+
+    def end() -> None:
+        try:
+            rec.flush(timeout_sec=FLUSH_WAIT_S)
+            rec.disconnect()
+        except RuntimeError as err:  # rerun's file writer died (disk full, I/O error): what it wrote stays
+            failed.append(err)
+
+    thread = threading.Thread(target=end, name="ctsim recording's end", daemon=True)
+    thread.start()
+    size, since = _size(path), time.monotonic()
+    while thread.join(0.25) or thread.is_alive():
+        if (now := _size(path)) != size:
+            size, since = now, time.monotonic()
+        elif time.monotonic() - since > FLUSH_WAIT_S or (time.monotonic() - since > STALL_S and path is not None and trouble(path)):
+            lazy_rerun().unregister_shutdown()  # (rerun's own end at the process's exit would wait for it too)
+            return TimeoutError("rerun stopped writing it and did not finish")
+    return failed[0] if failed else None
+
+
+def _size(path: Path | None) -> int:
+    """The size of the file at `path` (-1: none, or unreadable)."""
+    try:
+        return os.stat(path).st_size if path is not None else -1
+    except OSError:
+        return -1
 
 
 class _Messages(logging.Handler):
