@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import errno
 import os
+import resource
 import secrets
 import stat
 from collections.abc import Iterator
@@ -40,6 +41,33 @@ def kind(mode: int) -> str:
     kinds = ((stat.S_ISLNK, "a symbolic link"), (stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a named pipe"),
              (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"), (stat.S_ISSOCK, "a socket"))
     return next((name for test, name in kinds if test(mode)), "a regular file")
+
+
+NEARLY_FULL = 64 << 20
+"""Bytes left (on a disk, or under the file-size limit) below which a file that stopped taking
+writes is said to have met that bound: a writer's chunk can be that large."""
+
+
+def trouble(path: Path) -> str:
+    """What the system says of a file that stopped taking writes through another program's writer
+    (rerun's), which said why only on its own log: its folder gone, its disk (nearly) full, or
+    the file-size limit (`ulimit -f`) (nearly) reached; '' when none of these."""
+    folder = Path(path).parent
+    if not folder.is_dir():
+        return "its folder is gone"
+    limit = resource.getrlimit(resource.RLIMIT_FSIZE)[0]
+    try:
+        size = os.lstat(path).st_size
+    except OSError:
+        size = 0
+    if limit != resource.RLIM_INFINITY and limit - size < NEARLY_FULL:
+        return f"{size / 1e6:.1f} MB written, and the file-size limit (ulimit -f) is {limit / 1e6:.1f} MB"
+    try:
+        disk = os.statvfs(folder)
+    except OSError:
+        return ""
+    free = disk.f_bavail * disk.f_frsize
+    return f"the disk holding it is full ({free / 1e6:.1f} MB free)" if free < NEARLY_FULL else ""
 
 
 _TALLIES: list[list[Path]] = []
@@ -83,10 +111,15 @@ def temporary_beside(path: Path) -> Iterator[Path]:
 def replacing(path: Path, text: bool = False, newline: str | None = None) -> Iterator[IO]:
     """An open file whose content replaces `path` when the block ends without an error
     (`temporary_beside`); binary unless `text` (UTF-8)."""
-    with temporary_beside(path) as temporary:
-        descriptor = os.open(temporary, os.O_WRONLY | NOFOLLOW)
-        with os.fdopen(descriptor, "w" if text else "wb", **({"encoding": "utf-8", "newline": newline} if text else {})) as file:
-            yield file
+    try:
+        with temporary_beside(path) as temporary:
+            descriptor = os.open(temporary, os.O_WRONLY | NOFOLLOW)
+            with os.fdopen(descriptor, "w" if text else "wb", **({"encoding": "utf-8", "newline": newline} if text else {})) as file:
+                yield file
+    except OSError as err:
+        if err.filename is None:  # (a write to a full disk names no file: the one it was for)
+            err.filename = os.fspath(path)
+        raise
 
 
 def write_bytes(path: Path, data: bytes) -> Path:

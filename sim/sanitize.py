@@ -10,7 +10,9 @@ one forged 600 kB field cannot fill a report. Standard library only.
 from __future__ import annotations
 
 import json
+import re
 import unicodedata
+from typing import Any
 
 LONG = 2000
 """Characters a field keeps by default before it is cut (`truncate`)."""
@@ -47,6 +49,32 @@ def terminal(text: str, limit: int = LONG, lines: bool = True) -> str:
     breaks and tabs kept when `lines` (a block of output), escaped too when not (a name on one
     line, so that a newline cannot forge another line); cut at `limit`."""
     return escape(truncate(text, limit), "\n\t" if lines else "")
+
+
+_ASCII_CONTROLS = re.compile("[\x00-\x08\x0b\x0c\x0e-\x1f\x7f]")
+"""The unsafe characters of an ASCII text that `Terminal` escapes (most of what it gets has none)."""
+
+
+class Terminal:
+    """A text stream (the command line's stderr) that writes through `stream` with every unsafe
+    character escaped (`escape`; line breaks, tabs and carriage returns kept: a progress bar
+    redraws its line): what libraries print there (warnings of numba, pyarrow or Dask, log
+    records, a traceback quoting a file's name) gets what ctsim's own messages get. Whatever else
+    is asked of it, `stream` answers."""
+
+    def __init__(self, stream: Any):
+        self.stream = stream
+
+    def write(self, text: str) -> int:
+        self.stream.write(text if text.isascii() and not _ASCII_CONTROLS.search(text) else escape(text, "\n\t\r"))
+        return len(text)
+
+    def writelines(self, lines: Any) -> None:
+        for line in lines:
+            self.write(line)
+
+    def __getattr__(self, key: str) -> Any:
+        return getattr(self.stream, key)
 
 
 def name(text: str, limit: int = 200) -> str:

@@ -6,6 +6,7 @@ from __future__ import annotations
 import re
 import subprocess
 import sys
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -44,6 +45,42 @@ def test_a_robot_result_pickles_with_its_arrays():
     np.testing.assert_array_equal(copy.truth, robot.truth)
     assert all(np.array_equal(copy.estimates[k], robot.estimates[k]) for k in robot.estimates)
     assert all(np.array_equal(copy.covariances[k], robot.covariances[k]) for k in robot.covariances)
+
+
+class _Drifts:
+    """A Python estimator (its poses in columns of its robot's own), whose object stays behind."""
+
+    name = "drifts"
+
+    def reset(self, robot, pose):
+        self.pose = np.array(pose, dtype=float)
+        self.lock = threading.Lock()  # (cannot be pickled)
+
+    def update(self, readings):
+        self.pose = self.pose + 1e-4
+
+
+def test_a_whole_result_pickles_with_its_samples_and_reads_them_back_alike():
+    """A whole result crosses to another process (pickle, as multiprocessing and joblib send it)
+    with the samples its run's file held (no file: the copy reads them from its bytes), without
+    the world and the estimators' objects (live simulation, user code): the same times, summary,
+    metrics, trajectories of the batch's and of a robot's own columns, and readings, read-only."""
+    import pickle
+
+    result = simulate("square", Bot("square"), Bot("wander", start=(0.5, 0.5, 0.0)), duration=0.5, seed=3, estimators=[_Drifts])
+    copy = pickle.loads(pickle.dumps(result))
+    assert copy.reason == result.reason and np.array_equal(copy.time, result.time) and not copy.raw.time.flags.writeable
+    np.testing.assert_equal(copy.summary(), result.summary())  # (nan where a metric has no value: equal here)
+    assert copy.metrics_frame().equals(result.metrics_frame())
+    for mine, theirs in zip(result.raw.robots, copy.raw.robots):
+        assert theirs.estimators == [] and "drifts" in theirs.estimate_names
+        np.testing.assert_equal(theirs.truth_array(), mine.truth_array())
+        np.testing.assert_equal(theirs.estimate_arrays(), mine.estimate_arrays())
+        np.testing.assert_equal(theirs.covariance_arrays(), mine.covariance_arrays())
+        np.testing.assert_equal(theirs.readings(slice(None)), mine.readings(slice(None)))
+    np.testing.assert_equal(copy.robots[1].estimates, result.robots[1].estimates)
+    again = pickle.loads(pickle.dumps(copy))  # (a copy sent on again)
+    np.testing.assert_equal(again.raw.robots[1].readings(slice(2, 9)), result.raw.robots[1].readings(slice(2, 9)))
 
 
 def test_same_seed_same_trajectory_and_controller_objects():

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import errno
 import os
 import signal
 import sys
@@ -27,7 +28,12 @@ from sim.cli.options import EXIT_FAILED, EXIT_INTERRUPTED, EXIT_TERMINATED, EXIT
 from sim.cli.output import held
 from sim.errors import UserError
 from sim.run.ending import Terminated
+from sim.views.recording.arrow import quiet_rerun
 from sim.world import compiling
+
+NO_ROOM = (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
+"""Errors of a full disk, a quota or the file-size limit (`ulimit -f`): the machine's, not a bug,
+whichever file of ctsim's met them."""
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -40,7 +46,19 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the `ctsim` console script; returns the exit code."""
+    """Entry point of the `ctsim` console script; returns the exit code. What the command prints
+    on stderr, its own lines and those of the libraries it uses, is escaped as ctsim's messages
+    are (`sanitize.Terminal`); rerun's own log lines, which its Rust side writes past that, are
+    silenced (`quiet_rerun`)."""
+    quiet_rerun()
+    stderr, sys.stderr = sys.stderr, sanitize.Terminal(sys.stderr)
+    try:
+        return _command(argv)
+    finally:
+        sys.stderr = stderr
+
+
+def _command(argv: list[str] | None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     if args.command is None:
@@ -58,10 +76,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"ctsim: error: {sanitize.name(str(err), 2000)}", file=sys.stderr)
         return err.exit_status
     except OSError as err:
-        if not _names_user_path(err, args):
+        if not (_names_user_path(err, args) or err.errno in NO_ROOM):
             return _bug()
         where = f"{err.filename}: " if err.filename else ""  # no errno, no repr
-        print(f"ctsim: error: {where}{err.strerror or err}", file=sys.stderr)
+        print(f"ctsim: error: {sanitize.name(f'{where}{err.strerror or err}', 2000)}", file=sys.stderr)
         return EXIT_USER
     except KeyboardInterrupt as stop:  # outside a run (a run keeps its results and ends normally)
         terminated = isinstance(stop, Terminated)

@@ -105,20 +105,20 @@ def finish(result, out: Path, options: dict[str, Any], report: bool = True, metr
             write_run_report(out)
         except (OSError, NotAFileOfItsOwn) as err:  # (a full disk; a folder or link planted at a file's name while it ran)
             kept = ", ".join(sanitize.name(p.name) for p in _written(folder, tally)) or "nothing"
-            said = err.strerror if isinstance(err, OSError) and err.strerror else sanitize.name(str(err), 1000)
+            said = sanitize.name(err.strerror if isinstance(err, OSError) and err.strerror else str(err), 1000)
             print(f"ctsim: error: writing the run's results into {sanitize.name(str(out), 1000)}: {said} (written: {kept})", file=sys.stderr)
             return EXIT_FAILED
     print(table(summary))
     for note in getattr(result, "notes", ()):  # what the run's guards put back (`sim.guards`)
-        print(f"ctsim: note: {note}", file=sys.stderr)
+        print(f"ctsim: note: {sanitize.name(note, 2000)}", file=sys.stderr)
     for log in result.robots:  # what a general chassis did other than asked (projected twists)
         for message, count in log.notes.values():
-            print(f"ctsim: note: {log.name}: {message} ({count} step{'s' if count != 1 else ''} like it)", file=sys.stderr)
+            print(f"ctsim: note: {sanitize.name(f'{log.name}: {message}', 2000)} ({count} step{'s' if count != 1 else ''} like it)", file=sys.stderr)
     print("wrote:")
     for path in _written(folder, tally):
         print(f"  {sanitize.name(str(path), 1000)}")
     if recording_error is not None:
-        print(f"ctsim: error: the recording is incomplete: {recording_error}", file=sys.stderr)
+        print(f"ctsim: error: the recording is incomplete: {sanitize.name(recording_error, 2000)}", file=sys.stderr)
         return EXIT_FAILED
     if result.reason == Ending.ERROR:
         print(f"ctsim: run stopped: {sanitize.name(result.error, 2000)}", file=sys.stderr)

@@ -17,6 +17,7 @@ from bots.readings import Readings, SensorFrame
 from bots.spec import RobotSpec
 from sim.run.ending import Ending, RunError
 from sim.world import World
+from sim.world.physics import ReadingsPlan
 from sim.world.spec import WorldSpec
 
 _UPPER = (np.array([0, 0, 0, 1, 1, 2]), np.array([0, 1, 2, 1, 2, 2]))
@@ -54,7 +55,24 @@ class _Store:
         self._file = tempfile.TemporaryFile()
         self.descriptor = self._file.fileno()
         self.size = 0
-        self._whole: mmap.mmap | None = None
+        self._whole: mmap.mmap | bytes | None = None
+
+    def __getstate__(self) -> dict:
+        """Pickled as the bytes its file holds (a result sent to another process: multiprocessing,
+        joblib): the copy reads its rows from those (`whole`), with no file of its own."""
+        if self._whole is not None:
+            return {"size": self.size, "data": bytes(self._whole)}
+        chunks, at = [], 0
+        while at < self.size:
+            chunk = os.pread(self.descriptor, min(self.size - at, 1 << 26), at)
+            if not chunk:
+                break
+            chunks.append(chunk)
+            at += len(chunk)
+        return {"size": self.size, "data": b"".join(chunks)}
+
+    def __setstate__(self, state: dict) -> None:
+        self._file, self.descriptor, self.size, self._whole = None, -1, state["size"], state["data"]  # (-1: a write fails as on a disk error)
 
     @property
     def whole(self) -> bool:
@@ -72,7 +90,7 @@ class _Store:
     def settle(self) -> None:
         """Once every row is in the file: a file of WHOLE bytes at most is read through one
         mapping from then on, and its own descriptor closed (a result kept holds the mapping's)."""
-        if self.size <= WHOLE:
+        if self.size <= WHOLE and self._whole is None:
             try:
                 self._whole = mmap.mmap(self.descriptor, self.size, access=mmap.ACCESS_READ)
             except OSError:  # (no address space left for it: read by range, as a longer run)
@@ -113,6 +131,10 @@ class _Columns:
         """Per column, the rows [0, kept) in the file."""
         self.last: dict[str, tuple[int, int, np.ndarray]] = {}
         """Per column, the rows last mapped (start, stop, rows), while rows are mapped by range."""
+
+    def __getstate__(self) -> dict:
+        """Pickled without the rows last mapped (views of the file's mappings)."""
+        return {**self.__dict__, "last": {}}
 
     def local(self, n: int) -> int:
         """Where the arrays take the run's row `n` (rows are written in order): a full window is
@@ -291,6 +313,8 @@ class RobotLog:
         """The robot's estimators stepped in Python (none where the batch steps its defaults), for
         observers that draw what one holds beyond its pose (a localiser's particles)."""
         self._samples, self._world = samples, world
+        self._plan: ReadingsPlan | None = None
+        """Where its readings lie in the run's rows, once its world is let go (`__getstate__`)."""
         uncertain = list(estimators if uncertain is None else uncertain)
         self._columns: _Columns | None = None
         """The robot's own columns: all its poses (slot None), or its `extra` estimators'."""
@@ -307,6 +331,13 @@ class RobotLog:
             self._columns = own = samples.new_columns({"poses": row((len(extra), 3)), "covariances": row((len(extra_uncertain), COVARIANCES))})
             self._estimates |= {label: (own, "poses", (k,)) for k, label in enumerate(extra)}
             self._uncertain |= {label: (own, "covariances", (k,)) for k, label in enumerate(extra_uncertain)}
+
+    def __getstate__(self) -> dict:
+        """Pickled (with its run's result: a result sent to another process) without its world and
+        its estimators (live objects: the simulation, the user's code), where its readings lie
+        in the rows kept instead (`readings`)."""
+        plan = self._plan or self._world.readings_plan(self.index)
+        return {**self.__dict__, "_world": None, "_plan": plan, "estimators": []}
 
     def goal_outcome(self, duration: float) -> str:
         """Whether and when the robot reached its goal, in the words the table, report.html and
@@ -390,7 +421,8 @@ class RobotLog:
         """This robot's readings of samples `rows` as columns: Readings' field name -> (n, width)
         array (not a general chassis's per-wheel fields)."""
         columns, span = self._samples.columns, self._samples.rows(rows)
-        return self._world.readings_columns(self.index, columns.view("values", *span), columns.view("believed", *span), columns.view("tallies", *span))
+        plan = self._plan or self._world.readings_plan(self.index)
+        return plan.columns(columns.view("values", *span), columns.view("believed", *span), columns.view("tallies", *span))
 
 
 class RunResult:

@@ -132,6 +132,24 @@ class Robot:
         return np.array((p.x, p.y, self.body.angle))
 
 
+@dataclass(frozen=True)
+class ReadingsPlan:
+    """Where one robot's readings fields lie in the rows of `World.sensor_rows`' arrays: per field
+    of ARRAYS, (array name, its slice) or (None, ...) for a field not read so; `tallies` the
+    width of a tallies row. Plain data, so that a run's result keeps it without the world (a
+    pickled result sent to another process)."""
+
+    fields: tuple
+    tallies: int
+
+    def columns(self, values: np.ndarray, believed: np.ndarray, tallies: np.ndarray) -> dict[str, np.ndarray]:
+        """The robot's readings fields (Readings' names, each (samples, width)) out of samples of
+        the three arrays, each with a leading sample axis (views, no copies). A general chassis's
+        per-wheel encoders, steering and second mouse are not among them (`ChassisDrive.fill`)."""
+        rows = {"values": values, "believed": believed, "tallies": tallies.reshape(len(tallies), self.tallies)}  # (a run of no sample has rows of it too)
+        return {field: rows[row][:, cut] for field, (row, cut) in zip(ARRAYS, self.fields) if row is not None}
+
+
 class World:
     """A pymunk world built from a `WorldSpec`, with robots added by `add_robot`."""
 
@@ -310,10 +328,10 @@ class World:
         """The tables `plan` and `measure` change a step's motion and counts in."""
         bodies = layout.Bodies(self._bodies.row_index, layout.motion_rows(self._bodies.motion), st.circles)
         # what a world of one c't-Bot in a maze does not need (a crowd's circle grid, cylinder walls,
-        # robots keeping apart, c't-Sim's contact rule) is left out of its kernels: numba prunes it
-        # (`read_sensors`' rare_parts None) or it has a kernel of its own (`settle_meeting`), and a
-        # first run of the main job does not compile it
-        rare_parts = True if len(st.circles) > CIRCLE_GRID_ABOVE or walls.boxes["cylinder"].any() else None
+        # c't-Sim's pick, robots keeping apart, c't-Sim's contact rule) is left out of its kernels:
+        # numba prunes it (`read_sensors`' rare_parts None) or it has a kernel of its own
+        # (`settle_meeting`), and a first run of the main job does not compile it
+        rare_parts = True if len(st.circles) > CIRCLE_GRID_ABOVE or walls.boxes["cylinder"].any() or st.sensors["pick"].any() else None
         settling = settle_meeting if len(st.stoppers) or (len(self.robots) > 1 and self.robots_meet) else settle
         self._read_arguments = (layout.Sensing(st.sensors[:read], st.n_floor, self._lights, st.circles, self._pick_tree), floor, walls, ir.curves, ir.noise.kernel,
                                 rare_parts)  # fmt: skip
@@ -360,12 +378,13 @@ class World:
                 "tallies": np.dtype((np.int64, st.tallies.shape))}  # fmt: skip
 
     def readings_columns(self, index: int, values: np.ndarray, believed: np.ndarray, tallies: np.ndarray) -> dict[str, np.ndarray]:
-        """Robot `index`'s readings fields (Readings' names, each (samples, width)) out of samples of
-        `sensor_rows`' arrays, each with a leading sample axis (views, no copies). A general chassis's
-        per-wheel encoders, steering and second mouse are not among them (`ChassisDrive.fill`)."""
+        """Robot `index`'s readings fields out of samples of `sensor_rows`' arrays (`ReadingsPlan.columns`)."""
+        return self.readings_plan(index).columns(values, believed, tallies)
+
+    def readings_plan(self, index: int) -> ReadingsPlan:
+        """Where robot `index`'s readings fields lie in the rows of `sensor_rows`' arrays."""
         st = self._batch()
-        rows = {"values": values, "believed": believed, "tallies": tallies.reshape(len(tallies), st.tallies.size)}  # (size: a run of no sample has rows of it too)
-        return {field: rows[row][:, cut] for field, (row, cut) in zip(ARRAYS, st.layout.plans[index]) if row is not None}
+        return ReadingsPlan(st.layout.plans[index], st.tallies.size)
 
     def read_all(self, rows: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> SensorFrame:
         """Every robot's sensor readings from the current state (the start of the next step):

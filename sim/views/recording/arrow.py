@@ -10,10 +10,17 @@ from typing import Any
 import numpy as np
 
 
+def quiet_rerun() -> None:
+    """Silence rerun's own log lines (unless RUST_LOG says otherwise), before rerun is imported:
+    its Rust side writes them straight to the terminal, coloured with escape sequences and with
+    what they quote (a folder's name) past ctsim's sanitiser. The recorder says in one line of
+    its own what failed (a lost viewer, a file that stopped taking writes: `file_trouble`)."""
+    os.environ.setdefault("RUST_LOG", "off")
+
+
 def lazy_rerun():
-    """rerun, imported lazily (0.5 s, 80 MB); its own log lines about a lost viewer are silenced
-    (unless RUST_LOG says otherwise): the recorder says so itself, in one line."""
-    os.environ.setdefault("RUST_LOG", "warn,re_grpc_client=off,re_sdk=off")
+    """rerun, imported lazily (0.5 s, 80 MB), its own log lines silenced (`quiet_rerun`)."""
+    quiet_rerun()
     import rerun
 
     return rerun

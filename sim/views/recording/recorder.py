@@ -41,6 +41,7 @@ from __future__ import annotations
 
 import logging
 import operator
+import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -50,6 +51,7 @@ import numpy as np
 
 from bots.sensor_kinds import BY_FIELD, KINDS
 from sim.kinematics import wrap_angle
+from sim.out_files import trouble
 from sim.views import palette
 from sim.views.chassis_view import ChassisLayer, body_outline, fault_text
 from sim.views.particles import ParticleLayer, localisers
@@ -81,6 +83,11 @@ RAYS = next(kind for kind in KINDS if kind.rays)
 if TYPE_CHECKING:
     from sim.run.samples import RobotLog, RunResult
 
+FLUSH_WAIT_S = 300.0
+"""Longest wait (s) for rerun to write out what a run sent it: its flush, told of a file writer
+that died, sometimes waits for ever."""
+FOOTER = b"RRF2FOOT"
+"""What ends a whole .rrd file of this rerun (its footer's mark, some bytes before the end)."""
 CHUNK = 8000
 """Samples per `send_columns` batch. Each batch costs rerun's conversions once per entity (8,000
 samples cost a recorded run a quarter less than 4,000), and rerun keeps some 400 bytes per chunk
@@ -277,12 +284,15 @@ class Recorder(LiveStream):
             if self._live is not None:
                 self._check_live()
         finally:
+            failed: RuntimeError | None = None
             for rec in self.streams:
                 try:
-                    rec.flush()
+                    rec.flush(timeout_sec=FLUSH_WAIT_S)
                     rec.disconnect()
                 except RuntimeError as err:  # rerun's file writer died (disk full, I/O error): what it wrote stays
-                    self.write_error = f"{self.path}: {err}"
+                    failed = err
+            if self.streams and self.path is not None and not recording_whole(self.path):  # (rerun says why on its log, silenced: `quiet_rerun`)
+                self.write_error = f"{self.path}: {trouble(self.path) or failed or 'rerun stopped writing it before its end'}"
             self.streams, self._live = [], None
 
     # --- streams ----------------------------------------------------------------------------
@@ -499,3 +509,14 @@ class _Messages(logging.Handler):
     def emit(self, record: logging.LogRecord) -> None:
         level = {"WARNING": "WARN", "CRITICAL": "ERROR"}.get(record.levelname, record.levelname)
         self.recorder._event(f"{record.name}: {record.getMessage()}", level)
+
+
+def recording_whole(path: Path) -> bool:
+    """Whether the recording at `path` ends with rerun's footer: one cut short (a full disk, the
+    file-size limit, a writer that died) does not, and rerun said so only on its log, if at all."""
+    try:
+        with open(path, "rb") as file:
+            file.seek(max(os.fstat(file.fileno()).st_size - 4 * len(FOOTER), 0))
+            return FOOTER in file.read()
+    except OSError:
+        return False

@@ -91,7 +91,7 @@ def _circle_in_view(view: tuple, px: float, py: float, r: float, best: float) ->
 
 @numba.njit(cache=True)
 def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: np.ndarray, grid_above: int | None = CIRCLE_GRID_ABOVE,
-             cylinders: bool | None = True, tree: BoundsTree | None = None) -> None:  # fmt: skip
+             rare_parts: bool | None = True, tree: BoundsTree | None = None) -> None:  # fmt: skip
     """Distance (m) from each IR ray's origin to the nearest point of a wall (convex polygons with
     bounding boxes, `Walls`) or a circle (CIRCLES; a sensor skips its own robot's, and every sensor
     a GHOST's) within the ray's cone (half-angle, rad) of its view and within `length`; inf if
@@ -104,7 +104,8 @@ def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: 
     its cone's bounding box overlaps (a crowd would otherwise cost sensors x robots); the nearest
     distance is a minimum, so the grid gives the all-circles result bit for bit. None: never (numba
     then prunes the grid's code, which need not be compiled for a world of a few circles);
-    `cylinders` None likewise for a world without cylinder walls (`pick.pick_wall`). Walls are taken
+    `rare_parts` None likewise where no wall is a cylinder and no ray picks (numba then compiles
+    no pick: `pick.pick_wall`, `pick.pick_tree`). Walls are taken
     from the walls' grid in the cells the cone's bounding box overlaps, in ascending order as a
     loop over every wall would meet them; only a wall whose box meets the cone's can give a
     distance within `length` (every nearest point and edge-ray hit that counts lies in the cone),
@@ -126,16 +127,16 @@ def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: 
         best = math.inf
         # a wall counts only where it meets the cone within `length` (inside the wall: at the apex)
         lo_x, lo_y, hi_x, hi_y = _cone_box(view, cone, length)
-        if tree is not None and picks[k] and tree.lower.shape[0] > 0:  # a c't-Sim parcours: the walls its bounds tree lets the pick reach
-            best = pick_tree((ox, oy, cx, cy, length), math.tan(cone), walls, tree, cylinders)
+        if rare_parts is not None and tree is not None and picks[k] and tree.lower.shape[0] > 0:  # a c't-Sim parcours: the walls its bounds tree lets the pick reach
+            best = pick_tree((ox, oy, cx, cy, length), math.tan(cone), walls, tree, rare_parts)
         else:
             for w in walls_near(lo_x, lo_y, hi_x, hi_y, walls.frame, walls.cells):
                 box = boxes[w]
                 if box.xmin > hi_x or box.xmax < lo_x or box.ymin > hi_y or box.ymax < lo_y:
                     continue
                 start, end = spans[w].start, spans[w].end
-                if picks[k]:
-                    best = min(best, pick_wall((ox, oy, cx, cy, length), math.tan(cone), vertices, start, end, box.cylinder, cylinders))
+                if rare_parts is not None and picks[k]:
+                    best = min(best, pick_wall((ox, oy, cx, cy, length), math.tan(cone), vertices, start, end, box.cylinder, rare_parts))
                     continue
                 distance, qx, qy = polygon_distance(ox, oy, vertices, start, end)
                 if distance <= 0.0:
@@ -232,7 +233,7 @@ def read_ir(pose: np.ndarray, sensing: Sensing, walls: Walls, curves: Curves, no
     its circles, positions taken from `pose`) and the other circles and walls they see
     (`sense_ir`, through its bounds tree), and noise and curves (`ir_values`) into `out`'s raw
     values and believed distances. `rare_parts` None: the world has no more circles than
-    CIRCLE_GRID_ABOVE and no cylinder wall (numba then prunes their code)."""
+    CIRCLE_GRID_ABOVE, no cylinder wall and no sensor of the pick view (numba then prunes their code)."""
     sensors, circles = sensing.sensors[sensing.sensors.shape[0] - out.believed.shape[0] :], sensing.circles
     m = sensors.shape[0]
     origins, look, distance = np.empty((m, 2)), np.empty(m), np.empty(m)
@@ -248,13 +249,15 @@ def read_ir(pose: np.ndarray, sensing: Sensing, walls: Walls, curves: Curves, no
 
 
 @numba.njit(cache=True)
-def sense_light(pose: np.ndarray, sensors: np.ndarray, lights: np.ndarray, tree: BoundsTree | None, out: np.ndarray) -> None:
+def sense_light(pose: np.ndarray, sensors: np.ndarray, lights: np.ndarray, tree: BoundsTree | None, out: np.ndarray,
+                picking: bool | None = True) -> None:  # fmt: skip
     """LDR darkness (0..1023) of light SENSORS, `height` m up, looking horizontally along their
     body-frame `direction` (rad): the distance from the sensor to the surface of the nearest of
     the LIGHTS whose centre is within the sensor's half opening of the view axis in 3-D, over its
     `reach`, truncated; 1023 with none (c't-Sim `World.sensLight`). A sensor whose `pick` is set
     measures to what c't-Sim's Java3D pick finds on the lamps' mesh (`light_pick.pick_lamps`,
-    through the TREE of a c't-Sim parcours; None in other worlds)."""
+    through the TREE of a c't-Sim parcours; None in other worlds); `picking` None: none does (numba
+    then compiles no pick)."""
     owner = sensors.owner
     points = np.empty((sensors.shape[0], 2))
     to_world(pose, sensors.at, owner, points)
@@ -264,7 +267,7 @@ def sense_light(pose: np.ndarray, sensors: np.ndarray, lights: np.ndarray, tree:
         look = pose[owner[k], 2] + sensor.direction
         cx, cy = math.cos(look), math.sin(look)
         cos_limit = math.cos(sensor.opening)
-        if sensor.pick:
+        if picking is not None and sensor.pick:
             at, u = np.array((points[k, 0], points[k, 1], sensor.height)), np.array((cx, cy, 0.0))  # (here: a world without picks allocates none)
             nearest = pick_lamps(at, u, math.tan(sensor.opening), lights, tree)
         else:
@@ -289,6 +292,6 @@ def read_sensors(pose: np.ndarray, sensing: Sensing, floor: Floor, walls: Walls,
     lo, hi = sensing.floor, sensors.shape[0] - believed.shape[0]
     sample_floor(pose, sensors[:lo], floor, values[:lo])
     move_robot_leaves(sensing.tree, pose)  # (c't-Sim's bots in its scene's bounds tree, which its picks walk)
-    sense_light(pose, sensors[lo:hi], sensing.lights, sensing.tree, values[lo:hi])
+    sense_light(pose, sensors[lo:hi], sensing.lights, sensing.tree, values[lo:hi], rare_parts)
     if believed.shape[0]:
         read_ir(pose, sensing, walls, curves, noise, Readout(values[hi:], believed), rare_parts)
