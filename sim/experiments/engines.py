@@ -357,7 +357,9 @@ class Dask:
                                 running.add(single)
                             continue
                         outcomes = [Lost(f"its Dask worker died on every attempt ({type(err).__name__}: a crash, or a call of the user's code past the step time limit, ends it)")]
-                    yield from zip(batch, outcomes)
+                    for pair in zip(batch, outcomes):
+                        held.deliver()  # (a signal noted while the caller had this batch's previous outcome: acted on before the next)
+                        yield pair
         finally:
             self.client.cancel(list(futures))
 
