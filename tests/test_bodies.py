@@ -39,6 +39,37 @@ def test_poses_are_the_bodies_positions_and_angles() -> None:
         assert BodyArrays(space, bodies).poses().tolist() == expected
 
 
+def test_poses_follow_the_bodies_and_are_new_arrays() -> None:
+    """`poses` reads pymunk's buffer into a new array each time: a pose read before a move keeps its values."""
+    for robots, cans in ((1, 0), (3, 4)):
+        space, bodies, _ = space_with_everything(robots, cans)
+        arrays = BodyArrays(space, bodies)
+        before = arrays.poses()
+        kept = before.copy()
+        for b in bodies:
+            b.position, b.angle = b.position + (0.25, -0.5), b.angle + 1.0
+        assert arrays.poses().tolist() == [[b.position.x, b.position.y, b.angle] for b in bodies]
+        assert np.array_equal(before, kept)
+
+
+def test_place_sets_what_the_bodies_own_setters_set() -> None:
+    """`place` (pymunk's batch setter, called per robot body) leaves each robot as setting its
+    `position` then its `angle` does: the same position, angle and transform; the cans stay."""
+    for robots, cans in ((1, 0), (3, 4)):
+        placed, bodies, others = space_with_everything(robots, cans)
+        public, same_bodies, _ = space_with_everything(robots, cans)
+        kept = [(tuple(b.position), b.angle) for b in others]
+        poses = np.random.default_rng(robots).uniform(-4, 4, (robots, 3))
+        BodyArrays(placed, bodies).place(poses)
+        for b, (x, y, angle) in zip(same_bodies, poses.tolist()):
+            b.position = (x, y)
+            b.angle = angle
+        assert [(tuple(b.position), b.angle, tuple(b.rotation_vector), tuple(b.local_to_world((0.3, -0.7)))) for b in bodies] == [
+            (tuple(b.position), b.angle, tuple(b.rotation_vector), tuple(b.local_to_world((0.3, -0.7)))) for b in same_bodies
+        ]
+        assert [(tuple(b.position), b.angle) for b in others] == kept
+
+
 def test_send_sets_the_robots_and_keeps_the_cans() -> None:
     for robots, cans in ((1, 0), (4, 3)):
         space, bodies, others = space_with_everything(robots, cans)

@@ -123,10 +123,11 @@ have from floating-point rounding: products of doubles differ in the 16th digit,
 covariance after hours of steps in the 10th at most."""
 
 
-def outputs(estimator: Estimator, uncertain: bool) -> tuple[np.ndarray | None, np.ndarray | None, str | None]:
+def outputs(estimator: Estimator, uncertain: bool) -> tuple[np.ndarray | tuple[float, float, float] | None, np.ndarray | None, str | None]:
     """An estimator's pose and covariance (None where it has none) after an update, each read once
     and copied, so that what is checked is what is logged (a property that answers differently
-    when read again, or an array another estimator changes later, cannot slip past the check);
+    when read again, or an array another estimator changes later, cannot slip past the check; a
+    pose of three floats is kept as a tuple of them, which nothing can change, else an array);
     and what is wrong with them (None: nothing): a pose that is not 3 finite numbers, a
     covariance that is not a finite, symmetric, positive semi-definite (3, 3) matrix (a
     covariance that is none would make its NEES nonsense). `uncertain`: whether it reports a
@@ -164,12 +165,14 @@ _FLOATS = (float, np.float64)
 """A pose's containers and numbers that `_numbers` takes the short way (others: numpy's)."""
 
 
-def _numbers(value: Any, shape: tuple[int, ...], what: str) -> tuple[np.ndarray | None, str | None]:
-    """`value` as a fresh array of `shape`, or None and what is wrong with it."""
-    if type(value) in _SEQUENCES and len(value) == 3 and shape == (3,):  # a pose of three floats, told without numpy's calls
+def _numbers(value: Any, shape: tuple[int, ...], what: str) -> tuple[np.ndarray | tuple[float, float, float] | None, str | None]:
+    """`value` as a fresh array of `shape` (a pose of three floats: a tuple of them, immutable as
+    an array's copy, without numpy's calls), or None and what is wrong with it."""
+    if type(value) in _SEQUENCES and len(value) == 3 and shape == (3,):
         x, y, heading = value
-        if type(x) in _FLOATS and type(y) in _FLOATS and type(heading) in _FLOATS and math.isfinite(x) and math.isfinite(y) and math.isfinite(heading):
-            return np.array((float(x), float(y), float(heading))), None
+        # (finite, every one, where their sum is; a sum that overflows goes the long way below)
+        if type(x) in _FLOATS and type(y) in _FLOATS and type(heading) in _FLOATS and math.isfinite(x + y + heading):
+            return (x, y, heading), None
     if type(value) is np.ndarray and value.shape == shape and value.dtype == np.float64:
         array = value.copy()
         if math.isfinite(array.sum()):  # every entry finite, told in a microsecond (a sum that overflows goes the long way below)

@@ -429,8 +429,9 @@ def _sample(world: World, samples: Samples, estimators: list[_Estimators], odome
     poses = world.poses_view()
     if odometry is not None:
         odometry.update_into(tallies, time, poses, columns["poses"][at], columns["covariances"][at])
+    robots = frame.robots() if estimators else []
     for i, log, checked, beside_batch in estimators:
-        readings = frame[i]
+        readings = robots[i]
         poses_read, covariances = [], []
         for estimator, uncertain, timed in checked:
             pose, covariance = _update(estimator, uncertain, timed, readings, log, n, clock, counted)

@@ -331,6 +331,8 @@ class RobotLog:
             self._columns = own = samples.new_columns({"poses": row((len(extra), 3)), "covariances": row((len(extra_uncertain), COVARIANCES))})
             self._estimates |= {label: (own, "poses", (k,)) for k, label in enumerate(extra)}
             self._uncertain |= {label: (own, "covariances", (k,)) for k, label in enumerate(extra_uncertain)}
+        self._own = (self._columns.arrays["poses"], self._columns.arrays["covariances"]) if self._columns is not None else None
+        """The rows in memory (`_Columns.arrays`, the same arrays all run) that `append` or `append_extra` write."""
 
     def __getstate__(self) -> dict:
         """Pickled (with its run's result: a result sent to another process) without its world and
@@ -354,24 +356,22 @@ class RobotLog:
         """Log the current sample of a robot with Python estimators: the true pose (3,), the
         estimates, (k, 3) or k poses, and the (3, 3) covariances of those with one."""
         at = self._columns.local(self._samples.count)
-        poses = self._columns.arrays["poses"][at]
-        poses[0] = truth
+        poses, entries = self._own
+        poses[at, 0] = truth
         if len(estimates):
-            poses[1:] = estimates
-        entries = self._columns.arrays["covariances"][at]
+            poses[at, 1:] = estimates
         for k, cov in enumerate(covariances):
-            entries[k] = cov[_UPPER]
+            entries[at, k] = cov[_UPPER]
 
     def append_extra(self, estimates: Sequence[np.ndarray], covariances: Sequence[np.ndarray] = ()) -> None:
         """Log the current sample of a batched robot's own estimators (`extra`): their poses and
         the (3, 3) covariances of those with one (the batch logs the rest)."""
         at = self._columns.local(self._samples.count)
-        poses = self._columns.arrays["poses"][at]
+        poses, entries = self._own
         for k, pose in enumerate(estimates):  # (pose by pose: numpy makes an array of a list of them first)
-            poses[k] = pose
-        entries = self._columns.arrays["covariances"][at]
+            poses[at, k] = pose
         for k, cov in enumerate(covariances):
-            entries[k] = cov[_UPPER]
+            entries[at, k] = cov[_UPPER]
 
     def __len__(self) -> int:
         return self._samples.count

@@ -40,11 +40,19 @@ class _Walk:
         self._data.fields = fields.value
         self._data.floatArray = buffer._float_arr
         self._data.intArray = buffer._int_arr
-        self._visit = ffi.addressof(lib, "pmSpaceBodySetIteratorFuncBatched" if write else "pmSpaceBodyGetIteratorFuncBatched")
+        name = "pmSpaceBodySetIteratorFuncBatched" if write else "pmSpaceBodyGetIteratorFuncBatched"
+        self._visit, self._visit_one = ffi.addressof(lib, name), getattr(lib, name)
 
     def __call__(self) -> None:
         self._floats.num = 0  # reading: append from the start; writing: read from the start
         lib.cpSpaceEachBody(self._space, self._visit, self._data)
+
+    def each(self, bodies: list) -> None:
+        """The walk's visit of the given C bodies alone, in their order (the buffer's rows are theirs)."""
+        self._floats.num = 0
+        visit, data = self._visit_one, self._data
+        for body in bodies:
+            visit(body, data)
 
     def floats(self) -> np.ndarray:
         """The values the last read walk gave, one row of `width` per body (a view into pymunk's
@@ -79,6 +87,14 @@ class BodyArrays:
         self._robot_bodies = bodies  # (the C bodies below live as long as these)
         self._c_bodies = [body._body for body in bodies]
         self._read_pose = _Walk(space, _POSE, batch.Buffer(), write=False, width=3)
+        self._read_pose()
+        self._robot_poses = self._read_pose.floats()[self.rows] if isinstance(self.rows, slice) else None
+        """The robots' rows of the pose walk's buffer (a view; None for rows by an index array): the
+        walk fills the same C array every step, as the bodies are those of the space now."""
+        self._placed = np.zeros((len(bodies), 3))
+        placing = batch.Buffer()
+        placing.set_float_buf(self._placed)  # pymunk reads this array in place
+        self._place = _Walk(space, _POSE, placing, write=True)
         self._read_motion = _Walk(space, MOTION_FIELDS, batch.Buffer(), write=False, width=MOTION.dtype.itemsize // 8)
         self._read_motion()
         self.motion = self._read_motion.floats().copy()
@@ -98,8 +114,9 @@ class BodyArrays:
     def poses(self) -> np.ndarray:
         """(n, 3) robot poses (x, y m; heading rad), a new array."""
         self._read_pose()
-        poses = self._read_pose.floats()[self.rows]
-        return poses.copy() if isinstance(self.rows, slice) else poses  # (rows by an index array: a copy already)
+        if self._robot_poses is not None:
+            return self._robot_poses.copy()
+        return self._read_pose.floats()[self.rows]  # (rows by an index array: a copy already)
 
     def refresh(self) -> None:
         """Take the other bodies' current velocities and forces into `motion` (call before writing
@@ -117,12 +134,12 @@ class BodyArrays:
             update(body, dt)
 
     def place(self, poses: np.ndarray) -> None:
-        """Put the robot bodies at `poses` (n, 3) as pymunk's position update would: its functions
-        set the position, the angle and the body's transform from them, in the same order."""
-        set_position, set_angle = lib.cpBodySetPosition, lib.cpBodySetAngle
-        for body, (x, y, angle) in zip(self._c_bodies, poses.tolist()):
-            set_position(body, (x, y))
-            set_angle(body, angle)
+        """Put the robot bodies at `poses` (n, 3) as pymunk's position update would: pymunk's batch
+        setter of position and angle, one C call per robot body (the Python wrappers of
+        `cpBodySetPosition` and `cpBodySetAngle` cost half as much again), which leaves the same
+        position, angle and transform (tests/test_bodies.py)."""
+        self._placed[...] = poses
+        self._place.each(self._c_bodies)
 
     def step(self, dt: float) -> None:
         """`space.step(dt)` by its C function alone where pymunk's wrapper has nothing to do around

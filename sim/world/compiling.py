@@ -1,7 +1,7 @@
 """Compile kernels for the types of their arguments: where numba's cache does not hold them yet
 (the first run after an install or a change), in compile processes, one per core, all at once.
 
-numba compiles in one thread, and the first run's compile is most of its time: about a minute
+numba compiles in one thread, and the first run's compile is most of its time: some 22 s
 of CPU for a c't-Bot in the maze (`bench/run.py -k first_run`). The kernels share little of
 their compile work, so the missing ones are dealt out to as many processes as there are cores
 (and kernels), which compile them into numba's cache side by side while this process waits and

@@ -326,6 +326,11 @@ class World:
         self._world["streak"], self._world["quiet_after"] = 0, self.space.collision_persistence if alone else -1
         self._moved = (st.robots, st.state, st.tally_rows)
         """The tables `plan` and `measure` change a step's motion and counts in."""
+        self._measure_arguments = (*self._moved, floor)
+        self._flat_tallies = st.tallies.reshape(-1)
+        """`tallies` flat (a view): a frame's copy of it is flat already."""
+        self._stoppers = st.stoppers if len(st.stoppers) else None
+        """The robots under c't-Sim's contact rule, None for none (the common case, checked every step)."""
         bodies = layout.Bodies(self._bodies.row_index, layout.motion_rows(self._bodies.motion), st.circles)
         # what a world of one c't-Bot in a maze does not need (a crowd's circle grid, cylinder walls,
         # c't-Sim's pick, robots keeping apart, c't-Sim's contact rule) is left out of its kernels:
@@ -394,7 +399,7 @@ class World:
         st = self._batch()
         pose = self._poses
         if rows is None:
-            values, believed, tallies = np.empty(len(st.sensors), dtype=np.int64), np.empty(len(st.ir.curve)), st.tallies.copy()
+            values, believed, tallies = np.empty(len(st.sensors), dtype=np.int64), np.empty(len(st.ir.curve)), self._flat_tallies.copy()
         else:
             values, believed, tallies = rows
             tallies[:] = st.tallies
@@ -414,8 +419,8 @@ class World:
         if not self._round_ir:
             self._read_ir_with_pymunk(pose, values[lights:], believed)
         if rows is not None:
-            values, believed, tallies = frozen_copy(values), frozen_copy(believed), frozen_copy(tallies)
-        frame = SensorFrame(self.time, {"values": values, "believed": believed, "tallies": tallies.reshape(-1)}, st.layout)
+            values, believed, tallies = frozen_copy(values), frozen_copy(believed), frozen_copy(tallies)  # (flat copies)
+        frame = SensorFrame(self.time, {"values": values, "believed": believed, "tallies": tallies}, st.layout)
         if self.chassis.drives:
             self.chassis.fill(frame)
         return frame
@@ -513,13 +518,15 @@ class World:
         # a wall or another robot, so that no speed the motors allow tunnels through anything
         # then hold robots at holes, and give pymunk the motion as forces (see `_apply_motion`)
         self._bodies.refresh()
-        if len(st.stoppers) and self.movables:  # c't-Sim's contact rule meets the cans where they stand
-            for k, body in enumerate(self.movables, start=len(st.circles) - len(self.movables)):
-                st.circles["x"][k], st.circles["y"][k] = body.position
-        was_blocked = st.state["blocked"][st.stoppers] if len(st.stoppers) else None
+        stoppers = self._stoppers
+        if stoppers is not None:
+            if self.movables:  # c't-Sim's contact rule meets the cans where they stand
+                for k, body in enumerate(self.movables, start=len(st.circles) - len(self.movables)):
+                    st.circles["x"][k], st.circles["y"][k] = body.position
+            was_blocked = st.state["blocked"][stoppers]
         changed, quiet = self._settle(before, *self._settle_arguments)
-        if was_blocked is not None:  # a robot newly stopped by c't-Sim's rule has met something
-            for i in st.stoppers[st.state["blocked"][st.stoppers] & ~was_blocked]:
+        if stoppers is not None:  # a robot newly stopped by c't-Sim's rule has met something
+            for i in stoppers[st.state["blocked"][stoppers] & ~was_blocked]:
                 self.robots[i].collisions += 1
         if changed:
             for robot in self.robots:
@@ -530,7 +537,7 @@ class World:
         else:
             self._apply_motion()
             after = self._poses = self._bodies.poses()
-        self._measure(before, after, *self._moved, self.floor.kernel)
+        self._measure(before, after, *self._measure_arguments)
         if self.chassis.drives:
             self.chassis.after_step(before, after, self.floor)
         self.steps += 1
