@@ -20,6 +20,7 @@ import pytest
 from sim.analysis.nees import interval
 from sim.cli.entry import main
 from sim.experiments import Dask, Processes, Serial, load_results, sweep
+from sim.experiments.engines import _dask_batch_size
 from sim.experiments.store import PARTS
 
 SPEC = """
@@ -110,6 +111,16 @@ def test_dask_local_cluster_of_three_workers_gives_the_serial_table(spec_file, s
     finally:
         runner.close()
     pd.testing.assert_frame_equal(measured(table), measured(serial))
+
+
+def test_dask_tasks_hold_a_few_runs_each_as_a_task_costs_more_than_a_message():
+    """A Dask task costs some 8 ms of CPU beyond its runs (a local worker's message a fraction of
+    one): the quick bench's 40 runs on two workers go two a task, a few runs one a task (every
+    worker busy), larger sweeps in larger batches up to 8."""
+    assert _dask_batch_size(40, 2) == 2 and _dask_batch_size(200, 2) == 4
+    assert _dask_batch_size(4, 2) == _dask_batch_size(1, 8) == 1
+    sizes = [_dask_batch_size(jobs, 2) for jobs in range(1, 5000)]
+    assert sizes == sorted(sizes) and sizes[-1] == 8
 
 
 def test_a_local_cluster_warns_nothing_where_port_8787_is_taken():

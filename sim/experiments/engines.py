@@ -235,6 +235,22 @@ def _batch_size(jobs: int, workers: int) -> int:
     return max(1, min(8, jobs // (16 * workers)))
 
 
+TASK_COST_IN_RUNS = 0.08
+"""What a Dask task costs beyond its runs, in runs of the bench's sweep (0.1 s of CPU each): some
+8 ms of CPU in its worker and in the client's process together (measured on a LocalCluster: 200
+empty tasks 4 ms each; eight tasks of one run each cost the worker 5 ms a task more than one task
+of all eight), where a local worker's message costs a fraction of a millisecond."""
+
+
+def _dask_batch_size(jobs: int, workers: int) -> int:
+    """Jobs per Dask task, 1 to 8: fewer tasks cost less (TASK_COST_IN_RUNS each), but the last
+    batch leaves the other workers idle for about half a batch; the size of least cost, in runs,
+    for a worker's share of the jobs: 2 for the quick bench's 20 runs a worker (one run a task cost
+    Dask 8 % more CPU than local processes), 4 for 100."""
+    share = jobs / max(workers, 1)
+    return min(range(1, 9), key=lambda size: share / size * TASK_COST_IN_RUNS + size / 2)
+
+
 def _run_batch(fn: Callable[[Any], Any], batch: list[Any]) -> list[Any]:
     """A Dask task: the outcomes of a batch of jobs. Its runs go in a worker's thread, where no
     signal keeps a step time limit: an overrun ends the worker (`StepClock.ends_process`)."""
@@ -294,7 +310,7 @@ class Dask:
 
         self.cluster = None
         self.batch = batch
-        """Jobs per task (default as `Processes`); a batch whose worker died is split into single runs."""
+        """Jobs per task (default: `_dask_batch_size`); a batch whose worker died is split into single runs."""
         if address is None:
             n = workers or os.cpu_count() or 1
             try:
@@ -314,7 +330,7 @@ class Dask:
         from distributed import KilledWorker, as_completed
 
         jobs = list(jobs)
-        size = self.batch or _batch_size(len(jobs), self.workers)
+        size = self.batch or _dask_batch_size(len(jobs), self.workers)
         futures = {self.client.submit(_run_batch, fn, jobs[k : k + size], pure=False): jobs[k : k + size] for k in range(0, len(jobs), size)}
         running = as_completed(futures)
         workerless = _Workerless(self)
@@ -341,7 +357,9 @@ class Dask:
                                 running.add(single)
                             continue
                         outcomes = [Lost(f"its Dask worker died on every attempt ({type(err).__name__}: a crash, or a call of the user's code past the step time limit, ends it)")]
-                    yield from zip(batch, outcomes)
+                    for pair in zip(batch, outcomes):
+                        held.deliver()  # (a signal noted while the caller had this batch's previous outcome: acted on before the next)
+                        yield pair
         finally:
             self.client.cancel(list(futures))
 
