@@ -73,8 +73,9 @@ FOUND_SPREAD = 0.1
 CONFIRM = 0.75
 """Metres the robot must roll with the search ended and not begun again before `lost` is cleared:
 in a world of look-alike places a wrong place fits the scans for a while. In the maze, six robots
-carried 2.3 m (seeds 0-5) ended the search 13 times on a wrong place, 0.5-2.6 m off, each found out
-within 0.62 m of travel; while the set follows a place not yet confirmed, `lost` stays set."""
+carried 2.3 m (seeds 0-5, 40-60 s after) ended the search 14 times on a wrong place, 0.47-2.6 m
+off, 13 of them found out within 0.62 m of travel (the 14th still held when the 60 s ended);
+while the set follows a place not yet confirmed, `lost` stays set."""
 RECOVERY = 5000
 """Particles while lost: the scan picks where a kidnapped robot may be among the whole map's free
 floor, which takes ten times the particles that follow a robot already found."""
