@@ -19,11 +19,14 @@ from test_odometry import OPEN_FLOOR, Wanderer, curves
 from bots.controller import FunctionController
 from bots.ctbot import CTBOT
 from bots.noise import with_noise
+from bots.odometry.base import COUNT_VARIANCE, parameters, quantisation_lag
 from bots.odometry.batch import DefaultOdometry, batched
 from bots.odometry.defaults import default_estimators
 from bots.odometry.encoder import EncoderOdometry
 from bots.odometry.layout import DEAD_RECKONERS, ESTIMATE, SLIDE_WATCH, STATE
+from bots.odometry.propagation import mouse_terms, wheel_terms
 from bots.readings import Readings
+from bots.uncertainty import ERRORS
 from bots.wheeled import MECANUM4
 from sim.kinematics import advance
 from sim.kinematics.batch import advance_one
@@ -165,3 +168,15 @@ def test_robots_with_own_and_default_estimators_side_by_side():
     for batched_log, python_log in zip(batched_logs, python_logs):
         for name, poses in batched_log.estimate_arrays().items():
             np.testing.assert_array_equal(poses, python_log.estimate_arrays()[name], err_msg=name)
+
+
+@pytest.mark.parametrize("noise", ["none", "realistic", "harsh"])
+def test_the_reset_lag_is_the_compiled_error_models_without_compiling_them(noise):
+    """`quantisation_lag` runs the error models' Python functions at a reset (so that the first
+    run compiles every kernel in the compile processes, none here): the same numbers, bit for bit."""
+    p = parameters(with_noise(CTBOT, noise))
+    for mouse, kernel, arguments in ((False, wheel_terms, (0.0, 0.0, 0.0, p["track"], COUNT_VARIANCE * p["tick_left"] ** 2, COUNT_VARIANCE * p["tick_right"] ** 2)),
+                                     (True, mouse_terms, (0.0, 0.0, p["mount_x"], p["mount_y"], COUNT_VARIANCE / p["per_metre"] ** 2))):  # fmt: skip
+        compiled, jac = np.zeros((2, 2)), np.zeros((2, ERRORS))
+        kernel(*arguments, jac, compiled)
+        assert quantisation_lag(p, mouse).tobytes() == compiled.tobytes()

@@ -105,12 +105,14 @@ def parameters(robot: RobotSpec, geometry: Geometry | None = None) -> np.void:
 
 def quantisation_lag(p: np.void, mouse: bool) -> np.ndarray:
     """(2, 2) covariance of the (s, alpha) error of carried counts (each COUNT_VARIANCE counts²,
-    `bots.uncertainty`): the encoders' or the mouse's."""
+    `bots.uncertainty`): the encoders' or the mouse's. (Through the kernels' Python functions, the
+    same operations: once a reset, where the compiled ones would each compile in this process at
+    the first run, beside the compile processes that compile them into the odometry's step.)"""
     lag, jac = np.zeros((2, 2)), np.zeros((2, ERRORS))
     if mouse:
-        mouse_terms(0.0, 0.0, p["mount_x"], p["mount_y"], COUNT_VARIANCE / p["per_metre"] ** 2, jac, lag)
+        mouse_terms.py_func(0.0, 0.0, p["mount_x"], p["mount_y"], COUNT_VARIANCE / p["per_metre"] ** 2, jac, lag)
     else:
-        wheel_terms(0.0, 0.0, 0.0, p["track"], COUNT_VARIANCE * p["tick_left"] ** 2, COUNT_VARIANCE * p["tick_right"] ** 2, jac, lag)
+        wheel_terms.py_func(0.0, 0.0, 0.0, p["track"], COUNT_VARIANCE * p["tick_left"] ** 2, COUNT_VARIANCE * p["tick_right"] ** 2, jac, lag)
     return lag
 
 
