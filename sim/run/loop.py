@@ -10,7 +10,7 @@ naming it and the step, and everything up to that step is kept.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field, replace
 from typing import Protocol
@@ -139,11 +139,11 @@ def run(
             frame = _sample(world, samples, estimators, odometry, clock, guard, counted)
             # a behaviour says when it is done: its `status`, read (user code: a property may block) under the step clock as its steps
             if step == 0:
-                statuses = _statuses(controllers, logs, step, frame.time, clock, counted, step_timeout)
+                _statuses(controllers, logs, step, frame.time, clock, counted, step_timeout, statuses, range(len(controllers)))
                 told = [i for i, status in enumerate(statuses) if status is not None]
                 can_finish = len(told) == len(controllers)
             elif told:
-                statuses = _statuses(controllers, logs, step, frame.time, clock, counted, step_timeout, told, statuses)
+                _statuses(controllers, logs, step, frame.time, clock, counted, step_timeout, statuses, told)
             at_goal = awaited and _reached_goals(awaited, world.poses_view(), frame.time) and until_goal
             if at_goal:
                 result.reason = Ending.GOAL
@@ -322,12 +322,11 @@ def _who(logs: list[RobotLog]) -> str:
 
 
 def _statuses(controllers: list[Controller], logs: list[RobotLog], step: int, time: float, clock: StepClock, counted: Counting,
-              step_timeout: float | None, which: list[int] | None = None, last: list[Status | None] | None = None) -> list[Status | None]:
-    """Each controller's `status` (None: it has none), read anew for those `which` (all: None), the
-    rest as `last`; each read a call of user code under the step clock as a step is, whatever it
-    raises (a timeout too) its controller's end of the run (`_Stop`)."""
-    statuses = list(last) if last is not None else [None] * len(controllers)
-    for i in range(len(controllers)) if which is None else which:
+              step_timeout: float | None, statuses: list[Status | None], which: Iterable[int]) -> None:
+    """Read the `status` of the controllers `which` into `statuses` (None: it has none), in place;
+    each read a call of user code under the step clock as a step is, whatever it raises (a
+    timeout too) its controller's end of the run (`_Stop`)."""
+    for i in which:
         try:
             clock.begin()
             status = getattr(controllers[i], "status", None)
@@ -338,7 +337,6 @@ def _statuses(controllers: list[Controller], logs: list[RobotLog], step: int, ti
                 raise
             clock.busy = 0
             raise _Stop(_failure(err, logs[i], step, time, step_timeout, "in its status ")) from None
-    return statuses
 
 
 def _failure(err: BaseException, log: RobotLog, step: int, time: float, step_timeout: float | None, part: str = "") -> str:
