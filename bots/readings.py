@@ -44,7 +44,9 @@ def _readings_class() -> type:
         *(f"{kind.field}: {kind.meaning}." for kind in KINDS),
         "failures: the wheel faults a general chassis's fault observer reports (`bots.chassis_commands`).",
         "",
-        "(Slots: controllers read its fields often.)",
+        "(Slots: controllers read its fields often.) For sums on a few values, unpack `.tolist()`: the",
+        "arrays' items are numpy scalars, and numpy 2 multiplies an int64 one by a Python float in about",
+        "2 µs, a Python int in 40 ns (`left, right = readings.encoder_ticks.tolist()`).",
     ])  # fmt: skip
     return made
 
