@@ -107,6 +107,25 @@ def _receded(before: np.ndarray, after: np.ndarray) -> bool:
     return float(np.sum(np.nan_to_num(after[:2], nan=1.0) - np.nan_to_num(before[:2], nan=1.0))) > 0
 
 
+class SquareUpLook(Look):
+    """Look that averages noisy readings for longer (up to LOOK_MAX_STEPS, to LOOK_ERROR) only
+    while they could square the robot up (`SolveMaze._square_up`): both sensors' means inside
+    SQUARE_BAND and no further apart than a face at MAX_SKEW gives. Else the look only tells near
+    from far, which LOOK_STEPS do: an open way at a slant, one sensor seeing nothing, two faces
+    (harsh noise, seed 0: 31 of the 63 looks that ran to LOOK_MAX_STEPS were of that kind, 20 s)."""
+
+    def __init__(self, baseline_m: float):
+        super().__init__(LOOK_STEPS, LOOK_MAX_STEPS, LOOK_ERROR, SQUARE_BAND)
+        self.widest = baseline_m * math.tan(MAX_SKEW)  # the sensors' largest difference (m) on one face
+
+    def _scatter(self) -> float:
+        (left, left_error), (right, right_error) = self._means()[:2]
+        low, high = self.band
+        if low < left < high and low < right < high and abs(left - right) <= self.widest:
+            return max(left_error, right_error)
+        return 0.0
+
+
 class DriveToRoom(DriveTo):
     """DriveTo that stops dead and fails where a border sensor sees an abyss (a hole or the edge of
     the map: the border sensors sit 38 mm ahead of the wheels, which fall), or once `stalled` (set
@@ -322,8 +341,8 @@ class SolveMaze(Plan):
         return self.known[key]
 
     def _look(self) -> Generator[Behaviour, Status, Look]:
-        """Stand and look ahead, for longer at distances a square-up would measure by."""
-        look = Look(LOOK_STEPS, LOOK_MAX_STEPS, LOOK_ERROR, SQUARE_BAND)
+        """Stand and look ahead, for longer where a square-up would measure by what it sees."""
+        look = SquareUpLook(self.ir_baseline)
         yield look
         return look
 
