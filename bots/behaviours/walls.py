@@ -51,10 +51,6 @@ seeds 0-19 reaching the goal, measured: 14 at 32 steps, 12 at 40, 17 at 48, 15 a
 80: an outcome that flips seed by seed, not a trend; 48 lost realistic seed 2 at 0.25 m/s)."""
 LOOK_ERROR = 0.0009
 """A look goes on while a sensor's mean has a larger standard error than this (m)."""
-LOOK_DOUBT = 2.0
-"""Standard errors by which a look's means may lie outside what a square-up takes and still keep it
-looking (`SquareUpLook`): a few steps of harsh noise put two sensors' difference 6 mm off, a
-third of what one face at MAX_SKEW gives."""
 SQUARE_BAND = (0.27, 0.7)
 """IR distances (m) trusted for squaring up on a wall: above the 0.1-0.26 m that a wall closer than
 0.1 m folds back to, below the curve's flat end."""
@@ -109,28 +105,6 @@ def _receded(before: np.ndarray, after: np.ndarray) -> bool:
     nothing within range): what lies ahead does; a wall touching the sensors reads nearer, down
     the GP2D12's fold-back (0.33-0.41 m at 1 cm, 0.1 m at 10 cm)."""
     return float(np.sum(np.nan_to_num(after[:2], nan=1.0) - np.nan_to_num(before[:2], nan=1.0))) > 0
-
-
-class SquareUpLook(Look):
-    """Look that averages noisy readings for longer (up to LOOK_MAX_STEPS, to LOOK_ERROR) only
-    while they may square the robot up (`SolveMaze._square_up`): both sensors' means inside
-    SQUARE_BAND and no further apart than one face at MAX_SKEW puts them, each within
-    LOOK_DOUBT standard errors. Once they plainly cannot, the look only tells near from far,
-    which LOOK_STEPS do: an open way at a slant, one sensor seeing nothing, two faces (harsh
-    noise, seed 0: 31 of the 63 looks that ran to LOOK_MAX_STEPS were of that kind, 20 s)."""
-
-    def __init__(self, baseline_m: float):
-        super().__init__(LOOK_STEPS, LOOK_MAX_STEPS, LOOK_ERROR, SQUARE_BAND)
-        self.widest = baseline_m * math.tan(MAX_SKEW)  # the sensors' largest difference (m) on one face
-
-    def _scatter(self) -> float:
-        (left, left_error), (right, right_error) = self._means()[:2]
-        low, high = self.band
-        left_doubt, right_doubt = LOOK_DOUBT * left_error, LOOK_DOUBT * right_error
-        if (low - left_doubt < left < high + left_doubt and low - right_doubt < right < high + right_doubt
-                and abs(left - right) <= self.widest + LOOK_DOUBT * math.hypot(left_error, right_error)):
-            return max(left_error, right_error)
-        return 0.0
 
 
 class DriveToRoom(DriveTo):
@@ -348,8 +322,8 @@ class SolveMaze(Plan):
         return self.known[key]
 
     def _look(self) -> Generator[Behaviour, Status, Look]:
-        """Stand and look ahead, for longer where a square-up would measure by what it sees."""
-        look = SquareUpLook(self.ir_baseline)
+        """Stand and look ahead, for longer at distances a square-up would measure by."""
+        look = Look(LOOK_STEPS, LOOK_MAX_STEPS, LOOK_ERROR, SQUARE_BAND)
         yield look
         return look
 
