@@ -21,9 +21,6 @@ from sim.experiments.engines import engine
 
 SEEDS = [*range(100, 140), *range(200, 240), *range(300, 340)]
 OUTSIDE = {
-    ("mouse", 1.0): "too cautious at the end (2.48): a slide its watch saw counts twice, in the heading's variance and in the "
-                    "slide hypothesis's offset; with the hypothesis alone it ends at 3.59, over-confident (a truth and a "
-                    "hypothesis on either side of the half turn from the estimate, which no Gaussian covers)",
     ("fused", 0.1): "too cautious early in the run (2.33): its calibration update takes the quantisation as white noise",
 }  # fmt: skip
 """(estimate, fraction) whose mean NEES falls outside the interval on these seeds, and why (docs/odometry.md)."""

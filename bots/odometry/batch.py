@@ -75,7 +75,7 @@ def batch_step(batch: Batch, tallies: np.ndarray, time: float, truth: np.ndarray
         sigma_mouse(p, st.sigmas[mouse], counts.forward, counts.lateral)
         s_enc, alpha_enc, var = turn_check(p, counts.left, counts.right, s, alpha)
         lay(st.mouse_watch.hypothesis, s, alpha, False)
-        cov[mouse, ERROR.heading, ERROR.heading] += watch_slides(p, st.mouse_watch, alpha - alpha_enc, var, alpha_enc, s_enc, time)
+        cov[mouse, ERROR.heading, ERROR.heading] += watch_slides(p, st.mouse_watch, alpha - alpha_enc, var, alpha_enc, s_enc, time)[1]
         fused = ESTIMATE.fused
         s, alpha, sliding = fused_step(p, st, Estimate(pose[fused], cov[fused], lags[i, fused]), batch.calibration[i], counts, time, work)
         batch.contact_steps[i] += sliding

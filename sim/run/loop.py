@@ -172,10 +172,7 @@ def run(
                         continue
                     left, right = wheel_speeds_for(command, spec)
                 except BaseException as err:  # the controller's error: anything it raises, sys.exit and a step timeout too
-                    if counted.by_signal(err):
-                        raise  # Ctrl-C or SIGTERM, not the controller's doing
-                    clock.busy = 0
-                    raise _Stop(_failure(err, log, step, world.time, step_timeout)) from None
+                    raise _controller_end(err, counted, clock, log, step, world.time, step_timeout) from None
                 commands[i, 0] = left * per_speed  # (`motor_commands`, written in place)
                 commands[i, 1] = right * per_speed
             guard.after_step(step)
@@ -333,10 +330,19 @@ def _statuses(controllers: list[Controller], logs: list[RobotLog], step: int, ti
             statuses[i] = status if isinstance(status, Status) else None
             clock.busy = 0
         except BaseException as err:
-            if counted.by_signal(err):
-                raise
-            clock.busy = 0
-            raise _Stop(_failure(err, logs[i], step, time, step_timeout, "in its status ")) from None
+            raise _controller_end(err, counted, clock, logs[i], step, time, step_timeout, "in its status ") from None
+
+
+def _controller_end(err: BaseException, counted: Counting, clock: StepClock, log: RobotLog, step: int, time: float, step_timeout: float | None,
+                    part: str = "") -> _Stop:  # fmt: skip
+    """The end of the run by what a robot's controller raised in a call under the step clock (its
+    step, or `part`: its status), the clock stopped; a KeyboardInterrupt a signal explains
+    (`counted`: Ctrl-C, SIGTERM) is raised on, not the controller's doing. (Where it failed,
+    outside the calls themselves: a guarded call costs no more than the call.)"""
+    if counted.by_signal(err):
+        raise err
+    clock.busy = 0
+    return _Stop(_failure(err, log, step, time, step_timeout, part))
 
 
 def _failure(err: BaseException, log: RobotLog, step: int, time: float, step_timeout: float | None, part: str = "") -> str:
