@@ -18,7 +18,7 @@ import numpy as np
 
 from bots.odometry.layout import NODE_WEIGHTS, PLANE
 from bots.uncertainty import ERROR, ERRORS
-from sim.kinematics.batch import advance_one
+from sim.kinematics.batch import advance_chord, advance_one
 
 MID_ANGLE, END_HEADING = 0.5, 1.0
 """Where an arc's chord is laid (`propagate`'s share of the heading change): along the mid-angle
@@ -168,3 +168,9 @@ def add_spread(sigmas: np.ndarray, count: int, pose: np.ndarray, out: np.ndarray
 def lay(pose: np.ndarray, s: float, alpha: float, end_heading: bool) -> None:
     """`ArcOdometry.update`: the pose after the arc, in place."""
     pose[0], pose[1], pose[2] = advance_one(pose[0], pose[1], pose[2], s, alpha, end_heading)
+
+
+@numba.njit(cache=True, inline="always")
+def lay_chord(pose: np.ndarray, chord: float, alpha: float, end_heading: bool) -> None:
+    """`lay` by the arc's chord (`sim.kinematics.batch.chord_of`), in place."""
+    pose[0], pose[1], pose[2] = advance_chord(pose[0], pose[1], pose[2], chord, alpha, end_heading)
