@@ -180,7 +180,9 @@ class SolveMaze(Plan):
     Every look that sees one wall face at a trustworthy distance squares the robot's belief up on it:
     the two sensors' difference gives the angle to the face, their mean the distance, and faces lie
     on the tile grid, so heading and position along that axis are corrected (what keeps wheel slip
-    and a wrong track width from leading it into a wall). Looks average noisy readings for longer, a
+    and a wrong track width from leading it into a wall); a look at a room's own closed wall, which
+    reads on the IR curve's fold-back, squares up from the likelihood of its raw values
+    (`_square_up_near`). Looks average noisy readings for longer, a
     way whose two sensors disagree within reach of the curve's fold-back counts as closed (it may be
     a wall touching them), and where the encoders' turn drifts the mouse's is taken
     (`_correct_odometry`). Ways seen are remembered, so rooms visited again cost one look only, at
