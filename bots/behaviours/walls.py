@@ -161,8 +161,9 @@ class DriveToRoom(DriveTo):
     stalled = False
 
     def act(self, t: float, readings: Readings) -> Command:
-        if max(readings.border.tolist(), default=0) > BORDER_DANGEROUS:
-            self.abyss = True
+        for value in readings.border.tolist():  # (a loop: max(..., default=0) was a quarter of this step)
+            if value > BORDER_DANGEROUS:
+                self.abyss = True
         if self.abyss or self.stalled:
             return self.finish(Status.FAILURE)
         return DriveTo.act(self, t, readings)  # (not super(): a super object a step)
@@ -304,15 +305,16 @@ class SolveMaze(Plan):
         if self.drive is not None and self.drive.status is RUNNING:
             self._watch_stall(driven, forward * self.mouse_metre / scale)
         tick_turn = self.tick_turn
+        larger = abs(mouse) if abs(mouse) > abs(turned) else abs(turned)  # (max of the two turns' sizes)
         if abs(turned - mouse) > tick_turn / 2:
             odometry.turn_by(mouse - turned)
-        elif driven and max(abs(turned), abs(mouse)) < tick_turn / 4:  # straight: scale errors are nil
+        elif driven and larger < tick_turn / 4:  # straight: scale errors are nil
             self.mouse_straight += forward * self.mouse_metre * math.copysign(1.0, driven)
             self.encoders_straight += abs(driven)
             self.disagreement += turned - mouse
             if self.encoders_straight > DRIFT_LEARN_M:
                 odometry.turn_by(-self.disagreement / self.encoders_straight * abs(driven))
-        elif abs(driven) < self.half_track * max(abs(turned), abs(mouse)):  # turning on the spot
+        elif abs(driven) < self.half_track * larger:  # turning on the spot
             self.spin_gap += mouse - turned
         elif not (turned or mouse or driven) and self.spin_gap:  # standing still after a turn
             odometry.turn_by(self.spin_gap)
