@@ -252,9 +252,12 @@ class Look(Behaviour):
         count = len(self.robot.ir)
         self._sum, self._squares, self._seen = [0.0] * count, [0.0] * count, [0] * count  # per sensor (floats: a step's few sums)
         self._count = 0
+        self.raws: list[list[int]] = [[] for _ in range(count)]  # per sensor: every raw value seen
 
     def act(self, t: float, readings: Readings) -> Command:
         self.readings = readings
+        for raws, value in zip(self.raws, readings.ir_raw.tolist()):
+            raws.append(value)
         for k, value in enumerate(readings.ir_distance.tolist()):
             if value == value:  # (nan: nothing in view)
                 self._sum[k] += value
