@@ -44,13 +44,13 @@ _GOAL_SUM, _GOAL_SUM_TOLERANCE, _GOAL_SPREAD_SQUARED = GOAL_READINGS * GROUND_GO
 """The goal test's bounds on GOAL_READINGS readings' sum and its spread (`SolveMaze._on_goal`)."""
 LOOK_STEPS = 8
 """Steps a look averages the IR distances over at least (all it needs when the readings are steady)."""
-LOOK_MAX_STEPS = 64
+LOOK_MAX_STEPS = 32
 """Steps a look averages noisy IR distances over at most: realistic noise (5 mm) reaches LOOK_ERROR
 in about 31, which squares up within 1 degree from the two sensors 72 mm apart; harsh noise (15 mm)
-becomes 1.9 mm, a skew good to 2 degrees. The square-ups are what holds the heading, so fewer
-steps leave harsh runs lost after wall contacts, more spend the main job's 300 s standing (harsh
-seeds 0-19 reaching the goal, measured: 14 at 32 steps, 12 at 40, 17 at 48, 15 at 56 and 64, 9 at
-80: an outcome that flips seed by seed, not a trend; 48 lost realistic seed 2 at 0.25 m/s)."""
+becomes 2.7 mm, a skew good to 3 degrees. More steps spend the main job's 300 s standing, fewer
+square up too loosely: goals reached (harsh seeds 0-99, realistic 0-99) and their mean times,
+with square-ups on closed walls: 90 and 100 in 272-277 s and 253 s at 64 steps, 90 and 100 in
+261 s and 251 s at 32, 90 and 99 in 249-253 s and 248 s at 24 (harsh 0-19: 15 of 20 at 16)."""
 LOOK_ERROR = 0.0009
 """A look goes on while a sensor's mean has a larger standard error than this (m)."""
 SQUARE_BAND = (0.27, 0.7)
