@@ -1,13 +1,13 @@
 """Where the tests find c't-Sim's own files (world files and IR characteristics, GPL-2, never copied
 into the project): the folder `CTSIM_SHARED` names, else `../shared` beside the repository, the
-same lookup as `sim.world.physics.shared_folder`. Tests that need them skip, saying where they
+same lookup as `bots.ir_curve.shared_folder`. Tests that need them skip, saying where they
 looked and how to point them elsewhere."""
 
 from __future__ import annotations
 
 import pytest
 
-from sim.world.physics import shared_folder
+from bots.ir_curve import shared_folder
 
 SHARED = shared_folder()
 PARCOURS = SHARED / "ctsim" / "parcours"

@@ -7,6 +7,7 @@ from __future__ import annotations
 import pytest
 
 from bots.controller import ControllerError
+from bots.ir_curve import CurveFileError
 from bots.noise import RobotSettingError
 from bots.schema import FileError
 from sim.cli import options as cli
@@ -21,7 +22,6 @@ from sim.run.ending import RunError
 from sim.web.serve import ViewError
 from sim.world import World
 from sim.world.chassis_drive import FaultError
-from sim.world.sensors import CurveFileError
 from sim.world.spec import WorldFileError
 
 RUN = ["run", "--controller", "drive_distance", "--duration", "0.2", "--no-report"]

@@ -15,7 +15,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 CORE = ("sim.kinematics",)
 BOTS = CORE + ("bots",)
-WORLD = CORE + ("sim.world", "bots.spec", "bots.ctbot", "bots.schema", "bots.readings", "bots.sensor_kinds")
+WORLD = CORE + ("sim.world", "bots.spec", "bots.ctbot", "bots.schema", "bots.readings", "bots.sensor_kinds", "bots.ir_curve")
 RUN = WORLD + ("bots", "sim.run", "sim.guards")
 ANALYSIS = RUN + ("sim.analysis",)
 VIEWS = ANALYSIS + ("sim.views",)

@@ -12,12 +12,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from bots.ctbot import CTBOT
+from bots.ir_curve import gp2d12
 from bots.odometry.localiser import low_variance_resample, mean_and_covariance, move_particles
 from sim.kinematics import wrap_angle
 from sim.world import World
 from sim.world.files import load_world
 from sim.world.localising import MapScan, raw_intervals
-from sim.world.sensors import gp2d12
 
 
 @pytest.fixture(scope="module")

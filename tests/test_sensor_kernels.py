@@ -11,11 +11,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from bots.ir_curve import IRCurve, gp2d12
 from sim.world import layout
 from sim.world.kernels.grids import gridded
 from sim.world.kernels.sensing import ir_values, sense_ir
 from sim.world.noise import NormalBlocks
-from sim.world.sensors import IRCurve, gp2d12
 
 RANGES = [(0.1, 0.8), (0.05, 0.5)]
 

@@ -13,10 +13,10 @@ from shared_data import CURVES
 from shared_data import needs_curves as needs_shared
 
 from bots.ctbot import CTBOT
+from bots.ir_curve import gp2d12, load_ir_curve
 from bots.spec import IRSensorSpec
 from sim.world import World
 from sim.world.files.grid import build_grid
-from sim.world.sensors import gp2d12, load_ir_curve
 from sim.world.spec import Wall, WorldSpec, box
 
 SENSOR_X, SENSOR_Y = CTBOT.ir[0].position  # 0.0554 forward, 0.036 to the left
@@ -198,7 +198,7 @@ def test_a_sensor_naming_a_file_uses_it_and_left_and_right_differ():
 @needs_shared
 @pytest.mark.parametrize("side", ["left", "right"])
 def test_shipped_tables_are_ctsims_files(side):
-    """The c't-Bot's default tables (sim/world/curves/gp2d12.toml) hold exactly the numbers of
+    """The c't-Bot's default tables (bots/curves/gp2d12.toml) hold exactly the numbers of
     c't-Sim's gp2d12Left/Right.txt and read as the files do everywhere from 0 to 90 cm."""
     distance, value = read_file(f"gp2d12{side.title()}.txt")
     shipped = gp2d12(side)

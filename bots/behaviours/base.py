@@ -48,8 +48,13 @@ def ramp(remaining: float, top: float, dt: float) -> float:
     lands exactly on the target within this step."""
     if remaining <= 0:
         return 0.0
-    braking = max(min(top, math.sqrt(2 * DECELERATION * remaining)), MIN_SPEED)
-    return min(braking, remaining / dt)
+    # max(min(top, stopping), MIN_SPEED), then min(that, per_step), as comparisons: a call of a
+    # builtin costs more than the sums here (each picks its first argument on a tie, as these do)
+    stopping = math.sqrt(2 * DECELERATION * remaining)
+    braking = stopping if stopping < top else top
+    braking = MIN_SPEED if MIN_SPEED > braking else braking
+    per_step = remaining / dt
+    return per_step if per_step < braking else braking
 
 
 class TickOdometry:
@@ -100,7 +105,8 @@ class TickOdometry:
         before = self._turned[wheel]
         guess = before + float(speed) * self.dt / self.metres_per_tick if stepped else before
         counted = self._counted[wheel] = self._counted[wheel] + ticks
-        turned = self._turned[wheel] = min(max(guess, counted), counted + 1.0)
+        low, high = (counted if counted > guess else guess), counted + 1.0  # min(max(guess, counted), high), as comparisons
+        turned = self._turned[wheel] = high if high < low else low
         return (turned - before) * self.metres_per_tick
 
     def move_by(self, distance: float) -> None:
@@ -246,9 +252,12 @@ class Look(Behaviour):
         count = len(self.robot.ir)
         self._sum, self._squares, self._seen = [0.0] * count, [0.0] * count, [0] * count  # per sensor (floats: a step's few sums)
         self._count = 0
+        self.raws: list[list[int]] = [[] for _ in range(count)]  # per sensor: every raw value seen
 
     def act(self, t: float, readings: Readings) -> Command:
         self.readings = readings
+        for raws, value in zip(self.raws, readings.ir_raw.tolist()):
+            raws.append(value)
         for k, value in enumerate(readings.ir_distance.tolist()):
             if value == value:  # (nan: nothing in view)
                 self._sum[k] += value

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Generator
+from functools import cache
 
 import numpy as np
 
@@ -19,6 +20,7 @@ from bots.behaviours.base import (
 from bots.behaviours.motion import DriveDistance, DriveTo, Turn
 from bots.commands import Command, Twist
 from bots.controller import Status, register
+from bots.ir_curve import ir_curve_for
 from bots.odometry.base import mouse_applies
 from bots.readings import Readings
 from sim.kinematics import (
@@ -107,6 +109,49 @@ def _receded(before: np.ndarray, after: np.ndarray) -> bool:
     return float(np.sum(np.nan_to_num(after[:2], nan=1.0) - np.nan_to_num(before[:2], nan=1.0))) > 0
 
 
+NEAR_STEP = 0.001
+"""Spacing (m) of the distances at which `_raw_likelihood` tabulates a closed wall's raw values."""
+NEAR_REACH = 0.3
+"""Farthest distance (m) it tabulates: past a room's own wall seen from anywhere in the room."""
+NEAR_WINDOW = 0.08
+"""How far (m) from where the belief puts a room's own closed wall a fold-back square-up looks for
+it (`SolveMaze._square_up_near`): the wall may be 0-0.15 m from the sensors of a robot anywhere in
+the room, and the same raw values read 0.06-0.07 m on the fold-back and 0.10-0.16 m beyond it."""
+NEAR_PRIOR = 0.03
+"""Spread (m) of the believed position a fold-back square-up weighs the readings against: what
+tells a noise-free 0.065 m from the 0.125 m that reads the same raw value."""
+NEAR_ERROR = 0.01
+"""Largest standard deviation (m) of a sensor's distance to a closed wall for a square-up on it:
+more means its readings fit both sides of the fold-back."""
+NEAR_MIN_STD = 0.001
+"""Least IR noise (m) the fold-back model assumes (a noise-free sensor reads one value, which
+then fits the distances within a millimetre of it)."""
+
+
+@cache
+def _raw_likelihood(curve: str | None, side: str, noise_std: float) -> tuple[int, np.ndarray]:
+    """(lowest raw value, log-probability of each raw value from there, a row per distance
+    0, NEAR_STEP, ... NEAR_REACH m) of an IR sensor facing a wall: its distance plus normal noise of
+    `noise_std` (not below 0, as the sensors read) through its characteristic, rounded. On the
+    GP2D12's fold-back a raw value is two distances (one below 0.09 m, one above): the scatter of
+    noisy readings tells them apart, as their mean cannot. Tabulated once per curve and noise."""
+    ir = ir_curve_for(curve, side)
+    std = max(noise_std, NEAR_MIN_STD)
+    step = 0.00005  # (the fold-back's steepest 12 raw units a millimetre: every raw value has its distances)
+    true = np.arange(0.0, NEAR_REACH + 6 * std, step)
+    raw = ir.lookup(true)
+    low, high = ir.raw_range()
+    order = np.argsort(raw, kind="stable")
+    values, starts = np.unique(raw[order], return_index=True)
+    grid = np.arange(0.0, NEAR_REACH + NEAR_STEP / 2, NEAR_STEP)
+    weights = np.exp(-0.5 * ((true[order][None, :] - grid[:, None]) / std) ** 2) * (step / (std * math.sqrt(2 * math.pi)))
+    chances = np.zeros((len(grid), high - low + 1))
+    chances[:, values - low] = np.add.reduceat(weights, starts, axis=1)
+    below = 0.5 * np.array([math.erfc(d / (std * math.sqrt(2))) for d in grid.tolist()])  # noise below 0 m reads as 0
+    chances[:, raw[0] - low] += below
+    return low, np.log(chances + 1e-6)  # (a floor: one stray reading does not rule a distance out)
+
+
 class DriveToRoom(DriveTo):
     """DriveTo that stops dead and fails where a border sensor sees an abyss (a hole or the edge of
     the map: the border sensors sit 38 mm ahead of the wheels, which fall), or once `stalled` (set
@@ -116,8 +161,9 @@ class DriveToRoom(DriveTo):
     stalled = False
 
     def act(self, t: float, readings: Readings) -> Command:
-        if max(readings.border.tolist(), default=0) > BORDER_DANGEROUS:
-            self.abyss = True
+        for value in readings.border.tolist():  # (a loop: max(..., default=0) was a quarter of this step)
+            if value > BORDER_DANGEROUS:
+                self.abyss = True
         if self.abyss or self.stalled:
             return self.finish(Status.FAILURE)
         return DriveTo.act(self, t, readings)  # (not super(): a super object a step)
@@ -135,7 +181,9 @@ class SolveMaze(Plan):
     Every look that sees one wall face at a trustworthy distance squares the robot's belief up on it:
     the two sensors' difference gives the angle to the face, their mean the distance, and faces lie
     on the tile grid, so heading and position along that axis are corrected (what keeps wheel slip
-    and a wrong track width from leading it into a wall). Looks average noisy readings for longer, a
+    and a wrong track width from leading it into a wall); a look at a room's own closed wall, which
+    reads on the IR curve's fold-back, squares up from the likelihood of its raw values
+    (`_square_up_near`). Looks average noisy readings for longer, a
     way whose two sensors disagree within reach of the curve's fold-back counts as closed (it may be
     a wall touching them), and where the encoders' turn drifts the mouse's is taken
     (`_correct_odometry`). Ways seen are remembered, so rooms visited again cost one look only, at
@@ -179,6 +227,7 @@ class SolveMaze(Plan):
         self.wheels_driven = self.mouse_driven = 0.0  # in the drive's current STALL_M: by the encoders and by the mouse (m)
         self.spin_gap = 0.0  # turning on the spot: the mouse's turn less the encoders' since the robot last stood (rad)
         self.last_pose: Pose | None = None  # the odometry's pose after the last step
+        self.raw_likelihood = [_raw_likelihood(s.curve, s.side, s.noise_std) for s in self.robot.ir[:2]]
         self.heading_var = 0.0  # the believed heading's variance (rad^2): the start pose is aligned
         self.disagreement = 0.0  # driving straight: encoders' turn less the mouse's (rad)
         self.mouse_straight = 0.0  # driving straight: the mouse's distance at its nominal dpi (m)
@@ -256,15 +305,16 @@ class SolveMaze(Plan):
         if self.drive is not None and self.drive.status is RUNNING:
             self._watch_stall(driven, forward * self.mouse_metre / scale)
         tick_turn = self.tick_turn
+        larger = abs(mouse) if abs(mouse) > abs(turned) else abs(turned)  # (max of the two turns' sizes)
         if abs(turned - mouse) > tick_turn / 2:
             odometry.turn_by(mouse - turned)
-        elif driven and max(abs(turned), abs(mouse)) < tick_turn / 4:  # straight: scale errors are nil
+        elif driven and larger < tick_turn / 4:  # straight: scale errors are nil
             self.mouse_straight += forward * self.mouse_metre * math.copysign(1.0, driven)
             self.encoders_straight += abs(driven)
             self.disagreement += turned - mouse
             if self.encoders_straight > DRIFT_LEARN_M:
                 odometry.turn_by(-self.disagreement / self.encoders_straight * abs(driven))
-        elif abs(driven) < self.half_track * max(abs(turned), abs(mouse)):  # turning on the spot
+        elif abs(driven) < self.half_track * larger:  # turning on the spot
             self.spin_gap += mouse - turned
         elif not (turned or mouse or driven) and self.spin_gap:  # standing still after a turn
             odometry.turn_by(self.spin_gap)
@@ -308,15 +358,18 @@ class SolveMaze(Plan):
             yield self._face(quarter)
             look = yield from self._look()
             is_open = self._open(look.ir_distance, room, quarter)
-            if is_open is None:
+            backed = is_open is None
+            if backed:
                 yield DriveDistance(-RECHECK_M, self.speed)
                 again = yield from self._look()
                 is_open = _receded(look.ir_distance, again.ir_distance)
                 look = again
-                if not is_open:
-                    yield DriveDistance(RECHECK_M, self.speed)
             if is_open:
                 self._square_up(look.ir_distance, look.ir_error, room, quarter)
+            else:
+                self._square_up_near(look, room, quarter)
+                if backed:
+                    yield DriveDistance(RECHECK_M, self.speed)
             self.looked = (room, quarter % 4)
             self._learn(room, quarter, is_open)
         return self.known[key]
@@ -354,16 +407,48 @@ class SolveMaze(Plan):
         beyond = (0.5 * (left + right) + self.ir_ahead + self._along(room, quarter)) / self.cell - 0.5  # rooms to the face
         return True if round(beyond) >= 1 and abs(beyond - round(beyond)) * self.cell <= FACE_TOLERANCE else None
 
+    def _square_up_near(self, look: Look, room: tuple[int, int], quarter: int) -> None:
+        """Square up on `room`'s own closed wall facing `quarter`, 0.065 m ahead of the sensors
+        from its centre, where their curve folds back: each sensor's distance is the mean of its
+        likelihood (`_raw_likelihood`) over the look's raw values within NEAR_WINDOW of the
+        believed wall, weighed by the belief (NEAR_PRIOR); a sensor whose readings fit both sides
+        of the fold-back (spread past NEAR_ERROR) leaves the belief as it is. What corrects a
+        robot's position across a corridor with closed walls, which no face beyond an open way
+        shows (harsh noise: robots 6 cm off the line hit a corner at its end)."""
+        expected = self.cell / 2 - self._along(room, quarter) - self.ir_ahead  # believed sensors to the wall (m)
+        distances = np.arange(0.0, NEAR_REACH + NEAR_STEP / 2, NEAR_STEP)
+        window = np.abs(distances - expected) < NEAR_WINDOW
+        if not window.any():
+            return
+        distances = distances[window]
+        prior = -0.5 * ((distances - expected) / NEAR_PRIOR) ** 2
+        means, errors = [], []
+        for (low, table), raws, sensor in zip(self.raw_likelihood, look.raws, self.robot.ir):
+            seen = np.asarray(raws if sensor.noise_std else raws[:1]) - low  # (noise-free readings repeat one value: it says no more than once)
+            fit = table[window][:, np.clip(seen, 0, table.shape[1] - 1)].sum(axis=1) + prior
+            chance = np.exp(fit - fit.max())
+            chance /= chance.sum()
+            mean = float(chance @ distances)
+            means.append(mean)
+            errors.append(math.sqrt(float(chance @ (distances - mean) ** 2)))
+        if max(errors) <= NEAR_ERROR:
+            self._square_on(means[0], means[1], np.array(errors), room, quarter)
+
     def _square_up(self, distance: np.ndarray, error: np.ndarray, room: tuple[int, int], quarter: int) -> None:
-        """Correct the grid pose from one wall face seen by both IR sensors facing `quarter`, their
-        means' standard errors `error` (m): the position along that axis is taken as seen, the
-        heading weighed against the belief's own uncertainty (a look's skew of 5 mm noise
-        averaged 32 times is good to 1 degree, about what the belief drifts in a metre), as a
-        Kalman filter of the heading would; noise-free readings are taken as seen."""
+        """Square up on a face beyond an open way facing `quarter`, where both IR sensors' means
+        `distance` lie in SQUARE_BAND (`_square_on`)."""
         left, right = distance[0], distance[1]
         low, high = SQUARE_BAND
         if not (low < left < high and low < right < high):
             return
+        self._square_on(left, right, error, room, quarter)
+
+    def _square_on(self, left: float, right: float, error: np.ndarray, room: tuple[int, int], quarter: int) -> None:
+        """Correct the grid pose from one wall face seen by both IR sensors facing `quarter`, at
+        `left` and `right` (m), their standard errors `error` (m): the position along that axis is
+        taken as seen, the heading weighed against the belief's own uncertainty (a look's skew of
+        5 mm noise averaged 32 times is good to 1 degree, about what the belief drifts in a
+        metre), as a Kalman filter of the heading would; noise-free readings are taken as seen."""
         skew = math.atan((left - right) / self.ir_baseline)
         if abs(skew) > MAX_SKEW:
             return
@@ -434,7 +519,6 @@ class SolveMaze(Plan):
                 if following:
                     return Status.FAILURE  # walled in
         return Status.FAILURE
-
 
 
 @register("follow_wall")

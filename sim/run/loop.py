@@ -134,7 +134,7 @@ def run(
         drivers = [(i, robot.spec, log, controller, robot.spec.chassis is not None, command_per_speed(robot.spec))
                    for i, (robot, log, controller) in enumerate(zip(world.robots, logs, controllers))]  # fmt: skip
         running = Status.RUNNING
-        awaited = [(log, world_spec.goals_of(robot.slot), k) for k, (log, robot) in enumerate(zip(logs, world.robots))] if world_spec.goals else []
+        awaited = [(log, goals, k, _box_around(goals)) for k, (log, robot) in enumerate(zip(logs, world.robots)) if (goals := world_spec.goals_of(robot.slot))] if world_spec.goals else []
         for step in range(steps + 1):
             frame = _sample(world, samples, estimators, odometry, clock, guard, counted)
             # a behaviour says when it is done: its `status`, read (user code: a property may block) under the step clock as its steps
@@ -475,13 +475,22 @@ def _sample(world: World, samples: Samples, estimators: list[_Estimators], odome
     return frame
 
 
-def _reached_goals(awaited: list[tuple[RobotLog, tuple[Goal, ...], int]], poses: np.ndarray, time: float) -> bool:
-    """Note who of `awaited` (log, its goals, index: the robots yet to reach a goal) is in one of
-    its goals at `poses`, at `time`, and take them out of it; whether anyone was."""
+def _box_around(goals: tuple[Goal, ...]) -> tuple[float, float, float, float]:
+    """The box (xmin, ymin, xmax, ymax) around every one of `goals`' boxes."""
+    boxes = [goal.box for goal in goals]
+    return min(b[0] for b in boxes), min(b[1] for b in boxes), max(b[2] for b in boxes), max(b[3] for b in boxes)
+
+
+def _reached_goals(awaited: list[tuple[RobotLog, tuple[Goal, ...], int, tuple[float, float, float, float]]], poses: np.ndarray, time: float) -> bool:
+    """Note who of `awaited` (log, its goals, index, the box around them: the robots yet to reach
+    a goal) is in one of its goals at `poses`, at `time`, and take them out of it; whether anyone
+    was. (A robot outside the box is in none: one comparison a step, not a call per goal.)"""
     reached = False
     for entry in awaited:
-        log, goals, k = entry
+        log, goals, k, (xmin, ymin, xmax, ymax) = entry
         x, y, _ = poses[k].tolist()
+        if not (xmin <= x <= xmax and ymin <= y <= ymax):
+            continue
         for goal in goals:
             if goal.contains(x, y):
                 log.goal_time = time

@@ -20,12 +20,11 @@ import math
 import numba
 import numpy as np
 
+from bots.ir_curve import IRCurve, ir_curve_for
 from bots.spec import RobotSpec
 from sim.world.kernels.contacts import clear_of_walls
 from sim.world.kernels.sensing import sense_ir
 from sim.world.layout import CIRCLES, SENSORS, Rays, ScanModel, Walls
-from sim.world.physics import ir_curve_for
-from sim.world.sensors import IRCurve
 from sim.world.spec import WorldSpec
 from sim.world.tables import IR_RAY_LENGTH, walls_of
 

@@ -13,15 +13,13 @@ per-sensor generators spawned from the world's seed.
 from __future__ import annotations
 
 import math
-import os
 import zlib
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 import pymunk
 
-import sim
+from bots.ir_curve import IRCurve, ir_curve_for
 from bots.readings import ARRAYS, SensorFrame, frozen_copy
 from bots.sensor_kinds import sections
 from bots.spec import RobotSpec
@@ -36,7 +34,6 @@ from sim.world.kernels.motion import glide, measure, plan
 from sim.world.kernels.noise import ENCODER_DRAWS, add_rounded, draw_step, spurious_ticks
 from sim.world.kernels.pick import move_robot_leaves, pick_tree, pick_wall
 from sim.world.kernels.sensing import CIRCLE_GRID_ABOVE, ir_rays, ir_values, read_sensors
-from sim.world.sensors import IRCurve, gp2d12, load_ir_curve
 from sim.world.spec import Start, WorldSpec
 from sim.world.step import DEFAULT_DT, check_dt
 from sim.world.tables import IR_RAY_LENGTH, SLIDE_MARGIN, SLOP, RobotTables, walls_of
@@ -55,32 +52,6 @@ mouth to mouth come 106.7 mm near, within their circles' 120 mm."""
 
 class CommandError(ValueError):
     """A motor command that must not reach the physics (NaN, infinite, wrong shape)."""
-
-
-def shared_folder() -> Path:
-    """Where c't-Sim's own data files are looked for: the folder `CTSIM_SHARED` names, else
-    `../shared` beside the repository (its `ctsim/characteristics` and `ctsim/parcours`)."""
-    named = os.environ.get("CTSIM_SHARED")
-    return Path(named) if named else Path(sim.__file__).resolve().parents[2] / "shared"
-
-
-def find_shared_curves() -> Path | None:
-    """c't-Sim's characteristics folder (`shared_folder()/ctsim/characteristics`), if it is there."""
-    here = shared_folder() / "ctsim" / "characteristics"
-    return here if here.is_dir() else None
-
-
-def ir_curve_for(name: str | None, side: str) -> IRCurve:
-    """The characteristic a sensor names: a file path, a file name in the shared c't-Sim folder,
-    or (None) the c't-Bot's GP2D12 table for its side (`sensors.gp2d12`, shipped with ctsim)."""
-    if name is None:
-        return gp2d12(side)
-    path = Path(name)
-    if not path.is_file():
-        shared = find_shared_curves()
-        if shared is not None and (shared / name).is_file():
-            path = shared / name
-    return load_ir_curve(path)
 
 
 def sensor_rng(seed: int, robot: int, sensor: str) -> np.random.Generator:
@@ -568,4 +539,3 @@ class World:
 def _damped(body: pymunk.Body, gravity, damping: float, dt: float) -> None:  # noqa: ANN001 (pymunk callback)
     """Movable obstacles lose speed on the floor; robots are not damped (their velocity is set)."""
     pymunk.Body.update_velocity(body, gravity, MOVABLE_DAMPING**dt, dt)
-

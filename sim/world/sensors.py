@@ -1,155 +1,16 @@
 """Sensor transfer functions: what a device outputs for what it senses, in its own units.
 
 Geometry (ray casts, floor sampling) lives in `sim.world`; here are the curves: IR distance ->
-raw value (c't-Sim's measured characteristic tables, shipped in `curves/`), the firmware's way back,
+raw value (c't-Sim's measured characteristic tables, `bots.ir_curve`), the firmware's way back,
 floor colour -> CNY70 value, light distance -> LDR darkness (ctsim-reference.md §2).
 """
 
 from __future__ import annotations
 
-import tomllib
-from dataclasses import dataclass, field
-from functools import cache
-from pathlib import Path
-
 import numpy as np
-
-from bots.schema import FileError, read_bytes
-from sim.errors import UserError
 
 CNY70_MAX = 1023
 LDR_MAX = 1023
-
-
-class CurveFileError(UserError):
-    """A characteristic file that cannot be read; the message names the file and line."""
-
-
-@dataclass(frozen=True, eq=False)
-class IRCurve:
-    """A distance sensor's characteristic, read as c't-Sim's `Characteristic` reads it: the rows
-    (distance m, raw value) fill a table per whole centimetre (linear in between, float32, rows at
-    a fractional centimetre count at the centimetre below); a distance is looked up between its
-    two neighbouring centimetres and rounded half up. Closer than the first row or farther than
-    the last (nothing seen) the sensor reads `beyond`."""
-
-    distance: np.ndarray
-    raw: np.ndarray
-    beyond: float
-    name: str = "curve"
-    per_cm: np.ndarray = field(init=False, repr=False)
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "per_cm", _per_centimetre(self.distance, self.raw, self.beyond))
-
-    def lookup(self, distance: np.ndarray) -> np.ndarray:
-        """Raw values (int) for distances (m); inf, nan or outside the table read `beyond`."""
-        cm = np.asarray(distance, dtype=np.float64) * 100
-        table, beyond = self.per_cm, np.float32(self.beyond)
-        last = len(table) - 1
-        inside = (cm >= 0) & (cm <= last)
-        cm = np.where(inside, cm, 0.0)
-        index = np.floor(cm).astype(np.int64)
-        data = table[index].astype(np.float64)
-        slope = (table[np.minimum(index + 1, last)] - table[index]).astype(np.float64)  # a float32 difference, as in Java
-        between = inside & (table[index] != beyond) & (index < last)
-        data = np.where(between, data + (cm - index) * slope, data)
-        return np.floor(np.where(inside, data, float(beyond)) + 0.5).astype(np.int64)
-
-    def distance_from_raw(self, raw: np.ndarray, min_range: float = 0.1, max_range: float = 0.8) -> np.ndarray:
-        """The firmware's inverse (c't-Bot `sensor_dist_lookup`): distance (m) from a raw value on
-        the curve's falling branch within [min_range, max_range]; above the branch (closer, or the
-        fold-back peak below min_range) min_range, as the firmware assumes; below it nan (nothing
-        in view), and nan for the value that nothing in view reads (`beyond`: c't-Sim's right
-        GP2D12 reads 80 for nothing, which its table also reaches at 75-76 cm)."""
-        return self.inverse(min_range, max_range)(raw)
-
-    def inverse(self, min_range: float = 0.1, max_range: float = 0.8):
-        """`distance_from_raw` for one range as a function, its table prepared once."""
-        keep = (self.distance >= min_range) & (self.distance <= max_range)
-        d, v = self.distance[keep][::-1], self.raw[keep][::-1].astype(np.float64)  # raw rises as d falls
-        low, high = v.min() - 0.5, v.max() + 0.5  # a raw value rounded from a distance in range is in range
-        nothing = np.floor(self.beyond + 0.5)
-
-        def distance(raw: np.ndarray) -> np.ndarray:
-            r = np.asarray(raw, dtype=np.float64)
-            far = np.where((r < low) | (r == nothing), np.nan, np.interp(r, v, d))
-            return np.where(r > high, min_range, far)
-
-        return distance
-
-    def raw_range(self) -> tuple[int, int]:
-        """The lowest and highest raw value `lookup` can give (it rounds between table values)."""
-        values = np.append(self.per_cm, np.float32(self.beyond)).astype(np.float64)
-        return int(np.floor(values.min() + 0.5)), int(np.floor(values.max() + 0.5))
-
-    def inverse_table(self, min_range: float = 0.1, max_range: float = 0.8) -> np.ndarray:
-        """`inverse(min_range, max_range)` of every raw value in `raw_range()`, lowest first: what a
-        compiled lookup reads (`kernels.sensing.ir_values`) instead of interpolating each step."""
-        low, high = self.raw_range()
-        return self.inverse(min_range, max_range)(np.arange(low, high + 1))
-
-
-def _per_centimetre(distance: np.ndarray, raw: np.ndarray, beyond: float) -> np.ndarray:
-    """c't-Sim's lookup table: one float32 value per whole centimetre from 0 to the last row,
-    `beyond` before the first row, each row's value at its centimetre and steps of
-    (next - this) / gap centimetres up to the next row, summed in float32."""
-    cm = np.floor(np.asarray(distance, dtype=np.float64) * 100 + 1e-9).astype(np.int64)  # rows are given in cm
-    values = np.asarray(raw, dtype=np.float32)
-    table = np.full(cm[-1] + 1, np.float32(beyond), dtype=np.float32)
-    for k in range(len(cm)):
-        table[cm[k]] = values[k]
-        if k + 1 < len(cm):
-            gap = cm[k + 1] - cm[k]
-            delta = (values[k + 1] - values[k]) / np.float32(gap)
-            steps = np.arange(1, gap, dtype=np.float32)
-            table[cm[k] + 1 : cm[k + 1]] = values[k] + steps * delta
-    return table
-
-
-CTSIM_BEYOND = {"gp2d12Left": 100.0, "gp2d12Right": 80.0, "gp2y0a60Left": 100.0, "gp2y0a60Right": 100.0, "vl53l0xLeft": 2000.0, "vl53l0xRight": 2000.0}
-"""What c't-Sim reads from each of its characteristic files when nothing is in the table
-(the INF that `MasterSimulator.buisitDistanceSim` gives each file)."""
-
-
-def load_ir_curve(path: str | Path, beyond: float | None = None) -> IRCurve:
-    """Read a c't-Sim characteristic file (`distance cm; value;` per line after a two-line header).
-    Nothing in view reads `beyond`: by default c't-Sim's value for its own files (`CTSIM_BEYOND`),
-    the last row's value for any other file."""
-    path = Path(path)
-    try:
-        lines = read_bytes(path).decode("latin-1").splitlines()
-    except FileError as err:
-        raise CurveFileError(str(err)) from None
-    distance, raw = [], []
-    for number, line in enumerate(lines, start=1):
-        fields = [f.strip() for f in line.split(";") if f.strip()]
-        if not fields or not fields[0].replace(".", "", 1).isdigit():
-            continue  # header or blank line
-        try:
-            distance.append(float(fields[0]) / 100)
-            raw.append(float(fields[1]))
-        except (IndexError, ValueError):
-            raise CurveFileError(f"{path}:{number}: expected 'distance_cm; value;', got {line.strip()!r}") from None
-    if len(distance) < 2 or np.any(np.diff(np.floor(np.array(distance) * 100 + 1e-9)) <= 0):
-        raise CurveFileError(f"{path}: needs at least two rows with increasing whole-centimetre distances")
-    if beyond is None:
-        beyond = CTSIM_BEYOND.get(path.stem, raw[-1])
-    return IRCurve(np.array(distance), np.array(raw), beyond, name=path.stem)
-
-
-CURVES = Path(__file__).with_name("curves")
-"""The project's shipped characteristic tables (`gp2d12.toml`: the c't-Bot's GP2D12 pair)."""
-
-
-@cache
-def gp2d12(side: str) -> IRCurve:
-    """The c't-Bot's default IR characteristic for `side` ("left" or "right"): c't-Sim's measured
-    GP2D12 tables, shipped with ctsim as `sim/world/curves/gp2d12.toml` (origin noted there)."""
-    with (CURVES / "gp2d12.toml").open("rb") as file:
-        entry = tomllib.load(file)[side]
-    table = np.array(entry["table"], dtype=np.float64)
-    return IRCurve(table[:, 0] / 100, table[:, 1], float(entry["beyond"]), name=f"gp2d12-{side}")
 
 
 def absorption(colour: np.ndarray) -> np.ndarray:

@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 import pymunk
 
+from bots.ir_curve import IRCurve
 from bots.readings import SensorLayout
 from bots.sensor_kinds import FRAMED, FRAMES
 from bots.spec import RobotSpec
@@ -19,7 +20,7 @@ from sim.kinematics import counts_per_metre
 from sim.world import layout
 from sim.world.kernels.grids import gridded
 from sim.world.noise import NormalBlocks
-from sim.world.sensors import CNY70_MAX, LDR_MAX, IRCurve
+from sim.world.sensors import CNY70_MAX, LDR_MAX
 from sim.world.spec import WorldSpec
 
 SLOP = 0.0005
