@@ -12,7 +12,7 @@ import numba
 import numpy as np
 
 from bots.odometry.batch import COVARIANCES, DefaultOdometry
-from bots.odometry.encoder import sigma_encoders
+from bots.odometry.encoder import sigma_encoders_both
 from bots.odometry.layout import ESTIMATE, ESTIMATES, HYPOTHESIS_WEIGHT, SIGMAS
 from bots.odometry.mouse import MOUSE_SIGMAS, mouse_arc, sigma_mouse
 from bots.odometry.propagation import add_offset, add_spread, lay
@@ -25,8 +25,7 @@ def _sigma_work(params: np.ndarray, state: np.ndarray, poses: np.ndarray, tallie
     p, st = params[0], state[0]
     for n in range(tallies.shape[0]):
         left, right, forward, lateral = float(tallies[n, 0]), float(tallies[n, 1]), float(tallies[n, 2]), float(tallies[n, 3])
-        sigma_encoders(p, st.sigmas[ESTIMATE.encoders], left, right, False)
-        sigma_encoders(p, st.sigmas[ESTIMATE.firmware], left, right, True)
+        sigma_encoders_both(p, st.sigmas[ESTIMATE.encoders], st.sigmas[ESTIMATE.firmware], left, right)
         sigma_mouse(p, st.sigmas[ESTIMATE.mouse], forward, lateral)
         s, alpha = mouse_arc(p, forward, lateral)
         lay(st.mouse_watch.hypothesis, s, alpha, False)

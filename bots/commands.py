@@ -104,7 +104,10 @@ def _wheel_speeds(command: Command, robot: RobotSpec) -> tuple[float, float]:
     if not (math.isfinite(left) and math.isfinite(right)):
         raise BadCommand(f"non-finite command {command!r}")
     limit = robot.max_wheel_surface_speed
-    scale = max(abs(left), abs(right), limit) / limit
+    faster = abs(left) if abs(left) > abs(right) else abs(right)
+    if faster <= limit:  # (within the limit: a scale of exactly 1, the speeds as they are)
+        return left, right
+    scale = faster / limit
     return left / scale, right / scale
 
 

@@ -20,7 +20,7 @@ import numba
 import numpy as np
 
 from bots.odometry.defaults import default_estimators
-from bots.odometry.encoder import encoder_step, sigma_encoders
+from bots.odometry.encoder import encoder_step, sigma_encoders_both
 from bots.odometry.fused import fused_step
 from bots.odometry.layout import DEAD_RECKONERS, ENCODERS_ONLY, ESTIMATE, ESTIMATES, HYPOTHESIS_WEIGHT, PARAMETERS, SIGMAS, STATE, TALLY, Counts, Estimate, fresh_state, workspace
 from bots.odometry.mouse import MOUSE_SIGMAS, mouse_step, sigma_mouse, turn_check, watch_slides
@@ -66,7 +66,7 @@ def batch_step(batch: Batch, tallies: np.ndarray, time: float, truth: np.ndarray
             end_heading = estimate == ESTIMATE.firmware  # (a bool numba does not take for a constant: the step compiles once for both)
             s, alpha = encoder_step(p, pose[estimate, 2], cov[estimate], counts.left, counts.right, end_heading, work)
             lay(pose[estimate], s, alpha, end_heading)
-            sigma_encoders(p, st.sigmas[estimate], counts.left, counts.right, end_heading)
+        sigma_encoders_both(p, st.sigmas[ESTIMATE.encoders], st.sigmas[ESTIMATE.firmware], counts.left, counts.right)
         if not p.has_mouse:
             continue
         mouse = ESTIMATE.mouse

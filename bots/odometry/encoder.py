@@ -7,8 +7,9 @@ import numpy as np
 
 from bots.odometry.base import ArcOdometry
 from bots.odometry.layout import NODES, PLANE, SIGMAS
-from bots.odometry.propagation import END_HEADING, MID_ANGLE, lay, node_of, propagate, wheel_terms, wheel_variances
+from bots.odometry.propagation import END_HEADING, MID_ANGLE, lay, lay_chord, node_of, propagate, wheel_terms, wheel_variances
 from bots.readings import Readings
+from sim.kinematics.batch import chord_of
 
 
 @numba.njit(cache=True)
@@ -24,17 +25,36 @@ def encoder_step(p: np.void, heading: float, cov: np.ndarray, left: float, right
     return s, alpha
 
 
+@numba.njit(cache=True, inline="always")
+def sigma_arc(p: np.void, point: int, left: float, right: float) -> tuple[float, float]:
+    """The arc (s, alpha) of these ticks as sigma point `point` of the encoders' calibration sees
+    it: it believes the left wheel, the right wheel and the track off by one node each (`NODES`,
+    its base-3 digits: `node_of`), so its wheels roll (1 + k) times the believed arc and it turns
+    over (1 + k) times the believed track, exactly, however far its heading strays."""
+    s_left = left * p.tick_left * (1.0 + NODES[node_of(point, 0)] * p.wheel_std)
+    s_right = right * p.tick_right * (1.0 + NODES[node_of(point, 1)] * p.wheel_std)
+    track = p.track * (1.0 + NODES[node_of(point, 2)] * p.track_std)
+    return 0.5 * (s_left + s_right), (s_right - s_left) / track
+
+
 @numba.njit(cache=True)
 def sigma_encoders(p: np.void, sigmas: np.ndarray, left: float, right: float, end_heading: bool) -> None:
-    """Lay these ticks on every sigma point of the encoders' calibration, in place: each point
-    believes the left wheel, the right wheel and the track off by one node each (`NODES`, its
-    base-3 digits: `node_of`), so its wheels roll (1 + k) times the believed arc and it turns over
-    (1 + k) times the believed track, exactly, however far its heading strays."""
+    """Lay these ticks on every sigma point of the encoders' calibration (`sigma_arc`), in place."""
     for i in range(SIGMAS):
-        s_left = left * p.tick_left * (1.0 + NODES[node_of(i, 0)] * p.wheel_std)
-        s_right = right * p.tick_right * (1.0 + NODES[node_of(i, 1)] * p.wheel_std)
-        track = p.track * (1.0 + NODES[node_of(i, 2)] * p.track_std)
-        lay(sigmas[i], 0.5 * (s_left + s_right), (s_right - s_left) / track, end_heading)
+        s, alpha = sigma_arc(p, i, left, right)
+        lay(sigmas[i], s, alpha, end_heading)
+
+
+@numba.njit(cache=True)
+def sigma_encoders_both(p: np.void, mid: np.ndarray, end: np.ndarray, left: float, right: float) -> None:
+    """`sigma_encoders` on the encoders' sigma points (`mid`: along the mid-angle) and the
+    firmware's (`end`: along the end heading) at once: the same ticks through the same nodes, so
+    each point's arc and chord are worked out once for both (the same operations: the same bits)."""
+    for i in range(SIGMAS):
+        s, alpha = sigma_arc(p, i, left, right)
+        chord = chord_of(s, alpha)
+        lay_chord(mid[i], chord, alpha, False)
+        lay_chord(end[i], chord, alpha, True)
 
 
 class EncoderOdometry(ArcOdometry):

@@ -108,10 +108,22 @@ def exact_arc(s_left: float, s_right: float, track: float) -> tuple[float, float
 def advance_one(x: float, y: float, theta: float, s: float, alpha: float, end_heading: bool) -> tuple[float, float, float]:
     """`arc.advance` for compiled code that steps odometry on the robot: the same operations in
     the same order and nothing fused, so its poses equal `advance`'s bit for bit."""
+    return advance_chord(x, y, theta, chord_of(s, alpha), alpha, end_heading)
+
+
+@numba.njit(cache=True, inline="always")
+def chord_of(s: float, alpha: float) -> float:
+    """`advance_one`'s chord of an arc of length s turning by alpha (its first half)."""
     h = 0.5 * alpha
     sinc = math.sin(h) / h if abs(h) > _ADVANCE_SERIES_LIMIT else 1.0 - h * h / 6.0
-    direction = theta + (alpha if end_heading else h)
-    chord = s * sinc
+    return s * sinc
+
+
+@numba.njit(cache=True, inline="always")
+def advance_chord(x: float, y: float, theta: float, chord: float, alpha: float, end_heading: bool) -> tuple[float, float, float]:
+    """`advance_one`'s second half: the `chord_of` an arc laid from the pose (for poses that share
+    an arc, its chord worked out once)."""
+    direction = theta + (alpha if end_heading else 0.5 * alpha)
     return x + chord * math.cos(direction), y + chord * math.sin(direction), theta + alpha
 
 
