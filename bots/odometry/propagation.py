@@ -16,7 +16,7 @@ import math
 import numba
 import numpy as np
 
-from bots.odometry.layout import NODE_WEIGHTS, PLANE
+from bots.odometry.layout import NODE_WEIGHTS, PLANE, SIGMAS
 from bots.uncertainty import ERROR, ERRORS
 from sim.kinematics.batch import advance_chord, advance_one
 
@@ -155,13 +155,28 @@ def point_weight(point: int, count: int) -> float:
     return weight
 
 
+def _point_weights() -> np.ndarray:
+    """`point_weight(point, count)` at [count, point] for every count of sigma points (3**errors -
+    1) up to SIGMAS, other rows 0 (the same products in the same order: the same bits)."""
+    table = np.zeros((SIGMAS + 1, SIGMAS))
+    count = 2
+    while count <= SIGMAS:
+        table[count, :count] = [point_weight.py_func(i, count) for i in range(count)]
+        count = 3 * count + 2
+    return table
+
+
+POINT_WEIGHTS = _point_weights()
+"""Every sigma point's weight (`_point_weights`): looked up, not worked out for each point every step."""
+
+
 @numba.njit(cache=True)
 def add_spread(sigmas: np.ndarray, count: int, pose: np.ndarray, out: np.ndarray) -> None:
     """Add the spread of the first `count` sigma points about `pose` to the covariance entries
     `out` (COVARIANCE_FIELDS): the calibration's part of the error, by Gauss-Hermite cubature
-    (each point weighs `point_weight`, the estimate itself the rest)."""
+    (each point weighs `point_weight`, the estimate itself the rest; `POINT_WEIGHTS`)."""
     for i in range(count):
-        add_offset(sigmas[i], pose, point_weight(i, count), out)
+        add_offset(sigmas[i], pose, POINT_WEIGHTS[count, i], out)
 
 
 @numba.njit(cache=True, inline="always")
