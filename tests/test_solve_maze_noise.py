@@ -69,9 +69,14 @@ def test_realistic_noise_reaches_the_goal_about_as_fast_as_exact_sensors():
     assert np.mean(times) <= 1.10 * exact
 
 
-def test_harsh_noise_mostly_reaches_the_goal():
-    """15 of 20 seeds with harsh noise (15 mm IR noise, 3 % track error, 1 % wheel diameters); seen:
-    20, in 261.3 s on average (18 with looks of up to 64 steps; 15 before solve_maze squared up on
-    closed walls through the IR curve's fold-back, robots drifting off the line along corridors
-    with closed walls)."""
-    assert sum(goal is not None for goal, _ in outcomes()["harsh"]) >= 15
+def test_harsh_noise_mostly_reaches_the_goal_about_as_fast_as_exact_sensors():
+    """15 of 20 seeds with harsh noise (15 mm IR noise, 3 % track error, 1 % wheel diameters), on
+    average within 10 % of the exact-sensor run's time; seen: 20, in 261.3 s on average against
+    241.4 s, +8.2 % (18 in 276.6 s with looks of up to 64 steps; 15 in 285.8 s before solve_maze
+    squared up on closed walls through the IR curve's fold-back, robots drifting off the line along
+    corridors with closed walls). A seed that misses the goal would move the mean of 20 by about
+    2 s (0.8 %)."""
+    exact = outcomes()["none"][0][0]
+    times = [goal for goal, _ in outcomes()["harsh"] if goal is not None]
+    assert exact is not None and len(times) >= 15
+    assert np.mean(times) <= 1.10 * exact
