@@ -123,6 +123,9 @@ tells a noise-free 0.065 m from the 0.125 m that reads the same raw value."""
 NEAR_ERROR = 0.01
 """Largest standard deviation (m) of a sensor's distance to a closed wall for a square-up on it:
 more means its readings fit both sides of the fold-back."""
+NEAR_ROWS = 16
+"""Distances `_raw_likelihood` weighs at once: its table for a sensor with a metre of noise (a robot
+file may give it) then takes some 30 MB at a time, not 700."""
 NEAR_MIN_STD = 0.001
 """Least IR noise (m) the fold-back model assumes (a noise-free sensor reads one value, which
 then fits the distances within a millimetre of it)."""
@@ -144,9 +147,12 @@ def _raw_likelihood(curve: str | None, side: str, noise_std: float) -> tuple[int
     order = np.argsort(raw, kind="stable")
     values, starts = np.unique(raw[order], return_index=True)
     grid = np.arange(0.0, NEAR_REACH + NEAR_STEP / 2, NEAR_STEP)
-    weights = np.exp(-0.5 * ((true[order][None, :] - grid[:, None]) / std) ** 2) * (step / (std * math.sqrt(2 * math.pi)))
     chances = np.zeros((len(grid), high - low + 1))
-    chances[:, values - low] = np.add.reduceat(weights, starts, axis=1)
+    ordered = true[order]
+    for first in range(0, len(grid), NEAR_ROWS):  # (a few rows at a time: a robot file may give the sensor up to 1 m of noise)
+        rows = slice(first, first + NEAR_ROWS)
+        weights = np.exp(-0.5 * ((ordered[None, :] - grid[rows, None]) / std) ** 2) * (step / (std * math.sqrt(2 * math.pi)))
+        chances[rows, values - low] = np.add.reduceat(weights, starts, axis=1)
     below = 0.5 * np.array([math.erfc(d / (std * math.sqrt(2))) for d in grid.tolist()])  # noise below 0 m reads as 0
     chances[:, raw[0] - low] += below
     return low, np.log(chances + 1e-6)  # (a floor: one stray reading does not rule a distance out)
