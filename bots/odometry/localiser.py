@@ -75,7 +75,9 @@ CONFIRM = 0.75
 in a world of look-alike places a wrong place fits the scans for a while. In the maze, six robots
 carried 2.3 m (seeds 0-5, 40-60 s after) ended the search 14 times on a wrong place, 0.47-2.6 m
 off, 13 of them found out within 0.62 m of travel (the 14th still held when the 60 s ended);
-while the set follows a place not yet confirmed, `lost` stays set."""
+while the set follows a place not yet confirmed, `lost` stays set. It makes a wrong "found" rarer
+and shorter, not impossible: on later paths two of those six cleared it on a wrong place 1-2 m off
+for 0.1 and 1.4 s (docs/odometry.md)."""
 RECOVERY = 5000
 """Particles while lost: the scan picks where a kidnapped robot may be among the whole map's free
 floor, which takes ten times the particles that follow a robot already found."""
