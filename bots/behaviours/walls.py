@@ -129,12 +129,14 @@ file may give it) then takes some 30 MB at a time, not 700."""
 NEAR_MIN_STD = 0.001
 """Least IR noise (m) the fold-back model assumes (a noise-free sensor reads one value, which
 then fits the distances within a millimetre of it)."""
+NEAR_DISTANCES = np.arange(0.0, NEAR_REACH + NEAR_STEP / 2, NEAR_STEP)
+"""The distances (m) of `_raw_likelihood`'s rows: 0, NEAR_STEP, ... NEAR_REACH."""
 
 
 @cache
 def _raw_likelihood(curve: str | None, side: str, noise_std: float) -> tuple[int, np.ndarray]:
     """(lowest raw value, log-probability of each raw value from there, a row per distance
-    0, NEAR_STEP, ... NEAR_REACH m) of an IR sensor facing a wall: its distance plus normal noise of
+    of NEAR_DISTANCES) of an IR sensor facing a wall: its distance plus normal noise of
     `noise_std` (not below 0, as the sensors read) through its characteristic, rounded. On the
     GP2D12's fold-back a raw value is two distances (one below 0.09 m, one above): the scatter of
     noisy readings tells them apart, as their mean cannot. Tabulated once per curve and noise."""
@@ -146,7 +148,7 @@ def _raw_likelihood(curve: str | None, side: str, noise_std: float) -> tuple[int
     low, high = ir.raw_range()
     order = np.argsort(raw, kind="stable")
     values, starts = np.unique(raw[order], return_index=True)
-    grid = np.arange(0.0, NEAR_REACH + NEAR_STEP / 2, NEAR_STEP)
+    grid = NEAR_DISTANCES
     chances = np.zeros((len(grid), high - low + 1))
     ordered = true[order]
     for first in range(0, len(grid), NEAR_ROWS):  # (a few rows at a time: a robot file may give the sensor up to 1 m of noise)
@@ -422,11 +424,10 @@ class SolveMaze(Plan):
         robot's position across a corridor with closed walls, which no face beyond an open way
         shows (harsh noise: robots 6 cm off the line hit a corner at its end)."""
         expected = self.cell / 2 - self._along(room, quarter) - self.ir_ahead  # believed sensors to the wall (m)
-        distances = np.arange(0.0, NEAR_REACH + NEAR_STEP / 2, NEAR_STEP)
-        window = np.abs(distances - expected) < NEAR_WINDOW
+        window = np.abs(NEAR_DISTANCES - expected) < NEAR_WINDOW
         if not window.any():
             return
-        distances = distances[window]
+        distances = NEAR_DISTANCES[window]
         prior = -0.5 * ((distances - expected) / NEAR_PRIOR) ** 2
         means, errors = [], []
         for (low, table), raws, sensor in zip(self.raw_likelihood, look.raws, self.robot.ir):
