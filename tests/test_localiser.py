@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
 from bots.odometry.localiser import MonteCarloLocaliser
 from bots.odometry.user import load
@@ -58,10 +59,10 @@ def test_the_localiser_follows_the_robot_far_closer_than_dead_reckoning() -> Non
 
 def test_a_robot_moved_by_hand_is_found_again() -> None:
     """Picked up and put down 10 cm further along its corridor and turned by 29 degrees: within
-    1.5 s the localiser says it is lost (the scans stop fitting; measured 0.96 s); within 8 s of
-    the kidnapping (measured 3.3 s) it is on the robot again and stays within 2 cm of it to the
-    end, and once the robot has rolled CONFIRM metres there, within 17 s (measured 14.4 s), it
-    says so. (Where solve_maze drives the kidnapped robot decides how soon the scans tell: over
+    1.5 s the localiser says it is lost (the scans stop fitting; measured 0.57 s); within 8 s of
+    the kidnapping (measured 2.4 s) it is on the robot again and stays within 2 cm of it to the
+    end, and once the robot has rolled CONFIRM metres there and the place fits the scans since the
+    robot was lost (RECALL_NEAR), within 17 s (measured 13.5 s), it says so. (Where solve_maze drives the kidnapped robot decides how soon the scans tell: over
     seeds 0-15 it is found within 8 s in 12, 13 before solve_maze squared up on closed walls;
     seed 2 in both.)"""
     kidnapper = Kidnapper(by=(0.1, 0.0, 0.5))
@@ -73,18 +74,27 @@ def test_a_robot_moved_by_hand_is_found_again() -> None:
     assert not rows[rows[:, 0] >= 17.0, 2].any()
 
 
-def test_a_robot_carried_across_the_maze_is_said_to_be_lost_while_it_is() -> None:
-    """Carried 2.3 m to the maze's far corner: within 1.5 s the localiser says it is lost, and it
-    never says otherwise while it is off. (Finding it again is not promised: two forward IR sensors
-    see little of a maze whose corridors look alike. In this run the search ends 12 s after on a
-    corridor 2.4 m off that fits as well and gives it up 7 s later, 0.5 m on: the flag, cleared
-    only after CONFIRM metres, stays set throughout; cleared at once, it said "found" for those 7 s.)"""
-    kidnapper = Kidnapper(at=(2.76, 0.36, math.pi / 2))
-    simulate("maze", noise="realistic", duration=KIDNAP_AT + 22.0, seed=0, estimators=["localiser"], observers=[kidnapper])
+CARRIED = [((2.76, 0.36, math.pi / 2), 0), ((2.76, 0.36, math.pi / 2), 4), ((1.80, 1.80, math.pi), 1), ((0.36, 2.76, 0.0), 3)]
+"""Kidnappings in the maze (put at (x, y m, heading rad), seed): the test's own to the far corner
+that the localiser does not find again within the minute, and three in which the localiser before
+the recall (38d7300) said "found" on a wrong place: for 1.4 s 2.0 m off, for 18 s up to 1.45 m
+off, for 7.4 s up to 2.6 m off."""
+
+
+@pytest.mark.parametrize(("place", "seed"), CARRIED)
+def test_a_robot_carried_across_the_maze_is_never_said_found_on_a_wrong_place(place: tuple[float, float, float], seed: int) -> None:
+    """Carried across the maze 30 s into the main job: within 1.5 s the localiser says it is lost,
+    and in the minute after it never says otherwise while its estimate is more than 0.1 m off:
+    FOUND_SPREAD, the widest spread the search may end with. A place found again is followed
+    within 2 cm; the wrong places the search ended on in docs/odometry.md's 30 kidnappings were
+    0.34-2.6 m off, so 0.1 m tells the two apart with room either way. (Finding it again is not
+    promised: two forward IR sensors see little of a maze whose corridors look alike.)"""
+    kidnapper = Kidnapper(at=place)
+    simulate("maze", noise="realistic", duration=KIDNAP_AT + 60.0, seed=seed, estimators=["localiser"], observers=[kidnapper])
     rows = np.array(kidnapper.rows)
-    assert rows[0, 1] > 2.0 and rows[rows[:, 0] <= 1.5, 2].any()
+    assert rows[0, 1] > 0.3 and rows[rows[:, 0] <= 1.5, 2].any()
     said_found = rows[(rows[:, 0] > 1.5) & (rows[:, 2] == 0)]
-    assert np.all(said_found[:, 1] < 0.05)
+    assert np.all(said_found[:, 1] < 0.1)
 
 
 def test_the_recording_shows_the_particles_and_the_scan_score(tmp_path) -> None:  # noqa: ANN001
@@ -114,14 +124,12 @@ def test_the_recording_shows_the_particles_and_the_scan_score(tmp_path) -> None:
 def test_a_robot_carried_across_the_rooms_parcours_is_found_again() -> None:
     """Carried 3 m across worlds/rooms.xml (a parcours whose rooms differ, unlike the maze's
     corridors) and turned to face west, seed 4: within 1.5 s the localiser says it is lost
-    (measured 0.52 s), and from 25 s after the kidnapping on it stays within 2 cm of the robot
-    (measured from 6.6 s on) and says it found it (measured from 16.8 s on). Seed 4 is one of ten
-    measured (docs/odometry.md): nine were found again, 13.3-26.6 s after; seed 8 not within 60 s.
-    (Seed 2, taken before solve_maze's looks were shortened to 32 steps, now says so after 26.6 s;
-    seed 7's robot reaches the goal 27 s after.)"""
+    (measured 0.52 s), and from 27 s after the kidnapping on it stays within 2 cm of the robot
+    (measured from 6.6 s on) and says it found it (measured from 24.9 s on, once the scans of 2 m,
+    RECALL, fit the place). Seed 4 is one of ten measured (docs/odometry.md)."""
     kidnapper = Kidnapper(at=(3.0, 1.8, math.pi))
     simulate(str(ROOMS), noise="realistic", duration=KIDNAP_AT + 35.0, seed=4, estimators=["localiser"], observers=[kidnapper])
     rows = np.array(kidnapper.rows)
     assert rows[0, 1] > 2.5 and rows[rows[:, 0] <= 1.5, 2].any()
-    later = rows[rows[:, 0] >= 25.0]
-    assert len(later) > 900 and not later[:, 2].any() and np.all(later[:, 1] < 0.02)
+    later = rows[rows[:, 0] >= 27.0]
+    assert len(later) > 700 and not later[:, 2].any() and np.all(later[:, 1] < 0.02)

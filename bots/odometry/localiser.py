@@ -21,14 +21,18 @@ any pose could give that scan, in [0, 1]. When its fast average falls below LOST
 one, the search begins (`searching`; `lost` with it): the set grows to `recovery` particles, the old ones and the rest spread around
 the estimate (a robot moved by hand), each scan draws INJECT of them anew from free floor where the
 scan fits (sensor resetting, Lenser and Veloso 2000), and they move with SEARCH times the
-roughening. Found again once the fast score is back to FOUND_AT of the slow one before the loss
-and the particles' spread is under FOUND_SPREAD; the set shrinks back, and `lost` is cleared once
-the robot has rolled CONFIRM metres without the search beginning again.
+roughening. The search ends once the fast score is back to FOUND_AT of the slow one before the
+loss and the particles' spread is under FOUND_SPREAD; the set shrinks back. `lost` is cleared only
+once the robot has rolled CONFIRM metres without the search beginning again and the place passes
+a recall: the set, taken back along the odometry, must fit the scans since the robot was lost
+too (RECALL metres of them at least, RECALL_NEAR for a robot nudged), or the search begins again.
+A wrong place that fits the last metre of scans rarely fits the two before.
 """
 
 from __future__ import annotations
 
 import math
+from collections import deque
 from typing import Protocol
 
 import numba
@@ -71,13 +75,28 @@ kidnapping); found again when it is back above FOUND_AT of the slow score before
 FOUND_SPREAD = 0.1
 """...and only once the particles' position spread (root of the covariance's trace, m) is this small."""
 CONFIRM = 0.75
-"""Metres the robot must roll with the search ended and not begun again before `lost` is cleared:
-in a world of look-alike places a wrong place fits the scans for a while. In the maze, six robots
-carried 2.3 m (seeds 0-5, 40-60 s after) ended the search 14 times on a wrong place, 0.47-2.6 m
-off, 13 of them found out within 0.62 m of travel (the 14th still held when the 60 s ended);
-while the set follows a place not yet confirmed, `lost` stays set. It makes a wrong "found" rarer
-and shorter, not impossible: on later paths two of those six cleared it on a wrong place 1-2 m off
-for 0.1 and 1.4 s (docs/odometry.md)."""
+"""Metres the robot must roll with the search ended and not begun again before the place is
+recalled (RECALL): in a world of look-alike places a wrong place fits the scans for a while, and
+most are found out within this (six robots carried 2.3 m across the maze, seeds 0-5: 13 of 14
+wrong places within 0.62 m). Alone it did not make a wrong "found" rare: in 30 kidnappings in
+the maze (five places, seeds 0-5, 60 s after) the flag cleared on a wrong place 0.5-2.6 m off in
+10, for 0.1-18 s; with the recall in none (docs/odometry.md)."""
+RECALL, RECALL_NEAR, RECALL_MOST = 2.0, 1.0, 3.0
+"""Metres of scans since the robot was lost that must fit a place found again, taken back along
+the odometry (`MonteCarloLocaliser._recall`), before `lost` is cleared: at least RECALL, all of
+them up to RECALL_MOST (older ones are dropped: a robot carried by hand for a while, its wheels
+turning in the air). RECALL_NEAR where the place, taken back along the odometry, is within NEARBY
+of the estimate when the robot was lost: a robot nudged is far likelier than one carried to one
+look-alike place among many, so the prior needs less of the scans. In the maze a wrong place
+passed a recall of 1.1 m (seed 1 of tests/test_localiser.py's CARRIED: 1.45 m off), none of 2 m;
+a robot nudged is said found after 13.5-19.4 s with 1 m, after some 21 s with 1.5 m."""
+NEARBY = 0.3
+"""Within this distance (m) of the estimate when the robot was lost, a place is the one it was
+nudged to: in the maze the next corridor is 0.48 m away."""
+RECALL_BELOW = 0.02
+"""The scans taken back fit where their fast score average stays above this share of the slow
+one: twice LOST_BELOW. In 36 kidnappings (the maze and worlds/rooms.xml) 27 recalls on the robot
+read 0.024-0.2 and three under (all one run's: it stays lost); all eight on a wrong place failed."""
 RECOVERY = 5000
 """Particles while lost: the scan picks where a kidnapped robot may be among the whole map's free
 floor, which takes ten times the particles that follow a robot already found."""
@@ -223,14 +242,24 @@ class MonteCarloLocaliser:
         self.score = self.fast = self.slow = math.nan  # (the first scan sets the averages)
         self.searching = False
         """Whether the set searches for the robot (grown, drawing anew, roughening wider)."""
-        self._held = CONFIRM  # metres rolled since the search ended (the start pose is known)
+        self._held = 0.0  # metres rolled since the search ended
+        self.confirmed = True  # (the start pose is known)
+        """Whether the place the set follows, since the robot was last lost, has been checked
+        against the scans since (`_recall`)."""
+        self._history: deque[tuple[np.ndarray, np.ndarray, float, float, float]] = deque()
+        """While not confirmed, per scan since the robot was lost, of the last RECALL_MOST metres:
+        the odometry's pose, the raw IR values, the metres rolled and radians turned since the scan
+        before, and the radians the encoders alone turned (nan without a mouse)."""
+        self._recorded = 0.0  # metres the history spans
+        self._lost_at = (start[:2].copy(), start.copy())
+        """Where the estimate (x, y) and the odometry's pose were when the robot was lost."""
         self.updated = 0.0
 
     @property
     def lost(self) -> bool:
         """Whether the localiser does not know where the robot is: searching, or following a place
-        it has not yet held for CONFIRM metres."""
-        return self.searching or self._held < CONFIRM
+        not yet confirmed (held for CONFIRM metres and fitting the scans since the robot was lost)."""
+        return self.searching or not self.confirmed
 
     def update(self, readings: Readings) -> None:
         before = self.odometry.pose
@@ -259,10 +288,10 @@ class MonteCarloLocaliser:
         if self._tick_turn is not None and not self.searching:  # (searching, every particle follows the odometry)
             self.by_encoders ^= self.rng.random(n) < SWITCH
             turns[self.by_encoders] = self._encoder_turn
-        self._encoder_turn = 0.0
-        move_particles(self.particles, *increment, self._motion_std(roughen=True), self.rng.standard_normal((n, 3)), turns)
+        encoder_turn, self._encoder_turn = self._encoder_turn, 0.0
+        move_particles(self.particles, *increment, self._motion_std(True, self._rolled, self._turned), self.rng.standard_normal((n, 3)), turns)
         self._anchor = self.odometry.pose.copy()
-        rolled = self._rolled
+        rolled, turned = self._rolled, self._turned
         self._steps, self._rolled, self._turned = 0, 0.0, 0.0
         raw = readings.ir_raw
         self.likelihood = np.empty(n)
@@ -284,7 +313,16 @@ class MonteCarloLocaliser:
             self.searching = self.fast < LOST_BELOW * self.slow
         else:
             self.searching = self.fast < FOUND_AT * self.slow or math.sqrt(self._cov[0, 0] + self._cov[1, 1]) > FOUND_SPREAD
+        if self.searching and self.confirmed:
+            self.confirmed, self._recorded, self._lost_at = False, 0.0, (self._mean[:2].copy(), self._anchor)
+            self._history.clear()
+        if not self.confirmed:
+            self._record(raw, rolled, turned, encoder_turn)
         self._held = 0.0 if self.searching else self._held + rolled
+        if not self.searching and not self.confirmed and self._held >= CONFIRM and self._recorded >= self._evidence():
+            self.confirmed = self._recall() >= RECALL_BELOW
+            self.searching = not self.confirmed  # (a place the earlier scans rule out: search again)
+            self._held = 0.0 if self.searching else self._held
         size = self.recovery if self.searching else self.count
         if self.searching:
             self.by_encoders[:] = False
@@ -296,13 +334,62 @@ class MonteCarloLocaliser:
             self._resample(size - fresh, [self._picked(fresh, raw)] if fresh else [])
         self.updated = readings.time
 
+    def _record(self, raw: np.ndarray, rolled: float, turned: float, encoder_turn: float) -> None:
+        """Add this scan to the history, and drop the scans RECALL_MOST metres before it."""
+        self._history.append((self._anchor, raw.copy(), rolled, turned, encoder_turn if self._tick_turn is not None else math.nan))
+        self._recorded += rolled
+        while self._recorded - self._history[0][2] >= RECALL_MOST:
+            self._recorded -= self._history.popleft()[2]
+
+    def _evidence(self) -> float:
+        """Metres of scans a place found again must fit: RECALL_NEAR where the robot, taken back
+        from there along the odometry, was within NEARBY of the estimate when it was lost (a robot
+        nudged: the prior favours it), RECALL anywhere else."""
+        estimate, odometry = self._lost_at
+        dx, dy, _ = relative_pose(self._anchor, odometry)
+        c, s = math.cos(self._mean[2]), math.sin(self._mean[2])
+        back = (self._mean[0] + c * dx - s * dy, self._mean[1] + s * dx + c * dy)
+        return RECALL_NEAR if math.dist(back, estimate) < NEARBY else RECALL
+
+    def _recall(self) -> float:
+        """How well the history's scans fit the place the set follows: the set taken back along
+        the odometry, scan by scan, with the motion noise (and the encoders' turn, SWITCH), weighed
+        and resampled by each earlier scan as it was forward; the least its fast score average
+        reached over the slow one, stopping below RECALL_BELOW (a forward run loses the robot
+        below LOST_BELOW)."""
+        particles, weights, by_encoders = self.particles.copy(), self.weights.copy(), self.by_encoders.copy()
+        n, fast, worst = len(particles), self.fast, math.inf
+        likelihood = np.empty(n)
+        for k in range(len(self._history) - 1, 0, -1):
+            pose, _, rolled, turned, encoder_turn = self._history[k]
+            earlier, raw = self._history[k - 1][:2]
+            turns = np.full(n, np.nan)
+            if not math.isnan(encoder_turn):
+                by_encoders ^= self.rng.random(n) < SWITCH
+                turns[by_encoders] = -encoder_turn
+            std = self._motion_std(True, rolled, turned)
+            move_particles(particles, *relative_pose(pose, earlier), std, self.rng.standard_normal((n, 3)), turns)
+            self.map.likelihood(particles, raw, likelihood)
+            weighted = weights * likelihood
+            total = float(weighted.sum())
+            fast += FAST * (total / self.map.best(raw) - fast)
+            worst = min(worst, fast / self.slow)
+            if worst < RECALL_BELOW:
+                break
+            weights = weighted / total if total > 0.0 else np.full(n, 1.0 / n)
+            if 1.0 / float(np.dot(weights, weights)) < 0.5 * n:
+                drawn = low_variance_resample(weights, n, self.rng.random() / n)
+                particles, by_encoders = particles[drawn], by_encoders[drawn]
+                weights = np.full(n, 1.0 / n)
+        return worst
+
     @property
     def covariance(self) -> np.ndarray:
         """(3, 3) the particles' weighted covariance at the last scan plus the motion noise the
         next scan's move will add for the odometry since (so that it never reads zero, at the
         start either), over INFLATE squared: the set spreads with INFLATE times the believed
         motion noise, and where the scans say little its spread is that many times the belief's."""
-        forward, lateral, turn = (self._motion_std(roughen=False) / INFLATE).tolist()
+        forward, lateral, turn = (self._motion_std(False, self._rolled, self._turned) / INFLATE).tolist()
         c, s = math.cos(self.pose[2]), math.sin(self.pose[2])
         cov = self._cov / INFLATE**2
         cov[0, 0] += c * c * forward**2 + s * s * lateral**2
@@ -336,12 +423,12 @@ class MonteCarloLocaliser:
         poses[:, 2] = self._mean[2] + (poses[:, 2] - self._mean[2] + math.pi) % math.tau - math.pi
         return poses, likelihood[chosen]
 
-    def _motion_std(self, roughen: bool) -> np.ndarray:
-        """(forward m, lateral m, turn rad) standard deviations of the increment since the last
-        scan: the believed random noise over the distance rolled and the calibration still
+    def _motion_std(self, roughen: bool, rolled: float, turned: float) -> np.ndarray:
+        """(forward m, lateral m, turn rad) standard deviations of an increment of `rolled` m and
+        `turned` rad: the believed random noise over the distance rolled and the calibration still
         unknown over the distance and the turn, INFLATE times wider, and (if `roughen`) at least
-        ROUGHEN (SEARCH times that while lost)."""
-        b, rolled, turned = self.belief, self._rolled, self._turned
+        ROUGHEN (SEARCH times that while searching)."""
+        b = self.belief
         forward = 0.5 * b.slip_var * rolled + (b.wheel_scale_std * rolled) ** 2
         if self.mouse_lever:
             turn = b.mouse_var / self.mouse_lever**2 * rolled + (max(b.mouse_scale_std, TURN_FLOOR) * turned) ** 2
