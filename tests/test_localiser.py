@@ -86,8 +86,8 @@ def test_a_robot_carried_across_the_maze_is_never_said_found_on_a_wrong_place(pl
     """Carried across the maze 30 s into the main job: within 1.5 s the localiser says it is lost,
     and in the minute after it never says otherwise while its estimate is more than 0.1 m off:
     FOUND_SPREAD, the widest spread the search may end with. A place found again is followed
-    within 2 cm; the wrong places the search ended on in docs/odometry.md's 30 kidnappings were
-    0.34-2.6 m off, so 0.1 m tells the two apart with room either way. (Finding it again is not
+    within 2 cm; the wrong places the search ended on in docs/odometry.md's kidnappings were
+    0.19-2.6 m off, so 0.1 m tells the two apart with room either way. (Finding it again is not
     promised: two forward IR sensors see little of a maze whose corridors look alike.)"""
     kidnapper = Kidnapper(at=place)
     simulate("maze", noise="realistic", duration=KIDNAP_AT + 60.0, seed=seed, estimators=["localiser"], observers=[kidnapper])

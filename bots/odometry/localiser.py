@@ -80,7 +80,7 @@ recalled (RECALL): in a world of look-alike places a wrong place fits the scans 
 most are found out within this (six robots carried 2.3 m across the maze, seeds 0-5: 13 of 14
 wrong places within 0.62 m). Alone it did not make a wrong "found" rare: in 30 kidnappings in
 the maze (five places, seeds 0-5, 60 s after) the flag cleared on a wrong place 0.5-2.6 m off in
-10, for 0.1-18 s; with the recall in none (docs/odometry.md)."""
+10, for 0.1-18 s; with the recall in none, nor in 36 more (docs/odometry.md)."""
 RECALL, RECALL_NEAR, RECALL_MOST = 2.0, 1.0, 3.0
 """Metres of scans since the robot was lost that must fit a place found again, taken back along
 the odometry (`MonteCarloLocaliser._recall`), before `lost` is cleared: at least RECALL, all of
@@ -88,15 +88,21 @@ them up to RECALL_MOST (older ones are dropped: a robot carried by hand for a wh
 turning in the air). RECALL_NEAR where the place, taken back along the odometry, is within NEARBY
 of the estimate when the robot was lost: a robot nudged is far likelier than one carried to one
 look-alike place among many, so the prior needs less of the scans. In the maze a wrong place
-passed a recall of 1.1 m (seed 1 of tests/test_localiser.py's CARRIED: 1.45 m off), none of 2 m;
-a robot nudged is said found after 13.5-19.4 s with 1 m, after some 21 s with 1.5 m."""
+passed a recall of 1.1 m (seed 1 of tests/test_localiser.py's CARRIED: 1.45 m off); a robot
+nudged is said found after 13.5-19.4 s with 1 m, after some 21 s with 1.5 m."""
 NEARBY = 0.3
 """Within this distance (m) of the estimate when the robot was lost, a place is the one it was
 nudged to: in the maze the next corridor is 0.48 m away."""
+VIEW, VIEWS = 0.2, 3
+"""A place found far from where the robot was lost is recalled only once the history holds VIEW
+metres or more of travel in each of VIEWS of the map's four directions (east, north, west, south,
+each within 45 degrees, the odometry's turned as the place turns it): in the maze a robot
+carried 2.5 m and driven only east and west since fitted a wrong place over all 2 m of its scans."""
 RECALL_BELOW = 0.02
 """The scans taken back fit where their fast score average stays above this share of the slow
-one: twice LOST_BELOW. In 36 kidnappings (the maze and worlds/rooms.xml) 27 recalls on the robot
-read 0.024-0.2 and three under (all one run's: it stays lost); all eight on a wrong place failed."""
+one: twice LOST_BELOW. In the 66 kidnappings of docs/odometry.md (the maze and worlds/rooms.xml)
+40 of 43 recalls on the robot read 0.024-0.31 (three under: one run's, which stays lost); all 13
+on a place 0.19-2.2 m off failed."""
 RECOVERY = 5000
 """Particles while lost: the scan picks where a kidnapped robot may be among the whole map's free
 floor, which takes ten times the particles that follow a robot already found."""
@@ -319,7 +325,7 @@ class MonteCarloLocaliser:
         if not self.confirmed:
             self._record(raw, rolled, turned, encoder_turn)
         self._held = 0.0 if self.searching else self._held + rolled
-        if not self.searching and not self.confirmed and self._held >= CONFIRM and self._recorded >= self._evidence():
+        if not self.searching and not self.confirmed and self._held >= CONFIRM and self._enough():
             self.confirmed = self._recall() >= RECALL_BELOW
             self.searching = not self.confirmed  # (a place the earlier scans rule out: search again)
             self._held = 0.0 if self.searching else self._held
@@ -341,15 +347,25 @@ class MonteCarloLocaliser:
         while self._recorded - self._history[0][2] >= RECALL_MOST:
             self._recorded -= self._history.popleft()[2]
 
-    def _evidence(self) -> float:
-        """Metres of scans a place found again must fit: RECALL_NEAR where the robot, taken back
-        from there along the odometry, was within NEARBY of the estimate when it was lost (a robot
-        nudged: the prior favours it), RECALL anywhere else."""
+    def _enough(self) -> bool:
+        """Whether the history holds the scans a place found again must fit before it is recalled:
+        RECALL_NEAR metres where the robot, taken back from there along the odometry, was within
+        NEARBY of the estimate when it was lost (a robot nudged: the prior favours it); anywhere
+        else RECALL metres, with VIEW metres or more of them in each of VIEWS of the map's four
+        directions (as the place turns the odometry's)."""
         estimate, odometry = self._lost_at
         dx, dy, _ = relative_pose(self._anchor, odometry)
         c, s = math.cos(self._mean[2]), math.sin(self._mean[2])
         back = (self._mean[0] + c * dx - s * dy, self._mean[1] + s * dx + c * dy)
-        return RECALL_NEAR if math.dist(back, estimate) < NEARBY else RECALL
+        if math.dist(back, estimate) < NEARBY:
+            return self._recorded >= RECALL_NEAR
+        if self._recorded < RECALL:
+            return False
+        poses = np.array([pose for pose, *_ in self._history])
+        steps = np.diff(poses[:, :2], axis=0)
+        direction = np.arctan2(steps[:, 1], steps[:, 0]) + self._mean[2] - self._anchor[2]
+        quarter = np.round(direction / (0.5 * math.pi)).astype(np.int64) % 4
+        return int(np.count_nonzero(np.bincount(quarter, np.hypot(steps[:, 0], steps[:, 1]), 4) >= VIEW)) >= VIEWS
 
     def _recall(self) -> float:
         """How well the history's scans fit the place the set follows: the set taken back along
