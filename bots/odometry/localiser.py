@@ -25,8 +25,10 @@ roughening. The search ends once the fast score is back to FOUND_AT of the slow 
 loss and the particles' spread is under FOUND_SPREAD; the set shrinks back. `lost` is cleared only
 once the robot has rolled CONFIRM metres without the search beginning again and the place passes
 a recall: the set, taken back along the odometry, must fit the scans since the robot was lost
-too (RECALL metres of them at least, RECALL_NEAR for a robot nudged), or the search begins again.
-A wrong place that fits the last metre of scans rarely fits the two before.
+too (RECALL metres of them at least, driven in VIEWS directions; RECALL_NEAR for a robot nudged),
+or the search begins again. The search weighs the last scans; the recall makes a place explain
+all of them, and a wrong place that fits the last metre of a maze's scans rarely fits the two
+before.
 """
 
 from __future__ import annotations
@@ -84,8 +86,8 @@ the maze (five places, seeds 0-5, 60 s after) the flag cleared on a wrong place 
 RECALL, RECALL_NEAR, RECALL_MOST = 2.0, 1.0, 3.0
 """Metres of scans since the robot was lost that must fit a place found again, taken back along
 the odometry (`MonteCarloLocaliser._recall`), before `lost` is cleared: at least RECALL, all of
-them up to RECALL_MOST (older ones are dropped: a robot carried by hand for a while, its wheels
-turning in the air). RECALL_NEAR where the place, taken back along the odometry, is within NEARBY
+them up to RECALL_MOST (older ones are dropped: the recall's cost stays bounded, and a robot
+carried by hand for a while, its wheels turning in the air, is found again once it has driven on). RECALL_NEAR where the place, taken back along the odometry, is within NEARBY
 of the estimate when the robot was lost: a robot nudged is far likelier than one carried to one
 look-alike place among many, so the prior needs less of the scans. In the maze a wrong place
 passed a recall of 1.1 m (seed 1 of tests/test_localiser.py's CARRIED: 1.45 m off); a robot
