@@ -107,8 +107,6 @@ def spread(request):
 FIRST_ORDER_FAILS = {
     ("systematic", "mouse"): "a 3.75 % resolution unknown over a full turn is 13.5 degrees of heading: the position error bends "
                              "away from the first-order covariance's direction (whitened lateral spread 8.5, not 1)",
-    ("systematic", "fused"): "too cautious: its calibration converges faster than its covariance says (x spread a quarter of the "
-                             "believed), as the quantisation taken as white noise in the update keeps it (bots/odometry/fused.py)",
 }
 """The scenarios whose covariance the Monte Carlo spread refutes, and why (see docs/odometry.md)."""
 
