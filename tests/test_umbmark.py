@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from bots.ctbot import CTBOT
+from bots.spec import load_robot
 from bots.odometry.base import Geometry
 from sim.analysis.umbmark import (
     OdometrySquare,
@@ -167,6 +168,14 @@ def test_ctsim_umbmark_prints_the_figures_and_writes_the_figure(tmp_path, capsys
     assert len(summary["rounds"]) == 1 and len(summary["after"]["errors_cw"]) == 3 and summary["recommended_runs"] >= 2
     assert summary["scale"]["seeds"] == [4] and summary["rounds"][0]["seeds"] == [5] and summary["after"]["seeds"] == [6]
     assert len(summary["scale"]["true"]) == 3
+    # the calibration as a belief: a robot file with it believes the calibrated geometry
+    robot_file = tmp_path / "calibrated.toml"
+    robot_file.write_text(f'name = "calibrated"\nwheel_diameter = {CTBOT.wheel_diameter}\ntrack_width = {CTBOT.track_width}\nbody_radius = {CTBOT.body_radius}\n'
+                          + (out / "belief.toml").read_text())
+    believed, calibrated = Geometry.believed(load_robot(robot_file)), summary["calibrated"]
+    assert believed.wheel_diameters == pytest.approx(calibrated["wheel_diameters"], rel=1e-5)  # (6 significant digits of the corrections)
+    assert believed.track_width == pytest.approx(calibrated["track_width"], rel=1e-5)
+    assert load_robot(robot_file).belief.track_std == pytest.approx(summary["belief"]["track_std"], rel=1e-5) and summary["belief"]["track_std"] > 0
     assert main(["umbmark", "--runs", "3", "--rounds", "1", "--side", "0.3", "--seed", "4", "--no-scale", "--out", str(out)]) == 0
     assert "scale" not in capsys.readouterr().out and json.loads((out / "umbmark.json").read_text())["rounds"][0]["seeds"] == [4]
     assert (out / "umbmark.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

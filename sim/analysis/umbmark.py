@@ -38,6 +38,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 from statistics import NormalDist
 
 import numpy as np
@@ -189,6 +190,8 @@ BOOTSTRAP_KEY = 0x0B5
 """Spawn key of the bootstrap's generator beside a seed's run generators."""
 CONFIDENCE = 0.95
 """Level of the intervals UMBmark reports."""
+MAX_STD = 0.5
+"""The largest relative std a belief takes (`bots.spec.BeliefSpec`)."""
 BOOTSTRAP_DRAWS = 2000
 """Resamples of the return errors behind each interval (its end points then move by under a tenth
 of its width from one set of draws to another)."""
@@ -264,12 +267,12 @@ class ScaleResult:
 def scale_error(robot: RobotSpec, runs: int, length: float = 1.0, geometry: Geometry | None = None, seed: int = 0,
                 dt: float = DEFAULT_DT) -> ScaleResult:  # fmt: skip
     """E_s of `runs` straight runs of `length` m by odometry believing `geometry` (default:
-    nominal), each on noise of its own (`_driven`). The paper's E_s, which UMBmark's squares cannot
+    the robot's belief's, `Geometry.believed`), each on noise of its own (`_driven`). The paper's E_s, which UMBmark's squares cannot
     see: a mean diameter 0.15 % too large (the realistic c't-Bot's, whose right wheel alone is
     0.3 % larger) makes the squares report its +1 % track as +0.85 %."""
     if runs < 1:
         raise ValueError(f"a scale needs at least one straight run, got {runs!r}")
-    believed = geometry or Geometry.nominal(robot)
+    believed = geometry or Geometry.believed(robot)
     truth, counted, seeds = _driven(robot, runs, length, believed, seed, dt, lambda k: StraightRun(length, believed))
     true, odometry = np.hypot(*truth.T), np.hypot(*counted.T)
     rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(BOOTSTRAP_KEY,)))
@@ -294,11 +297,11 @@ def evaluate(errors_cw: np.ndarray, errors_ccw: np.ndarray, side: float, believe
 
 def umbmark(robot: RobotSpec, side: float = 1.0, runs: int = 5, geometry: Geometry | None = None,
             seed: int = 0, dt: float = DEFAULT_DT) -> UMBmarkResult:
-    """Drive `runs` squares each way with the odometry believing `geometry` (default: nominal),
+    """Drive `runs` squares each way with the odometry believing `geometry` (default: its belief's),
     on fresh noise (`return_errors`), and evaluate them."""
     if runs < 1:
         raise ValueError(f"UMBmark needs at least one run each way, got {runs!r}")
-    believed = geometry or Geometry.nominal(robot)
+    believed = geometry or Geometry.believed(robot)
     cw, ccw, seeds = return_errors(robot, runs, side, believed, seed, dt)
     return evaluate(cw, ccw, side, believed, seeds)
 
@@ -352,3 +355,26 @@ def calibrate(robot: RobotSpec, rounds: int = 1, **options) -> list[UMBmarkResul
         results.append(umbmark(robot, geometry=geometry, seed=seed, **options))
         geometry, seed = results[-1].corrected, results[-1].seeds[-1] + 1
     return results
+
+
+def calibrated_belief(robot: RobotSpec, corrected: Geometry, interval: dict[str, tuple[float, float]], scale: ScaleResult | None) -> dict[str, Any]:
+    """The `[belief]` a calibration gives (`bots.spec.BeliefSpec`): the corrections of the calibrated
+    geometry against the nominal one, and standard deviations from the 95 % intervals of the last
+    round's E_b and E_d and of the scale's E_s (the robot's stated tolerance where no scale was
+    measured; so where one run a direction left no spread to measure). The belief gives each wheel
+    one std, independent of the other's: the larger of what the ratio's (std_d / sqrt 2) and the
+    scale's (std_s * sqrt 2) intervals ask, so that the estimators believe neither tighter than
+    measured."""
+    z = 2 * float(NormalDist().inv_cdf(0.5 + CONFIDENCE / 2))
+    (left, right), track = corrected.wheel_diameters, corrected.track_width
+    stated = robot.belief
+    std_d = (interval["e_d"][1] - interval["e_d"][0]) / z or stated.wheel_diameter_std * math.sqrt(2)
+    std_b = (interval["e_b"][1] - interval["e_b"][0]) / z or stated.track_std
+    std_s = (scale.interval[1] - scale.interval[0]) / z if scale is not None else 0.0
+    std_s = std_s or stated.wheel_diameter_std / math.sqrt(2)
+    return {
+        "diameter_correction": [left / robot.wheel_diameter - 1, right / robot.wheel_diameter - 1],
+        "track_correction": track / robot.track_width - 1,
+        "wheel_diameter_std": min(max(std_d / math.sqrt(2), std_s * math.sqrt(2)), MAX_STD),
+        "track_std": min(std_b, MAX_STD),
+    }

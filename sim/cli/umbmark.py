@@ -5,8 +5,10 @@ from __future__ import annotations
 
 import argparse
 import json
+import textwrap
 import time
 from pathlib import Path
+from typing import Any
 
 from sim.cli.options import UsageError, add_robot_description, folder_name, load_robot_spec, positive, robot_options
 
@@ -46,7 +48,7 @@ def add_parser(commands) -> None:  # noqa: ANN001 (argparse's subparsers action)
 
 
 def cmd_umbmark(args: argparse.Namespace) -> int:
-    from sim.analysis.umbmark import calibrate, confidence, recommended_runs, scale_error, umbmark
+    from sim.analysis.umbmark import calibrate, calibrated_belief, confidence, recommended_runs, scale_error, umbmark
     from sim.out_files import replacing
     from sim.views.umbmark_figure import write_umbmark_figure
 
@@ -83,6 +85,9 @@ def cmd_umbmark(args: argparse.Namespace) -> int:
         verdict = "enough" if args.runs >= spread else "too few"
         print(f"recommended: {spread} runs each way for E_d and E_b within +-{100 * args.tolerance:g} % at 95 % "
               f"(from the spread of round 1's squares; {args.runs} is {verdict})")
+    belief = calibrated_belief(robot, final.corrected, ci, scale)
+    print(f"belief (the robot file's [belief] table, in {out / 'belief.toml'}; or --robot-set belief.FIELD=VALUE):")
+    print(textwrap.indent(belief_toml(belief, f"ctsim umbmark, seeds {args.seed}-{after.seeds[-1]}"), "  "), end="")
     figure = write_umbmark_figure(rounds[0], after, {"before": intervals[0]["max_error"], "after": after_interval["max_error"]}, out / "umbmark.png")
     summary = {
         "options": {**robot_options(args), "runs": args.runs, "rounds": args.rounds, "side": args.side, "scale": args.scale, "seed": args.seed, "dt": args.dt},
@@ -92,11 +97,22 @@ def cmd_umbmark(args: argparse.Namespace) -> int:
         "after": _record(after, after_interval),
         "calibrated": {"wheel_diameters": [left, right], "track_width": track},
         "recommended_runs": spread,
+        "belief": belief,
     }
     with replacing(out / "umbmark.json") as file:
         file.write(json.dumps(summary, indent=1).encode())
-    print(f"wrote {figure} and {out / 'umbmark.json'}")
+    with replacing(out / "belief.toml") as file:
+        file.write(belief_toml(belief, f"ctsim umbmark, seeds {args.seed}-{after.seeds[-1]}").encode())
+    print(f"wrote {figure}, {out / 'umbmark.json'} and {out / 'belief.toml'}")
     return 0
+
+
+def belief_toml(belief: dict[str, Any], source: str) -> str:
+    """`belief` as a robot file's `[belief]` table, saying where it came from."""
+    lines = [f"[belief]  # {source}"]
+    for key, value in belief.items():
+        lines.append(f"{key} = [{value[0]:.6g}, {value[1]:.6g}]" if isinstance(value, list) else f"{key} = {value:.6g}")
+    return "\n".join(lines) + "\n"
 
 
 def _mm(value: float, interval: tuple[float, float]) -> str:
