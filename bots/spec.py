@@ -118,6 +118,10 @@ class BeliefSpec:
     mouse_scale_std, that of the mouse's resolution (3.75 %: the firmware's bot-local.h states the
     real ADNS-2610 at 415 cpi against its nominal 400); slip_std (sqrt m), tick_noise (per tick)
     and mouse_noise_std (sqrt m), the random processes as `EncoderSpec` and `MouseSpec` state them.
+
+    diameter_correction (left, right) and track_correction: what a calibration found (`ctsim
+    umbmark` writes them, with the stds its intervals leave): the estimators believe each wheel's
+    diameter and the track the nominal ones times (1 + correction). Zero: the nominal description.
     """
 
     wheel_diameter_std: float = declared(default=0.003, unit="relative", low=0.0, high=0.5)
@@ -126,6 +130,8 @@ class BeliefSpec:
     slip_std: float = declared(default=0.0004, unit="sqrt m", low=0.0, high=1.0)
     tick_noise: float = declared(default=0.002, unit="probability per tick", low=0.0, high=1.0)
     mouse_noise_std: float = declared(default=0.00033, unit="sqrt m", low=0.0, high=1.0)
+    diameter_correction: Point = declared("pair", default=(0.0, 0.0), unit="relative", **_RELATIVE)
+    track_correction: float = declared(default=0.0, unit="relative", **_RELATIVE)
 
     def __post_init__(self) -> None:
         check_fields(self)

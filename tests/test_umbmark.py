@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from bots.ctbot import CTBOT
+from bots.spec import load_robot
 from bots.odometry.base import Geometry
 from sim.analysis.umbmark import (
     OdometrySquare,
@@ -21,6 +22,7 @@ from sim.analysis.umbmark import (
     evaluate,
     recommended_runs,
     return_errors,
+    scale_error,
     squares_floor,
     systematic_errors,
     umbmark,
@@ -136,6 +138,19 @@ def test_umbmark_recovers_diameter_and_track_errors_and_the_correction_shrinks_t
     assert np.all(np.hypot(*np.concatenate((after.errors_cw, after.errors_ccw)).T) < first.max_error / 5)
 
 
+def test_straight_runs_find_a_common_diameter_error_the_squares_cannot_see():
+    """Both wheels 1 % larger than believed: every square closes (UMBmark alone sees nothing), the
+    straight runs measure E_s = 1.01, inside their 95 % interval (+-0.05 % with 32 runs of 1 m) and
+    within 0.1 %, below the 0.15 % a stop at the count that reaches 1 m would leave (half a count
+    of 3 mm): the clock's stop leaves the count no lead (seen: 1.0102 on seed 5, 1.0096 on 50)."""
+    robot = CTBOT.with_changes(encoders={"diameter_error": (0.01, 0.01), "start_phase": "random"})
+    scale = scale_error(robot, 32, seed=5)
+    assert scale.interval[0] < 1.01 < scale.interval[1] and scale.e_s == pytest.approx(1.01, abs=1e-3)
+    left, right = scale.corrected.wheel_diameters
+    assert left == right == scale.e_s * CTBOT.wheel_diameter and scale.corrected.track_width == CTBOT.track_width
+    assert scale.seeds == (5,) and len(scale.true) == 32
+
+
 def test_square_driver_refuses_nonsense():
     with pytest.raises(ValueError, match="side_m"):
         OdometrySquare(side_m=0.0)
@@ -147,11 +162,22 @@ def test_ctsim_umbmark_prints_the_figures_and_writes_the_figure(tmp_path, capsys
     out = tmp_path / "cal"
     assert main(["umbmark", "--runs", "3", "--rounds", "1", "--side", "0.3", "--seed", "4", "--out", str(out)]) == 0
     printed = capsys.readouterr().out
-    assert "seeds 4-5" in printed  # a round, then the squares after it on the next seed
-    assert "after" in printed and "E_max" in printed and "recommended:" in printed and "95 % CI" in printed
+    assert "seeds 4-6" in printed  # the straight runs, a round, then the squares after it, each on the next seed
+    assert "scale: E_s" in printed and "after" in printed and "E_max" in printed and "recommended:" in printed and "95 % CI" in printed
     summary = json.loads((out / "umbmark.json").read_text())
     assert len(summary["rounds"]) == 1 and len(summary["after"]["errors_cw"]) == 3 and summary["recommended_runs"] >= 2
-    assert summary["rounds"][0]["seeds"] == [4] and summary["after"]["seeds"] == [5]
+    assert summary["scale"]["seeds"] == [4] and summary["rounds"][0]["seeds"] == [5] and summary["after"]["seeds"] == [6]
+    assert len(summary["scale"]["true"]) == 3
+    # the calibration as a belief: a robot file with it believes the calibrated geometry
+    robot_file = tmp_path / "calibrated.toml"
+    robot_file.write_text(f'name = "calibrated"\nwheel_diameter = {CTBOT.wheel_diameter}\ntrack_width = {CTBOT.track_width}\nbody_radius = {CTBOT.body_radius}\n'
+                          + (out / "belief.toml").read_text())
+    believed, calibrated = Geometry.believed(load_robot(robot_file)), summary["calibrated"]
+    assert believed.wheel_diameters == pytest.approx(calibrated["wheel_diameters"], rel=1e-5)  # (6 significant digits of the corrections)
+    assert believed.track_width == pytest.approx(calibrated["track_width"], rel=1e-5)
+    assert load_robot(robot_file).belief.track_std == pytest.approx(summary["belief"]["track_std"], rel=1e-5) and summary["belief"]["track_std"] > 0
+    assert main(["umbmark", "--runs", "3", "--rounds", "1", "--side", "0.3", "--seed", "4", "--no-scale", "--out", str(out)]) == 0
+    assert "scale" not in capsys.readouterr().out and json.loads((out / "umbmark.json").read_text())["rounds"][0]["seeds"] == [4]
     assert (out / "umbmark.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 

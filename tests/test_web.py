@@ -21,10 +21,13 @@ import pytest
 
 from sim.cli.entry import main
 from sim.views import palette
+from sim.web.serve import _rerun_command
 from tests.browser import Browser, chromium, share_of
 
 CTSIM = [sys.executable, "-m", "sim.cli"]
-RERUN = Path(sys.executable).with_name("rerun")
+RERUN = _rerun_command()
+"""rerun's own executable, not the venv's `rerun` script: that script runs it as a child, which
+terminating the script would leave running."""
 LIMIT_S = 300.0
 """Generous limit for anything that waits on a loaded two-core machine (never decides a test)."""
 
@@ -42,12 +45,18 @@ def _serve(*args: str) -> tuple[subprocess.Popen, str]:
     for line in process.stdout:
         if found := re.search(r"(http://\S+)", line):
             return process, found.group(1)
-    raise AssertionError(f"no address printed: {process.stderr.read()}")
+    _, stderr = _stop(process)
+    raise AssertionError(f"no address printed: {stderr}")
 
 
 def _stop(process: subprocess.Popen) -> tuple[int, str]:
+    """Ctrl-C, as a user ends `ctsim view`; killed if it does not end (its rerun server dies with it)."""
     process.send_signal(signal.SIGINT)
-    _, stderr = process.communicate(timeout=LIMIT_S)
+    try:
+        _, stderr = process.communicate(timeout=LIMIT_S)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        _, stderr = process.communicate()
     return process.returncode, stderr
 
 

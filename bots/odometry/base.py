@@ -76,12 +76,18 @@ class Geometry:
         """The geometry the robot description states."""
         return cls((robot.wheel_diameter, robot.wheel_diameter), robot.track_width)
 
+    @classmethod
+    def believed(cls, robot: RobotSpec) -> Geometry:
+        """The nominal geometry with the corrections of the robot's belief (a calibration's)."""
+        left, right = robot.belief.diameter_correction
+        return cls((robot.wheel_diameter * (1 + left), robot.wheel_diameter * (1 + right)), robot.track_width * (1 + robot.belief.track_correction))
+
 
 def parameters(robot: RobotSpec, geometry: Geometry | None = None) -> np.void:
     """The robot's PARAMETERS row (`bots.odometry.layout`): what its estimators believe of its
-    drive (`geometry`, None: nominal), its mouse and its noise (`Belief.of`)."""
+    drive (`geometry`, None: its belief's, `Geometry.believed`), its mouse and its noise (`Belief.of`)."""
     p = PARAMETERS.new(1)[0]
-    believed = geometry or Geometry.nominal(robot)
+    believed = geometry or Geometry.believed(robot)
     p["tick_left"], p["tick_right"] = (math.pi * d / robot.encoders.ticks_per_rev for d in believed.wheel_diameters)
     p["track"] = believed.track_width
     belief = Belief.of(robot)

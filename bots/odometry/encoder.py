@@ -64,12 +64,14 @@ class EncoderOdometry(ArcOdometry):
     (`bots.uncertainty`), carried by 26 sigma points, every combination of three nodes of each
     (`ArcOdometry`, `bots.odometry.layout.SIGMAS`).
 
-    geometry: the believed wheel diameters and track; None = the robot's nominal ones."""
+    geometry: the believed wheel diameters and track; None = the robot's belief's (`Geometry.believed`:
+    the nominal ones unless a calibration corrected them)."""
 
     name = "encoders"
     sigma_count = SIGMAS
     caveat = ("one robot's wheels and track are off the same in every run: its mean NEES over runs says where they lie in "
-              "its belief (the realistic c't-Bot's: too cautious), not whether the covariance holds over the robots it describes")  # fmt: skip
+              "its belief (the realistic c't-Bot's stated belief: too cautious; the one `ctsim umbmark` measures: inside), "
+              "not whether the covariance holds over the robots it describes")  # fmt: skip
 
     def step(self, readings: Readings) -> tuple[float, float]:
         left, right = readings.encoder_ticks.tolist()

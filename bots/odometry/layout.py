@@ -53,6 +53,8 @@ together: with only the 2 a error (6 in all), a robot of the belief's spread tur
 of degrees in the maze, its position's error curves, and the points' spread missed a direction
 the errors take (their mean NEES over robots drawn from the belief, calibration alone: 170-370
 where 3 is right; with the 26: 3.1)."""
+RESIDUALS = 4
+"""Counters whose residual the fused filter carries: the two encoders and the mouse's two axes."""
 HYPOTHESIS_WEIGHT = 1.0
 """The weight of a slide watch's hypothesis (`bots.odometry.mouse.watch_slides`) in its
 estimate's covariance: the second moment of an error as large as its offset. The watch sees the
@@ -116,6 +118,10 @@ STATE = Table(
     Field("sigmas", DEAD_RECKONERS, "the sigma points' poses (SIGMAS, 3) of each dead reckoner, by ESTIMATE", np.dtype((np.float64, (SIGMAS, 3)))),
     Field("mouse_watch", 1, "the mouse estimate's slide watch", SLIDE_WATCH.dtype),
     Field("fused_watch", 1, "the fused estimate's slide watch", SLIDE_WATCH.dtype),
+    # the fused estimator's counters' residuals (`bots.odometry.fused.residual_update`)
+    Field("residual", RESIDUALS, "m, each counter's estimated residual: what it moved beyond its last count, less half a count (left, right tick, forward, lateral count)"),
+    Field("residual_cov", 1, "m², their covariance", np.dtype((np.float64, (RESIDUALS, RESIDUALS)))),
+    Field("residual_cross", 1, "their covariance with the error state (ERRORS, RESIDUALS)", np.dtype((np.float64, (ERRORS, RESIDUALS)))),
 )
 
 class Planes(NamedTuple):
@@ -139,14 +145,15 @@ class Planes(NamedTuple):
     a_mouse: int
     h: int  # fused: the disagreement's Jacobian on the errors, its noise,
     noise_d: int
-    ph: int  # cov h^T,
-    gain: int  # the Kalman gain,
-    keep_cov: int  # and I - gain h
+    ph: int  # the errors' rows of P h^T,
+    gain: int  # and the Kalman gain
     i_enc: int  # fused: each increment's information, their weights
     i_mouse: int
     weights: int
     w_enc: int
     w_mouse: int
+    residual_ph: int  # fused: the residuals' rows of P h^T (before, after the step; columns 0:2, 2:4), the map of a residual to d (rows 4, 5)
+    residual_gain: int  # fused: the residual after's rows of the gain (columns 0:2), a new residual's variance (row 4)
     jac: int  # every step: the increment's Jacobian on the errors and its noise, for `propagate`
     noise: int
     scratch: int  # the first of SCRATCH_PLANES

@@ -234,7 +234,7 @@ class MonteCarloLocaliser:
         """Radians a tick of the left and the right wheel turns the robot by (the believed geometry);
         None where the odometry is the encoders' already."""
         self.mouse_lever = abs(robot.mouse.mount[0]) if mouse_applies(robot) else 0.0
-        self.track = robot.track_width
+        self.track = p["track"]
         self.belief = Belief.of(robot)
         start = np.asarray(pose, dtype=np.float64)
         self.particles = np.tile(start, (self.count, 1))

@@ -144,15 +144,16 @@ class Comparison:
         if not len(truth):
             return
         driven = np.cumsum(np.concatenate(([self._driven], _steps(truth, self._last_truth))))[1:]  # as one cumsum over the run, however split
-        distance = np.hypot(*(estimate[:, :2] - truth[:, :2]).T)
-        rpe, rpe_angle = self._pairs.add(truth, estimate)
+        with np.errstate(over="ignore", invalid="ignore"):  # an estimate that ran off scores inf (or nan), without a warning
+            distance = np.hypot(*(estimate[:, :2] - truth[:, :2]).T)
+            rpe, rpe_angle = self._pairs.add(truth, estimate)
+            self._sum_squares += float(np.sum(distance**2))
+            self._rpe_squares += float(np.sum(rpe**2))
+            self._rpe_angle_squares += float(np.sum(rpe_angle**2))
         if self._count == 0:
             self._first_time = float(times[0])
         self._count += len(truth)
-        self._sum_squares += float(np.sum(distance**2))
         self._max = max(self._max, float(distance.max()))
-        self._rpe_squares += float(np.sum(rpe**2))
-        self._rpe_angle_squares += float(np.sum(rpe_angle**2))
         self._rpe_count += len(rpe)
         self._driven, self._last_time = float(driven[-1]), float(times[-1])
         self._last_truth, self._last_estimate = truth[-1:].copy(), estimate[-1:].copy()

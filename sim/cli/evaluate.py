@@ -32,6 +32,9 @@ def add_parser(commands) -> None:  # noqa: ANN001 (argparse's subparsers action)
     evaluate.add_argument("--out", type=Path, metavar="DIR", help="folder of the results (default: runs/evaluate-<suite>, runs/evaluate-merged with --merge)")
     add_engine_options(evaluate)
     add_step_timeout_option(evaluate, "an estimator's reset, update or pose that takes longer (wall clock) fails its run as the estimator's error")
+    evaluate.add_argument("--isolate", action="store_true",
+                          help="run the estimator files in processes of their own (`ctsim run --isolate`'s sandbox), never in ctsim's: for code you did not "
+                          "write, e.g. students' (docs/odometry.md, 'Evaluation'); they may import numpy, the standard library and bots.commands")  # fmt: skip
     evaluate.set_defaults(handler=cmd_evaluate)
 
 
@@ -58,7 +61,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
         else:
             runner = engine_of(args)
             try:
-                results = evaluate(variant(args.suite), args.estimators, out, runner, step_timeout=args.step_timeout)
+                results = evaluate(variant(args.suite), args.estimators, out, runner, step_timeout=args.step_timeout, isolate=args.isolate)
             except NotWritten as err:  # (the runs are done and kept; their results file could not be written)
                 results, failure = err.results, err.__cause__
             finally:

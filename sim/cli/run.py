@@ -88,8 +88,7 @@ def _isolated(args: argparse.Namespace, isolation: ExitStack) -> tuple[Callable,
     files in processes of their own (`sim.sandbox.isolated`), entered into `isolation`; the
     shipped ones as without it."""
     from bots.behaviours import make
-    from bots.odometry.user import load
-    from sim.sandbox.isolated import isolated_controller, isolated_estimator
+    from sim.sandbox.isolated import estimator_source, isolated_controller
 
     def controller(name: str, params: dict[str, str]):
         if not (name.endswith(".py") or ".py:" in name):
@@ -100,12 +99,7 @@ def _isolated(args: argparse.Namespace, isolation: ExitStack) -> tuple[Callable,
             make(name, params)  # (says which file is missing, as without --isolate)
         return isolation.enter_context(isolated_controller(name, args.step_timeout))
 
-    def estimator(source: str):
-        if not (source.endswith(".py") or ".py:" in source) or not Path(source.partition(".py")[0] + ".py").is_file():
-            return load(source)  # (a shipped one, or the message for a missing file)
-        return isolation.enter_context(isolated_estimator(source, args.step_timeout))
-
-    return controller, estimator
+    return controller, lambda source: estimator_source(source, args.step_timeout, isolation)
 
 
 def _run(args: argparse.Namespace, place, setups: list) -> int:  # noqa: ANN001 (a WorldSpec)

@@ -21,6 +21,7 @@ import os
 import re
 import stat
 from collections.abc import Callable
+from contextlib import ExitStack
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -69,14 +70,16 @@ class Submitted:
     identity: str
 
 
-def submitted(sources: list[str], step_timeout: float | None = STEP_TIMEOUT) -> list[Submitted]:
+def submitted(sources: list[str], step_timeout: float | None = STEP_TIMEOUT, isolate: bool = False) -> list[Submitted]:
     """Each source loaded, built, named and tried on a short run (each call of it under
-    `step_timeout`, as in the suite's runs); EvaluationError (one line) for a missing file, a class
-    that cannot be made or fails on its first steps (raises, leaves, overruns, a bad pose or
-    covariance), or a taken name. Ctrl-C or SIGTERM during the trial stops it as it stops the suite."""
+    `step_timeout`, as in the suite's runs; with `isolate` in processes of its own, never in this
+    one); EvaluationError (one line) for a missing file, a class that cannot be made or fails on
+    its first steps (raises, leaves, overruns, a bad pose or covariance), or a taken name. Ctrl-C
+    or SIGTERM during the trial stops it as it stops the suite."""
     from bots.odometry.user import SHIPPED as BY_NAME
     from bots.odometry.user import beside_defaults, load, name_of
     from sim.experiments.api import Bot, robot, simulate
+    from sim.sandbox.isolated import estimator_source
 
     found = []
     for source in sources:
@@ -85,38 +88,43 @@ def submitted(sources: list[str], step_timeout: float | None = STEP_TIMEOUT) -> 
             continue
         file, _, cls = source.partition(":") if not Path(source).is_file() else (source, "", "")
         path = Path(file).resolve()  # (before its code runs: code that changes the current folder moves nothing)
-        with made_in_time(step_timeout):
-            load(source)  # (a missing file or class: one line of its own)
+        if not isolate:
+            with made_in_time(step_timeout):
+                load(source)  # (a missing file or class: one line of its own)
         located = str(path) + (f":{cls}" if cls else "")
         identity = "sha256:" + hashlib.sha256(path.read_bytes()).hexdigest()
         found.append(Submitted(source, located, "", identity))
     shipped = [s for s in SHIPPED if s not in sources]
-    with made_in_time(step_timeout):
-        made = beside_defaults(robot("ctbot"), [*shipped, *(s.located for s in found)])  # (names taken or not words: refused here)
-    found = [Submitted(s.source, s.located, name_of(e), s.identity) for s, e in zip(found, made[len(shipped):])]
-    for entry in found:
-        trial = simulate("maze", Bot("solve_maze"), duration=TRIAL_S, seed=0, estimators=[entry.located], step_timeout=step_timeout)
-        if trial.reason.signalled:
-            raise Terminated if trial.reason is Ending.TERMINATED else KeyboardInterrupt
-        if trial.error:
-            raise EvaluationError(f"estimator {entry.source}: {trial.error}")
+    with ExitStack() as isolation:  # (the isolated estimators' processes, ended after the trials)
+        given = [estimator_source(s.located, step_timeout or STEP_TIMEOUT, isolation) if isolate else s.located for s in found]
+        with made_in_time(step_timeout):
+            made = beside_defaults(robot("ctbot"), [*shipped, *given])  # (names taken or not words: refused here)
+        found = [Submitted(s.source, s.located, name_of(e), s.identity) for s, e in zip(found, made[len(shipped):])]
+        for entry, estimator in zip(found, given):
+            trial = simulate("maze", Bot("solve_maze"), duration=TRIAL_S, seed=0, estimators=[estimator], step_timeout=step_timeout)
+            if trial.reason.signalled:
+                raise Terminated if trial.reason is Ending.TERMINATED else KeyboardInterrupt
+            if trial.error:
+                raise EvaluationError(f"estimator {entry.source}: {trial.error}")
     return found
 
 
 def evaluate(variant: Variant, sources: list[str], out: str | Path, runner: Any = None, progress: bool = True,
-             on_row: Callable[[dict[str, Any]], None] | None = None, step_timeout: float | None = STEP_TIMEOUT) -> dict[str, Any]:  # fmt: skip
+             on_row: Callable[[dict[str, Any]], None] | None = None, step_timeout: float | None = STEP_TIMEOUT, isolate: bool = False) -> dict[str, Any]:  # fmt: skip
     """Score the estimators of `sources` (`FILE.py[:CLASS]`, or a shipped one by name) beside the
     shipped ones on every run of `variant`, on `runner` (an engine of `sim.experiments.engines`;
     default local processes), resuming what `out` holds; the results (`results_of`), also
     written to `out/results.json` (NotWritten, holding them, where it cannot be). A call of an estimator's code that takes longer than
-    `step_timeout` seconds (wall clock; None: no limit) fails its run, as in `ctsim run`."""
+    `step_timeout` seconds (wall clock; None: no limit) fails its run, as in `ctsim run`. With
+    `isolate`, the estimators' files run in processes of their own, isolated by the operating
+    system (`ctsim run --isolate`'s sandbox), never in this process or the engine's workers."""
     from sim.experiments.sweeping import run_jobs
     from sim.folder_lock import held
 
-    entries = submitted(sources, step_timeout)
+    entries = submitted(sources, step_timeout, isolate)
     out = Path(out)
     planned = variant.jobs([*(s for s in SHIPPED if s not in sources), *(e.located for e in entries)],
-                           [*(s for s in SHIPPED if s not in sources), *(e.identity for e in entries)], step_timeout)  # fmt: skip
+                           [*(s for s in SHIPPED if s not in sources), *(e.identity for e in entries)], step_timeout, isolate)  # fmt: skip
     with held(out, "evaluate"):
         table = run_jobs(planned, out, runner, on_row, progress, what="evaluate")
         ours = table[table["run_id"].isin({job.run_id for job in planned})]  # (not the rows of an estimator's file as it was before)

@@ -100,6 +100,9 @@ class Job:
     step_timeout: float | None = None
     """Seconds (wall clock) a call of the user's code may take (`sim.run.clock.StepClock`; None: no
     limit). Not part of the run's id: a run that finishes is the same run under any limit."""
+    isolate: bool = False
+    """`estimators`' files run in processes of their own, isolated by the operating system
+    (`sim.sandbox.isolated`; needs a `step_timeout`). Not part of the run's id, as the limit."""
 
 
 def _check_key(key: str, where: str) -> None:

@@ -77,10 +77,11 @@ class Variant:
         """Scenario name -> its `Scenario.digest`."""
         return {s.name: s.digest() for s in self.scenarios}
 
-    def jobs(self, estimators: list[str] | tuple[str, ...] = (), identities: list[str] | tuple[str, ...] = (), step_timeout: float | None = None) -> list[Job]:
+    def jobs(self, estimators: list[str] | tuple[str, ...] = (), identities: list[str] | tuple[str, ...] = (), step_timeout: float | None = None,
+             isolate: bool = False) -> list[Job]:  # fmt: skip
         """Every run, scenario by scenario and seed by seed, each scoring `estimators` (sources as
         `bots.odometry.user.load` takes them) beside the shipped ones, each call of user code under
-        `step_timeout` (`Job.step_timeout`). A run's id covers its settings and the estimators'
+        `step_timeout` (`Job.step_timeout`), their files isolated where `isolate` (`Job.isolate`). A run's id covers its settings and the estimators'
         `identities` (what they are: a file's hash), so that a changed estimator is run again where
         a finished run of the old one was kept."""
         planned = []
@@ -88,7 +89,7 @@ class Variant:
             for seed in self.seeds:
                 values = scenario.settings(seed)
                 rid = run_id({**values, "world": scenario.world, "estimators": list(identities or estimators)})
-                planned.append(Job(len(planned), rid, values, estimators=tuple(estimators), step_timeout=step_timeout))
+                planned.append(Job(len(planned), rid, values, estimators=tuple(estimators), step_timeout=step_timeout, isolate=isolate))
         return planned
 
 

@@ -15,7 +15,7 @@ import json
 import math
 import time
 from collections.abc import Callable
-from contextlib import closing
+from contextlib import ExitStack, closing
 from pathlib import Path
 from typing import Any
 
@@ -86,14 +86,15 @@ def execute(job: Job) -> dict[str, Any]:
             folder.mkdir(parents=True, exist_ok=True)
         record = RunFolder(folder).recording if folder is not None and "recording" in job.keep else None
 
-        def attempt(estimators: tuple[str, ...]) -> Result:
+        def attempt(estimators: tuple[Any, ...]) -> Result:
             result = simulate(s["world"], bot(s), duration=s["duration"], dt=s["dt"], seed=s["seed"], until_goal=s["until_goal"], record=record,
                               estimators=estimators, step_timeout=job.step_timeout)
             if result.reason.signalled:  # a run cut short is no result: not kept, so a resumed sweep runs it again
                 raise Terminated if result.reason is Ending.TERMINATED else KeyboardInterrupt
             return result
 
-        result, failures = _without_failing(job.estimators, attempt)
+        with ExitStack() as isolation:  # (the isolated estimators' processes, ended after the run)
+            result, failures = _without_failing(_estimators(job, isolation), attempt)
         row.update(outcome(result))
         if failures:
             row[ESTIMATOR_ERRORS] = json.dumps(failures)
@@ -105,7 +106,18 @@ def execute(job: Job) -> dict[str, Any]:
     return row
 
 
-def _without_failing(estimators: tuple[str, ...], attempt: Callable[[tuple[str, ...]], Result]) -> tuple[Result, dict[str, str]]:
+def _estimators(job: Job, isolation: ExitStack) -> tuple[Any, ...]:
+    """The job's estimators as its runs take them: their sources, or with `Job.isolate` each
+    user's file made in processes of its own that end with `isolation`."""
+    if not job.isolate:
+        return job.estimators
+    from sim.run.clock import STEP_TIMEOUT
+    from sim.sandbox.isolated import estimator_source
+
+    return tuple(estimator_source(source, job.step_timeout or STEP_TIMEOUT, isolation) for source in job.estimators)
+
+
+def _without_failing(estimators: tuple[Any, ...], attempt: Callable[[tuple[Any, ...]], Result]) -> tuple[Result, dict[str, str]]:
     """`attempt` with `estimators`, again without each of them that ended a run (its first robot's
     own: the world draws every random number by robot and sensor, never by the set of estimators,
     so the others' runs are the runs they would have been without it); the last run and each

@@ -21,7 +21,7 @@ import numpy as np
 
 from bots.commands import Command
 from bots.controller import ControllerError, ControllerStopped
-from bots.odometry.user import EstimatorError
+from bots.odometry.user import EstimatorError, load
 from bots.readings import Readings
 from bots.spec import RobotSpec
 from sim.errors import UserCodeFailed, UserError
@@ -130,6 +130,15 @@ def isolated_estimator(source: str, timeout: float) -> Iterator[Any]:
 
         make.__name__ = label
         yield make
+
+
+def estimator_source(source: str, timeout: float, stack: ExitStack) -> Any:
+    """What a run takes for the estimator `source` with isolation: a factory making it in processes
+    of its own (`isolated_estimator`, ended with `stack`) for a user's file; a shipped one, or the
+    loader's one line for a missing file, as without isolation."""
+    if not (source.endswith(".py") or ".py:" in source) or not Path(source.partition(".py")[0] + ".py").is_file():
+        return load(source)
+    return stack.enter_context(isolated_estimator(source, timeout))
 
 
 def _refuse_missing(path: Path, name: str, error: type[UserError]) -> None:

@@ -146,6 +146,7 @@ def write_figures(
     if subtitle:
         fig.suptitle(subtitle, fontsize=9, color="0.3", y=0.995)
     fig.tight_layout()
+    _fit_height(fig, ax, 2.6 * len(insets) + 0.8)
     written = [_save(fig, trajectories_png)]
 
     columns = len(robots)  # one column of plots per robot: no plot mixes robots
@@ -246,6 +247,19 @@ def _include(ax, bounds: tuple[float, float, float, float], margin: float = 0.05
     (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
     ax.set_xlim(min(x0, xmin) - margin, max(x1, xmax) + margin)
     ax.set_ylim(min(y0, ymin) - margin, max(y1, ymax) + margin)
+
+
+def _fit_height(fig, ax, least: float) -> None:  # noqa: ANN001 (matplotlib Figure, Axes)
+    """Make the figure as tall as the map's equal-aspect axes use (not below `least` inches): a map
+    wider than its box leaves empty bands above and below it otherwise."""
+    for _ in range(3):  # (the labels' room changes with the height: a few rounds settle it)
+        fig.canvas.draw()
+        width, height = fig.get_size_inches()
+        slack = (ax.get_position(original=True).height - ax.get_position().height) * height
+        if slack < 0.05 or height <= least:
+            return
+        fig.set_size_inches(width, max(height - slack, least))
+        fig.tight_layout()
 
 
 def _estimates(tracks: dict[str, Trajectory]) -> list[tuple[str, Trajectory]]:
