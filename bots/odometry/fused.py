@@ -98,14 +98,15 @@ def _weighed(w_enc: np.ndarray, m_enc: np.ndarray, w_mouse: np.ndarray, m_mouse:
 
 
 @numba.njit(cache=True)
-def residuals_at_start(p: np.void, st: np.void) -> None:
+def residuals_at_start(p: np.void, residual: np.ndarray, cov: np.ndarray, cross: np.ndarray) -> None:
     """The counters' residuals before the first step: each anywhere within its count (uniform: a
     variance of count²/12), unknown, independent of the errors."""
-    st.residual[:] = 0.0
-    st.residual_cross[:, :] = 0.0
-    st.residual_cov[:, :] = 0.0
-    for c in range(RESIDUALS):
-        st.residual_cov[c, c] = _count_variance(p, c)
+    for c in range(RESIDUALS):  # (element by element: an array assignment compiles numba's shape checks, seconds)
+        residual[c] = 0.0
+        for q in range(RESIDUALS):
+            cov[c, q] = _count_variance(p, c) if c == q else 0.0
+        for r in range(ERRORS):
+            cross[r, c] = 0.0
 
 
 @numba.njit(cache=True)
@@ -116,11 +117,13 @@ def _count_variance(p: np.void, counter: int) -> float:
 
 
 @numba.njit(cache=True)
-def residual_update(p: np.void, st: np.void, cov: np.ndarray, h: np.ndarray, d: np.ndarray, noise_d: np.ndarray, correction: np.ndarray,
-                    work: np.ndarray) -> None:  # fmt: skip
+def residual_update(p: np.void, residual: np.ndarray, rho_cov: np.ndarray, cross: np.ndarray, cov: np.ndarray, h: np.ndarray, d: np.ndarray,
+                    noise_d: np.ndarray, correction: np.ndarray, work: np.ndarray) -> None:  # fmt: skip
     """The calibration update of one step's disagreement d = h e + M (rho_before - rho_after) +
-    n (n ~ `noise_d`, random), in place: `cov` (ERRORS, ERRORS), the STATE row `st`'s residuals
-    and `correction` (ERRORS,) the errors' correction.
+    n (n ~ `noise_d`, random), in place: `cov` (ERRORS, ERRORS), the counters' residuals (a STATE
+    row's `residual` (RESIDUALS,), their covariance `rho_cov` and their covariance with the errors
+    `cross` (ERRORS, RESIDUALS): before the step on entry, after it on return) and `correction`
+    (ERRORS,) the errors' correction.
 
     A counter's reading over a step is what it moved plus its residual before the step less its
     residual after (the part of a count moved beyond its last count): its quantisation error is
@@ -136,7 +139,6 @@ def residual_update(p: np.void, st: np.void, cov: np.ndarray, h: np.ndarray, d: 
     residual_ph, residual_gain = work[PLANE.residual_ph], work[PLANE.residual_gain]  # (rows by counter)
     ph, gain, scratch = work[PLANE.ph, :, :2], work[PLANE.gain, :, :2], work[PLANE.scratch:]
     m, variance = residual_ph[4:6, :RESIDUALS], residual_gain[4, :RESIDUALS]
-    cross, rho_cov = st.residual_cross, st.residual_cov
     # M: d on each counter's (before - after), the encoders' increment less the mouse's
     lever = p.mount_y / p.mount_x
     m[0, 0], m[0, 1], m[0, 2], m[0, 3] = 0.5, 0.5, -1.0, -lever
@@ -173,7 +175,7 @@ def residual_update(p: np.void, st: np.void, cov: np.ndarray, h: np.ndarray, d: 
             s_cov[k, q] = total
         innovation[k] = d[k]
         for c in range(RESIDUALS):
-            innovation[k] -= m[k, c] * st.residual[c]
+            innovation[k] -= m[k, c] * residual[c]
     _inverse(s_cov, s_inv)
     # the gains
     for r in range(ERRORS):
@@ -194,26 +196,29 @@ def residual_update(p: np.void, st: np.void, cov: np.ndarray, h: np.ndarray, d: 
             cov[r, j] -= gain[r, 0] * ph[j, 0] + gain[r, 1] * ph[j, 1]
             cov[j, r] = cov[r, j]
     for c in range(RESIDUALS):
-        st.residual[c] = residual_gain[c, 0] * innovation[0] + residual_gain[c, 1] * innovation[1]
+        residual[c] = residual_gain[c, 0] * innovation[0] + residual_gain[c, 1] * innovation[1]
         for q in range(c, RESIDUALS):
             rho_cov[c, q] = (variance[c] if c == q else 0.0) - (residual_gain[c, 0] * residual_ph[q, 2] + residual_gain[c, 1] * residual_ph[q, 3])
             rho_cov[q, c] = rho_cov[c, q]
-    cross[:, :] = new_cross
+    for r in range(ERRORS):
+        for c in range(RESIDUALS):
+            cross[r, c] = new_cross[r, c]
 
 
 @numba.njit(cache=True)
-def _carry_cross(st: np.void, work: np.ndarray) -> None:
+def _carry_cross(cross: np.ndarray, work: np.ndarray) -> None:
     """The residuals' covariance with the pose after `propagate` laid the step: its pose rows
     times d pose' / d (pose, errors) (`propagate`'s PLANE.propagate_a), the rest unchanged."""
     a, rows = work[PLANE.propagate_a, :3], work[PLANE.scratch, :3, :RESIDUALS]
-    cross = st.residual_cross
     for r in range(3):
         for c in range(RESIDUALS):
             total = 0.0
             for j in range(ERRORS):
                 total += a[r, j] * cross[j, c]
             rows[r, c] = total
-    cross[:3, :] = rows
+    for r in range(3):
+        for c in range(RESIDUALS):
+            cross[r, c] = rows[r, c]
 
 
 @numba.njit(cache=True)
@@ -270,7 +275,7 @@ def fused_step(p: np.void, st: np.void, estimate: Estimate, calibration: np.ndar
     # a slide: the mouse's rotation beyond the encoders', over the last TURN_MEMORY seconds, the same way
     if math.isnan(st.time):
         keep = 1.0
-        residuals_at_start(p, st)
+        residuals_at_start(p, st.residual, st.residual_cov, st.residual_cross)
     else:
         elapsed = time - st.time
         keep = math.exp(-(0.0 if 0.0 > elapsed else elapsed) / p.memory)
@@ -305,7 +310,7 @@ def fused_step(p: np.void, st: np.void, estimate: Estimate, calibration: np.ndar
         noise_d[1, 1] += IGNORED
         noise_d[0, 1] -= r_mouse[0, 1]
         noise_d[1, 0] -= r_mouse[1, 0]
-    residual_update(p, st, matrix, h, d, noise_d, correction, work)
+    residual_update(p, st.residual, st.residual_cov, st.residual_cross, matrix, h, d, noise_d, correction, work)
     for r in range(3):
         pose[r] += correction[r]
         st.fused_watch.hypothesis[r] += correction[r]
@@ -331,7 +336,7 @@ def fused_step(p: np.void, st: np.void, estimate: Estimate, calibration: np.ndar
     _weighed(w_enc, r_enc, w_mouse, r_mouse, noise, scratch)
     _weighed(w_enc, q_enc, w_mouse, q_mouse, lag[:, :], scratch)
     propagate(cov, pose[2], u[0], u[1], MID_ANGLE, jac, noise, work)
-    _carry_cross(st, work)
+    _carry_cross(st.residual_cross, work)
     s, alpha = u[0], u[1]
     if sliding:  # what the mouse's rotation added before the slide was seen is taken back
         alpha -= st.taken
