@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 from bots.ctbot import CTBOT
-from bots.spec import load_robot
 from bots.odometry.base import Geometry
+from bots.spec import load_robot
 from sim.analysis.umbmark import (
     OdometrySquare,
     UMBmarkResult,

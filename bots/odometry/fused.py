@@ -39,7 +39,7 @@ import numpy as np
 
 from bots.odometry.base import ArcOdometry, Geometry
 from bots.odometry.encoder import EncoderOdometry
-from bots.odometry.layout import ESTIMATE, INCREMENT, PLANE, RESIDUALS, UPDATE, Counts, Estimate
+from bots.odometry.layout import ESTIMATE, INCREMENT, PLANE, RESIDUAL_ROW, RESIDUALS, UPDATE, Counts, Estimate
 from bots.odometry.mouse import MouseOdometry, mouse_arc, watch_slides
 from bots.odometry.propagation import MID_ANGLE, lay, mouse_terms, mouse_variance, propagate, wheel_terms, wheel_variances
 from bots.readings import Readings
@@ -117,13 +117,13 @@ def _count_variance(p: np.void, counter: int) -> float:
 
 
 @numba.njit(cache=True)
-def residual_update(p: np.void, residual: np.ndarray, rho_cov: np.ndarray, cross: np.ndarray, cov: np.ndarray, h: np.ndarray, d: np.ndarray,
+def residual_update(p: np.void, residuals: tuple[np.ndarray, np.ndarray, np.ndarray], cov: np.ndarray, h: np.ndarray, d: np.ndarray,
                     noise_d: np.ndarray, correction: np.ndarray, work: np.ndarray) -> None:  # fmt: skip
     """The calibration update of one step's disagreement d = h e + M (rho_before - rho_after) +
-    n (n ~ `noise_d`, random), in place: `cov` (ERRORS, ERRORS), the counters' residuals (a STATE
-    row's `residual` (RESIDUALS,), their covariance `rho_cov` and their covariance with the errors
-    `cross` (ERRORS, RESIDUALS): before the step on entry, after it on return) and `correction`
-    (ERRORS,) the errors' correction.
+    n (n ~ `noise_d`, random), in place: `cov` (ERRORS, ERRORS), the counters' `residuals` (a
+    STATE row's `residual` (RESIDUALS,), their covariance `rho_cov` and their covariance with the
+    errors `cross` (ERRORS, RESIDUALS): before the step on entry, after it on return) and
+    `correction` (ERRORS,) the errors' correction.
 
     A counter's reading over a step is what it moved plus its residual before the step less its
     residual after (the part of a count moved beyond its last count): its quantisation error is
@@ -136,9 +136,10 @@ def residual_update(p: np.void, residual: np.ndarray, rho_cov: np.ndarray, cross
     independent of all else. That residuals of successive steps are alike when a counter moves
     less than a count a step is left out: it makes each step's difference look larger than it is
     (cautious), never the sum over steps."""
+    residual, rho_cov, cross = residuals
     residual_ph, residual_gain = work[PLANE.residual_ph], work[PLANE.residual_gain]  # (rows by counter)
     ph, gain, scratch = work[PLANE.ph, :, :2], work[PLANE.gain, :, :2], work[PLANE.scratch:]
-    m, variance = residual_ph[4:6, :RESIDUALS], residual_gain[4, :RESIDUALS]
+    m, variance = residual_ph[RESIDUAL_ROW.map : RESIDUAL_ROW.map + 2, :RESIDUALS], residual_gain[RESIDUAL_ROW.variance, :RESIDUALS]
     # M: d on each counter's (before - after), the encoders' increment less the mouse's
     lever = p.mount_y / p.mount_x
     m[0, 0], m[0, 1], m[0, 2], m[0, 3] = 0.5, 0.5, -1.0, -lever
@@ -310,7 +311,7 @@ def fused_step(p: np.void, st: np.void, estimate: Estimate, calibration: np.ndar
         noise_d[1, 1] += IGNORED
         noise_d[0, 1] -= r_mouse[0, 1]
         noise_d[1, 0] -= r_mouse[1, 0]
-    residual_update(p, st.residual, st.residual_cov, st.residual_cross, matrix, h, d, noise_d, correction, work)
+    residual_update(p, (st.residual, st.residual_cov, st.residual_cross), matrix, h, d, noise_d, correction, work)
     for r in range(3):
         pose[r] += correction[r]
         st.fused_watch.hypothesis[r] += correction[r]

@@ -195,6 +195,18 @@ UPDATE = Updates(*range(len(Updates._fields)))
 """Where each row lies in plane PLANE.updates."""
 
 
+class ResidualRows(NamedTuple):
+    """The rows of planes PLANE.residual_ph and PLANE.residual_gain after the counters' own (one a
+    counter, RESIDUALS of them)."""
+
+    map: int  # residual_ph: the map M of each counter's (before - after) to the disagreement d (two rows)
+    variance: int  # residual_gain: a new residual's variance, one entry a counter
+
+
+RESIDUAL_ROW = ResidualRows(RESIDUALS, RESIDUALS)
+"""Where each lies in its plane."""
+
+
 class Counts(NamedTuple):
     """One step's readings an estimator takes (floats): encoder ticks, mouse counts in the sensor frame."""
 
