@@ -210,13 +210,7 @@ def residual_update(p: np.void, residuals: tuple[np.ndarray, np.ndarray, np.ndar
 def _carry_cross(cross: np.ndarray, work: np.ndarray) -> None:
     """The residuals' covariance with the pose after `propagate` laid the step: its pose rows
     times d pose' / d (pose, errors) (`propagate`'s PLANE.propagate_a), the rest unchanged."""
-    a, rows = work[PLANE.propagate_a, :3], work[PLANE.scratch, :3, :RESIDUALS]
-    for r in range(3):
-        for c in range(RESIDUALS):
-            total = 0.0
-            for j in range(ERRORS):
-                total += a[r, j] * cross[j, c]
-            rows[r, c] = total
+    rows = _mul(work[PLANE.propagate_a, :3], cross, work[PLANE.scratch, :3, :RESIDUALS])
     for r in range(3):
         for c in range(RESIDUALS):
             cross[r, c] = rows[r, c]
