@@ -53,6 +53,10 @@ from sim.run.loop import RobotSetup, run
 from sim.world.spec import WorldSpec
 from sim.world.step import DEFAULT_DT
 
+HEADING_GAIN, CROSS_GAIN = 3.0, 20.0
+"""A leg's steering by the odometry: turn rate (rad/s) per radian off the leg's heading, and per
+metre off its line per m/s of speed."""
+
 
 class OdometrySquare:
     """Drives `laps` squares of `side` metres by the robot's own encoder odometry (believing
@@ -89,7 +93,7 @@ class OdometrySquare:
                 if remaining > 0:
                     lateral = along[0] * offset[1] - along[1] * offset[0]
                     v = min(self.speed, max(0.02, 4.0 * remaining))
-                    return Twist(v, 3.0 * (target - heading) - 20.0 * v * lateral)
+                    return Twist(v, HEADING_GAIN * (target - heading) - CROSS_GAIN * v * lateral)
                 self.corner = self.corner + self.side * along
             else:
                 remaining = target - heading
@@ -131,7 +135,7 @@ class StraightRun:
         if t >= self.length / self.speed:
             self.status = Status.SUCCESS
             return STOP
-        return Twist(self.speed, -3.0 * heading - 20.0 * self.speed * y)
+        return Twist(self.speed, -HEADING_GAIN * heading - CROSS_GAIN * self.speed * y)
 
     def duration(self) -> float:
         """The drive and a second to come to rest (s)."""
@@ -278,11 +282,10 @@ def scale_error(robot: RobotSpec, runs: int, length: float = 1.0, geometry: Geom
     rng = np.random.default_rng(np.random.SeedSequence(seed, spawn_key=(BOOTSTRAP_KEY,)))
     picks = rng.integers(0, runs, (BOOTSTRAP_DRAWS, runs))
     ratios = true[picks].mean(axis=1) / odometry[picks].mean(axis=1)
-    tail = 100 * (1 - CONFIDENCE) / 2
     e_s = float(true.mean() / odometry.mean())
     left, right = believed.wheel_diameters
     corrected = Geometry((left * e_s, right * e_s), believed.track_width)
-    return ScaleResult(length, true, odometry, e_s, (float(np.percentile(ratios, tail)), float(np.percentile(ratios, 100 - tail))), believed, corrected, seeds)
+    return ScaleResult(length, true, odometry, e_s, _interval(ratios), believed, corrected, seeds)
 
 
 def evaluate(errors_cw: np.ndarray, errors_ccw: np.ndarray, side: float, believed: Geometry,
@@ -320,8 +323,13 @@ def confidence(result: UMBmarkResult, seed: int = 0, draws: int = BOOTSTRAP_DRAW
         alpha, beta, e_d, e_b = systematic_errors(cw, ccw, result.side, result.believed.track_width)
         for name, value in (("max_error", max(np.hypot(*cw), np.hypot(*ccw))), ("e_d", e_d), ("e_b", e_b), ("alpha", alpha), ("beta", beta)):
             values[name][k] = value
+    return {name: _interval(v) for name, v in values.items()}
+
+
+def _interval(draws: np.ndarray) -> tuple[float, float]:
+    """The CONFIDENCE interval of a bootstrap's `draws`: their central percentiles."""
     tail = 100 * (1 - CONFIDENCE) / 2
-    return {name: (float(np.percentile(v, tail)), float(np.percentile(v, 100 - tail))) for name, v in values.items()}
+    return float(np.percentile(draws, tail)), float(np.percentile(draws, 100 - tail))
 
 
 def recommended_runs(result: UMBmarkResult, tolerance: float = 0.002) -> int:

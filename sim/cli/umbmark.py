@@ -86,8 +86,9 @@ def cmd_umbmark(args: argparse.Namespace) -> int:
         print(f"recommended: {spread} runs each way for E_d and E_b within +-{100 * args.tolerance:g} % at 95 % "
               f"(from the spread of round 1's squares; {args.runs} is {verdict})")
     belief = calibrated_belief(robot, final.corrected, ci, scale)
+    table = belief_toml(belief, f"ctsim umbmark, seeds {args.seed}-{after.seeds[-1]}")
     print(f"belief (the robot file's [belief] table, in {out / 'belief.toml'}; or --robot-set belief.FIELD=VALUE):")
-    print(textwrap.indent(belief_toml(belief, f"ctsim umbmark, seeds {args.seed}-{after.seeds[-1]}"), "  "), end="")
+    print(textwrap.indent(table, "  "), end="")
     figure = write_umbmark_figure(rounds[0], after, {"before": intervals[0]["max_error"], "after": after_interval["max_error"]}, out / "umbmark.png")
     summary = {
         "options": {**robot_options(args), "runs": args.runs, "rounds": args.rounds, "side": args.side, "scale": args.scale, "seed": args.seed, "dt": args.dt},
@@ -102,7 +103,7 @@ def cmd_umbmark(args: argparse.Namespace) -> int:
     with replacing(out / "umbmark.json") as file:
         file.write(json.dumps(summary, indent=1).encode())
     with replacing(out / "belief.toml") as file:
-        file.write(belief_toml(belief, f"ctsim umbmark, seeds {args.seed}-{after.seeds[-1]}").encode())
+        file.write(table.encode())
     print(f"wrote {figure}, {out / 'umbmark.json'} and {out / 'belief.toml'}")
     return 0
 

@@ -253,7 +253,7 @@ def _fit_height(fig, ax, least: float) -> None:  # noqa: ANN001 (matplotlib Figu
     """Make the figure as tall as the map's equal-aspect axes use (not below `least` inches): a map
     wider than its box leaves empty bands above and below it otherwise."""
     for _ in range(3):  # (the labels' room changes with the height: a few rounds settle it)
-        fig.canvas.draw()
+        ax.apply_aspect()  # (the position the aspect leaves, without drawing the whole figure)
         width, height = fig.get_size_inches()
         slack = (ax.get_position(original=True).height - ax.get_position().height) * height
         if slack < 0.05 or height <= least:
