@@ -82,8 +82,9 @@ recalled (RECALL): in a world of look-alike places a wrong place fits the scans 
 most are found out within this (six robots carried 2.3 m across the maze, seeds 0-5: 13 of 14
 wrong places within 0.62 m). Alone it did not make a wrong "found" rare: in 30 kidnappings in
 the maze (five places, seeds 0-5, 60 s after) the flag cleared on a wrong place 1.3-2.6 m off in
-11, for up to 36 s; with the recall in 2, for 3.3 and 4.5 s (docs/odometry.md)."""
-RECALL, RECALL_NEAR, RECALL_MOST = 2.0, 1.0, 3.0
+11, for up to 36 s; with the recall (2 m, up to 3 m) in 2, for 3.3 and 4.5 s; with RECALL and
+RECALL_MOST as now in none (docs/odometry.md)."""
+RECALL, RECALL_NEAR, RECALL_MOST = 2.5, 1.0, 4.0
 """Metres of scans since the robot was lost that must fit a place found again, taken back along
 the odometry (`MonteCarloLocaliser._recall`), before `lost` is cleared: at least RECALL, all of
 them up to RECALL_MOST (older ones are dropped: the recall's cost stays bounded, and a robot
@@ -91,7 +92,9 @@ carried by hand for a while, its wheels turning in the air, is found again once 
 of the estimate when the robot was lost: a robot nudged is far likelier than one carried to one
 look-alike place among many, so the prior needs less of the scans. In the maze a wrong place
 passed a recall of 1.1 m (1.45 m off); a robot nudged was said found after 13.5-19.4 s with 1 m,
-after some 21 s with 1.5 m."""
+after some 21 s with 1.5 m. With 2 m, up to 3 m, a place 2 m off fitted the 2 m of scans since
+the loss and one 1.4 m off the last 3 m (of 30 kidnappings in the maze); 2.5 m, up to 4 m, failed
+both, and places on the robot were said found some 6 s later (docs/odometry.md)."""
 NEARBY = 0.3
 """Within this distance (m) of the estimate when the robot was lost, a place is the one it was
 nudged to: in the maze the next corridor is 0.48 m away."""
