@@ -55,23 +55,31 @@ class IRCurve:
 
     def distance_from_raw(self, raw: np.ndarray, min_range: float = 0.1, max_range: float = 0.8) -> np.ndarray:
         """The firmware's inverse (c't-Bot `sensor_dist_lookup`): distance (m) from a raw value on
-        the curve's falling branch within [min_range, max_range]; above the branch (closer, or the
-        fold-back peak below min_range) min_range, as the firmware assumes; below it nan (nothing
-        in view), and nan for the value that nothing in view reads (`beyond`: c't-Sim's right
-        GP2D12 reads 80 for nothing, which its table also reaches at 75-76 cm)."""
+        the curve's branch within [min_range, max_range], falling (the GP2D12s: raw rises as the
+        wall comes nearer) or rising (the VL53L0X: raw in mm); past the branch's near end (closer,
+        or a GP2D12's fold-back peak below min_range) min_range, as the firmware assumes; past its
+        far end nan (nothing in view), and nan for the value that nothing in view reads (`beyond`:
+        c't-Sim's right GP2D12 reads 80 for nothing, which its table also reaches at 75-76 cm)."""
         return self.inverse(min_range, max_range)(raw)
 
     def inverse(self, min_range: float = 0.1, max_range: float = 0.8):
-        """`distance_from_raw` for one range as a function, its table prepared once."""
+        """`distance_from_raw` for one range as a function, its table prepared once. Where the
+        curve turns within the range (a GP2D12's fold-back peaks at 9 cm, its right table turns
+        up past 80 cm) a raw value is two distances: the branch read is the longest stretch over
+        which the raw values keep one direction (`_branch`)."""
         keep = (self.distance >= min_range) & (self.distance <= max_range)
-        d, v = self.distance[keep][::-1], self.raw[keep][::-1].astype(np.float64)  # raw rises as d falls
+        d, v = _branch(self.distance[keep], self.raw[keep].astype(np.float64))
+        rising = bool(len(v) > 1 and v[-1] > v[0])
+        if not rising:
+            d, v = d[::-1], v[::-1]  # (np.interp reads rising raw values)
         low, high = v.min() - 0.5, v.max() + 0.5  # a raw value rounded from a distance in range is in range
         nothing = np.floor(self.beyond + 0.5)
 
         def distance(raw: np.ndarray) -> np.ndarray:
             r = np.asarray(raw, dtype=np.float64)
-            far = np.where((r < low) | (r == nothing), np.nan, np.interp(r, v, d))
-            return np.where(r > high, min_range, far)
+            near, far = (r < low, r > high) if rising else (r > high, r < low)
+            seen = np.where(far | (r == nothing), np.nan, np.interp(r, v, d))
+            return np.where(near, min_range, seen)
 
         return distance
 
@@ -85,6 +93,22 @@ class IRCurve:
         compiled lookup reads (`kernels.sensing.ir_values`) instead of interpolating each step."""
         low, high = self.raw_range()
         return self.inverse(min_range, max_range)(np.arange(low, high + 1))
+
+
+def _branch(distance: np.ndarray, raw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The rows of the longest stretch of distance over which `raw` only rises or only falls (the
+    first of equal ones)."""
+    best, start = (0, len(raw)), 0
+    if len(raw) > 2:
+        best = (0, 1)
+        direction = np.sign(np.diff(raw))
+        for end in range(1, len(raw)):
+            if end == len(raw) - 1 or direction[end] != direction[start]:
+                if distance[end] - distance[start] > distance[best[1]] - distance[best[0]]:
+                    best = (start, end)
+                start = end
+        best = (best[0], best[1] + 1)
+    return distance[best[0] : best[1]], raw[best[0] : best[1]]
 
 
 def _per_centimetre(distance: np.ndarray, raw: np.ndarray, beyond: float) -> np.ndarray:
