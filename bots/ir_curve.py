@@ -133,6 +133,12 @@ CTSIM_BEYOND = {"gp2d12Left": 100.0, "gp2d12Right": 80.0, "gp2y0a60Left": 100.0,
 (the INF that `MasterSimulator.buisitDistanceSim` gives each file)."""
 
 
+MAX_CURVE_CM = 1000.0
+"""Farthest row of a characteristic file (cm): an IR sensor's range is at most 10 m (`IRSensorSpec.max_range`)."""
+MAX_RAW = 1e6
+"""Largest raw value of a characteristic file (c't-Sim's files: ADC counts up to 1023, millimetres up to 2000)."""
+
+
 def load_ir_curve(path: str | Path, beyond: float | None = None) -> IRCurve:
     """Read a c't-Sim characteristic file (`distance cm; value;` per line after a two-line header).
     Nothing in view reads `beyond`: by default c't-Sim's value for its own files (`CTSIM_BEYOND`),
@@ -148,10 +154,14 @@ def load_ir_curve(path: str | Path, beyond: float | None = None) -> IRCurve:
         if not fields or not fields[0].replace(".", "", 1).isdigit():
             continue  # header or blank line
         try:
-            distance.append(float(fields[0]) / 100)
-            raw.append(float(fields[1]))
+            centimetres, value = float(fields[0]), float(fields[1])
         except (IndexError, ValueError):
-            raise CurveFileError(f"{path}:{number}: expected 'distance_cm; value;', got {line.strip()!r}") from None
+            raise CurveFileError(f"{path}:{number}: expected 'distance_cm; value;', got {line.strip()[:80]!r}") from None
+        if centimetres > MAX_CURVE_CM or not 0 <= value <= MAX_RAW:  # (a table per centimetre: 1e9 cm would be gigabytes)
+            raise CurveFileError(f"{path}:{number}: a row needs a distance of at most {MAX_CURVE_CM:g} cm and a raw value from 0 to {MAX_RAW:g}, "
+                                 f"got {line.strip()[:80]!r}")  # fmt: skip
+        distance.append(centimetres / 100)
+        raw.append(value)
     if len(distance) < 2 or np.any(np.diff(np.floor(np.array(distance) * 100 + 1e-9)) <= 0):
         raise CurveFileError(f"{path}: needs at least two rows with increasing whole-centimetre distances")
     if beyond is None:

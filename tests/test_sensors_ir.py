@@ -13,7 +13,7 @@ from shared_data import CURVES
 from shared_data import needs_curves as needs_shared
 
 from bots.ctbot import CTBOT
-from bots.ir_curve import IRCurve, gp2d12, load_ir_curve
+from bots.ir_curve import CurveFileError, IRCurve, gp2d12, load_ir_curve
 from bots.spec import IRSensorSpec
 from sim.world import World
 from sim.world.files.grid import build_grid
@@ -222,6 +222,19 @@ def test_a_range_into_the_fold_back_reads_the_far_branch():
     assert 0.13 < float(inverse(folded)[0]) < 0.15
     seen = inverse(np.arange(left.raw_range()[0], left.raw_range()[1] + 1))
     assert np.all(np.diff(seen[np.isfinite(seen)]) <= 0)  # one branch: nearer as the raw value rises
+
+
+@pytest.mark.parametrize("row", ["10; nan;", "10; inf;", "10; -5;", "10; 1e308;", "99999999999; 5;", "10;", "ten; 5;"])
+def test_a_curve_file_with_a_bad_row_is_refused_naming_its_line(tmp_path, row):
+    """Rows that would crash the table (nan, inf), fill the memory (a distance of 1e11 cm is a
+    table of 400 GB) or make no sense: CurveFileError naming the file and line, nothing else."""
+    path = tmp_path / "curve.txt"
+    path.write_text(f"header\nheader\n0; 100;\n{row}\n80; 50;\n")
+    if row.startswith("ten"):  # (not a row: skipped as a header line, the two others make the curve)
+        assert len(load_ir_curve(path).raw) == 2
+        return
+    with pytest.raises(CurveFileError, match=f"{path}:4:"):
+        load_ir_curve(path)
 
 
 @needs_shared
