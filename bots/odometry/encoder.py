@@ -69,9 +69,11 @@ class EncoderOdometry(ArcOdometry):
     covariance of that curve (within 5 % of a 343-point rule's on drawn seed 212's path), but a
     robot far out in its belief lies well off the ellipse (seed 212's own calibration, 2.9
     standard deviations in the wheels' difference, reads NEES 50 at the end without any random
-    noise) while most lie well inside it (median NEES 1.47 over 200 drawn robots, chi-square's
-    2.37). The mean over many robots is right (3.14), but a mean over 40 strays both ways beyond
-    the interval of 40 (2.18 to 4.76 on five sets; docs/odometry.md, "Why sets of 40 stray").
+    noise) while most lie well inside it (median NEES 1.40 over 240 drawn robots, chi-square's
+    2.37). The mean is carried by the rare far-out robots (the 7 of the 240 whose wheels differ by
+    more than 2.4 standard deviations, 1.5 % of robots in general, carry 44 % of the 240's sum),
+    so a mean over 40 strays both ways beyond the interval of 40 (2.18 to 8.02 on six sets;
+    docs/odometry.md, "Why sets of 40 stray").
 
     geometry: the believed wheel diameters and track; None = the robot's belief's (`Geometry.believed`:
     the nominal ones unless a calibration corrected them)."""
