@@ -126,6 +126,65 @@ def maze_run(steps: int, record: bool, noise: str = DEFAULT_NOISE) -> float:
         return (len(result) - 1) / (time.perf_counter() - start)  # the steps run: solve_maze ends at the goal (~240 s)
 
 
+def run_glue(steps: int, repeats: int = 3) -> float:
+    """µs a step that the run loop spends on its own work (`sim.run.loop.run`: the sample rows, the
+    readings handed out, the guards, speeds into motor commands, goal and status tests): `maze_run`
+    with the world's sensor read and step, solve_maze's step and the default odometry timed from
+    outside and taken off, and so is a timed call's own cost (a timed call of nothing, measured
+    alongside); a run of one step taken off a run of `steps` removes the set-up. Best of `repeats`."""
+    from time import perf_counter_ns
+
+    from bots.behaviours import make
+    from bots.odometry.batch import DefaultOdometry
+    from sim.run.loop import RobotSetup, run
+
+    inside = [0]
+
+    def timed(call: Callable) -> Callable:
+        def counted(*args, **named):
+            start = perf_counter_ns()
+            try:
+                return call(*args, **named)
+            finally:
+                inside[0] += perf_counter_ns() - start
+
+        return counted
+
+    def nothing() -> None:
+        return None
+
+    def timing_cost() -> float:
+        """ns a timed call costs beyond the call itself."""
+        bare, wrapped = [], []
+        for calls, into in ((nothing, bare), (timed(nothing), wrapped)):
+            start = perf_counter_ns()
+            for _ in range(100_000):
+                calls()
+            into.append((perf_counter_ns() - start) / 100_000)
+        return wrapped[0] - bare[0]
+
+    def outside(duration: float) -> tuple[float, int]:
+        """ns of a run spent outside the timed calls, and its steps."""
+        controller = make("solve_maze", {})
+        controller.step = timed(controller.step)
+        inside[0] = 0
+        start = perf_counter_ns()
+        result = run(load_world("maze"), [RobotSetup(with_noise(CTBOT, DEFAULT_NOISE), controller)], duration)
+        total = perf_counter_ns() - start
+        return total - inside[0] - 4 * timing_cost() * len(result), len(result) - 1  # (4 timed calls a step)
+
+    originals = (World.read_all, World.step, DefaultOdometry.update_into)
+    World.read_all, World.step, DefaultOdometry.update_into = (timed(call) for call in originals)
+    try:
+        best = float("inf")
+        for _ in range(repeats):
+            (long_ns, long_steps), (short_ns, short_steps) = outside(steps * 0.01), outside(0.01)
+            best = min(best, (long_ns - short_ns) / (long_steps - short_steps) / 1000)
+        return best
+    finally:
+        World.read_all, World.step, DefaultOdometry.update_into = originals
+
+
 _IRSIM_LIDAR = '''
 import os, sys, tempfile, time
 os.environ.setdefault("MPLBACKEND", "Agg")
@@ -384,6 +443,8 @@ def figures(scale: float):
     # that a thousand steps of each compare different stretches; seen: 1.28 and 1.39 at 1,000, 1.08-1.20 at 5,000)
     yield "world_maze_noise_over_exact", "(cost of a world step with realistic noise / exact, interleaved; bar <= 1.25)", lambda: noise_over_exact(5000)
     yield "run_maze_solve_over_world_step", "(whole run / bare world step beside it, realistic noise on both; bar >= 0.5)", lambda: once("run") / once("world")
+    yield "run_loop_glue_us", "µs a step (the run loop's own work beside the world step, solve_maze and the default estimators, timed from outside; bar <= 5)", \
+        lambda: run_glue(steps)
     yield "run_maze_solve_recording", "steps/s", lambda: once("recording")
     yield "run_maze_solve_recording_ratio", "(recording / run, same run; bar >= 0.8)", lambda: once("recording") / once("run")
     yield "run_over_irsim_like_for_like", "(simulated s per wall s: one robot, two range sensors, dt 0.1, constant command, no recording, ctsim over IR-SIM; nan: IR-SIM not installed)", \

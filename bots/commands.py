@@ -91,13 +91,13 @@ def _wheel_speeds(command: Command, robot: RobotSpec) -> tuple[float, float]:
     elif isinstance(command, Twist):
         if command.vy != 0:
             raise BadCommand(f"refused {command!r}: a differential drive cannot move sideways (vy must be 0)")
-        half = 0.5 * float(command.omega) * robot.track_width  # `wheel_speeds_from_twist` in floats: once a step
+        half = 0.5 * float(command.omega) * robot.believed_track  # `wheel_speeds_from_twist` in floats: once a step
         left, right = float(command.v) - half, float(command.v) + half
     elif isinstance(command, CurveCommand):
-        chassis = differential_drive(track=robot.track_width, wheel_radius=robot.wheel_radius)
+        chassis = differential_drive(track=robot.believed_track, wheel_radius=robot.wheel_radius)
         v_top = robot.max_wheel_surface_speed
         twist = ocp_to_twist(command.kappa_n, command.beta, command.v_n * v_top, kappa_g_for(chassis))
-        left, right = wheel_speeds_from_twist(twist[0], twist[2], robot.track_width)
+        left, right = wheel_speeds_from_twist(twist[0], twist[2], robot.believed_track)
     else:
         raise BadCommand(f"expected WheelSpeeds, Twist or CurveCommand, got {type(command).__name__}: {command!r}")
     left, right = float(left), float(right)
@@ -111,13 +111,15 @@ def _wheel_speeds(command: Command, robot: RobotSpec) -> tuple[float, float]:
     return left / scale, right / scale
 
 
-def command_per_speed(robot: RobotSpec) -> float:
-    """Motor command units (e.g. 255 at full speed) per m/s of rim speed."""
-    return robot.motor.command_max / robot.max_wheel_surface_speed
+def command_per_speed(robot: RobotSpec) -> tuple[float, float]:
+    """Motor command units (e.g. 255 at full speed) per m/s of rim speed, for the left and the
+    right wheel as the robot believes their radii (`RobotSpec.believed_wheel_radii`: a calibrated
+    robot turns a wheel it believes larger more slowly for the same speed)."""
+    return tuple(robot.motor.command_max / (robot.motor.max_wheel_speed * radius) for radius in robot.believed_wheel_radii)
 
 
 def motor_commands(left: float, right: float, robot: RobotSpec) -> tuple[float, float]:
     """Signed motor commands (the motors' units, e.g. +-255) for rim speeds (m/s): plain floats
     (the run loop scales by `command_per_speed` itself, into its command array)."""
-    per_speed = command_per_speed(robot)
-    return left * per_speed, right * per_speed
+    per_left, per_right = command_per_speed(robot)
+    return left * per_left, right * per_right

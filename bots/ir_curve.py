@@ -55,23 +55,31 @@ class IRCurve:
 
     def distance_from_raw(self, raw: np.ndarray, min_range: float = 0.1, max_range: float = 0.8) -> np.ndarray:
         """The firmware's inverse (c't-Bot `sensor_dist_lookup`): distance (m) from a raw value on
-        the curve's falling branch within [min_range, max_range]; above the branch (closer, or the
-        fold-back peak below min_range) min_range, as the firmware assumes; below it nan (nothing
-        in view), and nan for the value that nothing in view reads (`beyond`: c't-Sim's right
-        GP2D12 reads 80 for nothing, which its table also reaches at 75-76 cm)."""
+        the curve's branch within [min_range, max_range], falling (the GP2D12s: raw rises as the
+        wall comes nearer) or rising (the VL53L0X: raw in mm); past the branch's near end (closer,
+        or a GP2D12's fold-back peak below min_range) min_range, as the firmware assumes; past its
+        far end nan (nothing in view), and nan for the value that nothing in view reads (`beyond`:
+        c't-Sim's right GP2D12 reads 80 for nothing, which its table also reaches at 75-76 cm)."""
         return self.inverse(min_range, max_range)(raw)
 
     def inverse(self, min_range: float = 0.1, max_range: float = 0.8):
-        """`distance_from_raw` for one range as a function, its table prepared once."""
+        """`distance_from_raw` for one range as a function, its table prepared once. Where the
+        curve turns within the range (a GP2D12's fold-back peaks at 9 cm, its right table turns
+        up past 80 cm) a raw value is two distances: the branch read is the longest stretch over
+        which the raw values keep one direction (`_branch`)."""
         keep = (self.distance >= min_range) & (self.distance <= max_range)
-        d, v = self.distance[keep][::-1], self.raw[keep][::-1].astype(np.float64)  # raw rises as d falls
+        d, v = _branch(self.distance[keep], self.raw[keep].astype(np.float64))
+        rising = bool(len(v) > 1 and v[-1] > v[0])
+        if not rising:
+            d, v = d[::-1], v[::-1]  # (np.interp reads rising raw values)
         low, high = v.min() - 0.5, v.max() + 0.5  # a raw value rounded from a distance in range is in range
         nothing = np.floor(self.beyond + 0.5)
 
         def distance(raw: np.ndarray) -> np.ndarray:
             r = np.asarray(raw, dtype=np.float64)
-            far = np.where((r < low) | (r == nothing), np.nan, np.interp(r, v, d))
-            return np.where(r > high, min_range, far)
+            near, far = (r < low, r > high) if rising else (r > high, r < low)
+            seen = np.where(far | (r == nothing), np.nan, np.interp(r, v, d))
+            return np.where(near, min_range, seen)
 
         return distance
 
@@ -85,6 +93,22 @@ class IRCurve:
         compiled lookup reads (`kernels.sensing.ir_values`) instead of interpolating each step."""
         low, high = self.raw_range()
         return self.inverse(min_range, max_range)(np.arange(low, high + 1))
+
+
+def _branch(distance: np.ndarray, raw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The rows of the longest stretch of distance over which `raw` only rises or only falls (the
+    first of equal ones)."""
+    best, start = (0, len(raw)), 0
+    if len(raw) > 2:
+        best = (0, 1)
+        direction = np.sign(np.diff(raw))
+        for end in range(1, len(raw)):
+            if end == len(raw) - 1 or direction[end] != direction[start]:
+                if distance[end] - distance[start] > distance[best[1]] - distance[best[0]]:
+                    best = (start, end)
+                start = end
+        best = (best[0], best[1] + 1)
+    return distance[best[0] : best[1]], raw[best[0] : best[1]]
 
 
 def _per_centimetre(distance: np.ndarray, raw: np.ndarray, beyond: float) -> np.ndarray:
@@ -109,6 +133,12 @@ CTSIM_BEYOND = {"gp2d12Left": 100.0, "gp2d12Right": 80.0, "gp2y0a60Left": 100.0,
 (the INF that `MasterSimulator.buisitDistanceSim` gives each file)."""
 
 
+MAX_CURVE_CM = 1000.0
+"""Farthest row of a characteristic file (cm): an IR sensor's range is at most 10 m (`IRSensorSpec.max_range`)."""
+MAX_RAW = 1e6
+"""Largest raw value of a characteristic file (c't-Sim's files: ADC counts up to 1023, millimetres up to 2000)."""
+
+
 def load_ir_curve(path: str | Path, beyond: float | None = None) -> IRCurve:
     """Read a c't-Sim characteristic file (`distance cm; value;` per line after a two-line header).
     Nothing in view reads `beyond`: by default c't-Sim's value for its own files (`CTSIM_BEYOND`),
@@ -124,10 +154,14 @@ def load_ir_curve(path: str | Path, beyond: float | None = None) -> IRCurve:
         if not fields or not fields[0].replace(".", "", 1).isdigit():
             continue  # header or blank line
         try:
-            distance.append(float(fields[0]) / 100)
-            raw.append(float(fields[1]))
+            centimetres, value = float(fields[0]), float(fields[1])
         except (IndexError, ValueError):
-            raise CurveFileError(f"{path}:{number}: expected 'distance_cm; value;', got {line.strip()!r}") from None
+            raise CurveFileError(f"{path}:{number}: expected 'distance_cm; value;', got {line.strip()[:80]!r}") from None
+        if centimetres > MAX_CURVE_CM or not 0 <= value <= MAX_RAW:  # (a table per centimetre: 1e9 cm would be gigabytes)
+            raise CurveFileError(f"{path}:{number}: a row needs a distance of at most {MAX_CURVE_CM:g} cm and a raw value from 0 to {MAX_RAW:g}, "
+                                 f"got {line.strip()[:80]!r}")  # fmt: skip
+        distance.append(centimetres / 100)
+        raw.append(value)
     if len(distance) < 2 or np.any(np.diff(np.floor(np.array(distance) * 100 + 1e-9)) <= 0):
         raise CurveFileError(f"{path}: needs at least two rows with increasing whole-centimetre distances")
     if beyond is None:

@@ -120,8 +120,10 @@ class BeliefSpec:
     and mouse_noise_std (sqrt m), the random processes as `EncoderSpec` and `MouseSpec` state them.
 
     diameter_correction (left, right) and track_correction: what a calibration found (`ctsim
-    umbmark` writes them, with the stds its intervals leave): the estimators believe each wheel's
-    diameter and the track the nominal ones times (1 + correction). Zero: the nominal description.
+    umbmark` writes them, with the stds its intervals leave): the robot's own code believes each
+    wheel's diameter and the track the nominal ones times (1 + correction): its estimators, and
+    its controllers' own odometry and their speeds turned into motor commands
+    (`RobotSpec.believed_wheel_radii`, `believed_track`). Zero: the nominal description.
     """
 
     wheel_diameter_std: float = declared(default=0.003, unit="relative", low=0.0, high=0.5)
@@ -252,6 +254,18 @@ class RobotSpec:
     def wheel_radius(self) -> float:
         """Nominal wheel radius (m)."""
         return self.wheel_diameter / 2
+
+    @cached_property
+    def believed_wheel_radii(self) -> tuple[float, float]:
+        """Each wheel's radius (m) as the robot's own code believes it (left, right): the nominal
+        one times (1 + its calibration's correction, `BeliefSpec.diameter_correction`)."""
+        left, right = self.belief.diameter_correction
+        return self.wheel_diameter * (1 + left) / 2, self.wheel_diameter * (1 + right) / 2
+
+    @cached_property
+    def believed_track(self) -> float:
+        """The track (m) as the robot's own code believes it: nominal times (1 + `BeliefSpec.track_correction`)."""
+        return self.track_width * (1 + self.belief.track_correction)
 
     @cached_property
     def max_wheel_surface_speed(self) -> float:

@@ -45,9 +45,10 @@ RECURSION_LIMIT = sys.getrecursionlimit()
 """The recursion limit ctsim started with: a controller that lowers it gets it back."""
 _REAL_EXIT = os._exit
 _SIGNALS = tuple(s for s in (getattr(signal, "SIGINT", None), getattr(signal, "SIGTERM", None), getattr(signal, "SIGALRM", None)) if s is not None)
-EVERY = 8
+EVERY = 32
 """Steps between two full checks (`Guard.after_step`): a controller's change stands at most this
-many steps (0.08 s of a run at dt 0.01)."""
+many steps (0.32 s of a run at dt 0.01, a few milliseconds of a run's wall time; at 8 the checks
+were a sixth of the run loop's own work a step)."""
 _WATCHED = ("numpy", "sim", "bots", "json", "os", "posix", "io", "csv", "builtins")
 """Modules (and their submodules) whose attributes a controller must not replace: ctsim's and
 numpy's, and the standard library's that ctsim writes its files and lines with (a replaced
@@ -229,7 +230,7 @@ class Guard:
     def after_step(self, step: int) -> None:
         """After every step: a fork's child leaves, an os._exit from a thread ends the run; every
         EVERY-th step the rest of `check` (a fork and an exit cost an attribute read each; the
-        rest a few µs, an eighth of that per step)."""
+        rest a few µs, a thirty-second of that per step)."""
         if _Forks.child:
             _REAL_EXIT(1)  # (the run and its files belong to the parent)
         if self.exited is not None:

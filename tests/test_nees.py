@@ -67,6 +67,19 @@ def test_a_kept_run_replays_to_the_estimates_it_logged(tmp_path):
         np.testing.assert_array_equal(values, nees(track.truth[rows], track.estimates[name][rows], track.covariances[name][rows]))
 
 
+def test_tails_tell_a_heavy_tail_from_runs_that_are_all_off():
+    """`Consistency.tails`: one run's NEES against chi-square(3), its median and the shares of
+    runs outside one run's interval (0.22-9.35), so a mean over seeds that strays because of a
+    few runs reads differently from one where every run is off."""
+    from sim.experiments.consistency import Consistency
+
+    heavy = np.full(40, 1.5)
+    heavy[:2] = [100.0, 0.1]  # (the mean 3.94: outside 2.29-3.81, by one run)
+    table = Consistency(list(range(40)), (1.0,), {"heavy": heavy[:, None], "off": np.full((40, 1), 6.0)}).tails().splitlines()
+    assert table[2] == "| heavy | 1.50 (2.5% / 2.5%) |" and table[3] == "| off | 6.00 (0.0% / 0.0%) |"
+    assert "(chi-square: 2.37)" in table[-1] and "below 0.22 and above 9.35" in table[-1]
+
+
 def test_where_a_covariance_does_not_hold_the_run_says_so():
     """summary.json and the run's table say, for each shipped estimate, where its covariance is
     known not to tell the truth (`ArcOdometry.caveat`, docs/odometry.md); a user's estimate has none."""

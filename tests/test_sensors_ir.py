@@ -13,7 +13,7 @@ from shared_data import CURVES
 from shared_data import needs_curves as needs_shared
 
 from bots.ctbot import CTBOT
-from bots.ir_curve import gp2d12, load_ir_curve
+from bots.ir_curve import CurveFileError, IRCurve, gp2d12, load_ir_curve
 from bots.spec import IRSensorSpec
 from sim.world import World
 from sim.world.files.grid import build_grid
@@ -193,6 +193,61 @@ def test_a_sensor_naming_a_file_uses_it_and_left_and_right_differ():
         world = World(WorldSpec("w", (-3, -3, 3, 3), walls=(Wall(((SENSOR_X + distance, -1), (1.5, -1), (1.5, 1), (SENSOR_X + distance, 1))),)))
         world.add_robot(spec, (0.0, 0.0, 0.0))
         assert list(world.read_all()[0].ir_raw) == expected
+
+
+RISING = IRCurve(np.array([0.0, 0.01, 0.1, 0.5, 0.8, 1.2]), np.array([20.0, 10.0, 100.0, 500.0, 800.0, 1200.0]), 2000.0, name="rising")
+"""A time-of-flight sensor's curve as c't-Sim's vl53l0x files give it: raw in mm, rising with the distance."""
+
+
+def test_a_rising_curve_reads_back_its_distance():
+    """The firmware's inverse of a curve whose raw values rise with the distance (a VL53L0X):
+    the distance in range, min_range nearer (raw below the branch), nan farther and for nothing in
+    view; the falling GP2D12's as before (0.1 m at its fold-back peak, nan past 0.8 m)."""
+    raw = RISING.lookup(np.array([0.005, 0.05, 0.1, 0.25, 0.8, 0.81, 1.3]))
+    assert list(raw) == [15, 50, 100, 250, 800, 810, 2000]
+    assert np.allclose(RISING.distance_from_raw(raw), [0.1, 0.1, 0.1, 0.25, 0.8, np.nan, np.nan], equal_nan=True)
+    left = gp2d12("left")
+    assert np.allclose(left.distance_from_raw(left.lookup(np.array([0.09, 0.3, 0.81]))), [0.1, 0.3, np.nan], atol=0.005, equal_nan=True)
+
+
+def test_a_range_into_the_fold_back_reads_the_far_branch():
+    """A range nearer than a GP2D12's peak (9 cm): a raw value there is two distances, and reads as
+    the one on the branch that reaches max_range, for every raw value (interpolating across the
+    turn gave distances on neither branch)."""
+    left = gp2d12("left")
+    inverse = left.inverse(0.05, 0.5)
+    far = left.lookup(np.array([0.12, 0.2, 0.4]))
+    assert np.allclose(inverse(far), [0.12, 0.2, 0.4], atol=0.003)
+    folded = left.lookup(np.array([0.06]))  # 400 on the fold-back, also about 14 cm on the far branch
+    assert 0.13 < float(inverse(folded)[0]) < 0.15
+    seen = inverse(np.arange(left.raw_range()[0], left.raw_range()[1] + 1))
+    assert np.all(np.diff(seen[np.isfinite(seen)]) <= 0)  # one branch: nearer as the raw value rises
+
+
+@pytest.mark.parametrize("row", ["10; nan;", "10; inf;", "10; -5;", "10; 1e308;", "99999999999; 5;", "10;", "ten; 5;"])
+def test_a_curve_file_with_a_bad_row_is_refused_naming_its_line(tmp_path, row):
+    """Rows that would crash the table (nan, inf), fill the memory (a distance of 1e11 cm is a
+    table of 400 GB) or make no sense: CurveFileError naming the file and line, nothing else."""
+    path = tmp_path / "curve.txt"
+    path.write_text(f"header\nheader\n0; 100;\n{row}\n80; 50;\n")
+    if row.startswith("ten"):  # (not a row: skipped as a header line, the two others make the curve)
+        assert len(load_ir_curve(path).raw) == 2
+        return
+    with pytest.raises(CurveFileError, match=f"{path}:4:"):
+        load_ir_curve(path)
+
+
+@needs_shared
+def test_a_ctbot_with_time_of_flight_sensors_sees_its_walls():
+    """The c't-Bot with c't-Sim's VL53L0X tables: 0.3 m to a wall reads 300 (mm) and is believed
+    0.3 m (the inverse read the falling GP2D12 branch's way once: solve_maze walled itself in)."""
+    left, right = CTBOT.ir
+    spec = CTBOT.with_changes(ir=(replace(left, curve="vl53l0xLeft.txt"), replace(right, curve="vl53l0xRight.txt")))
+    world = World(WorldSpec("w", (-3, -3, 3, 3), walls=(Wall(((SENSOR_X + 0.3, -1), (1.5, -1), (1.5, 1), (SENSOR_X + 0.3, 1))),)))
+    world.add_robot(spec, (0.0, 0.0, 0.0))
+    readings = world.read_all()[0]
+    assert list(readings.ir_raw) == [300, 300]
+    assert np.allclose(readings.ir_distance, 0.3, atol=0.002)
 
 
 @needs_shared

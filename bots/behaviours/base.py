@@ -68,7 +68,11 @@ class TickOdometry:
 
     def __init__(self, robot: RobotSpec):
         self.robot = robot
-        self.metres_per_tick = float(arcs_from_ticks(1, robot.wheel_radius, robot.encoders.ticks_per_rev))
+        self.wheel_tick = tuple(float(arcs_from_ticks(1, radius, robot.encoders.ticks_per_rev)) for radius in robot.believed_wheel_radii)
+        """Metres of rim per tick of each wheel (left, right), as the robot believes them."""
+        self.metres_per_tick = 0.5 * (self.wheel_tick[0] + self.wheel_tick[1])
+        """Their mean (m)."""
+        self.track = robot.believed_track
         self._counted = [0.0, 0.0]
         self._turned = [0.0, 0.0]
         self.pose: Pose = (0.0, 0.0, 0.0)
@@ -96,18 +100,18 @@ class TickOdometry:
         left = self._wheel_arc(0, left_ticks, speeds[0], stepped) if left_ticks or speeds[0] else 0.0  # (0: standing)
         right = self._wheel_arc(1, right_ticks, speeds[1], stepped) if right_ticks or speeds[1] else 0.0
         if left or right:
-            self.pose = advance_floats(self.pose, 0.5 * (left + right), (right - left) / self.robot.track_width)
+            self.pose = advance_floats(self.pose, 0.5 * (left + right), (right - left) / self.track)
 
     def _wheel_arc(self, wheel: int, ticks: int, speed: float, stepped: bool) -> float:
         """Arc (m) wheel `wheel` is believed to have rolled this step, for a wheel not standing (ticks
         or a speed): its turn by the commanded `speed`, clamped into the tick interval its count now
         allows."""
-        before = self._turned[wheel]
-        guess = before + float(speed) * self.dt / self.metres_per_tick if stepped else before
+        before, per_tick = self._turned[wheel], self.wheel_tick[wheel]
+        guess = before + float(speed) * self.dt / per_tick if stepped else before
         counted = self._counted[wheel] = self._counted[wheel] + ticks
         low, high = (counted if counted > guess else guess), counted + 1.0  # min(max(guess, counted), high), as comparisons
         turned = self._turned[wheel] = high if high < low else low
-        return (turned - before) * self.metres_per_tick
+        return (turned - before) * per_tick
 
     def move_by(self, distance: float) -> None:
         """Correct the believed position by `distance` (m) along the heading: for a behaviour that

@@ -78,7 +78,7 @@ class Turn(Behaviour):
         error = self.angle - self.heading
         if abs(error) <= ANGLE_TOLERANCE:
             return self.finish()
-        half_track = self.robot.track_width / 2
+        half_track = self.robot.believed_track / 2
         rim = ramp(abs(error) * half_track, self.speed, self.odometry.dt)
         return Twist(0.0, math.copysign(rim / half_track, error))
 

@@ -229,8 +229,8 @@ class SolveMaze(Plan):
         sees_turns = mouse_applies(self.robot)  # (a mouse on the axle line reads no rotation: not used)
         self.mouse_turn = 0.0254 / mouse.dpi / mouse.mount[0] if sees_turns else None  # rad per lateral count
         self.mouse_metre = 0.0254 / mouse.dpi if sees_turns else None  # m per count at the nominal dpi
-        self.tick_turn = self.odometry.metres_per_tick / self.robot.track_width  # rad per tick of one wheel
-        self.half_track = self.robot.track_width / 2
+        self.tick_turn = self.odometry.metres_per_tick / self.odometry.track  # rad per tick of one wheel
+        self.half_track = self.odometry.track / 2
         self.drive: DriveToRoom | None = None  # the last drive to a room
         self.wheels_driven = self.mouse_driven = 0.0  # in the drive's current STALL_M: by the encoders and by the mouse (m)
         self.spin_gap = 0.0  # turning on the spot: the mouse's turn less the encoders' since the robot last stood (rad)

@@ -386,7 +386,10 @@ class FusedOdometry(ArcOdometry):
     Where the robot works (solve_maze in the maze, 120 robots drawn from the belief,
     tests/test_maze_nees.py) its mean NEES is inside the interval at 10, 50 and 100 % of the run
     (2.91 / 3.43 / 3.28 against 2.58-3.45); sets of 40 stray further (drawn seeds 200-239 at 50 %:
-    4.09: three runs at 13-17, seed 238's heading 12 degrees off, no slide seen). A slide slower than the watch sees (seed 203 of the
+    4.09: three runs at 13-17, seed 238's heading 12 degrees off, no slide seen). Those runs' NEES
+    is the mouse's random noise in them: with their encoder readings drawn anew from the model it
+    stays at 12-17, with their mouse readings drawn anew it falls to 0.1-10; the mouse's readings
+    match their model over 1 to 50 s. A slide slower than the watch sees (seed 203 of the
     realistic robot: 22 degrees, NEES 70) is over-confident (docs/odometry.md, "Where the
     covariance holds").
 

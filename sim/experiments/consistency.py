@@ -27,7 +27,7 @@ import numpy as np
 
 from bots.sensor_kinds import FRAMED
 from bots.spec import BeliefSpec
-from sim.analysis.nees import OverRuns, nees, over_runs
+from sim.analysis.nees import OverRuns, interval, nees, over_runs
 from sim.experiments.api import Bot, robot, simulate
 from sim.experiments.engines import Lost, Serial
 
@@ -180,6 +180,27 @@ class Consistency:
             lines.append(f"| {name} | " + " | ".join(f"{o.mean:.3g}" + ("" if o.verdict == "consistent" else " *") for o in overs) + " |")
         if first is not None:
             lines.append(f"\nmean NEES over {first.runs} seeds; 95 % interval {first.low:.2f}-{first.high:.2f}; * outside it")
+        return "\n".join(lines)
+
+    def tails(self) -> str:
+        """Each estimate's runs at each fraction against one run's chi-square (95 % of its draws
+        within 0.22-9.35, `interval(1)`): the median NEES and, in brackets, the shares of runs
+        below and above (2.5 % each for a consistent estimator). A mean over seeds outside its
+        interval while the median is near chi-square's and the share above far over 2.5 % comes
+        from a few runs, a heavy tail, whose mean over another set of seeds strays as far the other
+        way; a median off chi-square's means the runs themselves are off."""
+        low, high = interval(1)
+        median = interval(1, level=0.0)[0]  # (an interval of 0 %: the median)
+        heads = " | ".join(f"{f:.0%}" for f in self.fractions)
+        lines = [f"| estimate | {heads} |", "|---" * (1 + len(self.fractions)) + "|"]
+        for name, values in self.per_seed.items():
+            cells = []
+            for column in values.T:
+                runs = column[np.isfinite(column)]
+                cells.append(f"{np.median(runs):.2f} ({np.mean(runs < low):.1%} / {np.mean(runs > high):.1%})" if len(runs) else "-")
+            lines.append(f"| {name} | " + " | ".join(cells) + " |")
+        lines.append(f"\nmedian NEES of one run (chi-square: {median:.2f}); in brackets the shares of runs below {low:.2f} and above {high:.2f} "
+                     "(chi-square: 2.5 % each)")  # fmt: skip
         return "\n".join(lines)
 
 

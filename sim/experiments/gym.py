@@ -139,7 +139,7 @@ class _Task:
         self.ranges = {kind.field: np.array([s.max_range for s in getattr(spec, kind.section)]) for kind in OBSERVED if kind.observed == "distance"}
         """What an observed distance reads where nothing is in range: each sensor's `max_range` (m)."""
         self.rim_per_tick = math.pi * spec.wheel_diameter / spec.encoders.ticks_per_rev / self.control_dt
-        self.command_per_speed = command_per_speed(spec)
+        self.command_per_speed = np.array(command_per_speed(spec))  # (left, right)
 
     # --- what a seed draws ----------------------------------------------------------------------
 

@@ -173,8 +173,8 @@ def run(
                     left, right = wheel_speeds_for(command, spec)
                 except BaseException as err:  # the controller's error: anything it raises, sys.exit and a step timeout too
                     raise _controller_end(err, counted, clock, log, step, world.time, step_timeout) from None
-                commands[i, 0] = left * per_speed  # (`motor_commands`, written in place)
-                commands[i, 1] = right * per_speed
+                commands[i, 0] = left * per_speed[0]  # (`motor_commands`, written in place)
+                commands[i, 1] = right * per_speed[1]
             guard.after_step(step)
             world.step(commands)
     except _Stop as stop:

@@ -1,15 +1,17 @@
 """`ctsim play`: drive a robot by keyboard in a pygame-ce window, recorded like `ctsim run`.
 
 The session is an ordinary run (`sim.run.loop.run`) with two extra observers: the window, which every
-frame handles keys, draws the world with the robot, its IR rays, readings and odometry ghosts,
-and paces the simulation to real time; and the recorder. Offscreen it runs with
-SDL_VIDEODRIVER=dummy, a frame limit and injected events (tests).
+frame handles keys and the mouse (a click puts the robot where it points: a kidnapping), draws the
+world with the robot, its IR rays, readings, odometry ghosts and a localiser's particles, and
+paces the simulation to real time; and the recorder. Offscreen it runs with SDL_VIDEODRIVER=dummy,
+a frame limit and injected events (tests).
 """
 
 from __future__ import annotations
 
 import math
 import os
+import textwrap
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
@@ -17,6 +19,7 @@ from typing import Any
 import numpy as np
 
 from bots.behaviours.motion import Teleop
+from bots.odometry.user import beside_defaults, name_of
 from bots.sensor_kinds import KINDS, SensorKind
 from bots.spec import RobotSpec
 from sim.run.ending import Quit
@@ -30,6 +33,7 @@ from sim.views.chassis_view import (
     steering_deflection,
     to_world,
 )
+from sim.views.particles import localisers, thinned
 from sim.views.recording.recorder import Recorder
 from sim.world import IR_RAY_LENGTH, World
 from sim.world.spec import WorldSpec
@@ -47,6 +51,16 @@ WINDOW = (1000, 720)
 PANEL = 320
 TRAIL_POINTS = 2000
 """Most points drawn per trail each frame (a long session is thinned, not slowed)."""
+DRAG_PX = 8
+"""A press and release of the mouse button farther apart than this (px) turn the robot put down
+the way the mouse moved; nearer, it keeps its heading."""
+NOTE_S = 4.0
+"""How long (wall-clock s) the panel shows what the last click did."""
+NOTE_WIDTH = 40
+"""Characters of the panel's lines for that note (the panel is PANEL px wide)."""
+JUMP_M = 0.05
+"""A trail's step longer than this (m) is a robot put elsewhere by hand, not driven (10 ms at
+the c't-Bot's top speed is 5 mm): the trail is not drawn across it."""
 
 
 def _shown(kind: SensorKind, values: np.ndarray) -> str:
@@ -69,6 +83,10 @@ class Window:
         """Where to save the last frame as an image when the window closes (None: nowhere)."""
         self.quit = False
         self._samples = 0
+        self._pressed: tuple[int, int] | None = None
+        """Where the mouse button went down on the map (px), until it comes up."""
+        self._note: tuple[str, int] | None = None
+        """What the last click did, and the frame until which the panel shows it."""
 
     def on_start(self, world: World, logs: list[RobotLog]) -> None:
         import pygame
@@ -85,6 +103,7 @@ class Window:
         self.font = pygame.font.Font(None, 20)
         self.clock = pygame.time.Clock()
         self.map = self._draw_map(world.spec, size)
+        self.world = world
 
     def on_sample(self, world: World, logs: list[RobotLog]) -> None:
         self._samples += 1
@@ -110,6 +129,10 @@ class Window:
         """World metres to window pixels (y up on screen)."""
         return int(10 + (x - self.origin[0]) * self.scale), int(10 + (self.origin[1] - y) * self.scale)
 
+    def metres(self, point: tuple[int, int]) -> tuple[float, float]:
+        """Window pixels to world metres (`px`'s inverse, to the pixel's centre)."""
+        return self.origin[0] + (point[0] + 0.5 - 10) / self.scale, self.origin[1] - (point[1] + 0.5 - 10) / self.scale
+
     def _polygon(self, surface, colour, vertices, width: int = 0) -> None:
         import pygame
 
@@ -132,6 +155,7 @@ class Window:
 
         self.screen.blit(self.map, (0, 0))
         left = self.screen.get_width() - PANEL
+        self.screen.set_clip((0, 0, left - 10, self.screen.get_height()))  # (what lies past the map, particles too, stays off the panel)
         lines: list[tuple[str, tuple[int, int, int]]] = [(f"t = {world.time:7.2f} s   speed x{self.speed:g}", palette.ROBOT_EDGE)]
         for robot, log in zip(world.robots, logs):
             pose = robot.pose
@@ -149,6 +173,10 @@ class Window:
                 pygame.draw.line(self.screen, palette.RAY, self.px(*origin), self.px(*end), 1)
                 if np.isfinite(distance):
                     pygame.draw.circle(self.screen, palette.HIT, self.px(*end), 3)
+            for localiser in localisers(log.estimators):
+                where, colours = thinned(localiser.particles, localiser.likelihood, palette.estimate_colour(name_of(localiser), list(estimates)))
+                for (x, y), colour in zip(where.tolist(), colours.tolist()):
+                    pygame.draw.circle(self.screen, colour, self.px(x, y), 2)
             outline = body_outline(robot.spec)
             for name, poses in estimates.items():
                 self._body(poses[-1], 0.6 * outline, palette.estimate_colour(name, list(estimates)), 1)
@@ -156,13 +184,16 @@ class Window:
                 self._chassis(robot.spec, truth, log.latest, world.spec.bounds)
             self._body(pose, outline, palette.TRUTH, 2)
             lines += self._readout(log, robot, pose, estimates)
+        self.screen.set_clip(None)
+        if self._note is not None and self.frame <= self._note[1]:
+            lines += [("", palette.ROBOT_EDGE), *((text, palette.ROBOT_EDGE) for text in textwrap.wrap(self._note[0], NOTE_WIDTH))]
         self._scale_bar()
         for k, (text, colour) in enumerate(lines):
             if colour != palette.ROBOT_EDGE:
                 pygame.draw.rect(self.screen, colour, (left, 14 + 18 * k, 10, 10))
             self.screen.blit(self.font.render(text, True, palette.ROBOT_EDGE), (left + 16 * (colour != palette.ROBOT_EDGE), 12 + 18 * k))
-        help_line = "arrows/WASD drive   space stop   Esc/q quit"
-        self.screen.blit(self.font.render(help_line, True, palette.ROBOT_EDGE), (left, self.screen.get_height() - 24))
+        for k, help_line in enumerate(("arrows/WASD drive   space stop   Esc/q quit", "click: put the robot there (drag: turn it)")):
+            self.screen.blit(self.font.render(help_line, True, palette.ROBOT_EDGE), (left, self.screen.get_height() - 42 + 18 * k))
         pygame.display.flip()
 
     def _readout(self, log: RobotLog, robot, pose: np.ndarray, estimates: dict[str, np.ndarray]) -> list[tuple[str, tuple[int, int, int]]]:
@@ -177,6 +208,8 @@ class Window:
         for name, poses in estimates.items():
             error = 1000 * math.hypot(*(poses[-1, :2] - pose[:2]))
             lines.append((f"{name:<9} error {error:6.1f} mm", palette.estimate_colour(name, list(estimates))))
+        for localiser in localisers(log.estimators):
+            lines.append((f"{name_of(localiser):<9} {'LOST: searching the map' if localiser.lost else 'on the map'}", palette.estimate_colour(name_of(localiser), list(estimates))))
         for kind in KINDS:  # (the sensor registry's, those the robot has)
             if kind.present(robot.spec):
                 values = getattr(readings, kind.field)
@@ -186,13 +219,16 @@ class Window:
         return lines
 
     def _trail(self, poses: np.ndarray, colour, width: int) -> None:
-        """The path so far, thinned to at most TRAIL_POINTS points."""
+        """The path so far, thinned to at most TRAIL_POINTS points, in pieces between the places
+        the robot was put down by hand (steps longer than JUMP_M)."""
         import pygame
 
-        if len(poses) > 1:
-            step = max(1, len(poses) // TRAIL_POINTS)
-            points = [self.px(x, y) for x, y in poses[::step, :2]] + [self.px(*poses[-1, :2])]
-            pygame.draw.lines(self.screen, colour, False, points, width)
+        jumps = np.flatnonzero(np.hypot(*np.diff(poses[:, :2], axis=0).T) > JUMP_M) + 1 if len(poses) > 1 else []
+        step = max(1, len(poses) // TRAIL_POINTS)
+        for piece in np.split(poses[:, :2], jumps):
+            if len(piece) > 1:
+                points = [self.px(x, y) for x, y in piece[::step].tolist()] + [self.px(*piece[-1])]
+                pygame.draw.lines(self.screen, colour, False, points, width)
 
     def _body(self, pose: np.ndarray, outline: np.ndarray, colour, width: int) -> None:
         """A robot as its outline (body frame, closed) with a line to the front beyond its edge (the
@@ -230,7 +266,7 @@ class Window:
         import pygame
 
         metres = next(m for m in (0.05, 0.1, 0.2, 0.5, 1.0, 2.0, 5.0, 10.0, 20.0, 50.0) if m * self.scale >= 80 or m == 50.0)
-        x, y = self.screen.get_width() - PANEL, self.screen.get_height() - 36
+        x, y = self.screen.get_width() - PANEL, self.screen.get_height() - 56
         pygame.draw.line(self.screen, palette.SCALE_BAR, (x, y), (x + int(metres * self.scale), y), 3)
         label = f"{metres * 100:g} cm" if metres < 1 else f"{metres:g} m"
         self.screen.blit(self.font.render(label, True, palette.SCALE_BAR), (x, y - 17))
@@ -249,6 +285,26 @@ class Window:
                 self.drive.press(pygame.key.name(event.key))
             elif event.type == pygame.KEYUP:
                 self.drive.release(pygame.key.name(event.key))
+            elif event.type == pygame.MOUSEBUTTONDOWN and event.button == 1:
+                self._pressed = event.pos
+            elif event.type == pygame.MOUSEBUTTONUP and event.button == 1 and self._pressed is not None:
+                self._put(self._pressed, event.pos)
+                self._pressed = None
+
+    def _put(self, down: tuple[int, int], up: tuple[int, int]) -> None:
+        """Put the robot where the mouse went down, turned the way it was dragged (else as it was):
+        a kidnapping, which its odometry does not see (`World.put_robot`); where it cannot stand,
+        the panel says why."""
+        robot = self.world.robots[0]
+        x, y = self.metres(down)
+        dx, dy = up[0] - down[0], down[1] - up[1]  # (screen y points down)
+        heading = math.atan2(dy, dx) if math.hypot(dx, dy) > DRAG_PX else float(robot.pose[2])
+        try:
+            self.world.put_robot(robot.index, (x, y, heading))
+            note = f"put {robot.name} at ({x:.2f}, {y:.2f}), {math.degrees(heading):.0f} deg"
+        except ValueError as err:
+            note = str(err)
+        self._note = (note, self.frame + int(NOTE_S * self.fps))
 
 
 def play(
@@ -265,16 +321,19 @@ def play(
     connect: str | None = None,
     events: dict[int, Iterable[Any]] | None = None,
     snapshot: str | Path | None = None,
+    estimators: Iterable[Any] = (),
 ) -> RunResult:
     """Open the window and run until it is closed (or for `frames` frames); each frame advances
     `speed`/fps of simulated time, shown 1/fps of a second: simulated time runs `speed` times
     real time (up to about `fps` frames per second). `events` maps a frame number to pygame events
-    posted before it; `snapshot` saves the last frame there (PNG)."""
+    posted before it; `snapshot` saves the last frame there (PNG). `estimators` join the
+    robot's defaults (as `simulate`'s: "localiser", or estimator objects)."""
+
     drive = Teleop(speed_m_s=FORWARD, turn_deg_s=TURN_DEG_S)
     steps_per_frame = max(1, round(speed / (fps * dt)))
     duration = frames * steps_per_frame * dt if frames is not None else SESSION_LIMIT
     window = Window(drive, speed / (steps_per_frame * dt), steps_per_frame, speed, scale, {k: list(v) for k, v in (events or {}).items()})
     window.snapshot = Path(snapshot) if snapshot is not None else None
-    setup = RobotSetup(spec, drive, controller_name="teleop")
+    setup = RobotSetup(spec, drive, controller_name="teleop", extra_estimators=beside_defaults(spec, estimators))
     result = run(world, [setup], duration, dt=dt, seed=seed, observers=(Recorder(recording, live=live, connect=connect), window))
     return result

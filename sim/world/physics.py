@@ -250,21 +250,49 @@ class World:
         if robot.spec.chassis is not None:
             raise ValueError(f"{robot.name}: a robot on a general chassis cannot be reset in place")
         st = self._batch()
-        (x, y, heading), robot.slot = self._start_pose(index, start)
+        pose, robot.slot = self._start_pose(index, start)
+        self._place(robot, pose)
+        robot.collisions = 0
+        st.state[index], st.tallies[index] = 0.0, 0
+        robot.rngs = self._sensor_rngs(robot.spec, index, seed)
+        robot.phases = start_phases(robot.spec, robot.rngs[PHASES])
+        st.start_counters(robot)
+        st.reseed(robot)
+        return robot
+
+    def put_robot(self, index: int, pose: tuple[float, float, float]) -> Robot:
+        """Pick robot `index` up and put it down at `pose` (x, y m, heading rad) at rest, as a hand
+        does (a kidnapping): its counters, motors and sensors' noise go on as they were (lifted,
+        its wheels and mouse count nothing). ValueError where it would stand outside the world
+        or overlap a wall or another body."""
+        robot = self.robots[index]
+        if robot.spec.chassis is not None:
+            raise ValueError(f"{robot.name}: a robot on a general chassis cannot be put elsewhere in place")
+        x, y, heading = (float(v) for v in pose)
+        xmin, ymin, xmax, ymax = self.spec.bounds
+        radius = robot.spec.body_radius
+        if not (xmin + radius <= x <= xmax - radius and ymin + radius <= y <= ymax - radius and math.isfinite(heading)):
+            raise ValueError(f"{robot.name} cannot stand at ({x:.3f}, {y:.3f}): outside the world")
+        near = self.space.point_query_nearest((x, y), radius, robot.query_filter)  # (its own shape passes its filter)
+        if near is not None:
+            what = "a wall" if near.shape.body.body_type == pymunk.Body.STATIC else "another body"
+            raise ValueError(f"{robot.name} cannot stand at ({x:.3f}, {y:.3f}): it would overlap {what}")
+        self._batch()
+        self._place(robot, (x, y, heading))
+        return robot
+
+    def _place(self, robot: Robot, pose: tuple[float, float, float]) -> None:
+        """Move a robot's body to `pose` at rest, its contacts and hole flag forgotten."""
+        x, y, heading = pose
         self.space.remove(robot.shape)  # pymunk forgets the shape's contacts (its arbiters) with it
         body = robot.body
         body.position, body.angle = (x, y), heading
         body.velocity, body.angular_velocity, body.force, body.torque = (0.0, 0.0), 0.0, (0.0, 0.0), 0.0
         self.space.add(robot.shape)
-        self._poses[index] = (x, y, heading)
-        robot.fallen, robot.collisions = False, 0
-        st.state[index], st.tallies[index], st.fallen[index] = 0.0, 0, False
-        robot.rngs = self._sensor_rngs(robot.spec, index, seed)
-        robot.phases = start_phases(robot.spec, robot.rngs[PHASES])
-        st.start_counters(robot)
-        st.reseed(robot)
+        self._poses[robot.index] = (x, y, heading)
+        robot.fallen = False
+        self._state.fallen[robot.index] = False
         self._world["streak"] = 0
-        return robot
 
     @property
     def tallies(self) -> np.ndarray:
