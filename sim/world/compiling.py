@@ -4,7 +4,8 @@
 numba compiles in one thread, and the first run's compile is most of its time: some 22 s
 of CPU for a c't-Bot in the maze (`bench/run.py -k first_run`). The kernels share little of
 their compile work, so the missing ones are dealt out to as many processes as there are cores
-(and kernels), which compile them into numba's cache side by side while this process waits and
+(and kernels), less the compile processes this process still has at work (the odometry's, started
+first), which compile them into numba's cache side by side while this process waits and
 says so (`PROGRESS`, every PROGRESS_EVERY seconds); this process then loads them all from the
 cache. `start` begins it and returns at once, so that the world's kernels and the odometry's
 compile together (`compile_all` is `start(...).wait()`). Where the cache already holds them
@@ -56,7 +57,11 @@ class Compiling:
         self.started = time.perf_counter()
         running = {job: helper for job in self.missing if (helper := _IN_FLIGHT.get(job)) is not None and helper.poll() is None}
         new = [job for job in self.missing if job not in running]
-        count = min(len(new), WORKERS if workers is None else workers)
+        # a core each, less those of this process's compile processes still at work (the odometry's
+        # kernel starts first and compiles longest: the world's beside it in one more process, not
+        # two, leave it a core of its own on two)
+        busy = len({id(helper) for helper in _IN_FLIGHT.values() if helper.poll() is None})
+        count = min(len(new), max(1, WORKERS - busy) if workers is None else workers)
         # the kernels dealt out from the last (the largest, by the callers' order) round the processes
         shares = [[job for k, job in enumerate(reversed(new)) if k % count == p] for p in range(count)]
         self.helpers = list({id(helper): helper for helper in running.values()}.values())
