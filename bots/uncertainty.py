@@ -23,7 +23,7 @@ a count on average instead, a bias). It is added to the reported pose covariance
 (`pose_covariance`), never to the propagated one; the dead reckonings whose calibration sigma
 points carry split it into where the counters stand now (reported so, count²/12) and where they
 started (count²/12), an offset propagated from the start, whose heading part turns every later
-move (`bots.odometry.base.start_phases`).
+move (`bots.odometry.base.phase_offset`).
 
 The believed noise (`Belief.of`) is the robot's own belief (`bots.spec.BeliefSpec`): its stated
 tolerances, or what a user or a calibration gave; never the errors the simulation draws, which a

@@ -131,7 +131,7 @@ def test_counters_started_anywhere_leave_an_offset_that_the_path_carries():
     """Encoders whose only error is counting (no slip, no calibration error; each counter started
     anywhere within a tick), 2 m straight: where the wheels' counters started turns the estimated
     heading by up to a tick's difference for the whole run, and the position drifts sideways by it
-    (about 12 mm at 2 m); the covariance carries that (`bots.odometry.base.start_phases`). Taken as
+    (about 12 mm at 2 m); the covariance carries that (`bots.odometry.base.phase_offset`). Taken as
     the lag beside the covariance only, as before, the lateral error was not in it at all."""
     errors, covs = _spread("counted", Twist(0.2, 0.0), 10.0)["encoders"]
     assert np.std(errors[:, 1]) > 0.005  # (the drift is there to be carried)

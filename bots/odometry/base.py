@@ -122,7 +122,7 @@ def quantisation_lag(p: np.void, mouse: bool) -> np.ndarray:
     return lag
 
 
-def start_phases(lag: np.ndarray, heading: float) -> np.ndarray:
+def phase_offset(lag: np.ndarray, heading: float) -> np.ndarray:
     """(ERRORS, ERRORS) error covariance at the start of a dead reckoning whose calibration the
     sigma points carry: the pose error of counters started at unknown phases, `lag` ((s, alpha),
     count²/12 a counter) laid at the start heading. A count is off its wheel's or floor's truth by
@@ -175,7 +175,7 @@ class ArcOdometry:
         self.errors = Belief.of(robot).prior()
         if self.sigma_count:  # (the calibration on the sigma points; the count's error split into where it started and where it stands)
             self.lag = 0.5 * self.lag
-            self.errors = start_phases(self.lag, float(self.pose[2]))
+            self.errors = phase_offset(self.lag, float(self.pose[2]))
         self.sigmas = np.repeat(self.pose[None], SIGMAS, axis=0)
         self.state = fresh_state()
         """The compiled steps' STATE row (`bots.odometry.layout`: the fused detectors, the slide watches)."""

@@ -328,7 +328,6 @@ def play(
     real time (up to about `fps` frames per second). `events` maps a frame number to pygame events
     posted before it; `snapshot` saves the last frame there (PNG). `estimators` join the
     robot's defaults (as `simulate`'s: "localiser", or estimator objects)."""
-
     drive = Teleop(speed_m_s=FORWARD, turn_deg_s=TURN_DEG_S)
     steps_per_frame = max(1, round(speed / (fps * dt)))
     duration = frames * steps_per_frame * dt if frames is not None else SESSION_LIMIT
