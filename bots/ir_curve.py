@@ -63,12 +63,16 @@ class IRCurve:
         return self.inverse(min_range, max_range)(raw)
 
     def inverse(self, min_range: float = 0.1, max_range: float = 0.8):
-        """`distance_from_raw` for one range as a function, its table prepared once. Where the
+        """`distance_from_raw` for one range as a function, its table prepared once (CurveFileError
+        where fewer than two rows lie in the range). Where the
         curve turns within the range (a GP2D12's fold-back peaks at 9 cm, its right table turns
         up past 80 cm) a raw value is two distances: the branch read is the longest stretch over
         which the raw values keep one direction (`_branch`)."""
         keep = (self.distance >= min_range) & (self.distance <= max_range)
         d, v = _branch(self.distance[keep], self.raw[keep].astype(np.float64))
+        if len(v) < 2:
+            raise CurveFileError(f"IR curve {self.name!r} has fewer than two rows between min_range {min_range:g} m and max_range {max_range:g} m: "
+                                 "no distance can be read back from its raw values there")  # fmt: skip
         rising = bool(len(v) > 1 and v[-1] > v[0])
         if not rising:
             d, v = d[::-1], v[::-1]  # (np.interp reads rising raw values)
@@ -98,17 +102,10 @@ class IRCurve:
 def _branch(distance: np.ndarray, raw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The rows of the longest stretch of distance over which `raw` only rises or only falls (the
     first of equal ones)."""
-    best, start = (0, len(raw)), 0
-    if len(raw) > 2:
-        best = (0, 1)
-        direction = np.sign(np.diff(raw))
-        for end in range(1, len(raw)):
-            if end == len(raw) - 1 or direction[end] != direction[start]:
-                if distance[end] - distance[start] > distance[best[1]] - distance[best[0]]:
-                    best = (start, end)
-                start = end
-        best = (best[0], best[1] + 1)
-    return distance[best[0] : best[1]], raw[best[0] : best[1]]
+    turns = np.flatnonzero(np.diff(np.sign(np.diff(raw)))) + 1  # the rows where the direction changes
+    starts, ends = np.concatenate(([0], turns)), np.concatenate((turns, [max(len(raw) - 1, 0)]))
+    k = int(np.argmax(distance[ends] - distance[starts])) if len(raw) else 0
+    return distance[starts[k] : ends[k] + 1], raw[starts[k] : ends[k] + 1]
 
 
 def _per_centimetre(distance: np.ndarray, raw: np.ndarray, beyond: float) -> np.ndarray:

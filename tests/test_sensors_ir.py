@@ -224,6 +224,20 @@ def test_a_range_into_the_fold_back_reads_the_far_branch():
     assert np.all(np.diff(seen[np.isfinite(seen)]) <= 0)  # one branch: nearer as the raw value rises
 
 
+def test_a_range_between_two_rows_is_refused_in_one_line(tmp_path, capsys):
+    """min_range and max_range between two rows of the curve (the GP2D12's 80 and 85 cm): no
+    distance can be read back there; the run is refused naming the curve and the range (it crashed
+    with a traceback), nothing left in its folder."""
+    from sim.cli.entry import main
+
+    with pytest.raises(CurveFileError, match="fewer than two rows between min_range 0.81 m and max_range 0.84 m"):
+        gp2d12("left").inverse(0.81, 0.84)
+    out = tmp_path / "o"
+    assert main(["run", "--robot-set", "ir.max_range=0.84", "--robot-set", "ir.min_range=0.81", "--duration", "1", "--out", str(out)]) == 2
+    assert "fewer than two rows" in capsys.readouterr().err
+    assert not out.exists() or not any(out.iterdir())
+
+
 @pytest.mark.parametrize("row", ["10; nan;", "10; inf;", "10; -5;", "10; 1e308;", "99999999999; 5;", "10;", "ten; 5;"])
 def test_a_curve_file_with_a_bad_row_is_refused_naming_its_line(tmp_path, row):
     """Rows that would crash the table (nan, inf), fill the memory (a distance of 1e11 cm is a

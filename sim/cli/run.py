@@ -29,7 +29,8 @@ from sim.cli.options import (
 )
 from sim.cli.output import finish, out_dir
 from sim.cli.view import serve_until_interrupted
-from sim.run.ending import Ending, RunError, Terminated
+from sim.errors import UserError
+from sim.run.ending import Ending, Terminated
 from sim.run.loop import MAX_DURATION, step_count
 
 DEFAULT_DURATION = 300.0
@@ -128,7 +129,7 @@ def _run(args: argparse.Namespace, place, setups: list) -> int:  # noqa: ANN001 
                                   observers=(stop.starting, recorder, Progress(args.duration, args.dt), stop), step_timeout=args.step_timeout)
             except KeyboardInterrupt as signalled:  # before the run started: nothing simulated, said so in the summary
                 return _stopped_before_start(out, place, args, options, signalled)
-            except RunError:  # refused before it started (no room for its trajectories): no run, no summary
+            except UserError:  # refused before it started (no room for its trajectories, a sensor curve it cannot read back): no run, no summary
                 RunFolder(out).summary.unlink(missing_ok=True)
                 raise
             status = finish(result.raw, out, options, report=not args.no_report, export_rate=args.export_rate, metrics={robot.name: robot.metrics for robot in result.robots},
