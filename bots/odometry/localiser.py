@@ -11,9 +11,10 @@ found, each particle takes its turn either from that odometry or, switching now 
 the robot. Measurement: every EVERY steps in which the robot moved, the map (`MapModel`, handed
 over by the run loop: a prior the robot carries, never its true pose) weighs each particle by the
 likelihood of the IR sensors' raw values there; the set is resampled (low variance) when its
-effective size falls below half. The estimate is the particles' weighted mean, its covariance
-their weighted spread over INFLATE squared: the spread the set would have with the belief's own
-motion noise where the scans say little.
+effective size falls below half. The estimate is the particles' weighted mean; its covariance is
+carried from scan to scan as a linear filter's whose gain is what each scan did to the set's
+spread (`MonteCarloLocaliser._carry`): the belief's own motion noise where the scans say little,
+the set's spread, not a fourth of it, where they pin the pose down.
 
 Lost and found (after augmented MCL, Probabilistic Robotics table 8.3, on a score that does not
 depend on the scene): `score` is the scan's likelihood averaged over the particles, over the most
@@ -127,6 +128,12 @@ corridor, seeds 4 and 35 of the main job, under its slide detector's band) while
 alike; the particles that follow the encoders then fit the scans and the resampling keeps them.
 Where the mouse is right they fall behind by the encoders' quantisation and die out, and this
 share comes back each scan (a particle keeps its sensor for some 50 scans, 2.5 s)."""
+SCAN_SHARE = 0.5
+"""The share of a scan's noise under the likelihood's model (`MonteCarloLocaliser._carry`) the
+estimate takes: the sensors' own noise is 0.61 of the model's variance in the realistic preset
+(5 mm of sqrt(5² + 4²) = 6.4 mm, `sim.world.localising.MODEL_STD`), an upper bound here, for the
+negative parts of each scan's difference of two sampled spreads are cut off. Chosen on the main
+job's seeds 0-59 among 0.3, 0.5, 0.61, 0.8 and 1, and checked on seeds 100-119 (docs/odometry.md)."""
 TEMPER = 1.0
 """While lost, a scan weighs the particles by its likelihood to this power (annealing): among
 thousands of hypotheses, one near the robot but a few millimetres or degrees off must survive
@@ -246,6 +253,9 @@ class MonteCarloLocaliser:
         """Per particle: whether it takes its turn from the encoders (SWITCH)."""
         self.likelihood = np.ones(self.count)
         self._mean, self._cov = start.copy(), np.zeros((3, 3))
+        self._prior_mean, self._prior = start.copy(), np.zeros((3, 3))  # the set's mean and spread before a scan's weighing
+        self._carried = np.zeros((3, 3))
+        """The estimate's covariance at the last scan (`_carry`)."""
         self._anchor = start.copy()  # the odometry's pose at the last update
         self._encoder_turn = 0.0  # what the encoders turned since the last update
         self.pose = start.copy()
@@ -301,6 +311,7 @@ class MonteCarloLocaliser:
             turns[self.by_encoders] = self._encoder_turn
         encoder_turn, self._encoder_turn = self._encoder_turn, 0.0
         move_particles(self.particles, *increment, self._motion_std(True, self._rolled, self._turned), self.rng.standard_normal((n, 3)), turns)
+        mean_and_covariance(self.particles, self.weights, float(self._mean[2]), self._prior_mean, self._prior)
         self._anchor = self.odometry.pose.copy()
         rolled, turned = self._rolled, self._turned
         self._steps, self._rolled, self._turned = 0, 0.0, 0.0
@@ -334,6 +345,7 @@ class MonteCarloLocaliser:
             self.confirmed = self._recall() >= RECALL_BELOW
             self.searching = not self.confirmed  # (a place the earlier scans rule out: search again)
             self._held = 0.0 if self.searching else self._held
+        self._carry(rolled, turned)
         size = self.recovery if self.searching else self.count
         if self.searching:
             self.by_encoders[:] = False
@@ -404,21 +416,42 @@ class MonteCarloLocaliser:
                 weights = np.full(n, 1.0 / n)
         return worst
 
+    def _carry(self, rolled: float, turned: float) -> None:
+        """The estimate's covariance at this scan, carried from the last one: the error of the
+        set's mean as a linear filter's whose gain is what the scan did to the set (Joseph form).
+        The scan took the set's spread from prior P0 to P1, a gain of A = P1 P0^-1 (I - KH); the
+        estimate's error before it, the last one's plus the belief's own motion noise Q (not
+        INFLATE times it: the odometry's real error), is carried through A, and the scan's noise
+        K R K^T (P1 - A P0 A^T under the likelihood's model) added at the sensors' share of it
+        (SCAN_SHARE).
+        Where a scan says nothing (A = 1) the covariance grows by the belief alone; where it pins
+        the pose down, it is the set's spread, not a fourth of it (docs/odometry.md). While
+        searching: the set's spread over INFLATE squared, the robot may be anywhere in it."""
+        if self.searching or np.linalg.eigvalsh(self._prior)[0] <= 1e-12 * np.trace(self._prior):  # (or a set of a few particles, flat)
+            self._carried = self._cov / INFLATE**2
+            return
+        gain = np.linalg.solve(self._prior, self._cov).T
+        noise = self._cov - gain @ self._prior @ gain.T
+        values, vectors = np.linalg.eigh(0.5 * (noise + noise.T))
+        noise = (vectors * np.maximum(values, 0.0)) @ vectors.T  # (a sampled set's difference may read negative)
+        self._carried = gain @ (self._carried + self._belief_noise(rolled, turned, float(self._mean[2]))) @ gain.T + SCAN_SHARE * noise
+
+    def _belief_noise(self, rolled: float, turned: float, heading: float) -> np.ndarray:
+        """(3, 3) the believed motion noise (world frame, at `heading`) of `rolled` m and `turned` rad."""
+        forward, lateral, turn = (self._motion_std(False, rolled, turned) / INFLATE).tolist()
+        c, s = math.cos(heading), math.sin(heading)
+        cov = np.zeros((3, 3))
+        cov[0, 0] = c * c * forward**2 + s * s * lateral**2
+        cov[0, 1] = cov[1, 0] = c * s * (forward**2 - lateral**2)
+        cov[1, 1] = s * s * forward**2 + c * c * lateral**2
+        cov[2, 2] = turn**2
+        return cov
+
     @property
     def covariance(self) -> np.ndarray:
-        """(3, 3) the particles' weighted covariance at the last scan plus the motion noise the
-        next scan's move will add for the odometry since (so that it never reads zero, at the
-        start either), over INFLATE squared: the set spreads with INFLATE times the believed
-        motion noise, and where the scans say little its spread is that many times the belief's."""
-        forward, lateral, turn = (self._motion_std(False, self._rolled, self._turned) / INFLATE).tolist()
-        c, s = math.cos(self.pose[2]), math.sin(self.pose[2])
-        cov = self._cov / INFLATE**2
-        cov[0, 0] += c * c * forward**2 + s * s * lateral**2
-        cov[0, 1] += c * s * (forward**2 - lateral**2)
-        cov[1, 0] = cov[0, 1]
-        cov[1, 1] += s * s * forward**2 + c * c * lateral**2
-        cov[2, 2] += turn**2
-        return cov
+        """(3, 3) the estimate's covariance at the last scan (`_carry`) plus the believed motion
+        noise of the odometry since (so that it never reads zero, at the start either)."""
+        return self._carried + self._belief_noise(self._rolled, self._turned, float(self.pose[2]))
 
     def _resample(self, count: int, added: list[tuple[np.ndarray, np.ndarray]]) -> None:
         """`count` of the particles drawn by their weights, then the `added` ones (poses and, for
