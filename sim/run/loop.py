@@ -135,8 +135,11 @@ def run(
                    for i, (robot, log, controller) in enumerate(zip(world.robots, logs, controllers))]  # fmt: skip
         running = Status.RUNNING
         awaited = [(log, goals, k, _box_around(goals)) for k, (log, robot) in enumerate(zip(logs, world.robots)) if (goals := world_spec.goals_of(robot.slot))] if world_spec.goals else []
+        puts, seen = world.puts, [robot.puts for robot in world.robots]
         for step in range(steps + 1):
             frame = _sample(world, samples, estimators, odometry, clock, guard, counted)
+            if world.puts != puts:  # (one number watched per step; the robots' own counts only when it moved)
+                puts = _note_puts(world, logs, seen)
             # a behaviour says when it is done: its `status`, read (user code: a property may block) under the step clock as its steps
             if step == 0:
                 _statuses(controllers, logs, step, frame.time, clock, counted, step_timeout, statuses, range(len(controllers)))
@@ -473,6 +476,18 @@ def _sample(world: World, samples: Samples, estimators: list[_Estimators], odome
             beside_batch(poses_read, covariances)
     samples.count = n + 1
     return frame
+
+
+def _note_puts(world: World, logs: list[RobotLog], seen: list[int]) -> int:
+    """Note the sample just taken in the log of each robot put down since the sample before
+    (`RobotLog.puts`; `seen` each robot's count of puts so far, brought up to date); the world's
+    count of puts."""
+    for i, (robot, log) in enumerate(zip(world.robots, logs)):
+        if robot.puts != seen[i]:
+            seen[i] = robot.puts
+            if len(log) > 1:
+                log.puts.append(len(log) - 1)
+    return world.puts
 
 
 def _box_around(goals: tuple[Goal, ...]) -> tuple[float, float, float, float]:

@@ -307,6 +307,10 @@ class RobotLog:
         self.status: str | None = None
         """How its controller ended, where it says ('success', 'failure'; 'running'), else None."""
         self.goal_time: float | None = None
+        self.puts: list[int] = []
+        """The samples, in order, at which it stood where it was put down (`World.put_robot`,
+        `reset_robot`: a kidnapping, a click in `ctsim play`), not where its motion took it from
+        the sample before: its true path breaks before each (a put before the first sample, none)."""
         self.notes: dict[str, list] = {}
         """What the run did other than asked (projected infeasible twists): kind -> [first message, count]."""
         self.estimators: list = []
