@@ -442,6 +442,10 @@ def _update(estimator: Estimator, uncertain: bool, timed: bool, readings: Readin
     return pose, covariance
 
 
+_ROW = ("poses", "covariances", "values", "believed", "tallies")
+"""The columns of a run's sample row `_sample` writes (beside its time)."""
+
+
 def _sample(world: World, samples: Samples, estimators: list[_Estimators], odometry: DefaultOdometry | None, clock: StepClock, guard: Guard,
             counted: Counting) -> SensorFrame:  # fmt: skip
     """Read every robot's sensors at the current state into the run's next sample row and log
@@ -451,14 +455,14 @@ def _sample(world: World, samples: Samples, estimators: list[_Estimators], odome
     `guard`). The frame holds immutable copies of the row (`World.read_all`): the recorded rows
     themselves never reach a controller."""
     n = samples.count
-    at, columns = samples.columns.local(n), samples.columns.arrays
+    at = samples.columns.local(n)
     time = world.time
-    tallies = columns["tallies"][at]
-    frame = samples.frame = world.read_all((columns["values"][at], columns["believed"][at], tallies))
-    columns["time"][at] = time
+    poses_row, covariances_row, values, believed, tallies = samples.columns.row(at, _ROW)
+    frame = samples.frame = world.read_all((values, believed, tallies))
+    samples.columns.arrays["time"][at] = time
     poses = world.poses_view()
     if odometry is not None:
-        odometry.update_into(tallies, time, poses, columns["poses"][at], columns["covariances"][at])
+        odometry.update_into(tallies, time, poses, poses_row, covariances_row)
     robots = frame.robots() if estimators else []
     for i, log, checked, beside_batch in estimators:
         readings = robots[i]
