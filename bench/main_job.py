@@ -73,4 +73,4 @@ def own_estimator_cost(duration: float, rounds: int = 3) -> float:
 def figures(scale: float):
     """(name, unit, thunk) of the main job's costs."""
     yield "main_job_cpu_s", "s of CPU (warm `ctsim run`, every default: realistic noise, solve_maze in the maze, recording, report)", main_job_cpu_s
-    yield "own_estimator_cost", "(a run with one user estimator / without, best of alternating runs; bar <= 1.2)", lambda: own_estimator_cost(max(60.0 * scale, 12.0))
+    yield "own_estimator_cost", "(a run with one user estimator / without, best of alternating runs; bar <= 1.2)", lambda: own_estimator_cost(max(300.0 * scale, 60.0))

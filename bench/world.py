@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
+from typing import TypeVar
 
 import numpy as np
 
@@ -12,6 +13,8 @@ from bots.noise import DEFAULT_NOISE, with_noise
 from sim.world import World
 from sim.world.files import load_world
 from sim.world.spec import Start, Wall, WorldSpec
+
+Measured = TypeVar("Measured")
 
 
 def _steps_per_second(world: World, steps: int, commands: np.ndarray, read: bool = True, repeats: int = 3) -> float:
@@ -126,27 +129,28 @@ def maze_run(steps: int, record: bool, noise: str = DEFAULT_NOISE) -> float:
         return (len(result) - 1) / (time.perf_counter() - start)  # the steps run: solve_maze ends at the goal (~240 s)
 
 
-def run_glue(steps: int, repeats: int = 3) -> float:
-    """µs a step that the run loop spends on its own work (`sim.run.loop.run`: the sample rows, the
-    readings handed out, the guards, speeds into motor commands, goal and status tests): `maze_run`
-    with the world's sensor read and step, solve_maze's step and the default odometry timed from
-    outside and taken off, and so is a timed call's own cost (a timed call of nothing, measured
-    alongside); a run of one step taken off a run of `steps` removes the set-up. Best of `repeats`."""
+def run_parts(steps: int, repeats: int = 3) -> dict[str, float]:
+    """µs a step of `maze_run`'s parts timed from outside: solve_maze's `step` ("solve_maze"), and
+    the run loop's own work ("glue": the sample rows, the readings handed out, the guards, speeds
+    into motor commands, goal and status tests), what is left of the run with the world's sensor
+    read and step, solve_maze's step and the default odometry taken off, and so is a timed call's
+    own cost (a timed call of nothing, measured alongside); a run of one step taken off a run of
+    `steps` removes the set-up. Each the best of `repeats`."""
     from time import perf_counter_ns
 
     from bots.behaviours import make
     from bots.odometry.batch import DefaultOdometry
     from sim.run.loop import RobotSetup, run
 
-    inside = [0]
+    inside = {"solve_maze": 0, "others": 0}
 
-    def timed(call: Callable) -> Callable:
+    def timed(call: Callable, part: str = "others") -> Callable:
         def counted(*args, **named):
             start = perf_counter_ns()
             try:
                 return call(*args, **named)
             finally:
-                inside[0] += perf_counter_ns() - start
+                inside[part] += perf_counter_ns() - start
 
         return counted
 
@@ -163,23 +167,25 @@ def run_glue(steps: int, repeats: int = 3) -> float:
             into.append((perf_counter_ns() - start) / 100_000)
         return wrapped[0] - bare[0]
 
-    def outside(duration: float) -> tuple[float, int]:
-        """ns of a run spent outside the timed calls, and its steps."""
+    def parts(duration: float) -> tuple[float, float, int]:
+        """ns of a run spent outside the timed calls, ns inside solve_maze's steps, and its steps."""
         controller = make("solve_maze", {})
-        controller.step = timed(controller.step)
-        inside[0] = 0
+        controller.step = timed(controller.step, "solve_maze")
+        inside.update(solve_maze=0, others=0)
         start = perf_counter_ns()
         result = run(load_world("maze"), [RobotSetup(with_noise(CTBOT, DEFAULT_NOISE), controller)], duration)
         total = perf_counter_ns() - start
-        return total - inside[0] - 4 * timing_cost() * len(result), len(result) - 1  # (4 timed calls a step)
+        cost = timing_cost()
+        return total - inside["solve_maze"] - inside["others"] - 4 * cost * len(result), inside["solve_maze"] - cost * len(result), len(result) - 1
 
     originals = (World.read_all, World.step, DefaultOdometry.update_into)
     World.read_all, World.step, DefaultOdometry.update_into = (timed(call) for call in originals)
     try:
-        best = float("inf")
+        best = {"glue": float("inf"), "solve_maze": float("inf")}
         for _ in range(repeats):
-            (long_ns, long_steps), (short_ns, short_steps) = outside(steps * 0.01), outside(0.01)
-            best = min(best, (long_ns - short_ns) / (long_steps - short_steps) / 1000)
+            (long_ns, long_maze, long_steps), (short_ns, short_maze, short_steps) = parts(steps * 0.01), parts(0.01)
+            best["glue"] = min(best["glue"], (long_ns - short_ns) / (long_steps - short_steps) / 1000)
+            best["solve_maze"] = min(best["solve_maze"], (long_maze - short_maze) / (long_steps - short_steps) / 1000)
         return best
     finally:
         World.read_all, World.step, DefaultOdometry.update_into = originals
@@ -396,11 +402,11 @@ def many_ctbots(steps: int, count: int = 100) -> float:
     return _steps_per_second(world, steps, commands)
 
 
-def _once(measure: Callable[[], float]) -> Callable[[], float]:
+def _once(measure: Callable[[], Measured]) -> Callable[[], Measured]:
     """`measure`, run on the first call only: several lines print or divide by one figure."""
-    value: list[float] = []
+    value: list[Measured] = []
 
-    def measured() -> float:
+    def measured() -> Measured:
         if not value:
             value.append(measure())
         return value[0]
@@ -443,8 +449,10 @@ def figures(scale: float):
     # that a thousand steps of each compare different stretches; seen: 1.28 and 1.39 at 1,000, 1.08-1.20 at 5,000)
     yield "world_maze_noise_over_exact", "(cost of a world step with realistic noise / exact, interleaved; bar <= 1.25)", lambda: noise_over_exact(5000)
     yield "run_maze_solve_over_world_step", "(whole run / bare world step beside it, realistic noise on both; bar >= 0.5)", lambda: once("run") / once("world")
+    run_part = _once(lambda: run_parts(steps))
     yield "run_loop_glue_us", "µs a step (the run loop's own work beside the world step, solve_maze and the default estimators, timed from outside; bar <= 5)", \
-        lambda: run_glue(steps)
+        lambda: run_part()["glue"]
+    yield "solve_maze_step_us", "µs a step (solve_maze's own work in that run, its `step` timed from outside; bar <= 10)", lambda: run_part()["solve_maze"]
     yield "run_maze_solve_recording", "steps/s", lambda: once("recording")
     yield "run_maze_solve_recording_ratio", "(recording / run, same run; bar >= 0.8)", lambda: once("recording") / once("run")
     yield "run_over_irsim_like_for_like", "(simulated s per wall s: one robot, two range sensors, dt 0.1, constant command, no recording, ctsim over IR-SIM; nan: IR-SIM not installed)", \

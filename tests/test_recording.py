@@ -423,6 +423,57 @@ def test_a_live_view_gets_samples_before_a_chunk_fills_and_the_file_keeps_every_
     np.testing.assert_allclose(joined, truth[1:, :2], atol=1e-6)
 
 
+class _Putter:
+    """Puts robot 0 down at PUT_AT (`World.put_robot`, as a click in `ctsim play` does) once its
+    run has taken PUT_AFTER samples."""
+
+    def on_sample(self, world, logs):
+        if len(logs[0]) == PUT_AFTER:
+            world.put_robot(0, PUT_AT)
+
+
+PUT_AFTER = 37
+"""Samples before the put: inside a trail piece, not at its end (TRAIL_EVERY 10)."""
+PUT_AT = (1.80, 1.80, np.pi)
+"""A free place in the maze, far from where the robot drives."""
+
+
+@pytest.mark.parametrize("every_sample", [False, True], ids=["one chunk", "a send per sample"])
+def test_the_true_trail_breaks_where_the_robot_was_put_down_and_the_estimates_do_not(tmp_path, monkeypatch, every_sample):
+    """A robot put down elsewhere mid-run (`World.put_robot`): its true trail is two pieces, none
+    of its lines from where it was to where it was put, and every other step drawn; its
+    estimates (whose odometry does not see the put) are drawn unbroken. So where the trail is
+    sent in one go and where each sample is sent alone (a live view: the put's line would be
+    the one from the last send's end)."""
+    from sim.views.recording import live
+
+    if every_sample:
+        monkeypatch.setattr(live, "LIVE_EVERY_S", 0.0)
+        monkeypatch.setattr(Recorder, "_open_live", lambda self, rr, blueprint: (setattr(self, "_live", _Viewer()), self.streams.append(self._live)))
+    path = tmp_path / "run.rrd"
+    result = run(load_world("maze"), [RobotSetup(CTBOT, FunctionController(_drive))], duration=1.0, observers=[_Putter(), Recorder(path, live=every_sample)])
+    log = result.robots[0]
+    assert log.puts == [PUT_AFTER]
+    truth = log.truth_array()[:, :2]
+    assert np.allclose(truth[PUT_AFTER], PUT_AT[:2], atol=0.01) and np.hypot(*(truth[PUT_AFTER] - truth[PUT_AFTER - 1])) > 1.0
+    columns = _columns(path)
+
+    def lines(label):
+        """The trail's lines (from, to) of points, and its pieces once joined where one ends and the next begins."""
+        drawn = [np.array(strip) for row in columns[f"/world/{log.name}/trail/{label}"]["LineStrips2D:strips"] for strip in row if len(strip) > 1]
+        segments = np.concatenate([np.stack((strip[:-1], strip[1:]), axis=1) for strip in drawn])
+        pieces = 1 + sum(not np.allclose(a[-1], b[0]) for a, b in zip(drawn, drawn[1:]))
+        return segments, pieces
+
+    segments, pieces = lines("truth")
+    steps = np.stack((truth[:-1], truth[1:]), axis=1)
+    np.testing.assert_allclose(segments, np.delete(steps, PUT_AFTER - 1, axis=0), atol=1e-6)
+    assert pieces == 2
+    for label, poses in log.estimate_arrays().items():
+        segments, pieces = lines(label)
+        assert pieces == 1 and len(segments) == len(poses) - 1
+
+
 def test_viewer_that_goes_away_costs_the_live_view_only(tmp_path, capsys):
     """Something accepts the connection, then hangs up on every gRPC call (as a viewer that was
     closed mid-run): the run and its file carry on."""

@@ -175,3 +175,39 @@ def test_a_long_runs_figures_read_a_bounded_number_of_evenly_spread_samples(tmp_
     expected = np.append(times[:: -(-301 // 40)], times[-1])
     np.testing.assert_array_equal(rows, expected)
     assert main(["report", str(out)]) == 0 and all(path.stat().st_size > 0 for path in (out / "trajectories.png", out / "errors.png"))
+
+
+class _Putter:
+    """Puts robot 0 down at (1.8, 1.8) facing -x (`World.put_robot`, as a click in `ctsim play`
+    does) once its run has taken 37 samples."""
+
+    def on_sample(self, world, logs):
+        if len(logs[0]) == 37:
+            world.put_robot(0, (1.80, 1.80, np.pi))
+
+
+def test_the_figures_break_the_truth_where_a_hand_put_the_robot_down(tmp_path, monkeypatch):
+    """A robot put down elsewhere mid-run: summary.json gives the time of its first sample there,
+    and trajectories.png draws its truth in two pieces (no line from where it was to where it was
+    put), its estimates whole (their odometry did not see it)."""
+    import json
+
+    from bots.ctbot import CTBOT
+    from sim.cli.output import finish
+    from sim.run.loop import RobotSetup, run
+    from sim.views import figures
+    from sim.world.files import load_world
+
+    result = run(load_world("maze"), [RobotSetup(CTBOT, Reads())], duration=1.0, observers=[_Putter()])
+    saved = []
+    save = figures._save
+    monkeypatch.setattr(figures, "_save", lambda fig, path: (saved.append(fig), save(fig, path))[1])
+    finish(result, tmp_path, {"duration": 1.0})
+    (robot,) = json.loads((tmp_path / "summary.json").read_text())["robots"]
+    assert robot["puts"] == [pytest.approx(0.37)]
+    lines = {line.get_label(): line.get_xydata() for line in saved[0].axes[0].lines}
+    gaps = np.flatnonzero(np.isnan(lines["truth"][:, 0]))
+    assert gaps.tolist() == [37]  # (a NaN breaks matplotlib's line: before the 38th sample, the first put down)
+    np.testing.assert_allclose(np.delete(lines["truth"], 37, axis=0), result.robots[0].truth_array()[:, :2])
+    estimates = [xy for label, xy in lines.items() if label.split(" ")[0] in result.robots[0].estimate_names]
+    assert estimates and not any(np.isnan(xy).any() for xy in estimates)

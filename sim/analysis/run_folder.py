@@ -139,6 +139,11 @@ def _check(path: Path, summary: Any) -> None:
                 raise RunFolderError(path, None, f"{where}estimates.{label}: must be a table of numbers")
             for key, value in errors.items():
                 _value(path, _MAYBE_NUMBER, value, f"{where}estimates.{label}.{key}")
+        puts = robot.get("puts", [])
+        if not isinstance(puts, list):
+            raise RunFolderError(path, None, f"{where}puts: must be a list of times (s)")
+        for k, time in enumerate(puts):
+            _value(path, _NUMBER, time, f"{where}puts[{k}]")
         for label, name in robot.get("tum", {}).items():
             _value(path, _TEXT, name, f"{where}tum.{label}")
             trajectory_path(path.parent, name, f"{where}tum.{label}")

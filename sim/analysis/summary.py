@@ -70,6 +70,7 @@ def summarize(result: RunResult, options: dict[str, Any], metrics: dict[str, dic
             "estimates": metrics.get(log.name, {}),
             "caveats": {name: known[name] for name in metrics.get(log.name, {}) if name in known},
             "notes": [{"message": message, "steps": count} for message, count in log.notes.values()],
+            "puts": [float(log.time_array(slice(k, k + 1))[0]) for k in log.puts],  # (s: the figures break its truth there)
         }
         for log in result.robots
     ]

@@ -184,6 +184,8 @@ def table(summary: dict[str, Any]) -> str:
         outcome = f"goal reached by {', '.join(reached)}, ran on to the time limit"
     elif summary["reason"] == Ending.DURATION and any(robot.get("goal") for robot in summary["robots"]):
         outcome = f"time limit reached, goal not reached in {summary['time']:g} s"
+    elif summary["reason"] == Ending.DURATION:
+        outcome = "time limit reached (this world has no goal)"
     rows = [["robot", "estimate", "distance m", "collisions", "final err m", "ATE RMS m", "final hdg °", "NEES end"]]
     notes = []
     for robot in summary["robots"]:

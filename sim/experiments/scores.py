@@ -130,11 +130,16 @@ def scenario_text(scores: pd.DataFrame, metric: str = RANKED_BY) -> pd.DataFrame
     return table.map(lambda v: _shown(v * factor)).reset_index().rename_axis(columns=None)
 
 
+NEES_DASH = "'-': no covariance, or a degenerate one, where a NEES would mean nothing"
+"""What a dash in a NEES table says."""
+
+
 def nees_text(scores: pd.DataFrame) -> pd.DataFrame:
-    """Scenarios down, estimators with a covariance across: the mean NEES at the runs' end and its verdict."""
+    """Scenarios down, estimators across: the mean NEES at the runs' end and its verdict; '-' where
+    no run gave one (no covariance, or a degenerate one: `NEES_DASH`)."""
     judged = scores[scores["nees.runs"] > 0]
     cells = judged.assign(cell=[f"{_shown(m)} {'ok' if v == 'consistent' else 'over' if v == 'over-confident' else 'under'}" for m, v in zip(judged["nees.mean"], judged["nees.verdict"])])
-    table = cells.pivot(index="scenario", columns="estimator", values="cell").reindex(index=scores["scenario"].unique(), columns=judged["estimator"].unique())
+    table = cells.pivot(index="scenario", columns="estimator", values="cell").reindex(index=scores["scenario"].unique(), columns=scores["estimator"].unique())
     return table.fillna("-").reset_index().rename_axis(columns=None)
 
 
@@ -147,6 +152,6 @@ def terminal(results: dict[str, Any]) -> str:
         f"Ranking on suite {results['suite']} v{results['suite_version']} ({len(scenarios(results))} scenarios x {len(results['seeds'])} seeds), "
         "geometric means over the scenarios of the means over the seeds": ranking_text(ranking(scores)),
         "ATE (mm) per scenario, mean over the seeds": scenario_text(scores),
-        f"NEES at the runs' end, mean over the seeds (ok: in its 95 % interval, {interval}; over: over-confident; under: too cautious)": nees_text(scores),
+        f"NEES at the runs' end, mean over the seeds (ok: in its 95 % interval, {interval}; over: over-confident; under: too cautious; {NEES_DASH})": nees_text(scores),
     }
     return "\n\n".join(f"{heading}:\n{part.to_string(index=False)}" for heading, part in parts.items())

@@ -135,8 +135,11 @@ def run(
                    for i, (robot, log, controller) in enumerate(zip(world.robots, logs, controllers))]  # fmt: skip
         running = Status.RUNNING
         awaited = [(log, goals, k, _box_around(goals)) for k, (log, robot) in enumerate(zip(logs, world.robots)) if (goals := world_spec.goals_of(robot.slot))] if world_spec.goals else []
+        puts, seen = world.puts, [robot.puts for robot in world.robots]
         for step in range(steps + 1):
             frame = _sample(world, samples, estimators, odometry, clock, guard, counted)
+            if world.puts != puts:  # (one number watched per step; the robots' own counts only when it moved)
+                puts = _note_puts(world, logs, seen)
             # a behaviour says when it is done: its `status`, read (user code: a property may block) under the step clock as its steps
             if step == 0:
                 _statuses(controllers, logs, step, frame.time, clock, counted, step_timeout, statuses, range(len(controllers)))
@@ -439,6 +442,10 @@ def _update(estimator: Estimator, uncertain: bool, timed: bool, readings: Readin
     return pose, covariance
 
 
+_ROW = ("poses", "covariances", "values", "believed", "tallies")
+"""The columns of a run's sample row `_sample` writes (beside its time)."""
+
+
 def _sample(world: World, samples: Samples, estimators: list[_Estimators], odometry: DefaultOdometry | None, clock: StepClock, guard: Guard,
             counted: Counting) -> SensorFrame:  # fmt: skip
     """Read every robot's sensors at the current state into the run's next sample row and log
@@ -448,14 +455,14 @@ def _sample(world: World, samples: Samples, estimators: list[_Estimators], odome
     `guard`). The frame holds immutable copies of the row (`World.read_all`): the recorded rows
     themselves never reach a controller."""
     n = samples.count
-    at, columns = samples.columns.local(n), samples.columns.arrays
+    at = samples.columns.local(n)
     time = world.time
-    tallies = columns["tallies"][at]
-    frame = samples.frame = world.read_all((columns["values"][at], columns["believed"][at], tallies))
-    columns["time"][at] = time
+    poses_row, covariances_row, values, believed, tallies = samples.columns.row(at, _ROW)
+    frame = samples.frame = world.read_all((values, believed, tallies))
+    samples.columns.arrays["time"][at] = time
     poses = world.poses_view()
     if odometry is not None:
-        odometry.update_into(tallies, time, poses, columns["poses"][at], columns["covariances"][at])
+        odometry.update_into(tallies, time, poses, poses_row, covariances_row)
     robots = frame.robots() if estimators else []
     for i, log, checked, beside_batch in estimators:
         readings = robots[i]
@@ -473,6 +480,18 @@ def _sample(world: World, samples: Samples, estimators: list[_Estimators], odome
             beside_batch(poses_read, covariances)
     samples.count = n + 1
     return frame
+
+
+def _note_puts(world: World, logs: list[RobotLog], seen: list[int]) -> int:
+    """Note the sample just taken in the log of each robot put down since the sample before
+    (`RobotLog.puts`; `seen` each robot's count of puts so far, brought up to date); the world's
+    count of puts."""
+    for i, (robot, log) in enumerate(zip(world.robots, logs)):
+        if robot.puts != seen[i]:
+            seen[i] = robot.puts
+            if len(log) > 1:
+                log.puts.append(len(log) - 1)
+    return world.puts
 
 
 def _box_around(goals: tuple[Goal, ...]) -> tuple[float, float, float, float]:

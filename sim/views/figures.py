@@ -8,6 +8,7 @@ shapes every view draws (`map_image.map_shapes`), here as vector patches.
 from __future__ import annotations
 
 import io
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -93,13 +94,15 @@ def write_figures(
     subtitle: str = "",
     ate: dict[str, dict[str, float]] | None = None,
     bands: dict[str, dict[str, Trajectory]] | None = None,
+    puts: dict[str, list[float]] | None = None,
 ) -> list[Path]:
     """`trajectories.png` (every robot's truth and estimates over the map, beside the end of the
     run magnified) and `errors.png` (position and heading error of each estimate over time, and
     its 3 sigma band where it has a covariance) in `out`. `robots` maps a robot name to its
     trajectories by label, 'truth' among them; `ate` the ATE RMS (m) of each estimate by robot,
     shown in the legends; `bands` robot -> label -> (times, (T, 6) covariance entries,
-    `bots.uncertainty.COVARIANCE_FIELDS`); `subtitle` says what ran."""
+    `bots.uncertainty.COVARIANCE_FIELDS`); `puts` robot -> the times (s) it stood where it was put
+    down by hand (`puts_of`), where its truth's line breaks; `subtitle` says what ran."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -107,7 +110,7 @@ def write_figures(
     from matplotlib.legend_handler import HandlerTuple
     from matplotlib.lines import Line2D
 
-    out, ate = Path(out), ate or {}
+    out, ate, puts = Path(out), ate or {}, puts or {}
     trajectories_png, errors_png = RunFolder(out).figures
     xmin, ymin, xmax, ymax = world.bounds
     aspect = (ymax - ymin) / max(xmax - xmin, 1e-9)
@@ -121,7 +124,8 @@ def write_figures(
     for axis in (ax, *zooms):
         draw_world(axis, world, legend=axis is ax)
         for k, (name, tracks) in enumerate(robots.items()):
-            _draw_tracks(axis, name if several else "", tracks, {} if several else ate.get(name, {}), colours.get(name, palette.TRUTH), label=axis is ax and (k == 0 or not several))
+            _draw_tracks(axis, name if several else "", tracks, {} if several else ate.get(name, {}), colours.get(name, palette.TRUTH), label=axis is ax and (k == 0 or not several),
+                         puts=puts.get(name, ()))  # fmt: skip
     ax.autoscale()
     _include(ax, world.bounds)
     ax.set_title(f"{world.name}: trajectories (o start, \u25a0 end)", fontsize=11)
@@ -198,12 +202,16 @@ def write_figures(
     return written
 
 
-def _draw_tracks(ax, robot: str, tracks: dict[str, Trajectory], ate: dict[str, float], own: palette.RGB, label: bool) -> None:
+def _draw_tracks(ax, robot: str, tracks: dict[str, Trajectory], ate: dict[str, float], own: palette.RGB, label: bool, puts: Sequence[float] = ()) -> None:
     """Truth (in the robot's `own` colour) and each estimate of one robot, thin and above the map;
-    start and end marked, and the start named by `robot` (empty: a lone robot, not named)."""
-    _, truth = tracks["truth"]
+    start and end marked, and the start named by `robot` (empty: a lone robot, not named). The
+    truth's line breaks before the first sample drawn at or after each of `puts` (s), where a
+    hand put the robot down (as the recording's trail: `Recorder._send_trails`; the estimates'
+    lines do not)."""
+    times, truth = tracks["truth"]
     truth_colour = _c(own)
-    ax.plot(truth[:, 0], truth[:, 1], color=truth_colour, linewidth=1.8, alpha=0.9, zorder=4, label="truth" if label else None)
+    drawn = np.insert(truth[:, :2], np.searchsorted(times, puts), np.nan, axis=0)  # (matplotlib breaks a line at a NaN)
+    ax.plot(drawn[:, 0], drawn[:, 1], color=truth_colour, linewidth=1.8, alpha=0.9, zorder=4, label="truth" if label else None)
     ax.plot(*truth[0, :2], marker="o", color=truth_colour, markersize=6, zorder=6)
     ax.plot(*truth[-1, :2], marker="s", color=truth_colour, markersize=6, zorder=6)
     if robot:
@@ -289,6 +297,12 @@ def ate_of(summary: dict) -> dict[str, dict[str, float]]:
     return {robot["name"]: {label: e["ate_rmse"] for label, e in robot["estimates"].items() if e.get("ate_rmse") is not None} for robot in summary["robots"]}
 
 
+def puts_of(summary: dict) -> dict[str, list[float]]:
+    """The times (s) each robot was put down by hand (`RobotLog.puts`), by robot (none in a summary
+    before them)."""
+    return {robot["name"]: robot.get("puts", []) for robot in summary["robots"]}
+
+
 def report_run_dir(run_dir: str | Path) -> list[Path]:
     """Draw the figures of a run folder written by `ctsim run` into that folder."""
     from sim.world.files import load_world
@@ -305,7 +319,7 @@ def report_run_dir(run_dir: str | Path) -> list[Path]:
     drawn = next((times for tracks in robots.values() for times, _ in tracks.values() if len(times) > 1), None)
     every = round(float(drawn[1] - drawn[0]) / summary["dt"]) if drawn is not None else 1  # (more than 1: a long run's samples thinned, FIGURE_POINTS)
     subtitle = describe(summary) + (f" \u00b7 every {every}th sample drawn" if every > 1 else "")
-    return write_figures(world, robots, run_dir, subtitle=subtitle, ate=ate_of(summary), bands=bands_of(run_dir, summary))
+    return write_figures(world, robots, run_dir, subtitle=subtitle, ate=ate_of(summary), bands=bands_of(run_dir, summary), puts=puts_of(summary))
 
 
 def _trajectory(run_dir: Path, name: str) -> tuple:

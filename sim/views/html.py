@@ -117,10 +117,10 @@ def run_fragment(world: Any, summary: dict[str, Any], tracks: dict[str, dict[str
     draws them) and the facts. `world` a WorldSpec; `tracks` as `figures.write_figures` takes them."""
     import tempfile
 
-    from sim.views.figures import ate_of, describe, write_figures
+    from sim.views.figures import ate_of, describe, puts_of, write_figures
 
     pictures = []
     if all(len(track[0]) > 1 for robot in tracks.values() for track in robot.values()):
         with tempfile.TemporaryDirectory() as folder:
-            pictures = [image(path, path.stem) for path in write_figures(world, tracks, folder, subtitle=describe(summary), ate=ate_of(summary))]
+            pictures = [image(path, path.stem) for path in write_figures(world, tracks, folder, subtitle=describe(summary), ate=ate_of(summary), puts=puts_of(summary))]
     return fragment(summary_table(summary["robots"]) + "".join(pictures) + facts_table(run_facts(summary)))

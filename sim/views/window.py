@@ -58,9 +58,6 @@ NOTE_S = 4.0
 """How long (wall-clock s) the panel shows what the last click did."""
 NOTE_WIDTH = 40
 """Characters of the panel's lines for that note (the panel is PANEL px wide)."""
-JUMP_M = 0.05
-"""A trail's step longer than this (m) is a robot put elsewhere by hand, not driven (10 ms at
-the c't-Bot's top speed is 5 mm): the trail is not drawn across it."""
 
 
 def _shown(kind: SensorKind, values: np.ndarray) -> str:
@@ -160,7 +157,7 @@ class Window:
         for robot, log in zip(world.robots, logs):
             pose = robot.pose
             truth, estimates = log.truth_array(), log.estimate_arrays()
-            self._trail(truth, palette.TRUTH, 3)
+            self._trail(truth, palette.TRUTH, 3, log.puts)
             for name, poses in estimates.items():
                 self._trail(poses, palette.estimate_colour(name, list(estimates)), 1)
             for sensor, distance in zip(robot.spec.ir, log.latest.ir_distance):
@@ -218,14 +215,14 @@ class Window:
                 lines.append((f"{kind.window:<17}{_shown(kind, values)}", palette.ROBOT_EDGE))
         return lines
 
-    def _trail(self, poses: np.ndarray, colour, width: int) -> None:
-        """The path so far, thinned to at most TRAIL_POINTS points, in pieces between the places
-        the robot was put down by hand (steps longer than JUMP_M)."""
+    def _trail(self, poses: np.ndarray, colour, width: int, breaks: list[int] | tuple = ()) -> None:
+        """The path so far, thinned to at most TRAIL_POINTS points, in pieces split before the
+        samples `breaks` (the truth's: where the robot was put down, `RobotLog.puts`; an estimate's
+        jump is its own path, drawn as it went: `Recorder._send_trails`)."""
         import pygame
 
-        jumps = np.flatnonzero(np.hypot(*np.diff(poses[:, :2], axis=0).T) > JUMP_M) + 1 if len(poses) > 1 else []
         step = max(1, len(poses) // TRAIL_POINTS)
-        for piece in np.split(poses[:, :2], jumps):
+        for piece in np.split(poses[:, :2], breaks):
             if len(piece) > 1:
                 points = [self.px(x, y) for x, y in piece[::step].tolist()] + [self.px(*piece[-1])]
                 pygame.draw.lines(self.screen, colour, False, points, width)

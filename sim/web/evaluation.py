@@ -14,7 +14,7 @@ import numpy as np
 
 from sim.analysis.run_folder import REPORT  # (the page of every folder ctsim writes: a run's, a sweep's, an evaluation's)
 from sim.experiments.evaluation import failed_runs
-from sim.experiments.scores import SCALE, nees_text, per_scenario, ranking, ranking_text, results_estimators, runs_frame, scenario_text
+from sim.experiments.scores import NEES_DASH, SCALE, nees_text, per_scenario, ranking, ranking_text, results_estimators, runs_frame, scenario_text
 from sim.experiments.scores import scenarios as suite_order
 from sim.out_files import replacing, write_text
 from sim.views import palette
@@ -164,7 +164,7 @@ def write_page(results: dict[str, Any], out: Path) -> Path:
     ]
     for metric, (label, unit, _) in SCALE.items():
         body += [f"<h3>{escape(label)} ({escape(unit)}), mean over the seeds</h3>", frame_table(scenario_text(scores, metric), 1)]
-    body += ["<h3>NEES at the runs' end (ok: consistent, over: over-confident, under: too cautious)</h3>", frame_table(nees_text(scores), 1),
+    body += [f"<h3>NEES at the runs' end (ok: consistent, over: over-confident, under: too cautious; {escape(NEES_DASH)})</h3>", frame_table(nees_text(scores), 1),
              image(nees_figure(scores), "NEES per scenario"), "<h2>Scenarios</h2>", frame_table(pd.DataFrame(scenarios), 5), "<h2>Facts</h2>", facts_table(facts)]  # fmt: skip
     return write_text(out / REPORT, page(f"ctsim evaluate: suite {results['suite']} v{results['suite_version']}", "\n".join(body)))
 

@@ -95,6 +95,9 @@ class Robot:
     """In a hole (c't-Sim's IN_HOLE): the last step's move was refused because a wheel or the skid
     would have been over a hole (`kernels.floor.hold_at_holes`); clears when a move is allowed again."""
     collisions: int = 0
+    puts: int = 0
+    """Times it was put down where its motion did not take it (`World.put_robot`, `reset_robot`):
+    its true path breaks there (`RobotLog.puts`)."""
 
     @property
     def pose(self) -> np.ndarray:
@@ -134,6 +137,9 @@ class World:
         self.robots_meet = robots_meet
         self.time = 0.0
         self.steps = 0
+        self.puts = 0
+        """Robots put down where their motion did not take them so far, all robots' `Robot.puts`:
+        one number for the run loop to watch per step."""
         self.robots: list[Robot] = []
         self.floor: FloorMap = rasterize(spec, floor_cell)
         self.space = pymunk.Space()
@@ -282,7 +288,7 @@ class World:
         return robot
 
     def _place(self, robot: Robot, pose: tuple[float, float, float]) -> None:
-        """Move a robot's body to `pose` at rest, its contacts and hole flag forgotten."""
+        """Move a robot's body to `pose` at rest, its contacts and hole flag forgotten, counted as a put."""
         x, y, heading = pose
         self.space.remove(robot.shape)  # pymunk forgets the shape's contacts (its arbiters) with it
         body = robot.body
@@ -293,6 +299,8 @@ class World:
         robot.fallen = False
         self._state.fallen[robot.index] = False
         self._world["streak"] = 0
+        robot.puts += 1
+        self.puts += 1
 
     @property
     def tallies(self) -> np.ndarray:

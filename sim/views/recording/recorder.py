@@ -16,7 +16,8 @@ Layout (all on the timeline "sim_time", seconds of simulated time):
     world/<robot>/estimate/<est>       Transform3D: the estimated pose; estimate/<est>/outline static
     world/<robot>/rays, hits           IR rays to the distance each sensor reports, and that point
     world/<robot>/trail/<label>        LineStrips2D, one piece per TRAIL_EVERY samples (truth and
-                                       each estimate); the blueprint shows all history
+                                       each estimate), the truth's split where the robot was put
+                                       down (`RobotLog.puts`); the blueprint shows all history
     world/<robot>/ellipse/<est>        LineStrips2D, the 95 % ellipse of the estimate's position
                                        every ELLIPSE_EVERY samples (those with a covariance); the
                                        blueprint shows the last ELLIPSE_RECENT_S seconds
@@ -437,7 +438,12 @@ class Recorder(LiveStream):
         track.count = 0
 
     def _send_trails(self, track: _Track, at: np.ndarray, truth: np.ndarray, estimates: dict[str, np.ndarray]) -> None:
-        """Trail pieces of TRAIL_EVERY samples (sent at times `at`), each starting where the last ended."""
+        """Trail pieces of TRAIL_EVERY samples (sent at times `at`), each starting where the last
+        ended; the truth's split before each sample the robot stood where it was put down
+        (`RobotLog.puts`: a hand, not its motion, took it there). An estimate's trail is never
+        split: the estimate does not jump when the robot is put down (its odometry does not see
+        it), and where it does jump, a localiser finding itself again, that jump is what the
+        robot believed, and drawn."""
         rr = lazy_rerun()
         n = len(truth)
         points = np.stack([truth[:, :2], *(poses[:, :2] for poses in estimates.values())], axis=1)  # (n, labels, 2)
@@ -450,12 +456,13 @@ class Recorder(LiveStream):
         # piece j is samples ends[j-1]..ends[j] (the first: the last chunk's end, or none, then 0..ends[0])
         joined = track.tail is not None
         first = np.concatenate(([0], ends[:-1] + joined))
-        lengths = ends + joined - first + 1
-        offsets = np.concatenate(([0], np.cumsum(lengths)))
-        rows = np.arange(offsets[-1]) + np.repeat(first - offsets[:-1], lengths)
+        puts = np.asarray(track.log.puts, dtype=np.int64)
+        cuts = puts[(puts >= track.start) & (puts < track.start + n)] - track.start + joined  # (in the points with the tail)
+        plain = trail_pieces(first, ends + joined, np.empty(0, np.int64))
         for k, label in enumerate(["truth", *estimates]):
             along = np.concatenate((track.tail[k : k + 1], points[:, k])) if joined else points[:, k]
-            self._columns(f"world/{track.log.name}/trail/{label}", times, rr.LineStrips2D.columns(strips=strips(along[rows], offsets)))  # a piece a row
+            rows, offsets, counts = trail_pieces(first, ends + joined, cuts) if k == 0 and len(cuts) else plain
+            self._columns(f"world/{track.log.name}/trail/{label}", times, rr.LineStrips2D.columns(strips=strips(along[rows], offsets)).partition(counts))
         track.tail = points[ends[-1]].copy()
 
     def _send_uncertainty(self, track: _Track, times: list, at: np.ndarray, estimates: dict[str, np.ndarray], covariances: dict[str, np.ndarray]) -> None:
@@ -497,6 +504,25 @@ class Recorder(LiveStream):
         rays = np.stack((origin, end), axis=2).reshape(2 * n * k, 2)  # each ray from its sensor to its end
         self._columns(f"world/{track.log.name}/rays", times, rr.LineStrips2D.columns(strips=strips(rays, np.arange(0, 2 * n * k + 1, 2))).partition(np.full(n, k)))
         self._columns(f"world/{track.log.name}/hits", times, rr.Points2D.columns(positions=end[hit]).partition(hit.sum(axis=1)))
+
+
+def trail_pieces(first: np.ndarray, last: np.ndarray, cuts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A trail's rows of line strips: row j the points first[j]..last[j] (indices into the
+    trail's points), split before each point in `cuts` (its line from the point before is not
+    drawn). (points' indices of every strip in turn, the strips' offsets in those, strips per
+    row) as `strips` and `partition` take them."""
+    row = np.concatenate((np.arange(len(first)), np.searchsorted(last, cuts)))  # (a cut's row: the one with its line)
+    begin = np.concatenate((first, cuts))
+    order = np.lexsort((begin, row))
+    row, begin = row[order], begin[order]
+    end = np.append(begin[1:] - 1, 0)
+    closes = np.append(row[1:] != row[:-1], True)  # the last strip of its row ends where the row does
+    end[closes] = last[row[closes]]
+    kept = end >= begin  # (not a cut at a row's first point)
+    row, begin, end = row[kept], begin[kept], end[kept]
+    lengths = end - begin + 1
+    offsets = np.concatenate(([0], np.cumsum(lengths)))
+    return np.arange(offsets[-1]) + np.repeat(begin - offsets[:-1], lengths), offsets, np.bincount(row, minlength=len(first))
 
 
 def _finish(rec: Any, path: Path | None) -> Exception | None:
