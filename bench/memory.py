@@ -14,9 +14,11 @@ default c't-Bot wandering the maze to the time limit (solve_maze's runs end at t
 on, no figures. The
 short run is the reference measured beside the long one: the difference is what the run's length
 costs (the run's logs live in a temporary file and leave memory as they are written, so what is left
-is the recording's own bookkeeping, about 400 bytes per chunk sent). A third run of half the long
-one's length shows whether wall time grows linearly: the second half's cost per simulated second
-against the first half's.
+is the recording's own bookkeeping, about 400 bytes per chunk sent). Whether wall time grows
+linearly is read inside the growth's run, from the wall clock sampled with its RSS: the cost per
+simulated second of its second half over its first (the start-up before its first sample left out;
+single runs of different lengths differed by their start-ups' spread, some 0.5 s, against the
+1-2 s their lengths added in --quick, and read -0.003 and 0.62).
 """
 
 from __future__ import annotations
@@ -42,11 +44,11 @@ def _peak_of_run(duration: float) -> tuple[float, float]:
 
 
 _SAMPLED = """
-import json, sys
+import json, sys, time
 from sim.experiments import Bot, simulate
 
 
-class Sampler:  # RSS (MB, from /proc) against simulated time every `every` samples of the run
+class Sampler:  # RSS (MB, from /proc) and the wall clock against simulated time every `every` samples of the run
     def __init__(self, every):
         self.every, self.count, self.points = every, 0, []
 
@@ -54,7 +56,7 @@ class Sampler:  # RSS (MB, from /proc) against simulated time every `every` samp
         self.count += 1
         if self.count % self.every == 0:
             with open("/proc/self/statm") as statm:
-                self.points.append((world.time, int(statm.read().split()[1]) * 4096 / 2**20))
+                self.points.append((world.time, int(statm.read().split()[1]) * 4096 / 2**20, time.perf_counter()))
 
 
 duration, record = float(sys.argv[1]), sys.argv[2]
@@ -70,11 +72,12 @@ CPU): the slope of a one-hour run read 3.5-10.7 MB/h over eight runs, of a two-h
 over four."""
 
 
-def rss_slope(duration: float) -> float:
-    """MB per simulated hour by which the resident memory of one run (the main job's world and
-    robot wandering for `duration` s, recording) grows after its start-up: the least-squares slope
-    of RSS against simulated time over the run's last four fifths, sampled every 10 simulated
-    seconds inside the run (Linux's /proc; nan elsewhere)."""
+def sampled_run(duration: float) -> dict[str, float]:
+    """One run (the main job's world and robot wandering for `duration` s, recording), sampled
+    every 10 simulated seconds inside it (Linux's /proc; nan elsewhere): "growth", MB per
+    simulated hour by which its resident memory grows after its start-up (the least-squares slope
+    of RSS against simulated time over its last four fifths); "linearity", its wall time per
+    simulated second in its second half over its first (from its first sample on: 1 is linear)."""
     import json
     import os
 
@@ -83,10 +86,15 @@ def rss_slope(duration: float) -> float:
     with tempfile.TemporaryDirectory() as out:
         done = subprocess.run([sys.executable, "-c", _SAMPLED, str(duration), os.path.join(out, "run.rrd")], capture_output=True, text=True)
     if done.returncode != 0:
-        return float("nan")
+        return {"growth": float("nan"), "linearity": float("nan")}
     points = np.array(json.loads(done.stdout.strip().splitlines()[-1]))
     later = points[points[:, 0] >= duration / 5]
-    return float(np.polyfit(later[:, 0], later[:, 1], 1)[0] * 3600) if len(later) >= 3 else float("nan")
+    growth = float(np.polyfit(later[:, 0], later[:, 1], 1)[0] * 3600) if len(later) >= 3 else float("nan")
+    middle = np.searchsorted(points[:, 0], duration / 2)
+    if len(points) < 3 or not 0 < middle < len(points) - 1:
+        return {"growth": growth, "linearity": float("nan")}
+    (t0, _, w0), (t1, _, w1), (t2, _, w2) = points[0], points[middle], points[-1]
+    return {"growth": growth, "linearity": float(((w2 - w1) / (t2 - t1)) / ((w1 - w0) / (t1 - t0)))}
 
 
 def figures(scale: float):
@@ -100,17 +108,17 @@ def figures(scale: float):
         return results[key]
 
     long = 7200.0 if scale >= 1 else 720.0
-    half = long / 2
+    inside: dict[str, float] = {}
 
-    def linearity() -> float:
-        """Wall seconds per simulated second in the second half of the long run over those from the
-        short run to the half-length one: 1 is linear (the start-up cost drops out of both)."""
-        (_, short), (_, middle), (_, whole) = measure("short", 60.0), measure("half", half), measure("long", long)
-        return ((whole - middle) / (long - half)) / ((middle - short) / (half - 60.0))
+    def sampled(key: str) -> float:
+        if not inside:
+            inside.update(sampled_run(GROWTH_RUN))
+        return inside[key]
 
     yield "short_run_60s_peak_rss_mb", "MB", lambda: measure("short", 60.0)[0]
     yield "long_run_peak_rss_mb", "MB", lambda: measure("long", long)[0]
     yield ("long_run_rss_growth_mb_per_hour", f"MB per simulated hour (slope of RSS inside one recorded run of {GROWTH_RUN / 3600:g} simulated hours, after its first fifth; bar <= 10)",
-           lambda: rss_slope(GROWTH_RUN))
+           lambda: sampled("growth"))
     yield "long_run_wall_time_ratio", f"x (simulated ratio {long / 60:g})", lambda: measure("long", long)[1] / measure("short", 60.0)[1]
-    yield "long_run_wall_time_linearity", "(wall time per simulated second, second half of the long run / first half; 1 = linear)", linearity
+    yield ("long_run_wall_time_linearity", f"(wall time per simulated second, second half / first half of that {GROWTH_RUN / 3600:g}-hour run, from its first sample; 1 = linear)",
+           lambda: sampled("linearity"))
