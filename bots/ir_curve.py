@@ -69,11 +69,11 @@ class IRCurve:
         up past 80 cm) a raw value is two distances: the branch read is the longest stretch over
         which the raw values keep one direction (`_branch`)."""
         keep = (self.distance >= min_range) & (self.distance <= max_range)
-        d, v = _branch(self.distance[keep], self.raw[keep].astype(np.float64))
-        if len(v) < 2:
+        if keep.sum() < 2:
             raise CurveFileError(f"IR curve {self.name!r} has fewer than two rows between min_range {min_range:g} m and max_range {max_range:g} m: "
                                  "no distance can be read back from its raw values there")  # fmt: skip
-        rising = bool(len(v) > 1 and v[-1] > v[0])
+        d, v = _branch(self.distance[keep], self.raw[keep].astype(np.float64))
+        rising = bool(v[-1] > v[0])
         if not rising:
             d, v = d[::-1], v[::-1]  # (np.interp reads rising raw values)
         low, high = v.min() - 0.5, v.max() + 0.5  # a raw value rounded from a distance in range is in range
@@ -100,11 +100,11 @@ class IRCurve:
 
 
 def _branch(distance: np.ndarray, raw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The rows of the longest stretch of distance over which `raw` only rises or only falls (the
-    first of equal ones)."""
+    """The rows of the longest stretch of distance over which `raw` (two rows or more) only rises or
+    only falls (the first of equal ones; a stretch has two rows or more)."""
     turns = np.flatnonzero(np.diff(np.sign(np.diff(raw)))) + 1  # the rows where the direction changes
-    starts, ends = np.concatenate(([0], turns)), np.concatenate((turns, [max(len(raw) - 1, 0)]))
-    k = int(np.argmax(distance[ends] - distance[starts])) if len(raw) else 0
+    starts, ends = np.concatenate(([0], turns)), np.concatenate((turns, [len(raw) - 1]))
+    k = int(np.argmax(distance[ends] - distance[starts]))
     return distance[starts[k] : ends[k] + 1], raw[starts[k] : ends[k] + 1]
 
 
