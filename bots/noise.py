@@ -107,11 +107,13 @@ def _checked(owner: Any, name: str, value: Any, key: str) -> Any:
 
 
 def _replaced(owner: Any, key: str, **changes: Any) -> Any:
-    """`replace(owner, **changes)`, a value its schema refuses a RobotSettingError naming `key`."""
+    """`replace(owner, **changes)`, a value its schema refuses a RobotSettingError naming `key`,
+    and the field whose check failed where that is another (min_range against the max_range set)."""
     try:
         return replace(owner, **changes)
     except Problem as problem:
-        raise RobotSettingError(f"{key}: {problem.message}") from None
+        other = f"{problem.key} " if problem.key and problem.key not in changes else ""
+        raise RobotSettingError(f"{key}: {other}{problem.message}") from None
 
 
 def with_settings(robot: RobotSpec, settings: dict[str, Any]) -> RobotSpec:

@@ -77,3 +77,15 @@ def test_a_controller_that_cannot_drive_the_robot_is_refused_before_the_run(tmp_
     assert main(["run", "--robot", "omni3", "--controller", "solve_maze", "--duration", "0.2", "--out", str(tmp_path / "o")]) == cli.EXIT_USER
     err = capsys.readouterr().err
     assert err.startswith("ctsim: error: ") and len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize(("settings", "said"), [
+    (["ir.min_range=0.7", "ir.max_range=0.2"], "ir.max_range: min_range must be less than max_range (0.2 m), not 0.7"),
+    (["ir.min_range=0.9"], "ir.min_range: must be less than max_range (0.8 m), not 0.9"),
+])  # fmt: skip
+def test_a_robot_setting_that_breaks_another_fields_check_names_both(tmp_path, capsys, settings, said):
+    """A --robot-set that makes another field's check fail (max_range below the min_range) names
+    the setting and the field that failed (it said 'ir.max_range: must be less than max_range')."""
+    arguments = [part for setting in settings for part in ("--robot-set", setting)]
+    assert main(["run", *arguments, "--duration", "1", "--no-report", "--out", str(tmp_path / "o")]) == 2
+    assert said in capsys.readouterr().err
