@@ -3,7 +3,7 @@ so that a mistake in a controller's code cannot take the run's guards with it: i
 handlers (Ctrl-C, SIGTERM, the step timer's SIGALRM), blocked signals, the step timer itself
 (its interval and its next expiry), the recursion limit, stdout and stderr (the objects and the
 descriptors 1 and 2 under them, redirected with os.dup2 too), `os._exit` (and `posix._exit`) from
-a thread, a fork that returns into the run loop, and the module attributes of ctsim, numpy and
+a thread, a fork (its child leaves at once: `_in_child`), and the module attributes of ctsim, numpy and
 the standard library modules ctsim writes its files and lines with (json, os, io, csv, builtins),
 and the methods of their classes. The guard holds from the run's first user code (the resets)
 to its end; what the controllers' and estimators' constructors replace in those modules and
@@ -14,7 +14,7 @@ A controller is the user's own code (or, in a contest, someone else's, which run
 these guards catch mistakes, not an attacker; code that means harm can still use ctypes. What a
 guard put back is said once per kind at the end of the run (`Guard.notes`).
 
-After every step two attribute reads catch a fork and an exit and one system call the step
+After every step an attribute read catches an exit from a thread and one system call the step
 timer's next expiry (a controller that re-arms it far ahead would switch off the step time limit
 for the steps that follow); every EVERY-th step the full check (a handful of calls and a few
 system calls, about 5 µs) puts back the rest, once for all robots; the module snapshot is compared
@@ -58,16 +58,18 @@ TIMER_SLACK = 1e-3
 
 
 class _Forks:
-    """Whether a run is going in this process (`running`), and whether this process is a fork
-    made while one went (`child`, set in the child by os.register_at_fork): a sweep's workers,
-    forked between runs, are not."""
+    """Whether a run is going in this process (`running`): a fork made then is user code's."""
 
     running = False
-    child = False
 
 
 def _in_child() -> None:
-    _Forks.child = _Forks.running
+    """A fork's child made while a run goes (a controller's or an estimator's `os.fork()`) leaves
+    at once, before it returns into user code: the run and its files belong to the parent, and a
+    child that never returned (an estimator forking a busy loop each update) was a fork bomb the
+    run's end did not stop. A sweep's workers, forked between runs, are not."""
+    if _Forks.running:
+        _REAL_EXIT(1)
 
 
 if hasattr(os, "register_at_fork"):
@@ -199,7 +201,7 @@ class Guard:
 
     def __enter__(self) -> Guard:
         os._exit = _NATIVE._exit = self._hook
-        _Forks.running, _Forks.child = True, False
+        _Forks.running = True
         return self
 
     def __exit__(self, *exc: object) -> None:
@@ -218,8 +220,6 @@ class Guard:
     def _guarded_exit(self, status: int = 0) -> None:
         """os._exit during a run: from the main thread a controller's exit (SystemExit), from
         another thread the end of that thread and of the run, its data kept."""
-        if _Forks.child:  # (a fork's child leaves as it asked)
-            _REAL_EXIT(status)
         where = threading.current_thread().name
         if threading.current_thread() is not threading.main_thread():
             self.exited = f"called os._exit({status}) from the thread {where!r}"
@@ -228,11 +228,9 @@ class Guard:
         raise leaving
 
     def after_step(self, step: int) -> None:
-        """After every step: a fork's child leaves, an os._exit from a thread ends the run; every
-        EVERY-th step the rest of `check` (a fork and an exit cost an attribute read each; the
-        rest a few µs, a thirty-second of that per step)."""
-        if _Forks.child:
-            _REAL_EXIT(1)  # (the run and its files belong to the parent)
+        """After every step: an os._exit from a thread ends the run; every EVERY-th step the rest
+        of `check` (an exit costs an attribute read; the rest a few µs, a thirty-second of that per
+        step)."""
         if self.exited is not None:
             raise ControllerBrokeOut(self.exited)
         if self.timer is not None and self.timer[1] and signal.getitimer(signal.ITIMER_REAL)[0] > self.timer[1] + TIMER_SLACK:
@@ -241,11 +239,8 @@ class Guard:
             self.check()
 
     def check(self) -> None:
-        """After a step: a fork's child leaves at once; signal handlers, blocked signals, the step
-        timer, the recursion limit and stdout/stderr are put back; ControllerBrokeOut after an
-        os._exit from a thread."""
-        if _Forks.child:
-            _REAL_EXIT(1)  # (the run and its files belong to the parent)
+        """After a step: signal handlers, blocked signals, the step timer, the recursion limit and
+        stdout/stderr are put back; ControllerBrokeOut after an os._exit from a thread."""
         if self.main:
             for number, handler in self.handlers.items():
                 if _signal.getsignal(number) is not handler:

@@ -274,3 +274,30 @@ def test_ctsims_own_frames_are_never_the_users_even_in_the_users_folder():
         failure = err.with_traceback(err.__traceback__.tb_next)  # (ctsim's frames only, not this test's)
     root = str(Path(__file__).resolve().parents[1]) + "/"
     assert foreign_frame(failure, (root,)) is None
+
+
+def test_an_estimator_that_forks_a_busy_loop_every_update_leaves_no_child_running(tmp_path):
+    """A fork made during a run leaves in the child at once, before it returns into user code
+    (`sim.guards._in_child`): an estimator whose children loop for ever (`ctsim evaluate` of one such
+    ran for minutes, hundreds of children spinning, until killed) ends its run as usual, and every
+    child it made has exited by itself."""
+    from bots.commands import Twist
+    from sim.experiments import Bot, simulate
+
+    children: list[int] = []
+
+    class ForksABusyLoop:
+        def reset(self, robot, pose):
+            self.pose = [float(v) for v in pose]
+
+        def update(self, readings):
+            child = os.fork()
+            if child == 0:
+                while True:
+                    pass
+            children.append(child)
+
+    result = simulate("empty", Bot(lambda t, readings: Twist(0.1, 0.0)), duration=0.2, estimators=[ForksABusyLoop])
+    assert result.error is None and len(children) == len(result.time)
+    for child in children:  # (each has left with status 1; a child still looping would hang here until pytest's timeout)
+        assert os.waitstatus_to_exitcode(os.waitpid(child, 0)[1]) == 1
