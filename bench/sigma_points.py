@@ -27,8 +27,7 @@ def _sigma_work(params: np.ndarray, state: np.ndarray, poses: np.ndarray, errors
     p, st = params[0], state[0]
     for n in range(tallies.shape[0]):
         left, right, forward, lateral = float(tallies[n, 0]), float(tallies[n, 1]), float(tallies[n, 2]), float(tallies[n, 3])
-        sigma_encoders_both(p, st.sigmas[ESTIMATE.encoders], st.sigmas[ESTIMATE.firmware], st.sigma_noises[ESTIMATE.encoders], st.sigma_noises[ESTIMATE.firmware],
-                            left, right, noise, st.turns)  # fmt: skip
+        sigma_encoders_both(p, st, left, right, noise)
         sigma_mouse(p, st.sigmas[ESTIMATE.mouse], forward, lateral)
         s, alpha = mouse_arc(p, forward, lateral)
         lay(st.mouse_watch.hypothesis, s, alpha, False)

@@ -66,8 +66,7 @@ def batch_step(batch: Batch, tallies: np.ndarray, time: float, truth: np.ndarray
             end_heading = estimate == ESTIMATE.firmware  # (a bool numba does not take for a constant: the step compiles once for both)
             s, alpha = encoder_step(p, pose[estimate, 2], cov[estimate], counts.left, counts.right, end_heading, work)
             lay(pose[estimate], s, alpha, end_heading)
-        sigma_encoders_both(p, st.sigmas[ESTIMATE.encoders], st.sigmas[ESTIMATE.firmware], st.sigma_noises[ESTIMATE.encoders], st.sigma_noises[ESTIMATE.firmware],
-                            counts.left, counts.right, work[PLANE.noise, :2, :2], st.turns)  # fmt: skip
+        sigma_encoders_both(p, st, counts.left, counts.right, work[PLANE.noise, :2, :2])
         if not p.has_mouse:
             continue
         mouse = ESTIMATE.mouse

@@ -6,7 +6,7 @@ import numba
 import numpy as np
 
 from bots.odometry.base import ArcOdometry
-from bots.odometry.layout import NODES, PLANE, SIGMAS
+from bots.odometry.layout import ESTIMATE, NODES, PLANE, SIGMAS
 from bots.odometry.propagation import END_HEADING, MID_ANGLE, add_point_noise, carry_noise, lay_point, node_of, noise_of, propagate, wheel_terms, wheel_variances
 from bots.readings import Readings
 from bots.spec import RobotSpec
@@ -53,20 +53,19 @@ def sigma_encoders(p: np.void, sigmas: np.ndarray, noises: np.ndarray, left: flo
 
 
 @numba.njit(cache=True)
-def sigma_encoders_both(p: np.void, mid: np.ndarray, end: np.ndarray, mid_noises: np.ndarray, end_noises: np.ndarray, left: float, right: float,
-                        noise: np.ndarray, turns: np.ndarray) -> None:  # fmt: skip
-    """`sigma_encoders` on the encoders' sigma points (`mid`, `mid_noises`: along the mid-angle)
-    and the firmware's (`end`, `end_noises`: along the end heading) at once: the same ticks through
-    the same nodes, so each point's arc and chord are worked out once for both (the same
-    operations: the same bits). `turns` (2, 3, SIGMAS): scratch."""
+def sigma_encoders_both(p: np.void, st: np.void, left: float, right: float, noise: np.ndarray) -> None:
+    """`sigma_encoders` on the encoders' sigma points (along the mid-angle) and the firmware's
+    (along the end heading) of a STATE row `st` at once: the same ticks through the same nodes, so
+    each point's arc and chord are worked out once for both (the same operations: the same bits)."""
+    mid, end, turns = st.sigmas[ESTIMATE.encoders], st.sigmas[ESTIMATE.firmware], st.turns
     for i in range(SIGMAS):
         s, alpha = sigma_arc(p, i, left, right)
         chord = chord_of(s, alpha)
-        lay_point(mid, turns[0], i, s, chord, alpha, MID_ANGLE)
-        lay_point(end, turns[1], i, s, chord, alpha, END_HEADING)
+        lay_point(mid, turns[ESTIMATE.encoders], i, s, chord, alpha, MID_ANGLE)
+        lay_point(end, turns[ESTIMATE.firmware], i, s, chord, alpha, END_HEADING)
     entries = noise_of(noise)
-    carry_noise(mid_noises, turns[0], MID_ANGLE, entries)
-    carry_noise(end_noises, turns[1], END_HEADING, entries)
+    carry_noise(st.sigma_noises[ESTIMATE.encoders], turns[ESTIMATE.encoders], MID_ANGLE, entries)
+    carry_noise(st.sigma_noises[ESTIMATE.firmware], turns[ESTIMATE.firmware], END_HEADING, entries)
 
 
 class EncoderOdometry(ArcOdometry):
