@@ -197,5 +197,8 @@ def test_plain_tum_files_are_read_without_loadtxt(tmp_path, monkeypatch) -> None
     expected = read_tum(path)
     (tmp_path / "tabs.tum").write_text(path.read_text().replace(" ", "\t") + "# the end\n")
     assert all(np.array_equal(a, b) for a, b in zip(read_tum(tmp_path / "tabs.tum"), expected))
+    (tmp_path / "blank.tum").write_text(TUM_HEADER + "\n\n")  # (no pose: refused as np.loadtxt's (0, 1) rows are)
+    with pytest.raises(ValueError, match="8 numbers"):
+        read_tum(tmp_path / "blank.tum")
     monkeypatch.setattr(np, "loadtxt", lambda *args, **named: pytest.fail("np.loadtxt called for a plain TUM file"))
     assert all(np.array_equal(a, b) for a, b in zip(read_tum(path), expected))

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import csv
 import io
+import warnings
 from contextlib import ExitStack
 from pathlib import Path
 from typing import BinaryIO, TextIO
@@ -102,10 +103,13 @@ def _tum_numbers(text: str) -> np.ndarray:
                 io.BytesIO(body), pacsv.ReadOptions(column_names=_COLUMNS, use_threads=False), pacsv.ParseOptions(delimiter=" ", quote_char=False),
                 pacsv.ConvertOptions(column_types=dict.fromkeys(_COLUMNS, pa.float64()), null_values=[], strings_can_be_null=False),
             )  # fmt: skip
-            return np.column_stack([column.to_numpy() for column in table.columns])
         except pa.ArrowInvalid:  # (a malformed number, a line of other than 8: np.loadtxt says which)
-            pass
-    return np.loadtxt(io.StringIO(text), comments="#", ndmin=2)
+            table = None
+        if table is not None and table.num_rows:  # (blank lines alone: as np.loadtxt reads them)
+            return np.column_stack([column.to_numpy() for column in table.columns])
+    with warnings.catch_warnings():  # (a file of no poses: refused below, without numpy's warning line too)
+        warnings.filterwarnings("ignore", "loadtxt: input contained no data", UserWarning)
+        return np.loadtxt(io.StringIO(text), comments="#", ndmin=2)
 
 
 def write_csv(path: str | Path, times: np.ndarray, poses: np.ndarray, extra: dict[str, np.ndarray] | None = None) -> None:
