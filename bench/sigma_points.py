@@ -15,23 +15,27 @@ from bots.odometry.batch import COVARIANCES, DefaultOdometry
 from bots.odometry.encoder import sigma_encoders_both
 from bots.odometry.layout import ESTIMATE, ESTIMATES, HYPOTHESIS_WEIGHT, SIGMAS
 from bots.odometry.mouse import MOUSE_SIGMAS, mouse_arc, sigma_mouse
-from bots.odometry.propagation import add_offset, add_spread, lay
+from bots.odometry.propagation import add_offset, add_point_noise, add_spread, lay
 
 
 @numba.njit(cache=True)
-def _sigma_work(params: np.ndarray, state: np.ndarray, poses: np.ndarray, tallies: np.ndarray, cov_out: np.ndarray) -> None:
-    """Every step's sigma-point and hypothesis work of `batch_step` for one robot: the points laid,
-    their spread and the hypotheses' offsets added to the covariances."""
+def _sigma_work(params: np.ndarray, state: np.ndarray, poses: np.ndarray, errors: np.ndarray, tallies: np.ndarray, cov_out: np.ndarray,
+                noise: np.ndarray) -> None:  # fmt: skip
+    """Every step's sigma-point and hypothesis work of `batch_step` for one robot: the points laid
+    with their random parts (`noise`: a step's, (2, 2)), their spread and random parts and the
+    hypotheses' offsets added to the covariances."""
     p, st = params[0], state[0]
     for n in range(tallies.shape[0]):
         left, right, forward, lateral = float(tallies[n, 0]), float(tallies[n, 1]), float(tallies[n, 2]), float(tallies[n, 3])
-        sigma_encoders_both(p, st.sigmas[ESTIMATE.encoders], st.sigmas[ESTIMATE.firmware], left, right)
+        sigma_encoders_both(p, st, left, right, noise)
         sigma_mouse(p, st.sigmas[ESTIMATE.mouse], forward, lateral)
         s, alpha = mouse_arc(p, forward, lateral)
         lay(st.mouse_watch.hypothesis, s, alpha, False)
         lay(st.fused_watch.hypothesis, s, alpha, False)
         add_spread(st.sigmas[ESTIMATE.encoders], SIGMAS, poses[0, ESTIMATE.encoders], cov_out[0, ESTIMATE.encoders])
         add_spread(st.sigmas[ESTIMATE.firmware], SIGMAS, poses[0, ESTIMATE.firmware], cov_out[0, ESTIMATE.firmware])
+        add_point_noise(st.sigma_noises[ESTIMATE.encoders], SIGMAS, errors[0, ESTIMATE.encoders], cov_out[0, ESTIMATE.encoders])
+        add_point_noise(st.sigma_noises[ESTIMATE.firmware], SIGMAS, errors[0, ESTIMATE.firmware], cov_out[0, ESTIMATE.firmware])
         add_spread(st.sigmas[ESTIMATE.mouse], MOUSE_SIGMAS, poses[0, ESTIMATE.mouse], cov_out[0, ESTIMATE.mouse])
         add_offset(st.mouse_watch.hypothesis, poses[0, ESTIMATE.mouse], HYPOTHESIS_WEIGHT, cov_out[0, ESTIMATE.mouse])
         add_offset(st.fused_watch.hypothesis, poses[0, ESTIMATE.fused], HYPOTHESIS_WEIGHT, cov_out[0, ESTIMATE.fused])
@@ -64,7 +68,7 @@ def sigma_point_cost(duration: float = 60.0, rounds: int = 5) -> dict[str, float
         best_with = min(best_with, time.perf_counter() - started)
         fresh = DefaultOdometry([robot], truth[:1], [0])
         started = time.perf_counter()
-        _sigma_work(fresh.params, fresh.state, fresh.poses, tallies, cov_out)
+        _sigma_work(fresh.params, fresh.state, fresh.poses, fresh.errors, tallies, cov_out, np.full((2, 2), 1e-9))
         best_sigma = min(best_sigma, time.perf_counter() - started)
     steps = len(times)
     return {"with_us": 1e6 * best_with / steps, "sigma_us": 1e6 * best_sigma / steps, "ratio": best_with / (best_with - best_sigma)}

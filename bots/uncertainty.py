@@ -114,3 +114,9 @@ def square(entries: np.ndarray) -> np.ndarray:
         return np.array(((xx, xy, xt), (xy, yy, yt), (xt, yt, tt)))
     xx, xy, xt, yy, yt, tt = np.moveaxis(np.asarray(entries, dtype=np.float64), -1, 0)
     return np.stack([np.stack([xx, xy, xt], -1), np.stack([xy, yy, yt], -1), np.stack([xt, yt, tt], -1)], -2)
+
+
+def entries_of(cov: np.ndarray) -> np.ndarray:
+    """(6,) COVARIANCE_FIELDS entries of a covariance's pose block (its first three rows and
+    columns): `square`'s inverse."""
+    return np.asarray(cov, dtype=np.float64)[np.triu_indices(3)]

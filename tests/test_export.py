@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 import math
 
 import numpy as np
@@ -13,7 +14,7 @@ from hypothesis.extra.numpy import arrays
 from bots.commands import Twist
 from bots.controller import FunctionController
 from bots.ctbot import CTBOT
-from sim.analysis.export import export_run, read_csv, read_tum, write_csv, write_tum
+from sim.analysis.export import TUM_HEADER, _tum_numbers, export_run, read_csv, read_tum, write_csv, write_tum
 from sim.run.loop import RobotSetup, run
 from sim.world.files import load_world
 
@@ -163,3 +164,41 @@ def test_an_export_rate_keeps_every_nth_sample_and_the_last(tmp_path, monkeypatc
     assert np.array_equal(np.concatenate([np.arange(len(result))[sampled(rows, len(result), 10)] for rows in result.blocks()]), picked)
     write_tum(tmp_path / "whole.tum", result.time[picked], result.robots[0].truth_array()[picked])
     assert written["ctbot"]["truth"].read_bytes() == (tmp_path / "whole.tum").read_bytes()
+
+
+_TOKENS = st.one_of(
+    st.floats(allow_nan=False, allow_infinity=False).map(repr),
+    st.floats(allow_nan=False, allow_infinity=False).map(lambda v: f"{v:+.17e}"),
+    st.integers(-(10**30), 10**30).map(str),
+    st.text("0123456789.eE+-", min_size=1, max_size=8),  # (mostly malformed: both must refuse it)
+)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.lists(st.lists(_TOKENS, min_size=7, max_size=9), min_size=1, max_size=6), st.booleans())
+def test_tum_numbers_are_read_as_numpy_reads_them(lines: list[list[str]], header: bool) -> None:
+    """Arrow's reader of plain TUM lines (`_tum_numbers`) gives np.loadtxt's floats bit for bit,
+    and refuses what np.loadtxt refuses (a line of other than 8 numbers, a malformed one)."""
+    text = (TUM_HEADER if header else "") + "".join(" ".join(line) + "\n" for line in lines)
+    try:
+        expected = np.loadtxt(io.StringIO(text), comments="#", ndmin=2)
+    except ValueError:
+        with pytest.raises(ValueError):
+            _tum_numbers(text)
+        return
+    assert _tum_numbers(text).tobytes() == expected.tobytes()
+
+
+def test_plain_tum_files_are_read_without_loadtxt(tmp_path, monkeypatch) -> None:
+    """ctsim's own TUM files take the fast reader (np.loadtxt is not called); a file with tabs or
+    a comment further down still reads, through np.loadtxt."""
+    path = tmp_path / "t.tum"
+    write_tum(path, np.array([0.0, 0.01, 0.02]), np.array([[1.0, 2.0, 0.1], [1.5, 2.5, 3.0], [1.6, 2.4, -3.0]]))
+    expected = read_tum(path)
+    (tmp_path / "tabs.tum").write_text(path.read_text().replace(" ", "\t") + "# the end\n")
+    assert all(np.array_equal(a, b) for a, b in zip(read_tum(tmp_path / "tabs.tum"), expected))
+    (tmp_path / "blank.tum").write_text(TUM_HEADER + "\n\n")  # (no pose: refused as np.loadtxt's (0, 1) rows are)
+    with pytest.raises(ValueError, match="8 numbers"):
+        read_tum(tmp_path / "blank.tum")
+    monkeypatch.setattr(np, "loadtxt", lambda *args, **named: pytest.fail("np.loadtxt called for a plain TUM file"))
+    assert all(np.array_equal(a, b) for a, b in zip(read_tum(path), expected))

@@ -20,13 +20,13 @@ from bots.controller import FunctionController
 from bots.ctbot import CTBOT
 from bots.noise import with_noise
 from bots.odometry.base import COUNT_VARIANCE, parameters, quantisation_lag
-from bots.odometry.batch import DefaultOdometry, batched
+from bots.odometry.batch import COVARIANCES, DefaultOdometry, batched
 from bots.odometry.defaults import default_estimators
 from bots.odometry.encoder import EncoderOdometry
-from bots.odometry.layout import DEAD_RECKONERS, ESTIMATE, SLIDE_WATCH, STATE
+from bots.odometry.layout import DEAD_RECKONERS, ENCODERS_ONLY, ESTIMATE, ESTIMATES, SLIDE_WATCH, STATE
 from bots.odometry.propagation import mouse_terms, wheel_terms
 from bots.readings import Readings
-from bots.uncertainty import ERRORS
+from bots.uncertainty import ERRORS, square
 from bots.wheeled import MECANUM4
 from sim.kinematics import advance
 from sim.kinematics.batch import advance_one
@@ -81,8 +81,9 @@ def robots_and_steps(draw):
 @settings(max_examples=200)
 @given(robots_and_steps(), st.permutations(range(5)))
 def test_batch_steps_as_the_python_estimators(case, order):
-    """Random robots and readings: every estimate and its error covariance, the fused estimator's
-    state, calibration and contact count equal the Python estimators' after every step."""
+    """Random robots and readings: every estimate, its error covariance and the covariance it
+    reports, the sigma points and their random parts, the fused estimator's state, calibration and
+    contact count equal the Python estimators' after every step."""
     robots, starts, times, steps = case
     n = len(robots)
     rows = [r for r in order if r < n + 1][:n]  # each robot's row in the tallies, shuffled
@@ -97,7 +98,8 @@ def test_batch_steps_as_the_python_estimators(case, order):
     for time, per_robot in zip(times, steps):
         world_tallies = np.empty((n + 1, 4), dtype=np.int64)
         world_tallies[rows + [sorted(set(range(n + 1)) - set(rows))[0]]] = per_robot
-        batch.update(world_tallies, time)
+        out, cov_out = np.zeros((n, 1 + ESTIMATES, 3)), np.zeros((n, ESTIMATES, COVARIANCES))
+        batch.update(world_tallies, time, np.zeros((n + 1, 3)), out, cov_out)
         for k, chosen in enumerate(python):
             readings = Readings(time, encoder_ticks=per_robot[k, :2].copy(), mouse_counts=per_robot[k, 2:].copy())
             for estimator in chosen:
@@ -107,6 +109,7 @@ def test_batch_steps_as_the_python_estimators(case, order):
             for j, (estimator, estimate) in enumerate(zip(chosen, estimates)):
                 assert estimate.tolist() == estimator.pose.tolist(), estimator.name
                 assert batch.errors[k, j].tolist() == estimator.errors.tolist(), estimator.name
+                assert square(cov_out[k, j]).tolist() == estimator.covariance.tolist(), estimator.name
             if len(chosen) == 4:
                 fused = chosen[ESTIMATE.fused]
                 detectors = [f.name for f in STATE.fields if f.kind == np.float64 and f.width == 1]
@@ -118,6 +121,8 @@ def test_batch_steps_as_the_python_estimators(case, order):
                 assert batch.contact_steps[k] == fused.contact_steps
             for j, estimator in enumerate(chosen[:DEAD_RECKONERS]):
                 assert batch.state[k]["sigmas"][j].tolist() == estimator.sigmas.tolist(), "the sigma points"
+            for j, estimator in enumerate(chosen[:ENCODERS_ONLY]):
+                assert batch.state[k]["sigma_noises"][j].tolist() == estimator.noises.tolist(), "the sigma points' random parts"
 
 def test_general_chassis_stays_with_the_python_estimators():
     assert batched(CTBOT) and not batched(MECANUM4)

@@ -149,7 +149,8 @@ class ArcOdometry:
     the covariance adds their spread about the estimate. A wrong track turns the heading by tens
     of degrees over a maze, and the position error then bends away from where a first-order
     covariance puts it (it has no variance along the track from a heading error); the points
-    follow the bend exactly. `errors` then holds the random noise alone. An estimator with a slide
+    follow the bend exactly. `errors` then holds the random noise alone (the encoders' points carry
+    it along their own paths too: `bots.odometry.encoder.EncoderOdometry`). An estimator with a slide
     watch (`watch`, its ESTIMATE: the mouse's and the fused one's) adds its hypothesis's offset
     (`bots.odometry.mouse.watch_slides`)."""
 
@@ -197,9 +198,15 @@ class ArcOdometry:
         the sigma points' spread and the slide hypothesis's offset."""
         pose_covariance(self.errors, float(self.pose[2]), self.lag, self._entries)
         add_spread(self.sigmas, self.sigma_count, self.pose, self._entries)
+        self.add_noise(self._entries)
         if self.watch is not None:
             add_offset(watch_of(self.state, self.watch)["hypothesis"], self.pose, HYPOTHESIS_WEIGHT, self._entries)
         return square(self._entries)
+
+    def add_noise(self, entries: np.ndarray) -> None:
+        """Where the sigma points carry their own random part (`bots.odometry.encoder.EncoderOdometry`):
+        put its mean over their paths into the covariance `entries` in place of the estimate's own;
+        here the estimate's own stays."""
 
 
 def mouse_applies(robot: RobotSpec) -> bool:

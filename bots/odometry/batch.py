@@ -22,9 +22,9 @@ import numpy as np
 from bots.odometry.defaults import default_estimators
 from bots.odometry.encoder import encoder_step, sigma_encoders_both
 from bots.odometry.fused import fused_step
-from bots.odometry.layout import DEAD_RECKONERS, ENCODERS_ONLY, ESTIMATE, ESTIMATES, HYPOTHESIS_WEIGHT, PARAMETERS, SIGMAS, STATE, TALLY, Counts, Estimate, fresh_state, workspace
+from bots.odometry.layout import DEAD_RECKONERS, ENCODERS_ONLY, ESTIMATE, ESTIMATES, HYPOTHESIS_WEIGHT, PARAMETERS, PLANE, SIGMAS, STATE, TALLY, Counts, Estimate, fresh_state, workspace
 from bots.odometry.mouse import MOUSE_SIGMAS, mouse_step, sigma_mouse, turn_check, watch_slides
-from bots.odometry.propagation import add_offset, add_spread, lay, pose_covariance
+from bots.odometry.propagation import add_offset, add_point_noise, add_spread, lay, pose_covariance
 from bots.spec import RobotSpec
 from bots.uncertainty import COVARIANCE_FIELDS, ERROR, ERRORS
 
@@ -66,7 +66,7 @@ def batch_step(batch: Batch, tallies: np.ndarray, time: float, truth: np.ndarray
             end_heading = estimate == ESTIMATE.firmware  # (a bool numba does not take for a constant: the step compiles once for both)
             s, alpha = encoder_step(p, pose[estimate, 2], cov[estimate], counts.left, counts.right, end_heading, work)
             lay(pose[estimate], s, alpha, end_heading)
-        sigma_encoders_both(p, st.sigmas[ESTIMATE.encoders], st.sigmas[ESTIMATE.firmware], counts.left, counts.right)
+        sigma_encoders_both(p, st, counts.left, counts.right, work[PLANE.noise, :2, :2])
         if not p.has_mouse:
             continue
         mouse = ESTIMATE.mouse
@@ -92,6 +92,8 @@ def batch_step(batch: Batch, tallies: np.ndarray, time: float, truth: np.ndarray
             pose_covariance(errors[i, j], poses[i, j, 2], lags[i, j], cov_out[i, j])
             if j != ESTIMATE.fused:
                 add_spread(state[i].sigmas[j], SIGMAS if j != ESTIMATE.mouse else MOUSE_SIGMAS, poses[i, j], cov_out[i, j])
+            if j < ENCODERS_ONLY:
+                add_point_noise(state[i].sigma_noises[j], SIGMAS, errors[i, j], cov_out[i, j])
         if params[i].has_mouse:  # the slide watches' hypotheses (`bots.odometry.mouse.watch_slides`)
             add_offset(state[i].mouse_watch.hypothesis, poses[i, ESTIMATE.mouse], HYPOTHESIS_WEIGHT, cov_out[i, ESTIMATE.mouse])
             add_offset(state[i].fused_watch.hypothesis, poses[i, ESTIMATE.fused], HYPOTHESIS_WEIGHT, cov_out[i, ESTIMATE.fused])
@@ -147,6 +149,8 @@ class DefaultOdometry:
             self.state[k] = chosen[ESTIMATE.fused].state if len(chosen) == ESTIMATES else fresh_state()
             for j, estimator in enumerate(chosen[:DEAD_RECKONERS]):  # the dead reckoners' sigma points
                 self.state[k]["sigmas"][j] = estimator.sigmas
+            for j, estimator in enumerate(chosen[:ENCODERS_ONLY]):
+                self.state[k]["sigma_noises"][j] = estimator.noises
         self.batch = Batch(self.rows, self.params, self.state, self.contact_steps, self.calibration, self.poses, self.errors, self.lags)
         self._out = np.zeros((n, 1 + ESTIMATES, 3))  # (where `update` is not given a run's row)
         self._cov_out = np.zeros((n, ESTIMATES, COVARIANCES))

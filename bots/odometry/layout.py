@@ -116,6 +116,9 @@ STATE = Table(
     Field("disagreement_var", 1, "m², the distance disagreement's random variance"),
     Field("turn_var", 1, "rad², the rotation disagreement's random variance"),
     Field("sigmas", DEAD_RECKONERS, "the sigma points' poses (SIGMAS, 3) of each dead reckoner, by ESTIMATE", np.dtype((np.float64, (SIGMAS, 3)))),
+    Field("sigma_noises", ENCODERS_ONLY, "the encoders' and the firmware's sigma points' random parts (COVARIANCE_FIELDS, SIGMAS), by ESTIMATE",
+          np.dtype((np.float64, (6, SIGMAS)))),
+    Field("turns", ENCODERS_ONLY, "scratch: their sigma points' last arc length and direction's cosine and sine (3, SIGMAS)", np.dtype((np.float64, (3, SIGMAS)))),
     Field("mouse_watch", 1, "the mouse estimate's slide watch", SLIDE_WATCH.dtype),
     Field("fused_watch", 1, "the fused estimate's slide watch", SLIDE_WATCH.dtype),
     # the fused estimator's counters' residuals (`bots.odometry.fused.residual_update`)

@@ -2,7 +2,8 @@
 increment's Jacobian on the calibration errors and its noise (`wheel_terms`, `mouse_terms`), the
 random variances the believed noise gives a step (`wheel_variances`, `mouse_variance`), the
 covariance carried through laying an arc (`propagate`), and the reported pose covariance with the
-quantisation lag and the sigma points' spread (`pose_covariance`, `add_spread`).
+quantisation lag and the sigma points' spread (`pose_covariance`, `add_spread`), and the random
+part carried along each sigma point's own path (`lay_point`, `add_point_noise`).
 
 Each estimator's own compiled step lives in its file (`encoder`, `mouse`, `fused`) and calls
 these. numba caches a kernel by its own file's content: a change here recompiles its callers
@@ -18,7 +19,7 @@ import numpy as np
 
 from bots.odometry.layout import NODE_WEIGHTS, PLANE, SIGMAS
 from bots.uncertainty import ERROR, ERRORS
-from sim.kinematics.batch import advance_chord, advance_one
+from sim.kinematics.batch import advance_one
 
 MID_ANGLE, END_HEADING = 0.5, 1.0
 """Where an arc's chord is laid (`propagate`'s share of the heading change): along the mid-angle
@@ -180,12 +181,64 @@ def add_spread(sigmas: np.ndarray, count: int, pose: np.ndarray, out: np.ndarray
 
 
 @numba.njit(cache=True, inline="always")
-def lay(pose: np.ndarray, s: float, alpha: float, end_heading: bool) -> None:
-    """`ArcOdometry.update`: the pose after the arc, in place."""
-    pose[0], pose[1], pose[2] = advance_one(pose[0], pose[1], pose[2], s, alpha, end_heading)
+def carry_noise(entries: np.ndarray, turns: np.ndarray, share: float, noise: tuple[float, float, float]) -> None:
+    """`propagate` of pose covariances without calibration errors, one a sigma point, in place:
+    `entries` (COVARIANCE_FIELDS, points), each point's increment of length turns[0] with noise
+    `noise` (its entries ss, s-alpha, alpha-alpha) laid along a direction of cosine turns[1], sine
+    turns[2] (`turns` (3, points), as `lay_point` leaves them), at share * s from the turn. (Points
+    along the last axis: one loop of plain arithmetic over them, which the compiler vectorises.)"""
+    n_ss, n_sa, n_aa = noise
+    for i in range(entries.shape[1]):
+        s, c, sn = turns[0, i], turns[1, i], turns[2, i]
+        xx, xy, xt, yy, yt, tt = entries[0, i], entries[1, i], entries[2, i], entries[3, i], entries[4, i], entries[5, i]
+        ax, ay = -s * sn, s * c  # (d pose / d heading)
+        xt_, yt_ = xt + ax * tt, yt + ay * tt
+        lever = share * s
+        gx, gy = -lever * sn, lever * c  # (d pose / d alpha; d pose / d s is (c, sn, 0))
+        ux0, ux1 = n_ss * c + n_sa * gx, n_sa * c + n_aa * gx
+        uy0, uy1 = n_ss * sn + n_sa * gy, n_sa * sn + n_aa * gy
+        entries[0, i] = xx + ax * xt + ax * xt_ + (c * ux0 + gx * ux1)
+        entries[1, i] = xy + ax * yt + ay * xt_ + (sn * ux0 + gy * ux1)
+        entries[2, i] = xt_ + ux1
+        entries[3, i] = yy + ay * yt + ay * yt_ + (sn * uy0 + gy * uy1)
+        entries[4, i] = yt_ + uy1
+        entries[5, i] = tt + n_aa
 
 
 @numba.njit(cache=True, inline="always")
-def lay_chord(pose: np.ndarray, chord: float, alpha: float, end_heading: bool) -> None:
-    """`lay` by the arc's chord (`sim.kinematics.batch.chord_of`), in place."""
-    pose[0], pose[1], pose[2] = advance_chord(pose[0], pose[1], pose[2], chord, alpha, end_heading)
+def lay_point(points: np.ndarray, turns: np.ndarray, i: int, s: float, chord: float, alpha: float, share: float) -> None:
+    """Sigma point `i`'s step, in place: its pose (row `i` of `points`) laid by the arc's `chord`
+    along heading + share * alpha (`MID_ANGLE`, `END_HEADING`; `sim.kinematics.batch.advance_chord`'s
+    operations: the same bits), its arc length s and that direction's cosine and sine left in column `i` of
+    `turns` for `carry_noise`."""
+    x, y, heading = points[i, 0], points[i, 1], points[i, 2]
+    direction = heading + share * alpha
+    c, sn = math.cos(direction), math.sin(direction)
+    turns[0, i], turns[1, i], turns[2, i] = s, c, sn
+    points[i, 0], points[i, 1], points[i, 2] = x + chord * c, y + chord * sn, heading + alpha
+
+
+@numba.njit(cache=True, inline="always")
+def noise_of(noise: np.ndarray) -> tuple[float, float, float]:
+    """An increment's noise (2, 2; `wheel_terms`) as `carry_noise` takes it: its three entries."""
+    return noise[0, 0], noise[0, 1], noise[1, 1]
+
+
+@numba.njit(cache=True)
+def add_point_noise(points: np.ndarray, count: int, cov: np.ndarray, out: np.ndarray) -> None:
+    """Replace in the covariance entries `out` the random part `cov` (ERRORS, ERRORS: the
+    estimate's, carried along its own path) by its mean over the first `count` sigma points'
+    paths: each point's entries `points` (COVARIANCE_FIELDS, count) weigh as its offset
+    (`POINT_WEIGHTS`), the estimate's own the rest."""
+    own = (cov[0, 0], cov[0, 1], cov[0, 2], cov[1, 1], cov[1, 2], cov[2, 2])
+    for k in range(6):
+        total = 0.0
+        for i in range(count):
+            total += POINT_WEIGHTS[count, i] * (points[k, i] - own[k])
+        out[k] += total
+
+
+@numba.njit(cache=True, inline="always")
+def lay(pose: np.ndarray, s: float, alpha: float, end_heading: bool) -> None:
+    """`ArcOdometry.update`: the pose after the arc, in place."""
+    pose[0], pose[1], pose[2] = advance_one(pose[0], pose[1], pose[2], s, alpha, end_heading)

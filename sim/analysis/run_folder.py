@@ -204,6 +204,8 @@ def _every_line(file: BinaryIO, lines: int) -> tuple[bytes, int]:
     total = sum(chunk.count(b"\n") for chunk in iter(lambda: file.read(1 << 24), b""))
     every = max(1, -(-total // max(lines, 1)))
     file.seek(0)
+    if every == 1:  # (all of it: one read, not a line at a time)
+        return file.read(), every
     kept, last = [], b""
     for k, line in enumerate(file):
         if k % every == 0:

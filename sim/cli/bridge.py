@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import threading
 
 from sim.analysis.run_folder import RunFolder
 from sim.cli.observers import Progress, StopOnSignal
@@ -62,6 +63,7 @@ def add_parser(commands) -> None:
 def cmd_bridge(args: argparse.Namespace) -> int:
     from sim.bridge import Bridge
     from sim.run.loop import run
+    from sim.views.figures import headless_pyplot
     from sim.views.recording.arrow import keep_pandas_out_of_arrow
     from sim.views.recording.recorder import Recorder
     from sim.world.files import load_world
@@ -82,6 +84,8 @@ def cmd_bridge(args: argparse.Namespace) -> int:
         setups = [bridge.setup(spec, rc5=args.rc5, calls=calls, like_ctsim=not args.own_physics) for _ in range(args.robots)] + python
         print(f"ctsim bridge: listening on {bridge.address} for {args.robots} firmware bot(s); start the firmware now", file=sys.stderr, flush=True)
         keep_pandas_out_of_arrow()
+        if not args.no_report:  # (the figures' import, taken while the run waits for the firmware: not after its last block)
+            threading.Thread(target=headless_pyplot, name="ctsim: matplotlib").start()  # (not a daemon: an exit waits for its import)
         recorder = Recorder(RunFolder(out).recording, live=args.live)
         with StopOnSignal() as stop:
             observers = (stop.starting, bridge.observer(recorder, realtime=args.realtime), recorder, Progress(args.duration, args.dt), stop)

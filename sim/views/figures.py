@@ -10,6 +10,7 @@ from __future__ import annotations
 import io
 from collections.abc import Sequence
 from pathlib import Path
+from types import ModuleType
 
 import numpy as np
 
@@ -87,6 +88,17 @@ def moving_mean(t: np.ndarray, values: np.ndarray, window_s: float) -> np.ndarra
     return np.convolve(padded, np.ones(width) / width, mode="valid")
 
 
+def headless_pyplot() -> ModuleType:
+    """matplotlib's pyplot on the Agg backend (no window, whatever the machine has): half a second
+    to import, which `ctsim bridge` pays in a thread while it waits for its firmware's answers."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot
+
+    return matplotlib.pyplot
+
+
 def write_figures(
     world: WorldSpec,
     robots: dict[str, dict[str, Trajectory]],
@@ -103,10 +115,7 @@ def write_figures(
     shown in the legends; `bands` robot -> label -> (times, (T, 6) covariance entries,
     `bots.uncertainty.COVARIANCE_FIELDS`); `puts` robot -> the times (s) it stood where it was put
     down by hand (`puts_of`), where its truth's line breaks; `subtitle` says what ran."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    plt = headless_pyplot()
     from matplotlib.legend_handler import HandlerTuple
     from matplotlib.lines import Line2D
 
