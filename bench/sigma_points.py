@@ -28,7 +28,7 @@ def _sigma_work(params: np.ndarray, state: np.ndarray, poses: np.ndarray, errors
     for n in range(tallies.shape[0]):
         left, right, forward, lateral = float(tallies[n, 0]), float(tallies[n, 1]), float(tallies[n, 2]), float(tallies[n, 3])
         sigma_encoders_both(p, st, left, right, noise)
-        sigma_mouse(p, st.sigmas[ESTIMATE.mouse], forward, lateral)
+        sigma_mouse(p, st.sigmas[ESTIMATE.mouse], st.sigma_noises[ESTIMATE.mouse], forward, lateral, noise, st.turns[ESTIMATE.mouse])
         s, alpha = mouse_arc(p, forward, lateral)
         lay(st.mouse_watch.hypothesis, s, alpha, False)
         lay(st.fused_watch.hypothesis, s, alpha, False)
@@ -37,6 +37,7 @@ def _sigma_work(params: np.ndarray, state: np.ndarray, poses: np.ndarray, errors
         add_point_noise(st.sigma_noises[ESTIMATE.encoders], SIGMAS, errors[0, ESTIMATE.encoders], cov_out[0, ESTIMATE.encoders])
         add_point_noise(st.sigma_noises[ESTIMATE.firmware], SIGMAS, errors[0, ESTIMATE.firmware], cov_out[0, ESTIMATE.firmware])
         add_spread(st.sigmas[ESTIMATE.mouse], MOUSE_SIGMAS, poses[0, ESTIMATE.mouse], cov_out[0, ESTIMATE.mouse])
+        add_point_noise(st.sigma_noises[ESTIMATE.mouse], MOUSE_SIGMAS, errors[0, ESTIMATE.mouse], cov_out[0, ESTIMATE.mouse])
         add_offset(st.mouse_watch.hypothesis, poses[0, ESTIMATE.mouse], HYPOTHESIS_WEIGHT, cov_out[0, ESTIMATE.mouse])
         add_offset(st.fused_watch.hypothesis, poses[0, ESTIMATE.fused], HYPOTHESIS_WEIGHT, cov_out[0, ESTIMATE.fused])
 

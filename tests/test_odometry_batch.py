@@ -23,7 +23,7 @@ from bots.odometry.base import COUNT_VARIANCE, parameters, quantisation_lag
 from bots.odometry.batch import COVARIANCES, DefaultOdometry, batched
 from bots.odometry.defaults import default_estimators
 from bots.odometry.encoder import EncoderOdometry
-from bots.odometry.layout import DEAD_RECKONERS, ENCODERS_ONLY, ESTIMATE, ESTIMATES, SLIDE_WATCH, STATE
+from bots.odometry.layout import DEAD_RECKONERS, ESTIMATE, ESTIMATES, SLIDE_WATCH, STATE
 from bots.odometry.propagation import mouse_terms, wheel_terms
 from bots.readings import Readings
 from bots.uncertainty import ERRORS, square
@@ -121,7 +121,6 @@ def test_batch_steps_as_the_python_estimators(case, order):
                 assert batch.contact_steps[k] == fused.contact_steps
             for j, estimator in enumerate(chosen[:DEAD_RECKONERS]):
                 assert batch.state[k]["sigmas"][j].tolist() == estimator.sigmas.tolist(), "the sigma points"
-            for j, estimator in enumerate(chosen[:ENCODERS_ONLY]):
                 assert batch.state[k]["sigma_noises"][j].tolist() == estimator.noises.tolist(), "the sigma points' random parts"
 
 def test_general_chassis_stays_with_the_python_estimators():

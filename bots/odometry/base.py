@@ -18,10 +18,10 @@ from typing import Protocol
 import numpy as np
 
 from bots.odometry.layout import HYPOTHESIS_WEIGHT, PARAMETERS, SIGMAS, fresh_state, watch_of, workspace
-from bots.odometry.propagation import add_offset, add_spread, mouse_terms, pose_covariance, wheel_terms
+from bots.odometry.propagation import add_offset, add_point_noise, add_spread, mouse_terms, pose_covariance, wheel_terms
 from bots.readings import Readings
 from bots.spec import RobotSpec
-from bots.uncertainty import COUNT_VARIANCE, COVARIANCE_FIELDS, ERRORS, Belief, square
+from bots.uncertainty import COUNT_VARIANCE, COVARIANCE_FIELDS, ERRORS, Belief, entries_of, square
 from sim.kinematics import MouseEstimator, advance
 from sim.kinematics.mouse import counts_per_metre
 
@@ -149,8 +149,11 @@ class ArcOdometry:
     the covariance adds their spread about the estimate. A wrong track turns the heading by tens
     of degrees over a maze, and the position error then bends away from where a first-order
     covariance puts it (it has no variance along the track from a heading error); the points
-    follow the bend exactly. `errors` then holds the random noise alone (the encoders' points carry
-    it along their own paths too: `bots.odometry.encoder.EncoderOdometry`). An estimator with a slide
+    follow the bend exactly. `errors` then holds the random noise alone, carried along the
+    estimate's path, and each point carries it along its own path too (`noises`): a heading error
+    turns every later move, and a robot whose calibration turns its heading far from the
+    estimate's spreads its random error across its own path; the covariance reports the random
+    part's mean over the points (`add_noise`). An estimator with a slide
     watch (`watch`, its ESTIMATE: the mouse's and the fused one's) adds its hypothesis's offset
     (`bots.odometry.mouse.watch_slides`)."""
 
@@ -178,10 +181,13 @@ class ArcOdometry:
             self.lag = 0.5 * self.lag
             self.errors = phase_offset(self.lag, float(self.pose[2]))
         self.sigmas = np.repeat(self.pose[None], SIGMAS, axis=0)
+        """(SIGMAS, 3) the sigma points' poses (the first `sigma_count` used)."""
+        self.noises = np.repeat(entries_of(self.errors)[:, None], SIGMAS, axis=1)
+        """(COVARIANCE_FIELDS, SIGMAS) each sigma point's random part, carried along its own path (`carry_noise`)."""
+        self.turns = np.zeros((3, SIGMAS))
         self.state = fresh_state()
         """The compiled steps' STATE row (`bots.odometry.layout`: the fused detectors, the slide watches)."""
         self.state["mouse_watch"]["hypothesis"] = self.state["fused_watch"]["hypothesis"] = self.pose
-        """(SIGMAS, 3) the sigma points' poses (the first `sigma_count` used)."""
         self._entries = np.zeros(len(COVARIANCE_FIELDS))
         self.work = workspace()  # (the compiled steps' scratch)
 
@@ -204,9 +210,10 @@ class ArcOdometry:
         return square(self._entries)
 
     def add_noise(self, entries: np.ndarray) -> None:
-        """Where the sigma points carry their own random part (`bots.odometry.encoder.EncoderOdometry`):
-        put its mean over their paths into the covariance `entries` in place of the estimate's own;
-        here the estimate's own stays."""
+        """Where the sigma points carry their own random part: put its mean over their paths
+        (`add_point_noise`) into the covariance `entries` in place of the estimate's own."""
+        if self.sigma_count:
+            add_point_noise(self.noises, self.sigma_count, self.errors, entries)
 
 
 def mouse_applies(robot: RobotSpec) -> bool:

@@ -72,7 +72,7 @@ def batch_step(batch: Batch, tallies: np.ndarray, time: float, truth: np.ndarray
         mouse = ESTIMATE.mouse
         s, alpha = mouse_step(p, pose[mouse, 2], cov[mouse], counts.forward, counts.lateral, work)
         lay(pose[mouse], s, alpha, False)
-        sigma_mouse(p, st.sigmas[mouse], counts.forward, counts.lateral)
+        sigma_mouse(p, st.sigmas[mouse], st.sigma_noises[mouse], counts.forward, counts.lateral, work[PLANE.noise, :2, :2], st.turns[mouse])
         s_enc, alpha_enc, var = turn_check(p, counts.left, counts.right, s, alpha)
         lay(st.mouse_watch.hypothesis, s, alpha, False)
         cov[mouse, ERROR.heading, ERROR.heading] += watch_slides(p, st.mouse_watch, alpha - alpha_enc, var, alpha_enc, s_enc, time)[1]
@@ -91,9 +91,9 @@ def batch_step(batch: Batch, tallies: np.ndarray, time: float, truth: np.ndarray
         for j in range(ESTIMATES if params[i].has_mouse else ENCODERS_ONLY):
             pose_covariance(errors[i, j], poses[i, j, 2], lags[i, j], cov_out[i, j])
             if j != ESTIMATE.fused:
-                add_spread(state[i].sigmas[j], SIGMAS if j != ESTIMATE.mouse else MOUSE_SIGMAS, poses[i, j], cov_out[i, j])
-            if j < ENCODERS_ONLY:
-                add_point_noise(state[i].sigma_noises[j], SIGMAS, errors[i, j], cov_out[i, j])
+                count = SIGMAS if j != ESTIMATE.mouse else MOUSE_SIGMAS
+                add_spread(state[i].sigmas[j], count, poses[i, j], cov_out[i, j])
+                add_point_noise(state[i].sigma_noises[j], count, errors[i, j], cov_out[i, j])
         if params[i].has_mouse:  # the slide watches' hypotheses (`bots.odometry.mouse.watch_slides`)
             add_offset(state[i].mouse_watch.hypothesis, poses[i, ESTIMATE.mouse], HYPOTHESIS_WEIGHT, cov_out[i, ESTIMATE.mouse])
             add_offset(state[i].fused_watch.hypothesis, poses[i, ESTIMATE.fused], HYPOTHESIS_WEIGHT, cov_out[i, ESTIMATE.fused])
@@ -147,9 +147,8 @@ class DefaultOdometry:
             self.names.append([estimator.name for estimator in chosen])
             self.params[k] = chosen[ESTIMATE.encoders].params
             self.state[k] = chosen[ESTIMATE.fused].state if len(chosen) == ESTIMATES else fresh_state()
-            for j, estimator in enumerate(chosen[:DEAD_RECKONERS]):  # the dead reckoners' sigma points
+            for j, estimator in enumerate(chosen[:DEAD_RECKONERS]):  # the dead reckoners' sigma points and their random parts
                 self.state[k]["sigmas"][j] = estimator.sigmas
-            for j, estimator in enumerate(chosen[:ENCODERS_ONLY]):
                 self.state[k]["sigma_noises"][j] = estimator.noises
         self.batch = Batch(self.rows, self.params, self.state, self.contact_steps, self.calibration, self.poses, self.errors, self.lags)
         self._out = np.zeros((n, 1 + ESTIMATES, 3))  # (where `update` is not given a run's row)

@@ -7,10 +7,8 @@ import numpy as np
 
 from bots.odometry.base import ArcOdometry
 from bots.odometry.layout import ESTIMATE, NODES, PLANE, SIGMAS
-from bots.odometry.propagation import END_HEADING, MID_ANGLE, add_point_noise, carry_noise, lay_point, node_of, noise_of, propagate, wheel_terms, wheel_variances
+from bots.odometry.propagation import END_HEADING, MID_ANGLE, carry_noise, lay_point, node_of, noise_of, propagate, wheel_terms, wheel_variances
 from bots.readings import Readings
-from bots.spec import RobotSpec
-from bots.uncertainty import entries_of
 from sim.kinematics.batch import chord_of
 
 
@@ -104,18 +102,8 @@ class EncoderOdometry(ArcOdometry):
               "not whether the covariance holds over the robots it describes; a heading ending tens of degrees off puts the "
               "position where no Gaussian does, so a mean NEES over 40 robots at a run's end strays both ways")  # fmt: skip
 
-    def reset(self, robot: RobotSpec, pose: np.ndarray) -> None:
-        super().reset(robot, pose)
-        self.noises = np.repeat(entries_of(self.errors)[:, None], SIGMAS, axis=1)
-        """(COVARIANCE_FIELDS, SIGMAS) each sigma point's random part, carried along its own path (`carry_noise`)."""
-        self.turns = np.zeros((3, SIGMAS))
-
     def step(self, readings: Readings) -> tuple[float, float]:
         left, right = readings.encoder_ticks.tolist()
         arc = encoder_step(self.params, float(self.pose[2]), self.errors, float(left), float(right), self.end_heading, self.work)
         sigma_encoders(self.params, self.sigmas, self.noises, float(left), float(right), END_HEADING if self.end_heading else MID_ANGLE, self.work[PLANE.noise, :2, :2], self.turns)
         return arc
-
-    def add_noise(self, entries: np.ndarray) -> None:
-        """The random part averaged over the sigma points' paths (`add_point_noise`)."""
-        add_point_noise(self.noises, self.sigma_count, self.errors, entries)

@@ -45,10 +45,23 @@ NODES = (0.0, SIGMA_SPREAD, -SIGMA_SPREAD)
 """The three nodes (standard deviations) of each calibration error; a point's base-3 digits pick one per error."""
 NODE_WEIGHTS = (2.0 / 3.0, 1.0 / 6.0, 1.0 / 6.0)
 """Their weights; a point weighs the product of its nodes' (`bots.odometry.propagation.point_weight`)."""
+_MOUSE_NODES, _MOUSE_WEIGHTS = np.polynomial.hermite_e.hermegauss(7)
+MOUSE_NODES = tuple(float(x) for k, x in enumerate(_MOUSE_NODES) if k != 3)
+"""The mouse's resolution error, its one calibration error, on seven nodes of Gauss-Hermite
+quadrature (standard deviations, up to +-3.75) but the middle one (the estimate itself): three
+nodes span only a plane of the pose's three dimensions, and a resolution off by a few per cent,
+turned through five laps of the line course (1,800 degrees), puts the pose on a curve that bends
+out of it. With three nodes the mouse's mean NEES at the end over 40 drawn robots read 6.8-11.3
+on the line course (follow_line) and in the empty arena (wander), their median 4.2-5.2; with
+seven 3.3-4.6 (docs/odometry.md, "Why sets of 40 stray")."""
+MOUSE_NODE_WEIGHTS = tuple(float(w) for k, w in enumerate(_MOUSE_WEIGHTS / _MOUSE_WEIGHTS.sum()) if k != 3)
+"""Their weights (the estimate weighs the rest)."""
+MOUSE_SIGMAS = len(MOUSE_NODES)
+"""The mouse's sigma points."""
 SIGMAS = 3**3 - 1
 """Sigma points of a dead-reckoning estimator: every combination of the nodes of its calibration
 errors but all at 0 (the estimate itself): the encoders' 26 of three (left wheel, right wheel,
-track), the mouse's first 2 of one (its resolution). The combinations carry how the errors act
+track); the mouse has its own rule (`MOUSE_NODES`). The combinations carry how the errors act
 together: with only the 2 a error (6 in all), a robot of the belief's spread turns its heading tens
 of degrees in the maze, its position's error curves, and the points' spread missed a direction
 the errors take (their mean NEES over robots drawn from the belief, calibration alone: 170-370
@@ -116,9 +129,9 @@ STATE = Table(
     Field("disagreement_var", 1, "m², the distance disagreement's random variance"),
     Field("turn_var", 1, "rad², the rotation disagreement's random variance"),
     Field("sigmas", DEAD_RECKONERS, "the sigma points' poses (SIGMAS, 3) of each dead reckoner, by ESTIMATE", np.dtype((np.float64, (SIGMAS, 3)))),
-    Field("sigma_noises", ENCODERS_ONLY, "the encoders' and the firmware's sigma points' random parts (COVARIANCE_FIELDS, SIGMAS), by ESTIMATE",
+    Field("sigma_noises", DEAD_RECKONERS, "the sigma points' random parts (COVARIANCE_FIELDS, SIGMAS) of each dead reckoner, by ESTIMATE",
           np.dtype((np.float64, (6, SIGMAS)))),
-    Field("turns", ENCODERS_ONLY, "scratch: their sigma points' last arc length and direction's cosine and sine (3, SIGMAS)", np.dtype((np.float64, (3, SIGMAS)))),
+    Field("turns", DEAD_RECKONERS, "scratch: their sigma points' last arc length and direction's cosine and sine (3, SIGMAS)", np.dtype((np.float64, (3, SIGMAS)))),
     Field("mouse_watch", 1, "the mouse estimate's slide watch", SLIDE_WATCH.dtype),
     Field("fused_watch", 1, "the fused estimate's slide watch", SLIDE_WATCH.dtype),
     # the fused estimator's counters' residuals (`bots.odometry.fused.residual_update`)

@@ -9,13 +9,11 @@ import numba
 import numpy as np
 
 from bots.odometry.base import ArcOdometry
-from bots.odometry.layout import ESTIMATE, NODES, PLANE
-from bots.odometry.propagation import MID_ANGLE, lay, mouse_terms, mouse_variance, node_of, propagate, wheel_variances
+from bots.odometry.layout import ESTIMATE, MOUSE_NODES, MOUSE_SIGMAS, PLANE
+from bots.odometry.propagation import MID_ANGLE, carry_noise, lay, lay_point, mouse_terms, mouse_variance, noise_of, propagate, wheel_variances
 from bots.readings import Readings
 from bots.uncertainty import COUNT_VARIANCE, ERROR
-
-MOUSE_SIGMAS = 3 - 1
-"""The mouse's sigma points: the two nodes of its one calibration error, the resolution."""
+from sim.kinematics.batch import chord_of
 
 
 @numba.njit(cache=True)
@@ -37,13 +35,17 @@ def mouse_step(p: np.void, heading: float, cov: np.ndarray, forward: float, late
 
 
 @numba.njit(cache=True)
-def sigma_mouse(p: np.void, sigmas: np.ndarray, forward: float, lateral: float) -> None:
-    """Lay these counts on the two sigma points of the mouse's resolution (SIGMA_SPREAD standard
-    deviations above and below the estimate: a finer mouse counts (1 + k) times the floor)."""
+def sigma_mouse(p: np.void, sigmas: np.ndarray, noises: np.ndarray, forward: float, lateral: float, noise: np.ndarray, turns: np.ndarray) -> None:
+    """Lay these counts on the sigma points of the mouse's resolution (`MOUSE_NODES` standard
+    deviations off the estimate's: a finer mouse counts (1 + k) times the floor), each
+    point's random part `noises` (COVARIANCE_FIELDS, SIGMAS; the first MOUSE_SIGMAS used) carried
+    with the step's `noise` (2, 2; `mouse_terms`) along its own path, in place (`lay_point`,
+    `carry_noise`; `turns` (3, SIGMAS): scratch)."""
     s, alpha = mouse_arc(p, forward, lateral)
     for i in range(MOUSE_SIGMAS):
-        scale = 1.0 + NODES[node_of(i, 0)] * p.mouse_scale_std
-        lay(sigmas[i], s / scale, alpha / scale, False)
+        scale = 1.0 + MOUSE_NODES[i] * p.mouse_scale_std
+        lay_point(sigmas, turns, i, s / scale, chord_of(s / scale, alpha / scale), alpha / scale, MID_ANGLE)
+    carry_noise(noises[:, :MOUSE_SIGMAS], turns[:, :MOUSE_SIGMAS], MID_ANGLE, noise_of(noise))
 
 
 @numba.njit(cache=True)
@@ -117,7 +119,9 @@ class MouseOdometry(ArcOdometry):
     axis's reading has the mouse's count variance per step, and the resolution is unknown by its
     believed size (`bots.uncertainty`). Not modelled: a mouse too fast to track (reads zero).
 
-    The resolution's error is carried by two sigma points (`ArcOdometry`); a slide along a wall,
+    The resolution's error is carried by six sigma points (`ArcOdometry`, `bots.odometry.layout.MOUSE_NODES`:
+    three span only a plane where five laps of turning bend the pose's error out of it), and the random
+    part along each point's path as well; a slide along a wall,
     which the mouse reads as rotation, by the slide watch (`watch_slides`, which looks at the
     encoders' ticks only for the covariance, never to move the estimate): it turns back a
     hypothesis dead-reckoned beside the estimate, whose offset the covariance adds, so that a
@@ -140,8 +144,8 @@ class MouseOdometry(ArcOdometry):
     def step(self, readings: Readings) -> tuple[float, float]:
         forward, lateral = readings.mouse_counts.tolist()
         left, right = readings.encoder_ticks.tolist()
-        sigma_mouse(self.params, self.sigmas, float(forward), float(lateral))
         s, alpha = mouse_step(self.params, float(self.pose[2]), self.errors, float(forward), float(lateral), self.work)
+        sigma_mouse(self.params, self.sigmas, self.noises, float(forward), float(lateral), self.work[PLANE.noise, :2, :2], self.turns)
         s_enc, alpha_enc, var = turn_check(self.params, float(left), float(right), s, alpha)
         watch = self.state["mouse_watch"]
         lay(watch["hypothesis"], s, alpha, False)

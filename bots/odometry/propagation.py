@@ -17,7 +17,7 @@ import math
 import numba
 import numpy as np
 
-from bots.odometry.layout import NODE_WEIGHTS, PLANE, SIGMAS
+from bots.odometry.layout import MOUSE_NODE_WEIGHTS, MOUSE_SIGMAS, NODE_WEIGHTS, PLANE, SIGMAS
 from bots.uncertainty import ERROR, ERRORS
 from sim.kinematics.batch import advance_one
 
@@ -158,12 +158,15 @@ def point_weight(point: int, count: int) -> float:
 
 def _point_weights() -> np.ndarray:
     """`point_weight(point, count)` at [count, point] for every count of sigma points (3**errors -
-    1) up to SIGMAS, other rows 0 (the same products in the same order: the same bits)."""
+    1) up to SIGMAS (the same products in the same order: the same bits), and at MOUSE_SIGMAS the
+    mouse's seven-node weights, other rows 0."""
     table = np.zeros((SIGMAS + 1, SIGMAS))
     count = 2
     while count <= SIGMAS:
         table[count, :count] = [point_weight.py_func(i, count) for i in range(count)]
         count = 3 * count + 2
+    assert not table[MOUSE_SIGMAS].any(), "the mouse's points' count is one of the three-node rules'"
+    table[MOUSE_SIGMAS, :MOUSE_SIGMAS] = MOUSE_NODE_WEIGHTS
     return table
 
 
