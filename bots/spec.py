@@ -116,7 +116,9 @@ class BeliefSpec:
     tolerance of each wheel's diameter (0.3 %: 0.17 mm of a 56.7 mm hand-mounted tyre);
     track_std, that of the track (1 %: the tyres' 1 mm contact patch on a 97.2 mm track);
     mouse_scale_std, that of the mouse's resolution (3.75 %: the firmware's bot-local.h states the
-    real ADNS-2610 at 415 cpi against its nominal 400); slip_std (sqrt m), tick_noise (per tick)
+    real ADNS-2610 at 415 cpi against its nominal 400; at most 25 %: the mouse estimator's sigma points
+    reach 3.75 standard deviations, `bots.odometry.layout.MOUSE_NODES`, and a resolution is never
+    negative); slip_std (sqrt m), tick_noise (per tick)
     and mouse_noise_std (sqrt m), the random processes as `EncoderSpec` and `MouseSpec` state them.
 
     diameter_correction (left, right) and track_correction: what a calibration found (`ctsim
@@ -128,7 +130,7 @@ class BeliefSpec:
 
     wheel_diameter_std: float = declared(default=0.003, unit="relative", low=0.0, high=0.5)
     track_std: float = declared(default=0.01, unit="relative", low=0.0, high=0.5)
-    mouse_scale_std: float = declared(default=0.0375, unit="relative", low=0.0, high=0.5)
+    mouse_scale_std: float = declared(default=0.0375, unit="relative", low=0.0, high=0.25)
     slip_std: float = declared(default=0.0004, unit="sqrt m", low=0.0, high=1.0)
     tick_noise: float = declared(default=0.002, unit="probability per tick", low=0.0, high=1.0)
     mouse_noise_std: float = declared(default=0.00033, unit="sqrt m", low=0.0, high=1.0)

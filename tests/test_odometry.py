@@ -224,3 +224,16 @@ def test_fused_heading_survives_sliding_along_walls():
     assert heading_error(log, "fused").max() < bound < math.radians(45)
     assert heading_error(log, "mouse").max() > math.radians(45)  # what it falls back from (66 degrees since the IR cone of issue 12)
     assert heading_error(log, "encoders").max() < math.radians(2)
+
+
+def test_every_believed_mouse_resolution_the_spec_allows_keeps_its_sigma_points_positive() -> None:
+    """The mouse's sigma points put its resolution MOUSE_NODES standard deviations off (up to
+    3.75): the largest `mouse_scale_std` a robot file may state leaves every one a positive
+    resolution (a negative one counts backwards, and the covariance it spreads means nothing)."""
+    from dataclasses import fields
+
+    from bots.odometry.layout import MOUSE_NODES
+
+    high = next(f.metadata["schema"].high for f in fields(BeliefSpec) if f.name == "mouse_scale_std")
+    assert all(1.0 + node * high > 0.0 for node in MOUSE_NODES)
+    assert 1.0 + min(MOUSE_NODES) * 0.3 < 0.0  # (the old limit of 0.5, and 0.3, would not)
