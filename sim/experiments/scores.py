@@ -140,7 +140,7 @@ def nees_text(scores: pd.DataFrame) -> pd.DataFrame:
     judged = scores[scores["nees.runs"] > 0]
     cells = judged.assign(cell=[f"{_shown(m)} {'ok' if v == 'consistent' else 'over' if v == 'over-confident' else 'under'}" for m, v in zip(judged["nees.mean"], judged["nees.verdict"])])
     table = cells.pivot(index="scenario", columns="estimator", values="cell").reindex(index=scores["scenario"].unique(), columns=scores["estimator"].unique())
-    return table.fillna("-").reset_index().rename_axis(columns=None)
+    return table.astype(object).fillna("-").reset_index().rename_axis(columns=None)  # (an estimator no run judged is a column of nan floats)
 
 
 def terminal(results: dict[str, Any]) -> str:
