@@ -402,9 +402,14 @@ class MonteCarloLocaliser:
         """Whether the place, taken back along the odometry to when the robot was lost, lies within
         NEARBY of the estimate then: a robot nudged, for which RECALL_NEAR metres of scans do."""
         estimate, odometry = self._lost_at
+        return math.dist(self._taken_back(odometry), estimate) < NEARBY
+
+    def _taken_back(self, odometry: np.ndarray) -> tuple[float, float]:
+        """Where the set's place was when the odometry read `odometry`: the estimate taken back
+        along the odometry's move since then."""
         dx, dy, _ = relative_pose(self._anchor, odometry)
         c, s = math.cos(self._mean[2]), math.sin(self._mean[2])
-        return math.dist((self._mean[0] + c * dx - s * dy, self._mean[1] + s * dx + c * dy), estimate) < NEARBY
+        return self._mean[0] + c * dx - s * dy, self._mean[1] + s * dx + c * dy
 
     def _recall(self) -> float:
         """How well the history's scans fit the place the set follows: the set taken back along
@@ -464,9 +469,7 @@ class MonteCarloLocaliser:
             if 1.0 / float(np.dot(weights, weights)) < 0.5 * n:
                 particles = particles[low_variance_resample(weights, n, self.rng.random() / n)]
                 weights = np.full(n, 1.0 / n)
-        dx, dy, _ = relative_pose(self._anchor, self._history[0][0])
-        c, s = math.cos(self._mean[2]), math.sin(self._mean[2])
-        back = np.array((self._mean[0] + c * dx - s * dy, self._mean[1] + s * dx + c * dy))
+        back = np.array(self._taken_back(self._history[0][0]))
         return float(weights[np.hypot(*(particles[:, :2] - back).T) >= NEARBY].sum())
 
     def _carry(self, rolled: float, turned: float) -> None:
