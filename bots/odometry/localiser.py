@@ -33,6 +33,18 @@ search weighs the last scans; the recall makes a place explain all of them, and 
 it alone does. A place the scans since the loss rule out, at the end of a search (the recall
 then, as a veto, over whatever history there is) or at the confirmation, is dropped: the search
 begins again with the whole set drawn anew from the free floor where the scan fits, not around it.
+
+Among thousands of look-alike places in the maze the few particles the search draws on the robot
+share each scan's weight with hundreds elsewhere, and the search mostly ends on a wrong place.
+So once the history holds RECALL metres, and every GLOBAL_EVERY metres after, the search goes
+over the whole map with all of them (`_global`): a set drawn anew, taken back through the history,
+ends on one place or on none, and the set is put where it points. A place is recalled only after
+AGREE such searches in a row ended on it by their fresh draws alone (besides the recall and the
+rivals' check, a draw of its own). Measured (docs/odometry.md, `python -m
+sim.experiments.kidnap`, the robot kept driving solve_maze): a robot carried far across the maze
+is found again, `lost` cleared on it, within RECOVERY_TIME (120 s) in 57 of 70 kidnappings (55
+within 90 s, none sooner than 47 s: RECALL metres of scans at the maze's pace), said lost within
+1.4 s in 69 of them (6.3 s in one), and never said found while off.
 """
 
 from __future__ import annotations
@@ -87,8 +99,8 @@ most are found out within this (six robots carried 2.3 m across the maze, seeds 
 wrong places within 0.62 m). Alone it did not make a wrong "found" rare: in 30 kidnappings in
 the maze (five places, seeds 0-5, 60 s after) the flag cleared on a wrong place 1.3-2.6 m off in
 11, for up to 36 s; with the recall (2 m, up to 3 m) in 2, for 3.3 and 4.5 s; with RECALL and
-RECALL_MOST as now in none (docs/odometry.md)."""
-RECALL, RECALL_NEAR, RECALL_MOST = 2.5, 1.0, 4.0
+RECALL_MOST (2.5 m, up to 4 m) in none (docs/odometry.md)."""
+RECALL, RECALL_NEAR, RECALL_MOST = 3.5, 1.0, 4.0
 """Metres of scans since the robot was lost that must fit a place found again, taken back along
 the odometry (`MonteCarloLocaliser._recall`), before `lost` is cleared: at least RECALL, all of
 them up to RECALL_MOST (older ones are dropped: the recall's cost stays bounded, and a robot
@@ -98,7 +110,10 @@ look-alike place among many, so the prior needs less of the scans. In the maze a
 passed a recall of 1.1 m (1.45 m off); a robot nudged was said found after 13.5-19.4 s with 1 m,
 after some 21 s with 1.5 m. With 2 m, up to 3 m, a place 2 m off fitted the 2 m of scans since
 the loss and one 1.4 m off the last 3 m (of 30 kidnappings in the maze); 2.5 m, up to 4 m, failed
-both, and places on the robot were said found some 6 s later (docs/odometry.md)."""
+both, and places on the robot were said found some 6 s later (docs/odometry.md). With the
+global search (`MonteCarloLocaliser._global`) 2.5 m let a place 2.5 m off be found, which fitted
+the scans since the loss better than the robot's own (recalls of 0.074 and 0.062); 3.5 m found
+the robot there, and none of 80 kidnappings said found while off."""
 NEARBY = 0.3
 """Within this distance (m) of the estimate when the robot was lost, a place is the one it was
 nudged to: in the maze the next corridor is 0.48 m away."""
@@ -123,6 +138,12 @@ INJECT = 0.02
 evidence of the scans since."""
 CANDIDATES = 10
 """Free poses drawn per particle drawn anew, of which the scan picks (sensor resetting)."""
+WIDE = 50
+"""Free poses drawn per particle of the sets that search the whole map for a place fitting all the
+scans since the loss (`MonteCarloLocaliser._drawn_back`): the robot's pose is among the few a set
+taken back through metres of scans keeps only if one was drawn within a centimetre or two and a
+few degrees of it, which CANDIDATES times as many left to chance in the maze (a set of 5,000 drawn
+among 50,000 missed the robot twice in a row, so a place 2.5 m off was found)."""
 SWITCH = 0.02
 """Per scan, the chance that a particle changes which sensor it takes its turn from (the fused
 odometry's, the mouse's in effect, or the encoders' alone): a robot sliding along a wall moves its
@@ -144,6 +165,23 @@ two wrong places 1.6 and 2.4 m off that had passed the recall, 0 on 20 of 24 pla
 (1 on four: another place fitted too, or the set taken back missed the robot's), so any cut
 between works. Also for a robot nudged: without it a place 0.97 m off, taken back within NEARBY
 of where the robot was lost, passed the 1 m recall (maze, (0.84, 0.84) with seed 9)."""
+GLOBAL_EVERY = 0.5
+"""Metres rolled between two global searches (`MonteCarloLocaliser._global`) while the robot is
+lost and the history holds RECALL metres of scans or more."""
+STRIDE, STRIDE_TURN = 0.012, 0.1
+"""Metres rolled or radians turned between two of the history's scans that the searches over the
+whole map (`MonteCarloLocaliser._drawn_back`) weigh: every third scan or so of a robot driving
+at the maze's pace, a third of the stall in `ctsim play`."""
+AGREE = 2
+"""Global searches in a row that must end on the place before it is recalled (and the rivals'
+check draws a set of its own after them): each is a draw of its own, and one may miss the robot's
+pose, so that a look-alike place holds the weight."""
+PLACES = 32
+"""The poses drawn that `MonteCarloLocaliser._global` tries as the centre of a place: those whose
+descendants hold the most weight."""
+RECOVERY_TIME = 120.0
+"""The stated time (s) within which a robot carried far across the maze is found again, `lost`
+cleared on it, in most kidnappings (the module says how many; docs/odometry.md)."""
 TEMPER = 1.0
 """While lost, a scan weighs the particles by its likelihood to this power (annealing): among
 thousands of hypotheses, one near the robot but a few millimetres or degrees off must survive
@@ -282,6 +320,11 @@ class MonteCarloLocaliser:
         the odometry's pose, the raw IR values, the metres rolled and radians turned since the scan
         before, and the radians the encoders alone turned (nan without a mouse)."""
         self._recorded = 0.0  # metres the history spans
+        self._next_global = 0.0  # metres of history at which the next global search runs
+        self._agreed = 0
+        """How many global searches (`_global`) in a row ended on one place with the particles drawn
+        anew alone: the set is then there, and only after AGREE of them is a place recalled whose
+        history holds RECALL metres."""
         self._lost_at = (start[:2].copy(), start.copy())
         """Where the estimate (x, y) and the odometry's pose were when the robot was lost."""
         self.updated = 0.0
@@ -346,7 +389,7 @@ class MonteCarloLocaliser:
         else:
             self.searching = self.fast < FOUND_AT * self.slow or math.sqrt(self._cov[0, 0] + self._cov[1, 1]) > FOUND_SPREAD
         if self.searching and self.confirmed:
-            self.confirmed, self._recorded, self._lost_at = False, 0.0, (self._mean[:2].copy(), self._anchor)
+            self.confirmed, self._recorded, self._lost_at, self._next_global, self._agreed = False, 0.0, (self._mean[:2].copy(), self._anchor), RECALL, 0
             self._history.clear()
         if not self.confirmed:
             self._record(raw, rolled, turned, encoder_turn)
@@ -354,15 +397,26 @@ class MonteCarloLocaliser:
         if was_searching and not self.searching and not self.confirmed and len(self._history) > 1:
             refuted = self.searching = self._recall() < RECALL_BELOW
         self._held = 0.0 if self.searching else self._held + rolled
-        if not self.searching and not self.confirmed and self._held >= CONFIRM and self._enough():
+        if not self.searching and not self.confirmed and self._held >= CONFIRM and (self._agreed >= AGREE or self._recorded < RECALL) and self._enough():
             self.confirmed = self._recall() >= RECALL_BELOW and self._rivals(raw) < RIVALS
             refuted = self.searching = not self.confirmed
             self._held = 0.0 if self.searching else self._held
+        placed = None
+        if refuted:  # (the global search waits for the next scan: one stall at a time in `ctsim play`)
+            self._next_global = min(self._next_global, self._recorded)
+        elif not self.confirmed and self._recorded >= max(self._next_global, RECALL):
+            self._next_global = self._recorded + GLOBAL_EVERY
+            placed, agreed = self._global(raw)
+            self._agreed = self._agreed + 1 if agreed else 0
+            if placed is not None and math.dist(placed[0].mean(axis=0)[:2], self._mean[:2]) < NEARBY:
+                placed = None  # (the set is on the place the scans since the loss point to)
+            elif placed is not None:
+                refuted = self.searching = True
         self._carry(rolled, turned)
         size = self.recovery if self.searching else self.count
         if self.searching:
             self.by_encoders[:] = False
-        picked = self._picked(size, raw) if refuted else (np.empty((0, 3)), np.empty(0))
+        picked = placed if placed is not None else self._picked(size, raw) if refuted else (np.empty((0, 3)), np.empty(0))
         if len(picked[0]):  # all of the set drawn anew from free floor where the scan fits
             self.particles, self.likelihood = picked
             self.by_encoders = np.zeros(len(self.particles), dtype=np.bool_)
@@ -446,31 +500,92 @@ class MonteCarloLocaliser:
                 weights = np.full(n, 1.0 / n)
         return worst
 
-    def _rivals(self, raw: np.ndarray) -> float:
-        """The share of the weight on other places (NEARBY or more from the estimate) of a set drawn
-        anew from the whole map's free floor where the scan `raw` fits, taken back along the
-        odometry through the history as `_recall` takes the set: a place is found only if no
-        other place fits the scans since the loss too."""
-        particles, _ = self._picked(self.recovery, raw)
-        n = len(particles)
-        if n == 0:
-            return 0.0
+    def _drawn_back(self, raw: np.ndarray, kept: int = 0, stride: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+        """A set drawn anew from the whole map's free floor where the scan `raw` fits (`_picked`,
+        `recovery` particles of WIDE times as many; `kept` of the set's own beside them, drawn by
+        their weight), taken back along the odometry through the history's scans as `_recall`
+        takes the set (every scan, or with `stride` STRIDE apart): the poses drawn, their
+        likelihood, the set at the history's first scan, and per particle its weight and the index
+        of the pose drawn it descends from (None where no pose fits the scan or the scans rule out
+        every one)."""
+        drawn, likelihood_now = self._picked(self.recovery, raw, WIDE)
+        if len(drawn) == 0:
+            return None
+        if kept:
+            own = low_variance_resample(self.weights, kept, self.rng.random() / kept)
+            drawn, likelihood_now = np.concatenate([drawn, self.particles[own]]), np.concatenate([likelihood_now, self.likelihood[own]])
+        n = len(drawn)
+        particles, ancestors, by_encoders = drawn.copy(), np.arange(n), np.zeros(n, dtype=np.bool_)
         weights, likelihood = np.full(n, 1.0 / n), np.empty(n)
-        for k in range(len(self._history) - 1, 0, -1):
-            pose, _, rolled, turned, _ = self._history[k]
-            earlier, raw_k = self._history[k - 1][:2]
-            move_particles(particles, *relative_pose(pose, earlier), self._motion_std(True, rolled, turned), self.rng.standard_normal((n, 3)), np.full(n, np.nan))
+        for pose, earlier, raw_k, rolled, turned, encoder_turn in self._strides(STRIDE if stride else 0.0, STRIDE_TURN if stride else 0.0):
+            turns = np.full(n, np.nan)
+            if not math.isnan(encoder_turn):
+                by_encoders ^= self.rng.random(n) < SWITCH
+                turns[by_encoders] = -encoder_turn
+            move_particles(particles, *relative_pose(pose, earlier), self._motion_std(True, rolled, turned), self.rng.standard_normal((n, 3)), turns)
             self.map.likelihood(particles, raw_k, likelihood)
             weighted = weights * likelihood
             total = float(weighted.sum())
             if total <= 0.0:
-                return 0.0
+                return None
             weights = weighted / total
             if 1.0 / float(np.dot(weights, weights)) < 0.5 * n:
-                particles = particles[low_variance_resample(weights, n, self.rng.random() / n)]
+                chosen = low_variance_resample(weights, n, self.rng.random() / n)
+                particles, ancestors, by_encoders = particles[chosen], ancestors[chosen], by_encoders[chosen]
                 weights = np.full(n, 1.0 / n)
-        back = np.array(self._taken_back(self._history[0][0]))
-        return float(weights[np.hypot(*(particles[:, :2] - back).T) >= NEARBY].sum())
+        return drawn, likelihood_now, particles, weights, ancestors
+
+    def _strides(self, metres: float, radians: float) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, float, float, float]]:
+        """The history's steps back from its last scan to its first, over scans `metres` or
+        `radians` apart (0: every scan): (the odometry's pose at one, at the one before, the raw
+        values there, the metres rolled, the radians turned and the encoders' turn between)."""
+        steps = []
+        later, rolled, turned, encoder_turn = self._history[-1][0], 0.0, 0.0, 0.0
+        for k in range(len(self._history) - 1, 0, -1):
+            rolled, turned, encoder_turn = rolled + self._history[k][2], turned + self._history[k][3], encoder_turn + self._history[k][4]
+            if rolled >= metres or turned >= radians or k == 1:
+                earlier, raw = self._history[k - 1][:2]
+                steps.append((later, earlier, raw, rolled, turned, encoder_turn))
+                later, rolled, turned, encoder_turn = earlier, 0.0, 0.0, 0.0
+        return steps
+
+    def _rivals(self, raw: np.ndarray) -> float:
+        """The share of the weight on other places (NEARBY or more from the estimate) of a set drawn
+        anew over the whole map and taken back through the history (`_drawn_back`): a place is
+        found only if no other place fits the scans since the loss too."""
+        back = self._drawn_back(raw)
+        if back is None:
+            return 0.0
+        _, _, particles, weights, _ = back
+        taken = np.array(self._taken_back(self._history[0][0]))
+        return float(weights[np.hypot(*(particles[:, :2] - taken).T) >= NEARBY].sum())
+
+    def _global(self, raw: np.ndarray) -> tuple[tuple[np.ndarray, np.ndarray] | None, bool]:
+        """Where the scans since the loss put the robot now, searched over the whole map. A set
+        drawn anew (`_drawn_back`), with `count` of the set's own beside it (its place competes
+        too), taken back through the history: the place is the pose drawn with the most of the
+        weight of the particles that descend from it or from one NEARBY (the set taken back ends
+        there). If that is 1 - RIVALS of it or more: `recovery` poses drawn there by that weight,
+        and their likelihood of this scan, else None; and whether the particles drawn anew alone
+        hold 1 - RIVALS of theirs there (a rivals' check of their own: a place the set's own
+        particles carry alone is not recalled). The search weighs the last scans only, and among
+        thousands of look-alike places the few particles on the robot's lose the weight; all the
+        scans since the loss tell them apart."""
+        back = self._drawn_back(raw, self.count, stride=True)
+        if back is None:
+            return None, False
+        drawn, likelihood, _, weights, ancestors = back
+        held = np.bincount(ancestors, weights, len(drawn))
+        top = np.argsort(held)[-PLACES:]
+        near = np.hypot(drawn[top, None, 0] - drawn[None, :, 0], drawn[top, None, 1] - drawn[None, :, 1]) < NEARBY
+        shares = near @ held
+        best = int(np.argmax(shares))
+        if shares[best] < 1.0 - RIVALS:
+            return None, False
+        fresh = len(drawn) - self.count
+        agreed = float(held[:fresh] @ near[best, :fresh]) >= (1.0 - RIVALS) * float(held[:fresh].sum())
+        chosen = self.rng.choice(len(drawn), size=self.recovery, p=held * near[best] / shares[best])
+        return (drawn[chosen], likelihood[chosen]), agreed
 
     def _carry(self, rolled: float, turned: float) -> None:
         """The estimate's covariance at this scan, carried from the last one: the error of the
@@ -518,11 +633,11 @@ class MonteCarloLocaliser:
         self.by_encoders = np.concatenate([self.by_encoders[drawn], np.zeros(len(self.particles) - count, dtype=np.bool_)])
         self.weights = np.full(len(self.particles), 1.0 / len(self.particles))
 
-    def _picked(self, count: int, raw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def _picked(self, count: int, raw: np.ndarray, per: int = CANDIDATES) -> tuple[np.ndarray, np.ndarray]:
         """(count, 3) free poses drawn in proportion to the likelihood of the scan `raw` among
-        CANDIDATES times as many drawn uniformly (sensor resetting), headings within pi of the
+        `per` times as many drawn uniformly (sensor resetting), headings within pi of the
         estimate's, and that likelihood (none where no candidate fits the scan)."""
-        candidates = self.map.free(self.rng, CANDIDATES * count)
+        candidates = self.map.free(self.rng, per * count)
         likelihood = np.empty(len(candidates))
         self.map.likelihood(candidates, raw, likelihood)
         total = likelihood.sum()
