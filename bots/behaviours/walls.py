@@ -138,13 +138,13 @@ NEAR_MIN_STD = 0.001
 """Least IR noise (m) the fold-back model assumes (a noise-free sensor reads one value, which
 then fits the distances within a millimetre of it)."""
 NEAR_DISTANCES = np.arange(0.0, NEAR_REACH + NEAR_STEP / 2, NEAR_STEP)
-"""The distances (m) of `_raw_likelihood`'s rows: 0, NEAR_STEP, ... NEAR_REACH."""
+"""The distances (m) of `_raw_likelihood`'s columns: 0, NEAR_STEP, ... NEAR_REACH."""
 
 
 @cache
 def _raw_likelihood(curve: str | None, side: str, noise_std: float) -> tuple[int, np.ndarray]:
-    """(lowest raw value, log-probability of each raw value from there, a row per distance
-    of NEAR_DISTANCES) of an IR sensor facing a wall: its distance plus normal noise of
+    """(lowest raw value, log-probability of each raw value from there at each distance of
+    NEAR_DISTANCES: a row per raw value) of an IR sensor facing a wall: its distance plus normal noise of
     `noise_std` (not below 0, as the sensors read) through its characteristic, rounded. On the
     GP2D12's fold-back a raw value is two distances (one below 0.09 m, one above): the scatter of
     noisy readings tells them apart, as their mean cannot. Tabulated once per curve and noise."""
@@ -165,7 +165,9 @@ def _raw_likelihood(curve: str | None, side: str, noise_std: float) -> tuple[int
         chances[rows, values - low] = np.add.reduceat(weights, starts, axis=1)
     below = 0.5 * np.array([math.erfc(d / (std * math.sqrt(2))) for d in grid.tolist()])  # noise below 0 m reads as 0
     chances[:, raw[0] - low] += below
-    return low, np.log(chances + 1e-6)  # (a floor: one stray reading does not rule a distance out)
+    # (a floor: one stray reading does not rule a distance out; a row per raw value, so that a look's
+    # values read their rows' band of distances, not a scattered column of every distance's row)
+    return low, np.ascontiguousarray(np.log(chances + 1e-6).T)
 
 
 class DriveToRoom(DriveTo):
@@ -436,12 +438,12 @@ class SolveMaze(Plan):
         if not within.size:
             return
         distances = NEAR_DISTANCES[within]
-        window = slice(within[0], within[-1] + 1)  # (the distances are sorted: their rows of a table are one band, read as a view, not copied)
+        window = slice(within[0], within[-1] + 1)  # (the distances are sorted: one band of a table's columns)
         prior = -0.5 * ((distances - expected) / NEAR_PRIOR) ** 2
         means, errors = [], []
         for (low, table), raws, sensor in zip(self.raw_likelihood, look.raws, self.robot.ir):
             seen = np.asarray(raws if sensor.noise_std else raws[:1]) - low  # (noise-free readings repeat one value: it says no more than once)
-            fit = table[window][:, np.clip(seen, 0, table.shape[1] - 1)].sum(axis=1) + prior
+            fit = table[np.clip(seen, 0, table.shape[0] - 1), window].sum(axis=0) + prior
             chance = np.exp(fit - fit.max())
             chance /= chance.sum()
             mean = float(chance @ distances)
