@@ -230,7 +230,6 @@ class SolveMaze(Plan):
         self.floor_seen = [[0] * lines for _ in range(GOAL_READINGS)]  # the last steps' line readings, a ring
         self.floor_steps = 0  # steps seen
         self.floor_sums = [0] * lines  # per line sensor: the sum of the readings in the ring
-        self.floor_squares = [0] * lines  # and of their squares (whole numbers: exact)
         self.frame = self.pose  # the grid's origin in this behaviour's odometry frame
         left, right = self.robot.ir[0].position, self.robot.ir[1].position
         self.ir_ahead = 0.5 * (left[0] + right[0])  # sensors ahead of the axle (m)
@@ -265,18 +264,18 @@ class SolveMaze(Plan):
         """Take this step's line readings; whether a line sensor's last GOAL_READINGS readings
         average to the goal floor's colour and scatter no more than noise does (each sensor by
         itself, and a steady floor: readings crossing from white to black pass through the goal
-        colour on the way). Running sums over a ring of the last readings: a few additions a step."""
-        seen, steps, sums, all_squares = self.floor_seen, self.floor_steps, self.floor_sums, self.floor_squares
+        colour on the way). A running sum over a ring of the last readings: an addition a step, the
+        squares summed only where the mean reads the goal's colour."""
+        seen, steps, sums = self.floor_seen, self.floor_steps, self.floor_sums
         slot = steps % GOAL_READINGS
         gone, seen[slot] = seen[slot], line
         self.floor_steps = steps = steps + 1
         found = False
         for k, value in enumerate(line):
-            old = gone[k]
-            total = sums[k] = sums[k] + value - old
-            squares = all_squares[k] = all_squares[k] + value * value - old * old
-            if abs(total - _GOAL_SUM) <= _GOAL_SUM_TOLERANCE:  # (the mean, times GOAL_READINGS)
-                found = found or GOAL_READINGS * squares - total * total <= _GOAL_SPREAD_SQUARED  # (the variance, times its square)
+            total = sums[k] = sums[k] + value - gone[k]
+            if not found and abs(total - _GOAL_SUM) <= _GOAL_SUM_TOLERANCE:  # (the mean, times GOAL_READINGS)
+                squares = sum(readings[k] * readings[k] for readings in seen)  # (whole numbers: exact)
+                found = GOAL_READINGS * squares - total * total <= _GOAL_SPREAD_SQUARED  # (the variance, times its square)
         return found and steps >= GOAL_READINGS
 
     def _correct_odometry(self, readings: Readings) -> None:
