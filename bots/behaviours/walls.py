@@ -441,8 +441,9 @@ class SolveMaze(Plan):
         prior = -0.5 * ((distances - expected) / NEAR_PRIOR) ** 2
         means, errors = [], []
         for (low, table), raws, sensor in zip(self.raw_likelihood, look.raws, self.robot.ir):
-            seen = np.asarray(raws if sensor.noise_std else raws[:1]) - low  # (noise-free readings repeat one value: it says no more than once)
-            fit = table[np.clip(seen, 0, table.shape[0] - 1), window].sum(axis=0) + prior
+            last = len(table) - 1  # (noise-free readings repeat one value: it says no more than once)
+            rows = [min(max(value - low, 0), last) for value in (raws if sensor.noise_std else raws[:1])]
+            fit = table[rows, window].sum(axis=0) + prior
             chance = np.exp(fit - fit.max())
             chance /= chance.sum()
             mean = float(chance @ distances)
