@@ -102,6 +102,14 @@ def clear_ahead(distance: np.ndarray, beyond_m: float) -> bool:
     return all(d > beyond_m or math.isnan(d) for d in distance.tolist())
 
 
+def _in_view(distance: np.ndarray) -> tuple[float, float]:
+    """The first two IR distances as floats, nan (nothing within range) as infinity: what
+    `np.nan_to_num(distance[:2], nan=math.inf)` gives a look's means, without its 30-50 µs a call
+    (a plan asks after every look)."""
+    left, right = (math.inf if d != d else d for d in distance[:2].tolist())
+    return left, right
+
+
 def _receded(before: np.ndarray, after: np.ndarray) -> bool:
     """Whether IR distances seen from RECHECK_M further back than `before` read farther (nan:
     nothing within range): what lies ahead does; a wall touching the sensors reads nearer, down
@@ -130,13 +138,13 @@ NEAR_MIN_STD = 0.001
 """Least IR noise (m) the fold-back model assumes (a noise-free sensor reads one value, which
 then fits the distances within a millimetre of it)."""
 NEAR_DISTANCES = np.arange(0.0, NEAR_REACH + NEAR_STEP / 2, NEAR_STEP)
-"""The distances (m) of `_raw_likelihood`'s rows: 0, NEAR_STEP, ... NEAR_REACH."""
+"""The distances (m) of `_raw_likelihood`'s columns: 0, NEAR_STEP, ... NEAR_REACH."""
 
 
 @cache
 def _raw_likelihood(curve: str | None, side: str, noise_std: float) -> tuple[int, np.ndarray]:
-    """(lowest raw value, log-probability of each raw value from there, a row per distance
-    of NEAR_DISTANCES) of an IR sensor facing a wall: its distance plus normal noise of
+    """(lowest raw value, log-probability of each raw value from there at each distance of
+    NEAR_DISTANCES: a row per raw value) of an IR sensor facing a wall: its distance plus normal noise of
     `noise_std` (not below 0, as the sensors read) through its characteristic, rounded. On the
     GP2D12's fold-back a raw value is two distances (one below 0.09 m, one above): the scatter of
     noisy readings tells them apart, as their mean cannot. Tabulated once per curve and noise."""
@@ -157,7 +165,9 @@ def _raw_likelihood(curve: str | None, side: str, noise_std: float) -> tuple[int
         chances[rows, values - low] = np.add.reduceat(weights, starts, axis=1)
     below = 0.5 * np.array([math.erfc(d / (std * math.sqrt(2))) for d in grid.tolist()])  # noise below 0 m reads as 0
     chances[:, raw[0] - low] += below
-    return low, np.log(chances + 1e-6)  # (a floor: one stray reading does not rule a distance out)
+    # (a floor: one stray reading does not rule a distance out; a row per raw value, so that a look's
+    # values read their rows' band of distances, not a scattered column of every distance's row)
+    return low, np.ascontiguousarray(np.log(chances + 1e-6).T)
 
 
 class DriveToRoom(DriveTo):
@@ -220,7 +230,6 @@ class SolveMaze(Plan):
         self.floor_seen = [[0] * lines for _ in range(GOAL_READINGS)]  # the last steps' line readings, a ring
         self.floor_steps = 0  # steps seen
         self.floor_sums = [0] * lines  # per line sensor: the sum of the readings in the ring
-        self.floor_squares = [0] * lines  # and of their squares (whole numbers: exact)
         self.frame = self.pose  # the grid's origin in this behaviour's odometry frame
         left, right = self.robot.ir[0].position, self.robot.ir[1].position
         self.ir_ahead = 0.5 * (left[0] + right[0])  # sensors ahead of the axle (m)
@@ -255,18 +264,18 @@ class SolveMaze(Plan):
         """Take this step's line readings; whether a line sensor's last GOAL_READINGS readings
         average to the goal floor's colour and scatter no more than noise does (each sensor by
         itself, and a steady floor: readings crossing from white to black pass through the goal
-        colour on the way). Running sums over a ring of the last readings: a few additions a step."""
-        seen, steps, sums, all_squares = self.floor_seen, self.floor_steps, self.floor_sums, self.floor_squares
+        colour on the way). A running sum over a ring of the last readings: an addition a step, the
+        squares summed only where the mean reads the goal's colour."""
+        seen, steps, sums = self.floor_seen, self.floor_steps, self.floor_sums
         slot = steps % GOAL_READINGS
         gone, seen[slot] = seen[slot], line
         self.floor_steps = steps = steps + 1
         found = False
         for k, value in enumerate(line):
-            old = gone[k]
-            total = sums[k] = sums[k] + value - old
-            squares = all_squares[k] = all_squares[k] + value * value - old * old
-            if abs(total - _GOAL_SUM) <= _GOAL_SUM_TOLERANCE:  # (the mean, times GOAL_READINGS)
-                found = found or GOAL_READINGS * squares - total * total <= _GOAL_SPREAD_SQUARED  # (the variance, times its square)
+            total = sums[k] = sums[k] + value - gone[k]
+            if not found and abs(total - _GOAL_SUM) <= _GOAL_SUM_TOLERANCE:  # (the mean, times GOAL_READINGS)
+                squares = sum(readings[k] * readings[k] for readings in seen)  # (whole numbers: exact)
+                found = GOAL_READINGS * squares - total * total <= _GOAL_SPREAD_SQUARED  # (the variance, times its square)
         return found and steps >= GOAL_READINGS
 
     def _correct_odometry(self, readings: Readings) -> None:
@@ -404,7 +413,7 @@ class SolveMaze(Plan):
         (within FACE_TOLERANCE of the believed pose). Else a wall touching the sensors and a way
         seen at a slant look alike: a wall touching them reads up to 0.41 m on one sensor and
         0.33 m on the other, and one a few centimetres off reads anything from there to 0.1 m."""
-        left, right = np.nan_to_num(distance[:2], nan=math.inf)
+        left, right = _in_view(distance)
         near = OPEN_FRACTION * self.cell
         if max(left, right) < near:
             return False
@@ -424,15 +433,17 @@ class SolveMaze(Plan):
         robot's position across a corridor with closed walls, which no face beyond an open way
         shows (harsh noise: robots 6 cm off the line hit a corner at its end)."""
         expected = self.cell / 2 - self._along(room, quarter) - self.ir_ahead  # believed sensors to the wall (m)
-        window = np.abs(NEAR_DISTANCES - expected) < NEAR_WINDOW
-        if not window.any():
+        within = np.flatnonzero(np.abs(NEAR_DISTANCES - expected) < NEAR_WINDOW)
+        if not within.size:
             return
-        distances = NEAR_DISTANCES[window]
+        distances = NEAR_DISTANCES[within]
+        window = slice(within[0], within[-1] + 1)  # (the distances are sorted: one band of a table's columns)
         prior = -0.5 * ((distances - expected) / NEAR_PRIOR) ** 2
         means, errors = [], []
         for (low, table), raws, sensor in zip(self.raw_likelihood, look.raws, self.robot.ir):
-            seen = np.asarray(raws if sensor.noise_std else raws[:1]) - low  # (noise-free readings repeat one value: it says no more than once)
-            fit = table[window][:, np.clip(seen, 0, table.shape[1] - 1)].sum(axis=1) + prior
+            last = len(table) - 1  # (noise-free readings repeat one value: it says no more than once)
+            rows = [min(max(value - low, 0), last) for value in (raws if sensor.noise_std else raws[:1])]
+            fit = table[rows, window].sum(axis=0) + prior
             chance = np.exp(fit - fit.max())
             chance /= chance.sum()
             mean = float(chance @ distances)
@@ -560,7 +571,7 @@ class Wander(Behaviour):
             self.turning = None
             return Twist(self.speed, 0.0)
         if self.turning is None:  # newly blocked: away from the nearer side (nan: nothing within range)
-            left, right = np.nan_to_num(readings.ir_distance[:2], nan=math.inf)
+            left, right = _in_view(readings.ir_distance)
             self.angle = 90.0 if left >= right else -90.0
         self.turning = self.run(Turn(self.angle, self.speed))
         return self.turning.step(t, readings)
