@@ -90,8 +90,13 @@ def recovery(rows: np.ndarray) -> dict[str, float]:
             wrong.append((float(t[end - 1] - t[start]), float(error[start:end].max())))
         elif math.isnan(found):
             found = float(t[start])
-    return {"lost": float(t[lost][0]) if lost.any() else math.nan, "found": found, "wrong": len(wrong),
-            "wrong_s": max((s for s, _ in wrong), default=0.0), "wrong_m": max((m for _, m in wrong), default=0.0)}
+    return {
+        "lost": float(t[lost][0]) if lost.any() else math.nan,
+        "found": found,
+        "wrong": len(wrong),
+        "wrong_s": max((s for s, _ in wrong), default=0.0),
+        "wrong_m": max((m for _, m in wrong), default=0.0),
+    }
 
 
 def kidnapping(place: tuple[float, float, float], seed: int, after: float = 120.0, world: str = "maze") -> dict:
