@@ -13,7 +13,7 @@ from hypothesis import strategies as st
 
 from bots.ctbot import CTBOT
 from bots.ir_curve import gp2d12
-from bots.odometry.localiser import low_variance_resample, mean_and_covariance, move_particles
+from bots.odometry.particles import low_variance_resample, mean_and_covariance, move_particles
 from sim.kinematics import wrap_angle
 from sim.world import World
 from sim.world.files import load_world

@@ -9,7 +9,7 @@ their compiled pass (`beside_defaults`; `--estimator localiser`: the shipped Mon
 plain word (it names files) and differ from the others'. A step whose update raises, or leaves a
 pose or covariance of the wrong shape or not finite, ends the run as a controller's error does
 (`check`). An estimator with a `use_map(scan, rng)` method is handed, before `reset`, the robot's
-map of the world (a `bots.odometry.localiser.MapModel`: the likelihood of an IR scan at any pose,
+map of the world (a `bots.odometry.particles.MapModel`: the likelihood of an IR scan at any pose,
 never the true pose) and a generator spawned from the run's seed.
 """
 

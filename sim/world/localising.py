@@ -137,7 +137,7 @@ def free_poses(bounds: np.ndarray, radius: float, walls: Walls, uniform: np.ndar
 class MapScan:
     """One robot's IR sensors against one world's map: the likelihood of a scan at many poses
     (`likelihood`) and random poses where the robot fits (`free`). What a localiser gets from the
-    run loop (`bots.odometry.localiser.MapModel`); it holds the map, never the robot's true pose."""
+    run loop (`bots.odometry.particles.MapModel`); it holds the map, never the robot's true pose."""
 
     def __init__(self, world: WorldSpec, robot: RobotSpec):
         self.walls = walls_of(world)
