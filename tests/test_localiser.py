@@ -131,3 +131,14 @@ def test_a_robot_carried_across_the_rooms_parcours_is_found_again() -> None:
     assert rows[0, 1] > 2.5 and rows[rows[:, 0] <= 1.5, 2].any()
     later = rows[rows[:, 0] >= 57.0]
     assert len(later) > 600 and not later[:, 2].any() and np.all(later[:, 1] < 0.02)
+
+
+@pytest.mark.parametrize("arguments", [[], ["six", "0", "1"], ["five", "a", "2"], ["five", "3", "1"]])
+def test_the_kidnapping_measurement_refuses_wrong_arguments_in_a_line(arguments, capsys) -> None:  # noqa: ANN001
+    """`python -m sim.experiments.kidnap` with a wrong argument: argparse's usage line naming it and
+    exit status 2, before any run."""
+    from sim.experiments.kidnap import main
+
+    with pytest.raises(SystemExit) as ended:
+        main(arguments)
+    assert ended.value.code == 2 and "error:" in capsys.readouterr().err

@@ -121,10 +121,19 @@ def drawn(count: int) -> list[tuple[float, float, float]]:
 def main(argv: list[str]) -> None:
     """`five FIRST LAST`: PLACES x seeds FIRST-LAST; `drawn FIRST LAST`: the drawn poses
     FIRST-LAST, each with its index as seed; `rooms FIRST LAST`: worlds/rooms.xml, carried 3 m to
-    ROOMS_PLACE, seeds FIRST-LAST."""
+    ROOMS_PLACE, seeds FIRST-LAST. A wrong argument is argparse's usage line and exit status 2."""
+    import argparse
+
     from sim.world.files import worlds_dir
 
-    which, first, last = argv[0], int(argv[1]), int(argv[2])
+    parser = argparse.ArgumentParser(prog="python -m sim.experiments.kidnap", description="Kidnappings and how soon the localiser finds the robot again (one JSON line each).")
+    parser.add_argument("which", choices=("five", "drawn", "rooms"))
+    parser.add_argument("first", type=int)
+    parser.add_argument("last", type=int)
+    arguments = parser.parse_args(argv)
+    which, first, last = arguments.which, arguments.first, arguments.last
+    if not 0 <= first <= last:
+        parser.error(f"need 0 <= FIRST <= LAST, got {first} and {last}")
     world = str(worlds_dir() / "rooms.xml") if which == "rooms" else "maze"
     seeds = range(first, last + 1)
     runs = {"five": [(p, s) for p in PLACES for s in seeds], "rooms": [(ROOMS_PLACE, s) for s in seeds]}.get(which) or [(p, i) for i, p in enumerate(drawn(last + 1)) if i >= first]
