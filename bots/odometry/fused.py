@@ -210,7 +210,7 @@ def residual_update(p: np.void, residuals: tuple[np.ndarray, np.ndarray, np.ndar
 def _carry_cross(cross: np.ndarray, work: np.ndarray) -> None:
     """The residuals' covariance with the pose after `propagate` laid the step: its pose rows
     times d pose' / d (pose, errors) (`propagate`'s PLANE.propagate_a), the rest unchanged."""
-    rows = _mul(work[PLANE.propagate_a, :3], cross, work[PLANE.scratch, :3, :RESIDUALS])
+    rows = _mul(work[PLANE.propagate_a, :3, :], cross[:, :], work[PLANE.scratch, :3, :RESIDUALS])  # (views of the type of fused_step's: one compile of _mul)
     for r in range(3):
         for c in range(RESIDUALS):
             cross[r, c] = rows[r, c]

@@ -137,13 +137,13 @@ def add_offset(point: np.ndarray, pose: np.ndarray, weight: float, out: np.ndarr
 
 
 @numba.njit(cache=True)
-def node_of(point: int, error: int) -> int:
-    """Which node (`bots.odometry.layout.NODES`) sigma point `point` takes for calibration error
-    `error`: the error's base-3 digit of point + 1 (point 0 is the first beside the estimate)."""
+def nodes_of(point: int) -> tuple[int, int, int]:
+    """Which node (`bots.odometry.layout.NODES`) sigma point `point` takes for each of three
+    calibration errors: the base-3 digits of point + 1 (point 0 is the first beside the estimate).
+    (All three in one call: one taking the error's number compiled once for each constant it was
+    called with, three compiles on a first run.)"""
     digits = point + 1
-    for _ in range(error):
-        digits //= 3
-    return digits % 3
+    return digits % 3, digits // 3 % 3, digits // 9 % 3
 
 
 @numba.njit(cache=True)
