@@ -9,7 +9,7 @@ from bots.odometry.base import ArcOdometry
 from bots.odometry.layout import ESTIMATE, NODES, PLANE, SIGMAS
 from bots.odometry.propagation import END_HEADING, MID_ANGLE, carry_noise, lay_point, nodes_of, noise_of, propagate, wheel_terms, wheel_variances
 from bots.readings import Readings
-from sim.kinematics.batch import chord_of
+from sim.kinematics.batch import INNER, chord_of
 
 
 @numba.njit(cache=True)
@@ -51,7 +51,7 @@ def sigma_encoders(p: np.void, sigmas: np.ndarray, noises: np.ndarray, left: flo
     carry_noise(noises, turns, share, noise_of(noise))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, **INNER)
 def sigma_encoders_both(p: np.void, st: np.void, left: float, right: float, noise: np.ndarray) -> None:
     """`sigma_encoders` on the encoders' sigma points (along the mid-angle) and the firmware's
     (along the end heading) of a STATE row `st` at once: the same ticks through the same nodes, so
