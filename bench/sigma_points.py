@@ -38,8 +38,8 @@ def _sigma_work(params: np.ndarray, state: np.ndarray, poses: np.ndarray, errors
         add_point_noise(st.sigma_noises[ESTIMATE.firmware], SIGMAS, errors[0, ESTIMATE.firmware], cov_out[0, ESTIMATE.firmware])
         add_spread(st.sigmas[ESTIMATE.mouse], MOUSE_SIGMAS, poses[0, ESTIMATE.mouse], cov_out[0, ESTIMATE.mouse])
         add_point_noise(st.sigma_noises[ESTIMATE.mouse], MOUSE_SIGMAS, errors[0, ESTIMATE.mouse], cov_out[0, ESTIMATE.mouse])
-        add_offset(st.mouse_watch.hypothesis, poses[0, ESTIMATE.mouse], HYPOTHESIS_WEIGHT, cov_out[0, ESTIMATE.mouse])
-        add_offset(st.fused_watch.hypothesis, poses[0, ESTIMATE.fused], HYPOTHESIS_WEIGHT, cov_out[0, ESTIMATE.fused])
+        add_offset(st.mouse_watch.hypothesis[:], poses[0, ESTIMATE.mouse], HYPOTHESIS_WEIGHT, cov_out[0, ESTIMATE.mouse])
+        add_offset(st.fused_watch.hypothesis[:], poses[0, ESTIMATE.fused], HYPOTHESIS_WEIGHT, cov_out[0, ESTIMATE.fused])
 
 
 def _readings(duration: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -17,7 +17,7 @@ from bots.odometry.particles import low_variance_resample, mean_and_covariance, 
 from sim.kinematics import wrap_angle
 from sim.world import World
 from sim.world.files import load_world
-from sim.world.localising import MapScan, raw_intervals
+from sim.world.localising import SHARED_FROM, MapScan, raw_intervals
 
 
 @pytest.fixture(scope="module")
@@ -86,6 +86,22 @@ def test_free_poses_leave_the_robot_clear_of_every_wall(maze_scan: MapScan) -> N
     assert np.all(out > 0.0)
     lo, hi = np.array(load_world("maze").bounds[:2]), np.array(load_world("maze").bounds[2:])
     assert np.all((poses[:, :2] > lo) & (poses[:, :2] < hi))
+
+
+def test_a_scan_shared_among_threads_is_the_same_to_the_bit(maze_scan: MapScan, monkeypatch: pytest.MonkeyPatch) -> None:
+    """A search's set (SHARED_FROM particles and more) is cut into slices, one thread each (four
+    here, whatever the machine has): every particle's likelihood is the one a single call gives,
+    since each is computed alone."""
+    import numba
+
+    poses = maze_scan.free(np.random.default_rng(2), 2 * SHARED_FROM + 7)
+    raw = np.array([310, 150])
+    alone, shared = np.empty(len(poses)), np.empty(len(poses))
+    monkeypatch.setattr(numba.config, "NUMBA_NUM_THREADS", 1)
+    maze_scan.likelihood(poses, raw, alone)
+    monkeypatch.setattr(numba.config, "NUMBA_NUM_THREADS", 4)
+    maze_scan.likelihood(poses, raw, shared)
+    assert np.any(alone > 0.0) and np.array_equal(alone, shared)
 
 
 @given(dx=st.floats(-0.05, 0.05), dy=st.floats(-0.01, 0.01), turn=st.floats(-0.5, 0.5), own=st.floats(-0.5, 0.5), heading=st.floats(-4.0, 4.0))

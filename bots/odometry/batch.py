@@ -94,9 +94,10 @@ def batch_step(batch: Batch, tallies: np.ndarray, time: float, truth: np.ndarray
                 count = SIGMAS if j != ESTIMATE.mouse else MOUSE_SIGMAS
                 add_spread(state[i].sigmas[j], count, poses[i, j], cov_out[i, j])
                 add_point_noise(state[i].sigma_noises[j], count, errors[i, j], cov_out[i, j])
-        if params[i].has_mouse:  # the slide watches' hypotheses (`bots.odometry.mouse.watch_slides`)
-            add_offset(state[i].mouse_watch.hypothesis, poses[i, ESTIMATE.mouse], HYPOTHESIS_WEIGHT, cov_out[i, ESTIMATE.mouse])
-            add_offset(state[i].fused_watch.hypothesis, poses[i, ESTIMATE.fused], HYPOTHESIS_WEIGHT, cov_out[i, ESTIMATE.fused])
+        if params[i].has_mouse:  # the slide watches' hypotheses (`bots.odometry.mouse.watch_slides`), as arrays
+            # of the sigma points' type (`add_spread`'s rows), not a record's own: one compile of `add_offset`
+            add_offset(state[i].mouse_watch.hypothesis[:], poses[i, ESTIMATE.mouse], HYPOTHESIS_WEIGHT, cov_out[i, ESTIMATE.mouse])
+            add_offset(state[i].fused_watch.hypothesis[:], poses[i, ESTIMATE.fused], HYPOTHESIS_WEIGHT, cov_out[i, ESTIMATE.fused])
 
 
 def batched(robot: RobotSpec) -> bool:

@@ -7,9 +7,9 @@ import numpy as np
 
 from bots.odometry.base import ArcOdometry
 from bots.odometry.layout import ESTIMATE, NODES, PLANE, SIGMAS
-from bots.odometry.propagation import END_HEADING, MID_ANGLE, carry_noise, lay_point, node_of, noise_of, propagate, wheel_terms, wheel_variances
+from bots.odometry.propagation import END_HEADING, MID_ANGLE, carry_noise, lay_point, nodes_of, noise_of, propagate, wheel_terms, wheel_variances
 from bots.readings import Readings
-from sim.kinematics.batch import chord_of
+from sim.kinematics.batch import INNER, chord_of
 
 
 @numba.njit(cache=True)
@@ -29,11 +29,12 @@ def encoder_step(p: np.void, heading: float, cov: np.ndarray, left: float, right
 def sigma_arc(p: np.void, point: int, left: float, right: float) -> tuple[float, float]:
     """The arc (s, alpha) of these ticks as sigma point `point` of the encoders' calibration sees
     it: it believes the left wheel, the right wheel and the track off by one node each (`NODES`,
-    its base-3 digits: `node_of`), so its wheels roll (1 + k) times the believed arc and it turns
+    its base-3 digits: `nodes_of`), so its wheels roll (1 + k) times the believed arc and it turns
     over (1 + k) times the believed track, exactly, however far its heading strays."""
-    s_left = left * p.tick_left * (1.0 + NODES[node_of(point, 0)] * p.wheel_std)
-    s_right = right * p.tick_right * (1.0 + NODES[node_of(point, 1)] * p.wheel_std)
-    track = p.track * (1.0 + NODES[node_of(point, 2)] * p.track_std)
+    left_node, right_node, track_node = nodes_of(point)
+    s_left = left * p.tick_left * (1.0 + NODES[left_node] * p.wheel_std)
+    s_right = right * p.tick_right * (1.0 + NODES[right_node] * p.wheel_std)
+    track = p.track * (1.0 + NODES[track_node] * p.track_std)
     return 0.5 * (s_left + s_right), (s_right - s_left) / track
 
 
@@ -50,7 +51,7 @@ def sigma_encoders(p: np.void, sigmas: np.ndarray, noises: np.ndarray, left: flo
     carry_noise(noises, turns, share, noise_of(noise))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, **INNER)
 def sigma_encoders_both(p: np.void, st: np.void, left: float, right: float, noise: np.ndarray) -> None:
     """`sigma_encoders` on the encoders' sigma points (along the mid-angle) and the firmware's
     (along the end heading) of a STATE row `st` at once: the same ticks through the same nodes, so

@@ -13,10 +13,10 @@ from bots.odometry.layout import ESTIMATE, MOUSE_NODES, MOUSE_SIGMAS, PLANE
 from bots.odometry.propagation import MID_ANGLE, carry_noise, lay, lay_point, mouse_terms, mouse_variance, noise_of, propagate, wheel_variances
 from bots.readings import Readings
 from bots.uncertainty import COUNT_VARIANCE, ERROR
-from sim.kinematics.batch import chord_of
+from sim.kinematics.batch import INNER, chord_of
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, **INNER)
 def mouse_arc(p: np.void, forward: float, lateral: float) -> tuple[float, float]:
     """The mouse's increment (seed 002 §2.1): alpha = lateral/m_x, s = forward + alpha*m_y."""
     alpha = lateral / p.per_metre / p.mount_x

@@ -19,7 +19,7 @@ import numpy as np
 
 from bots.odometry.layout import MOUSE_NODE_WEIGHTS, MOUSE_SIGMAS, NODE_WEIGHTS, PLANE, SIGMAS
 from bots.uncertainty import ERROR, ERRORS
-from sim.kinematics.batch import advance_one
+from sim.kinematics.batch import INNER, advance_one
 
 MID_ANGLE, END_HEADING = 0.5, 1.0
 """Where an arc's chord is laid (`propagate`'s share of the heading change): along the mid-angle
@@ -53,7 +53,7 @@ def mouse_terms(s: float, alpha: float, mount_x: float, mount_y: float, var: flo
     noise[1, 1] = var / (mount_x * mount_x)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, **INNER)
 def propagate(cov: np.ndarray, heading: float, s: float, alpha: float, share: float, jac: np.ndarray, noise: np.ndarray,
               work: np.ndarray) -> None:  # fmt: skip
     """`cov` (ERRORS, ERRORS) after laying the increment (s, alpha) from `heading` (rad, before
@@ -107,14 +107,14 @@ def pose_covariance(cov: np.ndarray, heading: float, lag: np.ndarray, out: np.nd
 
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, **INNER)
 def wheel_variances(p: np.void, s_left: float, s_right: float) -> tuple[float, float]:
     """The random variance (m²) of each wheel's arc over a step of these arcs (m): slip and
     spurious ticks both grow with the distance rolled (m² per metre each), whatever the step."""
     return (p.slip_var + p.tick_var_left) * abs(s_left), (p.slip_var + p.tick_var_right) * abs(s_right)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, **INNER)
 def mouse_variance(p: np.void, s: float, alpha: float) -> float:
     """The random variance (m²) of each mouse axis over a step of this increment: its noise
     (m² per metre) times the floor the sensor passed, (s - alpha m_y, alpha m_x)."""
@@ -136,14 +136,14 @@ def add_offset(point: np.ndarray, pose: np.ndarray, weight: float, out: np.ndarr
     out[5] += weight * dt * dt
 
 
-@numba.njit(cache=True)
-def node_of(point: int, error: int) -> int:
-    """Which node (`bots.odometry.layout.NODES`) sigma point `point` takes for calibration error
-    `error`: the error's base-3 digit of point + 1 (point 0 is the first beside the estimate)."""
+@numba.njit(cache=True, **INNER)
+def nodes_of(point: int) -> tuple[int, int, int]:
+    """Which node (`bots.odometry.layout.NODES`) sigma point `point` takes for each of three
+    calibration errors: the base-3 digits of point + 1 (point 0 is the first beside the estimate).
+    (All three in one call: one taking the error's number compiled once for each constant it was
+    called with, three compiles on a first run.)"""
     digits = point + 1
-    for _ in range(error):
-        digits //= 3
-    return digits % 3
+    return digits % 3, digits // 3 % 3, digits // 9 % 3
 
 
 @numba.njit(cache=True)

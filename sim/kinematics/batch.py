@@ -32,6 +32,13 @@ from numba.extending import intrinsic
 
 from sim.kinematics.arc import _ADVANCE_SERIES_LIMIT, _COS, _SERIES_LIMIT, _SINC
 
+INNER = {"no_cpython_wrapper": True, "no_cfunc_wrapper": True}
+"""numba's options for a kernel that only other kernels call (`@numba.njit(cache=True, **INNER)`):
+no wrappers for callers in Python or C, which numba otherwise compiles and caches with every
+kernel, a fixed part of each one's first compile (the main job's odometry and world kernels: about
+a tenth of their CPU). Such a kernel called from Python is refused ("no cpython wrapper"); its
+`py_func` is the plain function."""
+
 
 class Drive(NamedTuple):
     """What the robots of a batch share (`step_batch`): the track (m), encoder ticks per metre of

@@ -16,6 +16,7 @@ map: a floor `OUTLIER` keeps a reading of one from wiping out every particle.
 from __future__ import annotations
 
 import math
+import threading
 
 import numba
 import numpy as np
@@ -45,6 +46,12 @@ INTERVALS = 4
 CLEARANCE = 0.01
 """How far (m) a particle's body may reach into a wall before the map rules it out: the contact
 solver lets a body sink a millimetre, and the belief is a few millimetres off."""
+SHARED_FROM = 2000
+"""Particles from which `MapScan.likelihood` shares a scan among numba's threads (as many as its
+parallel kernels use: one per core, or NUMBA_NUM_THREADS; the kernel releases the GIL and each
+thread takes a slice of the particles, so the result is the same to the bit): a search's thousands
+of particles over hundreds of scans stall `ctsim play` for seconds on one core; a tracking set of
+500 costs less than a thread's start (some 50 µs)."""
 FREE_TRIES = 250
 """Batches of candidates (four per pose still missing) `MapScan.free` draws before it gives up:
 the free floor of a world is rarely below a tenth of its bounds."""
@@ -76,7 +83,7 @@ def _normal_cdf(z: float) -> float:
     return 0.5 * math.erfc(-z * 0.7071067811865476)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def scan_likelihood(particles: np.ndarray, sensors: np.ndarray, walls: Walls, nothing: np.ndarray, model: ScanModel, out: np.ndarray) -> None:
     """out[i] = the likelihood of one scan at particles[i] (x, y, heading): the product over the
     IR sensors (SENSORS rows: mount, body-frame direction, cone, pick view) of P(raw | expected
@@ -170,7 +177,15 @@ class MapScan:
         """out (n,) = the likelihood of the raw IR values `raw` (one per sensor) at each of the
         (n, 3) `particles`."""
         model = ScanModel(IR_RAY_LENGTH, self._intervals(raw), self.sigma, self.outlier, self.radius)
-        scan_likelihood(particles, self.sensors, self.walls, self._nothing, model, out)
+        parts = min(numba.config.NUMBA_NUM_THREADS, len(particles) // (SHARED_FROM // 2)) if len(particles) >= SHARED_FROM else 1
+        cuts = [len(particles) * k // parts for k in range(parts + 1)]
+        threads = [threading.Thread(target=scan_likelihood, args=(particles[a:b], self.sensors, self.walls, self._nothing, model, out[a:b]), daemon=True)
+                   for a, b in zip(cuts[1:-1], cuts[2:])]  # fmt: skip
+        for thread in threads:
+            thread.start()
+        scan_likelihood(particles[: cuts[1]], self.sensors, self.walls, self._nothing, model, out[: cuts[1]])
+        for thread in threads:
+            thread.join()
 
     def best(self, raw: np.ndarray) -> float:
         """The most likelihood any pose could give the raw values `raw` (`likelihood`'s scale): per

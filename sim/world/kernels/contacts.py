@@ -9,6 +9,7 @@ import math
 import numba
 import numpy as np
 
+from sim.kinematics.batch import INNER
 from sim.world.kernels.floor import hold_at_holes
 from sim.world.kernels.geometry import polygon_distance
 from sim.world.kernels.grids import near_pairs, walls_near
@@ -118,7 +119,7 @@ def _meets_ctbot(x: float, y: float, radius: float, other: np.ndarray) -> bool:
     return False
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, **INNER)
 def _box_gap2(x: float, y: float, xmin: float, ymin: float, xmax: float, ymax: float) -> float:
     """Squared distance from (x, y) to the box (0 inside)."""
     dx = max(xmin - x, 0.0, x - xmax)
@@ -162,7 +163,7 @@ def stop_at_contact(pose: np.ndarray, robots: np.ndarray, state: np.ndarray, wal
             move[0], move[1], now.blocked = 0.0, 0.0, True
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, **INNER)
 def clear_of_walls(x: float, y: float, radius: float, walls: Walls, as_ctsim: bool = False) -> bool:
     """Whether a circle of `radius` at (x, y) is clear of every wall (farther than `radius`);
     `as_ctsim`: a cylinder (c't-Sim's lamp pillar, `Wall.cylinder`) counts by its box, as c't-Sim's contact test
@@ -181,7 +182,7 @@ def clear_of_walls(x: float, y: float, radius: float, walls: Walls, as_ctsim: bo
     return True
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, **INNER)
 def _sweep(px: float, py: float, mx: float, my: float, radius: float, walls: Walls) -> tuple[float, float, float]:
     """First contact of a circle of `radius` moved from (px, py) by (mx, my) with any wall:
     (fraction of the move, contact normal x, y); fraction 1 when free. Conservative advancement

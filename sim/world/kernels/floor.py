@@ -9,6 +9,7 @@ import math
 import numba
 import numpy as np
 
+from sim.kinematics.batch import INNER
 from sim.world.layout import Floor, Ground
 
 
@@ -40,7 +41,7 @@ def raster_at(x: float, y: float, raster: np.ndarray, origin_x: float, origin_y:
     return raster[iy, ix]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, **INNER)
 def hold_at_holes(pose: np.ndarray, state: np.ndarray, ground: Ground, floor: Floor) -> bool:
     """c't-Sim's ground-contact rule (`MasterSimulator`, "Bodenkontakt"): a robot whose planned
     move and turn (STATE's move, alpha) would bring a ground contact over a hole neither moves nor

@@ -9,8 +9,10 @@ import math
 import numba
 import numpy as np
 
+from sim.kinematics.batch import INNER
 
-@numba.njit(cache=True)
+
+@numba.njit(cache=True, **INNER)
 def ray_polygon(ox: float, oy: float, ux: float, uy: float, vertices: np.ndarray, start: int, end: int) -> float:
     """Distance along the ray (origin, unit direction) to its first crossing of the polygon's
     edges vertices[start:end]; inf if none."""
@@ -30,7 +32,7 @@ def ray_polygon(ox: float, oy: float, ux: float, uy: float, vertices: np.ndarray
     return best
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, **INNER)
 def ray_circle(ox: float, oy: float, ux: float, uy: float, cx: float, cy: float, r: float) -> float:
     along = (cx - ox) * ux + (cy - oy) * uy
     across2 = (cx - ox) ** 2 + (cy - oy) ** 2 - along * along
@@ -39,7 +41,7 @@ def ray_circle(ox: float, oy: float, ux: float, uy: float, cx: float, cy: float,
     return along - math.sqrt(r * r - across2)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, **INNER)
 def polygon_distance(px: float, py: float, vertices: np.ndarray, start: int, end: int) -> tuple[float, float, float]:
     """(signed distance, closest point x, y) from a point to the convex polygon
     vertices[start:end] (either winding); negative inside."""

@@ -11,7 +11,7 @@ import math
 import numba
 import numpy as np
 
-from sim.kinematics.batch import exact_arc, half_angle, quantize_one
+from sim.kinematics.batch import INNER, exact_arc, half_angle, quantize_one
 from sim.world.kernels.floor import in_hole
 from sim.world.layout import Bodies, Floor
 
@@ -50,7 +50,7 @@ def drive(commands: np.ndarray, robots: np.ndarray, state: np.ndarray, tallies: 
         now.alpha = a
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, **INNER)
 def first_bad(commands: np.ndarray) -> int:
     """Index of the first robot with a non-finite command (n, 2); -1 if none."""
     for i in range(commands.shape[0]):

@@ -9,6 +9,7 @@ import math
 import numba
 import numpy as np
 
+from sim.kinematics.batch import INNER
 from sim.world.kernels.floor import raster_at
 from sim.world.kernels.geometry import polygon_distance, ray_circle, ray_polygon
 from sim.world.kernels.grids import circle_grid, first_at_least, walls_near
@@ -20,7 +21,7 @@ CIRCLE_GRID_ABOVE = 32
 """Circles (robots and cans) beyond which IR rays find the circles near them in a grid (`sense_ir`)."""
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, **INNER)
 def to_world(pose: np.ndarray, offsets: np.ndarray, owner: np.ndarray, out: np.ndarray) -> None:
     """World positions of body-frame points `offsets` (m, 2) of robots `owner` (m,)."""
     for k in range(offsets.shape[0]):
@@ -35,7 +36,7 @@ FAN = np.tan(np.radians(np.array((40.0, 20.0, 0.0, -20.0, -40.0))))
 (80° opening in 20° steps, `World.sensGroundReflectionLine`)."""
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, **INNER)
 def sample_floor(pose: np.ndarray, sensors: np.ndarray, floor: Floor, out: np.ndarray) -> None:
     """CNY70 values (0..1023) of floor SENSORS (their mount, owner and height above the floor), as
     c't-Sim's `World.sensGroundReflectionCross`: a fan of rays across the heading (left first) and
@@ -75,7 +76,7 @@ def ir_rays(pose: np.ndarray, sensors: np.ndarray, origins: np.ndarray, look: np
         look[k] = pose[owner[k], 2] + sensors[k].direction
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, **INNER)
 def _circle_in_view(view: tuple, px: float, py: float, r: float, best: float) -> float:
     """`best` lowered to the distance of the circle (px, py, r) in the cone `view` (origin x, y,
     axis x, y, cos of the cone, edge rays 1 and 2 x, y), as in `sense_ir`; -1 when the origin is
@@ -178,7 +179,7 @@ def sense_ir(rays: Rays, walls: Walls, circles: np.ndarray, length: float, out: 
         out[k] = best if best <= length or picks[k] else math.inf  # a pick's rim reaches past the axis's end
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, **INNER)
 def _cone_box(view: tuple, cone: float, length: float):
     """(xmin, ymin, xmax, ymax) holding the cone of `length` (`view`: apex, axis, edges as in
     `_circle_in_view`): the box of its apex and its arc's ends and middle, grown by the arc's
@@ -226,7 +227,7 @@ def ir_values(distance: np.ndarray, sensors: np.ndarray, noise: Noise, curves: C
         believed[k] = curves.inverse[c, r - curves.ends[c].lowest]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, **INNER)
 def read_ir(pose: np.ndarray, sensing: Sensing, walls: Walls, curves: Curves, noise: Noise, out: Readout, rare_parts: bool | None) -> None:
     """Every IR reading of a world whose robots are all circles, in one call: the IR sensors'
     rays (the last len(out.believed) of SENSING's sensors, `ir_rays`), the robots (the first of
@@ -248,7 +249,7 @@ def read_ir(pose: np.ndarray, sensing: Sensing, walls: Walls, curves: Curves, no
     ir_values(distance, sensors, noise, curves, out.values, out.believed)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, **INNER)
 def sense_light(pose: np.ndarray, sensors: np.ndarray, lights: np.ndarray, tree: BoundsTree | None, out: np.ndarray,
                 picking: bool | None = True) -> None:  # fmt: skip
     """LDR darkness (0..1023) of light SENSORS, `height` m up, looking horizontally along their
