@@ -40,12 +40,12 @@ So once the history holds RECALL metres, and every GLOBAL_EVERY metres after, th
 over the whole map with all of them (`_global`): a set drawn anew, taken back through the history,
 ends on one place or on none, and the set is put where it points. A place is recalled only after
 AGREE such searches in a row ended on it by their fresh draws alone (besides the recall and the
-rivals' check, a draw of its own). Measured at 75f03d9, before the global search ran every
-GLOBAL_EVERY metres as it now does (docs/odometry.md, `python -m sim.experiments.kidnap`, the
-robot kept driving solve_maze): a robot carried far across the maze
-is found again, `lost` cleared on it, within RECOVERY_TIME (120 s) in 57 of 70 kidnappings (55
-within 90 s, none sooner than 47 s: RECALL metres of scans at the maze's pace), said lost within
-1.4 s in 69 of them (6.3 s in one), and never said found while off.
+rivals' check, a draw of its own). Measured (docs/odometry.md, `python -m sim.experiments.kidnap`,
+the robot kept driving solve_maze): a robot carried far across the maze is found again, `lost`
+cleared on it, within RECOVERY_TIME (120 s) in 60 of 64 kidnappings (58 within 90 s, none sooner
+than 47 s: RECALL metres of scans at the maze's pace; 57 of 70 before the global search ran every
+GLOBAL_EVERY metres, 75f03d9), said lost within 1.4 s in 63 of them (6.3 s in one), and never said
+found while off.
 """
 
 from __future__ import annotations
