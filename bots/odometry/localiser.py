@@ -40,8 +40,9 @@ So once the history holds RECALL metres, and every GLOBAL_EVERY metres after, th
 over the whole map with all of them (`_global`): a set drawn anew, taken back through the history,
 ends on one place or on none, and the set is put where it points. A place is recalled only after
 AGREE such searches in a row ended on it by their fresh draws alone (besides the recall and the
-rivals' check, a draw of its own). Measured (docs/odometry.md, `python -m
-sim.experiments.kidnap`, the robot kept driving solve_maze): a robot carried far across the maze
+rivals' check, a draw of its own). Measured at 75f03d9, before the global search ran every
+GLOBAL_EVERY metres as it now does (docs/odometry.md, `python -m sim.experiments.kidnap`, the
+robot kept driving solve_maze): a robot carried far across the maze
 is found again, `lost` cleared on it, within RECOVERY_TIME (120 s) in 57 of 70 kidnappings (55
 within 90 s, none sooner than 47 s: RECALL metres of scans at the maze's pace), said lost within
 1.4 s in 69 of them (6.3 s in one), and never said found while off.
@@ -243,7 +244,10 @@ class MonteCarloLocaliser:
         the odometry's pose, the raw IR values, the metres rolled and radians turned since the scan
         before, and the radians the encoders alone turned (nan without a mouse)."""
         self._recorded = 0.0  # metres the history spans
-        self._next_global = 0.0  # metres of history at which the next global search runs
+        self._travelled = 0.0
+        """Metres rolled since the robot was lost: what schedules the global searches (`_recorded`
+        stops at RECALL_MOST, and a schedule on it stopped them after the second)."""
+        self._next_global = 0.0  # metres travelled at which the next global search runs
         self._agreed = 0
         """How many global searches (`_global`) in a row ended on one place with the particles drawn
         anew alone: the set is then there, and only after AGREE of them is a place recalled whose
@@ -312,7 +316,7 @@ class MonteCarloLocaliser:
         else:
             self.searching = self.fast < FOUND_AT * self.slow or math.sqrt(self._cov[0, 0] + self._cov[1, 1]) > FOUND_SPREAD
         if self.searching and self.confirmed:
-            self.confirmed, self._recorded, self._lost_at, self._next_global, self._agreed = False, 0.0, (self._mean[:2].copy(), self._anchor), RECALL, 0
+            self.confirmed, self._recorded, self._travelled, self._lost_at, self._next_global, self._agreed = False, 0.0, 0.0, (self._mean[:2].copy(), self._anchor), 0.0, 0
             self._history.clear()
         if not self.confirmed:
             self._record(raw, rolled, turned, encoder_turn)
@@ -326,9 +330,9 @@ class MonteCarloLocaliser:
             self._held = 0.0 if self.searching else self._held
         placed = None
         if refuted:  # (the global search waits for the next scan: one stall at a time in `ctsim play`)
-            self._next_global = min(self._next_global, self._recorded)
-        elif not self.confirmed and self._recorded >= max(self._next_global, RECALL):
-            self._next_global = self._recorded + GLOBAL_EVERY
+            self._next_global = min(self._next_global, self._travelled)
+        elif not self.confirmed and self._recorded >= RECALL and self._travelled >= self._next_global:
+            self._next_global = self._travelled + GLOBAL_EVERY
             placed, agreed = self._global(raw)
             self._agreed = self._agreed + 1 if agreed else 0
             if placed is not None and math.dist(placed[0].mean(axis=0)[:2], self._mean[:2]) < NEARBY:
@@ -356,6 +360,7 @@ class MonteCarloLocaliser:
         """Add this scan to the history, and drop the scans RECALL_MOST metres before it."""
         self._history.append((self._anchor, raw.copy(), rolled, turned, encoder_turn if self._tick_turn is not None else math.nan))
         self._recorded += rolled
+        self._travelled += rolled
         while self._recorded - self._history[0][2] >= RECALL_MOST:
             self._recorded -= self._history.popleft()[2]
 
@@ -389,48 +394,23 @@ class MonteCarloLocaliser:
         return self._mean[0] + c * dx - s * dy, self._mean[1] + s * dx + c * dy
 
     def _recall(self) -> float:
-        """How well the history's scans fit the place the set follows: the set taken back along
-        the odometry, scan by scan, with the motion noise (and the encoders' turn, SWITCH), weighed
-        and resampled by each earlier scan as it was forward; the least its fast score average
-        reached over the slow one, stopping below RECALL_BELOW (a forward run loses the robot
-        below LOST_BELOW)."""
+        """How well the history's scans fit the place the set follows: the least the fast score
+        average of the set taken back through them (`_back`, every scan) reached over the slow one,
+        stopping below RECALL_BELOW (a forward run loses the robot below LOST_BELOW)."""
         particles, weights, by_encoders = self.particles.copy(), self.weights.copy(), self.by_encoders.copy()
         if len(particles) > self.count:  # (a search just ended: as many as the set will keep)
             drawn = low_variance_resample(weights, self.count, self.rng.random() / self.count)
             particles, weights, by_encoders = particles[drawn], np.full(self.count, 1.0 / self.count), by_encoders[drawn]
-        n, fast, worst = len(particles), self.fast, math.inf
-        likelihood = np.empty(n)
-        for k in range(len(self._history) - 1, 0, -1):
-            pose, _, rolled, turned, encoder_turn = self._history[k]
-            earlier, raw = self._history[k - 1][:2]
-            turns = np.full(n, np.nan)
-            if not math.isnan(encoder_turn):
-                by_encoders ^= self.rng.random(n) < SWITCH
-                turns[by_encoders] = -encoder_turn
-            std = self._motion_std(True, rolled, turned)
-            move_particles(particles, *relative_pose(pose, earlier), std, self.rng.standard_normal((n, 3)), turns)
-            self.map.likelihood(particles, raw, likelihood)
-            weighted = weights * likelihood
-            total = float(weighted.sum())
-            fast += FAST * (total / self.map.best(raw) - fast)
-            worst = min(worst, fast / self.slow)
-            if worst < RECALL_BELOW:
-                break
-            weights = weighted / total if total > 0.0 else np.full(n, 1.0 / n)
-            if 1.0 / float(np.dot(weights, weights)) < 0.5 * n:
-                drawn = low_variance_resample(weights, n, self.rng.random() / n)
-                particles, by_encoders = particles[drawn], by_encoders[drawn]
-                weights = np.full(n, 1.0 / n)
-        return worst
+        back = self._back(particles, weights, by_encoders, False, RECALL_BELOW)
+        return 0.0 if back is None else back[3]
 
-    def _drawn_back(self, raw: np.ndarray, kept: int = 0, stride: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
+    def _drawn_back(self, raw: np.ndarray, kept: int = 0, stride: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None:
         """A set drawn anew from the whole map's free floor where the scan `raw` fits (`_picked`,
         `recovery` particles of WIDE times as many; `kept` of the set's own beside them, drawn by
-        their weight), taken back along the odometry through the history's scans as `_recall`
-        takes the set (every scan, or with `stride` STRIDE apart): the poses drawn, their
-        likelihood, the set at the history's first scan, and per particle its weight and the index
-        of the pose drawn it descends from (None where no pose fits the scan or the scans rule out
-        every one)."""
+        their weight), taken back through the history's scans (`_back`: STRIDE apart, or every one
+        without `stride`): the poses drawn, their likelihood, the set at the history's first scan,
+        and per particle its weight and the index of the pose drawn it descends from (None where
+        no pose fits the scan or the scans rule out every one)."""
         drawn, likelihood_now = self._picked(self.recovery, raw, WIDE)
         if len(drawn) == 0:
             return None
@@ -438,25 +418,39 @@ class MonteCarloLocaliser:
             own = low_variance_resample(self.weights, kept, self.rng.random() / kept)
             drawn, likelihood_now = np.concatenate([drawn, self.particles[own]]), np.concatenate([likelihood_now, self.likelihood[own]])
         n = len(drawn)
-        particles, ancestors, by_encoders = drawn.copy(), np.arange(n), np.zeros(n, dtype=np.bool_)
-        weights, likelihood = np.full(n, 1.0 / n), np.empty(n)
-        for pose, earlier, raw_k, rolled, turned, encoder_turn in self._strides(STRIDE if stride else 0.0, STRIDE_TURN if stride else 0.0):
+        back = self._back(drawn.copy(), np.full(n, 1.0 / n), np.zeros(n, dtype=np.bool_), stride, 0.0)
+        return None if back is None else (drawn, likelihood_now, *back[:3])
+
+    def _back(self, particles: np.ndarray, weights: np.ndarray, by_encoders: np.ndarray, stride: bool, stop: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, float] | None:
+        """A weighted set taken back along the odometry through the history's scans, from the last
+        to the first (every scan, or with `stride` STRIDE apart), with the motion noise (and the
+        encoders' turn where `by_encoders`, SWITCH), weighed and resampled by each earlier scan as
+        it was forward: the set at the first scan, its weights, per particle the index of the one
+        it descends from, and the least its fast score average reached over the slow one,
+        stopping once that is below `stop` (None where a scan rules out every particle)."""
+        n, fast, worst = len(particles), self.fast, math.inf
+        ancestors, likelihood = np.arange(n), np.empty(n)
+        for pose, earlier, raw, rolled, turned, encoder_turn in self._strides(STRIDE if stride else 0.0, STRIDE_TURN if stride else 0.0):
             turns = np.full(n, np.nan)
             if not math.isnan(encoder_turn):
                 by_encoders ^= self.rng.random(n) < SWITCH
                 turns[by_encoders] = -encoder_turn
             move_particles(particles, *relative_pose(pose, earlier), self._motion_std(True, rolled, turned), self.rng.standard_normal((n, 3)), turns)
-            self.map.likelihood(particles, raw_k, likelihood)
+            self.map.likelihood(particles, raw, likelihood)
             weighted = weights * likelihood
             total = float(weighted.sum())
             if total <= 0.0:
                 return None
+            fast += FAST * (total / self.map.best(raw) - fast)
+            worst = min(worst, fast / self.slow)
+            if worst < stop:
+                break
             weights = weighted / total
             if 1.0 / float(np.dot(weights, weights)) < 0.5 * n:
                 chosen = low_variance_resample(weights, n, self.rng.random() / n)
                 particles, ancestors, by_encoders = particles[chosen], ancestors[chosen], by_encoders[chosen]
                 weights = np.full(n, 1.0 / n)
-        return drawn, likelihood_now, particles, weights, ancestors
+        return particles, weights, ancestors, worst
 
     def _strides(self, metres: float, radians: float) -> list[tuple[np.ndarray, np.ndarray, np.ndarray, float, float, float]]:
         """The history's steps back from its last scan to its first, over scans `metres` or
@@ -476,7 +470,7 @@ class MonteCarloLocaliser:
         """The share of the weight on other places (NEARBY or more from the estimate) of a set drawn
         anew over the whole map and taken back through the history (`_drawn_back`): a place is
         found only if no other place fits the scans since the loss too."""
-        back = self._drawn_back(raw)
+        back = self._drawn_back(raw, stride=False)
         if back is None:
             return 0.0
         _, _, particles, weights, _ = back
@@ -494,7 +488,7 @@ class MonteCarloLocaliser:
         particles carry alone is not recalled). The search weighs the last scans only, and among
         thousands of look-alike places the few particles on the robot's lose the weight; all the
         scans since the loss tell them apart."""
-        back = self._drawn_back(raw, self.count, stride=True)
+        back = self._drawn_back(raw, self.count)
         if back is None:
             return None, False
         drawn, likelihood, _, weights, ancestors = back

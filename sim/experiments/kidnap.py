@@ -9,8 +9,10 @@ finish soon after a kidnapping), so that the robot keeps giving the localiser sc
     python -m sim.experiments.kidnap five 0 5      # the five places of docs/odometry.md, seeds 0-5
     python -m sim.experiments.kidnap drawn 0 9     # ten poses drawn from the maze's free floor
     python -m sim.experiments.kidnap rooms 0 9     # worlds/rooms.xml, carried 3 m, seeds 0-9
+    python -m sim.experiments.kidnap five 2 2 --after 300   # a longer window
 
-prints one JSON line a kidnapping (120 s after it, one core): docs/odometry.md's tables.
+prints one JSON line a kidnapping (AFTER s after it unless --after says, one core):
+docs/odometry.md's tables.
 """
 
 from __future__ import annotations
@@ -36,6 +38,8 @@ PLACES = ((2.76, 0.36, math.pi / 2), (0.36, 2.76, 0.0), (1.80, 1.80, math.pi), (
 start corridor."""
 ROOMS_PLACE = (3.0, 1.8, math.pi)
 """Where `rooms` carries the robot in worlds/rooms.xml: 3 m across the parcours, facing west."""
+AFTER = 120.0
+"""How long (s) a kidnapping runs after the robot is carried: the localiser's RECOVERY_TIME or more."""
 DRAWN = 77
 """The generator from which `drawn` takes its poses (`MapScan.free`)."""
 
@@ -99,7 +103,7 @@ def recovery(rows: np.ndarray) -> dict[str, float]:
     }
 
 
-def kidnapping(place: tuple[float, float, float], seed: int, after: float = 120.0, world: str = "maze") -> dict:
+def kidnapping(place: tuple[float, float, float], seed: int, after: float = AFTER, world: str = "maze") -> dict:
     """One kidnapping: KeepDriving in `world` with realistic noise and the localiser, carried to
     `place` at KIDNAP_AT, run `after` s more; `recovery` of it, the longest stall, the wall time."""
     from sim.experiments.api import Bot, simulate
@@ -121,7 +125,7 @@ def drawn(count: int) -> list[tuple[float, float, float]]:
 def main(argv: list[str]) -> None:
     """`five FIRST LAST`: PLACES x seeds FIRST-LAST; `drawn FIRST LAST`: the drawn poses
     FIRST-LAST, each with its index as seed; `rooms FIRST LAST`: worlds/rooms.xml, carried 3 m to
-    ROOMS_PLACE, seeds FIRST-LAST. A wrong argument is argparse's usage line and exit status 2."""
+    ROOMS_PLACE, seeds FIRST-LAST; `--after S` runs S s after each kidnapping. A wrong argument is argparse's usage line and exit status 2."""
     import argparse
 
     from sim.world.files import worlds_dir
@@ -130,6 +134,7 @@ def main(argv: list[str]) -> None:
     parser.add_argument("which", choices=("five", "drawn", "rooms"))
     parser.add_argument("first", type=int)
     parser.add_argument("last", type=int)
+    parser.add_argument("--after", type=float, default=AFTER, help=f"seconds run after each kidnapping (default {AFTER:g})")
     arguments = parser.parse_args(argv)
     which, first, last = arguments.which, arguments.first, arguments.last
     if not 0 <= first <= last:
@@ -138,7 +143,7 @@ def main(argv: list[str]) -> None:
     seeds = range(first, last + 1)
     runs = {"five": [(p, s) for p in PLACES for s in seeds], "rooms": [(ROOMS_PLACE, s) for s in seeds]}.get(which) or [(p, i) for i, p in enumerate(drawn(last + 1)) if i >= first]
     for place, seed in runs:
-        print(json.dumps({k: round(v, 3) if isinstance(v, float) else v for k, v in kidnapping(place, seed, world=world).items()}), flush=True)
+        print(json.dumps({k: round(v, 3) if isinstance(v, float) else v for k, v in kidnapping(place, seed, after=arguments.after, world=world).items()}), flush=True)
 
 
 if __name__ == "__main__":
