@@ -43,3 +43,19 @@ def test_a_cold_cache_is_filled_by_compile_processes_and_loaded_here(tmp_path, m
     lines.clear()
     compiling.compile_all([(tiny.double, (1.0,)), (tiny.total, (np.zeros(3),))])
     assert lines == []  # warm: nothing said, nothing started
+
+
+def test_no_compile_processes_compiles_every_kernel_here(tmp_path, monkeypatch):
+    """WORKERS 0 (the bench's `first_run_one_process_s`): nothing is started, the kernels are
+    compiled in this process, and the line says so."""
+    (tmp_path / "tiny_kernels_here.py").write_text(KERNELS)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    tiny = importlib.import_module("tiny_kernels_here")
+    lines: list[str] = []
+    monkeypatch.setattr(compiling, "PROGRESS", lines.append)
+    monkeypatch.setattr(compiling, "WORKERS", 0)
+    started = compiling.start([(tiny.double, (1.0,)), (tiny.total, (np.zeros(3),))])
+    assert started.helpers == [] and "in this process: double, total" in lines[0]
+    double, total = started.wait()
+    assert double(1.5) == 3.0 and total(np.arange(4.0)) == 6.0
+    assert sum(tiny.double.stats.cache_misses.values()) == 1  # compiled here

@@ -12,7 +12,7 @@ from bots.readings import Readings
 from sim.kinematics.batch import INNER, chord_of
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def encoder_step(p: np.void, heading: float, cov: np.ndarray, left: float, right: float, end_heading: bool, work: np.ndarray) -> tuple[float, float]:
     """Encoder odometry: the increment of `left`, `right` ticks; `cov` propagated from `heading`
     (`work`: scratch, `workspace`)."""
@@ -25,7 +25,7 @@ def encoder_step(p: np.void, heading: float, cov: np.ndarray, left: float, right
     return s, alpha
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def sigma_arc(p: np.void, point: int, left: float, right: float) -> tuple[float, float]:
     """The arc (s, alpha) of these ticks as sigma point `point` of the encoders' calibration sees
     it: it believes the left wheel, the right wheel and the track off by one node each (`NODES`,
@@ -38,7 +38,7 @@ def sigma_arc(p: np.void, point: int, left: float, right: float) -> tuple[float,
     return 0.5 * (s_left + s_right), (s_right - s_left) / track
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def sigma_encoders(p: np.void, sigmas: np.ndarray, noises: np.ndarray, left: float, right: float, share: float, noise: np.ndarray,
                    turns: np.ndarray) -> None:  # fmt: skip
     """Lay these ticks on every sigma point of the encoders' calibration (`sigma_arc`) along
@@ -51,7 +51,7 @@ def sigma_encoders(p: np.void, sigmas: np.ndarray, noises: np.ndarray, left: flo
     carry_noise(noises, turns, share, noise_of(noise))
 
 
-@numba.njit(cache=True, **INNER)
+@numba.njit(cache=True, error_model="numpy", **INNER)
 def sigma_encoders_both(p: np.void, st: np.void, left: float, right: float, noise: np.ndarray) -> None:
     """`sigma_encoders` on the encoders' sigma points (along the mid-angle) and the firmware's
     (along the end heading) of a STATE row `st` at once: the same ticks through the same nodes, so

@@ -54,7 +54,7 @@ IGNORED = 1e6
 """Variance (m², rad²) of a channel left out for a step: a million times any real one."""
 
 
-@numba.njit(cache=True, **INNER)
+@numba.njit(cache=True, error_model="numpy", **INNER)
 def _mul(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> np.ndarray:
     """out <- a @ b for 2-D arrays (numba's own needs SciPy's BLAS); `out` (a view of scratch)."""
     out[:, :] = 0.0
@@ -65,7 +65,7 @@ def _mul(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> np.ndarray:
     return out
 
 
-@numba.njit(cache=True, **INNER)
+@numba.njit(cache=True, error_model="numpy", **INNER)
 def _apply(a: np.ndarray, v: np.ndarray, out: np.ndarray) -> np.ndarray:
     """out <- a @ v for a 2-D a and a 1-D v."""
     out[:] = 0.0
@@ -75,7 +75,7 @@ def _apply(a: np.ndarray, v: np.ndarray, out: np.ndarray) -> np.ndarray:
     return out
 
 
-@numba.njit(cache=True, **INNER)
+@numba.njit(cache=True, error_model="numpy", **INNER)
 def _inverse(m: np.ndarray, out: np.ndarray) -> np.ndarray:
     """out <- the inverse of the 2 x 2 `m`."""
     det = m[0, 0] * m[1, 1] - m[0, 1] * m[1, 0]
@@ -83,7 +83,7 @@ def _inverse(m: np.ndarray, out: np.ndarray) -> np.ndarray:
     return out
 
 
-@numba.njit(cache=True, **INNER)
+@numba.njit(cache=True, error_model="numpy", **INNER)
 def _add(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> np.ndarray:
     """out <- a + b, element by element (2-D)."""
     for i in range(a.shape[0]):
@@ -92,13 +92,13 @@ def _add(a: np.ndarray, b: np.ndarray, out: np.ndarray) -> np.ndarray:
     return out
 
 
-@numba.njit(cache=True, **INNER)
+@numba.njit(cache=True, error_model="numpy", **INNER)
 def _weighed(w_enc: np.ndarray, m_enc: np.ndarray, w_mouse: np.ndarray, m_mouse: np.ndarray, out: np.ndarray, scratch: np.ndarray) -> None:
     """out <- w_enc m_enc w_enc^T + w_mouse m_mouse w_mouse^T (2 x 2; `scratch`: four temporary planes)."""
     _add(_mul(_mul(w_enc, m_enc, scratch[0, :2, :2]), w_enc.T, scratch[1, :2, :2]), _mul(_mul(w_mouse, m_mouse, scratch[2, :2, :2]), w_mouse.T, scratch[3, :2, :2]), out)
 
 
-@numba.njit(cache=True, **INNER)
+@numba.njit(cache=True, error_model="numpy", **INNER)
 def residuals_at_start(p: np.void, residual: np.ndarray, cov: np.ndarray, cross: np.ndarray) -> None:
     """The counters' residuals before the first step: each anywhere within its count (uniform: a
     variance of count²/12), unknown, independent of the errors."""
@@ -110,14 +110,14 @@ def residuals_at_start(p: np.void, residual: np.ndarray, cov: np.ndarray, cross:
             cross[r, c] = 0.0
 
 
-@numba.njit(cache=True, **INNER)
+@numba.njit(cache=True, error_model="numpy", **INNER)
 def _count_variance(p: np.void, counter: int) -> float:
     """The variance (m²) of a counter's residual anywhere within its count: count²/12."""
     count = p.tick_left if counter == 0 else p.tick_right if counter == 1 else 1.0 / p.per_metre
     return count * count / 12.0
 
 
-@numba.njit(cache=True, **INNER)
+@numba.njit(cache=True, error_model="numpy", **INNER)
 def residual_update(p: np.void, residuals: tuple[np.ndarray, np.ndarray, np.ndarray], cov: np.ndarray, h: np.ndarray, d: np.ndarray,
                     noise_d: np.ndarray, correction: np.ndarray, work: np.ndarray) -> None:  # fmt: skip
     """The calibration update of one step's disagreement d = h e + M (rho_before - rho_after) +
@@ -207,7 +207,7 @@ def residual_update(p: np.void, residuals: tuple[np.ndarray, np.ndarray, np.ndar
             cross[r, c] = new_cross[r, c]
 
 
-@numba.njit(cache=True, **INNER)
+@numba.njit(cache=True, error_model="numpy", **INNER)
 def _carry_cross(cross: np.ndarray, work: np.ndarray) -> None:
     """The residuals' covariance with the pose after `propagate` laid the step: its pose rows
     times d pose' / d (pose, errors) (`propagate`'s PLANE.propagate_a), the rest unchanged."""
@@ -217,7 +217,7 @@ def _carry_cross(cross: np.ndarray, work: np.ndarray) -> None:
             cross[r, c] = rows[r, c]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def fused_step(p: np.void, st: np.void, estimate: Estimate, calibration: np.ndarray, counts: Counts, time: float, work: np.ndarray) -> tuple[float, float, bool]:
     """The fused filter's step of one step's `counts` read at `time` (s), in place: the
     `estimate`'s pose corrected by the update (not yet advanced), its covariance (ERRORS, ERRORS)

@@ -16,14 +16,14 @@ from bots.uncertainty import COUNT_VARIANCE, ERROR
 from sim.kinematics.batch import INNER, chord_of
 
 
-@numba.njit(cache=True, **INNER)
+@numba.njit(cache=True, error_model="numpy", **INNER)
 def mouse_arc(p: np.void, forward: float, lateral: float) -> tuple[float, float]:
     """The mouse's increment (seed 002 §2.1): alpha = lateral/m_x, s = forward + alpha*m_y."""
     alpha = lateral / p.per_metre / p.mount_x
     return forward / p.per_metre + alpha * p.mount_y, alpha
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def mouse_step(p: np.void, heading: float, cov: np.ndarray, forward: float, lateral: float, work: np.ndarray) -> tuple[float, float]:
     """Mouse odometry: the increment of these counts; `cov` propagated from `heading` (`work`:
     scratch, `workspace`)."""
@@ -34,7 +34,7 @@ def mouse_step(p: np.void, heading: float, cov: np.ndarray, forward: float, late
     return s, alpha
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def sigma_mouse(p: np.void, sigmas: np.ndarray, noises: np.ndarray, forward: float, lateral: float, noise: np.ndarray, turns: np.ndarray) -> None:
     """Lay these counts on the sigma points of the mouse's resolution (`MOUSE_NODES` standard
     deviations off the estimate's: a finer mouse counts (1 + k) times the floor), each
@@ -48,7 +48,7 @@ def sigma_mouse(p: np.void, sigmas: np.ndarray, noises: np.ndarray, forward: flo
     carry_noise(noises[:, :MOUSE_SIGMAS], turns[:, :MOUSE_SIGMAS], MID_ANGLE, noise_of(noise))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def watch_slides(p: np.void, watch: np.void, disagreement: float, var: float, turned: float, travelled: float, time: float) -> tuple[float, float]:
     """What a slide may have done to the heading: two variances (rad²) its caller may add to it
     this step (the slide's size, `size`, or the uncertainty of its measure, `measure`), and the
@@ -102,7 +102,7 @@ def watch_slides(p: np.void, watch: np.void, disagreement: float, var: float, tu
     return size, watch.var + calibration * calibration + quantisation
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def turn_check(p: np.void, left: float, right: float, s: float, alpha: float) -> tuple[float, float, float]:
     """What the mouse estimate's slide watch compares (`watch_slides`): the encoders' increment
     (s m, alpha rad) of these ticks by the believed geometry, and the random variance (rad²) of

@@ -26,7 +26,7 @@ MID_ANGLE, END_HEADING = 0.5, 1.0
 (exact, seed 002 eqs 1.7, 1.12) or along the end heading (the c't-Bot firmware)."""
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def wheel_terms(s_left: float, s_right: float, alpha: float, track: float, var_left: float, var_right: float,
                 jac: np.ndarray, noise: np.ndarray) -> None:  # fmt: skip
     """The encoder increment's error model, in place: `jac` (2, ERRORS) of (s, alpha) on the
@@ -40,7 +40,7 @@ def wheel_terms(s_left: float, s_right: float, alpha: float, track: float, var_l
     noise[1, 1] = (var_left + var_right) / (track * track)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def mouse_terms(s: float, alpha: float, mount_x: float, mount_y: float, var: float, jac: np.ndarray, noise: np.ndarray) -> None:
     """The mouse increment's error model, in place: `jac` on the resolution's error for the
     increment (s m, alpha rad), `noise` for a variance `var` (m²) of each axis's reading, through
@@ -53,7 +53,7 @@ def mouse_terms(s: float, alpha: float, mount_x: float, mount_y: float, var: flo
     noise[1, 1] = var / (mount_x * mount_x)
 
 
-@numba.njit(cache=True, **INNER)
+@numba.njit(cache=True, error_model="numpy", **INNER)
 def propagate(cov: np.ndarray, heading: float, s: float, alpha: float, share: float, jac: np.ndarray, noise: np.ndarray,
               work: np.ndarray) -> None:  # fmt: skip
     """`cov` (ERRORS, ERRORS) after laying the increment (s, alpha) from `heading` (rad, before
@@ -93,7 +93,7 @@ def propagate(cov: np.ndarray, heading: float, s: float, alpha: float, share: fl
             cov[r, q] = pose[r, q]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def pose_covariance(cov: np.ndarray, heading: float, lag: np.ndarray, out: np.ndarray) -> None:
     """The reported pose covariance's six entries (COVARIANCE_FIELDS) into `out`: the propagated
     one plus the quantisation lag `lag` (2, 2) of the increment (s along the heading, alpha)."""
@@ -107,21 +107,21 @@ def pose_covariance(cov: np.ndarray, heading: float, lag: np.ndarray, out: np.nd
 
 
 
-@numba.njit(cache=True, **INNER)
+@numba.njit(cache=True, error_model="numpy", **INNER)
 def wheel_variances(p: np.void, s_left: float, s_right: float) -> tuple[float, float]:
     """The random variance (m²) of each wheel's arc over a step of these arcs (m): slip and
     spurious ticks both grow with the distance rolled (m² per metre each), whatever the step."""
     return (p.slip_var + p.tick_var_left) * abs(s_left), (p.slip_var + p.tick_var_right) * abs(s_right)
 
 
-@numba.njit(cache=True, **INNER)
+@numba.njit(cache=True, error_model="numpy", **INNER)
 def mouse_variance(p: np.void, s: float, alpha: float) -> float:
     """The random variance (m²) of each mouse axis over a step of this increment: its noise
     (m² per metre) times the floor the sensor passed, (s - alpha m_y, alpha m_x)."""
     return p.mouse_var * math.hypot(s - alpha * p.mount_y, alpha * p.mount_x)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def add_offset(point: np.ndarray, pose: np.ndarray, weight: float, out: np.ndarray) -> None:
     """Add `weight` times the outer product of `point`'s offset from `pose` (both (3,)) to the
     covariance entries `out` (COVARIANCE_FIELDS), its heading within a half turn as the NEES
@@ -136,7 +136,7 @@ def add_offset(point: np.ndarray, pose: np.ndarray, weight: float, out: np.ndarr
     out[5] += weight * dt * dt
 
 
-@numba.njit(cache=True, **INNER)
+@numba.njit(cache=True, error_model="numpy", **INNER)
 def nodes_of(point: int) -> tuple[int, int, int]:
     """Which node (`bots.odometry.layout.NODES`) sigma point `point` takes for each of three
     calibration errors: the base-3 digits of point + 1 (point 0 is the first beside the estimate).
@@ -146,7 +146,7 @@ def nodes_of(point: int) -> tuple[int, int, int]:
     return digits % 3, digits // 3 % 3, digits // 9 % 3
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def point_weight(point: int, count: int) -> float:
     """The weight of sigma point `point` of `count` (3**errors - 1): its nodes' weights' product."""
     weight, digits, size = 1.0, point + 1, count + 1
@@ -174,7 +174,7 @@ POINT_WEIGHTS = _point_weights()
 """Every sigma point's weight (`_point_weights`): looked up, not worked out for each point every step."""
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def add_spread(sigmas: np.ndarray, count: int, pose: np.ndarray, out: np.ndarray) -> None:
     """Add the spread of the first `count` sigma points about `pose` to the covariance entries
     `out` (COVARIANCE_FIELDS): the calibration's part of the error, by Gauss-Hermite cubature
@@ -183,7 +183,7 @@ def add_spread(sigmas: np.ndarray, count: int, pose: np.ndarray, out: np.ndarray
         add_offset(sigmas[i], pose, POINT_WEIGHTS[count, i], out)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def carry_noise(entries: np.ndarray, turns: np.ndarray, share: float, noise: tuple[float, float, float]) -> None:
     """`propagate` of pose covariances without calibration errors, one a sigma point, in place:
     `entries` (COVARIANCE_FIELDS, points), each point's increment of length turns[0] with noise
@@ -208,7 +208,7 @@ def carry_noise(entries: np.ndarray, turns: np.ndarray, share: float, noise: tup
         entries[5, i] = tt + n_aa
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def lay_point(points: np.ndarray, turns: np.ndarray, i: int, s: float, chord: float, alpha: float, share: float) -> None:
     """Sigma point `i`'s step, in place: its pose (row `i` of `points`) laid by the arc's `chord`
     along heading + share * alpha (`MID_ANGLE`, `END_HEADING`; `sim.kinematics.batch.advance_chord`'s
@@ -221,13 +221,13 @@ def lay_point(points: np.ndarray, turns: np.ndarray, i: int, s: float, chord: fl
     points[i, 0], points[i, 1], points[i, 2] = x + chord * c, y + chord * sn, heading + alpha
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def noise_of(noise: np.ndarray) -> tuple[float, float, float]:
     """An increment's noise (2, 2; `wheel_terms`) as `carry_noise` takes it: its three entries."""
     return noise[0, 0], noise[0, 1], noise[1, 1]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def add_point_noise(points: np.ndarray, count: int, cov: np.ndarray, out: np.ndarray) -> None:
     """Replace in the covariance entries `out` the random part `cov` (ERRORS, ERRORS: the
     estimate's, carried along its own path) by its mean over the first `count` sigma points'
@@ -241,7 +241,7 @@ def add_point_noise(points: np.ndarray, count: int, cov: np.ndarray, out: np.nda
         out[k] += total
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, error_model="numpy", inline="always")
 def lay(pose: np.ndarray, s: float, alpha: float, end_heading: bool) -> None:
     """`ArcOdometry.update`: the pose after the arc, in place."""
     pose[0], pose[1], pose[2] = advance_one(pose[0], pose[1], pose[2], s, alpha, end_heading)

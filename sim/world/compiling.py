@@ -31,7 +31,7 @@ PROGRESS: Callable[[str], None] | None = None
 PROGRESS_EVERY = 5.0
 """Seconds between two lines of `PROGRESS` while the compile processes work."""
 WORKERS = os.cpu_count() or 1
-"""Compile processes at most (one per core)."""
+"""Compile processes at most (one per core; 0: none, every kernel compiled in the process that needs it)."""
 _IN_FLIGHT: dict[tuple[Any, tuple], subprocess.Popen] = {}
 """(kernel, numba types) -> the compile process of this process compiling it: a later `start`
 for the same job waits for that process instead of starting another (a run starts its odometry's
@@ -60,8 +60,10 @@ class Compiling:
         # a core each, less those of this process's compile processes still at work (the odometry's
         # kernel starts first and compiles longest: the world's beside it in one more process, not
         # two, leave it a core of its own on two)
-        busy = len({id(helper) for helper in _IN_FLIGHT.values() if helper.poll() is None})
-        count = min(len(new), max(1, WORKERS - busy) if workers is None else workers)
+        if workers is None:  # (WORKERS 0: none, as `workers` 0)
+            busy = len({id(helper) for helper in _IN_FLIGHT.values() if helper.poll() is None})
+            workers = max(1, WORKERS - busy) if WORKERS else 0
+        count = min(len(new), workers)
         # the kernels dealt out from the last (the largest, by the callers' order) round the processes
         shares = [[job for k, job in enumerate(reversed(new)) if k % count == p] for p in range(count)]
         self.helpers = list({id(helper): helper for helper in running.values()}.values())
@@ -70,7 +72,7 @@ class Compiling:
                 self.helpers.append(helper)
                 _IN_FLIGHT.update(dict.fromkeys(share, helper))
         if new and PROGRESS is not None:
-            processes = f"{len(shares)} process{'es' if len(shares) != 1 else ''}"
+            processes = f"{len(shares)} process{'es' if len(shares) != 1 else ''}" if shares else "this process"
             PROGRESS(f"compiling the simulator's kernels for this machine (first run only) in {processes}: "
                      f"{', '.join(k.py_func.__name__ for k, _ in new)}")  # fmt: skip
 
