@@ -88,6 +88,14 @@ def test_free_poses_leave_the_robot_clear_of_every_wall(maze_scan: MapScan) -> N
     assert np.all((poses[:, :2] > lo) & (poses[:, :2] < hi))
 
 
+@pytest.mark.parametrize(("particles", "out", "raw"), [((5, 3), (1,), (2,)), ((5, 3), (5,), (1,)), ((5, 2), (5,), (2,)), ((5,), (5,), (2,))])
+def test_a_likelihood_of_other_shapes_is_refused(maze_scan: MapScan, particles: tuple, out: tuple, raw: tuple) -> None:
+    """A user's localiser may call the map with any arrays: a short `out` or too few raw values
+    would have the kernel write or read past an array's end (a crash), so it is a ValueError."""
+    with pytest.raises(ValueError, match="likelihood takes"):
+        maze_scan.likelihood(np.zeros(particles), np.full(raw, 200), np.empty(out))
+
+
 def test_a_scan_shared_among_threads_is_the_same_to_the_bit(maze_scan: MapScan, monkeypatch: pytest.MonkeyPatch) -> None:
     """A search's set (SHARED_FROM particles and more) is cut into slices, one thread each (four
     here, whatever the machine has): every particle's likelihood is the one a single call gives,

@@ -175,7 +175,11 @@ class MapScan:
 
     def likelihood(self, particles: np.ndarray, raw: np.ndarray, out: np.ndarray) -> None:
         """out (n,) = the likelihood of the raw IR values `raw` (one per sensor) at each of the
-        (n, 3) `particles`."""
+        (n, 3) `particles`; ValueError for other shapes (a user's localiser calls this too: the
+        kernel does not check its indices, and a short `out` would be written past its end)."""
+        if np.ndim(particles) != 2 or np.shape(particles)[1] != 3 or np.shape(out) != (len(particles),) or np.shape(raw) != (len(self.sensors),):
+            raise ValueError(f"likelihood takes (n, 3) particles, an (n,) out and ({len(self.sensors)},) raw values, "
+                             f"got {np.shape(particles)}, {np.shape(out)} and {np.shape(raw)}")  # fmt: skip
         model = ScanModel(IR_RAY_LENGTH, self._intervals(raw), self.sigma, self.outlier, self.radius)
         parts = min(numba.config.NUMBA_NUM_THREADS, len(particles) // (SHARED_FROM // 2)) if len(particles) >= SHARED_FROM else 1
         cuts = [len(particles) * k // parts for k in range(parts + 1)]
