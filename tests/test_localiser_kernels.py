@@ -15,7 +15,7 @@ from bots.ctbot import CTBOT
 from bots.ir_curve import gp2d12
 from bots.odometry.particles import low_variance_resample, mean_and_covariance, move_particles
 from sim.kinematics import wrap_angle
-from sim.world import World
+from sim.world import World, localising
 from sim.world.files import load_world
 from sim.world.localising import SHARED_FROM, MapScan, raw_intervals
 
@@ -108,8 +108,21 @@ def test_a_scan_shared_among_threads_is_the_same_to_the_bit(maze_scan: MapScan, 
     monkeypatch.setattr(numba.config, "NUMBA_NUM_THREADS", 1)
     maze_scan.likelihood(poses, raw, alone)
     monkeypatch.setattr(numba.config, "NUMBA_NUM_THREADS", 4)
+    monkeypatch.setattr(localising.os, "getloadavg", lambda: (1.0, 1.0, 1.0))  # (four free cores)
+    assert localising._free_cores() == 4
     maze_scan.likelihood(poses, raw, shared)
     assert np.any(alone > 0.0) and np.array_equal(alone, shared)
+
+
+def test_a_scan_is_shared_only_among_free_cores(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Numba's four threads, the load average 1 (this process), 2.6 and 9: four, two and one
+    threads (a sweep's processes already on every core get none more)."""
+    import numba
+
+    monkeypatch.setattr(numba.config, "NUMBA_NUM_THREADS", 4)
+    for load, threads in ((1.0, 4), (2.6, 2), (9.0, 1)):
+        monkeypatch.setattr(localising.os, "getloadavg", lambda load=load: (load, load, load))
+        assert localising._free_cores() == threads
 
 
 @given(dx=st.floats(-0.05, 0.05), dy=st.floats(-0.01, 0.01), turn=st.floats(-0.5, 0.5), own=st.floats(-0.5, 0.5), heading=st.floats(-4.0, 4.0))

@@ -16,6 +16,7 @@ map: a floor `OUTLIER` keeps a reading of one from wiping out every particle.
 from __future__ import annotations
 
 import math
+import os
 import threading
 
 import numba
@@ -47,11 +48,12 @@ CLEARANCE = 0.01
 """How far (m) a particle's body may reach into a wall before the map rules it out: the contact
 solver lets a body sink a millimetre, and the belief is a few millimetres off."""
 SHARED_FROM = 2000
-"""Particles from which `MapScan.likelihood` shares a scan among numba's threads (as many as its
-parallel kernels use: one per core, or NUMBA_NUM_THREADS; the kernel releases the GIL and each
-thread takes a slice of the particles, so the result is the same to the bit): a search's thousands
-of particles over hundreds of scans stall `ctsim play` for seconds on one core; a tracking set of
-500 costs less than a thread's start (some 50 µs)."""
+"""Particles from which `MapScan.likelihood` shares a scan among threads, one per core that is
+free (numba's thread count, one per core or NUMBA_NUM_THREADS, less the load average beyond this
+process: a sweep's processes already fill the cores, and a thread on a busy core made the scan
+slower); the kernel releases the GIL and each thread takes a slice of the particles, so the result
+is the same to the bit. A search's thousands of particles over hundreds of scans stall `ctsim
+play` for seconds on one core; a tracking set of 500 costs less than a thread's start (some 50 µs)."""
 FREE_TRIES = 250
 """Batches of candidates (four per pose still missing) `MapScan.free` draws before it gives up:
 the free floor of a world is rarely below a tenth of its bounds."""
@@ -141,6 +143,13 @@ def free_poses(bounds: np.ndarray, radius: float, walls: Walls, uniform: np.ndar
     return count
 
 
+def _free_cores() -> int:
+    """Threads a shared scan may take (`SHARED_FROM`): numba's count less the cores other work
+    holds (the load average beyond this process's one), at least 1."""
+    busy = os.getloadavg()[0] - 1.0 if hasattr(os, "getloadavg") else 0.0
+    return max(1, min(numba.config.NUMBA_NUM_THREADS, round(numba.config.NUMBA_NUM_THREADS - busy)))
+
+
 class MapScan:
     """One robot's IR sensors against one world's map: the likelihood of a scan at many poses
     (`likelihood`) and random poses where the robot fits (`free`). What a localiser gets from the
@@ -181,7 +190,7 @@ class MapScan:
             raise ValueError(f"likelihood takes (n, 3) particles, an (n,) out and ({len(self.sensors)},) raw values, "
                              f"got {np.shape(particles)}, {np.shape(out)} and {np.shape(raw)}")  # fmt: skip
         model = ScanModel(IR_RAY_LENGTH, self._intervals(raw), self.sigma, self.outlier, self.radius)
-        parts = min(numba.config.NUMBA_NUM_THREADS, len(particles) // (SHARED_FROM // 2)) if len(particles) >= SHARED_FROM else 1
+        parts = min(_free_cores(), len(particles) // (SHARED_FROM // 2)) if len(particles) >= SHARED_FROM else 1
         cuts = [len(particles) * k // parts for k in range(parts + 1)]
         threads = [threading.Thread(target=scan_likelihood, args=(particles[a:b], self.sensors, self.walls, self._nothing, model, out[a:b]), daemon=True)
                    for a, b in zip(cuts[1:-1], cuts[2:])]  # fmt: skip
