@@ -96,6 +96,22 @@ def test_a_likelihood_of_other_shapes_is_refused(maze_scan: MapScan, particles: 
         maze_scan.likelihood(np.zeros(particles), np.full(raw, 200), np.empty(out))
 
 
+def test_a_likelihood_takes_particles_of_any_number_type_and_refuses_an_out_it_cannot_write(maze_scan: MapScan) -> None:
+    """Integer particles are read as floats (no second compile of the kernel); an `out` of ints, a
+    list or a read-only array is a ValueError, not a silent copy or a thread's traceback."""
+    poses = maze_scan.free(np.random.default_rng(3), 5)
+    floats, ints = np.empty(5), np.empty(5)
+    maze_scan.likelihood(poses, np.array([250, 180]), floats)
+    maze_scan.likelihood(np.round(poses).astype(int), np.array([250, 180]), ints)
+    maze_scan.likelihood(np.round(poses), np.array([250, 180]), floats)
+    assert np.array_equal(floats, ints)
+    frozen = np.empty(5)
+    frozen.flags.writeable = False
+    for out in (np.empty(5, dtype=int), [0.0] * 5, frozen):
+        with pytest.raises(ValueError, match="likelihood writes into"):
+            maze_scan.likelihood(poses, np.array([250, 180]), out)
+
+
 def test_a_scan_shared_among_threads_is_the_same_to_the_bit(maze_scan: MapScan, monkeypatch: pytest.MonkeyPatch) -> None:
     """A search's set (SHARED_FROM particles and more) is cut into slices, one thread each (four
     here, whatever the machine has): every particle's likelihood is the one a single call gives,

@@ -186,9 +186,12 @@ class MapScan:
         """out (n,) = the likelihood of the raw IR values `raw` (one per sensor) at each of the
         (n, 3) `particles`; ValueError for other shapes (a user's localiser calls this too: the
         kernel does not check its indices, and a short `out` would be written past its end)."""
-        if np.ndim(particles) != 2 or np.shape(particles)[1] != 3 or np.shape(out) != (len(particles),) or np.shape(raw) != (len(self.sensors),):
+        particles = np.ascontiguousarray(particles, dtype=np.float64)  # (the kernel's one compiled type)
+        if particles.ndim != 2 or particles.shape[1] != 3 or np.shape(out) != (len(particles),) or np.shape(raw) != (len(self.sensors),):
             raise ValueError(f"likelihood takes (n, 3) particles, an (n,) out and ({len(self.sensors)},) raw values, "
-                             f"got {np.shape(particles)}, {np.shape(out)} and {np.shape(raw)}")  # fmt: skip
+                             f"got {particles.shape}, {np.shape(out)} and {np.shape(raw)}")  # fmt: skip
+        if not (isinstance(out, np.ndarray) and out.dtype == np.float64 and out.flags.writeable):
+            raise ValueError(f"likelihood writes into `out`: a writeable float64 array, got {type(out).__name__} {getattr(out, 'dtype', '')}")
         model = ScanModel(IR_RAY_LENGTH, self._intervals(raw), self.sigma, self.outlier, self.radius)
         parts = min(_free_cores(), len(particles) // (SHARED_FROM // 2)) if len(particles) >= SHARED_FROM else 1
         cuts = [len(particles) * k // parts for k in range(parts + 1)]
